@@ -1,0 +1,39 @@
+# Two commands do everything on a fresh machine: `make run` and `make test`.
+VENV   := .venv
+PY     := $(VENV)/bin/python
+HCSS   := $(VENV)/bin/hcss
+STAMP  := $(VENV)/.installed-stamp
+
+.PHONY: install run test bench lint format browser
+
+$(PY):
+	python3 -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+
+# Reinstall only when the project's metadata changes.
+$(STAMP): pyproject.toml | $(PY)
+	$(PY) -m pip install -q -e '.[test,dev]'
+	touch $(STAMP)
+
+install: $(STAMP)
+
+run: install
+	$(HCSS) simulate demo
+
+# Browser tests need Debian's Chromium; scripts/ensure-chromium installs it when missing.
+browser:
+	bash scripts/ensure-chromium
+
+test: install browser
+	$(PY) -m pytest -q -n 2
+
+bench: install
+	$(PY) -m benchmarks
+
+lint: install
+	$(VENV)/bin/ruff check .
+	$(VENV)/bin/ruff format --check .
+
+format: install
+	$(VENV)/bin/ruff check --fix .
+	$(VENV)/bin/ruff format .

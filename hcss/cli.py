@@ -1,0 +1,30 @@
+"""The `hcss` command.
+
+Each part of the project owns the click commands for its own audience and
+registers them here, so this module stays a short table of contents.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+import click
+
+# (module, attribute) pairs: each attribute is a click command or group.
+COMMANDS: list[tuple[str, str]] = [
+    ("hcss.simulation.cli", "simulate"),
+]
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="hcss")
+def main() -> None:
+    """Run, serve and analyse the human-collective site-selection study."""
+
+
+for module_name, attribute in COMMANDS:
+    main.add_command(getattr(importlib.import_module(module_name), attribute))
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()
