@@ -1,0 +1,185 @@
+"""Pairwise comparisons after an omnibus test, as small typed results.
+
+Three flavours, because the study's analyses used more than one:
+
+- :func:`tukey_kramer_ranks`: Tukey-Kramer on the Kruskal-Wallis mean ranks,
+  as MATLAB's ``multcompare`` does after ``kruskalwallis``. No scipy,
+  statsmodels or scikit-posthocs function computes this, so it is written
+  here, from scipy's studentized-range distribution.
+- :func:`tukey_hsd`: classic Tukey HSD (Tukey-Kramer for unequal sizes) on
+  the raw values, from ``scipy.stats.tukey_hsd``; R's ``TukeyHSD(aov(...))``.
+- :func:`dunn_holm`: Dunn's z test on mean ranks with Holm's step-down
+  adjustment, from scikit-posthocs (p) with z recomputed for reporting.
+
+Every row is oriented ``group_a − group_b`` with ``group_a`` earlier in the
+given order; :meth:`PairwiseComparison.pair` turns a row round if needed.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from itertools import combinations
+
+import numpy as np
+import pandas as pd
+import scikit_posthocs
+from scipy import stats
+
+
+@dataclass(frozen=True)
+class PairRow:
+    """One pair: difference (of means or mean ranks), its interval, statistic and p."""
+
+    group_a: str
+    group_b: str
+    difference: float
+    lower: float
+    upper: float
+    statistic: float
+    p: float
+
+
+@dataclass(frozen=True)
+class PairwiseComparison:
+    """All pairs of one post-hoc test; ``statistic_name`` is q or z."""
+
+    test: str
+    statistic_name: str
+    n: int
+    rows: tuple[PairRow, ...]
+
+    def pair(self, group_a: str, group_b: str) -> PairRow:
+        """The row for ``group_a − group_b``, turned round if stored the other way."""
+        for row in self.rows:
+            if (row.group_a, row.group_b) == (group_a, group_b):
+                return row
+            if (row.group_a, row.group_b) == (group_b, group_a):
+                return replace(
+                    row,
+                    group_a=group_a,
+                    group_b=group_b,
+                    difference=-row.difference,
+                    lower=-row.upper,
+                    upper=-row.lower,
+                    statistic=-row.statistic,
+                )
+        raise KeyError(f"no pair {group_a} − {group_b}")
+
+
+def _samples(groups: Mapping[str, Sequence[float]]) -> dict[str, np.ndarray]:
+    cleaned = {name: np.asarray(values, dtype=float) for name, values in groups.items()}
+    cleaned = {name: values[~np.isnan(values)] for name, values in cleaned.items()}
+    cleaned = {name: values for name, values in cleaned.items() if len(values)}
+    if len(cleaned) < 2:
+        raise ValueError("a pairwise comparison needs at least two groups with values")
+    return cleaned
+
+
+def rank_variance(values: np.ndarray) -> float:
+    """Variance of the ranks 1..N, corrected for ties: N(N+1)/12 − Σ(t³−t)/(12(N−1))."""
+    n = len(values)
+    _, ties = np.unique(values, return_counts=True)
+    ties = ties.astype(float)
+    return n * (n + 1) / 12.0 - float(np.sum(ties**3 - ties)) / (12.0 * (n - 1))
+
+
+def _mean_ranks(samples: dict[str, np.ndarray]) -> tuple[dict[str, float], float, int]:
+    pooled = np.concatenate(list(samples.values()))
+    ranks = stats.rankdata(pooled)
+    mean_ranks, start = {}, 0
+    for name, values in samples.items():
+        mean_ranks[name] = float(ranks[start : start + len(values)].mean())
+        start += len(values)
+    return mean_ranks, rank_variance(pooled), len(pooled)
+
+
+def tukey_kramer_ranks(
+    groups: Mapping[str, Sequence[float]], alpha: float = 0.05
+) -> PairwiseComparison:
+    """Tukey-Kramer comparisons of Kruskal-Wallis mean ranks (``multcompare`` style).
+
+    For groups i, j with nᵢ, nⱼ values: se = sqrt(v·(1/nᵢ + 1/nⱼ)/2), with v
+    the tie-corrected rank variance, q = (R̄ᵢ − R̄ⱼ)/se, and p from the
+    studentized range with k groups and infinite degrees of freedom (the
+    ranks' variance is known, not estimated). scipy's ``studentized_range``
+    switches to its infinite-df form for huge df, so ``np.inf`` is exact.
+    Intervals are R̄ᵢ − R̄ⱼ ± q₁₋α·se.
+    """
+    samples = _samples(groups)
+    mean_ranks, variance, n = _mean_ranks(samples)
+    k = len(samples)
+    critical = float(stats.studentized_range.ppf(1 - alpha, k, np.inf))
+    rows = []
+    for a, b in combinations(samples, 2):
+        se = np.sqrt(variance * (1 / len(samples[a]) + 1 / len(samples[b])) / 2.0)
+        difference = mean_ranks[a] - mean_ranks[b]
+        q = difference / se if se > 0 else 0.0
+        p = float(stats.studentized_range.sf(abs(q), k, np.inf)) if se > 0 else 1.0
+        rows.append(
+            PairRow(
+                a,
+                b,
+                difference,
+                float(difference - critical * se),
+                float(difference + critical * se),
+                float(q),
+                min(p, 1.0),
+            )
+        )
+    return PairwiseComparison("tukey_kramer_ranks", "q", n, tuple(rows))
+
+
+def tukey_hsd(groups: Mapping[str, Sequence[float]], alpha: float = 0.05) -> PairwiseComparison:
+    """Classic Tukey HSD on raw values (``TukeyHSD(aov(y ~ g))`` in R).
+
+    ``scipy.stats.tukey_hsd`` computes the Tukey-Kramer statistic and
+    intervals for unequal group sizes from the pooled ANOVA error.
+    """
+    samples = _samples(groups)
+    names = list(samples)
+    result = stats.tukey_hsd(*samples.values())
+    interval = result.confidence_interval(confidence_level=1 - alpha)
+    rows = []
+    for i, j in combinations(range(len(names)), 2):
+        rows.append(
+            PairRow(
+                names[i],
+                names[j],
+                float(result.statistic[i, j]),
+                float(interval.low[i, j]),
+                float(interval.high[i, j]),
+                float("nan"),
+                float(result.pvalue[i, j]),
+            )
+        )
+    n = sum(len(values) for values in samples.values())
+    return PairwiseComparison("tukey_hsd", "q", n, tuple(rows))
+
+
+def dunn_holm(groups: Mapping[str, Sequence[float]]) -> PairwiseComparison:
+    """Dunn's test on mean ranks with Holm-adjusted p (scikit-posthocs).
+
+    z = (R̄ᵢ − R̄ⱼ) / sqrt(v·(1/nᵢ + 1/nⱼ)), v the tie-corrected rank variance;
+    z and the mean-rank difference are recomputed here because
+    scikit-posthocs returns only the p matrix. Intervals are not defined for
+    a step-down adjustment and are left NaN.
+    """
+    samples = _samples(groups)
+    long = pd.DataFrame(
+        {
+            "value": np.concatenate(list(samples.values())),
+            "group": np.repeat(list(samples), [len(values) for values in samples.values()]),
+        }
+    )
+    p_matrix = scikit_posthocs.posthoc_dunn(
+        long, val_col="value", group_col="group", p_adjust="holm"
+    )
+    mean_ranks, variance, n = _mean_ranks(samples)
+    rows = []
+    for a, b in combinations(samples, 2):
+        se = np.sqrt(variance * (1 / len(samples[a]) + 1 / len(samples[b])))
+        difference = mean_ranks[a] - mean_ranks[b]
+        z = difference / se if se > 0 else 0.0
+        rows.append(PairRow(a, b, difference, np.nan, np.nan, float(z), float(p_matrix.loc[a, b])))
+    return PairwiseComparison("dunn_holm", "z", n, tuple(rows))

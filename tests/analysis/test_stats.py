@@ -1,0 +1,162 @@
+"""Tests and post-hoc comparisons against R 4.2 reference values.
+
+The fixtures are R's ``airquality`` (Ozone, Month; 153 rows with R's NAs) and
+``PlantGrowth``; the golden numbers were computed by R, not by this package.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from hcss.analysis import posthoc, stats
+
+FIXTURES = Path(__file__).parent / "fixtures"
+REL = 1e-6
+
+
+@pytest.fixture(scope="module")
+def ozone_by_month() -> dict[int, np.ndarray]:
+    airquality = pd.read_csv(FIXTURES / "airquality.csv")
+    assert len(airquality) == 153
+    assert airquality["Ozone"].isna().sum() == 37
+    return {month: rows["Ozone"].to_numpy() for month, rows in airquality.groupby("Month")}
+
+
+@pytest.fixture(scope="module")
+def plant_growth() -> dict[str, np.ndarray]:
+    plants = pd.read_csv(FIXTURES / "plantgrowth.csv")
+    assert len(plants) == 30
+    return {group: rows["weight"].to_numpy() for group, rows in plants.groupby("group")}
+
+
+def test_kruskal_wallis_matches_r(ozone_by_month):
+    # kruskal.test(Ozone ~ Month, data = airquality)
+    result = stats.kruskal_wallis(ozone_by_month)
+    assert result.statistic == pytest.approx(29.26657631, rel=REL)
+    assert result.df == 4
+    assert result.p == pytest.approx(6.900714119e-06, rel=REL)
+    assert result.n == 116  # NAs dropped, as R does
+    assert result.effect_size == pytest.approx(29.26657631 / 115, rel=REL)
+    assert result.apa() == "χ²(4, N = 116) = 29.27, p < .001, ε² = 0.25"
+
+
+def test_mann_whitney_matches_r_with_ties(ozone_by_month):
+    # wilcox.test(Ozone ~ Month, airquality, subset = Month %in% c(5, 8))
+    result = stats.mann_whitney(ozone_by_month[5], ozone_by_month[8])
+    assert result.statistic == pytest.approx(127.5, rel=REL)
+    assert result.p == pytest.approx(1.208078308e-04, rel=REL)
+    assert result.method == "asymptotic, continuity=True"
+    # rank-biserial r = 2U/(n1 n2) - 1 with n1 = n2 = 26
+    assert result.effect_size == pytest.approx(2 * 127.5 / 676 - 1, rel=REL)
+
+
+def test_mann_whitney_without_continuity_is_smaller_p(ozone_by_month):
+    corrected = stats.mann_whitney(ozone_by_month[5], ozone_by_month[8])
+    plain = stats.mann_whitney(ozone_by_month[5], ozone_by_month[8], continuity=False)
+    assert plain.p < corrected.p
+
+
+def test_mann_whitney_exact_without_ties_by_hand():
+    # x entirely below y, n1 = n2 = 3: U = 0 and the exact two-sided p is
+    # 2 * (1 / C(6, 3)) = 0.1, as R's wilcox.test(c(1,2,3), c(4,5,6)) gives.
+    result = stats.mann_whitney([1, 2, 3], [4, 5, 6])
+    assert result.method == "exact"
+    assert result.statistic == 0
+    assert result.p == pytest.approx(0.1, rel=REL)
+    assert result.effect_size == -1.0
+
+
+def test_tukey_hsd_matches_r(plant_growth):
+    # TukeyHSD(aov(weight ~ group, data = PlantGrowth))
+    comparison = posthoc.tukey_hsd(plant_growth)
+    trt1_ctrl = comparison.pair("trt1", "ctrl")
+    assert trt1_ctrl.difference == pytest.approx(-0.371, rel=REL)
+    assert trt1_ctrl.lower == pytest.approx(-1.0622160514, rel=REL)
+    assert trt1_ctrl.upper == pytest.approx(0.3202160514, rel=REL)
+    assert trt1_ctrl.p == pytest.approx(0.3908711442, rel=REL)
+    trt2_ctrl = comparison.pair("trt2", "ctrl")
+    assert trt2_ctrl.difference == pytest.approx(0.494, rel=REL)
+    assert trt2_ctrl.p == pytest.approx(0.1979959913, rel=REL)
+    trt2_trt1 = comparison.pair("trt2", "trt1")
+    assert trt2_trt1.difference == pytest.approx(0.865, rel=REL)
+    assert trt2_trt1.p == pytest.approx(0.01200642398, rel=REL)
+
+
+@pytest.mark.parametrize(
+    ("first", "second", "difference", "p"),
+    [
+        (5, 7, -41.21153846, 9.66888077e-05),
+        (5, 8, -38.53846154, 3.455526019e-04),
+        (7, 9, 29.21419098, 0.01133156585),
+        (6, 9, 0.03256704981, 1.0),
+    ],
+)
+def test_tukey_kramer_on_mean_ranks_matches_reference(ozone_by_month, first, second, difference, p):
+    row = posthoc.tukey_kramer_ranks(ozone_by_month).pair(first, second)
+    assert row.difference == pytest.approx(difference, rel=REL)
+    assert row.p == pytest.approx(p, rel=REL)
+    assert row.lower < row.difference < row.upper
+
+
+def test_rank_variance_by_hand():
+    # ranks of (1, 2, 2, 3): N = 4, one tie of 2: 4*5/12 - (8 - 2)/(12*3) = 5/3 - 1/6
+    assert posthoc.rank_variance(np.array([1.0, 2.0, 2.0, 3.0])) == pytest.approx(1.5)
+
+
+def test_dunn_holm_cross_checked_by_hand(ozone_by_month):
+    """scikit-posthocs' Holm-adjusted p against z computed from the rank formula."""
+    from scipy.stats import norm
+    from statsmodels.stats.multitest import multipletests
+
+    comparison = posthoc.dunn_holm(ozone_by_month)
+    assert len(comparison.rows) == 10
+    pooled = np.concatenate([v[~np.isnan(v)] for v in ozone_by_month.values()])
+    ranks = pd.Series(pooled).rank().to_numpy()
+    sizes = {m: int((~np.isnan(v)).sum()) for m, v in ozone_by_month.items()}
+    starts = np.cumsum([0, *sizes.values()])
+    mean_rank = {m: ranks[starts[i] : starts[i + 1]].mean() for i, m in enumerate(sizes)}
+    n = len(pooled)
+    _, ties = np.unique(pooled, return_counts=True)
+    variance = n * (n + 1) / 12 - (ties**3 - ties).sum() / (12 * (n - 1))
+    raw = []
+    for row in comparison.rows:
+        se = np.sqrt(variance * (1 / sizes[row.group_a] + 1 / sizes[row.group_b]))
+        z = (mean_rank[row.group_a] - mean_rank[row.group_b]) / se
+        assert row.statistic == pytest.approx(z, rel=REL)
+        raw.append(2 * norm.sf(abs(z)))
+    holm = multipletests(raw, method="holm")[1]
+    for row, expected in zip(comparison.rows, holm, strict=True):
+        assert row.p == pytest.approx(expected, rel=REL)
+    # The mean-rank difference is the same quantity the R reference gives.
+    assert comparison.pair(5, 7).difference == pytest.approx(-41.21153846, rel=REL)
+
+
+def test_spearman_by_hand():
+    x = [1, 2, 3, 4, 5, 6]
+    y = [2, 1, 4, 3, 6, 5]
+    # no ties: rho = 1 - 6 sum(d^2) / (n (n^2 - 1)), d = (-1, 1, -1, 1, -1, 1)
+    rho = 1 - 6 * 6 / (6 * 35)
+    result = stats.spearman(x, y)
+    assert result.statistic == pytest.approx(rho, rel=REL)
+    assert result.df == 4
+    t = rho * np.sqrt(4 / (1 - rho**2))
+    from scipy.stats import t as student
+
+    assert result.p == pytest.approx(2 * student.sf(t, 4), rel=REL)
+
+
+def test_spearman_drops_incomplete_pairs_and_refuses_constants():
+    result = stats.spearman([1, 2, np.nan, 4, 5], [1, 2, 3, 4, 6])
+    assert result.n == 4
+    assert result.statistic == pytest.approx(1.0)
+    with pytest.raises(ValueError, match="constant"):
+        stats.spearman([1, 1, 1, 1], [1, 2, 3, 4])
+
+
+def test_kruskal_wallis_needs_two_groups():
+    with pytest.raises(ValueError, match="two groups"):
+        stats.kruskal_wallis({"M1": [1.0, 2.0], "M2": []})
