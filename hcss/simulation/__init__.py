@@ -1,1 +1,24 @@
-"""hcss.simulation."""
+"""The model: collectives of simulated UAVs choosing sites (SPEC-simulation.md).
+
+Pure numpy: no Flask, no database. The public API is documented in
+docs/simulation-api.md.
+"""
+
+from hcss.simulation.decisions import DECISION_COLUMNS, DecisionRecord
+from hcss.simulation.engine import Simulation, SimulationError
+from hcss.simulation.params import MODELS, ROMAN, Params
+from hcss.simulation.requests import RequestOutcome
+from hcss.simulation.scenario import Scenario, ScenarioError
+
+__all__ = [
+    "DECISION_COLUMNS",
+    "MODELS",
+    "ROMAN",
+    "DecisionRecord",
+    "Params",
+    "RequestOutcome",
+    "Scenario",
+    "ScenarioError",
+    "Simulation",
+    "SimulationError",
+]

@@ -1,0 +1,143 @@
+"""Decisions: difficulty, correctness and the records the analysis reads (spec §2, §9).
+
+A decision runs from its start (section start, or the relocation that ended
+the collective's previous decision) to the relocation that ends it. Its
+difficulty is fixed at its start; its correctness is judged against the
+targets available when the collective began executing the move.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from hcss.simulation.params import ROMAN, Params
+from hcss.simulation.world import World
+
+# The columns of the decisions table (docs/data-dictionary.md), in order.
+DECISION_COLUMNS: tuple[str, ...] = (
+    "source",
+    "model",
+    "participant",
+    "trial_id",
+    "scenario_id",
+    "run",
+    "seed",
+    "first_section",
+    "section",
+    "section_kind",
+    "collective",
+    "decision_index",
+    "difficulty",
+    "start_s",
+    "end_s",
+    "decision_time_s",
+    "timed_out",
+    "chosen_target",
+    "chosen_value",
+    "chosen_distance_m",
+    "best_target",
+    "best_value",
+    "correct",
+    "n_requests",
+    "n_investigate",
+    "n_abandon",
+    "n_decide",
+    "n_interventions",
+)
+
+
+@dataclass
+class OpenDecision:
+    """A collective's decision under way."""
+
+    collective: int
+    section: int
+    index: int
+    start_s: float
+    difficulty: str
+    best_target: int = -1  # set when the move begins
+    best_value: float = math.nan
+    requests: dict[str, int] = field(
+        default_factory=lambda: {"investigate": 0, "abandon": 0, "decide": 0, "cancel": 0, "interventions": 0}
+    )
+
+
+@dataclass(frozen=True)
+class DecisionRecord:
+    """One finished decision, with the columns the simulation itself knows."""
+
+    model: str
+    scenario_id: str
+    seed: int
+    first_section: str
+    section: int  # 1-based
+    section_kind: str
+    collective: int
+    decision_index: int
+    difficulty: str
+    start_s: float
+    end_s: float
+    timed_out: bool
+    chosen_target: int | None
+    chosen_value: float | None
+    chosen_distance_m: float | None
+    best_target: int | None
+    best_value: float | None
+    correct: bool
+    n_investigate: int
+    n_abandon: int
+    n_decide: int
+    n_interventions: int
+
+    @property
+    def decision_time_s(self) -> float:
+        return self.end_s - self.start_s
+
+    def as_row(self, source: str = "simulation", participant: str = "", trial_id: str = "", run: int = 0) -> dict:
+        """The record as a row of the decisions table (docs/data-dictionary.md)."""
+        row = asdict(self)
+        row.update(
+            source=source,
+            participant=participant,
+            trial_id=trial_id,
+            run=run,
+            collective=ROMAN[self.collective],
+            decision_time_s=self.decision_time_s,
+            n_requests=self.n_investigate + self.n_abandon + self.n_decide,
+        )
+        return {column: row[column] for column in DECISION_COLUMNS}
+
+
+def in_range_targets(world: World, collective: int, params: Params) -> np.ndarray:
+    """Active targets within R of the hub and not reserved by another collective."""
+    owner = world.reserved_by
+    return np.flatnonzero(
+        world.active
+        & (world.hub_distance[collective] <= params.exploration_range_m)
+        & ((owner < 0) | (owner == collective))
+    )
+
+
+def best_available(world: World, collective: int, params: Params) -> int:
+    """The highest-valued available target (nearest on ties), or -1 when there is none."""
+    candidates = in_range_targets(world, collective, params)
+    if candidates.size == 0:
+        return -1
+    order = np.lexsort((world.hub_distance[collective, candidates], -world.target_value[candidates]))
+    return int(candidates[order[0]])
+
+
+def difficulty(world: World, collective: int, params: Params) -> str:
+    """Difficult if a lower-valued target in range is strictly nearer than the best one."""
+    best = best_available(world, collective, params)
+    if best < 0:
+        return "easy"
+    candidates = in_range_targets(world, collective, params)
+    distance = world.hub_distance[collective]
+    lower_nearer = (world.target_value[candidates] < world.target_value[best]) & (
+        distance[candidates] < distance[best]
+    )
+    return "difficult" if lower_nearer.any() else "easy"

@@ -1,0 +1,138 @@
+"""Operator requests (spec §8): investigate, abandon, cancel and decide.
+
+Validation happens before anything changes, so a refusal leaves the
+simulation exactly as it was. Accepted requests act only on agents in the
+collective's hub area; those that need several agents (investigate, decide)
+stay in progress and pick agents up as they arrive in the hub.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from hcss.simulation import states as S
+from hcss.simulation.params import ROMAN, Params
+from hcss.simulation.world import World
+
+KINDS = ("investigate", "abandon", "decide", "cancel")
+
+
+@dataclass(frozen=True)
+class RequestOutcome:
+    """What the simulation answers to a request."""
+
+    accepted: bool
+    request_id: int | None = None
+    reason: str = ""
+
+    def to_dict(self) -> dict:
+        return {"accepted": self.accepted, "request_id": self.request_id, "reason": self.reason}
+
+
+@dataclass
+class Request:
+    """An accepted request and its progress."""
+
+    id: int
+    kind: str
+    collective: int
+    target: int  # target index (id - 1)
+    needed: int  # agents still to acknowledge; 0 for a standing abandon
+    acknowledged: int = 0
+    active: bool = True  # False once cancelled or when the collective's decision ends
+    support: float = 0.0  # fraction favouring the target when requested
+
+    @property
+    def status(self) -> str:
+        if self.kind == "abandon":
+            return "in_progress" if self.active else "completed"
+        return "completed" if self.needed == 0 else "in_progress"
+
+    def to_view(self) -> dict:
+        return {
+            "id": self.id,
+            "kind": self.kind,
+            "collective": self.collective,
+            "target": self.target + 1,
+            "status": self.status,
+            "acknowledged": self.acknowledged,
+        }
+
+
+def executing(world: World, collective: int) -> bool:
+    """A collective is executing a move while any of its agents initiate or fly to the site."""
+    mine = world.collective == collective
+    return bool(np.any(mine & ((world.state == S.I) | (world.state == S.X))))
+
+
+def refusal(world: World, params: Params, kind: str, collective: int, target: int) -> str:
+    """Why a request for (collective, target index) is invalid, or "" if it is valid."""
+    if world.finished:
+        return "The trial is over."
+    if not 0 <= collective < world.n_collectives:
+        return f"There is no collective {collective + 1}."
+    name = ROMAN[collective]
+    if not 0 <= target < world.active.size or not world.active[target]:
+        return f"There is no target {target + 1}."
+    if world.report_count[target] < params.visible_reports:
+        return f"Target {target + 1} has not been discovered yet."
+    owner = int(world.reserved_by[target])
+    if owner >= 0 and owner != collective:
+        return f"Target {target + 1} is taken by collective {ROMAN[owner]}."
+    if executing(world, collective):
+        return f"Collective {name} is executing a move and cannot take requests."
+    support_count = int(np.sum((world.collective == collective) & world.favouring() & (world.target == target)))
+    if kind == "investigate":
+        if world.hub_distance[collective, target] > params.exploration_range_m:
+            return f"Target {target + 1} is out of range of collective {name}."
+        if world.abandon_order[collective, target]:
+            return f"Collective {name} has an abandon order for target {target + 1}; cancel it first."
+    elif kind == "abandon":
+        if world.abandon_order[collective, target]:
+            return f"Collective {name} is already abandoning target {target + 1}."
+        if support_count < params.abandon_min_supporters:
+            return (
+                f"Only {support_count} agent(s) of collective {name} favour target {target + 1}; "
+                f"abandon needs at least {params.abandon_min_supporters}."
+            )
+    elif kind == "decide":
+        share = support_count / params.n_agents
+        if share < params.decide_min_support:
+            return (
+                f"Only {share:.0%} of collective {name} favour target {target + 1}; "
+                f"decide needs at least {params.decide_min_support:.0%}."
+            )
+    else:
+        return f"Unknown request type {kind!r}."
+    return ""
+
+
+def recruit_for(world: World, request: Request, rng: np.random.Generator) -> None:
+    """Hand an in-progress investigate or decide request the agents it still needs."""
+    if request.needed == 0 or not request.active:
+        return
+    mine_in_hub = (world.collective == request.collective) & (world.leg == S.AT_HUB)
+    if request.kind == "investigate":
+        pool = np.flatnonzero(mine_in_hub & (world.state == S.U_I))
+        chosen = _take(pool, request.needed, rng)
+        world.set_state(chosen, S.F_L, request.target)
+        world.leg[chosen] = S.TO_TARGET
+    else:  # decide: supporters of the target first, else uncommitted agents
+        supporters = np.flatnonzero(
+            mine_in_hub & np.isin(world.state, (S.F_I, S.F_D, S.F_R)) & (world.target == request.target)
+        )
+        chosen = _take(supporters, request.needed, rng)
+        if chosen.size < request.needed:
+            uncommitted = np.flatnonzero(mine_in_hub & (world.state == S.U_I))
+            chosen = np.r_[chosen, _take(uncommitted, request.needed - chosen.size, rng)].astype(np.int64)
+        world.set_state(chosen, S.C, request.target)
+    request.acknowledged += int(chosen.size)
+    request.needed -= int(chosen.size)
+
+
+def _take(pool: np.ndarray, n: int, rng: np.random.Generator) -> np.ndarray:
+    if pool.size <= n:
+        return pool
+    return rng.choice(pool, size=n, replace=False)

@@ -1,0 +1,197 @@
+"""The per-agent rules of spec §4–5 that do not involve messages.
+
+Each function is one rule, named as in the spec, and acts on all agents at
+once. Rates become per-step probabilities 1 - exp(-rate·dt).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from hcss.simulation import states as S
+from hcss.simulation.params import Params
+from hcss.simulation.world import World
+
+
+def per_step(rate: np.ndarray | float, params: Params) -> np.ndarray | float:
+    """Probability that a Poisson event of the given rate happens within one step."""
+    return -np.expm1(-np.asarray(rate) * params.dt_s)
+
+
+def assess(world: World, agents: np.ndarray, params: Params, rng: np.random.Generator) -> np.ndarray:
+    """A fresh estimate v̂ = v·(1+e) of each agent's target, e ~ U[-0.1, 0.1], clipped to (0, 1]."""
+    value = world.target_value[world.target[agents]]
+    error = rng.uniform(-params.value_error, params.value_error, agents.size)
+    return np.clip(value * (1.0 + error), 1e-9, 1.0)
+
+
+def discovery(world: World, params: Params, rng: np.random.Generator, model: str) -> None:
+    """U_L → F_L(i): an explorer within the sensing radius of target i adopts it with probability v̂.
+
+    Only active targets in range of the agent's hub, not reserved by another
+    collective and not under a standing abandon order count.
+    """
+    explorers = np.flatnonzero((world.leg == S.EXPLORING) & (world.state == S.U_L))
+    candidates = np.flatnonzero(world.active)
+    if explorers.size == 0 or candidates.size == 0:
+        return
+    delta = world.pos[explorers, None, :] - world.target_pos[None, candidates, :]
+    near = np.hypot(delta[..., 0], delta[..., 1]) <= params.sensing_radius_m
+    if not near.any():
+        return
+    col = world.collective[explorers]
+    near &= world.hub_distance[col[:, None], candidates[None, :]] <= params.exploration_range_m
+    reserved = world.reserved_by[candidates]
+    near &= (reserved[None, :] < 0) | (reserved[None, :] == col[:, None])
+    near &= ~world.abandon_order[col[:, None], candidates[None, :]]
+    found = near.any(axis=1)
+    if not found.any():
+        return
+    agents = explorers[found]
+    # The nearest encountered target, if an explorer senses two at once.
+    distance = np.where(near[found], np.hypot(delta[found, :, 0], delta[found, :, 1]), np.inf)
+    targets = candidates[np.argmin(distance, axis=1)]
+    world.target[agents] = targets  # provisional, to read the value; reset below if not adopted
+    estimate = assess(world, agents, params, rng)
+    adopt = rng.random(agents.size) < estimate
+    world.target[agents[~adopt]] = -1
+    adopters = agents[adopt]
+    world.set_state(adopters, S.F_L, targets[adopt])
+    world.estimate[adopters] = estimate[adopt]
+    world.report_target[adopters] = targets[adopt]
+    world.leg[adopters] = S.TO_HUB
+    world.arrival_state[adopters] = S.F_D if model == "M2" else S.F_I
+
+
+def abandon_probability(world: World, agents: np.ndarray, params: Params) -> np.ndarray:
+    """P_α = min(1, α·(d_i/100 m)/v̂): farther and poorer targets are abandoned more."""
+    d = world.hub_distance[world.collective[agents], world.target[agents]]
+    return np.minimum(1.0, params.abandon_alpha * (d / params.abandon_unit_m) / world.estimate[agents])
+
+
+def reach_target(world: World, agents: np.ndarray, params: Params, rng: np.random.Generator, model: str) -> None:
+    """Agents arriving at a target: executing agents enter D; assessing agents re-estimate it.
+
+    An assessing agent (F_L, sent to reassess, recruited or asked to
+    investigate) takes a fresh estimate and abandons with probability P_α,
+    returning uncommitted; otherwise it returns favouring the target (through
+    F_R in M2). A target taken or reserved by another collective meanwhile is
+    dropped without a report.
+    """
+    if agents.size == 0:
+        return
+    executing = agents[world.state[agents] == S.X]
+    world.set_state(executing, S.D)
+    world.leg[executing] = S.AT_HUB
+    assessing = agents[world.state[agents] == S.F_L]
+    if assessing.size == 0:
+        return
+    t = world.target[assessing]
+    owner = world.reserved_by[t]
+    gone = ~world.active[t] | ((owner >= 0) & (owner != world.collective[assessing]))
+    world.leg[assessing] = S.TO_HUB
+    world.arrival_state[assessing[gone]] = S.U_I
+    fresh = assessing[~gone]
+    world.estimate[fresh] = assess(world, fresh, params, rng)
+    world.report_target[fresh] = world.target[fresh]
+    abandon = rng.random(fresh.size) < abandon_probability(world, fresh, params)
+    world.arrival_state[fresh[abandon]] = S.U_I
+    world.arrival_state[fresh[~abandon]] = S.F_R if model == "M2" else S.F_I
+
+
+def reach_hub(world: World, agents: np.ndarray) -> np.ndarray:
+    """Agents arriving home enter their arrival state and report their estimate.
+
+    Returns the targets that became visible to the operator with this report.
+    """
+    if agents.size == 0:
+        return agents
+    world.leg[agents] = S.AT_HUB
+    for new_state in np.unique(world.arrival_state[agents]):
+        group = agents[world.arrival_state[agents] == new_state]
+        world.set_state(group, int(new_state))
+    carrying = agents[world.report_target[agents] >= 0]
+    reported = world.report_target[carrying]
+    before = world.report_count.copy()
+    np.add.at(world.report_sum, reported, world.estimate[carrying])
+    np.add.at(world.report_count, reported, 1)
+    world.report_target[carrying] = -1
+    return np.flatnonzero((before == 0) & (world.report_count > 0))
+
+
+def rate_transitions(world: World, params: Params, rng: np.random.Generator, model: str) -> None:
+    """Stop exploring (U_L → home), resume exploring (U_I → U_L), reassess (F_I → F_L), M2 delays."""
+    draw = rng.random(world.state.shape[0])
+    explorers = (world.leg == S.EXPLORING) & (world.state == S.U_L)
+    in_hub = world.leg == S.AT_HUB
+
+    stop = np.flatnonzero(explorers & (draw < per_step(params.stop_exploring_rate, params)))
+    world.leg[stop] = S.TO_HUB
+    world.arrival_state[stop] = S.U_I
+
+    leave = per_step(params.resume_rate, params)
+    resume = np.flatnonzero(in_hub & (world.state == S.U_I) & (draw < leave))
+    world.set_state(resume, S.U_L)
+    world.leg[resume] = S.EXPLORING
+
+    reassess = np.flatnonzero(in_hub & (world.state == S.F_I) & (draw < leave))
+    world.set_state(reassess, S.F_L)
+    world.leg[reassess] = S.TO_TARGET
+
+    if model == "M2":
+        _interaction_delay(world, params, draw, in_hub)
+
+
+def _interaction_delay(world: World, params: Params, draw: np.ndarray, in_hub: np.ndarray) -> None:
+    """M2: F_D → F_I at P_D(i) = v̂/(1/g(d_max) − 1/g(d_i)); F_R → F_I at P_R(i) = v̂/(τ_max − τ_i).
+
+    Near targets wait longer, so that every target's discovery-plus-delay and
+    round-trip-plus-delay times match those of a target at d_max. Where
+    d_i ≥ d_max the denominator is not positive and the state is left at once.
+    """
+    for state, gap in ((S.F_D, discovery_gap), (S.F_R, round_trip_gap)):
+        waiting = np.flatnonzero(in_hub & (world.state == state))
+        if waiting.size == 0:
+            continue
+        d = world.hub_distance[world.collective[waiting], world.target[waiting]]
+        rate = leave_rate(world.estimate[waiting], gap(d, params))
+        leave = waiting[(rate == np.inf) | (draw[waiting] < per_step(np.where(rate == np.inf, 0, rate), params))]
+        world.set_state(leave, S.F_I)
+
+
+def discovery_gap(distance_m: np.ndarray, params: Params) -> np.ndarray:
+    """1/g(d_max) − 1/g(d_i): the extra wait that equalises discovery times."""
+    return 1.0 / params.discovery_rate(params.site_d_max_m) - 1.0 / params.discovery_rate(distance_m)
+
+
+def round_trip_gap(distance_m: np.ndarray, params: Params) -> np.ndarray:
+    """τ_max − τ_i: the extra wait that equalises round-trip times."""
+    return params.round_trip_s(params.site_d_max_m) - params.round_trip_s(distance_m)
+
+
+def leave_rate(estimate: np.ndarray, gap: np.ndarray) -> np.ndarray:
+    """v̂ / gap, with the guard of spec §5: infinite (leave at once) where gap ≤ 0."""
+    with np.errstate(divide="ignore"):
+        return np.where(gap > 0, estimate / np.where(gap > 0, gap, 1.0), np.inf)
+
+
+def favouring_in_hub(world: World) -> np.ndarray:
+    """Agents favouring a target and physically in their hub (not flying)."""
+    return (world.leg == S.AT_HUB) & np.isin(world.state, (S.F_I, S.F_D, S.F_R))
+
+
+def enforce_orders(world: World) -> None:
+    """Standing abandon orders and reservations, applied to agents in their hub.
+
+    An abandon order makes c's agents favouring t uncommitted when in the hub.
+    A target reserved by another collective is dropped the same way, and
+    committed or initiating agents for it return to deliberation.
+    """
+    in_hub_favouring = favouring_in_hub(world)
+    t = np.where(world.target >= 0, world.target, 0)
+    ordered = in_hub_favouring & world.abandon_order[world.collective, t] & (world.target >= 0)
+    owner = world.reserved_by[t]
+    taken = (world.target >= 0) & (owner >= 0) & (owner != world.collective)
+    taken_here = taken & (in_hub_favouring | np.isin(world.state, (S.C, S.I)))
+    drop = np.flatnonzero(ordered | taken_here)
+    world.set_state(drop, S.U_I)

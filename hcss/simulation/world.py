@@ -1,0 +1,159 @@
+"""The simulation state as a structure of arrays.
+
+Every agent attribute is one array over all agents of all collectives, so each
+rule of the spec is a handful of masked vector operations (Mesa's advice for
+scale, VMAS's shape). Collective- and target-level attributes are small arrays
+too. The world holds no random generator and no rules: it is plain state, which
+is what makes snapshots and restores exact.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+
+from hcss.simulation import states as S
+from hcss.simulation.params import Params
+from hcss.simulation.scenario import Scenario
+
+
+@dataclass
+class World:
+    """All state of one trial. Target arrays are indexed by target id - 1."""
+
+    # agents -------------------------------------------------------------
+    collective: np.ndarray  # int16, fixed
+    state: np.ndarray  # int8, states.U_L ... states.D
+    target: np.ndarray  # int16, target index or -1
+    leg: np.ndarray  # int8, AT_HUB / EXPLORING / TO_TARGET / TO_HUB
+    pos: np.ndarray  # float64 (A, 2)
+    heading: np.ndarray  # float64 radians
+    estimate: np.ndarray  # float64, latest v̂ of the agent's own target
+    arrival_state: np.ndarray  # int8, state entered on reaching the hub
+    report_target: np.ndarray  # int16, target whose estimate the agent brings home, or -1
+    streak: np.ndarray  # int16, running quorum streak (the k-window)
+    silence: np.ndarray  # float64, seconds since the agent last received a message
+    reported_quadrant: np.ndarray  # int8, last U/F/C/X quadrant reported at the hub
+    # collectives --------------------------------------------------------
+    hub: np.ndarray  # float64 (C, 2), current hub
+    start_hub: np.ndarray  # float64 (C, 2)
+    executing: np.ndarray  # int16, target being moved to, or -1
+    commit_announced: np.ndarray  # int16, target whose commitment was announced, or -1
+    # targets ------------------------------------------------------------
+    target_pos: np.ndarray  # float64 (T, 2)
+    target_value: np.ndarray  # float64
+    target_section: np.ndarray  # int16, 0-based section
+    active: np.ndarray  # bool: placed and not yet taken
+    reserved_by: np.ndarray  # int16, collective executing a move to it, or -1
+    report_sum: np.ndarray  # float64, sum of estimates reported at hubs
+    report_count: np.ndarray  # int32
+    abandon_order: np.ndarray  # bool (C, T): standing abandon requests
+    hub_distance: np.ndarray  # float64 (C, T): distance from each hub to each target
+    # clock --------------------------------------------------------------
+    step_count: int = 0
+    time: float = 0.0
+    section: int = 0
+    decisions_in_section: int = 0
+    finished: bool = False
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def n_collectives(self) -> int:
+        return int(self.hub.shape[0])
+
+    @classmethod
+    def new(cls, scenario: Scenario, params: Params) -> World:
+        n_c, n = scenario.n_collectives, params.n_agents
+        a = n_c * n
+        placed = [t for section in scenario.sections for t in section.targets]
+        if [t.id for t in placed] != list(range(1, len(placed) + 1)):
+            raise ValueError("scenario target ids must run 1..n over the whole trial")
+        n_t = len(placed)
+        hubs = np.array(scenario.hubs, dtype=float)
+        world = cls(
+            collective=np.repeat(np.arange(n_c, dtype=np.int16), n),
+            state=np.full(a, S.U_I, dtype=np.int8),
+            target=np.full(a, -1, dtype=np.int16),
+            leg=np.full(a, S.AT_HUB, dtype=np.int8),
+            pos=np.zeros((a, 2)),
+            heading=np.zeros(a),
+            estimate=np.zeros(a),
+            arrival_state=np.full(a, S.U_I, dtype=np.int8),
+            report_target=np.full(a, -1, dtype=np.int16),
+            streak=np.zeros(a, dtype=np.int16),
+            silence=np.zeros(a),
+            reported_quadrant=np.zeros(a, dtype=np.int8),
+            hub=hubs.copy(),
+            start_hub=hubs.copy(),
+            executing=np.full(n_c, -1, dtype=np.int16),
+            commit_announced=np.full(n_c, -1, dtype=np.int16),
+            target_pos=np.array([(t.x, t.y) for t in placed], dtype=float).reshape(n_t, 2),
+            target_value=np.array([t.value for t in placed], dtype=float),
+            target_section=np.array(
+                [i for i, s in enumerate(scenario.sections) for _ in s.targets], dtype=np.int16
+            ),
+            active=np.zeros(n_t, dtype=bool),
+            reserved_by=np.full(n_t, -1, dtype=np.int16),
+            report_sum=np.zeros(n_t),
+            report_count=np.zeros(n_t, dtype=np.int32),
+            abandon_order=np.zeros((n_c, n_t), dtype=bool),
+            hub_distance=np.zeros((n_c, n_t)),
+        )
+        return world
+
+    # -- derived views ----------------------------------------------------
+    def refresh_hub_distance(self) -> None:
+        """Recompute hub-to-target distances; called when a hub moves."""
+        delta = self.hub[:, None, :] - self.target_pos[None, :, :]
+        self.hub_distance = np.hypot(delta[..., 0], delta[..., 1])
+
+    def home(self) -> np.ndarray:
+        """Centre of each agent's hub area: its collective's hub, or the new site for X and D."""
+        home = self.hub[self.collective]
+        at_site = (self.state == S.X) | (self.state == S.D)
+        if at_site.any():
+            home[at_site] = self.target_pos[self.target[at_site]]
+        return home
+
+    def favouring(self) -> np.ndarray:
+        return np.isin(self.state, S.FAVOURING)
+
+    def support(self) -> np.ndarray:
+        """(C, T) fraction of each collective favouring each target (true state)."""
+        fav = self.favouring()
+        counts = np.zeros((self.n_collectives, self.target_pos.shape[0]))
+        np.add.at(counts, (self.collective[fav], self.target[fav]), 1.0)
+        return counts / (self.collective.shape[0] / self.n_collectives)
+
+    def set_state(
+        self, agents: np.ndarray, new_state: int, new_target: np.ndarray | int | None = None
+    ) -> None:
+        """Move agents to a new state, clearing the quorum streak where the decision state changes."""
+        if agents.dtype == bool:
+            agents = np.flatnonzero(agents)
+        if agents.size == 0:
+            return
+        old_key = S.decision_key(self.state[agents], self.target[agents])
+        self.state[agents] = new_state
+        if new_target is not None:
+            self.target[agents] = new_target
+        if new_state in (S.U_L, S.U_I):
+            self.target[agents] = -1
+        changed = S.decision_key(self.state[agents], self.target[agents]) != old_key
+        self.streak[agents[changed]] = 0
+
+    # -- persistence ------------------------------------------------------
+    def arrays(self) -> dict[str, np.ndarray]:
+        return {f.name: getattr(self, f.name) for f in fields(self) if isinstance(getattr(self, f.name), np.ndarray)}
+
+    def copy(self) -> World:
+        values = {}
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if isinstance(value, np.ndarray):
+                value = value.copy()
+            elif isinstance(value, dict):
+                value = dict(value)
+            values[f.name] = value
+        return World(**values)
