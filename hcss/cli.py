@@ -13,6 +13,7 @@ import click
 # (module, attribute) pairs: each attribute is a click command or group.
 COMMANDS: list[tuple[str, str]] = [
     ("hcss.simulation.cli", "simulate"),
+    ("hcss.analysis.cli", "analyze"),
 ]
 
 

@@ -131,6 +131,16 @@ def test_dunn_holm_cross_checked_by_hand(ozone_by_month):
     holm = multipletests(raw, method="holm")[1]
     for row, expected in zip(comparison.rows, holm, strict=True):
         assert row.p == pytest.approx(expected, rel=REL)
+    # ... and against scikit-posthocs doing the Holm step itself.
+    import scikit_posthocs
+
+    long = pd.DataFrame(
+        [(value, month) for month, values in ozone_by_month.items() for value in values],
+        columns=["Ozone", "Month"],
+    ).dropna()
+    matrix = scikit_posthocs.posthoc_dunn(long, val_col="Ozone", group_col="Month", p_adjust="holm")
+    for row in comparison.rows:
+        assert row.p == pytest.approx(matrix.loc[row.group_a, row.group_b], rel=REL)
     # The mean-rank difference is the same quantity the R reference gives.
     assert comparison.pair(5, 7).difference == pytest.approx(-41.21153846, rel=REL)
 
@@ -160,3 +170,10 @@ def test_spearman_drops_incomplete_pairs_and_refuses_constants():
 def test_kruskal_wallis_needs_two_groups():
     with pytest.raises(ValueError, match="two groups"):
         stats.kruskal_wallis({"M1": [1.0, 2.0], "M2": []})
+
+
+def test_holm_by_hand():
+    # m = 4: sorted p (.01, .02, .04, .6) times (4, 3, 2, 1) = (.04, .06, .08, .6), already monotone
+    adjusted = posthoc.holm([0.04, 0.01, 0.6, 0.02])
+    assert adjusted == pytest.approx([0.08, 0.04, 0.6, 0.06])
+    assert posthoc.holm([0.5, 0.6]) == pytest.approx([1.0, 1.0])

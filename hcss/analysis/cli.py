@@ -1,0 +1,51 @@
+"""`hcss analyze`: the analyst's command, from exports to a report directory."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from hcss.analysis.load import AnalysisInputError
+
+
+@click.command("analyze")
+@click.argument(
+    "inputs",
+    metavar="INPUT...",
+    nargs=-1,
+    required=True,
+    type=click.Path(exists=True, path_type=Path),
+)
+@click.option(
+    "--out",
+    "out",
+    required=True,
+    type=click.Path(file_okay=False, path_type=Path),
+    help="Report directory to write tables/, figures/ and report.html into.",
+)
+@click.option(
+    "--include-pilot",
+    is_flag=True,
+    help="Keep bot, pilot and demo participants (excluded by default).",
+)
+@click.option("--quiet", is_flag=True, help="No progress bar.")
+def analyze(inputs: tuple[Path, ...], out: Path, include_pilot: bool, quiet: bool) -> None:
+    """Analyse study exports and simulation decision tables.
+
+    Each INPUT is an export directory (decisions.csv and, for a study, the
+    other export tables) or a decisions CSV file from the simulation-only
+    experiment. Writes descriptive tables, tests, figures and report.html.
+    """
+    # Imported here so `hcss --help` stays fast: the analysis pulls in
+    # scipy, statsmodels and matplotlib.
+    from hcss.analysis.report import run_analysis
+
+    try:
+        report = run_analysis(list(inputs), out, include_pilot=include_pilot, progress=not quiet)
+    except AnalysisInputError as error:
+        raise click.ClickException(str(error)) from error
+    click.echo(
+        f"Wrote {len(report.tables)} tables and {len(report.figures)} figures; "
+        f"open {report.html_path}"
+    )

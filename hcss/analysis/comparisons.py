@@ -1,0 +1,194 @@
+"""Which tests the study runs on which measures, applied to the tidy measures.
+
+- Human-collective models (M1, M2, M3): Kruskal-Wallis per measure and split,
+  then all three post-hoc flavours.
+- When simulation-only and human data are both loaded, a second
+  Kruskal-Wallis family compares every group (M1SIM … M3) on the measures
+  both have (success rate and decision time), as the study's comparison
+  figure does.
+- Simulation only: Mann-Whitney M1SIM vs M2SIM per measure and split.
+- Spearman correlations of success rate with decision time, request
+  frequencies and MRT score, per group and pooled over the human models.
+
+A test that cannot run (too few groups or values, a constant variable) is
+recorded with its reason instead of stopping the report: a small pilot
+export must still give every table.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import pandas as pd
+
+from hcss.analysis.decision_measures import SPLITS, unit_table
+from hcss.analysis.instrument_measures import ALL_PARTICIPANTS
+from hcss.analysis.load import GROUP_ORDER
+from hcss.analysis.measures import MRT_MEASURE, measure_order
+from hcss.analysis.posthoc import (
+    PairwiseComparison,
+    dunn_holm,
+    tukey_hsd,
+    tukey_kramer_ranks,
+)
+from hcss.analysis.stats import TestResult, kruskal_wallis, mann_whitney, spearman
+
+HUMAN_GROUPS = ("M1", "M2", "M3")
+SIMULATION_PAIR = ("M1SIM", "M2SIM")
+POOLED_HUMAN = "M1–M3"
+
+#: (x, y) pairs correlated per unit; y is always the success rate.
+CORRELATIONS = (
+    ("decision_time_min", "success_rate"),
+    ("request_frequency", "success_rate"),
+    ("investigate_frequency", "success_rate"),
+    ("decide_frequency", "success_rate"),
+    ("abandon_frequency", "success_rate"),
+    (MRT_MEASURE, "success_rate"),
+)
+
+
+@dataclass(frozen=True)
+class OmnibusComparison:
+    """A Kruskal-Wallis test and its post-hoc comparisons for one measure and split."""
+
+    measure: str
+    split: str
+    family: str
+    groups: tuple[str, ...]
+    kruskal: TestResult | None
+    posthoc: tuple[PairwiseComparison, ...]
+    note: str = ""
+
+
+@dataclass(frozen=True)
+class TwoSampleComparison:
+    """A Mann-Whitney test of two groups for one measure and split."""
+
+    measure: str
+    split: str
+    groups: tuple[str, str]
+    result: TestResult | None
+    note: str = ""
+
+
+@dataclass(frozen=True)
+class Correlation:
+    """A Spearman correlation of two measures within one group of units."""
+
+    x: str
+    y: str
+    group: str
+    result: TestResult | None
+    note: str = ""
+
+
+def _values(measures: pd.DataFrame, measure: str, split: str, group: str) -> list[float]:
+    chosen = measures[
+        (measures["measure"] == measure)
+        & (measures["split"] == split)
+        & (measures["group"] == group)
+    ]
+    return chosen["value"].dropna().tolist()
+
+
+def _measure_splits(measures: pd.DataFrame) -> list[tuple[str, str]]:
+    pairs = measures[["measure", "split"]].drop_duplicates()
+    pairs = pairs[pairs["measure"].ne(MRT_MEASURE)]
+    return sorted(
+        pairs.itertuples(index=False, name=None),
+        key=lambda pair: (measure_order(pair[0]), SPLITS.index(pair[1])),
+    )
+
+
+def _omnibus(measures, measure, split, family, groups) -> OmnibusComparison | None:
+    samples = {group: _values(measures, measure, split, group) for group in groups}
+    samples = {group: values for group, values in samples.items() if values}
+    if len(samples) < 2:
+        return None
+    names = tuple(samples)
+    try:
+        result = kruskal_wallis(samples)
+    except ValueError as error:
+        return OmnibusComparison(measure, split, family, names, None, (), str(error))
+    posthoc, notes = [], []
+    flavours = [tukey_kramer_ranks, dunn_holm, tukey_hsd]
+    if any(len(values) < 2 for values in samples.values()):
+        flavours.remove(tukey_hsd)  # its pooled error variance needs 2+ values per group
+        notes.append("tukey_hsd: a group has fewer than 2 values")
+    for flavour in flavours:
+        try:
+            posthoc.append(flavour(samples))
+        except ValueError as error:
+            notes.append(f"{flavour.__name__}: {error}")
+    return OmnibusComparison(
+        measure, split, family, names, result, tuple(posthoc), "; ".join(notes)
+    )
+
+
+def omnibus_comparisons(measures: pd.DataFrame) -> list[OmnibusComparison]:
+    """Kruskal-Wallis families: human models, and all groups when both sources exist."""
+    comparisons = []
+    sources = set(measures["source"])
+    all_groups = [group for group in GROUP_ORDER if group in set(measures["group"])]
+    for measure, split in _measure_splits(measures):
+        human = _omnibus(measures, measure, split, "human-collective models", HUMAN_GROUPS)
+        if human is not None:
+            comparisons.append(human)
+        if len(sources) > 1:
+            everyone = _omnibus(measures, measure, split, "all models", all_groups)
+            if everyone is not None and any(g in SIMULATION_PAIR for g in everyone.groups):
+                comparisons.append(everyone)
+    return comparisons
+
+
+def simulation_comparisons(measures: pd.DataFrame) -> list[TwoSampleComparison]:
+    """Mann-Whitney M1SIM vs M2SIM for every simulation measure and split."""
+    comparisons = []
+    for measure, split in _measure_splits(measures):
+        first, second = (_values(measures, measure, split, g) for g in SIMULATION_PAIR)
+        if not first and not second:
+            continue
+        try:
+            result, note = mann_whitney(first, second), ""
+        except ValueError as error:
+            result, note = None, str(error)
+        comparisons.append(TwoSampleComparison(measure, split, SIMULATION_PAIR, result, note))
+    return comparisons
+
+
+def _with_mrt(units: pd.DataFrame, measures: pd.DataFrame) -> pd.DataFrame:
+    mrt = measures[(measures["measure"] == MRT_MEASURE) & (measures["group"] == ALL_PARTICIPANTS)]
+    if mrt.empty:
+        return units
+    scores = mrt.groupby("participant")["value"].mean()
+    return units.assign(**{MRT_MEASURE: units["participant"].map(scores)})
+
+
+def correlations(measures: pd.DataFrame) -> list[Correlation]:
+    """Spearman correlations with success rate, per group and pooled over M1–M3."""
+    units = unit_table(measures[measures["group"] != ALL_PARTICIPANTS], "overall")
+    if units.empty:
+        return []
+    units = _with_mrt(units, measures)
+    subsets = [
+        (group, units[units["group"] == group])
+        for group in GROUP_ORDER
+        if group in set(units["group"])
+    ]
+    human = units[units["group"].isin(HUMAN_GROUPS)]
+    if human["group"].nunique() > 1:
+        subsets.append((POOLED_HUMAN, human))
+    results = []
+    for x, y in CORRELATIONS:
+        for group, subset in subsets:
+            if x not in subset.columns or y not in subset.columns:
+                continue
+            if subset[x].notna().sum() == 0:
+                continue
+            try:
+                result, note = spearman(subset[x], subset[y]), ""
+            except ValueError as error:
+                result, note = None, str(error)
+            results.append(Correlation(x, y, group, result, note))
+    return results
