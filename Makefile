@@ -17,8 +17,12 @@ $(STAMP): pyproject.toml | $(PY)
 
 install: $(STAMP)
 
+# The study platform on http://127.0.0.1:5000/ ; in another terminal,
+# `.venv/bin/hcss demo-trial` prints the link of a live demo trial.
 run: install
-	$(HCSS) simulate demo
+	$(HCSS) db upgrade
+	@echo 'Open a demo trial: in another terminal run  $(HCSS) demo-trial'
+	$(HCSS) serve
 
 # Browser tests need Debian's Chromium; scripts/ensure-chromium installs it when missing.
 browser:

@@ -14,6 +14,9 @@ import click
 COMMANDS: list[tuple[str, str]] = [
     ("hcss.simulation.cli", "simulate"),
     ("hcss.analysis.cli", "analyze"),
+    ("hcss.platform.cli", "serve"),
+    ("hcss.platform.cli", "db_group"),
+    ("hcss.platform.cli", "demo_trial"),
 ]
 
 

@@ -1,0 +1,121 @@
+"""`hcss serve`, `hcss db upgrade` and `hcss demo-trial`."""
+
+from __future__ import annotations
+
+import os
+
+import click
+
+from hcss.platform.config import PROJECT_ROOT
+
+MIGRATIONS = PROJECT_ROOT / "migrations"
+
+
+def alembic_config(database_url: str | None = None):  # type: ignore[no-untyped-def]
+    """The Alembic configuration for this project's `migrations/` folder."""
+    from alembic.config import Config
+
+    from hcss.platform.config import database_url as default_url
+
+    config = Config()
+    config.set_main_option("script_location", str(MIGRATIONS))
+    # '%' is interpolation syntax in Alembic's config parser.
+    config.set_main_option("sqlalchemy.url", (database_url or default_url()).replace("%", "%%"))
+    return config
+
+
+def upgrade_database(database_url: str | None = None, revision: str = "head") -> None:
+    from alembic import command
+
+    command.upgrade(alembic_config(database_url), revision)
+
+
+@click.group("db")
+def db_group() -> None:
+    """Create or migrate the database (SQLite in instance/, or DATABASE_URL)."""
+
+
+@db_group.command("upgrade")
+@click.option("--revision", default="head", show_default=True)
+def db_upgrade(revision: str) -> None:
+    """Apply every Alembic migration up to REVISION."""
+    from hcss.platform.config import database_url
+
+    upgrade_database(revision=revision)
+    click.echo(f"database at {_redacted(database_url())} is at revision {revision}")
+
+
+def _redacted(url: str) -> str:
+    from sqlalchemy.engine import make_url
+
+    return make_url(url).render_as_string(hide_password=True)
+
+
+@click.command("serve")
+@click.option("--host", default="127.0.0.1", show_default=True)
+@click.option("--port", default=5000, show_default=True, type=int)
+@click.option(
+    "--threads",
+    default=64,
+    show_default=True,
+    type=int,
+    help="Waitress worker threads; each open trial page holds one for its stream.",
+)
+@click.option(
+    "--time-acceleration",
+    type=float,
+    default=None,
+    help="Trial seconds per wall second for trials started by this server (tests, bots).",
+)
+def serve(host: str, port: int, threads: int, time_acceleration: float | None) -> None:
+    """Serve the study platform with waitress."""
+    from waitress import serve as waitress_serve
+
+    from hcss.platform.app import create_app
+
+    config: dict[str, object] = {}
+    if time_acceleration is not None:
+        config["TIME_ACCELERATION"] = time_acceleration
+    app = create_app(config)
+    url = f"http://{host}:{port}/"
+    click.echo(f"hcss serving on {url}  (Ctrl-C stops)")
+    click.echo(f"open a demo trial:  hcss demo-trial --base-url {url.rstrip('/')}")
+    waitress_serve(app, host=host, port=port, threads=threads, channel_timeout=3600, ident="hcss")
+
+
+@click.command("demo-trial")
+@click.option("--base-url", default="http://127.0.0.1:5000", show_default=True)
+@click.option("--model", type=click.Choice(["M1", "M2", "M3"]), default="M1", show_default=True)
+@click.option("--training", is_flag=True, help="A 5-minute training trial with two collectives.")
+@click.option("--seed", type=int, default=None, help="Scenario seed (random when omitted).")
+@click.option("--minutes", type=float, default=None, help="Trial length (default: the study's).")
+def demo_trial(
+    base_url: str, model: str, training: bool, seed: int | None, minutes: float | None
+) -> None:
+    """Create a demo participant with a live, recorded trial and print its link.
+
+    The trial's clock starts now and runs on the server (`hcss serve`), whether
+    or not the page is open. Its data are flagged demo.
+    """
+    from hcss.platform.config import database_url
+    from hcss.platform.db import Database
+    from hcss.platform.live.trials import start_trial
+    from hcss.platform.models import Participant
+
+    database = Database(database_url())
+    with database.session_scope() as session:
+        participant = Participant(is_demo=True)
+        session.add(participant)
+        session.flush()
+        trial = start_trial(
+            session,
+            participant,
+            kind="training" if training else "trial",
+            model=model,
+            seed=seed,
+            duration_s=None if minutes is None else minutes * 60.0,
+            time_acceleration=float(os.environ.get("HCSS_TIME_ACCELERATION", "1.0")),
+        )
+        link = f"{base_url.rstrip('/')}/live/{participant.token}"
+        click.echo(f"demo participant {participant.code}, {trial.kind} {trial.id} ({model})")
+    click.echo(link)

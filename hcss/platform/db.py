@@ -1,0 +1,107 @@
+"""The database engine and the unit of work.
+
+Every HTTP request gets one SQLAlchemy session, committed when the request
+succeeds and rolled back when it fails or answers with an error status, so a
+refused request changes nothing. Code outside a request (the live runner, the
+CLI) uses `session_scope()`, which has the same all-or-nothing contract.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+from flask import Flask, current_app, g
+from sqlalchemy import Engine, create_engine, event
+from sqlalchemy.orm import Session, sessionmaker
+
+from hcss.platform.models import Base
+
+
+def make_engine(url: str) -> Engine:
+    """An engine fit for several threads writing at once."""
+    if url.startswith("sqlite"):
+        engine = create_engine(
+            url,
+            connect_args={"check_same_thread": False, "timeout": 30},
+            pool_size=20,
+            max_overflow=40,
+        )
+
+        @event.listens_for(engine, "connect")
+        def _sqlite_pragmas(dbapi_connection, _record) -> None:  # type: ignore[no-untyped-def]
+            # WAL lets the stream threads read while the runner writes.
+            cursor = dbapi_connection.cursor()
+            cursor.execute("PRAGMA journal_mode=WAL")
+            cursor.execute("PRAGMA synchronous=NORMAL")
+            cursor.execute("PRAGMA foreign_keys=ON")
+            cursor.close()
+
+        return engine
+    return create_engine(url, pool_size=20, max_overflow=40, pool_pre_ping=True)
+
+
+class Database:
+    """The engine and session factory of one app (no module-level globals)."""
+
+    def __init__(self, url: str) -> None:
+        self.url = url
+        self.engine = make_engine(url)
+        self.sessions = sessionmaker(self.engine, expire_on_commit=False)
+
+    @contextmanager
+    def session_scope(self) -> Iterator[Session]:
+        """One unit of work: commit on success, roll back on any exception."""
+        session = self.sessions()
+        try:
+            yield session
+            session.commit()
+        except BaseException:
+            session.rollback()
+            raise
+        finally:
+            session.close()
+
+    def create_all(self) -> None:
+        """Create every table directly; for tests. Deployments use `hcss db upgrade`."""
+        Base.metadata.create_all(self.engine)
+
+
+def init_app(app: Flask) -> Database:
+    """Attach a `Database` to the app and close each request's session as a unit."""
+    database = Database(app.config["DATABASE_URL"])
+    app.extensions["hcss_db"] = database
+
+    @app.after_request
+    def _commit(response):  # type: ignore[no-untyped-def]
+        session: Session | None = g.pop("db_session", None)
+        if session is not None:
+            try:
+                if response.status_code < 400:
+                    session.commit()
+                else:
+                    session.rollback()
+            finally:
+                session.close()
+        return response
+
+    @app.teardown_request
+    def _rollback(_exc: BaseException | None) -> None:
+        # Reached with a session still open only when the view raised.
+        session: Session | None = g.pop("db_session", None)
+        if session is not None:
+            session.rollback()
+            session.close()
+
+    return database
+
+
+def database() -> Database:
+    return current_app.extensions["hcss_db"]
+
+
+def get_session() -> Session:
+    """The current request's session, opened on first use."""
+    if "db_session" not in g:
+        g.db_session = database().sessions()
+    return g.db_session

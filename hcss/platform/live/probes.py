@@ -1,0 +1,95 @@
+"""Filling SA probes from the live state, on the questionnaire's templates and schedule.
+
+`hcss.questionnaires.probes` words the questions and draws when each level is
+asked; this module scales the study's 4/5/3 split to the trial length and,
+at the moment a probe is due, picks a subject that makes sense then and
+takes the truth from the simulation. The schedule uses its own generator,
+never the simulation's, so probes do not perturb the deterministic replay.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from hcss.questionnaires.probes import (
+    DEFAULT_COUNTS,
+    PROBE_TIMEOUT_S,
+    TEMPLATES,
+    ProbeLevel,
+    ScheduledProbe,
+    draw_schedule,
+)
+from hcss.simulation import ROMAN
+
+__all__ = ["POSTPONE_S", "PROBE_TIMEOUT_S", "ROMAN", "FilledProbe", "fill_probe", "probe_plan"]
+
+POSTPONE_S = 10.0  # no sensible subject yet: look again this much later
+STUDY_TRIAL_S = 1200.0  # DEFAULT_COUNTS are per 20-minute trial
+
+
+@dataclass(frozen=True)
+class FilledProbe:
+    level: int
+    question: str
+    choices: list[str]
+    truth: str | None  # None for level 3: scored when the next decision happens
+
+
+def level_counts(duration_s: float) -> dict[ProbeLevel, int]:
+    """The study's 4/5/3 split scaled to the trial length (at least one probe)."""
+    per_trial = sum(DEFAULT_COUNTS.values())
+    total = max(1, round(per_trial * duration_s / STUDY_TRIAL_S))
+    counts = {level: round(total * n / per_trial) for level, n in DEFAULT_COUNTS.items()}
+    counts[ProbeLevel.COMPREHENSION] = max(
+        0, total - counts[ProbeLevel.PERCEPTION] - counts[ProbeLevel.PROJECTION]
+    )
+    return counts
+
+
+def probe_plan(seed: int, duration_s: float) -> list[ScheduledProbe]:
+    """The trial's probes; fewer when the trial is too short to keep them a time-out apart."""
+    rng = np.random.default_rng([seed, 0x5A])  # a stream apart from the simulation's
+    counts = level_counts(duration_s)
+    while sum(counts.values()) > 0:
+        try:
+            return list(draw_schedule(rng, duration_s, counts))
+        except ValueError:
+            largest = max(counts, key=lambda level: counts[level])
+            counts[largest] -= 1
+    return []
+
+
+def fill_probe(level: int, view: dict[str, Any], best_target, rng: np.random.Generator):  # type: ignore[no-untyped-def]
+    """The probe for this moment, or None when no subject makes sense yet.
+
+    `best_target(c)` is `Simulation.best_target`, the truth for level 2.
+    """
+    template = TEMPLATES[ProbeLevel(level)]
+    collectives = view["collectives"]
+    names = [ROMAN[c["index"]] for c in collectives]
+    drawn = [t for t in view["targets"] if t["drawn"]]
+    if level == ProbeLevel.PERCEPTION:
+        supported = [t for t in drawn if t["max_support"] > 0]
+        if not supported:
+            return None
+        target = supported[int(rng.integers(len(supported)))]
+        leader = int(np.argmax(target["support"]))
+        return FilledProbe(level, template.fill(target["id"]), names, ROMAN[leader])
+    if level == ProbeLevel.COMPREHENSION:
+        candidates = []
+        for c in collectives:
+            if c["executing"]:
+                continue
+            best = best_target(c["index"])
+            in_range = [t["id"] for t in drawn if c["index"] in t["in_range_of"]]
+            if best is not None and best in in_range and len(in_range) >= 2:
+                candidates.append((c["index"], int(best), in_range))
+        if not candidates:
+            return None
+        collective, best, in_range = candidates[int(rng.integers(len(candidates)))]
+        choices = list(template.answer_choices(names, in_range))
+        return FilledProbe(level, template.fill(ROMAN[collective]), choices, str(best))
+    return FilledProbe(level, template.fill(), names, None)

@@ -1,0 +1,204 @@
+"""Bring a trial into memory: a fresh start, or a rebuild after a restart.
+
+Deterministic replay makes the rebuild exact: restore the latest snapshot,
+apply each logged command at the step it was applied live, and step on to the
+step the wall clock says is due. A trial that had been running in some server
+before (it has a snapshot) gets an `Interruption` row with the rebuilt
+state's digest.
+"""
+
+from __future__ import annotations
+
+from sqlalchemy import func, select
+from sqlalchemy.orm import Session
+
+from hcss.platform.live.probes import probe_plan
+from hcss.platform.live.recorder import record_progress, write_snapshot
+from hcss.platform.live.session import CurrentProbe, LiveTrial
+from hcss.platform.models import (
+    Command,
+    CommandOutcome,
+    DecisionRow,
+    Interruption,
+    Probe,
+    ProbeEvent,
+    RequestStatusChange,
+    SimEvent,
+    Snapshot,
+    Trial,
+)
+
+
+def load_trial(session: Session, trial: Trial, now: float) -> LiveTrial:
+    from hcss.simulation import Params, Scenario, Simulation
+
+    snapshot = session.scalars(
+        select(Snapshot)
+        .where(Snapshot.trial_id == trial.id)
+        .order_by(Snapshot.step.desc(), Snapshot.id.desc())
+        .limit(1)
+    ).first()
+    if snapshot is not None:
+        sim = Simulation.restore(snapshot.blob)
+    else:
+        params = Params.from_dict(trial.params) if trial.params else None
+        sim = Simulation(Scenario.from_dict(trial.scenario), model=trial.model, params=params)
+    live = LiveTrial(
+        trial_id=trial.id,
+        participant_id=trial.participant_id,
+        participant_code=trial.participant.code,
+        kind=trial.kind,
+        model=trial.model,
+        seed=trial.seed,
+        scenario_id=trial.scenario_id,
+        first_section=trial.first_section,
+        sim=sim,
+        started_epoch=trial.started_at.timestamp(),
+        acceleration=trial.time_acceleration,
+        duration_s=trial.duration_s,
+        dt=float(sim.params.dt_s),
+        probe_plan=probe_plan(trial.seed, trial.duration_s),
+    )
+    live.last_command_id = None if snapshot is None else snapshot.last_command_id
+    replayed = _replay_commands(session, live)
+    due = live.due_step(now)
+    if sim.step_count < due:
+        sim.step(due - sim.step_count)
+    _restore_bookkeeping(session, live)
+    record_progress(live, session)
+    if snapshot is not None:
+        session.add(
+            Interruption(
+                trial_id=trial.id,
+                snapshot_step=snapshot.step,
+                resumed_step=sim.step_count,
+                replayed_commands=replayed,
+                state_digest=sim.state_digest(),
+                last_seen_at=_last_seen(session, trial.id),
+            )
+        )
+    write_snapshot(live, session)
+    return live
+
+
+def _replay_commands(session: Session, live: LiveTrial) -> int:
+    """Apply the commands logged after the snapshot at their recorded steps."""
+    query = select(Command).where(Command.trial_id == live.trial_id).order_by(Command.id)
+    if live.last_command_id is not None:
+        query = query.where(Command.id > live.last_command_id)
+    commands = list(session.scalars(query))
+    decided = set(
+        session.scalars(
+            select(CommandOutcome.command_id).where(
+                CommandOutcome.command_id.in_([c.id for c in commands])
+            )
+        )
+    )
+    sim = live.sim
+    for command in commands:
+        if command.step_applied < sim.step_count:
+            raise RuntimeError(
+                f"trial {live.trial_id}: command {command.id} was applied at step "
+                f"{command.step_applied}, before the snapshot's step {sim.step_count}"
+            )
+        if command.step_applied > sim.step_count:
+            sim.step(command.step_applied - sim.step_count)
+        outcome = sim.apply(command.as_sim_command())
+        if command.id not in decided:
+            # The server died between logging the command and its outcome.
+            session.add(
+                CommandOutcome(
+                    command_id=command.id,
+                    accepted=bool(outcome.accepted),
+                    request_id=outcome.request_id if outcome.accepted else None,
+                    reason=outcome.reason or "",
+                )
+            )
+        live.last_command_id = command.id
+    return len(commands)
+
+
+def _restore_bookkeeping(session: Session, live: LiveTrial) -> None:
+    """What was already written, so the recorder writes only what is new."""
+    tid = live.trial_id
+    live.last_event_time = session.scalar(
+        select(func.coalesce(func.max(SimEvent.sim_time), -1.0)).where(SimEvent.trial_id == tid)
+    )
+    live.decisions_recorded = session.scalar(
+        select(func.count()).select_from(DecisionRow).where(DecisionRow.trial_id == tid)
+    )
+    for change in session.scalars(
+        select(RequestStatusChange)
+        .where(RequestStatusChange.trial_id == tid)
+        .order_by(RequestStatusChange.id)
+    ):
+        if change.status == "removed":
+            live.request_status.pop(change.request_id, None)
+        else:
+            live.request_status[change.request_id] = change.status
+    _restore_messages(session, live)
+    _restore_probes(session, live)
+
+
+def _restore_messages(session: Session, live: LiveTrial) -> None:
+    events = [
+        (e.sim_time, e.id, e.kind, e.text)
+        for e in session.scalars(select(SimEvent).where(SimEvent.trial_id == live.trial_id))
+    ]
+    refusals = session.execute(
+        select(Command, CommandOutcome)
+        .join(CommandOutcome, CommandOutcome.command_id == Command.id)
+        .where(Command.trial_id == live.trial_id, CommandOutcome.accepted.is_(False))
+    )
+    events += [(c.sim_time, c.id, "refusal", refusal_text(c, o.reason)) for c, o in refusals]
+    for time, _id, kind, text in sorted(events):
+        live.add_message(time, kind, text)
+
+
+def _restore_probes(session: Session, live: LiveTrial) -> None:
+    probes = list(
+        session.scalars(select(Probe).where(Probe.trial_id == live.trial_id).order_by(Probe.id))
+    )
+    live.probes_shown = len(probes)
+    events: dict[int, list[ProbeEvent]] = {p.id: [] for p in probes}
+    for event in session.scalars(
+        select(ProbeEvent).where(ProbeEvent.probe_id.in_(list(events))).order_by(ProbeEvent.id)
+    ):
+        events[event.probe_id].append(event)
+    for probe in probes:
+        kinds = {e.kind: e for e in events[probe.id]}
+        if probe.level == 3 and "scored" not in kinds:
+            answer = kinds["answer"].answer if "answer" in kinds else None
+            live.pending_projection.append((probe.id, probe.shown_sim_time, answer))
+        if "answer" not in kinds and "timeout" not in kinds:
+            live.current_probe = CurrentProbe(
+                id=probe.id,
+                probe_index=probe.probe_index,
+                level=probe.level,
+                question=probe.question,
+                choices=list(probe.choices),
+                truth=probe.truth,
+                shown_sim_time=probe.shown_sim_time,
+                timeout_sim_time=probe.timeout_sim_time,
+                ready="ready" in kinds,
+            )
+
+
+def _last_seen(session: Session, trial_id: int):  # type: ignore[no-untyped-def]
+    candidates = [
+        session.scalar(select(func.max(model.created_at)).where(model.trial_id == trial_id))
+        for model in (Snapshot, Command, SimEvent)
+    ]
+    present = [c for c in candidates if c is not None]
+    return max(present) if present else None
+
+
+def refusal_text(command: Command, reason: str) -> str:
+    from hcss.platform.live.probes import ROMAN
+
+    if command.kind == "cancel":
+        subject = f"cancel of assignment {command.cancel_request_id}"
+    else:
+        collective = ROMAN[command.collective] if command.collective is not None else "?"
+        subject = f"{command.kind} by collective {collective} on target {command.target}"
+    return f"Request refused ({subject}): {reason}"

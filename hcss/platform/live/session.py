@@ -1,0 +1,146 @@
+"""One live trial in memory: its simulation, lock, clock and what the page sees.
+
+Everything that touches the simulation holds `lock`: the runner's steps, the
+commands between them, and the stream reading a frame. `changed` wakes the
+streams whenever the state moved, so a command's effect is sent at once.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import threading
+from dataclasses import dataclass, field
+from typing import Any
+
+from hcss.questionnaires.probes import ScheduledProbe
+
+
+@dataclass
+class CurrentProbe:
+    """The probe on screen now (its `Probe` row id and what the page needs)."""
+
+    id: int
+    probe_index: int
+    level: int
+    question: str
+    choices: list[str]
+    truth: str | None
+    shown_sim_time: float
+    timeout_sim_time: float
+    ready: bool = False
+
+    def public(self) -> dict[str, Any]:
+        """What the browser sees: never the truth."""
+        return {
+            "id": self.id,
+            "index": self.probe_index,
+            "level": self.level,
+            "phase": "question" if self.ready else "ready",
+            "question": self.question if self.ready else None,
+            "choices": self.choices if self.ready else None,
+            "timeout_s": self.timeout_sim_time,
+        }
+
+
+@dataclass
+class LiveTrial:
+    trial_id: int
+    participant_id: int
+    participant_code: str
+    kind: str
+    model: str
+    seed: int
+    scenario_id: str
+    first_section: str | None
+    sim: Any  # hcss.simulation.Simulation
+    started_epoch: float  # wall clock, seconds since the epoch
+    acceleration: float
+    duration_s: float
+    dt: float
+    lock: threading.RLock = field(default_factory=threading.RLock)
+    version: int = 0
+    ended: bool = False
+    end_reason: str = ""
+    # System Messages so far, oldest first: {"seq", "time", "kind", "text"}.
+    messages: list[dict[str, Any]] = field(default_factory=list)
+    request_status: dict[int, str] = field(default_factory=dict)
+    decisions_recorded: int = 0
+    last_event_time: float = -math.inf
+    last_command_id: int | None = None
+    last_snapshot_epoch: float = 0.0
+    probe_plan: list[ScheduledProbe] = field(default_factory=list)
+    probes_shown: int = 0
+    postponed_until: float = 0.0
+    current_probe: CurrentProbe | None = None
+    # Level-3 probes waiting for the next decision: (probe id, shown time, answer or None).
+    pending_projection: list[tuple[int, float, str | None]] = field(default_factory=list)
+    _view_cache: tuple[int, dict[str, Any], str] | None = None
+
+    def __post_init__(self) -> None:
+        self.changed = threading.Condition(self.lock)
+
+    @property
+    def total_steps(self) -> int:
+        return int(round(self.duration_s / self.dt))
+
+    def due_step(self, now: float) -> int:
+        """The step the wall clock says the trial should have reached."""
+        elapsed = max(0.0, now - self.started_epoch) * self.acceleration
+        return min(self.total_steps, int(math.floor(elapsed / self.dt + 1e-9)))
+
+    def clock(self, now: float) -> float:
+        """Trial time by the wall clock, for the page's timer (runs between steps)."""
+        if self.ended:
+            return self.duration_s
+        return min(self.duration_s, max(0.0, now - self.started_epoch) * self.acceleration)
+
+    def touch(self) -> None:
+        """Mark the state as changed and wake every stream; call with `lock` held."""
+        self.version += 1
+        self.changed.notify_all()
+
+    def add_message(self, time: float, kind: str, text: str) -> None:
+        seq = self.messages[-1]["seq"] + 1 if self.messages else 1
+        self.messages.append(
+            {"seq": seq, "time": round(float(time), 1), "kind": kind, "text": text}
+        )
+
+    def view(self) -> dict[str, Any]:
+        """`sim.view()` without true values, computed once per state version.
+
+        The runner, the probes and every stream of this trial share it; treat
+        it as read-only.
+        """
+        return self._cached_view()[0]
+
+    def view_json(self) -> str:
+        return self._cached_view()[1]
+
+    def _cached_view(self) -> tuple[dict[str, Any], str]:
+        if self._view_cache is None or self._view_cache[0] != self.version:
+            view = self.sim.view()
+            for target in view.get("targets", []):
+                target.pop("true_value", None)  # for analysis only, never shown
+            self._view_cache = (self.version, view, json.dumps(view, separators=(",", ":")))
+        return self._view_cache[1], self._view_cache[2]
+
+    def frame(self, now: float, after_seq: int) -> tuple[str, int]:
+        """One stream frame (JSON text) and the newest message seq it carries."""
+        new_messages = [m for m in self.messages if m["seq"] > after_seq]
+        last_seq = new_messages[-1]["seq"] if new_messages else after_seq
+        head = {
+            "trial": {
+                "id": self.trial_id,
+                "kind": self.kind,
+                "status": "ended" if self.ended else "running",
+                "clock_s": round(self.clock(now), 2),
+                "duration_s": self.duration_s,
+                "step": self.sim.step_count,
+                "version": self.version,
+            },
+            "messages": new_messages,
+            "probe": None if self.current_probe is None else self.current_probe.public(),
+        }
+        text = json.dumps(head, separators=(",", ":"))
+        return text[:-1] + ',"view":' + self.view_json() + "}", last_seq

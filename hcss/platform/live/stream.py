@@ -1,0 +1,50 @@
+"""Server-Sent Events: the trial's state, at least twice a second and at once on change.
+
+Each event's id is the newest System Message number it carries; EventSource
+sends it back as Last-Event-ID on reconnect, so no message is shown twice or
+lost across a dropped connection or a server restart.
+"""
+
+from __future__ import annotations
+
+import json
+import time as wallclock
+from collections.abc import Callable, Iterator
+
+from hcss.platform.live.session import LiveTrial
+
+MIN_GAP_S = 0.05  # at most 20 frames a second per stream, even under acceleration
+
+
+def event_stream(
+    live: LiveTrial,
+    *,
+    after_seq: int,
+    interval_s: float,
+    max_s: float,
+    clock: Callable[[], float],
+) -> Iterator[str]:
+    """Frames until the trial ends or `max_s` passes (then the browser reconnects)."""
+    yield "retry: 1000\n\n"
+    stop_at = wallclock.monotonic() + max_s
+    sent_version = -1
+    last_sent = 0.0
+    while True:
+        with live.changed:
+            if live.version == sent_version and not live.ended:
+                live.changed.wait(timeout=interval_s)
+            text, after_seq = live.frame(clock(), after_seq)
+            sent_version, ended = live.version, live.ended
+        yield f"id: {after_seq}\ndata: {text}\n\n"
+        if ended or wallclock.monotonic() >= stop_at:
+            return
+        gap = MIN_GAP_S - (wallclock.monotonic() - last_sent)
+        last_sent = wallclock.monotonic()
+        if gap > 0:
+            wallclock.sleep(gap)
+
+
+def ended_stream(trial_id: int, duration_s: float) -> Iterator[str]:
+    """For a trial no longer live: one frame saying so, then close."""
+    frame = {"trial": {"id": trial_id, "status": "ended", "clock_s": duration_s}}
+    yield f"retry: 5000\ndata: {json.dumps(frame)}\n\n"

@@ -1,0 +1,81 @@
+"""A live trial and the rows that let it be resumed after a crash.
+
+A `Trial` row is written once, when the trial starts: scenario, seed, model,
+time acceleration and the absolute deadline. Everything that happens later is
+a new row: status changes, snapshots, interruptions.
+"""
+
+from __future__ import annotations
+
+from datetime import datetime
+from typing import Any
+
+from sqlalchemy import ForeignKey, LargeBinary, String
+from sqlalchemy.orm import Mapped, mapped_column, relationship
+
+from hcss.platform.models.base import Base, CreatedAt
+from hcss.platform.models.participant import Participant
+
+TRIAL_KINDS = ("training", "trial")
+TRIAL_STATUSES = ("running", "ended")
+
+
+class Trial(CreatedAt, Base):
+    __tablename__ = "trial"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    participant_id: Mapped[int] = mapped_column(ForeignKey("participant.id"), index=True)
+    kind: Mapped[str] = mapped_column(String(16))  # "training" or "trial"
+    model: Mapped[str] = mapped_column(String(4))  # "M1", "M2", "M3"
+    scenario: Mapped[dict[str, Any]]  # Scenario.to_dict()
+    scenario_id: Mapped[str] = mapped_column(String(64))
+    seed: Mapped[int]
+    first_section: Mapped[str | None] = mapped_column(String(16))
+    params: Mapped[dict[str, Any] | None]  # None: the model's default parameters
+    # Trial seconds per wall-clock second (1.0 in the study).
+    time_acceleration: Mapped[float] = mapped_column(default=1.0)
+    duration_s: Mapped[float]  # trial time
+    started_at: Mapped[datetime]
+    deadline: Mapped[datetime]  # absolute, enforced by the server
+
+    participant: Mapped[Participant] = relationship()
+
+
+class TrialStatusChange(CreatedAt, Base):
+    """The trial's status history; the latest row is its status now."""
+
+    __tablename__ = "trial_status_change"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    trial_id: Mapped[int] = mapped_column(ForeignKey("trial.id"), index=True)
+    status: Mapped[str] = mapped_column(String(16))
+    reason: Mapped[str] = mapped_column(String(64), default="")
+    step: Mapped[int] = mapped_column(default=0)
+
+
+class Snapshot(CreatedAt, Base):
+    """`Simulation.snapshot()` bytes; with the commands after it, a crash loses nothing."""
+
+    __tablename__ = "snapshot"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    trial_id: Mapped[int] = mapped_column(ForeignKey("trial.id"), index=True)
+    step: Mapped[int]
+    sim_time: Mapped[float]
+    # The last command applied to the state in `blob`; replay starts after it.
+    last_command_id: Mapped[int | None]
+    blob: Mapped[bytes] = mapped_column(LargeBinary)
+
+
+class Interruption(CreatedAt, Base):
+    """A server restart that found this trial live and rebuilt it."""
+
+    __tablename__ = "interruption"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    trial_id: Mapped[int] = mapped_column(ForeignKey("trial.id"), index=True)
+    snapshot_step: Mapped[int]  # -1 when rebuilt from the scenario (no snapshot yet)
+    resumed_step: Mapped[int]  # the wall-clock-due step the rebuild reached
+    replayed_commands: Mapped[int]
+    state_digest: Mapped[str] = mapped_column(String(128))  # at resumed_step
+    last_seen_at: Mapped[datetime | None]  # newest row written before the interruption
