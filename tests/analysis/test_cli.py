@@ -1,0 +1,168 @@
+"""`hcss analyze` end to end, on generated simulation and study exports."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+import pytest
+from click.testing import CliRunner
+from scipy.stats import mannwhitneyu
+
+from hcss.analysis.cli import analyze
+from tests.analysis.synthetic import simulation_decisions, study_export, write_table
+
+
+def run(*arguments: str):
+    return CliRunner().invoke(analyze, list(arguments), catch_exceptions=False)
+
+
+@pytest.fixture(scope="module")
+def simulation_report(tmp_path_factory) -> Path:
+    base = tmp_path_factory.mktemp("simulation")
+    write_table(simulation_decisions(scenarios=8, runs=3), base / "experiment" / "decisions.csv")
+    result = run(str(base / "experiment" / "decisions.csv"), "--out", str(base / "report"))
+    assert result.exit_code == 0, result.output
+    assert "hcss analyze" in result.stderr  # the progress bar
+    return base / "report"
+
+
+def test_simulation_report_tables(simulation_report: Path):
+    tables = simulation_report / "tables"
+    for name in ("descriptive_success_rate", "descriptive_decision_time_min", "mann_whitney"):
+        for suffix in ("md", "tex", "csv"):
+            assert (tables / f"{name}.{suffix}").stat().st_size > 0
+    # human-only measures have nothing to say about simulation runs
+    assert not (tables / "descriptive_request_frequency.csv").exists()
+    summary = pd.read_csv(tables / "descriptive_success_rate.csv")
+    assert set(summary["group"]) == {"M1SIM", "M2SIM"}
+    assert set(summary["split"]) == {"overall", "easy", "difficult"}
+    assert (summary["n"] == 8).all()  # one unit per scenario, runs averaged
+
+
+def test_simulation_mann_whitney_matches_the_measures(simulation_report: Path):
+    tests = pd.read_csv(simulation_report / "tables" / "mann_whitney.csv")
+    assert len(tests) == 6
+    assert set(zip(tests["measure"], tests["split"], strict=True)) == {
+        (measure, split)
+        for measure in ("success_rate", "decision_time_min")
+        for split in ("overall", "easy", "difficult")
+    }
+    measures = pd.read_csv(simulation_report / "measures.csv")
+    row = tests[(tests["measure"] == "decision_time_min") & (tests["split"] == "overall")].iloc[0]
+    chosen = measures[
+        (measures["measure"] == "decision_time_min") & (measures["split"] == "overall")
+    ]
+    m1 = chosen[chosen["group"] == "M1SIM"]["value"]
+    m2 = chosen[chosen["group"] == "M2SIM"]["value"]
+    expected = mannwhitneyu(m1, m2, method="exact")  # 8 vs 8, no ties: R uses exact
+    assert row["U"] == expected.statistic
+    assert row["p"] == pytest.approx(expected.pvalue, rel=1e-9)
+    assert row["method"] == "exact"
+
+
+def test_simulation_figures_and_report(simulation_report: Path):
+    for measure in ("success_rate", "decision_time_min"):
+        assert (simulation_report / "figures" / f"{measure}.svg").read_text().startswith("<?xml")
+        png = (simulation_report / "figures" / f"{measure}.png").read_bytes()
+        assert png.startswith(b"\x89PNG")
+    page = (simulation_report / "report.html").read_text()
+    assert 'src="figures/success_rate.svg"' in page
+    assert 'id="mann_whitney"' in page and 'id="descriptive_decision_time_min"' in page
+
+
+@pytest.fixture(scope="module")
+def study_report(tmp_path_factory) -> tuple[Path, Path]:
+    base = tmp_path_factory.mktemp("study")
+    export = study_export(base / "export", participants=5)
+    write_table(simulation_decisions(scenarios=5, runs=2), base / "simulation" / "decisions.csv")
+    result = run(str(export), str(base / "simulation"), "--out", str(base / "report"), "--quiet")
+    assert result.exit_code == 0, result.output
+    return export, base / "report"
+
+
+def test_study_export_gives_every_table(study_report):
+    _, report = study_report
+    names = {path.stem for path in (report / "tables").glob("*.csv")}
+    expected = {
+        "descriptive_success_rate",
+        "descriptive_decision_time_min",
+        "descriptive_request_frequency",
+        "descriptive_investigate_frequency",
+        "descriptive_abandon_frequency",
+        "descriptive_decide_frequency",
+        "descriptive_interventions",
+        "descriptive_collective_observations",
+        "descriptive_target_observations",
+        "descriptive_sa_overall",
+        "descriptive_sa_level1",
+        "descriptive_sa_level2",
+        "descriptive_sa_level3",
+        "descriptive_nasa_tlx_overall",
+        "descriptive_nasa_tlx_mental_demand_weighted",
+        "descriptive_sart_overall",
+        "descriptive_sart_su",
+        "descriptive_post_trial_responsiveness",
+        "descriptive_ranking_performance",
+        "descriptive_mrt_overall",
+        "kruskal_wallis",
+        "tukey_kramer_ranks",
+        "dunn_holm",
+        "tukey_hsd",
+        "mann_whitney",
+        "spearman",
+    }
+    assert expected <= names
+    for name in names:
+        assert (report / "tables" / f"{name}.md").exists()
+        assert (report / "tables" / f"{name}.tex").exists()
+
+
+def test_study_tests_cover_models_and_exclude_bots(study_report):
+    _, report = study_report
+    kruskal = pd.read_csv(report / "tables" / "kruskal_wallis.csv")
+    human = kruskal[kruskal["family"] == "human-collective models"]
+    assert set(human["groups"]) == {"M1,M2,M3"}
+    overall = human[(human["measure"] == "success_rate") & (human["split"] == "overall")].iloc[0]
+    assert overall["n"] == 15  # 5 real participants x 3 models; bot and pilot excluded
+    assert overall["epsilon_squared"] == pytest.approx(overall["H"] / 14)
+    everyone = kruskal[kruskal["family"] == "all models"]
+    assert set(everyone["measure"]) == {"success_rate", "decision_time_min"}
+    spearman = pd.read_csv(report / "tables" / "spearman.csv")
+    assert {
+        "decision_time_min",
+        "request_frequency",
+        "investigate_frequency",
+        "decide_frequency",
+        "abandon_frequency",
+        "mrt.overall",
+    } <= set(spearman["x"])
+    measures = pd.read_csv(report / "measures.csv")
+    assert not measures["participant"].astype(str).str.startswith(("BOT", "PILOT")).any()
+
+
+def test_include_pilot_keeps_flagged_participants(study_report, tmp_path):
+    export, _ = study_report
+    result = run(str(export), "--out", str(tmp_path / "all"), "--include-pilot", "--quiet")
+    assert result.exit_code == 0, result.output
+    measures = pd.read_csv(tmp_path / "all" / "measures.csv")
+    assert {"BOT1", "PILOT1"} <= set(measures["participant"].astype(str))
+    assert "included" in (tmp_path / "all" / "report.html").read_text()
+
+
+def test_unknown_directory_is_a_clear_error(tmp_path):
+    result = run(str(tmp_path / "missing"), "--out", str(tmp_path / "report"))
+    assert result.exit_code == 2
+    assert "does not exist" in result.output
+
+
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [("", "is empty"), ("source,model\nstudy,M1\n", "lacks column(s) participant")],
+)
+def test_bad_tables_are_clear_errors(tmp_path, content, message):
+    (tmp_path / "decisions.csv").write_text(content)
+    result = run(str(tmp_path), "--out", str(tmp_path / "report"))
+    assert result.exit_code == 1
+    assert "Error:" in result.output and message in result.output
+    assert "Traceback" not in result.output

@@ -1,0 +1,76 @@
+"""Descriptive summaries and the three table formats."""
+
+from __future__ import annotations
+
+import math
+
+import pandas as pd
+import pytest
+
+from hcss.analysis.builders import descriptive_tables
+from hcss.analysis.descriptive import descriptive_frame, summarise
+from hcss.analysis.tables import Table, format_p, latex_escape, to_latex, to_markdown, write_table
+
+
+def test_summary_uses_sample_sd():
+    summary = summarise([1, 2, 3, 4, float("nan")])
+    assert summary.n == 4
+    assert summary.mean == 2.5
+    assert summary.sd == pytest.approx(math.sqrt(5 / 3))  # sum of squares 5, n - 1 = 3
+    assert (summary.median, summary.minimum, summary.maximum) == (2.5, 1, 4)
+    assert math.isnan(summarise([7]).sd)
+
+
+def _measures():
+    rows = []
+    for group, values in {"M1": [0.5, 1.0], "M2SIM": [0.25, 0.75, 1.0]}.items():
+        for unit, value in enumerate(values):
+            for split in ("overall", "difficult"):
+                rows.append(("success_rate", split, group, "x", str(unit), "", value))
+    return pd.DataFrame(
+        rows, columns=["measure", "split", "group", "source", "unit", "participant", "value"]
+    )
+
+
+def test_descriptive_table_has_mean_over_sd_and_median_over_range():
+    (table,) = descriptive_tables(descriptive_frame(_measures()))
+    assert table.name == "descriptive_success_rate"
+    assert table.header[1:] == (
+        "Overall mean (SD)",
+        "Overall median (min–max)",
+        "Difficult mean (SD)",
+        "Difficult median (min–max)",
+    )
+    # simulation model first, as in the study's figure; SD of (.25, .75, 1) = .3819
+    assert table.rows[0] == ("M2SIM (n = 3)", "0.67", "0.75", "0.67", "0.75")
+    assert table.rows[1] == ("", "(0.38)", "(0.25–1.00)", "(0.38)", "(0.25–1.00)")
+    assert table.rows[2][0] == "M1 (n = 2)"
+    assert table.rows[3][1] == "(0.35)"  # sd of (.5, 1) = .3536
+    assert list(table.frame["group"]) == ["M2SIM", "M2SIM", "M1", "M1"]
+
+
+def test_formats(tmp_path):
+    table = Table(
+        "demo",
+        "χ² and 10% of a_b",
+        ("Measure", "p"),
+        (("H & more", format_p(0.0004)), ("x", format_p(0.0512))),
+        pd.DataFrame({"p": [0.0004, 0.0512]}),
+    )
+    markdown = to_markdown(table)
+    assert "| H & more | < .001 |" in markdown
+    assert "| x | .051 |" in markdown
+    latex = to_latex(table)
+    assert r"\toprule" in latex and r"\midrule" in latex and r"\bottomrule" in latex
+    assert r"H \& more & $<$ .001 \\" in latex
+    assert r"\caption{$\chi^2$ and 10\% of a\_b}" in latex
+    paths = write_table(table, tmp_path)
+    assert [path.suffix for path in paths] == [".md", ".tex", ".csv"]
+    assert pd.read_csv(paths[2])["p"].tolist() == [0.0004, 0.0512]
+
+
+def test_latex_escape_and_p_format_edges():
+    assert latex_escape("M1 − M2 ~ 5$") == r"M1 -- M2 \textasciitilde{} 5\$"
+    assert format_p(1.0) == "1.000"
+    assert format_p(0.5) == ".500"
+    assert format_p(float("nan")) == "–"
