@@ -13,8 +13,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from enum import StrEnum
 
-from hcss.questionnaires.definitions import Choice, ChoiceItem, ValidationErrors
 from hcss.questionnaires import texts
+from hcss.questionnaires.definitions import Choice, ChoiceItem, ValidationErrors
 from hcss.questionnaires.texts import page_title
 
 _FILE_PATTERN = re.compile(r"^consent-(?P<version>[A-Za-z0-9._]+)\.md$")
