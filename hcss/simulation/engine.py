@@ -215,6 +215,8 @@ class Simulation:
     def _announce_commitments(self) -> None:
         w = self.world
         committed = np.flatnonzero(w.state == S.C)
+        if committed.size == 0:
+            return
         for c in np.unique(w.collective[committed]):
             targets = w.target[committed[w.collective[committed] == c]]
             t = int(np.bincount(targets).argmax())
@@ -226,6 +228,8 @@ class Simulation:
         """The first X agent of a collective begins its move: reserve the target, judge correctness."""
         w, p = self.world, self.params
         moving = np.flatnonzero(w.state == S.X)
+        if moving.size == 0:
+            return
         for c in np.unique(w.collective[moving]):
             if w.executing[c] >= 0 or self.open[c] is None:
                 continue
@@ -233,7 +237,7 @@ class Simulation:
             t = int(np.bincount(w.target[mine]).argmax())
             mine_all = w.collective == c
             if w.reserved_by[t] >= 0 and w.reserved_by[t] != c:
-                self._send_home(np.flatnonzero(mine_all & (w.target == t) & (w.state >= S.C)))
+                self._send_home(np.flatnonzero(mine_all & (w.target == t) & S.COMMITTED_OR_LATER[w.state]))
                 continue
             decision = self.open[c]
             best = dec.best_available(w, int(c), p)
@@ -241,7 +245,7 @@ class Simulation:
             decision.best_value = float(w.target_value[best]) if best >= 0 else float("nan")
             w.executing[c] = t
             w.reserved_by[t] = c
-            rival = mine_all & (w.state >= S.C) & (w.target != t)
+            rival = mine_all & S.COMMITTED_OR_LATER[w.state] & (w.target != t)
             self._send_home(np.flatnonzero(rival))
             self._event("move", int(c), t + 1, f"Collective {ROMAN[c]} is moving to target {t + 1}.")
 

@@ -24,9 +24,6 @@ from hcss.simulation import states as S
 from hcss.simulation.params import Params
 from hcss.simulation.world import World
 
-SENDING_STATES = np.array([S.U_I, S.F_I, S.C, S.I, S.D], dtype=np.int8)
-
-
 @dataclass(frozen=True)
 class Inbox:
     """The messages of one step, already addressed: parallel arrays over messages."""
@@ -54,8 +51,8 @@ def exchange(world: World, params: Params, rng: np.random.Generator, model: str)
     # Rank each message among those to the same receiver; round r delivers the r-th.
     by_receiver = np.argsort(receivers, kind="stable")
     sorted_receivers = receivers[by_receiver]
-    first = np.r_[0, np.flatnonzero(np.diff(sorted_receivers)) + 1]
-    counts = np.diff(np.r_[first, sorted_receivers.size])
+    first = np.flatnonzero(np.concatenate(([True], sorted_receivers[1:] != sorted_receivers[:-1])))
+    counts = np.diff(np.append(first, sorted_receivers.size))
     rank = np.empty(receivers.size, dtype=np.int64)
     rank[by_receiver] = np.arange(receivers.size) - np.repeat(first, counts)
     draws = rng.random(receivers.size)
@@ -68,7 +65,7 @@ def exchange(world: World, params: Params, rng: np.random.Generator, model: str)
 def compose(world: World, params: Params, rng: np.random.Generator, model: str) -> Inbox:
     """Who sends how many messages to whom this step."""
     in_hub = world.leg == S.AT_HUB
-    senders = np.flatnonzero(in_hub & np.isin(world.state, SENDING_STATES))
+    senders = np.flatnonzero(in_hub & S.SENDING[world.state])
     rate = np.full(senders.size, params.message_rate)
     if model == "M2":
         favouring = world.state[senders] == S.F_I
@@ -110,28 +107,29 @@ def find_neighbours(
     members = np.flatnonzero(in_hub)
     area = hub_area(world)
     members = members[np.argsort(area[members], kind="stable")]
-    n_areas = 2 * world.n_collectives
-    size = np.bincount(area[members], minlength=n_areas)
-    start = np.r_[0, np.cumsum(size)[:-1]]
+    size = np.bincount(area[members], minlength=2 * world.n_collectives)
+    start = np.cumsum(size) - size
     sender_area = area[senders]
-    pending = np.arange(senders.size)
-    range2 = params.comm_range_m**2
-    for _ in range(params.neighbour_draws):
-        if pending.size == 0:
-            break
-        a = sender_area[pending]
-        pick = members[start[a] + (rng.random(pending.size) * size[a]).astype(np.int64)]
-        offset = world.pos[pick] - world.pos[senders[pending]]
-        good = (pick != senders[pending]) & (np.einsum("ij,ij->i", offset, offset) <= range2)
-        receivers[pending[good]] = pick[good]
-        pending = pending[~good]
+    # Draw every candidate at once: (messages, draws); keep the first within range.
+    draws = rng.random((senders.size, params.neighbour_draws))
+    pick = members[start[sender_area, None] + (draws * size[sender_area, None]).astype(np.int64)]
+    dx = world.pos[pick, 0] - world.pos[senders, 0, None]
+    dy = world.pos[pick, 1] - world.pos[senders, 1, None]
+    good = (pick != senders[:, None]) & (dx * dx + dy * dy <= params.comm_range_m**2)
+    found = good.any(axis=1)
+    first = np.argmax(good, axis=1)
+    receivers[found] = pick[found, first[found]]
     return receivers
 
 
 def deliver(
     world: World, params: Params, model: str, inbox: Inbox, messages: np.ndarray, draw: np.ndarray
 ) -> np.ndarray:
-    """Apply one message to each receiver (receivers in `messages` are distinct)."""
+    """Apply one message to each receiver (receivers in `messages` are distinct).
+
+    Every rule reads the receiver's state before this message, so at most one
+    rule fires per message; the new states are written back at once.
+    """
     r = inbox.receiver[messages]
     s_state = inbox.sender_state[messages]
     s_target = inbox.sender_target[messages]
@@ -139,46 +137,55 @@ def deliver(
     target = world.target[r]
     world.silence[r] = 0.0
 
-    same = S.decision_key(state, target) == inbox.sender_key[messages]
-    world.streak[r] = np.where(same, world.streak[r] + 1, 0)
-    quorum = world.streak[r] >= params.quorum_k
+    key = S.decision_key(state, target)
+    streak = np.where(key == inbox.sender_key[messages], world.streak[r] + 1, 0)
+    quorum = streak >= params.quorum_k
+    new_state, new_target, new_leg = state.copy(), target.copy(), world.leg[r]
 
-    deliberating = np.isin(state, S.DELIBERATING)
-    commit = (s_state == S.C) & deliberating
-    initiate = (s_state == S.I) & (
-        (state == S.U_I) | (state == S.F_I) | ((state == S.C) & (target == s_target))
-    )
-    changed = commit | initiate
-    finished = np.zeros(world.n_collectives, dtype=bool)
+    def become(mask: np.ndarray, code: int, to_target: np.ndarray | None = None, leg: int | None = None) -> None:
+        new_state[mask] = code
+        if to_target is not None:
+            new_target[mask] = to_target[mask]
+        if leg is not None:
+            new_leg[mask] = leg
+
+    senders_by_state = np.bincount(s_state, minlength=len(S.NAMES))
+    changed = np.zeros(r.size, dtype=bool)
+    if senders_by_state[S.C]:  # commitment spreads to deliberating agents
+        changed = (s_state == S.C) & S.DELIBERATING[state]
+        become(changed, S.C, s_target)
+    if senders_by_state[S.I]:  # initiation spreads
+        initiate = (s_state == S.I) & ((state == S.U_I) | (state == S.F_I) | ((state == S.C) & (target == s_target)))
+        become(initiate, S.I, s_target)
+        changed |= initiate
 
     if model != "M3":
-        allowed = ~world.abandon_order[world.collective[r], np.maximum(s_target, 0)]
-        persuaded = draw < inbox.sender_estimate[messages]
-        recruit = (s_state == S.F_I) & (state == S.U_I) & allowed & persuaded & ~changed
-        inhibit = (
-            (s_state == S.F_I)
-            & np.isin(state, (S.F_I, S.F_D, S.F_R))
-            & (target != s_target)
-            & persuaded
-            & ~changed
-        )
-        world.set_state(r[recruit], S.F_L, s_target[recruit])
-        world.leg[r[recruit]] = S.TO_TARGET
-        world.set_state(r[inhibit], S.U_L)
-        world.leg[r[inhibit]] = S.EXPLORING
-        changed |= recruit | inhibit
-        to_commit = quorum & (state == S.F_I) & ~changed
-        world.set_state(r[to_commit], S.C)
-        changed |= to_commit
+        if senders_by_state[S.F_I]:
+            from_favouring = s_state == S.F_I
+            persuaded = from_favouring & (draw < inbox.sender_estimate[messages]) & ~changed
+            recruit = persuaded & (state == S.U_I)
+            if world.abandon_order.any():
+                recruit &= ~world.abandon_order[world.collective[r], np.maximum(s_target, 0)]
+            inhibit = persuaded & S.FAVOURING_IN_HUB[state] & (target != s_target)
+            become(recruit, S.F_L, s_target, S.TO_TARGET)
+            become(inhibit, S.U_L, None, S.EXPLORING)
+            changed |= recruit | inhibit
+    finished = np.zeros(world.n_collectives, dtype=bool)
+    if quorum.any():
+        quorum &= ~changed
+        if model != "M3":
+            become(quorum & (state == S.F_I), S.C)  # F_I(i) → C(i)
+        become(quorum & (state == S.C), S.I)  # C(i) → I(i)
+        become(quorum & (state == S.I), S.X, None, S.TO_TARGET)  # I(i) → X(i)
+        done = quorum & (state == S.D)  # D(i) quorum ends the decision
+        finished[world.collective[r[done]]] = True
+        changed |= quorum & (state != S.D)
 
-    world.set_state(r[commit], S.C, s_target[commit])
-    world.set_state(r[initiate], S.I, s_target[initiate])
-    to_initiate = quorum & (state == S.C) & ~changed
-    world.set_state(r[to_initiate], S.I)
-    to_execute = quorum & (state == S.I) & ~changed
-    execute(world, r[to_execute])
-    done = quorum & (state == S.D) & ~changed
-    finished[np.unique(world.collective[r[done]])] = True
+    if changed.any():
+        new_target[S.PHASE_OF_STATE[new_state] == 0] = -1
+        streak[S.decision_key(new_state, new_target) != key] = 0
+        world.state[r], world.target[r], world.leg[r] = new_state, new_target, new_leg
+    world.streak[r] = streak
     return finished
 
 

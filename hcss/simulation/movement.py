@@ -19,13 +19,57 @@ def move(world: World, params: Params, rng: np.random.Generator) -> tuple[np.nda
 
     Returns the indices of agents that reached their target this step and of
     agents that reached their hub area; the rules decide what they do there.
+    Every agent draws a turning angle each step, whether it walks or flies, so
+    the generator advances by the same amount whatever the agents are doing.
     """
     step = params.speed_mps * params.dt_s
     home = world.home()
-    _walk(world, params, rng, home, step)
-    at_target = _fly(world, world.leg == S.TO_TARGET, _goal_targets(world), step, 0.0)
-    at_hub = _fly(world, world.leg == S.TO_HUB, home, step, params.hub_radius_m)
+    leg = world.leg
+    walking = leg <= S.EXPLORING  # AT_HUB or EXPLORING
+    to_target = leg == S.TO_TARGET
+
+    # Straight flights: towards the target, or towards the hub.
+    goal = home.copy()
+    goal[to_target] = world.target_pos[world.target[to_target]]
+    gx = goal[:, 0] - world.pos[:, 0]
+    gy = goal[:, 1] - world.pos[:, 1]
+    distance = np.sqrt(gx * gx + gy * gy)
+    advance = np.minimum(step, distance)
+
+    # Correlated random walk for agents in the hub area and explorers.
+    turned = world.heading + rng.normal(0.0, params.turn_sd_rad, leg.size)
+    heading = np.where(walking, turned, np.arctan2(gy, gx))
+    length = np.where(walking, step, advance)
+    x = world.pos[:, 0] + length * np.cos(heading)
+    y = world.pos[:, 1] + length * np.sin(heading)
+    _reflect(x, y, heading, leg, home, params)
+    world.pos = np.stack((x, y), axis=1)
+    world.heading = heading
+
+    remaining = distance - advance
+    at_target = np.flatnonzero(to_target & (remaining <= 1e-9))
+    at_hub = np.flatnonzero((leg == S.TO_HUB) & (remaining <= params.hub_radius_m))
     return at_target, at_hub
+
+
+def _reflect(x: np.ndarray, y: np.ndarray, heading: np.ndarray, leg: np.ndarray, home: np.ndarray, params: Params) -> None:
+    """Reflect walkers that left their disc: mirror the overshoot and the radial heading."""
+    radius = np.array([params.hub_radius_m, params.exploration_range_m, np.inf, np.inf])[leg]
+    ox = x - home[:, 0]
+    oy = y - home[:, 1]
+    distance2 = ox * ox + oy * oy
+    outside = np.flatnonzero(distance2 > radius * radius)
+    if outside.size == 0:
+        return
+    distance = np.sqrt(distance2[outside])
+    nx, ny = ox[outside] / distance, oy[outside] / distance
+    dx, dy = np.cos(heading[outside]), np.sin(heading[outside])
+    dot = dx * nx + dy * ny
+    r = radius[outside]
+    back = np.clip(2.0 * r - distance, 0.0, r)
+    x[outside] = home[outside, 0] + nx * back
+    y[outside] = home[outside, 1] + ny * back
+    heading[outside] = np.arctan2(dy - 2.0 * dot * ny, dx - 2.0 * dot * nx)
 
 
 def scatter_in_hub(world: World, agents: np.ndarray, params: Params, rng: np.random.Generator) -> None:
@@ -37,46 +81,3 @@ def scatter_in_hub(world: World, agents: np.ndarray, params: Params, rng: np.ran
     world.heading[agents] = rng.uniform(0.0, 2.0 * np.pi, n)
 
 
-def _goal_targets(world: World) -> np.ndarray:
-    goal = np.zeros_like(world.pos)
-    flying = (world.leg == S.TO_TARGET) & (world.target >= 0)
-    goal[flying] = world.target_pos[world.target[flying]]
-    return goal
-
-
-def _walk(world: World, params: Params, rng: np.random.Generator, home: np.ndarray, step: float) -> None:
-    walking = np.flatnonzero((world.leg == S.AT_HUB) | (world.leg == S.EXPLORING))
-    if walking.size == 0:
-        return
-    heading = world.heading[walking] + rng.normal(0.0, params.turn_sd_rad, walking.size)
-    direction = np.column_stack((np.cos(heading), np.sin(heading)))
-    pos = world.pos[walking] + step * direction
-    radius = np.where(world.leg[walking] == S.AT_HUB, params.hub_radius_m, params.exploration_range_m)
-    centre = home[walking]
-    offset = pos - centre
-    distance = np.hypot(offset[:, 0], offset[:, 1])
-    outside = distance > radius
-    if outside.any():
-        # Reflect the radial component of the heading and mirror the overshoot back inside.
-        normal = offset[outside] / distance[outside, None]
-        d = direction[outside]
-        d = d - 2.0 * np.sum(d * normal, axis=1, keepdims=True) * normal
-        back = np.clip(2.0 * radius[outside] - distance[outside], 0.0, radius[outside])
-        pos[outside] = centre[outside] + normal * back[:, None]
-        heading[outside] = np.arctan2(d[:, 1], d[:, 0])
-    world.pos[walking] = pos
-    world.heading[walking] = np.mod(heading, 2.0 * np.pi)
-
-
-def _fly(world: World, flying: np.ndarray, goal: np.ndarray, step: float, arrive_within: float) -> np.ndarray:
-    agents = np.flatnonzero(flying)
-    if agents.size == 0:
-        return agents
-    offset = goal[agents] - world.pos[agents]
-    distance = np.hypot(offset[:, 0], offset[:, 1])
-    advance = np.minimum(step, distance)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        unit = np.where(distance[:, None] > 0, offset / distance[:, None], 0.0)
-    world.pos[agents] += unit * advance[:, None]
-    world.heading[agents] = np.where(distance > 0, np.arctan2(unit[:, 1], unit[:, 0]), world.heading[agents])
-    return agents[distance - advance <= arrive_within]

@@ -121,7 +121,7 @@ def recruit_for(world: World, request: Request, rng: np.random.Generator) -> Non
         world.leg[chosen] = S.TO_TARGET
     else:  # decide: supporters of the target first, else uncommitted agents
         supporters = np.flatnonzero(
-            mine_in_hub & np.isin(world.state, (S.F_I, S.F_D, S.F_R)) & (world.target == request.target)
+            mine_in_hub & S.FAVOURING_IN_HUB[world.state] & (world.target == request.target)
         )
         chosen = _take(supporters, request.needed, rng)
         if chosen.size < request.needed:

@@ -6,6 +6,9 @@ once. Rates become per-step probabilities 1 - exp(-rate·dt).
 
 from __future__ import annotations
 
+import functools
+from dataclasses import dataclass
+
 import numpy as np
 
 from hcss.simulation import states as S
@@ -35,8 +38,15 @@ def discovery(world: World, params: Params, rng: np.random.Generator, model: str
     candidates = np.flatnonzero(world.active)
     if explorers.size == 0 or candidates.size == 0:
         return
-    delta = world.pos[explorers, None, :] - world.target_pos[None, candidates, :]
-    near = np.hypot(delta[..., 0], delta[..., 1]) <= params.sensing_radius_m
+    # Only explorers in a grid cell near some target need exact distances.
+    grid = sensing_grid(world.target_pos[candidates].tobytes(), params.arena_side_m, params.sensing_radius_m)
+    explorers = explorers[grid.covers(world.pos[explorers])]
+    if explorers.size == 0:
+        return
+    dx = world.pos[explorers, 0, None] - world.target_pos[None, candidates, 0]
+    dy = world.pos[explorers, 1, None] - world.target_pos[None, candidates, 1]
+    distance2 = dx * dx + dy * dy
+    near = distance2 <= params.sensing_radius_m**2
     if not near.any():
         return
     col = world.collective[explorers]
@@ -49,7 +59,7 @@ def discovery(world: World, params: Params, rng: np.random.Generator, model: str
         return
     agents = explorers[found]
     # The nearest encountered target, if an explorer senses two at once.
-    distance = np.where(near[found], np.hypot(delta[found, :, 0], delta[found, :, 1]), np.inf)
+    distance = np.where(near[found], distance2[found], np.inf)
     targets = candidates[np.argmin(distance, axis=1)]
     world.target[agents] = targets  # provisional, to read the value; reset below if not adopted
     estimate = assess(world, agents, params, rng)
@@ -61,6 +71,42 @@ def discovery(world: World, params: Params, rng: np.random.Generator, model: str
     world.report_target[adopters] = targets[adopt]
     world.leg[adopters] = S.TO_HUB
     world.arrival_state[adopters] = S.F_D if model == "M2" else S.F_I
+
+
+@dataclass(frozen=True)
+class SensingGrid:
+    """Cells of the arena within sensing range of some target: a cheap first filter."""
+
+    covered: np.ndarray  # bool (cells, cells)
+    origin: float
+    cell: float
+
+    def covers(self, pos: np.ndarray) -> np.ndarray:
+        index = ((pos - self.origin) / self.cell).astype(np.int64)
+        np.clip(index, 0, self.covered.shape[0] - 1, out=index)
+        return self.covered[index[:, 0], index[:, 1]]
+
+
+@functools.lru_cache(maxsize=64)
+def sensing_grid(target_pos: bytes, arena_side_m: float, sensing_radius_m: float) -> SensingGrid:
+    """Mark every cell that has a point within the sensing radius of a target.
+
+    Cached on the targets' positions, which change only at section starts and
+    relocations. Explorers reflect inside discs that may reach a little past
+    the arena, so the grid has a margin of one exploration step.
+    """
+    cell = sensing_radius_m / 2.0
+    origin = -arena_side_m / 2.0 - 4.0 * sensing_radius_m
+    n = int(np.ceil((arena_side_m + 8.0 * sensing_radius_m) / cell)) + 1
+    centres = origin + (np.arange(n) + 0.5) * cell
+    targets = np.frombuffer(target_pos).reshape(-1, 2)
+    reach = sensing_radius_m + cell  # cell half-diagonal < cell
+    covered = np.zeros((n, n), dtype=bool)
+    for x, y in targets:
+        near_x = np.abs(centres - x) <= reach
+        near_y = np.abs(centres - y) <= reach
+        covered |= near_x[:, None] & near_y[None, :]
+    return SensingGrid(covered, origin, cell)
 
 
 def abandon_probability(world: World, agents: np.ndarray, params: Params) -> np.ndarray:
@@ -107,10 +153,10 @@ def reach_hub(world: World, agents: np.ndarray) -> np.ndarray:
     if agents.size == 0:
         return agents
     world.leg[agents] = S.AT_HUB
-    for new_state in np.unique(world.arrival_state[agents]):
-        group = agents[world.arrival_state[agents] == new_state]
-        world.set_state(group, int(new_state))
+    world.set_states(agents, world.arrival_state[agents])
     carrying = agents[world.report_target[agents] >= 0]
+    if carrying.size == 0:
+        return carrying
     reported = world.report_target[carrying]
     before = world.report_count.copy()
     np.add.at(world.report_sum, reported, world.estimate[carrying])
@@ -177,7 +223,7 @@ def leave_rate(estimate: np.ndarray, gap: np.ndarray) -> np.ndarray:
 
 def favouring_in_hub(world: World) -> np.ndarray:
     """Agents favouring a target and physically in their hub (not flying)."""
-    return (world.leg == S.AT_HUB) & np.isin(world.state, (S.F_I, S.F_D, S.F_R))
+    return (world.leg == S.AT_HUB) & S.FAVOURING_IN_HUB[world.state]
 
 
 def enforce_orders(world: World) -> None:
@@ -187,11 +233,14 @@ def enforce_orders(world: World) -> None:
     A target reserved by another collective is dropped the same way, and
     committed or initiating agents for it return to deliberation.
     """
+    has_target = world.target >= 0
+    if not (world.abandon_order.any() or (world.reserved_by >= 0).any() or (~world.active[world.target[has_target]]).any()):
+        return
     in_hub_favouring = favouring_in_hub(world)
-    t = np.where(world.target >= 0, world.target, 0)
-    ordered = in_hub_favouring & world.abandon_order[world.collective, t] & (world.target >= 0)
+    t = np.where(has_target, world.target, 0)
+    ordered = in_hub_favouring & world.abandon_order[world.collective, t] & has_target
     owner = world.reserved_by[t]
-    taken = (world.target >= 0) & (owner >= 0) & (owner != world.collective)
-    taken_here = taken & (in_hub_favouring | np.isin(world.state, (S.C, S.I)))
+    taken = has_target & (((owner >= 0) & (owner != world.collective)) | ~world.active[t])
+    taken_here = taken & (in_hub_favouring | (world.state == S.C) | (world.state == S.I))
     drop = np.flatnonzero(ordered | taken_here)
     world.set_state(drop, S.U_I)

@@ -23,29 +23,29 @@ class World:
     """All state of one trial. Target arrays are indexed by target id - 1."""
 
     # agents -------------------------------------------------------------
-    collective: np.ndarray  # int16, fixed
+    collective: np.ndarray  # int32, fixed
     state: np.ndarray  # int8, states.U_L ... states.D
-    target: np.ndarray  # int16, target index or -1
+    target: np.ndarray  # int32, target index, or -1 exactly when uncommitted
     leg: np.ndarray  # int8, AT_HUB / EXPLORING / TO_TARGET / TO_HUB
     pos: np.ndarray  # float64 (A, 2)
     heading: np.ndarray  # float64 radians
     estimate: np.ndarray  # float64, latest v̂ of the agent's own target
     arrival_state: np.ndarray  # int8, state entered on reaching the hub
-    report_target: np.ndarray  # int16, target whose estimate the agent brings home, or -1
-    streak: np.ndarray  # int16, running quorum streak (the k-window)
+    report_target: np.ndarray  # int32, target whose estimate the agent brings home, or -1
+    streak: np.ndarray  # int32, running quorum streak (the k-window)
     silence: np.ndarray  # float64, seconds since the agent last received a message
     reported_quadrant: np.ndarray  # int8, last U/F/C/X quadrant reported at the hub
     # collectives --------------------------------------------------------
     hub: np.ndarray  # float64 (C, 2), current hub
     start_hub: np.ndarray  # float64 (C, 2)
-    executing: np.ndarray  # int16, target being moved to, or -1
-    commit_announced: np.ndarray  # int16, target whose commitment was announced, or -1
+    executing: np.ndarray  # int32, target being moved to, or -1
+    commit_announced: np.ndarray  # int32, target whose commitment was announced, or -1
     # targets ------------------------------------------------------------
     target_pos: np.ndarray  # float64 (T, 2)
     target_value: np.ndarray  # float64
-    target_section: np.ndarray  # int16, 0-based section
+    target_section: np.ndarray  # int32, 0-based section
     active: np.ndarray  # bool: placed and not yet taken
-    reserved_by: np.ndarray  # int16, collective executing a move to it, or -1
+    reserved_by: np.ndarray  # int32, collective executing a move to it, or -1
     report_sum: np.ndarray  # float64, sum of estimates reported at hubs
     report_count: np.ndarray  # int32
     abandon_order: np.ndarray  # bool (C, T): standing abandon requests
@@ -72,29 +72,29 @@ class World:
         n_t = len(placed)
         hubs = np.array(scenario.hubs, dtype=float)
         world = cls(
-            collective=np.repeat(np.arange(n_c, dtype=np.int16), n),
+            collective=np.repeat(np.arange(n_c, dtype=np.int32), n),
             state=np.full(a, S.U_I, dtype=np.int8),
-            target=np.full(a, -1, dtype=np.int16),
+            target=np.full(a, -1, dtype=np.int32),
             leg=np.full(a, S.AT_HUB, dtype=np.int8),
             pos=np.zeros((a, 2)),
             heading=np.zeros(a),
             estimate=np.zeros(a),
             arrival_state=np.full(a, S.U_I, dtype=np.int8),
-            report_target=np.full(a, -1, dtype=np.int16),
-            streak=np.zeros(a, dtype=np.int16),
+            report_target=np.full(a, -1, dtype=np.int32),
+            streak=np.zeros(a, dtype=np.int32),
             silence=np.zeros(a),
             reported_quadrant=np.zeros(a, dtype=np.int8),
             hub=hubs.copy(),
             start_hub=hubs.copy(),
-            executing=np.full(n_c, -1, dtype=np.int16),
-            commit_announced=np.full(n_c, -1, dtype=np.int16),
+            executing=np.full(n_c, -1, dtype=np.int32),
+            commit_announced=np.full(n_c, -1, dtype=np.int32),
             target_pos=np.array([(t.x, t.y) for t in placed], dtype=float).reshape(n_t, 2),
             target_value=np.array([t.value for t in placed], dtype=float),
             target_section=np.array(
-                [i for i, s in enumerate(scenario.sections) for _ in s.targets], dtype=np.int16
+                [i for i, s in enumerate(scenario.sections) for _ in s.targets], dtype=np.int32
             ),
             active=np.zeros(n_t, dtype=bool),
-            reserved_by=np.full(n_t, -1, dtype=np.int16),
+            reserved_by=np.full(n_t, -1, dtype=np.int32),
             report_sum=np.zeros(n_t),
             report_count=np.zeros(n_t, dtype=np.int32),
             abandon_order=np.zeros((n_c, n_t), dtype=bool),
@@ -117,7 +117,7 @@ class World:
         return home
 
     def favouring(self) -> np.ndarray:
-        return np.isin(self.state, S.FAVOURING)
+        return S.FAVOURING[self.state]
 
     def support(self) -> np.ndarray:
         """(C, T) fraction of each collective favouring each target (true state)."""
@@ -134,13 +134,24 @@ class World:
             agents = np.flatnonzero(agents)
         if agents.size == 0:
             return
-        old_key = S.decision_key(self.state[agents], self.target[agents])
+        new_phase = S.PHASE_OF_STATE[new_state]
+        if new_phase == 0:
+            new_target = -1
+        elif new_target is None:
+            new_target = self.target[agents]
+        changed = (S.PHASE_OF_STATE[self.state[agents]] != new_phase) | (self.target[agents] != new_target)
         self.state[agents] = new_state
-        if new_target is not None:
-            self.target[agents] = new_target
-        if new_state in (S.U_L, S.U_I):
-            self.target[agents] = -1
-        changed = S.decision_key(self.state[agents], self.target[agents]) != old_key
+        self.target[agents] = new_target
+        self.streak[agents[changed]] = 0
+
+    def set_states(self, agents: np.ndarray, new_states: np.ndarray) -> None:
+        """Like set_state, with one new state per agent and targets kept (dropped if uncommitted)."""
+        if agents.size == 0:
+            return
+        new_phase = S.PHASE_OF_STATE[new_states]
+        changed = S.PHASE_OF_STATE[self.state[agents]] != new_phase
+        self.state[agents] = new_states
+        self.target[agents[new_phase == 0]] = -1
         self.streak[agents[changed]] = 0
 
     # -- persistence ------------------------------------------------------
