@@ -157,6 +157,7 @@ def posthoc_tables(comparisons: list[OmnibusComparison]) -> list[Table]:
                         (
                             measure_label(comparison.measure),
                             SPLIT_LABELS[comparison.split],
+                            comparison.family,
                             f"{row.group_a} − {row.group_b}",
                             format_number(row.difference, 3),
                             f"[{format_number(row.lower, 3)}, {format_number(row.upper, 3)}]",
@@ -179,7 +180,16 @@ def posthoc_tables(comparisons: list[OmnibusComparison]) -> list[Table]:
                         }
                     )
         statistic = "z" if test == "dunn_holm" else "q"
-        header = ("Measure", "Split", "Pair", "Difference", "95% interval", statistic, "p")
+        header = (
+            "Measure",
+            "Split",
+            "Family",
+            "Pair",
+            "Difference",
+            "95% interval",
+            statistic,
+            "p",
+        )
         tables.append(Table(test, title, header, tuple(rows), pd.DataFrame(records)))
     return tables
 

@@ -64,7 +64,7 @@ def trial_measures(decisions: pd.DataFrame) -> dict[str, float]:
         return {}
     minutes = decisions["decision_time_s"].astype(float) / 60.0
     measures = {
-        "success_rate": float(decisions["correct"].astype(bool).mean()),
+        "success_rate": float(decisions["correct"].fillna(False).astype(bool).mean()),
         "decision_time_min": float(minutes.mean()),
         "interventions": float(decisions["n_interventions"].astype(float).sum()),
     }

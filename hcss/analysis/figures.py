@@ -17,6 +17,7 @@ matplotlib.use("Agg")  # no display on servers or in tests; must precede pyplot
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
+from matplotlib.lines import Line2D  # noqa: E402
 from matplotlib.patches import Patch  # noqa: E402
 
 from hcss.analysis.decision_measures import SPLITS  # noqa: E402
@@ -64,6 +65,9 @@ def comparison_figure(measures: pd.DataFrame, measure: str) -> Figure:
     axes.set_xlim(-0.6, len(splits) - 0.4)
     axes.set_ylabel(measure_label(measure))
     axes.set_title(f"{measure_label(measure)} per model")
+    mean_marker = Line2D(
+        [], [], marker="D", linestyle="", markerfacecolor="white", color="black", label="mean"
+    )
     axes.legend(
         handles=[
             Patch(
@@ -72,7 +76,8 @@ def comparison_figure(measures: pd.DataFrame, measure: str) -> Figure:
                 label=group,
             )
             for group in groups
-        ],
+        ]
+        + [mean_marker],
         loc="best",
         fontsize="small",
     )
