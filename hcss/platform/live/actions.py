@@ -53,8 +53,6 @@ def submit_request(database: Database, live: LiveTrial, request: RequestInput) -
             cancelled = next((r for r in view["requests"] if r["id"] == request.request_id), None)
             if cancelled is not None:
                 collective, target = cancelled["collective"], cancelled["target"]
-        elif collective is not None and not 0 <= collective < len(view["collectives"]):
-            raise ActionError(f"there is no collective {collective}", code="unknown_collective")
         support = _support(view, collective, target)
         command = Command(
             trial_id=live.trial_id,
@@ -209,6 +207,6 @@ def _support(view: dict[str, Any], collective: int | None, target: int | None) -
 
 
 def _decision_index(live: LiveTrial, collective: int | None) -> int | None:
-    if collective is None:
+    if collective is None or not 0 <= collective < len(live.sim.view()["collectives"]):
         return None
     return 1 + sum(1 for record in live.sim.decisions if record.collective == collective)

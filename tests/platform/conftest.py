@@ -1,0 +1,158 @@
+"""Fixtures for the platform tests: a database per test, on SQLite and PostgreSQL.
+
+Every test that takes `database_url` (directly or through `app`) runs on a
+fresh SQLite file, and again on PostgreSQL when HCSS_TEST_DATABASE_URL is set
+(e.g. postgresql+psycopg://postgres@127.0.0.1:5432/test). On PostgreSQL each
+test gets its own schema, dropped afterwards, so parallel test sessions and
+other engineers' databases never collide.
+
+Live trials run on a fake clock: `LiveTrialHandle.run_to(seconds)` moves the
+wall clock and lets the runner step, so a 20-minute trial takes a second.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import secrets
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Any
+
+import pytest
+from flask import Flask
+from flask.testing import FlaskClient
+from sqlalchemy import create_engine, text
+from sqlalchemy.engine import make_url
+
+from hcss.platform.app import create_app
+from hcss.platform.live.runner import Runner
+from hcss.platform.live.trials import start_trial
+from hcss.platform.models import Participant
+
+PG_ENV = "HCSS_TEST_DATABASE_URL"
+
+
+@pytest.fixture(params=["sqlite", "postgresql"])
+def database_url(request: pytest.FixtureRequest, tmp_path) -> Iterator[str]:  # type: ignore[no-untyped-def]
+    if request.param == "sqlite":
+        yield f"sqlite:///{tmp_path / 'hcss-test.sqlite3'}"
+        return
+    base = os.environ.get(PG_ENV)
+    if not base:
+        pytest.skip(f"PostgreSQL tests need {PG_ENV}")
+    schema = f"hcss_test_{secrets.token_hex(6)}"
+    admin = create_engine(base, isolation_level="AUTOCOMMIT")
+    with admin.connect() as connection:
+        connection.execute(text(f'CREATE SCHEMA "{schema}"'))
+    url = make_url(base).update_query_dict({"options": f"-csearch_path={schema}"})
+    try:
+        yield url.render_as_string(hide_password=False)
+    finally:
+        with admin.connect() as connection:
+            connection.execute(text(f'DROP SCHEMA "{schema}" CASCADE'))
+        admin.dispose()
+
+
+class FakeClock:
+    """Wall-clock seconds since the epoch that move only when a test says so."""
+
+    def __init__(self, now: float) -> None:
+        self.now = now
+
+    def __call__(self) -> float:
+        return self.now
+
+
+@pytest.fixture
+def app(database_url: str) -> Iterator[Flask]:
+    app = create_app(
+        {
+            "DATABASE_URL": database_url,
+            "SECRET_KEY": "test-secret",
+            "TESTING": True,
+            "LIVE_RUNNER": False,  # tests drive runner.tick() on a fake clock
+            "SNAPSHOT_INTERVAL_S": 0.0,  # a snapshot at every tick
+        }
+    )
+    app.extensions["hcss_db"].create_all()
+    app.extensions["hcss_runner"].clock = FakeClock(0.0)
+    yield app
+    app.extensions["hcss_runner"].stop()
+    app.extensions["hcss_db"].engine.dispose()
+
+
+def csrf_token_of(html: str) -> str:
+    match = re.search(r'<meta name="csrf-token" content="([^"]+)"', html)
+    assert match, "page has no csrf-token meta tag"
+    return match.group(1)
+
+
+@dataclass
+class LiveTrialHandle:
+    """A participant with a live trial, and a browser-like client for it."""
+
+    app: Flask
+    client: FlaskClient
+    token: str
+    trial_id: int
+    started_epoch: float
+    acceleration: float
+    csrf: str = ""
+
+    @property
+    def runner(self) -> Runner:
+        return self.app.extensions["hcss_runner"]
+
+    @property
+    def api(self) -> str:
+        return f"/api/live/{self.token}/trials/{self.trial_id}"
+
+    def open_page(self) -> None:
+        """GET the trial page, as a browser does, and keep its CSRF token."""
+        page = self.client.get(f"/live/{self.token}")
+        assert page.status_code == 200
+        self.csrf = csrf_token_of(page.get_data(as_text=True))
+
+    def run_to(self, trial_seconds: float) -> None:
+        """Move the wall clock to this trial time and let the runner catch up."""
+        self.runner.clock.now = self.started_epoch + trial_seconds / self.acceleration
+        self.runner.tick()
+
+    def post(self, path: str, body: Any) -> Any:
+        return self.client.post(self.api + path, json=body, headers={"X-CSRFToken": self.csrf})
+
+    def state(self) -> dict[str, Any]:
+        response = self.client.get(self.api + "/state")
+        assert response.status_code == 200, response.get_data(as_text=True)
+        return response.get_json()
+
+    def live(self):  # type: ignore[no-untyped-def]
+        return self.runner.get(self.trial_id)
+
+
+@pytest.fixture
+def make_trial(app: Flask):  # type: ignore[no-untyped-def]
+    """Start a trial for a new participant: make_trial(seed=2, model="M1", kind="trial")."""
+
+    def make(**options: Any) -> LiveTrialHandle:
+        options.setdefault("seed", 2)
+        database = app.extensions["hcss_db"]
+        with database.session_scope() as session:
+            participant = Participant(is_bot=True)
+            session.add(participant)
+            session.flush()
+            trial = start_trial(session, participant, **options)
+            handle = LiveTrialHandle(
+                app=app,
+                client=app.test_client(),
+                token=participant.token,
+                trial_id=trial.id,
+                started_epoch=trial.started_at.timestamp(),
+                acceleration=trial.time_acceleration,
+            )
+        handle.run_to(0.0)
+        handle.open_page()
+        return handle
+
+    return make
