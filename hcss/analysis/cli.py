@@ -29,8 +29,28 @@ from hcss.analysis.load import AnalysisInputError
     is_flag=True,
     help="Keep bot, pilot and demo participants (excluded by default).",
 )
+@click.option(
+    "--mw-method",
+    type=click.Choice(["auto", "exact", "asymptotic"]),
+    default="auto",
+    show_default=True,
+    help="Mann-Whitney p: auto is R's wilcox.test rule (exact below 50 per group without ties).",
+)
+@click.option(
+    "--continuity/--no-continuity",
+    default=True,
+    show_default=True,
+    help="Continuity correction for the asymptotic Mann-Whitney p.",
+)
 @click.option("--quiet", is_flag=True, help="No progress bar.")
-def analyze(inputs: tuple[Path, ...], out: Path, include_pilot: bool, quiet: bool) -> None:
+def analyze(
+    inputs: tuple[Path, ...],
+    out: Path,
+    include_pilot: bool,
+    mw_method: str,
+    continuity: bool,
+    quiet: bool,
+) -> None:
     """Analyse study exports and simulation decision tables.
 
     Each INPUT is an export directory (decisions.csv and, for a study, the
@@ -42,7 +62,14 @@ def analyze(inputs: tuple[Path, ...], out: Path, include_pilot: bool, quiet: boo
     from hcss.analysis.report import run_analysis
 
     try:
-        report = run_analysis(list(inputs), out, include_pilot=include_pilot, progress=not quiet)
+        report = run_analysis(
+            list(inputs),
+            out,
+            include_pilot=include_pilot,
+            progress=not quiet,
+            mann_whitney_method=mw_method,
+            continuity=continuity,
+        )
     except AnalysisInputError as error:
         raise click.ClickException(str(error)) from error
     click.echo(

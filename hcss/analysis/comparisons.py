@@ -31,7 +31,13 @@ from hcss.analysis.posthoc import (
     tukey_hsd,
     tukey_kramer_ranks,
 )
-from hcss.analysis.stats import TestResult, kruskal_wallis, mann_whitney, spearman
+from hcss.analysis.stats import (
+    MannWhitneyMethod,
+    TestResult,
+    kruskal_wallis,
+    mann_whitney,
+    spearman,
+)
 
 HUMAN_GROUPS = ("M1", "M2", "M3")
 SIMULATION_PAIR = ("M1SIM", "M2SIM")
@@ -142,15 +148,21 @@ def omnibus_comparisons(measures: pd.DataFrame) -> list[OmnibusComparison]:
     return comparisons
 
 
-def simulation_comparisons(measures: pd.DataFrame) -> list[TwoSampleComparison]:
-    """Mann-Whitney M1SIM vs M2SIM for every simulation measure and split."""
+def simulation_comparisons(
+    measures: pd.DataFrame, method: MannWhitneyMethod = "auto", continuity: bool = True
+) -> list[TwoSampleComparison]:
+    """Mann-Whitney M1SIM vs M2SIM for every simulation measure and split.
+
+    ``method`` and ``continuity`` pass through to :func:`mann_whitney`; the
+    defaults reproduce R's ``wilcox.test``.
+    """
     comparisons = []
     for measure, split in _measure_splits(measures):
         first, second = (_values(measures, measure, split, g) for g in SIMULATION_PAIR)
         if not first and not second:
             continue
         try:
-            result, note = mann_whitney(first, second), ""
+            result, note = mann_whitney(first, second, method, continuity), ""
         except ValueError as error:
             result, note = None, str(error)
         comparisons.append(TwoSampleComparison(measure, split, SIMULATION_PAIR, result, note))

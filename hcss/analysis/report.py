@@ -27,6 +27,7 @@ from hcss.analysis.descriptive import descriptive_frame
 from hcss.analysis.figures import comparison_figure, write_figure
 from hcss.analysis.load import AnalysisInputError, StudyTables, load_inputs
 from hcss.analysis.measures import all_measures
+from hcss.analysis.stats import MannWhitneyMethod
 from hcss.analysis.tables import Table, to_html, write_table
 
 #: Measures drawn in the study's comparison figure.
@@ -43,14 +44,16 @@ class Report:
     html_path: Path
 
 
-def build_tables(measures: pd.DataFrame) -> list[Table]:
+def build_tables(
+    measures: pd.DataFrame, mann_whitney_method: MannWhitneyMethod = "auto", continuity: bool = True
+) -> list[Table]:
     """Every table, in report order."""
     tables = descriptive_tables(descriptive_frame(measures))
     omnibus = omnibus_comparisons(measures)
     if omnibus:
         tables.append(kruskal_table(omnibus))
         tables += [table for table in posthoc_tables(omnibus) if table.rows]
-    two_sample = simulation_comparisons(measures)
+    two_sample = simulation_comparisons(measures, mann_whitney_method, continuity)
     if two_sample:
         tables.append(mann_whitney_table(two_sample))
     correlation_results = correlations(measures)
@@ -117,6 +120,8 @@ def run_analysis(
     out: str | Path,
     include_pilot: bool = False,
     progress: bool = True,
+    mann_whitney_method: MannWhitneyMethod = "auto",
+    continuity: bool = True,
 ) -> Report:
     """Load INPUTs, compute measures and tests, write tables, figures and report.html."""
     directory = Path(out)
@@ -132,7 +137,7 @@ def run_analysis(
     measures.to_csv(directory / "measures.csv", index=False)
     steps.update()
     steps.set_postfix_str("tests")
-    built = build_tables(measures)
+    built = build_tables(measures, mann_whitney_method, continuity)
     steps.update()
     steps.set_postfix_str("writing tables")
     for table in built:

@@ -166,3 +166,48 @@ def test_bad_tables_are_clear_errors(tmp_path, content, message):
     assert result.exit_code == 1
     assert "Error:" in result.output and message in result.output
     assert "Traceback" not in result.output
+
+
+def test_mann_whitney_options_reach_the_table(tmp_path):
+    write_table(simulation_decisions(scenarios=8, runs=3), tmp_path / "decisions.csv")
+    out = tmp_path / "report"
+    result = run(
+        str(tmp_path / "decisions.csv"),
+        "--out",
+        str(out),
+        "--quiet",
+        "--mw-method",
+        "asymptotic",
+        "--no-continuity",
+    )
+    assert result.exit_code == 0, result.output
+    tests = pd.read_csv(out / "tables" / "mann_whitney.csv")
+    assert set(tests["method"]) == {"asymptotic, continuity=False"}
+    measures = pd.read_csv(out / "measures.csv")
+    chosen = measures[(measures["measure"] == "success_rate") & (measures["split"] == "overall")]
+    expected = mannwhitneyu(
+        chosen[chosen["group"] == "M1SIM"]["value"],
+        chosen[chosen["group"] == "M2SIM"]["value"],
+        method="asymptotic",
+        use_continuity=False,
+    )
+    row = tests[(tests["measure"] == "success_rate") & (tests["split"] == "overall")].iloc[0]
+    assert row["p"] == pytest.approx(expected.pvalue, rel=1e-9)
+
+
+def test_one_simulation_model_and_bare_study_export_still_report(tmp_path):
+    """Tests that cannot run are explained in the table, not a crash."""
+    decisions = simulation_decisions(scenarios=3, runs=2)
+    write_table(decisions[decisions["model"] == "M1"], tmp_path / "m1.csv")
+    export = study_export(tmp_path / "export", participants=3)
+    for name in ("requests", "observations", "probes", "scores", "questionnaire_items"):
+        (export / f"{name}.csv").unlink()
+    out = tmp_path / "report"
+    result = run(str(tmp_path / "m1.csv"), str(export), "--out", str(out), "--quiet")
+    assert result.exit_code == 0, result.output
+    tests = pd.read_csv(out / "tables" / "mann_whitney.csv")
+    assert tests["U"].isna().all()
+    assert tests["note"].str.contains("both samples").all()
+    names = {path.stem for path in (out / "tables").glob("*.csv")}
+    assert {"descriptive_request_frequency", "descriptive_mrt_overall", "kruskal_wallis"} <= names
+    assert "descriptive_sa_overall" not in names  # no probes exported, no probe table
