@@ -1,0 +1,181 @@
+"""The simulation-only experiment: scenarios × runs × models, no operator.
+
+The study ran 28 trial scenarios (half starting easy, half difficult) 10 times
+each with M1 and with M2. Jobs are independent, so they run on a local process
+pool or, for sweeps that outgrow one machine, on Dask distributed.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import statistics
+from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+from pathlib import Path
+
+from hcss.simulation.decisions import DECISION_COLUMNS
+from hcss.simulation.engine import Simulation
+from hcss.simulation.params import Params
+from hcss.simulation.scenario import Scenario
+
+SPLITS = ("overall", "easy", "difficult")
+
+
+@dataclass(frozen=True)
+class Job:
+    """One simulation run: a scenario, a model and a replicate number."""
+
+    scenario: dict  # Scenario.to_dict(): plain values travel to workers cheaply
+    model: str
+    run: int
+
+    @property
+    def trial_id(self) -> str:
+        return f"{self.scenario['scenario_id']}-{self.model}-r{self.run}"
+
+
+def experiment_scenarios(n: int = 28, base_seed: int = 20_150_000) -> list[Scenario]:
+    """n scenarios with fixed seeds, alternating easy-first and difficult-first."""
+    return [
+        Scenario.generate(
+            base_seed + i,
+            first_section="easy" if i % 2 == 0 else "difficult",
+            scenario_id=f"exp{i + 1:02d}",
+        )
+        for i in range(n)
+    ]
+
+
+def jobs_for(scenarios: Iterable[Scenario], models: Iterable[str], runs: int) -> list[Job]:
+    return [Job(s.to_dict(), m, r) for s in scenarios for m in models for r in range(runs)]
+
+
+def run_job(job: Job, params: Params | None = None) -> list[dict]:
+    """Run one trial to completion and return its decisions-table rows."""
+    sim = Simulation(Scenario.from_dict(job.scenario), job.model, params, run=job.run)
+    sim.run_until_finished()
+    return [d.as_row(source="simulation", trial_id=job.trial_id, run=job.run) for d in sim.decisions]
+
+
+def run_jobs(
+    jobs: list[Job],
+    workers: int = 1,
+    dask_address: str | None = None,
+    on_done: Callable[[], None] | None = None,
+) -> list[dict]:
+    """Run every job and return all rows, in job order whatever order they finish in."""
+    results: dict[int, list[dict]] = {}
+    for index, rows in _execute(jobs, workers, dask_address):
+        results[index] = rows
+        if on_done is not None:
+            on_done()
+    return [row for index in range(len(jobs)) for row in results[index]]
+
+
+def _execute(jobs: list[Job], workers: int, dask_address: str | None) -> Iterator[tuple[int, list[dict]]]:
+    if dask_address:
+        yield from _execute_dask(jobs, workers, dask_address)
+    elif workers <= 1:
+        for index, job in enumerate(jobs):
+            yield index, run_job(job)
+    else:
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            futures = {pool.submit(run_job, job): index for index, job in enumerate(jobs)}
+            for future in as_completed(futures):
+                yield futures[future], future.result()
+
+
+def _execute_dask(jobs: list[Job], workers: int, address: str) -> Iterator[tuple[int, list[dict]]]:
+    """Run the jobs on a Dask scheduler, or on a LocalCluster when the address is "local"."""
+    from dask.distributed import Client, LocalCluster, as_completed as dask_completed
+
+    cluster = None
+    if address == "local":
+        cluster = LocalCluster(n_workers=max(1, workers), threads_per_worker=1, processes=True, dashboard_address=None)
+        client = Client(cluster)
+    else:
+        client = Client(address)
+    try:
+        futures = client.map(run_job, jobs, pure=False)
+        index_of = {future.key: i for i, future in enumerate(futures)}
+        for future in dask_completed(futures):
+            yield index_of[future.key], future.result()
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+# ----------------------------------------------------------------- summaries
+@dataclass(frozen=True)
+class Spread:
+    """Mean, SD (n − 1), median, min and max of a sample."""
+
+    n: int
+    mean: float
+    sd: float
+    median: float
+    min: float
+    max: float
+
+    @classmethod
+    def of(cls, values: list[float]) -> Spread:
+        if not values:
+            return cls(0, math.nan, math.nan, math.nan, math.nan, math.nan)
+        sd = statistics.stdev(values) if len(values) > 1 else math.nan
+        return cls(len(values), statistics.fmean(values), sd, statistics.median(values), min(values), max(values))
+
+
+def summarise(rows: list[dict]) -> dict[tuple[str, str], dict[str, Spread]]:
+    """Per model and split: success rate over trials, and decision time in minutes over decisions.
+
+    A trial's success rate is its correct decisions over its decisions in the
+    split; the spread is over trials.
+    """
+    summary: dict[tuple[str, str], dict[str, Spread]] = {}
+    for model in sorted({r["model"] for r in rows}):
+        for split in SPLITS:
+            chosen = [r for r in rows if r["model"] == model and (split == "overall" or r["difficulty"] == split)]
+            by_trial: dict[str, list[bool]] = {}
+            for r in chosen:
+                by_trial.setdefault(r["trial_id"], []).append(bool(r["correct"]))
+            rates = [sum(v) / len(v) for v in by_trial.values()]
+            minutes = [r["decision_time_s"] / 60.0 for r in chosen]
+            summary[(model, split)] = {"success_rate": Spread.of(rates), "decision_time_min": Spread.of(minutes)}
+    return summary
+
+
+def summary_table(summary: dict[tuple[str, str], dict[str, Spread]]) -> str:
+    """A Markdown table of the summary, one row per model and split."""
+    lines = [
+        "| model | split | trials | success mean | SD | median | min | max "
+        "| decisions | time mean (min) | SD | median | min | max |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for (model, split), spreads in summary.items():
+        s, t = spreads["success_rate"], spreads["decision_time_min"]
+        lines.append(
+            f"| {model} | {split} | {s.n} | {s.mean:.3f} | {s.sd:.3f} | {s.median:.3f} | {s.min:.3f} | {s.max:.3f} "
+            f"| {t.n} | {t.mean:.2f} | {t.sd:.2f} | {t.median:.2f} | {t.min:.2f} | {t.max:.2f} |"
+        )
+    return "\n".join(lines)
+
+
+def write_decisions(rows: list[dict], path: Path) -> None:
+    """The decisions table as CSV, with the columns of docs/data-dictionary.md."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="", encoding="utf-8") as handle:
+        writer = csv.DictWriter(handle, fieldnames=DECISION_COLUMNS)
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: _csv_value(v) for k, v in row.items()})
+
+
+def _csv_value(value: object) -> object:
+    if value is None:
+        return ""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return value

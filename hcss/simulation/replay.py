@@ -1,0 +1,44 @@
+"""Deterministic replay: a scenario, a run number and a timed command log.
+
+A live trial logs each command with the step count at which it was applied.
+Replaying the same log from the same scenario and run reproduces the trial bit
+for bit, which is how a live trial survives a server restart and how a trial
+is replayed for analysis.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+
+from hcss.simulation.engine import Simulation
+from hcss.simulation.params import Params
+from hcss.simulation.scenario import Scenario
+
+TimedCommand = tuple[int, dict]
+
+
+def replay(
+    scenario: Scenario,
+    model: str,
+    commands: Iterable[TimedCommand],
+    until_step: int,
+    params: Params | None = None,
+    run: int = 0,
+    start: Simulation | None = None,
+) -> Simulation:
+    """Run to `until_step`, applying each command before the step it was logged at.
+
+    `start` continues from a restored snapshot instead of the trial's start;
+    commands logged before its step count are skipped, since the snapshot
+    already contains them.
+    """
+    sim = start if start is not None else Simulation(scenario, model, params, run=run)
+    pending = sorted((int(step), command) for step, command in commands if int(step) >= sim.step_count)
+    i = 0
+    while True:
+        while i < len(pending) and pending[i][0] <= sim.step_count:
+            sim.apply(pending[i][1])
+            i += 1
+        if sim.step_count >= until_step or sim.finished:
+            return sim
+        sim.step()
