@@ -65,6 +65,8 @@ POST_TRIAL = Questionnaire(
     ),
 )
 
+ITEM_KEYS = POST_TRIAL.item_keys()
+
 
 def validate(answers: Mapping[str, object]) -> ValidationErrors:
     return validate_items(POST_TRIAL, answers)

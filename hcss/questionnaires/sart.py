@@ -64,6 +64,8 @@ SART = Questionnaire(
     ),
 )
 
+ITEM_KEYS = SART.item_keys()
+
 
 def validate(answers: Mapping[str, object]) -> ValidationErrors:
     return validate_items(SART, answers)

@@ -134,6 +134,7 @@ PAIRS: tuple[Pair, ...] = tuple(
     for number, (first, second) in enumerate(itertools.combinations(SUBSCALE_KEYS, 2), start=1)
 )
 PAIR_KEYS: tuple[str, ...] = tuple(pair.key for pair in PAIRS)
+ITEM_KEYS: tuple[str, ...] = SUBSCALE_KEYS + PAIR_KEYS
 
 
 @dataclass(frozen=True)
@@ -165,6 +166,32 @@ def comparison_order(rng: np.random.Generator) -> tuple[PresentedPair, ...]:
         PresentedPair(position, PAIRS[int(index)], bool(swap))
         for position, (index, swap) in enumerate(zip(order, swaps, strict=True), start=1)
     )
+
+
+def presentation_record(order: tuple[PresentedPair, ...]) -> dict[str, str]:
+    """The presentation as item -> text, e.g. {"pair_03_position": "1", "pair_03_left": "performance"}.
+
+    Stored with the answers, it lets a refreshed page show the same order and
+    lets the analysis check for order effects.
+    """
+    record = {}
+    for presented in order:
+        record[f"{presented.pair.key}_position"] = str(presented.position)
+        record[f"{presented.pair.key}_left"] = presented.left
+    return record
+
+
+def order_from_record(record: Mapping[str, str]) -> tuple[PresentedPair, ...]:
+    """Rebuild a presentation from `presentation_record`'s output."""
+    order = [
+        PresentedPair(
+            position=int(record[f"{pair.key}_position"]),
+            pair=pair,
+            swapped=record[f"{pair.key}_left"] != pair.first,
+        )
+        for pair in PAIRS
+    ]
+    return tuple(sorted(order, key=lambda presented: presented.position))
 
 
 def validate(answers: Mapping[str, object]) -> ValidationErrors:

@@ -123,3 +123,13 @@ def test_performance_is_anchored_good_to_poor() -> None:
     item = tlx.RATINGS.item("performance")
     assert (item.low_anchor, item.high_anchor) == ("Good", "Poor")
     assert item.points() == tuple(range(0, 101, 5))
+
+
+def test_presentation_record_round_trips() -> None:
+    shown = tlx.comparison_order(np.random.default_rng(9))
+    record = tlx.presentation_record(shown)
+    assert len(record) == 30
+    first = shown[0]
+    assert record[f"{first.pair.key}_position"] == "1"
+    assert record[f"{first.pair.key}_left"] == first.left
+    assert tlx.order_from_record(record) == shown

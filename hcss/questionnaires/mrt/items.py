@@ -38,6 +38,8 @@ _MIN_ORIENTATION_GAP_DEG = 35.0
 #: Drawn cube centres closer than this (in cube widths) mean one cube mostly
 #: hides another, and the figure's structure cannot be seen.
 _MIN_DRAWN_CENTRE_GAP = 0.6
+#: Bound on view draws per figure, so an impossible constraint fails loudly instead of hanging.
+_MAX_VIEW_ATTEMPTS = 10_000
 
 
 class AlternativeKind(StrEnum):
@@ -162,7 +164,9 @@ def _turned_copies(
     """
     group = shapes.rotation_group()
     figures = []
-    while len(figures) < count:
+    for _ in range(_MAX_VIEW_ATTEMPTS):
+        if len(figures) == count:
+            return figures
         lattice = group[int(rng.integers(len(group)))].astype(float)
         view = draw_view(rng)
         orientation = view @ lattice
@@ -171,7 +175,9 @@ def _turned_copies(
         ):
             shown.append(orientation)
             figures.append(_as_figure(base @ lattice.T, view))
-    return figures
+    if len(figures) == count:
+        return figures
+    raise RuntimeError("no legible, distinct views found for a figure; relax the view limits")
 
 
 def build_item(
