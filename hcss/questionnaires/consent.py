@@ -13,9 +13,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from enum import StrEnum
 
-from hcss.questionnaires import texts
+from hcss.questionnaires import pages
 from hcss.questionnaires.definitions import Choice, ChoiceItem, ValidationErrors
-from hcss.questionnaires.texts import page_title
+from hcss.questionnaires.pages import page_title
 
 _FILE_PATTERN = re.compile(r"^consent-(?P<version>[A-Za-z0-9._]+)\.md$")
 
@@ -53,7 +53,7 @@ def consent_versions() -> tuple[str, ...]:
     """Every available version, oldest first."""
     versions = [
         match.group("version")
-        for entry in texts.text_root().iterdir()
+        for entry in pages.text_root().iterdir()
         if (match := _FILE_PATTERN.match(entry.name))
     ]
     return tuple(sorted(versions, key=_natural_key))
@@ -67,7 +67,7 @@ def consent_text(version: str | None = None) -> ConsentText:
     chosen = versions[-1] if version is None else version
     if chosen not in versions:
         raise LookupError(f"no consent text of version {chosen!r}; available: {versions}")
-    markdown = texts.read_text(f"consent-{chosen}.md")
+    markdown = pages.read_text(f"consent-{chosen}.md")
     return ConsentText(chosen, page_title(markdown), markdown)
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from hcss.questionnaires import consent, texts
+from hcss.questionnaires import consent, pages
 
 
 def test_consent_has_a_version_and_agree_decline() -> None:
@@ -25,7 +25,7 @@ def test_a_new_consent_version_needs_no_code_change(tmp_path, monkeypatch) -> No
     for version in ("v1", "v2", "v10"):
         (tmp_path / f"consent-{version}.md").write_text(f"# Consent {version}\n\nText.\n")
     (tmp_path / "notes.md").write_text("# Not consent\n")
-    monkeypatch.setattr(texts, "text_root", lambda: tmp_path)
+    monkeypatch.setattr(pages, "text_root", lambda: tmp_path)
     assert consent.consent_versions() == ("v1", "v2", "v10")
     latest = consent.consent_text()
     assert (latest.version, latest.title) == ("v10", "Consent v10")
@@ -33,13 +33,13 @@ def test_a_new_consent_version_needs_no_code_change(tmp_path, monkeypatch) -> No
 
 
 def test_introduction_walks_through_the_interface_in_about_five_minutes() -> None:
-    pages = texts.introduction_pages()
-    assert len(pages) >= 3
-    assert [page.number for page in pages] == list(range(1, len(pages) + 1))
-    assert all(page.title for page in pages)
-    minutes = sum(page.reading_minutes() for page in pages)
+    walkthrough_pages = pages.introduction_pages()
+    assert len(walkthrough_pages) >= 3
+    assert [page.number for page in walkthrough_pages] == list(range(1, len(walkthrough_pages) + 1))
+    assert all(page.title for page in walkthrough_pages)
+    minutes = sum(page.reading_minutes() for page in walkthrough_pages)
     assert 4.0 <= minutes <= 7.0, f"{minutes:.1f} minutes of reading"
-    walkthrough = " ".join(page.markdown for page in pages)
+    walkthrough = " ".join(page.markdown for page in walkthrough_pages)
     for term in (
         "Collective Requests",
         "Collective Assignments",
@@ -65,6 +65,6 @@ def test_introduction_walks_through_the_interface_in_about_five_minutes() -> Non
 
 
 def test_debrief_states_that_mrt_norms_do_not_apply() -> None:
-    debrief = texts.debrief_text()
+    debrief = pages.debrief_text()
     assert debrief.title
     assert "cannot be compared with published scores" in debrief.markdown
