@@ -19,8 +19,7 @@ from hcss.questionnaires.definitions import (
     parse_int,
 )
 from hcss.questionnaires.mrt.items import ALTERNATIVE_COUNT, MrtItem, item_bank
-
-INSTRUMENT = "mrt"
+from hcss.questionnaires.mrt.protocol import INSTRUMENT
 
 #: One participant's raw MRT answer: chosen alternative indices, or their text form "0,2".
 Selection = Collection[int] | str
