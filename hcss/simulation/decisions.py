@@ -130,14 +130,21 @@ def best_available(world: World, collective: int, params: Params) -> int:
     return int(candidates[order[0]])
 
 
+NEARER_TOLERANCE_M = 0.01  # target coordinates are stored to the millimetre
+
+
 def difficulty(world: World, collective: int, params: Params) -> str:
-    """Difficult if a lower-valued target in range is strictly nearer than the best one."""
+    """Difficult if a lower-valued target in range is strictly nearer than the best one.
+
+    "Strictly" allows for rounding: two targets placed at the same nominal
+    distance are equally near.
+    """
     best = best_available(world, collective, params)
     if best < 0:
         return "easy"
     candidates = in_range_targets(world, collective, params)
     distance = world.hub_distance[collective]
     lower_nearer = (world.target_value[candidates] < world.target_value[best]) & (
-        distance[candidates] < distance[best]
+        distance[candidates] < distance[best] - NEARER_TOLERANCE_M
     )
     return "difficult" if lower_nearer.any() else "easy"

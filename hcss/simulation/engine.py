@@ -48,6 +48,7 @@ class Simulation:
         self.open: list[dec.OpenDecision | None] = [None] * scenario.n_collectives
         self.decision_counts = [0] * scenario.n_collectives
         self.next_request_id = 1
+        self.commands_applied = 0  # every command, accepted or refused: a replay's position in its log
         self.events: list[dict] = []
         self._start_section(0)
 
@@ -103,24 +104,32 @@ class Simulation:
 
     # -------------------------------------------------------------- requests
     def apply(self, command: dict) -> RequestOutcome:
-        """Apply one operator command: investigate, abandon, decide or cancel."""
+        """Apply one operator command: investigate, abandon, decide or cancel.
+
+        Every command is counted, refused or not, so that a replay from a
+        snapshot knows how much of the command log the snapshot contains.
+        """
+        self.commands_applied += 1
         kind = command.get("kind") if isinstance(command, dict) else None
         if kind == "cancel":
-            return self.cancel_abandon(command.get("request_id"))
+            return self._cancel(command.get("request_id"))
         if kind not in ("investigate", "abandon", "decide"):
             return RequestOutcome(False, None, f"Unknown request type {kind!r}.")
         return self._request(kind, command.get("collective"), command.get("target"))
 
     def investigate(self, collective: int, target: int) -> RequestOutcome:
-        return self._request("investigate", collective, target)
+        return self.apply({"kind": "investigate", "collective": collective, "target": target})
 
     def abandon(self, collective: int, target: int) -> RequestOutcome:
-        return self._request("abandon", collective, target)
+        return self.apply({"kind": "abandon", "collective": collective, "target": target})
 
     def decide(self, collective: int, target: int) -> RequestOutcome:
-        return self._request("decide", collective, target)
+        return self.apply({"kind": "decide", "collective": collective, "target": target})
 
-    def cancel_abandon(self, request_id: object) -> RequestOutcome:
+    def cancel_abandon(self, request_id: int) -> RequestOutcome:
+        return self.apply({"kind": "cancel", "request_id": request_id})
+
+    def _cancel(self, request_id: object) -> RequestOutcome:
         """Lift a standing abandon order; only an abandon can be cancelled."""
         for request in self.requests:
             if request.id == _as_int(request_id) and request.kind == "abandon" and request.active:
@@ -247,6 +256,7 @@ class Simulation:
             w.reserved_by[t] = c
             rival = mine_all & S.COMMITTED_OR_LATER[w.state] & (w.target != t)
             self._send_home(np.flatnonzero(rival))
+            rules.enforce_orders(w)  # other collectives drop the target at once
             self._event("move", int(c), t + 1, f"Collective {ROMAN[c]} is moving to target {t + 1}.")
 
     def _send_home(self, agents: np.ndarray) -> None:

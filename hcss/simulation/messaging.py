@@ -28,6 +28,7 @@ from hcss.simulation.world import World
 class Inbox:
     """The messages of one step, already addressed: parallel arrays over messages."""
 
+    sender: np.ndarray
     receiver: np.ndarray
     sender_state: np.ndarray
     sender_target: np.ndarray
@@ -79,6 +80,7 @@ def compose(world: World, params: Params, rng: np.random.Generator, model: str) 
     ok = receivers >= 0
     senders, receivers = senders[ok], receivers[ok]
     return Inbox(
+        sender=senders,
         receiver=receivers,
         sender_state=world.state[senders].copy(),
         sender_target=world.target[senders].copy(),

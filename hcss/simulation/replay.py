@@ -28,12 +28,14 @@ def replay(
 ) -> Simulation:
     """Run to `until_step`, applying each command before the step it was logged at.
 
-    `start` continues from a restored snapshot instead of the trial's start;
-    commands logged before its step count are skipped, since the snapshot
-    already contains them.
+    `commands` is the whole log in the order the commands were applied.
+    `start` continues from a restored snapshot instead of the trial's start:
+    the first `start.commands_applied` commands are already in it.
     """
     sim = start if start is not None else Simulation(scenario, model, params, run=run)
-    pending = sorted((int(step), command) for step, command in commands if int(step) >= sim.step_count)
+    pending = [(int(step), command) for step, command in commands][sim.commands_applied :]
+    if any(step < sim.step_count for step, _ in pending):
+        raise ValueError("the command log has commands before the snapshot that it does not contain")
     i = 0
     while True:
         while i < len(pending) and pending[i][0] <= sim.step_count:

@@ -1,0 +1,76 @@
+"""The simulation-only experiment: batch runs, Dask, outputs and the CLI."""
+
+from __future__ import annotations
+
+import csv
+
+import pytest
+from click.testing import CliRunner
+
+from hcss.cli import main
+from hcss.simulation import DECISION_COLUMNS
+from hcss.simulation import experiment as exp
+
+
+@pytest.fixture(scope="module")
+def tiny_jobs() -> list[exp.Job]:
+    return exp.jobs_for(exp.experiment_scenarios(2), ["M1"], runs=1)
+
+
+def test_scenarios_alternate_easy_and_difficult_first():
+    scenarios = exp.experiment_scenarios(4)
+    assert [s.first_section for s in scenarios] == ["easy", "difficult", "easy", "difficult"]
+    assert len({s.seed for s in scenarios}) == 4
+
+
+def test_process_pool_and_serial_runs_give_the_same_rows(tiny_jobs):
+    serial = exp.run_jobs(tiny_jobs, workers=1)
+    pooled = exp.run_jobs(tiny_jobs, workers=2)
+    assert serial == pooled and len(serial) == 24
+    assert all(list(row) == list(DECISION_COLUMNS) for row in serial)
+
+
+@pytest.mark.slow
+def test_dask_local_cluster_runs_the_same_jobs(tiny_jobs):
+    pytest.importorskip("dask.distributed")
+    assert exp.run_jobs(tiny_jobs, workers=1, dask_address="local") == exp.run_jobs(tiny_jobs, workers=1)
+
+
+def test_summary_computes_success_per_trial_and_time_per_decision():
+    rows = [
+        {"model": "M1", "trial_id": "a", "difficulty": "easy", "correct": True, "decision_time_s": 60.0},
+        {"model": "M1", "trial_id": "a", "difficulty": "difficult", "correct": False, "decision_time_s": 180.0},
+        {"model": "M1", "trial_id": "b", "difficulty": "easy", "correct": True, "decision_time_s": 120.0},
+    ]
+    summary = exp.summarise(rows)
+    overall = summary[("M1", "overall")]
+    assert overall["success_rate"].n == 2 and overall["success_rate"].mean == pytest.approx(0.75)
+    assert overall["decision_time_min"].mean == pytest.approx(2.0)
+    assert overall["decision_time_min"].sd == pytest.approx(1.0)  # n − 1
+    assert summary[("M1", "difficult")]["success_rate"].mean == 0.0
+
+
+def test_experiment_command_writes_the_decisions_table_and_summary(tmp_path):
+    result = CliRunner().invoke(
+        main,
+        ["simulate", "experiment", "--scenarios", "1", "--runs", "1", "--models", "M2", "--workers", "1",
+         "--out", str(tmp_path)],
+    )
+    assert result.exit_code == 0, result.output
+    with (tmp_path / "decisions.csv").open() as handle:
+        rows = list(csv.DictReader(handle))
+    assert list(rows[0]) == list(DECISION_COLUMNS) and len(rows) == 12
+    assert {r["source"] for r in rows} == {"simulation"} and {r["model"] for r in rows} == {"M2"}
+    assert "| M2 | overall |" in (tmp_path / "summary.md").read_text()
+
+
+def test_unknown_models_are_refused_without_a_traceback(tmp_path):
+    result = CliRunner().invoke(main, ["simulate", "experiment", "--models", "M9", "--out", str(tmp_path)])
+    assert result.exit_code == 2 and "models must be among" in result.output
+    assert "Traceback" not in result.output and not (tmp_path / "decisions.csv").exists()
+
+
+def test_demo_runs_a_paced_trial_and_prints_events():
+    result = CliRunner().invoke(main, ["simulate", "demo", "--speed", "5000", "--minutes", "4", "--model", "M1"])
+    assert result.exit_code == 0, result.output
+    assert "discovered" in result.output and "decisions" in result.output
