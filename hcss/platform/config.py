@@ -67,7 +67,7 @@ def defaults() -> dict[str, object]:
         # Start the background runner thread. Tests drive `runner.tick()` themselves.
         "LIVE_RUNNER": True,
         # Seconds of wall time between simulation snapshots of each live trial.
-        "SNAPSHOT_INTERVAL_S": 5.0,
+        "SNAPSHOT_INTERVAL_S": float(os.environ.get("HCSS_SNAPSHOT_INTERVAL_S", "5.0")),
         # Seconds between two stream frames when nothing changed (2 Hz floor).
         "STREAM_INTERVAL_S": 0.5,
         # Close a stream after this many wall seconds; EventSource reconnects by itself,

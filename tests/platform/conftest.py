@@ -72,7 +72,7 @@ def app(database_url: str) -> Iterator[Flask]:
             "SECRET_KEY": "test-secret",
             "TESTING": True,
             "LIVE_RUNNER": False,  # tests drive runner.tick() on a fake clock
-            "SNAPSHOT_INTERVAL_S": 0.0,  # a snapshot at every tick
+            "SNAPSHOT_INTERVAL_S": 5.0,  # seconds of the fake wall clock
         }
     )
     app.extensions["hcss_db"].create_all()

@@ -77,7 +77,7 @@ def load_trial(session: Session, trial: Trial, now: float) -> LiveTrial:
                 last_seen_at=_last_seen(session, trial.id),
             )
         )
-    write_snapshot(live, session)
+    write_snapshot(live, session, now)
     return live
 
 

@@ -7,8 +7,6 @@ rebuild that replays the same steps writes only what had not been written.
 
 from __future__ import annotations
 
-import time as wallclock
-
 import numpy as np
 from sqlalchemy.orm import Session
 
@@ -175,7 +173,7 @@ def _show_probe(live: LiveTrial, session: Session, time: float) -> None:
         live.pending_projection.append((row.id, row.shown_sim_time, None))
 
 
-def write_snapshot(live: LiveTrial, session: Session) -> None:
+def write_snapshot(live: LiveTrial, session: Session, now: float) -> None:
     sim = live.sim
     session.add(
         Snapshot(
@@ -186,10 +184,10 @@ def write_snapshot(live: LiveTrial, session: Session) -> None:
             blob=sim.snapshot(),
         )
     )
-    live.last_snapshot_epoch = wallclock.time()
+    live.last_snapshot_epoch = now
 
 
-def end_trial(live: LiveTrial, session: Session, reason: str) -> None:
+def end_trial(live: LiveTrial, session: Session, reason: str, now: float) -> None:
     """The time limit is reached: close the open probe, snapshot, and mark it ended."""
     probe = live.current_probe
     if probe is not None:
@@ -199,7 +197,7 @@ def end_trial(live: LiveTrial, session: Session, reason: str) -> None:
             )
         )
         live.current_probe = None
-    write_snapshot(live, session)
+    write_snapshot(live, session, now)
     session.add(
         TrialStatusChange(
             trial_id=live.trial_id, status="ended", reason=reason, step=live.sim.step_count

@@ -103,9 +103,9 @@ class Runner:
             with self.database.session_scope() as session:
                 record_progress(live, session)
                 if live.sim.step_count >= live.total_steps:
-                    end_trial(live, session, "time_limit")
-                elif wallclock.time() - live.last_snapshot_epoch >= self.snapshot_interval_s:
-                    write_snapshot(live, session)
+                    end_trial(live, session, "time_limit", now)
+                elif now - live.last_snapshot_epoch >= self.snapshot_interval_s:
+                    write_snapshot(live, session, now)
             live.touch()
 
     # --- the thread --------------------------------------------------------------

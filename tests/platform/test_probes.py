@@ -1,0 +1,131 @@
+"""SA probes: schedule, SPAM flow (ready, then question), scoring, server-side time-out."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from sqlalchemy import select
+
+from hcss.platform.live.probes import level_counts, probe_plan
+from hcss.platform.models import Probe, ProbeEvent
+from hcss.questionnaires.probes import PROBE_TIMEOUT_S, ProbeLevel
+from hcss.simulation import ROMAN
+
+
+def _events(app, probe_id: int) -> list[ProbeEvent]:  # type: ignore[no-untyped-def]
+    with app.extensions["hcss_db"].session_scope() as session:
+        return list(
+            session.scalars(
+                select(ProbeEvent).where(ProbeEvent.probe_id == probe_id).order_by(ProbeEvent.id)
+            )
+        )
+
+
+def _probe_row(app, probe_id: int) -> Probe:  # type: ignore[no-untyped-def]
+    with app.extensions["hcss_db"].session_scope() as session:
+        return session.get(Probe, probe_id)
+
+
+def _until_probe(trial, start: float, level: int | None = None):  # type: ignore[no-untyped-def]
+    """Run on until a probe (of `level`) is on screen; return it and the state then."""
+    second = start
+    while second < trial.live().duration_s:
+        second += 1
+        trial.run_to(second)
+        state = trial.state()
+        probe = state["probe"]
+        if probe and (level is None or probe["level"] == level):
+            return probe, state, second
+        if probe:  # another level: answer it so the next can come
+            trial.post(f"/probes/{probe['id']}/ready", {})
+            choice = trial.state()["probe"]["choices"][0]
+            trial.post(f"/probes/{probe['id']}/answer", {"answer": choice})
+    pytest.fail(f"no level-{level} probe in the trial")
+
+
+def test_a_20_minute_trial_plans_4_5_3_probes_about_one_a_minute() -> None:
+    plan = probe_plan(seed=11, duration_s=1200)
+    levels = [p.level for p in plan]
+    assert (levels.count(1), levels.count(2), levels.count(3)) == (4, 5, 3)
+    times = np.array([p.at_s for p in plan])
+    assert np.all(np.diff(times) > PROBE_TIMEOUT_S)
+    assert times[0] > 0 and times[-1] < 1200
+    assert level_counts(300) == {ProbeLevel(1): 1, ProbeLevel(2): 1, ProbeLevel(3): 1}
+    assert probe_plan(seed=11, duration_s=1200) == plan  # from the seed: same after a restart
+
+
+def test_probe_flow_records_latencies_and_scores_against_the_simulation(make_trial) -> None:
+    trial = make_trial(seed=4)
+    probe, state, second = _until_probe(trial, 0, level=ProbeLevel.PERCEPTION)
+    assert probe["phase"] == "ready" and probe["question"] is None and probe["choices"] is None
+    row = _probe_row(trial.app, probe["id"])
+    target_id = int(row.question.rsplit(" ", 1)[1].rstrip("?"))
+    target = next(t for t in state["view"]["targets"] if t["id"] == target_id)
+    # Truth at the moment of asking: the collective with the highest support.
+    assert row.truth == ROMAN[int(np.argmax(target["support"]))]
+    assert "truth" not in probe
+
+    # Answering before "ready" is refused; "ready" reveals the question.
+    early = trial.post(f"/probes/{probe['id']}/answer", {"answer": row.truth})
+    assert early.status_code == 409
+    trial.run_to(second + 4)
+    assert trial.post(f"/probes/{probe['id']}/ready", {}).status_code == 200
+    shown = trial.state()["probe"]
+    assert shown["phase"] == "question" and shown["question"] == row.question
+    assert shown["choices"] == ["I", "II", "III", "IV"]
+    assert trial.post(f"/probes/{probe['id']}/answer", {"answer": "V"}).status_code == 400
+    trial.run_to(second + 10)
+    wrong = next(c for c in shown["choices"] if c != row.truth)
+    assert trial.post(f"/probes/{probe['id']}/answer", {"answer": wrong}).status_code == 200
+    assert trial.state()["probe"] is None
+    again = trial.post(f"/probes/{probe['id']}/answer", {"answer": row.truth})
+    assert again.status_code == 409  # one answer per probe
+
+    ready, answer, scored = _events(trial.app, probe["id"])
+    assert (ready.kind, answer.kind, scored.kind) == ("ready", "answer", "scored")
+    assert ready.sim_time - row.shown_sim_time == pytest.approx(4, abs=1)
+    assert answer.answer == wrong and scored.truth == row.truth and scored.correct is False
+
+
+def test_comprehension_truth_is_the_best_target(make_trial) -> None:
+    trial = make_trial(seed=4)
+    probe, _state, _second = _until_probe(trial, 0, level=ProbeLevel.COMPREHENSION)
+    row = _probe_row(trial.app, probe["id"])
+    collective = ROMAN.index(row.question.rsplit(" ", 1)[1].rstrip("?"))
+    assert row.truth == str(trial.live().sim.best_target(collective))
+    trial.post(f"/probes/{probe['id']}/ready", {})
+    assert row.truth in trial.state()["probe"]["choices"]
+    trial.post(f"/probes/{probe['id']}/answer", {"answer": row.truth})
+    *_, scored = _events(trial.app, probe["id"])
+    assert scored.kind == "scored" and scored.correct is True
+
+
+def test_unanswered_probe_times_out_on_the_server(make_trial) -> None:
+    trial = make_trial(seed=4)
+    probe, _state, second = _until_probe(trial, 0)
+    trial.run_to(second + PROBE_TIMEOUT_S - 1)
+    assert trial.state()["probe"]["id"] == probe["id"]
+    trial.run_to(second + PROBE_TIMEOUT_S + 1)
+    assert trial.state()["probe"] is None
+    (timeout,) = _events(trial.app, probe["id"])
+    assert timeout.kind == "timeout"
+    late = trial.post(f"/probes/{probe['id']}/ready", {})
+    assert late.status_code == 409
+
+
+def test_projection_is_scored_when_the_next_decision_happens(make_trial) -> None:
+    trial = make_trial(seed=4)
+    probe, _state, second = _until_probe(trial, 0, level=ProbeLevel.PROJECTION)
+    assert _probe_row(trial.app, probe["id"]).truth is None
+    trial.post(f"/probes/{probe['id']}/ready", {})
+    trial.post(f"/probes/{probe['id']}/answer", {"answer": "II"})
+    decisions_before = len(trial.live().sim.decisions)
+    while len(trial.live().sim.decisions) == decisions_before:
+        second += 5
+        assert second < 1200, "no decision after the projection probe"
+        trial.run_to(second)
+    decision = trial.live().sim.decisions[decisions_before]
+    answer, scored = _events(trial.app, probe["id"])[-2:]
+    assert answer.kind == "answer" and answer.correct is None
+    assert scored.kind == "scored" and scored.truth == ROMAN[decision.collective]
+    assert scored.correct is (ROMAN[decision.collective] == "II")

@@ -1,0 +1,51 @@
+"""A server that dies mid-trial: the next one rebuilds the trial exactly and records the gap."""
+
+from __future__ import annotations
+
+from sqlalchemy import select
+
+from hcss.platform.app import create_app
+from hcss.platform.models import CommandOutcome, Interruption, Snapshot
+from tests.platform.conftest import FakeClock
+from tests.platform.replaying import replay_trial
+
+
+def test_rebuild_after_a_crash_equals_an_uninterrupted_run(app, make_trial, database_url) -> None:
+    trial = make_trial(seed=5)
+    trial.run_to(60)
+    view = trial.state()["view"]
+    targets = [t["id"] for t in view["targets"] if 0 in t["in_range_of"]]
+    trial.post("/requests", {"kind": "investigate", "collective": 0, "target": targets[0]})
+    trial.run_to(97)
+    # Commands after the last snapshot are only in the command log.
+    trial.post("/requests", {"kind": "investigate", "collective": 0, "target": targets[-1]})
+    trial.post("/requests", {"kind": "decide", "collective": 1, "target": targets[0]})
+    crashed = trial.live()
+    with app.extensions["hcss_db"].session_scope() as session:
+        last_snapshot = session.scalars(select(Snapshot).order_by(Snapshot.id.desc())).first()
+    assert last_snapshot.step < 97 or last_snapshot.last_command_id < 3
+
+    # The process dies: no end, no final snapshot. A new server starts on the same database.
+    restarted = create_app(
+        {"DATABASE_URL": database_url, "SECRET_KEY": "test-secret", "LIVE_RUNNER": False}
+    )
+    restarted.extensions["hcss_runner"].clock = FakeClock(trial.started_epoch + 150)
+    try:
+        rebuilt = restarted.extensions["hcss_runner"].get(trial.trial_id)
+        assert rebuilt is not crashed and rebuilt.sim.step_count == 150
+        crashed.sim.step(150 - crashed.sim.step_count)  # what would have happened uninterrupted
+        assert rebuilt.sim.state_digest() == crashed.sim.state_digest()
+        with restarted.extensions["hcss_db"].session_scope() as session:
+            (interruption,) = session.scalars(select(Interruption)).all()
+            assert interruption.resumed_step == 150
+            assert interruption.snapshot_step == last_snapshot.step
+            assert interruption.replayed_commands >= 1
+            assert interruption.state_digest == rebuilt.sim.state_digest()
+            independent = replay_trial(session, trial.trial_id, 150)
+            assert independent.state_digest() == interruption.state_digest
+            assert len(session.scalars(select(CommandOutcome)).all()) == 3
+        # The page's history survives: earlier messages are still there, in order.
+        before = [m["text"] for m in crashed.messages]
+        assert [m["text"] for m in rebuilt.messages][: len(before)] == before
+    finally:
+        restarted.extensions["hcss_db"].engine.dispose()

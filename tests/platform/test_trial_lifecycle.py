@@ -1,0 +1,106 @@
+"""A trial's time limit, its stream, and a refresh returning to the same trial."""
+
+from __future__ import annotations
+
+import json
+import time
+
+from sqlalchemy import select
+
+from hcss.platform.live.trials import latest_status
+from hcss.platform.models import ProbeEvent, Snapshot, TrialStatusChange
+
+
+def _frames(response, count: int) -> list[dict]:  # type: ignore[no-untyped-def]
+    frames = []
+    for chunk in response.response:
+        for block in chunk.decode().split("\n\n"):
+            data = [line[6:] for line in block.splitlines() if line.startswith("data: ")]
+            if data:
+                frames.append({"id": _event_id(block), **json.loads(data[0])})
+        if len(frames) >= count:
+            break
+    response.close()
+    return frames
+
+
+def _event_id(block: str) -> int | None:
+    ids = [line[4:] for line in block.splitlines() if line.startswith("id: ")]
+    return int(ids[0]) if ids else None
+
+
+def test_trial_ends_at_its_time_limit_with_no_browser_open(make_trial) -> None:
+    trial = make_trial(kind="training", duration_s=120)
+    trial.run_to(119)
+    assert trial.state()["trial"]["status"] == "running"
+    trial.run_to(500)  # the server's clock passes the deadline; nobody is watching
+    with trial.app.extensions["hcss_db"].session_scope() as session:
+        assert latest_status(session, trial.trial_id) == "ended"
+        (end,) = session.scalars(
+            select(TrialStatusChange).where(TrialStatusChange.status == "ended")
+        ).all()
+        assert (end.reason, end.step) == ("time_limit", 120)
+        final = session.scalars(select(Snapshot).order_by(Snapshot.id.desc())).first()
+        assert final.step == 120
+        # A probe open at the end is closed as timed out, not left dangling.
+        open_probes = session.scalars(select(ProbeEvent).where(ProbeEvent.kind == "timeout")).all()
+        assert all(event.step <= 120 for event in open_probes)
+    assert trial.client.get(trial.api + "/state").status_code == 409
+    refused = trial.post("/requests", {"kind": "investigate", "collective": 0, "target": 1})
+    assert refused.status_code == 409 and refused.get_json()["error"] == "ended"
+    (frame,) = _frames(trial.client.get(trial.api + "/stream", buffered=False), 1)
+    assert frame["trial"]["status"] == "ended"
+    page = trial.client.get(f"/live/{trial.token}").get_data(as_text=True)
+    assert 'data-status="ended"' in page
+
+
+def test_training_has_two_collectives_and_five_minutes(make_trial) -> None:
+    trial = make_trial(kind="training")
+    state = trial.state()
+    assert len(state["view"]["collectives"]) == 2
+    assert state["trial"]["duration_s"] == 300
+
+
+def test_stream_sends_state_at_least_twice_a_second_and_resumes_messages(make_trial) -> None:
+    trial = make_trial()
+    trial.run_to(40)
+    response = trial.client.get(trial.api + "/stream", buffered=False)
+    started = time.monotonic()
+    first, second, third = _frames(response, 3)
+    # Nothing changes on the fake clock, yet frames keep coming at 2 Hz or more.
+    assert time.monotonic() - started < 1.3
+    assert first["view"]["collectives"] and first["trial"]["status"] == "running"
+    assert all("true_value" not in t for t in first["view"]["targets"])
+    assert first["messages"] and first["id"] == first["messages"][-1]["seq"]
+    assert second["messages"] == []  # each message is sent once
+    seen = first["id"]
+    trial.run_to(120)
+    again = trial.client.get(
+        trial.api + "/stream", headers={"Last-Event-ID": str(seen)}, buffered=False
+    )
+    (resumed,) = _frames(again, 1)
+    assert resumed["messages"] and all(m["seq"] > seen for m in resumed["messages"])
+
+
+def test_a_command_reaches_the_stream_without_waiting_for_a_step(make_trial) -> None:
+    trial = make_trial()
+    trial.run_to(60)
+    target = next(t for t in trial.state()["view"]["targets"] if 0 in t["in_range_of"])
+    response = trial.client.get(trial.api + "/stream", buffered=False)
+    chunks = iter(response.response)
+    next(chunks)  # retry
+    before = json.loads(next(chunks).decode().split("data: ", 1)[1])
+    assert before["view"]["requests"] == []
+    trial.post("/requests", {"kind": "investigate", "collective": 0, "target": target["id"]})
+    after = json.loads(next(chunks).decode().split("data: ", 1)[1])
+    response.close()
+    assert after["trial"]["step"] == before["trial"]["step"]
+    assert [r["target"] for r in after["view"]["requests"]] == [target["id"]]
+
+
+def test_refresh_returns_to_the_same_trial_at_its_current_time(make_trial) -> None:
+    trial = make_trial()
+    trial.run_to(200)
+    page = trial.client.get(f"/live/{trial.token}").get_data(as_text=True)
+    assert f"/trials/{trial.trial_id}/stream" in page
+    assert trial.state()["trial"]["step"] == 200
