@@ -177,3 +177,11 @@ def test_holm_by_hand():
     adjusted = posthoc.holm([0.04, 0.01, 0.6, 0.02])
     assert adjusted == pytest.approx([0.08, 0.04, 0.6, 0.06])
     assert posthoc.holm([0.5, 0.6]) == pytest.approx([1.0, 1.0])
+
+
+def test_tukey_hsd_q_is_consistent_with_its_p(plant_growth):
+    """q from the hand-built interval formula gives scipy's p back (k = 3, df = 27)."""
+    from scipy.stats import studentized_range
+
+    for row in posthoc.tukey_hsd(plant_growth).rows:
+        assert studentized_range.sf(abs(row.statistic), 3, 27) == pytest.approx(row.p, rel=1e-5)
