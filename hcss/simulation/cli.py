@@ -22,7 +22,9 @@ def simulate() -> None:
 @simulate.command()
 @click.option("--model", type=click.Choice(MODELS), default="M1", show_default=True)
 @click.option("--seed", type=int, default=1, show_default=True, help="Scenario seed.")
-@click.option("--first-section", type=click.Choice(["easy", "difficult"]), default="easy", show_default=True)
+@click.option(
+    "--first-section", type=click.Choice(["easy", "difficult"]), default="easy", show_default=True
+)
 @click.option(
     "--speed",
     type=click.FloatRange(min=0.1),
@@ -30,12 +32,20 @@ def simulate() -> None:
     show_default=True,
     help="Simulated seconds per wall-clock second (1 = live pace).",
 )
-@click.option("--minutes", type=click.FloatRange(min=0.1), default=20.0, show_default=True, help="Trial length.")
+@click.option(
+    "--minutes",
+    type=click.FloatRange(min=0.1),
+    default=20.0,
+    show_default=True,
+    help="Trial length.",
+)
 def demo(model: str, seed: int, first_section: str, speed: float, minutes: float) -> None:
     """A four-collective trial, paced against the wall clock, with a live text summary."""
     sim = Simulation(Scenario.generate(seed, first_section=first_section), model, None)
     limit = minutes * 60.0
-    click.echo(f"{model} trial, seed {seed}, {first_section} section first, {speed:g}x real time. Ctrl-C stops.")
+    click.echo(
+        f"{model} trial, seed {seed}, {first_section} section first, {speed:g}x real time. Ctrl-C stops."
+    )
     started = time.monotonic()
     bar = tqdm(total=int(limit), unit="sim s", desc="trial", dynamic_ncols=True)
     try:
@@ -52,16 +62,33 @@ def demo(model: str, seed: int, first_section: str, speed: float, minutes: float
         bar.write("stopped")
     bar.close()
     correct = sum(d.correct for d in sim.decisions)
-    click.echo(f"{len(sim.decisions)} decisions, {correct} correct, in {_clock(sim.time)} of simulated time.")
+    click.echo(
+        f"{len(sim.decisions)} decisions, {correct} correct, in {_clock(sim.time)} of simulated time."
+    )
 
 
 @simulate.command()
 @click.option("--scenarios", type=click.IntRange(min=1), default=28, show_default=True)
-@click.option("--runs", type=click.IntRange(min=1), default=10, show_default=True, help="Runs per scenario and model.")
+@click.option(
+    "--runs",
+    type=click.IntRange(min=1),
+    default=10,
+    show_default=True,
+    help="Runs per scenario and model.",
+)
 @click.option("--models", default="M1,M2", show_default=True, help="Comma-separated models.")
-@click.option("--workers", type=click.IntRange(min=1), default=2, show_default=True, help="Local processes.")
-@click.option("--dask", "dask_address", default=None, help="Dask scheduler address, or 'local' for a LocalCluster.")
-@click.option("--seed", type=int, default=20_150_000, show_default=True, help="Seed of the first scenario.")
+@click.option(
+    "--workers", type=click.IntRange(min=1), default=2, show_default=True, help="Local processes."
+)
+@click.option(
+    "--dask",
+    "dask_address",
+    default=None,
+    help="Dask scheduler address, or 'local' for a LocalCluster.",
+)
+@click.option(
+    "--seed", type=int, default=20_150_000, show_default=True, help="Seed of the first scenario."
+)
 @click.option(
     "--out",
     type=click.Path(file_okay=False, path_type=Path),
@@ -69,7 +96,13 @@ def demo(model: str, seed: int, first_section: str, speed: float, minutes: float
     show_default=True,
 )
 def experiment(
-    scenarios: int, runs: int, models: str, workers: int, dask_address: str | None, seed: int, out: Path
+    scenarios: int,
+    runs: int,
+    models: str,
+    workers: int,
+    dask_address: str | None,
+    seed: int,
+    out: Path,
 ) -> None:
     """The simulation-only experiment: scenarios × runs × models, no operator.
 
@@ -78,10 +111,14 @@ def experiment(
     chosen = [m.strip() for m in models.split(",") if m.strip()]
     unknown = [m for m in chosen if m not in MODELS]
     if unknown or not chosen:
-        raise click.BadParameter(f"models must be among {', '.join(MODELS)}; got {models!r}", param_hint="--models")
+        raise click.BadParameter(
+            f"models must be among {', '.join(MODELS)}; got {models!r}", param_hint="--models"
+        )
     jobs = exp.jobs_for(exp.experiment_scenarios(scenarios, seed), chosen, runs)
     where = f"Dask ({dask_address})" if dask_address else f"{workers} local process(es)"
-    click.echo(f"{len(jobs)} runs ({scenarios} scenarios × {runs} runs × {', '.join(chosen)}) on {where}.")
+    click.echo(
+        f"{len(jobs)} runs ({scenarios} scenarios × {runs} runs × {', '.join(chosen)}) on {where}."
+    )
     started = time.perf_counter()
     with tqdm(total=len(jobs), unit="run", desc="experiment", dynamic_ncols=True) as bar:
         rows = exp.run_jobs(jobs, workers, dask_address, on_done=bar.update)
@@ -108,5 +145,7 @@ def _status(view: dict) -> str:
     for c in view["collectives"]:
         f = c["fractions"]
         move = f"→{c['move']['target']}" if c["move"] else ""
-        parts.append(f"{ROMAN[c['index']]} U{f['U']:.0%} F{f['F']:.0%} C{f['C']:.0%} X{f['X']:.0%}{move}")
+        parts.append(
+            f"{ROMAN[c['index']]} U{f['U']:.0%} F{f['F']:.0%} C{f['C']:.0%} X{f['X']:.0%}{move}"
+        )
     return f"section {view['section']} | " + " | ".join(parts)

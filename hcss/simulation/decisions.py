@@ -61,7 +61,13 @@ class OpenDecision:
     best_target: int = -1  # set when the move begins
     best_value: float = math.nan
     requests: dict[str, int] = field(
-        default_factory=lambda: {"investigate": 0, "abandon": 0, "decide": 0, "cancel": 0, "interventions": 0}
+        default_factory=lambda: {
+            "investigate": 0,
+            "abandon": 0,
+            "decide": 0,
+            "cancel": 0,
+            "interventions": 0,
+        }
     )
 
 
@@ -96,7 +102,9 @@ class DecisionRecord:
     def decision_time_s(self) -> float:
         return self.end_s - self.start_s
 
-    def as_row(self, source: str = "simulation", participant: str = "", trial_id: str = "", run: int = 0) -> dict:
+    def as_row(
+        self, source: str = "simulation", participant: str = "", trial_id: str = "", run: int = 0
+    ) -> dict:
         """The record as a row of the decisions table (docs/data-dictionary.md)."""
         row = asdict(self)
         row.update(
@@ -126,7 +134,9 @@ def best_available(world: World, collective: int, params: Params) -> int:
     candidates = in_range_targets(world, collective, params)
     if candidates.size == 0:
         return -1
-    order = np.lexsort((world.hub_distance[collective, candidates], -world.target_value[candidates]))
+    order = np.lexsort(
+        (world.hub_distance[collective, candidates], -world.target_value[candidates])
+    )
     return int(candidates[order[0]])
 
 

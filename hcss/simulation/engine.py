@@ -34,21 +34,27 @@ class SimulationError(ValueError):
 class Simulation:
     """A trial: collectives, targets, requests and the records of their decisions."""
 
-    def __init__(self, scenario: Scenario, model: str = "M1", params: Params | None = None, run: int = 0):
+    def __init__(
+        self, scenario: Scenario, model: str = "M1", params: Params | None = None, run: int = 0
+    ):
         if model not in MODELS:
             raise SimulationError(f"model must be one of {', '.join(MODELS)}, not {model!r}")
         self.scenario = scenario
         self.model = model
         self.params = params or Params()
         self.run = int(run)
-        self.rng = np.random.default_rng(np.random.SeedSequence(scenario.seed, spawn_key=(1, self.run)))
+        self.rng = np.random.default_rng(
+            np.random.SeedSequence(scenario.seed, spawn_key=(1, self.run))
+        )
         self.world = World.new(scenario, self.params)
         self.requests: list[Request] = []
         self.decisions: list[dec.DecisionRecord] = []
         self.open: list[dec.OpenDecision | None] = [None] * scenario.n_collectives
         self.decision_counts = [0] * scenario.n_collectives
         self.next_request_id = 1
-        self.commands_applied = 0  # every command, accepted or refused: a replay's position in its log
+        self.commands_applied = (
+            0  # every command, accepted or refused: a replay's position in its log
+        )
         self.events: list[dict] = []
         self._start_section(0)
 
@@ -184,7 +190,13 @@ class Simulation:
 
     def _event(self, kind: str, collective: int | None, target: int | None, text: str) -> None:
         self.events.append(
-            {"time": self.world.time, "kind": kind, "collective": collective, "target": target, "text": text}
+            {
+                "time": self.world.time,
+                "kind": kind,
+                "collective": collective,
+                "target": target,
+                "text": text,
+            }
         )
 
     # ------------------------------------------------------------ decisions
@@ -231,7 +243,12 @@ class Simulation:
             t = int(np.bincount(targets).argmax())
             if w.commit_announced[c] != t:
                 w.commit_announced[c] = t
-                self._event("commitment", int(c), t + 1, f"Collective {ROMAN[c]} committed to target {t + 1}.")
+                self._event(
+                    "commitment",
+                    int(c),
+                    t + 1,
+                    f"Collective {ROMAN[c]} committed to target {t + 1}.",
+                )
 
     def _begin_moves(self) -> None:
         """The first X agent of a collective begins its move: reserve the target, judge correctness."""
@@ -246,7 +263,9 @@ class Simulation:
             t = int(np.bincount(w.target[mine]).argmax())
             mine_all = w.collective == c
             if w.reserved_by[t] >= 0 and w.reserved_by[t] != c:
-                self._send_home(np.flatnonzero(mine_all & (w.target == t) & S.COMMITTED_OR_LATER[w.state]))
+                self._send_home(
+                    np.flatnonzero(mine_all & (w.target == t) & S.COMMITTED_OR_LATER[w.state])
+                )
                 continue
             decision = self.open[c]
             best = dec.best_available(w, int(c), p)
@@ -257,7 +276,9 @@ class Simulation:
             rival = mine_all & S.COMMITTED_OR_LATER[w.state] & (w.target != t)
             self._send_home(np.flatnonzero(rival))
             rules.enforce_orders(w)  # other collectives drop the target at once
-            self._event("move", int(c), t + 1, f"Collective {ROMAN[c]} is moving to target {t + 1}.")
+            self._event(
+                "move", int(c), t + 1, f"Collective {ROMAN[c]} is moving to target {t + 1}."
+            )
 
     def _send_home(self, agents: np.ndarray) -> None:
         """Reset agents to uncommitted; those away from the hub fly back to it."""
@@ -327,7 +348,9 @@ class Simulation:
             self.open = [None] * w.n_collectives
             self._event("finished", None, None, "All decisions complete.")
 
-    def _record(self, decision: dec.OpenDecision, t: int, distance: float | None, timed_out: bool) -> None:
+    def _record(
+        self, decision: dec.OpenDecision, t: int, distance: float | None, timed_out: bool
+    ) -> None:
         w = self.world
         chosen_value = None if t < 0 else float(w.target_value[t])
         best = decision.best_target
@@ -350,7 +373,9 @@ class Simulation:
                 chosen_distance_m=distance,
                 best_target=None if best < 0 else best + 1,
                 best_value=None if best < 0 else decision.best_value,
-                correct=bool(chosen_value is not None and best >= 0 and chosen_value >= decision.best_value),
+                correct=bool(
+                    chosen_value is not None and best >= 0 and chosen_value >= decision.best_value
+                ),
                 n_investigate=decision.requests["investigate"],
                 n_abandon=decision.requests["abandon"],
                 n_decide=decision.requests["decide"],
@@ -361,7 +386,11 @@ class Simulation:
     # ---------------------------------------------------------- persistence
     def snapshot(self) -> bytes:
         """The whole state, including the generator's, as bytes."""
-        state = {name: value for name, value in vars(self).items() if name not in ("rng", "scenario", "params")}
+        state = {
+            name: value
+            for name, value in vars(self).items()
+            if name not in ("rng", "scenario", "params")
+        }
         state.update(
             version=SNAPSHOT_VERSION,
             scenario=self.scenario.to_dict(),
@@ -399,7 +428,9 @@ class Simulation:
             h.update(name.encode())
             h.update(np.ascontiguousarray(array).tobytes())
         w = self.world
-        h.update(repr((w.step_count, w.time, w.section, w.decisions_in_section, w.finished)).encode())
+        h.update(
+            repr((w.step_count, w.time, w.section, w.decisions_in_section, w.finished)).encode()
+        )
         h.update(repr(self.rng.bit_generator.state).encode())
         h.update(repr([r.to_view() for r in self.requests]).encode())
         h.update(repr([d.as_row() for d in self.decisions]).encode())

@@ -56,7 +56,9 @@ def run_job(job: Job, params: Params | None = None) -> list[dict]:
     """Run one trial to completion and return its decisions-table rows."""
     sim = Simulation(Scenario.from_dict(job.scenario), job.model, params, run=job.run)
     sim.run_until_finished()
-    return [d.as_row(source="simulation", trial_id=job.trial_id, run=job.run) for d in sim.decisions]
+    return [
+        d.as_row(source="simulation", trial_id=job.trial_id, run=job.run) for d in sim.decisions
+    ]
 
 
 def run_jobs(
@@ -74,7 +76,9 @@ def run_jobs(
     return [row for index in range(len(jobs)) for row in results[index]]
 
 
-def _execute(jobs: list[Job], workers: int, dask_address: str | None) -> Iterator[tuple[int, list[dict]]]:
+def _execute(
+    jobs: list[Job], workers: int, dask_address: str | None
+) -> Iterator[tuple[int, list[dict]]]:
     if dask_address:
         yield from _execute_dask(jobs, workers, dask_address)
     elif workers <= 1:
@@ -89,11 +93,14 @@ def _execute(jobs: list[Job], workers: int, dask_address: str | None) -> Iterato
 
 def _execute_dask(jobs: list[Job], workers: int, address: str) -> Iterator[tuple[int, list[dict]]]:
     """Run the jobs on a Dask scheduler, or on a LocalCluster when the address is "local"."""
-    from dask.distributed import Client, LocalCluster, as_completed as dask_completed
+    from dask.distributed import Client, LocalCluster
+    from dask.distributed import as_completed as dask_completed
 
     cluster = None
     if address == "local":
-        cluster = LocalCluster(n_workers=max(1, workers), threads_per_worker=1, processes=True, dashboard_address=None)
+        cluster = LocalCluster(
+            n_workers=max(1, workers), threads_per_worker=1, processes=True, dashboard_address=None
+        )
         client = Client(cluster)
     else:
         client = Client(address)
@@ -125,7 +132,14 @@ class Spread:
         if not values:
             return cls(0, math.nan, math.nan, math.nan, math.nan, math.nan)
         sd = statistics.stdev(values) if len(values) > 1 else math.nan
-        return cls(len(values), statistics.fmean(values), sd, statistics.median(values), min(values), max(values))
+        return cls(
+            len(values),
+            statistics.fmean(values),
+            sd,
+            statistics.median(values),
+            min(values),
+            max(values),
+        )
 
 
 def summarise(rows: list[dict]) -> dict[tuple[str, str], dict[str, Spread]]:
@@ -137,13 +151,20 @@ def summarise(rows: list[dict]) -> dict[tuple[str, str], dict[str, Spread]]:
     summary: dict[tuple[str, str], dict[str, Spread]] = {}
     for model in sorted({r["model"] for r in rows}):
         for split in SPLITS:
-            chosen = [r for r in rows if r["model"] == model and (split == "overall" or r["difficulty"] == split)]
+            chosen = [
+                r
+                for r in rows
+                if r["model"] == model and (split == "overall" or r["difficulty"] == split)
+            ]
             by_trial: dict[str, list[bool]] = {}
             for r in chosen:
                 by_trial.setdefault(r["trial_id"], []).append(bool(r["correct"]))
             rates = [sum(v) / len(v) for v in by_trial.values()]
             minutes = [r["decision_time_s"] / 60.0 for r in chosen]
-            summary[(model, split)] = {"success_rate": Spread.of(rates), "decision_time_min": Spread.of(minutes)}
+            summary[(model, split)] = {
+                "success_rate": Spread.of(rates),
+                "decision_time_min": Spread.of(minutes),
+            }
     return summary
 
 

@@ -24,6 +24,7 @@ from hcss.simulation import states as S
 from hcss.simulation.params import Params
 from hcss.simulation.world import World
 
+
 @dataclass(frozen=True)
 class Inbox:
     """The messages of one step, already addressed: parallel arrays over messages."""
@@ -144,7 +145,9 @@ def deliver(
     quorum = streak >= params.quorum_k
     new_state, new_target, new_leg = state.copy(), target.copy(), world.leg[r]
 
-    def become(mask: np.ndarray, code: int, to_target: np.ndarray | None = None, leg: int | None = None) -> None:
+    def become(
+        mask: np.ndarray, code: int, to_target: np.ndarray | None = None, leg: int | None = None
+    ) -> None:
         new_state[mask] = code
         if to_target is not None:
             new_target[mask] = to_target[mask]
@@ -157,7 +160,9 @@ def deliver(
         changed = (s_state == S.C) & S.DELIBERATING[state]
         become(changed, S.C, s_target)
     if senders_by_state[S.I]:  # initiation spreads
-        initiate = (s_state == S.I) & ((state == S.U_I) | (state == S.F_I) | ((state == S.C) & (target == s_target)))
+        initiate = (s_state == S.I) & (
+            (state == S.U_I) | (state == S.F_I) | ((state == S.C) & (target == s_target))
+        )
         become(initiate, S.I, s_target)
         changed |= initiate
 

@@ -37,7 +37,9 @@ class InvestigateThenDecide:
     """
 
     decide_support: float = 0.30
-    abandon_below: float | None = None  # abandon targets whose shown value is this far below the best
+    abandon_below: float | None = (
+        None  # abandon targets whose shown value is this far below the best
+    )
 
     def commands(self, view: dict) -> list[dict]:
         requests = view["requests"]
@@ -60,7 +62,9 @@ class InvestigateThenDecide:
             if not busy:
                 issued.append({"kind": "investigate", "collective": c, "target": best["id"]})
             if self.abandon_below is not None:
-                abandoning = {r["target"] for r in requests if r["collective"] == c and r["kind"] == "abandon"}
+                abandoning = {
+                    r["target"] for r in requests if r["collective"] == c and r["kind"] == "abandon"
+                }
                 for t in in_range:
                     weak = t["value"] < best["value"] - self.abandon_below
                     if weak and t["support"][c] * 200 >= 2 and t["id"] not in abandoning:

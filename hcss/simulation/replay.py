@@ -35,7 +35,9 @@ def replay(
     sim = start if start is not None else Simulation(scenario, model, params, run=run)
     pending = [(int(step), command) for step, command in commands][sim.commands_applied :]
     if any(step < sim.step_count for step, _ in pending):
-        raise ValueError("the command log has commands before the snapshot that it does not contain")
+        raise ValueError(
+            "the command log has commands before the snapshot that it does not contain"
+        )
     i = 0
     while True:
         while i < len(pending) and pending[i][0] <= sim.step_count:

@@ -83,12 +83,16 @@ def refusal(world: World, params: Params, kind: str, collective: int, target: in
         return f"Target {target + 1} is taken by collective {ROMAN[owner]}."
     if executing(world, collective):
         return f"Collective {name} is executing a move and cannot take requests."
-    support_count = int(np.sum((world.collective == collective) & world.favouring() & (world.target == target)))
+    support_count = int(
+        np.sum((world.collective == collective) & world.favouring() & (world.target == target))
+    )
     if kind == "investigate":
         if world.hub_distance[collective, target] > params.exploration_range_m:
             return f"Target {target + 1} is out of range of collective {name}."
         if world.abandon_order[collective, target]:
-            return f"Collective {name} has an abandon order for target {target + 1}; cancel it first."
+            return (
+                f"Collective {name} has an abandon order for target {target + 1}; cancel it first."
+            )
     elif kind == "abandon":
         if world.abandon_order[collective, target]:
             return f"Collective {name} is already abandoning target {target + 1}."
@@ -126,7 +130,9 @@ def recruit_for(world: World, request: Request, rng: np.random.Generator) -> Non
         chosen = _take(supporters, request.needed, rng)
         if chosen.size < request.needed:
             uncommitted = np.flatnonzero(mine_in_hub & (world.state == S.U_I))
-            chosen = np.r_[chosen, _take(uncommitted, request.needed - chosen.size, rng)].astype(np.int64)
+            chosen = np.r_[chosen, _take(uncommitted, request.needed - chosen.size, rng)].astype(
+                np.int64
+            )
         world.set_state(chosen, S.C, request.target)
     request.acknowledged += int(chosen.size)
     request.needed -= int(chosen.size)

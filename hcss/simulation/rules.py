@@ -21,7 +21,9 @@ def per_step(rate: np.ndarray | float, params: Params) -> np.ndarray | float:
     return -np.expm1(-np.asarray(rate) * params.dt_s)
 
 
-def assess(world: World, agents: np.ndarray, params: Params, rng: np.random.Generator) -> np.ndarray:
+def assess(
+    world: World, agents: np.ndarray, params: Params, rng: np.random.Generator
+) -> np.ndarray:
     """A fresh estimate v̂ = v·(1+e) of each agent's target, e ~ U[-0.1, 0.1], clipped to (0, 1]."""
     value = world.target_value[world.target[agents]]
     error = rng.uniform(-params.value_error, params.value_error, agents.size)
@@ -39,7 +41,9 @@ def discovery(world: World, params: Params, rng: np.random.Generator, model: str
     if explorers.size == 0 or candidates.size == 0:
         return
     # Only explorers in a grid cell near some target need exact distances.
-    grid = sensing_grid(world.target_pos[candidates].tobytes(), params.arena_side_m, params.sensing_radius_m)
+    grid = sensing_grid(
+        world.target_pos[candidates].tobytes(), params.arena_side_m, params.sensing_radius_m
+    )
     explorers = explorers[grid.covers(world.pos[explorers])]
     if explorers.size == 0:
         return
@@ -112,10 +116,14 @@ def sensing_grid(target_pos: bytes, arena_side_m: float, sensing_radius_m: float
 def abandon_probability(world: World, agents: np.ndarray, params: Params) -> np.ndarray:
     """P_α = min(1, α·(d_i/100 m)/v̂): farther and poorer targets are abandoned more."""
     d = world.hub_distance[world.collective[agents], world.target[agents]]
-    return np.minimum(1.0, params.abandon_alpha * (d / params.abandon_unit_m) / world.estimate[agents])
+    return np.minimum(
+        1.0, params.abandon_alpha * (d / params.abandon_unit_m) / world.estimate[agents]
+    )
 
 
-def reach_target(world: World, agents: np.ndarray, params: Params, rng: np.random.Generator, model: str) -> None:
+def reach_target(
+    world: World, agents: np.ndarray, params: Params, rng: np.random.Generator, model: str
+) -> None:
     """Agents arriving at a target: executing agents enter D; assessing agents re-estimate it.
 
     An assessing agent (F_L, sent to reassess, recruited or asked to
@@ -201,13 +209,17 @@ def _interaction_delay(world: World, params: Params, draw: np.ndarray, in_hub: n
             continue
         d = world.hub_distance[world.collective[waiting], world.target[waiting]]
         rate = leave_rate(world.estimate[waiting], gap(d, params))
-        leave = waiting[(rate == np.inf) | (draw[waiting] < per_step(np.where(rate == np.inf, 0, rate), params))]
+        leave = waiting[
+            (rate == np.inf) | (draw[waiting] < per_step(np.where(rate == np.inf, 0, rate), params))
+        ]
         world.set_state(leave, S.F_I)
 
 
 def discovery_gap(distance_m: np.ndarray, params: Params) -> np.ndarray:
     """1/g(d_max) − 1/g(d_i): the extra wait that equalises discovery times."""
-    return 1.0 / params.discovery_rate(params.site_d_max_m) - 1.0 / params.discovery_rate(distance_m)
+    return 1.0 / params.discovery_rate(params.site_d_max_m) - 1.0 / params.discovery_rate(
+        distance_m
+    )
 
 
 def round_trip_gap(distance_m: np.ndarray, params: Params) -> np.ndarray:
@@ -234,7 +246,11 @@ def enforce_orders(world: World) -> None:
     committed or initiating agents for it return to deliberation.
     """
     has_target = world.target >= 0
-    if not (world.abandon_order.any() or (world.reserved_by >= 0).any() or (~world.active[world.target[has_target]]).any()):
+    if not (
+        world.abandon_order.any()
+        or (world.reserved_by >= 0).any()
+        or (~world.active[world.target[has_target]]).any()
+    ):
         return
     in_hub_favouring = favouring_in_hub(world)
     t = np.where(has_target, world.target, 0)

@@ -16,6 +16,7 @@ from hcss.simulation.params import Params
 
 KINDS = ("easy", "difficult")
 START_HUBS = ((-1.0, 1.0), (1.0, 1.0), (-1.0, -1.0), (1.0, -1.0))  # I, II, III, IV (× offset)
+MAX_COLLECTIVES = 16
 _MAX_DRAWS = 10_000
 
 
@@ -71,7 +72,9 @@ class Scenario:
     ) -> Scenario:
         """A two-section trial: one section easy for every collective, one difficult."""
         if first_section not in KINDS:
-            raise ScenarioError(f"first_section must be 'easy' or 'difficult', not {first_section!r}")
+            raise ScenarioError(
+                f"first_section must be 'easy' or 'difficult', not {first_section!r}"
+            )
         second = "difficult" if first_section == "easy" else "easy"
         kinds = [(first_section,) * n_collectives, (second,) * n_collectives]
         return cls._build(seed, kinds, scenario_id or f"s{seed}-{first_section}", params)
@@ -91,12 +94,9 @@ class Scenario:
     ) -> Scenario:
         params = params or Params()
         n_collectives = len(kinds_per_section[0])
-        if not 1 <= n_collectives <= len(START_HUBS):
-            raise ScenarioError(f"between 1 and {len(START_HUBS)} collectives, not {n_collectives}")
-        hubs = tuple(
-            (sx * params.hub_offset_m, sy * params.hub_offset_m)
-            for sx, sy in START_HUBS[:n_collectives]
-        )
+        if not 1 <= n_collectives <= MAX_COLLECTIVES:
+            raise ScenarioError(f"between 1 and {MAX_COLLECTIVES} collectives, not {n_collectives}")
+        hubs = start_hubs(n_collectives, params)
         rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(0,)))
         sections = []
         next_id = 1
@@ -148,6 +148,24 @@ class Scenario:
             )
         except (KeyError, TypeError, ValueError) as error:
             raise ScenarioError(f"not a scenario: {error}") from error
+
+
+def start_hubs(n_collectives: int, params: Params) -> tuple[tuple[float, float], ...]:
+    """The study's square of four hubs; larger worlds (for scaling runs) use a grid of the same spacing.
+
+    A grid of more than four hubs needs an arena larger than the study's:
+    pass ``params.with_changes(arena_side_m=...)``.
+    """
+    if n_collectives <= len(START_HUBS):
+        return tuple(
+            (sx * params.hub_offset_m, sy * params.hub_offset_m)
+            for sx, sy in START_HUBS[:n_collectives]
+        )
+    side = int(np.ceil(np.sqrt(n_collectives)))
+    spacing = 2.0 * params.hub_offset_m
+    offsets = (np.arange(side) - (side - 1) / 2.0) * spacing
+    grid = [(float(x), float(-y)) for y in offsets for x in offsets]
+    return tuple(grid[:n_collectives])
 
 
 def _place_section(

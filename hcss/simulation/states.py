@@ -16,7 +16,6 @@ NAMES = ("U_L", "U_I", "F_L", "F_I", "F_D", "F_R", "C", "I", "X", "D")
 AT_HUB, EXPLORING, TO_TARGET, TO_HUB = range(4)
 
 
-
 def _table(*members: int) -> np.ndarray:
     """A boolean lookup table over state codes: ``TABLE[state]`` replaces ``np.isin``."""
     table = np.zeros(len(NAMES), dtype=bool)

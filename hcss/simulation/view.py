@@ -58,7 +58,9 @@ def render_view(sim: Simulation) -> dict:
                 "outline_support": max(per_collective) > p.outline_support,
                 "outline_executing": int(t) in executing_to,
                 "in_range_of": [
-                    c for c in range(w.n_collectives) if w.hub_distance[c, t] <= p.exploration_range_m
+                    c
+                    for c in range(w.n_collectives)
+                    if w.hub_distance[c, t] <= p.exploration_range_m
                 ],
             }
         )
@@ -90,4 +92,8 @@ def _move(sim: Simulation, c: int) -> dict | None:
     else:
         progress = 0.0
     position = start + progress * (goal - start)
-    return {"target": t + 1, "progress": progress, "position": [float(position[0]), float(position[1])]}
+    return {
+        "target": t + 1,
+        "progress": progress,
+        "position": [float(position[0]), float(position[1])],
+    }

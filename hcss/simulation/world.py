@@ -110,11 +110,18 @@ class World:
 
     def home(self) -> np.ndarray:
         """Centre of each agent's hub area: its collective's hub, or the new site for X and D."""
-        home = self.hub[self.collective]
-        at_site = (self.state == S.X) | (self.state == S.D)
-        if at_site.any():
-            home[at_site] = self.target_pos[self.target[at_site]]
-        return home
+        return np.stack(self.home_xy(), axis=1)
+
+    def home_xy(self) -> tuple[np.ndarray, np.ndarray]:
+        """`home()` as separate x and y arrays (1-D gathers are much cheaper on the hot path)."""
+        hx = self.hub[:, 0][self.collective]
+        hy = self.hub[:, 1][self.collective]
+        at_site = np.flatnonzero(self.state >= S.X)  # X or D
+        if at_site.size:
+            site = self.target[at_site]
+            hx[at_site] = self.target_pos[site, 0]
+            hy[at_site] = self.target_pos[site, 1]
+        return hx, hy
 
     def favouring(self) -> np.ndarray:
         return S.FAVOURING[self.state]
@@ -139,7 +146,9 @@ class World:
             new_target = -1
         elif new_target is None:
             new_target = self.target[agents]
-        changed = (S.PHASE_OF_STATE[self.state[agents]] != new_phase) | (self.target[agents] != new_target)
+        changed = (S.PHASE_OF_STATE[self.state[agents]] != new_phase) | (
+            self.target[agents] != new_target
+        )
         self.state[agents] = new_state
         self.target[agents] = new_target
         self.streak[agents[changed]] = 0
@@ -156,7 +165,11 @@ class World:
 
     # -- persistence ------------------------------------------------------
     def arrays(self) -> dict[str, np.ndarray]:
-        return {f.name: getattr(self, f.name) for f in fields(self) if isinstance(getattr(self, f.name), np.ndarray)}
+        return {
+            f.name: getattr(self, f.name)
+            for f in fields(self)
+            if isinstance(getattr(self, f.name), np.ndarray)
+        }
 
     def copy(self) -> World:
         values = {}

@@ -27,7 +27,14 @@ def agents_of(world: World, collective: int, n: int, start: int = 0) -> np.ndarr
     return np.arange(first + start, first + start + n)
 
 
-def place(world: World, agents: np.ndarray, state: int, target: int = -1, leg: int = S.AT_HUB, estimate: float = 0.8) -> None:
+def place(
+    world: World,
+    agents: np.ndarray,
+    state: int,
+    target: int = -1,
+    leg: int = S.AT_HUB,
+    estimate: float = 0.8,
+) -> None:
     """Put agents in a state at their hub (or on a leg), bypassing the rules."""
     world.state[agents] = state
     world.target[agents] = target if S.PHASE_OF_STATE[state] > 0 else -1
@@ -38,7 +45,9 @@ def place(world: World, agents: np.ndarray, state: int, target: int = -1, leg: i
         world.pos[agents] = world.home()[agents]
 
 
-def send(sim: Simulation, senders: np.ndarray, receivers: np.ndarray, draw: float | np.ndarray = 0.0) -> np.ndarray:
+def send(
+    sim: Simulation, senders: np.ndarray, receivers: np.ndarray, draw: float | np.ndarray = 0.0
+) -> np.ndarray:
     """Deliver one message from each sender to each receiver (receivers distinct), as the engine would."""
     w = sim.world
     inbox = Inbox(
@@ -57,7 +66,9 @@ def send(sim: Simulation, senders: np.ndarray, receivers: np.ndarray, draw: floa
 def visible_target(sim: Simulation, collective: int = 0) -> int:
     """Index of an active target in range of the collective, made visible to the operator."""
     w = sim.world
-    in_range = np.flatnonzero(w.active & (w.hub_distance[collective] <= sim.params.exploration_range_m))
+    in_range = np.flatnonzero(
+        w.active & (w.hub_distance[collective] <= sim.params.exploration_range_m)
+    )
     t = int(in_range[np.argmin(w.hub_distance[collective, in_range])])
     w.report_count[t] = max(2, int(w.report_count[t]))
     w.report_sum[t] = w.report_count[t] * w.target_value[t]

@@ -115,7 +115,9 @@ def test_choosing_a_worse_target_is_recorded_as_incorrect():
     sim = make_sim("M1")
     w = sim.world
     best = best_available(w, 0, sim.params)
-    in_range = np.flatnonzero(w.active & (w.hub_distance[0] <= 500) & (w.target_value < w.target_value[best]))
+    in_range = np.flatnonzero(
+        w.active & (w.hub_distance[0] <= 500) & (w.target_value < w.target_value[best])
+    )
     worse = int(in_range[0])
     place(w, agents_of(w, 0, 200), S.X, target=worse, leg=S.TO_TARGET)
     sim.run_until_finished(max_steps=200)

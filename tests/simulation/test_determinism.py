@@ -40,14 +40,18 @@ def test_same_scenario_and_run_give_the_same_trial_and_other_runs_differ():
         sim.step(400)
     _assert_same_world(a, b)
     assert a.state_digest() != c.state_digest()
-    np.testing.assert_array_equal(a.world.target_pos, c.world.target_pos)  # replicates share the layout
+    np.testing.assert_array_equal(
+        a.world.target_pos, c.world.target_pos
+    )  # replicates share the layout
 
 
 def test_replaying_a_timed_request_log_reproduces_an_operated_trial():
     scenario = Scenario.generate(12, first_section="difficult")
     operated = OperatedRun(Simulation(scenario, "M3"), InvestigateThenDecide(), interval_s=15)
     operated.run(until_s=900)
-    assert len(operated.log) > 5 and any(kind == "decide" for kind in (c["kind"] for _, c in operated.log))
+    assert len(operated.log) > 5 and any(
+        kind == "decide" for kind in (c["kind"] for _, c in operated.log)
+    )
     replayed = replay(scenario, "M3", operated.log, until_step=operated.sim.step_count)
     _assert_same_world(operated.sim, replayed)
 
@@ -58,7 +62,13 @@ def test_replay_from_a_snapshot_skips_commands_it_already_contains():
     operated.run(until_s=200)
     blob = operated.sim.snapshot()
     operated.run(until_s=500)
-    resumed = replay(scenario, "M1", operated.log, until_step=operated.sim.step_count, start=Simulation.restore(blob))
+    resumed = replay(
+        scenario,
+        "M1",
+        operated.log,
+        until_step=operated.sim.step_count,
+        start=Simulation.restore(blob),
+    )
     _assert_same_world(operated.sim, resumed)
 
 

@@ -33,14 +33,34 @@ def test_process_pool_and_serial_runs_give_the_same_rows(tiny_jobs):
 @pytest.mark.slow
 def test_dask_local_cluster_runs_the_same_jobs(tiny_jobs):
     pytest.importorskip("dask.distributed")
-    assert exp.run_jobs(tiny_jobs, workers=1, dask_address="local") == exp.run_jobs(tiny_jobs, workers=1)
+    assert exp.run_jobs(tiny_jobs, workers=1, dask_address="local") == exp.run_jobs(
+        tiny_jobs, workers=1
+    )
 
 
 def test_summary_computes_success_per_trial_and_time_per_decision():
     rows = [
-        {"model": "M1", "trial_id": "a", "difficulty": "easy", "correct": True, "decision_time_s": 60.0},
-        {"model": "M1", "trial_id": "a", "difficulty": "difficult", "correct": False, "decision_time_s": 180.0},
-        {"model": "M1", "trial_id": "b", "difficulty": "easy", "correct": True, "decision_time_s": 120.0},
+        {
+            "model": "M1",
+            "trial_id": "a",
+            "difficulty": "easy",
+            "correct": True,
+            "decision_time_s": 60.0,
+        },
+        {
+            "model": "M1",
+            "trial_id": "a",
+            "difficulty": "difficult",
+            "correct": False,
+            "decision_time_s": 180.0,
+        },
+        {
+            "model": "M1",
+            "trial_id": "b",
+            "difficulty": "easy",
+            "correct": True,
+            "decision_time_s": 120.0,
+        },
     ]
     summary = exp.summarise(rows)
     overall = summary[("M1", "overall")]
@@ -53,8 +73,20 @@ def test_summary_computes_success_per_trial_and_time_per_decision():
 def test_experiment_command_writes_the_decisions_table_and_summary(tmp_path):
     result = CliRunner().invoke(
         main,
-        ["simulate", "experiment", "--scenarios", "1", "--runs", "1", "--models", "M2", "--workers", "1",
-         "--out", str(tmp_path)],
+        [
+            "simulate",
+            "experiment",
+            "--scenarios",
+            "1",
+            "--runs",
+            "1",
+            "--models",
+            "M2",
+            "--workers",
+            "1",
+            "--out",
+            str(tmp_path),
+        ],
     )
     assert result.exit_code == 0, result.output
     with (tmp_path / "decisions.csv").open() as handle:
@@ -65,12 +97,16 @@ def test_experiment_command_writes_the_decisions_table_and_summary(tmp_path):
 
 
 def test_unknown_models_are_refused_without_a_traceback(tmp_path):
-    result = CliRunner().invoke(main, ["simulate", "experiment", "--models", "M9", "--out", str(tmp_path)])
+    result = CliRunner().invoke(
+        main, ["simulate", "experiment", "--models", "M9", "--out", str(tmp_path)]
+    )
     assert result.exit_code == 2 and "models must be among" in result.output
     assert "Traceback" not in result.output and not (tmp_path / "decisions.csv").exists()
 
 
 def test_demo_runs_a_paced_trial_and_prints_events():
-    result = CliRunner().invoke(main, ["simulate", "demo", "--speed", "5000", "--minutes", "4", "--model", "M1"])
+    result = CliRunner().invoke(
+        main, ["simulate", "demo", "--speed", "5000", "--minutes", "4", "--model", "M1"]
+    )
     assert result.exit_code == 0, result.output
     assert "discovered" in result.output and "decisions" in result.output

@@ -96,7 +96,11 @@ def test_a_streak_of_k_messages_from_the_same_decision_state_makes_a_quorum():
 def test_a_message_from_another_decision_state_breaks_the_streak():
     sim = make_sim("M1")
     w = sim.world
-    senders, other, receiver = agents_of(w, 0, 20), agents_of(w, 0, 1, start=25), agents_of(w, 0, 1, start=30)
+    senders, other, receiver = (
+        agents_of(w, 0, 20),
+        agents_of(w, 0, 1, start=25),
+        agents_of(w, 0, 1, start=30),
+    )
     place(w, senders, S.F_I, target=6)
     place(w, other, S.U_I)
     place(w, receiver, S.F_I, target=6)
@@ -141,7 +145,12 @@ def test_commitment_chain_committed_recruits_deliberating_and_initiating_spreads
 def test_m3_never_recruits_inhibits_or_commits_on_its_own():
     sim = make_sim("M3")
     w = sim.world
-    senders, u, other, receiver = agents_of(w, 0, 40), agents_of(w, 0, 1, 50), agents_of(w, 0, 1, 51), agents_of(w, 0, 1, 52)
+    senders, u, other, receiver = (
+        agents_of(w, 0, 40),
+        agents_of(w, 0, 1, 50),
+        agents_of(w, 0, 1, 51),
+        agents_of(w, 0, 1, 52),
+    )
     place(w, senders, S.F_I, target=6, estimate=1.0)
     place(w, u, S.U_I)
     place(w, other, S.F_I, target=9)
@@ -178,5 +187,8 @@ def test_m2_frequency_modulation_scales_the_send_rate_with_distance():
     m1 = make_sim("M1", n_agents=400)
     place(m1.world, agents_of(m1.world, 0, 100), S.F_I, target=far)  # same layout: same seed
     m1_senders = agents_of(m1.world, 0, 100)
-    m1_counts = [np.isin(compose(m1.world, m1.params, m1.rng, "M1").sender, m1_senders).sum() for _ in range(200)]
+    m1_counts = [
+        np.isin(compose(m1.world, m1.params, m1.rng, "M1").sender, m1_senders).sum()
+        for _ in range(200)
+    ]
     assert np.mean(m1_counts) / 100 == pytest.approx(1.0, rel=0.08)

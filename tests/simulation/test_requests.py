@@ -26,7 +26,12 @@ def test_investigate_sends_exactly_ten_uncommitted_agents_and_completes():
     sent = before[(w.state[before] == S.F_L)]
     assert sent.size == 10 and np.all(w.target[sent] == t) and np.all(w.leg[sent] == S.TO_TARGET)
     assert sim.view()["requests"][0] == {
-        "id": 1, "kind": "investigate", "collective": 0, "target": t + 1, "status": "completed", "acknowledged": 10
+        "id": 1,
+        "kind": "investigate",
+        "collective": 0,
+        "target": t + 1,
+        "status": "completed",
+        "acknowledged": 10,
     }
 
 
@@ -64,7 +69,10 @@ def test_out_of_range_investigate_is_refused_and_changes_nothing():
     [
         ({"kind": "investigate", "collective": 9, "target": 1}, "no collective"),
         ({"kind": "investigate", "collective": 0, "target": 999}, "no target"),
-        ({"kind": "investigate", "collective": 0, "target": "x"}, "needs a collective and a target"),
+        (
+            {"kind": "investigate", "collective": 0, "target": "x"},
+            "needs a collective and a target",
+        ),
         ({"kind": "launch", "collective": 0, "target": 1}, "Unknown request type"),
         ({"kind": "cancel", "request_id": 42}, "no active abandon"),
     ],

@@ -38,14 +38,18 @@ def test_fitted_discovery_times_are_those_the_spec_quotes():
 def test_discovery_delay_rate_follows_its_formula(distance):
     estimate = np.array([0.85])
     expected = 0.85 / (1 / g(350) - 1 / g(distance))
-    assert leave_rate(estimate, discovery_gap(np.array([distance]), Params()))[0] == pytest.approx(expected)
+    assert leave_rate(estimate, discovery_gap(np.array([distance]), Params()))[0] == pytest.approx(
+        expected
+    )
 
 
 @pytest.mark.parametrize("distance", [150.0, 250.0])
 def test_reassessment_delay_rate_follows_its_formula(distance):
     speed = 60 / 3.6
     expected = 0.9 / (2 * 350 / speed - 2 * distance / speed)
-    assert leave_rate(np.array([0.9]), round_trip_gap(np.array([distance]), Params()))[0] == pytest.approx(expected)
+    assert leave_rate(np.array([0.9]), round_trip_gap(np.array([distance]), Params()))[
+        0
+    ] == pytest.approx(expected)
 
 
 @pytest.mark.parametrize("distance", [350.0, 420.0])
@@ -112,11 +116,15 @@ def test_explorers_adopt_a_sensed_target_with_probability_of_their_estimate():
     w.pos[explorers] = w.target_pos[t] + 5.0  # within the 20 m sensing radius
     discovery(w, sim.params, sim.rng, "M1")
     adopted = w.state[explorers] == S.F_L
-    assert np.all(w.target[explorers[adopted]] == t) and np.all(w.leg[explorers[adopted]] == S.TO_HUB)
+    assert np.all(w.target[explorers[adopted]] == t) and np.all(
+        w.leg[explorers[adopted]] == S.TO_HUB
+    )
     assert np.all(w.target[explorers[~adopted]] == -1)
     value = w.target_value[t]  # v̂ is uniform in v·[0.9, 1.1], clipped to 1
     expected = np.mean(np.clip(value * (1 + np.linspace(-0.1, 0.1, 10001)), 0, 1))
-    assert abs(adopted.mean() - expected) < 4 * math.sqrt(expected * (1 - expected) / explorers.size)
+    assert abs(adopted.mean() - expected) < 4 * math.sqrt(
+        expected * (1 - expected) / explorers.size
+    )
 
 
 def test_explorers_ignore_targets_under_an_abandon_order():
