@@ -12,7 +12,6 @@ import sys
 import threading
 import time
 from pathlib import Path
-from tempfile import TemporaryDirectory
 
 from hcss.simulation import Params, Scenario, Simulation
 from hcss.simulation import experiment as exp
@@ -63,14 +62,16 @@ def full_experiment(workers: int = 2) -> None:
     rows = exp.run_jobs(jobs, workers=workers)
     elapsed = time.perf_counter() - started
     sampler.stop()
-    with TemporaryDirectory() as tmp:
-        exp.write_decisions(rows, Path(tmp) / "decisions.csv")
+    out = Path("out/bench-experiment")
+    exp.write_decisions(rows, out / "decisions.csv")
+    table = exp.summary_table(exp.summarise(rows))
+    (out / "summary.md").write_text(f"# Simulation-only experiment (make bench)\n\n{table}\n", encoding="utf-8")
     print(
         f"(2) full simulation-only experiment ({len(jobs)} runs, {len(rows)} decisions, {workers} workers): "
         f"{elapsed / 60:.1f} min wall, peak memory {sampler.peak_mib:,.0f} MiB (all processes)   "
-        f"[targets < 10 min, < 1 GB]"
+        f"[targets < 10 min, < 1 GB]; decisions in {out}/decisions.csv"
     )
-    print(exp.summary_table(exp.summarise(rows)))
+    print(table)
 
 
 class _TreeMemory:

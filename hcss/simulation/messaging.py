@@ -166,17 +166,16 @@ def deliver(
         become(initiate, S.I, s_target)
         changed |= initiate
 
-    if model != "M3":
-        if senders_by_state[S.F_I]:
-            from_favouring = s_state == S.F_I
-            persuaded = from_favouring & (draw < inbox.sender_estimate[messages]) & ~changed
-            recruit = persuaded & (state == S.U_I)
-            if world.abandon_order.any():
-                recruit &= ~world.abandon_order[world.collective[r], np.maximum(s_target, 0)]
-            inhibit = persuaded & S.FAVOURING_IN_HUB[state] & (target != s_target)
-            become(recruit, S.F_L, s_target, S.TO_TARGET)
-            become(inhibit, S.U_L, None, S.EXPLORING)
-            changed |= recruit | inhibit
+    if model != "M3" and senders_by_state[S.F_I]:
+        from_favouring = s_state == S.F_I
+        persuaded = from_favouring & (draw < inbox.sender_estimate[messages]) & ~changed
+        recruit = persuaded & (state == S.U_I)
+        if world.abandon_order.any():
+            recruit &= ~world.abandon_order[world.collective[r], np.maximum(s_target, 0)]
+        inhibit = persuaded & S.FAVOURING_IN_HUB[state] & (target != s_target)
+        become(recruit, S.F_L, s_target, S.TO_TARGET)
+        become(inhibit, S.U_L, None, S.EXPLORING)
+        changed |= recruit | inhibit
     finished = np.zeros(world.n_collectives, dtype=bool)
     if quorum.any():
         quorum &= ~changed

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-U_L, U_I, F_L, F_I, F_D, F_R, C, I, X, D = range(10)
+U_L, U_I, F_L, F_I, F_D, F_R, C, I, X, D = range(10)  # noqa: E741 - the spec names the state I
 NAMES = ("U_L", "U_I", "F_L", "F_I", "F_D", "F_R", "C", "I", "X", "D")
 
 # Where an agent physically is.  Independent of its decision state: an F_L
