@@ -103,8 +103,13 @@ class Simulation:
             self._event("discovery", None, int(t), f"Target {t + 1} discovered.")
         self._announce_commitments()
         self._begin_moves()
+        section = w.section
         for c in np.flatnonzero(reached_done):
-            if not w.finished and self.open[c] is not None:
+            # A decision that completes the section discards the others under way,
+            # including any that reached their quorum in this same step.
+            if w.finished or w.section != section:
+                break
+            if self.open[c] is not None and w.executing[c] >= 0:
                 self._end_decision(int(c))
         self._time_out_decisions()
 

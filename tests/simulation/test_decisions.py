@@ -148,3 +148,19 @@ def test_a_decision_that_runs_past_the_cap_times_out_and_counts():
     assert len(sim.decisions) == 4
     assert all(d.timed_out and not d.correct and d.chosen_target is None for d in sim.decisions)
     assert sim.world.decisions_in_section == 4
+
+
+def test_arrivals_in_the_step_that_ends_a_section_are_discarded():
+    """Two collectives reach their arrival quorum in the same step as the section's 6th decision."""
+    sim = make_sim("M1", decisions_per_section=1)
+    w = sim.world
+    for c in (0, 1):
+        t = best_available(w, c, sim.params)
+        place(w, agents_of(w, c, 200), S.D, target=t)
+        w.executing[c] = t
+        w.reserved_by[t] = c
+        w.streak[agents_of(w, c, 200)] = sim.params.quorum_k
+    sim.step()
+    assert len(sim.decisions) == 1 and sim.decisions[0].chosen_target is not None
+    assert w.section == 1 and np.allclose(w.hub, w.start_hub)
+    assert all(d.start_s == sim.time for d in sim.open)
