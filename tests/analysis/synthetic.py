@@ -1,7 +1,7 @@
 """Synthetic exports written to the data dictionary (docs/data-dictionary.md).
 
-Neither the simulation experiment nor the study export exists yet, so the
-tests generate tables with exactly the dictionary's columns. Values are
+The tests generate tables with exactly the dictionary's columns, so they do
+not depend on running a simulation or a study. Values are
 random but plausible; the tests that check numbers use the tiny hand-built
 export in test_measures.py instead.
 """
@@ -13,36 +13,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-DECISION_COLUMNS = [
-    "source",
-    "model",
-    "participant",
-    "trial_id",
-    "scenario_id",
-    "run",
-    "seed",
-    "first_section",
-    "section",
-    "section_kind",
-    "collective",
-    "decision_index",
-    "difficulty",
-    "start_s",
-    "end_s",
-    "decision_time_s",
-    "timed_out",
-    "chosen_target",
-    "chosen_value",
-    "chosen_distance_m",
-    "best_target",
-    "best_value",
-    "correct",
-    "n_requests",
-    "n_investigate",
-    "n_abandon",
-    "n_decide",
-    "n_interventions",
-]
+from hcss.simulation.decisions import DECISION_COLUMNS as SIMULATION_DECISION_COLUMNS
+
+DECISION_COLUMNS = list(SIMULATION_DECISION_COLUMNS)  # the contract, from its one definition
 COLLECTIVES = ["I", "II", "III", "IV"]
 
 
