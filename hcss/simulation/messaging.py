@@ -78,7 +78,11 @@ def compose(world: World, params: Params, rng: np.random.Generator, model: str) 
     n_messages = rng.poisson(rate * params.dt_s)
     senders = np.repeat(senders, n_messages)
     receivers = find_neighbours(world, senders, in_hub, params, rng)
+    # A message between two uncommitted agents changes nothing: an uncommitted
+    # agent's streak is never used (any change of decision state clears it)
+    # and only initiating agents count silence. Dropping them is exact.
     ok = receivers >= 0
+    ok[ok] = ~((world.state[senders[ok]] == S.U_I) & (world.state[receivers[ok]] == S.U_I))
     senders, receivers = senders[ok], receivers[ok]
     return Inbox(
         sender=senders,
