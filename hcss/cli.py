@@ -17,6 +17,8 @@ COMMANDS: list[tuple[str, str]] = [
     ("hcss.platform.cli", "serve"),
     ("hcss.platform.cli", "db_group"),
     ("hcss.platform.cli", "demo_trial"),
+    ("hcss.platform.console.cli", "admin_group"),
+    ("hcss.platform.export.cli", "export"),
 ]
 
 

@@ -194,6 +194,8 @@ def _current_probe(live: LiveTrial, probe_id: int):  # type: ignore[no-untyped-d
 def _require_running(live: LiveTrial) -> None:
     if live.ended:
         raise ActionError("the trial has ended", 409, "ended")
+    if live.paused_since is not None:
+        raise ActionError("the experimenter has paused the trial", 409, "paused")
 
 
 def _support(view: dict[str, Any], collective: int | None, target: int | None) -> float | None:

@@ -12,6 +12,7 @@ from __future__ import annotations
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
+from hcss.platform.console.pauses import restore_pauses
 from hcss.platform.live.probes import probe_plan
 from hcss.platform.live.recorder import record_progress, write_snapshot
 from hcss.platform.live.session import CurrentProbe, LiveTrial
@@ -60,6 +61,7 @@ def load_trial(session: Session, trial: Trial, now: float) -> LiveTrial:
         probe_plan=probe_plan(trial.seed, trial.duration_s),
     )
     live.last_command_id = None if snapshot is None else snapshot.last_command_id
+    restore_pauses(session, live)  # the experimenter's pauses stop the trial clock
     replayed = _replay_commands(session, live)
     due = live.due_step(now)
     if sim.step_count < due:

@@ -75,6 +75,10 @@ class LiveTrial:
     current_probe: CurrentProbe | None = None
     # Level-3 probes waiting for the next decision: (probe id, shown time, answer or None).
     pending_projection: list[tuple[int, float, str | None]] = field(default_factory=list)
+    # Experimenter pauses (hcss.platform.console.sessions): wall seconds the
+    # trial clock stood still, and the start of the pause under way, if any.
+    paused_s: float = 0.0
+    paused_since: float | None = None
     _view_cache: tuple[int, dict[str, Any], str] | None = None
 
     def __post_init__(self) -> None:
@@ -86,14 +90,19 @@ class LiveTrial:
 
     def due_step(self, now: float) -> int:
         """The step the wall clock says the trial should have reached."""
-        elapsed = max(0.0, now - self.started_epoch) * self.acceleration
+        elapsed = self._running_wall_s(now) * self.acceleration
         return min(self.total_steps, int(math.floor(elapsed / self.dt + 1e-9)))
+
+    def _running_wall_s(self, now: float) -> float:
+        """Wall seconds the trial clock has run: pauses do not count."""
+        stopped = now if self.paused_since is None else min(now, self.paused_since)
+        return max(0.0, stopped - self.started_epoch - self.paused_s)
 
     def clock(self, now: float) -> float:
         """Trial time by the wall clock, for the page's timer (runs between steps)."""
         if self.ended:
             return self.duration_s
-        return min(self.duration_s, max(0.0, now - self.started_epoch) * self.acceleration)
+        return min(self.duration_s, self._running_wall_s(now) * self.acceleration)
 
     def touch(self) -> None:
         """Mark the state as changed and wake every stream; call with `lock` held."""
@@ -133,7 +142,9 @@ class LiveTrial:
             "trial": {
                 "id": self.trial_id,
                 "kind": self.kind,
-                "status": "ended" if self.ended else "running",
+                "status": "ended"
+                if self.ended
+                else ("paused" if self.paused_since is not None else "running"),
                 "clock_s": round(self.clock(now), 2),
                 "duration_s": self.duration_s,
                 "step": self.sim.step_count,

@@ -1,6 +1,7 @@
 """Every table of the platform; importing this package registers them all on `Base`."""
 
 from hcss.platform.models.base import Base, CreatedAt, UTCDateTime, utcnow
+from hcss.platform.models.console import AuditRecord, ConsoleAction, Experimenter
 from hcss.platform.models.observation import Observation
 from hcss.platform.models.outcome import DecisionRow, SimEvent
 from hcss.platform.models.participant import Participant, new_code, new_token
@@ -11,12 +12,23 @@ from hcss.platform.models.requests import (
     CommandOutcome,
     RequestStatusChange,
 )
+from hcss.platform.models.study import (
+    ConsentRecord,
+    QuestionnaireItem,
+    Score,
+    StageEvent,
+    StudyEnrolment,
+)
 from hcss.platform.models.trial import Interruption, Snapshot, Trial, TrialStatusChange
 
 __all__ = [
     "COMMAND_KINDS",
+    "AuditRecord",
+    "ConsoleAction",
+    "Experimenter",
     "Base",
     "Command",
+    "ConsentRecord",
     "CommandOutcome",
     "CreatedAt",
     "DecisionRow",
@@ -25,9 +37,13 @@ __all__ = [
     "Participant",
     "Probe",
     "ProbeEvent",
+    "QuestionnaireItem",
     "RequestStatusChange",
+    "Score",
     "SimEvent",
     "Snapshot",
+    "StageEvent",
+    "StudyEnrolment",
     "Trial",
     "TrialStatusChange",
     "UTCDateTime",

@@ -1,0 +1,94 @@
+"""The live table: every participant's stage, time in stage and trial clock.
+
+Read straight from the database on each poll (a few hundred participants at
+most), so the table is right whichever server process runs the trials. The
+trial clock is computed the way the runner computes it: running wall time,
+pauses excluded, times the trial's acceleration.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Any
+
+from sqlalchemy import func, select
+from sqlalchemy.orm import Session
+
+from hcss.platform.console.pauses import paused_intervals
+from hcss.platform.console.sessions import session_state
+from hcss.platform.models import Participant, Trial, TrialStatusChange
+
+
+@dataclass(frozen=True)
+class ProgressRow:
+    code: str
+    state: str  # active, paused, aborted
+    stage: str
+    time_in_stage_s: float
+    trial_clock_s: float | None  # None outside a running trial
+    trial_duration_s: float | None
+    is_pilot: bool
+    is_bot: bool
+    is_demo: bool
+
+
+def trial_clock_s(session: Session, trial: Trial, now: float) -> float:
+    paused, open_since = paused_intervals(session, trial.id)
+    stopped = now if open_since is None else min(now, open_since)
+    running = max(0.0, stopped - trial.started_at.timestamp() - paused)
+    return min(trial.duration_s, running * trial.time_acceleration)
+
+
+def _latest_trials(session: Session) -> dict[int, Trial]:
+    newest = select(func.max(Trial.id)).group_by(Trial.participant_id)
+    return {t.participant_id: t for t in session.scalars(select(Trial).where(Trial.id.in_(newest)))}
+
+
+def _trial_status(session: Session, trial_id: int) -> TrialStatusChange | None:
+    return session.scalars(
+        select(TrialStatusChange)
+        .where(TrialStatusChange.trial_id == trial_id)
+        .order_by(TrialStatusChange.id.desc())
+        .limit(1)
+    ).first()
+
+
+def progress_rows(session: Session, now: float) -> list[ProgressRow]:
+    """One row per participant, newest first."""
+    trials = _latest_trials(session)
+    rows = []
+    for participant in session.scalars(select(Participant).order_by(Participant.id.desc())):
+        state = session_state(session, participant.id)
+        trial = trials.get(participant.id)
+        clock = duration = None
+        if trial is None:
+            stage, since = "not started", participant.created_at.timestamp()
+        else:
+            status = _trial_status(session, trial.id)
+            label = f"{trial.kind} {trial.model}"
+            since = trial.started_at.timestamp()
+            if status is not None and status.status == "running":
+                stage = label
+                clock, duration = trial_clock_s(session, trial, now), trial.duration_s
+            else:
+                reason = "" if status is None else f" ({status.reason})"
+                stage = f"{label} ended{reason}"
+                since = since if status is None else status.created_at.timestamp()
+        rows.append(
+            ProgressRow(
+                code=participant.code,
+                state=state,
+                stage=stage,
+                time_in_stage_s=max(0.0, now - since),
+                trial_clock_s=clock,
+                trial_duration_s=duration,
+                is_pilot=participant.is_pilot,
+                is_bot=participant.is_bot,
+                is_demo=participant.is_demo,
+            )
+        )
+    return rows
+
+
+def progress_json(session: Session, now: float) -> list[dict[str, Any]]:
+    return [asdict(row) for row in progress_rows(session, now)]

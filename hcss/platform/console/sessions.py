@@ -1,0 +1,145 @@
+"""Pause, resume and abort a participant's session; mark or unmark a pilot.
+
+Every action is a new `ConsoleAction` row written before the live trial in
+memory changes, inside the trial's lock, so the runner, the participant's
+commands and the console never see a half-done pause. The session's state is
+the latest pause/resume/abort row: the study flow can ask `session_state` to
+hold a paused or aborted participant in place.
+"""
+
+from __future__ import annotations
+
+from sqlalchemy import select
+from sqlalchemy.orm import Session
+
+from hcss.platform.console.pauses import pause_clock, resume_clock
+from hcss.platform.db import Database
+from hcss.platform.live.recorder import end_trial
+from hcss.platform.live.runner import Runner
+from hcss.platform.live.session import LiveTrial
+from hcss.platform.live.trials import current_trial, latest_status
+from hcss.platform.models import ConsoleAction, Experimenter, Participant
+
+STATE_ACTIONS = ("pause", "resume", "abort")
+
+
+class ConsoleError(ValueError):
+    """An action that does not fit the session's state; nothing was changed."""
+
+
+def session_state(session: Session, participant_id: int) -> str:
+    """``active``, ``paused`` or ``aborted``, from the latest pause/resume/abort row."""
+    latest = session.scalars(
+        select(ConsoleAction.action)
+        .where(
+            ConsoleAction.participant_id == participant_id,
+            ConsoleAction.action.in_(STATE_ACTIONS),
+        )
+        .order_by(ConsoleAction.id.desc())
+        .limit(1)
+    ).first()
+    return {"pause": "paused", "abort": "aborted"}.get(latest or "", "active")
+
+
+def _live_trial(session: Session, runner: Runner, participant: Participant) -> LiveTrial | None:
+    trial = current_trial(session, participant)
+    if trial is None or latest_status(session, trial.id) != "running":
+        return None
+    return runner.get(trial.id)
+
+
+def _record(
+    database: Database,
+    participant: Participant,
+    experimenter: Experimenter | None,
+    action: str,
+    at_epoch: float,
+    trial_id: int | None = None,
+    detail: str = "",
+) -> None:
+    with database.session_scope() as session:
+        session.add(
+            ConsoleAction(
+                participant_id=participant.id,
+                experimenter_id=None if experimenter is None else experimenter.id,
+                action=action,
+                trial_id=trial_id,
+                at_epoch=at_epoch,
+                detail=detail,
+            )
+        )
+
+
+def change_session(
+    database: Database,
+    runner: Runner,
+    participant: Participant,
+    experimenter: Experimenter | None,
+    action: str,
+) -> None:
+    """Pause, resume or abort; refuses an action the session's state does not allow."""
+    if action not in STATE_ACTIONS:
+        raise ConsoleError(f"unknown session action {action!r}")
+    with database.session_scope() as session:
+        state = session_state(session, participant.id)
+        live = _live_trial(session, runner, participant)
+    if state == "aborted":
+        raise ConsoleError(f"{participant.code}'s session was aborted; it cannot change now")
+    if action == "pause" and state == "paused":
+        raise ConsoleError(f"{participant.code}'s session is already paused")
+    if action == "resume" and state != "paused":
+        raise ConsoleError(f"{participant.code}'s session is not paused")
+    now = runner.clock()
+    if live is None:
+        _record(database, participant, experimenter, action, now)
+        return
+    with live.lock:
+        if action != "resume":
+            runner.advance(live, now)  # the clock stops (or the trial ends) at this instant
+        if live.ended:  # reached its time limit just now
+            _record(database, participant, experimenter, action, now)
+            return
+        with database.session_scope() as session:
+            session.add(
+                ConsoleAction(
+                    participant_id=participant.id,
+                    experimenter_id=None if experimenter is None else experimenter.id,
+                    action=action,
+                    trial_id=live.trial_id,
+                    at_epoch=now,
+                    detail=f"trial clock {live.clock(now):.1f} s",
+                )
+            )
+            if action == "abort":
+                end_trial(live, session, "aborted", now)
+        if action == "pause":
+            pause_clock(live, now)
+        elif action == "resume":
+            resume_clock(live, now)
+        else:
+            live.touch()
+
+
+def set_pilot(
+    database: Database,
+    runner: Runner,
+    participant: Participant,
+    experimenter: Experimenter | None,
+    pilot: bool,
+) -> None:
+    """Flag (or unflag) a pilot; the action row keeps the history of the flag."""
+    with database.session_scope() as session:
+        row = session.get(Participant, participant.id)
+        if row is None:
+            raise ConsoleError("no such participant")
+        if row.is_pilot == pilot:
+            raise ConsoleError(f"{row.code} is {'already' if pilot else 'not'} a pilot")
+        row.is_pilot = pilot
+        session.add(
+            ConsoleAction(
+                participant_id=row.id,
+                experimenter_id=None if experimenter is None else experimenter.id,
+                action="mark_pilot" if pilot else "unmark_pilot",
+                at_epoch=runner.clock(),
+            )
+        )

@@ -1,0 +1,212 @@
+"""The console's pages. Every route but the login page requires a signed-in experimenter.
+
+Participants reach the console through nothing: their token is not a login,
+and console URLs name participants by code, never by token.
+"""
+
+from __future__ import annotations
+
+from urllib.parse import urlsplit
+
+from flask import (
+    Blueprint,
+    Response,
+    abort,
+    current_app,
+    flash,
+    jsonify,
+    redirect,
+    render_template,
+    request,
+    send_file,
+    url_for,
+)
+from flask import (
+    session as cookie_session,
+)
+from flask_login import LoginManager, current_user, login_required, login_user, logout_user
+from sqlalchemy import select
+
+from hcss.platform.console import forms
+from hcss.platform.console.accounts import authenticate
+from hcss.platform.console.participants import create_participants, participant_link
+from hcss.platform.console.progress import progress_json, progress_rows
+from hcss.platform.console.sessions import ConsoleError, change_session, session_state, set_pilot
+from hcss.platform.console.withdrawal import WithdrawalError, withdraw
+from hcss.platform.db import database, get_session
+from hcss.platform.models import AuditRecord, ConsoleAction, Experimenter, Participant
+
+bp = Blueprint("console", __name__, url_prefix="/console", static_folder="static")
+login_manager = LoginManager()
+login_manager.login_view = "console.login"
+login_manager.login_message = "Sign in to use the console."
+login_manager.session_protection = "strong"
+
+
+@bp.record_once
+def _init_login(state) -> None:  # type: ignore[no-untyped-def]
+    login_manager.init_app(state.app)
+
+
+@login_manager.user_loader
+def _load_experimenter(user_id: str) -> Experimenter | None:
+    return get_session().get(Experimenter, int(user_id)) if user_id.isdigit() else None
+
+
+def _runner():  # type: ignore[no-untyped-def]
+    return current_app.extensions["hcss_runner"]
+
+
+def _participant(code: str) -> Participant:
+    found = get_session().scalars(select(Participant).where(Participant.code == code)).first()
+    if found is None:
+        abort(404)
+    return found
+
+
+def _safe_next(target: str | None) -> str:
+    """Only a console path: a login link must not redirect anywhere else."""
+    if target and target.startswith("/console/") and not urlsplit(target).netloc:
+        return target
+    return url_for("console.index")
+
+
+@bp.route("/login", methods=["GET", "POST"])
+def login():  # type: ignore[no-untyped-def]
+    form = forms.LoginForm()
+    if form.validate_on_submit():
+        account = authenticate(get_session(), form.username.data, form.password.data)
+        if account is not None:
+            cookie_session.clear()  # no session fixation across the sign-in
+            login_user(account)
+            return redirect(_safe_next(request.args.get("next")))
+        flash("Wrong username or password.")
+        return render_template("console/login.html", form=form), 401
+    return render_template("console/login.html", form=form)
+
+
+@bp.post("/logout")
+@login_required
+def logout():  # type: ignore[no-untyped-def]
+    if not forms.ActionForm().validate_on_submit():
+        abort(400)
+    logout_user()
+    return redirect(url_for("console.login"))
+
+
+@bp.get("/")
+@login_required
+def index() -> str:
+    session = get_session()
+    audits = session.scalars(select(AuditRecord).order_by(AuditRecord.id.desc()).limit(20)).all()
+    return render_template(
+        "console/index.html",
+        rows=progress_rows(session, _runner().clock()),
+        create_form=forms.CreateParticipantsForm(),
+        action_form=forms.ActionForm(),
+        audits=audits,
+    )
+
+
+@bp.get("/progress.json")
+@login_required
+def progress() -> Response:
+    return jsonify(participants=progress_json(get_session(), _runner().clock()))
+
+
+@bp.post("/participants")
+@login_required
+def create():  # type: ignore[no-untyped-def]
+    form = forms.CreateParticipantsForm()
+    if not form.validate_on_submit():
+        for field, errors in form.errors.items():
+            flash(f"{field}: {'; '.join(errors)}")
+        return redirect(url_for("console.index")), 303
+    try:
+        made = create_participants(
+            get_session(),
+            count=form.count.data,
+            pilot=form.pilot.data,
+            cell=form.cell.data,
+            experimenter=current_user,
+            now=_runner().clock(),
+        )
+    except ConsoleError as error:
+        get_session().rollback()
+        flash(str(error))
+        return redirect(url_for("console.index")), 303
+    flash(f"created {', '.join(p.code for p in made)}")
+    if len(made) == 1:
+        return redirect(url_for("console.participant", code=made[0].code)), 303
+    return redirect(url_for("console.index")), 303
+
+
+@bp.get("/participants/<code>")
+@login_required
+def participant(code: str) -> str:
+    found = _participant(code)
+    session = get_session()
+    actions = session.scalars(
+        select(ConsoleAction)
+        .where(ConsoleAction.participant_id == found.id)
+        .order_by(ConsoleAction.id)
+    ).all()
+    return render_template(
+        "console/participant.html",
+        participant=found,
+        link=participant_link(found),
+        state=session_state(session, found.id),
+        actions=actions,
+        action_form=forms.ActionForm(),
+        withdraw_form=forms.WithdrawForm(),
+    )
+
+
+SESSION_ACTIONS = {"pause", "resume", "abort", "mark_pilot", "unmark_pilot"}
+
+
+@bp.post("/participants/<code>/<action>")
+@login_required
+def act(code: str, action: str):  # type: ignore[no-untyped-def]
+    if action not in SESSION_ACTIONS:
+        abort(404)
+    if not forms.ActionForm().validate_on_submit():
+        abort(400)
+    found = _participant(code)
+    try:
+        if action in ("mark_pilot", "unmark_pilot"):
+            set_pilot(database(), _runner(), found, current_user, action == "mark_pilot")
+        else:
+            change_session(database(), _runner(), found, current_user, action)
+    except ConsoleError as error:
+        flash(str(error))
+        return redirect(url_for("console.participant", code=code)), 303
+    flash(f"{code}: {action.replace('_', ' ')} done")
+    return redirect(url_for("console.participant", code=code)), 303
+
+
+@bp.post("/participants/<code>/withdraw")
+@login_required
+def withdraw_participant(code: str):  # type: ignore[no-untyped-def]
+    form = forms.WithdrawForm()
+    if not form.validate_on_submit():
+        abort(400)
+    if form.confirm_code.data.strip() != code:
+        flash("The code typed does not match; nothing was deleted.")
+        return redirect(url_for("console.participant", code=code)), 303
+    try:
+        counts = withdraw(database(), _runner(), code, current_user.username)
+    except WithdrawalError as error:
+        flash(str(error))
+        return redirect(url_for("console.index")), 303
+    flash(f"{code} withdrawn: {sum(counts.values())} rows deleted, audit recorded")
+    return redirect(url_for("console.index")), 303
+
+
+@bp.get("/export.zip")
+@login_required
+def export_zip() -> Response:
+    from hcss.platform.export.archive import export_archive
+
+    archive, name = export_archive(database(), current_user.username)
+    return send_file(archive, mimetype="application/zip", as_attachment=True, download_name=name)

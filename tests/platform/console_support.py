@@ -1,0 +1,132 @@
+"""Fixtures and helpers for the console and export tests (the live engineer owns conftest.py).
+
+Import the fixtures into a test module to use them:
+``from tests.platform.console_support import experimenter, console  # noqa: F401``.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Any
+
+import pytest
+from flask import Flask
+from flask.testing import FlaskClient
+from sqlalchemy import Table, select
+
+from hcss.platform.console.accounts import create_experimenter
+from hcss.platform.models import Base, Participant
+from tests.platform.conftest import csrf_token_of
+
+USERNAME = "alice"
+PASSWORD = "correct horse battery"
+
+
+@pytest.fixture
+def experimenter(app: Flask) -> tuple[str, str]:
+    with app.extensions["hcss_db"].session_scope() as session:
+        create_experimenter(session, USERNAME, PASSWORD)
+    return USERNAME, PASSWORD
+
+
+@dataclass
+class Console:
+    """A signed-in experimenter's browser: it keeps the CSRF token pages carry."""
+
+    app: Flask
+    client: FlaskClient
+    csrf: str = ""
+
+    def get(self, path: str, **options: Any):  # type: ignore[no-untyped-def]
+        response = self.client.get(path, **options)
+        text = response.get_data(as_text=True) if response.mimetype == "text/html" else ""
+        if 'name="csrf-token"' in text:
+            self.csrf = csrf_token_of(text)
+        return response
+
+    def post(self, path: str, fields: dict[str, Any] | None = None):  # type: ignore[no-untyped-def]
+        return self.client.post(path, data={"csrf_token": self.csrf, **(fields or {})})
+
+    def act(self, code: str, action: str):  # type: ignore[no-untyped-def]
+        return self.post(f"/console/participants/{code}/{action}")
+
+    def progress(self) -> dict[str, dict[str, Any]]:
+        response = self.client.get("/console/progress.json")
+        assert response.status_code == 200
+        return {row["code"]: row for row in response.get_json()["participants"]}
+
+
+def sign_in(client: FlaskClient, username: str, password: str):  # type: ignore[no-untyped-def]
+    page = client.get("/console/login")
+    return client.post(
+        "/console/login",
+        data={
+            "csrf_token": csrf_token_of(page.get_data(as_text=True)),
+            "username": username,
+            "password": password,
+        },
+    )
+
+
+@pytest.fixture
+def console(app: Flask, experimenter: tuple[str, str]) -> Iterator[Console]:
+    client = app.test_client()
+    response = sign_in(client, *experimenter)
+    assert response.status_code == 302, response.get_data(as_text=True)
+    signed_in = Console(app=app, client=client)
+    signed_in.get("/console/")
+    yield signed_in
+
+
+def code_of(app: Flask, token: str) -> str:
+    with app.extensions["hcss_db"].session_scope() as session:
+        return session.scalars(select(Participant.code).where(Participant.token == token)).one()
+
+
+def rows_referencing(session, participant_id: int) -> dict[str, int]:  # type: ignore[no-untyped-def]
+    """Rows of each table reached from the participant through foreign keys.
+
+    Written independently of the withdrawal module: it loads every table and
+    follows each foreign key in Python, parents before children.
+    """
+    owned: dict[str, set[Any]] = {}
+    counts: dict[str, int] = {}
+    for table in Base.metadata.sorted_tables:
+        rows = session.execute(select(table)).mappings().all()
+        if table.name == "participant":
+            mine = [r for r in rows if r["id"] == participant_id]
+        else:
+            mine = [r for r in rows if _reaches(table, r, owned)]
+        if table.name == "participant" or mine or _has_path(table, owned):
+            counts[table.name] = len(mine)
+            owned[table.name] = {r["id"] for r in mine}
+    return counts
+
+
+def _has_path(table: Table, owned: dict[str, set[Any]]) -> bool:
+    return any(fk.column.table.name in owned for fk in table.foreign_keys)
+
+
+def _reaches(table: Table, row: Any, owned: dict[str, set[Any]]) -> bool:
+    return any(
+        fk.column.table.name in owned and row[fk.parent.name] in owned[fk.column.table.name]
+        for fk in table.foreign_keys
+    )
+
+
+def cells_containing(session, needle: str, skip: tuple[str, ...] = ()) -> list[str]:  # type: ignore[no-untyped-def]
+    """`table.column` of every cell whose text contains `needle` (JSON included)."""
+    found = []
+    for table in Base.metadata.sorted_tables:
+        if table.name in skip:
+            continue
+        for row in session.execute(select(table)).mappings():
+            for column, value in row.items():
+                if value is not None and needle in str(value):
+                    found.append(f"{table.name}.{column}")
+    return found
+
+
+CODE_PATTERN = re.compile(r"P[0-9A-F]{8}")
