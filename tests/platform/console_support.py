@@ -130,3 +130,35 @@ def cells_containing(session, needle: str, skip: tuple[str, ...] = ()) -> list[s
 
 
 CODE_PATTERN = re.compile(r"P[0-9A-F]{8}")
+
+
+def play_trial(trial: Any, until_s: float) -> None:  # LiveTrialHandle
+    """A scripted operator: requests (accepted and refused), clicks and probe answers.
+
+    Runs the trial second by second so probes appear, get answered or time
+    out, and collectives complete decisions, as in a real session.
+    """
+    trial.run_to(20.0)
+    view = trial.state()["view"]
+    in_range = [t["id"] for t in view["targets"] if 0 in t["in_range_of"]]
+    if in_range:
+        trial.post("/requests", {"kind": "investigate", "collective": 0, "target": in_range[0]})
+    trial.post("/requests", {"kind": "decide", "collective": 1, "target": 999})  # refused
+    trial.post("/observations", {"kind": "collective", "collective": 2, "button": "right"})
+    if view["targets"]:
+        trial.post(
+            "/observations",
+            {"kind": "target", "target": view["targets"][0]["id"], "button": "left"},
+        )
+    answered = 0
+    second = 20.0
+    while second + 2.0 < until_s:
+        second += 2.0
+        trial.run_to(second)
+        probe = trial.state()["probe"]
+        if probe and answered < 3:  # answer a few, leave the rest to time out
+            trial.post(f"/probes/{probe['id']}/ready", {})
+            choices = trial.state()["probe"]["choices"]
+            trial.post(f"/probes/{probe['id']}/answer", {"answer": choices[0]})
+            answered += 1
+    trial.run_to(until_s)  # the time limit ends the trial

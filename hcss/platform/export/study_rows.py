@@ -1,22 +1,42 @@
 """Per-participant rows: the wide participants table and the study-flow tables.
 
-The study flow's answers, scores and stage events come from the study
-engine's models; until they exist in this installation the tables are
-written with their headers only, so the analysis still finds every file.
+The study flow's enrolment, answers, scores and stage events live in the
+study engine's models (`hcss.platform.models.study`). Where that part of the
+platform is not installed the three study-flow tables are written with their
+headers only, so the analysis still finds every file. Answers and scores are
+append-only there and a correction is a newer row, so the export carries the
+newest row of each item or scale.
 """
 
 from __future__ import annotations
 
+from collections import defaultdict
 from typing import Any
 
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from hcss.platform.console.sessions import session_state
-from hcss.platform.export.tables import columns
+from hcss.platform.export.rows import iso
+from hcss.platform.export.tables import DEMOGRAPHICS, MODELS, columns
 from hcss.platform.models import Participant, Trial
 
+try:
+    from hcss.platform.models import study as study_models
+except ImportError:  # the study engine is not part of this installation
+    study_models = None  # type: ignore[assignment]
+
 Row = dict[str, Any]
+#: The stage whose entry means the participant finished the study.
+FINAL_STAGE = "debrief"
+
+
+def _newest(rows: list[Any], key) -> list[Any]:  # type: ignore[no-untyped-def]
+    """The newest row (highest id) of each key, in the order the keys first appeared."""
+    newest: dict[Any, Any] = {}
+    for row in sorted(rows, key=lambda r: r.id):
+        newest[key(row)] = row
+    return sorted(newest.values(), key=lambda r: r.id)
 
 
 def model_order(session: Session, participant: Participant) -> str:
@@ -32,24 +52,145 @@ def model_order(session: Session, participant: Participant) -> str:
     return ",".join(met)
 
 
-def participant_row(session: Session, participant: Participant) -> Row:
-    row: Row = dict.fromkeys(columns("participants"))
-    state = session_state(session, participant.id)
-    row.update(
-        participant=participant.code,
-        model_order=model_order(session, participant) or None,
-        is_pilot=participant.is_pilot,
-        is_bot=participant.is_bot,
-        is_demo=participant.is_demo,
-        status="aborted" if state == "aborted" else "in_progress",
-    )
-    return row
+def _by_participant(session: Session, model: Any) -> dict[int, list[Any]]:
+    grouped: dict[int, list[Any]] = defaultdict(list)
+    for row in session.scalars(select(model).order_by(model.id)):
+        grouped[row.participant_id].append(row)
+    return grouped
+
+
+def _status(
+    session: Session, participant: Participant, consent: list[Any], stages: list[Any]
+) -> str:
+    if session_state(session, participant.id) == "aborted":
+        return "aborted"
+    if consent and consent[-1].decision == "decline":
+        return "declined"
+    if any(event.stage == FINAL_STAGE for event in stages):
+        return "completed"
+    return "in_progress"
 
 
 def participant_rows(session: Session, participants: list[Participant]) -> list[Row]:
-    return [participant_row(session, p) for p in participants]
+    study = _study_records(session)
+    rows = []
+    for participant in participants:
+        row: Row = dict.fromkeys(columns("participants"))
+        row.update(
+            participant=participant.code,
+            model_order=model_order(session, participant) or None,
+            is_pilot=participant.is_pilot,
+            is_bot=participant.is_bot,
+            is_demo=participant.is_demo,
+        )
+        records = {name: table.get(participant.id, []) for name, table in study.items()}
+        row["status"] = _status(
+            session, participant, records.get("consent", []), records.get("stages", [])
+        )
+        if study:
+            _fill_study_columns(row, records)
+        rows.append(row)
+    return rows
+
+
+def _study_records(session: Session) -> dict[str, dict[int, list[Any]]]:
+    if study_models is None:
+        return {}
+    return {
+        "enrolment": _by_participant(session, study_models.StudyEnrolment),
+        "consent": _by_participant(session, study_models.ConsentRecord),
+        "stages": _by_participant(session, study_models.StageEvent),
+        "items": _by_participant(session, study_models.QuestionnaireItem),
+        "scores": _by_participant(session, study_models.Score),
+    }
+
+
+def _fill_study_columns(row: Row, records: dict[str, list[Any]]) -> None:
+    if records["enrolment"]:
+        enrolment = records["enrolment"][-1]
+        row.update(study=enrolment.study, cell=enrolment.cell, model_order=enrolment.model_order)
+    answers = {
+        item.item: item.value
+        for item in _newest(records["items"], lambda i: (i.instrument, i.model, i.item))
+        if item.instrument == "demographics"
+    }
+    row.update({key: answers.get(key) for key in DEMOGRAPHICS})
+    scores = {
+        (s.instrument, s.model, s.scale): s.score
+        for s in _newest(records["scores"], lambda s: (s.instrument, s.model, s.scale))
+    }
+    total = scores.get(("mrt", "", "total"))
+    row["mrt_score"] = None if total is None else int(total)
+    for model in MODELS:
+        row[f"tlx_overall_{model}"] = scores.get(("nasa_tlx", model, "overall"))
+        row[f"sart_{model}"] = scores.get(("sart", model, "overall"))
 
 
 def study_flow_rows(session: Session, participants: list[Participant]) -> dict[str, list[Row]]:
-    """questionnaire_items, scores and stage_timings rows."""
-    return {"questionnaire_items": [], "scores": [], "stage_timings": []}
+    """questionnaire_items, scores and stage_timings rows (headers only without the engine)."""
+    tables: dict[str, list[Row]] = {"questionnaire_items": [], "scores": [], "stage_timings": []}
+    study = _study_records(session)
+    if not study:
+        return tables
+    for participant in participants:
+        code = participant.code
+        for item in _newest(
+            study["items"].get(participant.id, []), lambda i: (i.instrument, i.model, i.item)
+        ):
+            tables["questionnaire_items"].append(
+                {
+                    "participant": code,
+                    "wall_time": iso(item.created_at),
+                    "instrument": item.instrument,
+                    "model": item.model or None,
+                    "item": item.item,
+                    "value": item.value,
+                }
+            )
+        for score in _newest(
+            study["scores"].get(participant.id, []), lambda s: (s.instrument, s.model, s.scale)
+        ):
+            tables["scores"].append(
+                {
+                    "participant": code,
+                    "instrument": score.instrument,
+                    "model": score.model or None,
+                    "scale": score.scale,
+                    "score": score.score,
+                }
+            )
+        tables["stage_timings"].extend(
+            stage_timing_rows(code, study["stages"].get(participant.id, []))
+        )
+    return tables
+
+
+def stage_timing_rows(code: str, events: list[Any]) -> list[Row]:
+    """One row per stage: first entry, and the last submission once a later stage began.
+
+    A stage has several steps (MRT parts, introduction pages); it counts as
+    submitted when the participant has moved on to a later stage, or, for the
+    last stage reached, when its newest event is a submission.
+    """
+    stages: dict[int, list[Any]] = defaultdict(list)
+    for event in sorted(events, key=lambda e: e.id):
+        stages[event.stage_index].append(event)
+    last_index = max(stages, default=-1)
+    rows = []
+    for index in sorted(stages):
+        stage_events = stages[index]
+        entered = [e.at for e in stage_events if e.kind == "entered"]
+        ends = [e for e in stage_events if e.kind in ("submitted", "timed_out")]
+        finished = bool(ends) and (index < last_index or stage_events[-1].kind != "entered")
+        rows.append(
+            {
+                "participant": code,
+                "stage_index": index,
+                "stage": stage_events[0].stage,
+                "model": stage_events[0].model or None,
+                "entered_at": iso(min(entered)) if entered else None,
+                "submitted_at": iso(max(e.at for e in ends)) if finished else None,
+                "timed_out": any(e.kind == "timed_out" for e in stage_events),
+            }
+        )
+    return rows
