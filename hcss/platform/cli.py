@@ -72,11 +72,13 @@ def serve(host: str, port: int, threads: int, time_acceleration: float | None) -
     from waitress import serve as waitress_serve
 
     from hcss.platform.app import create_app
+    from hcss.platform.console.accounts import ensure_first_login
 
     config: dict[str, object] = {}
     if time_acceleration is not None:
         config["TIME_ACCELERATION"] = time_acceleration
     app = create_app(config)
+    ensure_first_login(app)  # prints a console login once, on a server with no experimenter
     url = f"http://{host}:{port}/"
     click.echo(f"hcss serving on {url}  (Ctrl-C stops)")
     click.echo(f"open a demo trial:  hcss demo-trial --base-url {url.rstrip('/')}")
