@@ -11,9 +11,9 @@ from hcss.platform.models import ConsoleAction, Experimenter, Participant
 
 
 def _cell_assigner():  # type: ignore[no-untyped-def]
-    """The study engine's `assign_cell`, once that part of the platform exists."""
+    """The study engine's `assign_cell`, where that part of the platform is installed."""
     try:
-        from hcss.platform.study import assign_cell
+        from hcss.platform.study.enrolment import assign_cell
     except ImportError:
         return None
     return assign_cell
@@ -28,7 +28,12 @@ def create_participants(
     experimenter: Experimenter | None,
     now: float,
 ) -> list[Participant]:
-    """New participants with unguessable tokens, each with a `create` action row."""
+    """New participants with unguessable tokens, each with a `create` action row.
+
+    Without an override the study engine assigns the cell when the participant
+    first opens their link, so people who never come do not fill cells; an
+    override is enrolled now, through the engine, and recorded as an action.
+    """
     assign_cell = _cell_assigner()
     if cell is not None and assign_cell is None:
         raise ConsoleError("a cell override needs the study engine, which is not installed yet")
@@ -46,21 +51,20 @@ def create_participants(
                 detail="pilot" if pilot else "",
             )
         )
-        if assign_cell is not None:
+        if cell is not None:
             try:
                 assign_cell(session, participant, override=cell)
             except ValueError as error:
                 raise ConsoleError(str(error)) from error
-            if cell is not None:
-                session.add(
-                    ConsoleAction(
-                        participant_id=participant.id,
-                        experimenter_id=None if experimenter is None else experimenter.id,
-                        action="cell_override",
-                        at_epoch=now,
-                        detail=f"cell {cell}",
-                    )
+            session.add(
+                ConsoleAction(
+                    participant_id=participant.id,
+                    experimenter_id=None if experimenter is None else experimenter.id,
+                    action="cell_override",
+                    at_epoch=now,
+                    detail=f"cell {cell}",
                 )
+            )
         made.append(participant)
     session.flush()
     return made

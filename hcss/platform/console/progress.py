@@ -18,6 +18,11 @@ from hcss.platform.console.pauses import paused_intervals
 from hcss.platform.console.sessions import session_state
 from hcss.platform.models import Participant, Trial, TrialStatusChange
 
+try:
+    from hcss.platform.models.study import StageEvent
+except ImportError:  # the study engine is not part of this installation
+    StageEvent = None  # type: ignore[assignment,misc]
+
 
 @dataclass(frozen=True)
 class ProgressRow:
@@ -53,27 +58,51 @@ def _trial_status(session: Session, trial_id: int) -> TrialStatusChange | None:
     ).first()
 
 
+def _latest_stage_events(session: Session) -> dict[int, object]:
+    if StageEvent is None:
+        return {}
+    newest = select(func.max(StageEvent.id)).group_by(StageEvent.participant_id)
+    return {
+        e.participant_id: e
+        for e in session.scalars(select(StageEvent).where(StageEvent.id.in_(newest)))
+    }
+
+
+def _stage_label(event) -> str:  # type: ignore[no-untyped-def]
+    """``mental_rotation part_1``, ``trial M2``; ``(done)`` once submitted or timed out."""
+    label = " ".join(
+        part for part in (event.stage, event.model, event.step) if part and part != "form"
+    )
+    return label if event.kind == "entered" else f"{label} ({event.kind.replace('_', ' ')})"
+
+
 def progress_rows(session: Session, now: float) -> list[ProgressRow]:
-    """One row per participant, newest first."""
+    """One row per participant, newest first.
+
+    The stage is the study flow's newest stage event when the study engine
+    is installed; a running trial adds its clock. Without stage events the
+    newest trial is the only progress there is to show.
+    """
     trials = _latest_trials(session)
+    stage_events = _latest_stage_events(session)
     rows = []
     for participant in session.scalars(select(Participant).order_by(Participant.id.desc())):
         state = session_state(session, participant.id)
         trial = trials.get(participant.id)
+        event = stage_events.get(participant.id)
+        status = None if trial is None else _trial_status(session, trial.id)
         clock = duration = None
-        if trial is None:
-            stage, since = "not started", participant.created_at.timestamp()
+        if trial is not None and status is not None and status.status == "running":
+            stage, since = f"{trial.kind} {trial.model}", trial.started_at.timestamp()
+            clock, duration = trial_clock_s(session, trial, now), trial.duration_s
+        elif event is not None:
+            stage, since = _stage_label(event), event.at.timestamp()
+        elif trial is not None:
+            reason = "" if status is None else f" ({status.reason})"
+            stage = f"{trial.kind} {trial.model} ended{reason}"
+            since = (trial.started_at if status is None else status.created_at).timestamp()
         else:
-            status = _trial_status(session, trial.id)
-            label = f"{trial.kind} {trial.model}"
-            since = trial.started_at.timestamp()
-            if status is not None and status.status == "running":
-                stage = label
-                clock, duration = trial_clock_s(session, trial, now), trial.duration_s
-            else:
-                reason = "" if status is None else f" ({status.reason})"
-                stage = f"{label} ended{reason}"
-                since = since if status is None else status.created_at.timestamp()
+            stage, since = "not started", participant.created_at.timestamp()
         rows.append(
             ProgressRow(
                 code=participant.code,

@@ -1,0 +1,207 @@
+"""The study flow's records in the export and the live table (needs the study engine's models)."""
+
+from __future__ import annotations
+
+from datetime import UTC, datetime, timedelta
+
+import pytest
+from click.testing import CliRunner
+from sqlalchemy import select
+
+from hcss.cli import main
+from hcss.platform.models import Participant
+from tests.platform import console_support
+from tests.platform.test_export_tables import read_csv
+
+study = pytest.importorskip("hcss.platform.models.study")
+console, experimenter = console_support.console, console_support.experimenter
+
+T0 = datetime(2026, 11, 22, 9, 0, tzinfo=UTC)
+
+
+def _at(seconds: float) -> datetime:
+    return T0 + timedelta(seconds=seconds)
+
+
+def _record_study(session, participant: Participant) -> None:  # type: ignore[no-untyped-def]
+    """What the study flow writes for a participant who reached the first post-trial form."""
+    pid = participant.id
+    session.add(
+        study.StudyEnrolment(
+            participant_id=pid,
+            study="original",
+            study_digest="0" * 64,
+            cell=3,
+            model_order="M2,M1,M3",
+            first_sections={"M1": "easy", "M2": "difficult", "M3": "easy"},
+            pool="real",
+        )
+    )
+    session.add(study.ConsentRecord(participant_id=pid, version="v1", decision="agree", at=_at(5)))
+    events = [
+        (0, "consent", "", "form", "entered", 0),
+        (0, "consent", "", "form", "submitted", 5),
+        (1, "demographics", "", "form", "entered", 5),
+        (1, "demographics", "", "form", "submitted", 65),
+        (2, "mental_rotation", "", "part_1", "entered", 65),
+        (2, "mental_rotation", "", "part_1", "timed_out", 245),
+        (2, "mental_rotation", "", "part_2", "entered", 250),
+        (2, "mental_rotation", "", "part_2", "submitted", 400),
+        (3, "post_trial", "M2", "form", "entered", 500),
+    ]
+    for index, stage, model, step, kind, at in events:
+        session.add(
+            study.StageEvent(
+                participant_id=pid,
+                stage_index=index,
+                stage=stage,
+                step=step,
+                model=model,
+                kind=kind,
+                at=_at(at),
+            )
+        )
+    answers = [
+        ("demographics", "", "age_band", "18-30"),
+        ("demographics", "", "gender", "female"),
+        ("demographics", "", "video_games", "2"),
+        ("demographics", "", "video_games", "3"),  # a correction: the newer row wins
+        ("nasa_tlx", "M2", "mental_demand", "55"),
+    ]
+    for instrument, model, item, value in answers:
+        session.add(
+            study.QuestionnaireItem(
+                participant_id=pid,
+                stage_index=1,
+                instrument=instrument,
+                model=model,
+                item=item,
+                value=value,
+                at=_at(60),
+            )
+        )
+    for instrument, model, scale, score in [
+        ("mrt", "", "total", 17.0),
+        ("mrt", "", "part_1", 9.0),
+        ("nasa_tlx", "M2", "overall", 48.5),
+        ("sart", "M2", "overall", 6.0),
+    ]:
+        session.add(
+            study.Score(
+                participant_id=pid, instrument=instrument, model=model, scale=scale, score=score
+            )
+        )
+    session.flush()
+
+
+def test_study_records_fill_the_participant_and_study_tables(app, database_url, tmp_path) -> None:
+    with app.extensions["hcss_db"].session_scope() as session:
+        participant = Participant()
+        session.add(participant)
+        session.flush()
+        _record_study(session, participant)
+        code = participant.code
+    outdir = tmp_path / "export"
+    result = CliRunner().invoke(main, ["export", str(outdir), "--database-url", database_url])
+    assert result.exit_code == 0, result.output
+
+    _, participants = read_csv(outdir / "participants.csv")
+    (row,) = participants
+    assert row["participant"] == code
+    assert (row["study"], row["cell"], row["model_order"]) == ("original", "3", "M2,M1,M3")
+    assert (row["age_band"], row["gender"], row["video_games"], row["robots"]) == (
+        "18-30",
+        "female",
+        "3",
+        "",
+    )
+    assert (row["mrt_score"], row["tlx_overall_M2"], row["sart_M2"], row["sart_M1"]) == (
+        "17",
+        "48.5",
+        "6.0",
+        "",
+    )
+    assert row["status"] == "in_progress"
+
+    _, items = read_csv(outdir / "questionnaire_items.csv")
+    assert [(i["item"], i["value"]) for i in items if i["item"] == "video_games"] == [
+        ("video_games", "3")
+    ]
+    assert {i["model"] for i in items} == {"", "M2"}
+    _, scores = read_csv(outdir / "scores.csv")
+    assert {(s["instrument"], s["model"], s["scale"]) for s in scores} == {
+        ("mrt", "", "total"),
+        ("mrt", "", "part_1"),
+        ("nasa_tlx", "M2", "overall"),
+        ("sart", "M2", "overall"),
+    }
+    _, timings = read_csv(outdir / "stage_timings.csv")
+    by_stage = {t["stage"]: t for t in timings}
+    assert list(by_stage) == ["consent", "demographics", "mental_rotation", "post_trial"]
+    mrt = by_stage["mental_rotation"]
+    assert mrt["entered_at"] == "2026-11-22T09:01:05.000Z"
+    assert mrt["submitted_at"] == "2026-11-22T09:06:40.000Z" and mrt["timed_out"] == "true"
+    assert by_stage["demographics"]["timed_out"] == "false"
+    assert by_stage["post_trial"]["submitted_at"] == "" and by_stage["post_trial"]["model"] == "M2"
+
+
+def test_declined_and_completed_participants_are_told_apart(app, database_url, tmp_path) -> None:
+    with app.extensions["hcss_db"].session_scope() as session:
+        declined, finished = Participant(), Participant()
+        session.add_all([declined, finished])
+        session.flush()
+        session.add(
+            study.ConsentRecord(participant_id=declined.id, version="v1", decision="decline", at=T0)
+        )
+        session.add(
+            study.StageEvent(
+                participant_id=finished.id,
+                stage_index=20,
+                stage="debrief",
+                step="form",
+                model="",
+                kind="entered",
+                at=T0,
+            )
+        )
+        codes = {declined.code: "declined", finished.code: "completed"}
+    outdir = tmp_path / "export"
+    assert (
+        CliRunner().invoke(main, ["export", str(outdir), "--database-url", database_url]).exit_code
+        == 0
+    )
+    _, participants = read_csv(outdir / "participants.csv")
+    assert {p["participant"]: p["status"] for p in participants} == codes
+
+
+def test_the_live_table_shows_the_study_stage(app, console) -> None:
+    with app.extensions["hcss_db"].session_scope() as session:
+        participant = Participant()
+        session.add(participant)
+        session.flush()
+        _record_study(session, participant)
+        code = participant.code
+    app.extensions["hcss_runner"].clock.now = _at(530).timestamp()
+    row = console.progress()[code]
+    assert row["stage"] == "post_trial M2" and row["time_in_stage_s"] == 30.0
+
+
+def test_a_cell_override_enrols_through_the_study_engine(app, console) -> None:
+    pytest.importorskip("hcss.platform.study.enrolment")
+    response = console.post("/console/participants", {"count": "1", "cell": "5"})
+    assert response.status_code == 303
+    code = response.headers["Location"].rsplit("/", 1)[-1]
+    with app.extensions["hcss_db"].session_scope() as session:
+        participant = session.scalars(select(Participant).where(Participant.code == code)).one()
+        (enrolment,) = session.scalars(
+            select(study.StudyEnrolment).where(
+                study.StudyEnrolment.participant_id == participant.id
+            )
+        ).all()
+        assert (enrolment.cell, enrolment.override) == (5, True)
+    page = console.get(f"/console/participants/{code}").get_data(as_text=True)
+    assert "cell_override" in page and "cell 5" in page
+    # A cell the design does not have: refused, nobody created.
+    before = len(console.progress())
+    console.post("/console/participants", {"count": "1", "cell": "9"})
+    assert len(console.progress()) == before
