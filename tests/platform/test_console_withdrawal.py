@@ -128,3 +128,25 @@ def test_the_schema_walk_finds_tables_added_later() -> None:
     assert "audit_record" not in names and "experimenter" not in names
     assert names.index("future_answer") < names.index("probe_event") < names.index("probe")
     assert names[-1] == "participant"
+
+
+def test_withdrawal_reaches_the_study_flow_records(app, console) -> None:
+    pytest.importorskip("hcss.platform.models.study")
+    from tests.platform.test_export_study import _record_study
+
+    with app.extensions["hcss_db"].session_scope() as session:
+        participant = Participant()
+        session.add(participant)
+        session.flush()
+        _record_study(session, participant)
+        participant_id, code = participant.id, participant.code
+    with app.extensions["hcss_db"].session_scope() as session:
+        before = rows_referencing(session, participant_id)
+    for table in ("study_enrolment", "stage_event", "questionnaire_item", "score"):
+        assert before[table] > 0, table
+    console.post(f"/console/participants/{code}/withdraw", {"confirm_code": code})
+    with app.extensions["hcss_db"].session_scope() as session:
+        assert not any(rows_referencing(session, participant_id).values())
+        assert cells_containing(session, code, skip=("audit_record",)) == []
+        audit = session.scalars(select(AuditRecord)).one()
+        assert audit.row_counts["stage_event"] == before["stage_event"]

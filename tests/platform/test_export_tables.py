@@ -180,3 +180,11 @@ def test_console_download_is_the_export_as_a_zip(app, make_trial, console) -> No
             None,
         )
         assert audit.row_counts["participants"] == 1
+
+
+def test_export_of_an_unmigrated_database_says_what_to_do(tmp_path) -> None:
+    empty = f"sqlite:///{tmp_path / 'empty.sqlite3'}"
+    outdir = tmp_path / "export"
+    result = CliRunner().invoke(main, ["export", str(outdir), "--database-url", empty])
+    assert result.exit_code != 0 and "hcss db upgrade" in result.output
+    assert not outdir.exists()

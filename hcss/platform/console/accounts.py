@@ -81,8 +81,11 @@ def ensure_first_login(app: Flask) -> tuple[str, str] | None:
                 return None
             password = secrets.token_urlsafe(12)
             create_experimenter(session, FIRST_USERNAME, password)
-    except (OperationalError, ProgrammingError):
-        click.echo("no experimenter table yet: run `hcss db upgrade`, then restart", err=True)
+    except (OperationalError, ProgrammingError) as error:
+        click.echo(
+            f"no console login created ({error.orig}); run `hcss db upgrade`, then restart",
+            err=True,
+        )
         return None
     click.echo(
         f"first console login (shown once): {FIRST_USERNAME} / {password}  "

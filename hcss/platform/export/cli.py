@@ -21,6 +21,8 @@ def export(outdir: Path, replace: bool, database_url: str | None) -> None:
     Participants appear by code only. Pilot, bot and demo participants are
     flagged in participants.csv; `hcss analyze` leaves them out unless asked.
     """
+    from sqlalchemy.exc import OperationalError, ProgrammingError
+
     from hcss.platform.config import database_url as default_url
     from hcss.platform.db import Database
     from hcss.platform.export.writer import ExportError, write_export
@@ -37,6 +39,10 @@ def export(outdir: Path, replace: bool, database_url: str | None) -> None:
             )
     except ExportError as error:
         raise click.ClickException(str(error)) from error
+    except (OperationalError, ProgrammingError) as error:
+        raise click.ClickException(
+            f"cannot read the database ({error.orig}); is it migrated (`hcss db upgrade`)?"
+        ) from error
     finally:
         database.engine.dispose()
     participants = counts.get("participants", 0)
