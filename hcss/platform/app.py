@@ -22,6 +22,7 @@ BLUEPRINTS: list[tuple[str, str]] = [
     ("hcss.platform.pages", "bp"),
     ("hcss.platform.live.views", "bp"),
     ("hcss.platform.live.api", "bp"),
+    ("hcss.platform.study.views", "bp"),
     ("hcss.platform.console.views", "bp"),
 ]
 

@@ -98,11 +98,13 @@ class Runner:
             due = live.due_step(now)
             if due <= live.sim.step_count:
                 return
+            # A simulation whose decisions are all made stops stepping early; the
+            # trial still ends at its time limit, so the end is judged by `due`.
             live.sim.step(due - live.sim.step_count)
             live.touch()
             with self.database.session_scope() as session:
                 record_progress(live, session)
-                if live.sim.step_count >= live.total_steps:
+                if due >= live.total_steps:
                     end_trial(live, session, "time_limit", now)
                 elif now - live.last_snapshot_epoch >= self.snapshot_interval_s:
                     write_snapshot(live, session, now)

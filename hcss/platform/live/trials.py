@@ -7,7 +7,7 @@ the runner finds every trial whose latest status is ``running`` and steps it.
 from __future__ import annotations
 
 import secrets
-from datetime import timedelta
+from datetime import datetime, timedelta
 
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
@@ -27,11 +27,13 @@ def start_trial(
     first_section: str = "easy",
     duration_s: float | None = None,
     time_acceleration: float = 1.0,
+    started_at: datetime | None = None,
 ) -> Trial:
     """Write a new trial whose clock starts now; the runner picks it up.
 
     The deadline is absolute, so the trial ends on time even if no page is
-    open or the server was down in between.
+    open or the server was down in between. `started_at` (default: now) lets
+    the study flow start it on the runner's clock, which tests and bots move.
     """
     from hcss.simulation import Scenario
 
@@ -51,7 +53,7 @@ def start_trial(
     duration = TRIAL_DURATION_S[kind] if duration_s is None else float(duration_s)
     if duration <= 0:
         raise ValueError("duration_s must be positive")
-    started_at = utcnow()
+    started_at = started_at or utcnow()
     trial = Trial(
         participant_id=participant.id,
         kind=kind,

@@ -1,0 +1,325 @@
+"""Participant bots: walk the whole web study over HTTP, as a participant would.
+
+A bot uses Flask's test client on an app whose live runner is driven by a
+`ManualClock`: the bot moves the clock and lets the runner step, so a
+20-minute trial takes a few seconds (time acceleration without waiting).
+From the study file alone, independently of the study engine, it works out
+which page must come next and asserts each page it reaches is that page;
+then it fills the page's form, answers MRT items, supervises trials with a
+scripted operator policy (hcss.simulation.operators) through the live JSON
+API, answers SA probes and fills every questionnaire. Bot participants are
+flagged `is_bot`, so their data are always set apart.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import time
+from collections import defaultdict
+from dataclasses import dataclass, field
+from html.parser import HTMLParser
+from typing import Any
+
+import numpy as np
+from flask import Flask
+from flask.testing import FlaskClient
+
+from hcss.platform.models import Participant
+from hcss.platform.study.enrolment import assign_cell
+from hcss.platform.study.studyfile import Study, load_study
+from hcss.questionnaires import mrt, pages, ranking
+from hcss.simulation.operators import InvestigateThenDecide
+
+
+class BotError(AssertionError):
+    """The bot reached a page it did not expect, or the platform refused it."""
+
+
+class ManualClock:
+    """Wall-clock seconds since the epoch that move only when told to."""
+
+    def __init__(self, now: float | None = None) -> None:
+        self.now = time.time() if now is None else now
+
+    def __call__(self) -> float:
+        return self.now
+
+
+class PageParser(HTMLParser):
+    """What a bot reads from a page: the stage marker, the form and its inputs."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.stage = self.step = ""
+        self.action = ""
+        self.hidden: dict[str, str] = {}
+        self.radios: dict[str, list[str]] = defaultdict(list)
+        self.checkboxes: list[str] = []
+        self.mrt_item = ""
+        self.interface: dict[str, str] = {}
+        self.csrf = ""
+
+    def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+        a = {k: v or "" for k, v in attrs}
+        if tag == "main" and "data-stage" in a:
+            self.stage, self.step = a["data-stage"], a.get("data-step", "")
+        elif tag == "meta" and a.get("name") == "csrf-token":
+            self.csrf = a.get("content", "")
+        elif tag == "form" and a.get("id") == "stage-form":
+            self.action = a.get("action", "")
+        elif tag == "div" and a.get("id") == "interface":
+            self.interface = a
+        elif tag == "div" and "data-item" in a:
+            self.mrt_item = a["data-item"]
+        elif tag == "input":
+            kind, name = a.get("type"), a.get("name", "")
+            if kind == "hidden":
+                self.hidden[name] = a.get("value", "")
+            elif kind == "radio":
+                self.radios[name].append(a.get("value", ""))
+            elif kind == "checkbox" and "disabled" not in a:
+                self.checkboxes.append(a.get("value", ""))
+
+
+def parse_page(html: str) -> PageParser:
+    parser = PageParser()
+    parser.feed(html)
+    return parser
+
+
+def expected_pages(study: Study) -> list[tuple[str, str]]:
+    """Every (stage, step) a participant passes through, from the study file alone."""
+    intro = [f"page_{page.number}" for page in pages.introduction_pages()]
+    settings = study.mrt
+    mrt_steps = ["instructions"] + [f"practice_{n}" for n in range(1, settings.practice_items + 1)]
+    for number in range(1, len(settings.part_items) + 1):
+        mrt_steps += ([f"break_{number - 1}"] if number > 1 else []) + [f"part_{number}"]
+    steps = {
+        "mental_rotation": mrt_steps,
+        "introduction": intro,
+        "training": ["ready", "run"],
+        "trial": ["ready", "run"],
+        "nasa_tlx": ["ratings", "comparisons"],
+    }
+    names = list(study.before) + list(study.per_model) * len(study.models) + list(study.after)
+    return [(name, step) for name in names for step in steps.get(name, ["form"])]
+
+
+@dataclass
+class BotReport:
+    code: str
+    pages: int = 0
+    mrt_answers: int = 0
+    requests: int = 0
+    accepted: int = 0
+    probes_answered: int = 0
+    trials: list[int] = field(default_factory=list)
+
+
+class ParticipantBot:
+    """One bot participant walking the study from its personal link to the debrief."""
+
+    def __init__(
+        self,
+        app: Flask,
+        token: str,
+        *,
+        seed: int = 0,
+        tick_s: float = 2.0,
+        policy_every_s: float = 6.0,
+        mrt_accuracy: float = 0.6,
+    ) -> None:
+        self.app = app
+        self.client: FlaskClient = app.test_client()
+        self.token = token
+        self.rng = np.random.default_rng(seed)
+        self.tick_s = tick_s  # trial seconds per look at the interface
+        self.policy_every_s = policy_every_s
+        self.mrt_accuracy = mrt_accuracy
+        self.runner = app.extensions["hcss_runner"]
+        if not isinstance(self.runner.clock, ManualClock):
+            raise BotError("bots need the app's runner on a ManualClock (use bot_app)")
+
+    # --- HTTP ------------------------------------------------------------------------
+
+    def get(self, url: str) -> tuple[str, str]:
+        """GET, following redirects; returns (final path, html)."""
+        response = self.client.get(url, follow_redirects=True)
+        if response.status_code != 200:
+            raise BotError(f"GET {url} answered {response.status_code}")
+        return response.request.path, response.get_data(as_text=True)
+
+    def post_form(self, page: PageParser, fields: dict[str, Any]) -> str:
+        body = dict(page.hidden) | fields
+        response = self.client.post(page.action, data=body, follow_redirects=True)
+        if response.status_code != 200:
+            raise BotError(f"POST {page.action} answered {response.status_code}")
+        return response.get_data(as_text=True)
+
+    # --- the walk --------------------------------------------------------------------
+
+    def run(self, study: Study) -> BotReport:
+        with self.app.app_context():
+            from hcss.platform.db import database
+
+            with database().session_scope() as session:
+                code = session.query(Participant.code).filter_by(token=self.token).scalar()
+        report = BotReport(code=code or "?")
+        plan = expected_pages(study)
+        _, html = self.get(f"/p/{self.token}")
+        position = 0
+        while True:
+            page = parse_page(html)
+            if page.interface:
+                stage, step = plan[position]
+                if step != "run":
+                    raise BotError(f"expected {stage}/{step}, reached the Collective Interface")
+                html = self.supervise(page, stage, report)
+                position += 1
+                report.pages += 1
+                continue
+            if page.stage == "debrief" and position == len(plan) - 1:
+                report.pages += 1
+                return report
+            if position >= len(plan) or (page.stage, page.step) != plan[position]:
+                wanted = plan[position] if position < len(plan) else "the end"
+                raise BotError(f"expected {wanted}, reached {page.stage}/{page.step}")
+            html, finished = self.act(page, report)
+            if finished:
+                position += 1
+                report.pages += 1
+
+    def act(self, page: PageParser, report: BotReport) -> tuple[str, bool]:
+        """Answer the page; True when that ends the step (MRT parts take many answers)."""
+        stage, step = page.stage, page.step
+        if stage == "consent":
+            return self.post_form(page, {"decision": "agree"}), True
+        if stage == "ranking":
+            fields = {}
+            for dimension in ranking.DIMENSIONS:
+                ranks = self.rng.permutation(ranking.MODEL_COUNT) + 1
+                for label, rank in zip(ranking.ORDER_LABELS, ranks, strict=True):
+                    fields[ranking.item_key(dimension.key, label)] = str(rank)
+            return self.post_form(page, fields), True
+        if stage == "mental_rotation" and page.mrt_item:
+            html = self.post_form(page, {"chosen": self.mrt_choice(page.mrt_item)})
+            report.mrt_answers += page.hidden.get("action") == "answer"
+            after = parse_page(html)
+            done = (after.stage, after.step) != (stage, step)
+            return html, done
+        if stage == "mental_rotation" and step.startswith("practice_"):
+            return self.post_form(page, {}), True  # the feedback's Continue
+        fields = {name: str(self.rng.choice(values)) for name, values in page.radios.items()}
+        return self.post_form(page, fields), True
+
+    def mrt_choice(self, key: str) -> list[str]:
+        item = next(i for i in (*mrt.item_bank(), *mrt.practice_items()) if i.key == key)
+        if self.rng.random() < self.mrt_accuracy:
+            return [str(i) for i in sorted(item.correct)]
+        return [str(i) for i in sorted(self.rng.choice(4, size=2, replace=False))]
+
+    # --- a live trial ------------------------------------------------------------------
+
+    def supervise(self, page: PageParser, stage: str, report: BotReport) -> str:
+        """Run the trial to its end: look, request, answer probes; then press Continue."""
+        trial_id = int(re.search(r"/trials/(\d+)/", page.interface["data-stream-url"]).group(1))  # type: ignore[union-attr]
+        api = f"/api/live/{self.token}/trials/{trial_id}"
+        headers = {"X-CSRFToken": page.csrf}
+        report.trials.append(trial_id)
+        policy = InvestigateThenDecide(abandon_below=0.3)
+        next_policy = 0.0
+        while True:
+            state = self.client.get(api + "/state")
+            if state.status_code == 409:  # the runner has let go of an ended trial
+                break
+            frame = json.loads(state.get_data(as_text=True))
+            if frame["trial"]["kind"] != stage:
+                raise BotError(
+                    f"expected a {stage}, the interface shows a {frame['trial']['kind']}"
+                )
+            if frame["trial"]["status"] == "ended":
+                break
+            clock = frame["trial"]["clock_s"]
+            probe = frame.get("probe")
+            if probe and probe["phase"] == "ready":
+                self._ok(
+                    self.client.post(f"{api}/probes/{probe['id']}/ready", json={}, headers=headers)
+                )
+            elif probe:
+                answer = str(self.rng.choice(probe["choices"]))
+                self._ok(
+                    self.client.post(
+                        f"{api}/probes/{probe['id']}/answer",
+                        json={"answer": answer},
+                        headers=headers,
+                    )
+                )
+                report.probes_answered += 1
+            if clock >= next_policy:
+                next_policy = clock + self.policy_every_s
+                for command in policy.commands(frame["view"])[:3]:
+                    outcome = self._ok(
+                        self.client.post(f"{api}/requests", json=command, headers=headers)
+                    )
+                    report.requests += 1
+                    report.accepted += bool(outcome.get("accepted"))
+                if frame["view"]["collectives"]:
+                    hub = int(self.rng.integers(len(frame["view"]["collectives"])))
+                    click = {"kind": "collective", "collective": hub, "button": "right"}
+                    self._ok(self.client.post(f"{api}/observations", json=click, headers=headers))
+            self.runner.clock.now += self.tick_s / self._acceleration(frame)
+            self.runner.tick()
+        continue_url = page.interface.get("data-continue-url")
+        if not continue_url:
+            raise BotError("the trial page offers no way on to the next stage")
+        return self.get(continue_url)[1]
+
+    def _acceleration(self, frame: dict[str, Any]) -> float:
+        live = self.runner.trials.get(frame["trial"]["id"])
+        return live.acceleration if live is not None else 1.0
+
+    @staticmethod
+    def _ok(response: Any) -> dict[str, Any]:
+        if response.status_code >= 400 and response.status_code != 409:
+            raise BotError(
+                f"live API answered {response.status_code}: {response.get_data(as_text=True)}"
+            )
+        return response.get_json(silent=True) or {}
+
+
+def bot_app(database_url: str, study: str, **config: Any) -> Flask:
+    """An app for bots: the named study, no runner thread, a clock the bots move."""
+    from hcss.platform.app import create_app
+
+    study_file = load_study(study)
+    app = create_app(
+        {
+            "DATABASE_URL": database_url,
+            "STUDY": study,
+            "LIVE_RUNNER": False,
+            "TIME_ACCELERATION": study_file.max_time_acceleration,
+            **config,
+        }
+    )
+    app.extensions["hcss_runner"].clock = ManualClock()
+    return app
+
+
+def run_bots(app: Flask, n: int, *, seed: int = 0, progress: Any = None) -> list[BotReport]:
+    """Create `n` bot participants, enrol each, and walk each through the whole study."""
+    from hcss.platform.db import database
+
+    study = load_study(app.config["STUDY"])
+    reports = []
+    for number in range(n):
+        with app.app_context(), database().session_scope() as session:
+            participant = Participant(is_bot=True)
+            session.add(participant)
+            session.flush()
+            assign_cell(session, participant)
+            token = participant.token
+        reports.append(ParticipantBot(app, token, seed=seed + number).run(study))
+        if progress is not None:
+            progress(reports[-1])
+    return reports
