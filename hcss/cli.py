@@ -19,6 +19,7 @@ COMMANDS: list[tuple[str, str]] = [
     ("hcss.platform.cli", "demo_trial"),
     ("hcss.platform.console.cli", "admin_group"),
     ("hcss.platform.export.cli", "export"),
+    ("hcss.platform.bots", "bots_command"),
 ]
 
 

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 from html.parser import HTMLParser
 from typing import Any
 
+import click
 import numpy as np
 from flask import Flask
 from flask.testing import FlaskClient
@@ -323,3 +324,40 @@ def run_bots(app: Flask, n: int, *, seed: int = 0, progress: Any = None) -> list
         if progress is not None:
             progress(reports[-1])
     return reports
+
+
+@click.command("bots")
+@click.option("--n", "count", default=8, show_default=True, type=click.IntRange(min=1))
+@click.option("--study", default="original", show_default=True, help="Study file in studies/.")
+@click.option("--seed", default=0, show_default=True, type=int, help="First bot's seed.")
+@click.option("--database-url", default=None, help="Default: DATABASE_URL, else instance/.")
+def bots_command(count: int, study: str, seed: int, database_url: str | None) -> None:
+    """Walk N participant bots through the whole study, filling a pilot database.
+
+    Bots are flagged is_bot and balanced apart from real participants; their
+    trials run on a clock the bots move, so a full protocol takes seconds.
+    """
+    from tqdm import tqdm
+
+    from hcss.platform.cli import upgrade_database
+    from hcss.platform.config import database_url as default_url
+    from hcss.platform.study.studyfile import StudyFileError
+
+    url = database_url or default_url()
+    try:
+        load_study(study)
+    except StudyFileError as error:
+        raise click.BadParameter(str(error), param_hint="--study") from error
+    upgrade_database(url)
+    app = bot_app(url, study)
+    try:
+        with tqdm(total=count, unit="bot") as bar:
+            reports = run_bots(app, count, seed=seed, progress=lambda _report: bar.update())
+    finally:
+        app.extensions["hcss_db"].engine.dispose()
+    for report in reports:
+        click.echo(
+            f"{report.code}: {report.pages} pages, {len(report.trials)} trials, "
+            f"{report.accepted}/{report.requests} requests accepted, "
+            f"{report.probes_answered} probes answered"
+        )

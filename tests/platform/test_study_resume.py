@@ -1,0 +1,125 @@
+"""Resume: a refresh or a restart (a new app on the same database) lands in the same place.
+
+Deadlines are stored, so the time left is the same after a restart, and a
+deadline that passes while nobody is looking is recorded as a time-out, at
+the deadline, when the participant comes back.
+"""
+
+from __future__ import annotations
+
+from flask import Flask
+
+from hcss.platform.bots import BotReport, PageParser, ParticipantBot
+from hcss.platform.study import load_study
+from tests.platform.study_fixtures import (
+    Visitor,
+    events,
+    make_app,
+    new_participant,
+    visitor,
+)  # noqa: F401
+
+
+def walk_to(v: Visitor, stage: str, step: str) -> PageParser:
+    """Drive a participant with the bot's answers until the page is `stage`/`step`."""
+    bot = ParticipantBot(v.app, v.token, seed=5)
+    bot.client = v.client
+    report = BotReport(code="")
+    while True:
+        page = v.page()
+        if (page.stage, page.step) == (stage, step):
+            return page
+        if page.interface:
+            bot.supervise(page, page.interface and _trial_kind(v), report)
+        else:
+            bot.act(page, report)
+
+
+def _trial_kind(v: Visitor) -> str:
+    return "training" if "<strong>Training</strong>" in v.html else "trial"
+
+
+def _entered(app: Flask, token: str, step: str):  # type: ignore[no-untyped-def]
+    rows = [e for e in events(app, token) if e.step == step and e.kind == "entered"]
+    assert len(rows) == 1
+    return rows[0]
+
+
+def _restart(app: Flask, database_url: str, study: str = "demo") -> Flask:
+    now = app.extensions["hcss_runner"].clock.now
+    app.extensions["hcss_db"].engine.dispose()
+    return make_app(database_url, study, now=now)
+
+
+def test_mid_mrt_refresh_and_restart_return_to_the_same_item_and_deadline(database_url) -> None:
+    app = make_app(database_url, "original")
+    token = new_participant(app)
+    v = visitor(app, token)
+    walk_to(v, "mental_rotation", "part_1")
+    for _ in range(3):
+        page = v.page()
+        assert v.submit({"chosen": ["0", "1"]}, page).status_code == 302
+        v.advance(10.0)
+    deadline = _entered(app, token, "part_1").deadline
+    page = v.page()
+    assert page.mrt_item == "mrt_04" and "2:30" in v.html  # 180 s - 30 s
+    assert v.page().mrt_item == "mrt_04"  # refresh
+    app = _restart(app, database_url, "original")
+    v = visitor(app, token)
+    page = v.page()
+    assert (page.step, page.mrt_item) == ("part_1", "mrt_04") and "2:30" in v.html
+    assert _entered(app, token, "part_1").deadline == deadline
+    # Away past the deadline: the part is timed out at its deadline, the answers kept.
+    stale = page
+    v.advance(200.0)
+    assert v.page().step == "break_1"
+    timed_out = [e for e in events(app, token) if e.step == "part_1" and e.kind == "timed_out"]
+    assert len(timed_out) == 1 and timed_out[0].at == deadline
+    assert v.submit({"chosen": ["0"]}, stale).status_code == 409
+    assert "time for this part was up" in v.html
+    app.extensions["hcss_db"].engine.dispose()
+
+
+def test_every_page_of_the_demo_survives_refresh_and_restart(database_url) -> None:
+    """At each step of the whole demo study, including mid-trial, the page and deadline hold."""
+    study = load_study("demo")
+    app = make_app(database_url, "demo")
+    token = new_participant(app, is_bot=True)
+    v = visitor(app, token)
+    seen = []
+    while True:
+        page = v.page()
+        where = "live" if page.interface else (page.stage, page.step)
+        deadlines = {
+            (e.stage_index, e.step): e.deadline for e in events(app, token) if e.kind == "entered"
+        }
+        assert v.page().interface == page.interface or (v.page().stage, v.page().step) == where
+        app = _restart(app, database_url)
+        v = visitor(app, token)
+        again = v.page()
+        assert ("live" if again.interface else (again.stage, again.step)) == where
+        if page.interface:
+            assert again.interface["data-stream-url"] == page.interface["data-stream-url"]
+        assert {
+            (e.stage_index, e.step): e.deadline for e in events(app, token) if e.kind == "entered"
+        } == deadlines
+        seen.append(where)
+        if where == ("debrief", ""):
+            break
+        bot = ParticipantBot(app, token, seed=len(seen))
+        bot.client = v.client
+        if page.interface:
+            kind = _trial_kind(v)
+            half = (study.training_s if kind == "training" else study.trial_s) / 2
+            v.advance(half / app.config["TIME_ACCELERATION"])  # mid-trial restart
+            app = _restart(app, database_url)
+            v = visitor(app, token)
+            again = v.page()
+            assert again.interface["data-stream-url"] == page.interface["data-stream-url"]
+            bot = ParticipantBot(app, token, seed=len(seen))
+            bot.client = v.client
+            bot.supervise(again, kind, BotReport(code=""))
+        else:
+            bot.act(again, BotReport(code=""))
+    assert seen.count("live") == 6 and ("mental_rotation", "part_1") in seen
+    app.extensions["hcss_db"].engine.dispose()
