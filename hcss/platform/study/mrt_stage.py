@@ -115,6 +115,7 @@ class MentalRotation(Stage):
                 "item": item,
                 "svgs": _svgs(item),
                 "feedback": feedback,
+                "chosen_before": set((answer or "").split(",")) - {""},
                 "number": int(step.removeprefix("practice_")),
                 "count": flow.study.mrt.practice_items,
             }
@@ -126,6 +127,7 @@ class MentalRotation(Stage):
             "svgs": None if item is None else _svgs(item),
             "number": number,
             "count": len(self._part_items(flow, step)),
+            "chosen_before": set(),
         }
 
     # --- answers ---------------------------------------------------------------------
