@@ -152,3 +152,32 @@ def test_a_token_opens_only_its_own_pages(demo_app) -> None:  # noqa: F811
         assert consents == {ids[a]}
         assert session.scalar(select(func.count()).select_from(StudyEnrolment)) == 2
     assert f"/p/{a}/" in page_a.action and b not in va.html
+
+
+def test_tlx_pairs_keep_their_random_order_and_it_is_stored(demo_app) -> None:  # noqa: F811
+    from hcss.questionnaires import tlx
+    from tests.platform.test_study_resume import walk_to
+
+    token = new_participant(demo_app, is_bot=True)
+    v = visitor(demo_app, token)
+    walk_to(v, "nasa_tlx", "comparisons")
+    shown = list(v.page().radios)
+    assert sorted(shown) == list(tlx.PAIR_KEYS) and shown != list(tlx.PAIR_KEYS)
+    (entered,) = [
+        e for e in events(demo_app, token) if e.step == "comparisons" and e.kind == "entered"
+    ]
+    record = entered.detail["presentation"]
+    assert [p.pair.key for p in tlx.order_from_record(record)] == shown
+    first = tlx.order_from_record(record)[0]
+    assert v.page().radios[first.pair.key] == [first.left, first.right]  # sides as stored
+    assert list(v.page().radios) == shown  # a refresh shows the same order
+    choices = {key: v.page().radios[key][0] for key in shown}
+    assert v.submit(choices).status_code == 302
+    with demo_app.extensions["hcss_db"].session_scope() as session:
+        stored = {
+            r.item: r.value
+            for r in session.scalars(
+                select(QuestionnaireItem).where(QuestionnaireItem.instrument == "nasa_tlx")
+            )
+        }
+    assert {k: stored[k] for k in record} == record and {k: stored[k] for k in choices} == choices

@@ -29,6 +29,15 @@ from hcss.questionnaires.definitions import (
 
 ANSWER_NEEDED = "This question needs an answer."
 
+try:  # WTForms 3.3 deprecates (value, label) tuples; older versions have only those
+    from wtforms.fields.choices import SelectChoice as _Choice
+except ImportError:  # pragma: no cover
+    _Choice = None
+
+
+def _choices(pairs: Iterable[tuple[str, str]]) -> list[Any]:
+    return [pair if _Choice is None else _Choice(*pair) for pair in pairs]
+
 
 class ItemRule:
     """A WTForms validator running the definition's own check for one item."""
@@ -48,13 +57,13 @@ class ItemRule:
 def item_field(item: Item) -> RadioField:
     """Radio buttons for a choice or for every point of a rating scale."""
     if isinstance(item, ChoiceItem):
-        choices = [(choice.value, choice.label) for choice in item.choices]
+        pairs = [(choice.value, choice.label) for choice in item.choices]
     else:
         labels = item.point_labels or tuple(str(point) for point in item.points())
-        choices = [(str(point), label) for point, label in zip(item.points(), labels, strict=True)]
+        pairs = [(str(point), label) for point, label in zip(item.points(), labels, strict=True)]
     return RadioField(
         item.prompt,
-        choices=choices,
+        choices=_choices(pairs),
         validators=[InputRequired(ANSWER_NEEDED), ItemRule(item)],
         validate_choice=False,  # ItemRule gives the instrument's own message
         description=item.help_text,
@@ -75,7 +84,7 @@ def pair_field(label: str, sides: Sequence[tuple[str, str]]) -> RadioField:
     """One NASA-TLX comparison: the two subscales, in the order presented."""
     return RadioField(
         label,
-        choices=list(sides),
+        choices=_choices(sides),
         validators=[InputRequired("Please choose one of the two.")],
         validate_choice=False,  # tlx.validate names the two allowed sides
     )
@@ -84,7 +93,7 @@ def pair_field(label: str, sides: Sequence[tuple[str, str]]) -> RadioField:
 def rank_field(label: str, count: int) -> RadioField:
     return RadioField(
         label,
-        choices=[(str(rank), str(rank)) for rank in range(1, count + 1)],
+        choices=_choices((str(rank), str(rank)) for rank in range(1, count + 1)),
         validators=[InputRequired(f"Give the {label} a rank from 1 to {count}.")],
         validate_choice=False,
     )
@@ -108,7 +117,7 @@ def mrt_form(item_key: str, action: str, formdata: Any = None) -> FlaskForm:
         "action": HiddenField(default=action),
         "chosen": SelectMultipleField(
             "Figures that are the target turned",
-            choices=[(str(i), chr(ord("A") + i)) for i in range(4)],
+            choices=_choices((str(i), chr(ord("A") + i)) for i in range(4)),
             widget=ListWidget(prefix_label=False),
             option_widget=CheckboxInput(),
             validators=[SelectionRule()],

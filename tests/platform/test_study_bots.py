@@ -1,0 +1,51 @@
+"""`hcss bots` and the experimenter's holds on the study flow."""
+
+from __future__ import annotations
+
+from click.testing import CliRunner
+from sqlalchemy import select
+
+from hcss.cli import main
+from hcss.platform.db import Database
+from hcss.platform.models import ConsoleAction, Participant, StudyEnrolment
+from hcss.platform.study import participant_status
+from tests.platform.study_fixtures import demo_app, new_participant, visitor  # noqa: F401
+
+
+def test_hcss_bots_fills_a_database_with_flagged_completed_bots(tmp_path) -> None:
+    url = f"sqlite:///{tmp_path / 'bots.sqlite3'}"
+    result = CliRunner().invoke(
+        main, ["bots", "--n", "2", "--study", "demo", "--database-url", url]
+    )
+    assert result.exit_code == 0, result.output
+    assert result.output.count("36 pages, 6 trials") == 2
+    database = Database(url)
+    with database.session_scope() as session:
+        participants = list(session.scalars(select(Participant)))
+        assert len(participants) == 2 and all(p.is_bot for p in participants)
+        assert {participant_status(session, p) for p in participants} == {"completed"}
+        cells = {e.cell for e in session.scalars(select(StudyEnrolment))}
+        assert len(cells) == 2 and {e.pool for e in session.scalars(select(StudyEnrolment))} == {
+            "bot"
+        }
+    database.engine.dispose()
+    bad = CliRunner().invoke(main, ["bots", "--study", "nope", "--database-url", url])
+    assert bad.exit_code != 0 and "no study file nope.toml" in bad.output
+
+
+def test_a_paused_or_aborted_session_holds_the_participant(demo_app) -> None:  # noqa: F811
+    token = new_participant(demo_app)
+    v = visitor(demo_app, token)
+    page = v.page()
+    with demo_app.extensions["hcss_db"].session_scope() as session:
+        participant = session.scalars(select(Participant).where(Participant.token == token)).one()
+        session.add(ConsoleAction(participant_id=participant.id, action="pause", at_epoch=0.0))
+    assert v.page().stage == "held" and "paused your session" in v.html
+    assert v.submit({"decision": "agree"}, page).status_code == 409
+    with demo_app.extensions["hcss_db"].session_scope() as session:
+        session.add(ConsoleAction(participant_id=participant.id, action="resume", at_epoch=1.0))
+    assert v.page().stage == "consent"
+    with demo_app.extensions["hcss_db"].session_scope() as session:
+        session.add(ConsoleAction(participant_id=participant.id, action="abort", at_epoch=2.0))
+        assert participant_status(session, session.get(Participant, participant.id)) == "aborted"
+    assert v.page().stage == "held" and "has ended this session" in v.html
