@@ -131,7 +131,6 @@ def test_the_schema_walk_finds_tables_added_later() -> None:
 
 
 def test_withdrawal_reaches_the_study_flow_records(app, console) -> None:
-    pytest.importorskip("hcss.platform.models.study")
     from tests.platform.test_export_study import _record_study
 
     with app.extensions["hcss_db"].session_scope() as session:

@@ -2,16 +2,14 @@
 
 from __future__ import annotations
 
-import pytest
 from click.testing import CliRunner
 from sqlalchemy import select
 
 from hcss.analysis.load import load_inputs
 from hcss.cli import main
+from hcss.platform import bots
 from hcss.platform.models import Participant
 from tests.platform.test_export_tables import dictionary_columns, read_csv
-
-bots = pytest.importorskip("hcss.platform.bots")
 
 
 def test_a_bot_run_exports_every_table_with_rows(database_url, tmp_path) -> None:

@@ -1,19 +1,17 @@
-"""The study flow's records in the export and the live table (needs the study engine's models)."""
+"""The study flow's records in the export and the live table."""
 
 from __future__ import annotations
 
 from datetime import UTC, datetime, timedelta
 
-import pytest
 from click.testing import CliRunner
 from sqlalchemy import select
 
 from hcss.cli import main
-from hcss.platform.models import Participant
+from hcss.platform.models import Participant, study
 from tests.platform import console_support
 from tests.platform.test_export_tables import read_csv
 
-study = pytest.importorskip("hcss.platform.models.study")
 console, experimenter = console_support.console, console_support.experimenter
 
 T0 = datetime(2026, 11, 22, 9, 0, tzinfo=UTC)
@@ -145,31 +143,22 @@ def test_study_records_fill_the_participant_and_study_tables(app, database_url, 
     assert by_stage["post_trial"]["submitted_at"] == "" and by_stage["post_trial"]["model"] == "M2"
 
 
-def test_declined_and_completed_participants_are_told_apart(app, database_url, tmp_path) -> None:
+def test_declined_and_aborted_participants_are_told_apart(
+    app, console, database_url, tmp_path
+) -> None:
+    """Status is the study engine's; `completed` is checked by the bot run (test_export_bots)."""
     with app.extensions["hcss_db"].session_scope() as session:
-        declined, finished = Participant(), Participant()
-        session.add_all([declined, finished])
+        declined, aborted, waiting = Participant(), Participant(), Participant()
+        session.add_all([declined, aborted, waiting])
         session.flush()
         session.add(
             study.ConsentRecord(participant_id=declined.id, version="v1", decision="decline", at=T0)
         )
-        session.add(
-            study.StageEvent(
-                participant_id=finished.id,
-                stage_index=20,
-                stage="debrief",
-                step="form",
-                model="",
-                kind="entered",
-                at=T0,
-            )
-        )
-        codes = {declined.code: "declined", finished.code: "completed"}
+        codes = {declined.code: "declined", aborted.code: "aborted", waiting.code: "in_progress"}
+    assert console.act(aborted.code, "abort").status_code == 303
     outdir = tmp_path / "export"
-    assert (
-        CliRunner().invoke(main, ["export", str(outdir), "--database-url", database_url]).exit_code
-        == 0
-    )
+    result = CliRunner().invoke(main, ["export", str(outdir), "--database-url", database_url])
+    assert result.exit_code == 0, result.output
     _, participants = read_csv(outdir / "participants.csv")
     assert {p["participant"]: p["status"] for p in participants} == codes
 
@@ -187,7 +176,6 @@ def test_the_live_table_shows_the_study_stage(app, console) -> None:
 
 
 def test_a_cell_override_enrols_through_the_study_engine(app, console) -> None:
-    pytest.importorskip("hcss.platform.study.enrolment")
     response = console.post("/console/participants", {"count": "1", "cell": "5"})
     assert response.status_code == 303
     code = response.headers["Location"].rsplit("/", 1)[-1]

@@ -8,15 +8,7 @@ from werkzeug.routing import BuildError
 
 from hcss.platform.console.sessions import ConsoleError
 from hcss.platform.models import ConsoleAction, Experimenter, Participant
-
-
-def _cell_assigner():  # type: ignore[no-untyped-def]
-    """The study engine's `assign_cell`, where that part of the platform is installed."""
-    try:
-        from hcss.platform.study.enrolment import assign_cell
-    except ImportError:
-        return None
-    return assign_cell
+from hcss.platform.study.enrolment import assign_cell
 
 
 def create_participants(
@@ -34,9 +26,6 @@ def create_participants(
     first opens their link, so people who never come do not fill cells; an
     override is enrolled now, through the engine, and recorded as an action.
     """
-    assign_cell = _cell_assigner()
-    if cell is not None and assign_cell is None:
-        raise ConsoleError("a cell override needs the study engine, which is not installed yet")
     made = []
     for _ in range(count):
         participant = Participant(is_pilot=pilot)

@@ -16,12 +16,7 @@ from sqlalchemy.orm import Session
 
 from hcss.platform.console.pauses import paused_intervals
 from hcss.platform.console.sessions import session_state
-from hcss.platform.models import Participant, Trial, TrialStatusChange
-
-try:
-    from hcss.platform.models.study import StageEvent
-except ImportError:  # the study engine is not part of this installation
-    StageEvent = None  # type: ignore[assignment,misc]
+from hcss.platform.models import Participant, StageEvent, Trial, TrialStatusChange
 
 
 @dataclass(frozen=True)
@@ -58,9 +53,7 @@ def _trial_status(session: Session, trial_id: int) -> TrialStatusChange | None:
     ).first()
 
 
-def _latest_stage_events(session: Session) -> dict[int, object]:
-    if StageEvent is None:
-        return {}
+def _latest_stage_events(session: Session) -> dict[int, StageEvent]:
     newest = select(func.max(StageEvent.id)).group_by(StageEvent.participant_id)
     return {
         e.participant_id: e
@@ -68,7 +61,7 @@ def _latest_stage_events(session: Session) -> dict[int, object]:
     }
 
 
-def _stage_label(event) -> str:  # type: ignore[no-untyped-def]
+def _stage_label(event: StageEvent) -> str:
     """``mental_rotation part_1``, ``trial M2``; ``(done)`` once submitted or timed out."""
     label = " ".join(
         part for part in (event.stage, event.model, event.step) if part and part != "form"
@@ -79,9 +72,9 @@ def _stage_label(event) -> str:  # type: ignore[no-untyped-def]
 def progress_rows(session: Session, now: float) -> list[ProgressRow]:
     """One row per participant, newest first.
 
-    The stage is the study flow's newest stage event when the study engine
-    is installed; a running trial adds its clock. Without stage events the
-    newest trial is the only progress there is to show.
+    A running trial shows its clock; otherwise the stage is the study flow's
+    newest stage event. Participants outside the study flow (`hcss
+    demo-trial`) have only their newest trial to show.
     """
     trials = _latest_trials(session)
     stage_events = _latest_stage_events(session)

@@ -1,11 +1,11 @@
 """Per-participant rows: the wide participants table and the study-flow tables.
 
 The study flow's enrolment, answers, scores and stage events live in the
-study engine's models (`hcss.platform.models.study`). Where that part of the
-platform is not installed the three study-flow tables are written with their
-headers only, so the analysis still finds every file. Answers and scores are
+study engine's models (`hcss.platform.models.study`). Answers and scores are
 append-only there and a correction is a newer row, so the export carries the
-newest row of each item or scale.
+newest row of each item or scale. A participant's status is the study
+engine's own answer (`participant_status`), so the console, the
+counterbalancing and the export never disagree about who completed.
 """
 
 from __future__ import annotations
@@ -16,19 +16,19 @@ from typing import Any
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
-from hcss.platform.console.sessions import session_state
 from hcss.platform.export.rows import iso
 from hcss.platform.export.tables import DEMOGRAPHICS, MODELS, columns
-from hcss.platform.models import Participant, Trial
-
-try:
-    from hcss.platform.models import study as study_models
-except ImportError:  # the study engine is not part of this installation
-    study_models = None  # type: ignore[assignment]
+from hcss.platform.models import (
+    Participant,
+    QuestionnaireItem,
+    Score,
+    StageEvent,
+    StudyEnrolment,
+    Trial,
+)
+from hcss.platform.study.enrolment import participant_status
 
 Row = dict[str, Any]
-#: The stage whose entry means the participant finished the study.
-FINAL_STAGE = "debrief"
 
 
 def _newest(rows: list[Any], key) -> list[Any]:  # type: ignore[no-untyped-def]
@@ -59,18 +59,6 @@ def _by_participant(session: Session, model: Any) -> dict[int, list[Any]]:
     return grouped
 
 
-def _status(
-    session: Session, participant: Participant, consent: list[Any], stages: list[Any]
-) -> str:
-    if session_state(session, participant.id) == "aborted":
-        return "aborted"
-    if consent and consent[-1].decision == "decline":
-        return "declined"
-    if any(event.stage == FINAL_STAGE for event in stages):
-        return "completed"
-    return "in_progress"
-
-
 def participant_rows(session: Session, participants: list[Participant]) -> list[Row]:
     study = _study_records(session)
     rows = []
@@ -84,24 +72,18 @@ def participant_rows(session: Session, participants: list[Participant]) -> list[
             is_demo=participant.is_demo,
         )
         records = {name: table.get(participant.id, []) for name, table in study.items()}
-        row["status"] = _status(
-            session, participant, records.get("consent", []), records.get("stages", [])
-        )
-        if study:
-            _fill_study_columns(row, records)
+        row["status"] = participant_status(session, participant)
+        _fill_study_columns(row, records)
         rows.append(row)
     return rows
 
 
 def _study_records(session: Session) -> dict[str, dict[int, list[Any]]]:
-    if study_models is None:
-        return {}
     return {
-        "enrolment": _by_participant(session, study_models.StudyEnrolment),
-        "consent": _by_participant(session, study_models.ConsentRecord),
-        "stages": _by_participant(session, study_models.StageEvent),
-        "items": _by_participant(session, study_models.QuestionnaireItem),
-        "scores": _by_participant(session, study_models.Score),
+        "enrolment": _by_participant(session, StudyEnrolment),
+        "stages": _by_participant(session, StageEvent),
+        "items": _by_participant(session, QuestionnaireItem),
+        "scores": _by_participant(session, Score),
     }
 
 
@@ -127,11 +109,9 @@ def _fill_study_columns(row: Row, records: dict[str, list[Any]]) -> None:
 
 
 def study_flow_rows(session: Session, participants: list[Participant]) -> dict[str, list[Row]]:
-    """questionnaire_items, scores and stage_timings rows (headers only without the engine)."""
+    """questionnaire_items, scores and stage_timings rows."""
     tables: dict[str, list[Row]] = {"questionnaire_items": [], "scores": [], "stage_timings": []}
     study = _study_records(session)
-    if not study:
-        return tables
     for participant in participants:
         code = participant.code
         for item in _newest(
