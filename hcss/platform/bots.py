@@ -25,6 +25,7 @@ import click
 import numpy as np
 from flask import Flask
 from flask.testing import FlaskClient
+from sqlalchemy import select
 
 from hcss.platform.models import Participant
 from hcss.platform.study.enrolment import assign_cell
@@ -165,7 +166,9 @@ class ParticipantBot:
             from hcss.platform.db import database
 
             with database().session_scope() as session:
-                code = session.query(Participant.code).filter_by(token=self.token).scalar()
+                code = session.scalar(
+                    select(Participant.code).where(Participant.token == self.token)
+                )
         report = BotReport(code=code or "?")
         plan = expected_pages(study)
         _, html = self.get(f"/p/{self.token}")

@@ -19,6 +19,7 @@ from sqlalchemy.orm import Session
 
 from hcss.platform.models import (
     ConsentRecord,
+    ConsoleAction,
     Participant,
     StageEvent,
     StudyEnrolment,
@@ -65,16 +66,16 @@ def current_enrolment(session: Session, participant_id: int) -> StudyEnrolment |
 
 
 def _not_counted(session: Session) -> set[int]:
-    """Participants who declined consent or whose session the experimenter aborted."""
+    """Participants who declined consent or whose session the experimenter aborted.
+
+    Aborted is the console's rule (hcss.platform.console.sessions): the
+    latest pause/resume/abort row of the participant is an abort.
+    """
     declined = set(
         session.scalars(
             select(ConsentRecord.participant_id).where(ConsentRecord.decision == "decline")
         )
     )
-    try:
-        from hcss.platform.models import ConsoleAction
-    except ImportError:  # the console is an optional part of the platform
-        return declined
     latest = (
         select(ConsoleAction.participant_id, func.max(ConsoleAction.id).label("last"))
         .where(ConsoleAction.action.in_(("pause", "resume", "abort")))

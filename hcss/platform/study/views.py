@@ -18,6 +18,7 @@ from sqlalchemy.exc import IntegrityError
 from werkzeug.exceptions import NotFound
 from werkzeug.wrappers import Response
 
+from hcss.platform.console.sessions import session_state
 from hcss.platform.db import get_session
 from hcss.platform.models import Participant
 from hcss.platform.study.enrolment import assign_cell, current_enrolment
@@ -54,15 +55,6 @@ def _flow(token: str) -> Flow:
     if enrolment is None:
         enrolment = assign_cell(session, participant)
     return Flow(session, participant, enrolment, study_now())
-
-
-def _session_state(flow: Flow) -> str:
-    """``active``, ``paused`` or ``aborted``: what the experimenter's console says."""
-    try:
-        from hcss.platform.console.sessions import session_state
-    except ImportError:  # a platform without the console has no pauses
-        return "active"
-    return session_state(flow.session, flow.participant.id)
 
 
 def _settled(flow: Flow) -> Position:
@@ -142,7 +134,7 @@ def _check_current(flow: Flow, position: Position, index: int, step: str) -> Non
 
 def _held(flow: Flow) -> str | None:
     """The page for a session the experimenter paused or ended, else None."""
-    state = _session_state(flow)
+    state = session_state(flow.session, flow.participant.id)
     if state == "active":
         return None
     return render_template("study/held.html", state=state, token=flow.participant.token)
