@@ -13,11 +13,12 @@ from hcss.platform.bots import BotReport, PageParser, ParticipantBot
 from hcss.platform.study import load_study
 from tests.platform.study_fixtures import (
     Visitor,
+    demo_app,  # noqa: F401  (a fixture)
     events,
     make_app,
     new_participant,
     visitor,
-)  # noqa: F401
+)
 
 
 def walk_to(v: Visitor, stage: str, step: str) -> PageParser:
@@ -123,3 +124,27 @@ def test_every_page_of_the_demo_survives_refresh_and_restart(database_url) -> No
             bot.act(again, BotReport(code=""))
     assert seen.count("live") == 6 and ("mental_rotation", "part_1") in seen
     app.extensions["hcss_db"].engine.dispose()
+
+
+def test_a_trial_whose_deadline_passed_while_away_is_run_to_its_end(demo_app) -> None:  # noqa: F811
+    from sqlalchemy import select
+
+    from hcss.platform.models import TrialStatusChange
+
+    token = new_participant(demo_app, is_bot=True)
+    v = visitor(demo_app, token)
+    walk_to(v, "training", "ready")
+    assert v.submit({}).status_code == 302
+    assert v.page().interface  # on the Collective Interface
+    (run,) = [e for e in events(demo_app, token) if e.step == "run" and e.kind == "entered"]
+    # The browser closes; nobody steps the trial; the participant returns long after.
+    v.clock.now = run.deadline.timestamp() + 3600
+    page = v.page()
+    assert (page.stage, page.step) == ("trial", "ready")
+    (done,) = [e for e in events(demo_app, token) if e.step == "run" and e.kind == "submitted"]
+    assert done.at == run.deadline
+    with demo_app.extensions["hcss_db"].session_scope() as session:
+        (ended,) = session.scalars(
+            select(TrialStatusChange).where(TrialStatusChange.status == "ended")
+        )
+        assert ended.reason == "time_limit" and ended.step > 0

@@ -96,10 +96,11 @@ class Runner:
             if live.ended:
                 return
             due = live.due_step(now)
-            if due <= live.sim.step_count:
+            if due <= live.sim.step_count and due < live.total_steps:
                 return
-            # A simulation whose decisions are all made stops stepping early; the
-            # trial still ends at its time limit, so the end is judged by `due`.
+            # The end is judged by `due`, not by the simulation's step: a simulation
+            # whose decisions are all made stops stepping early, and a trial rebuilt
+            # after its deadline (load_trial steps it to `due`) has nothing left to step.
             live.sim.step(due - live.sim.step_count)
             live.touch()
             with self.database.session_scope() as session:
