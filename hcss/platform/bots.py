@@ -233,6 +233,7 @@ class ParticipantBot:
         report.trials.append(trial_id)
         policy = InvestigateThenDecide(abandon_below=0.3)
         next_policy = 0.0
+        overdue_looks = 0
         while True:
             state = self.client.get(api + "/state")
             if state.status_code == 409:  # the runner has let go of an ended trial
@@ -245,6 +246,9 @@ class ParticipantBot:
             if frame["trial"]["status"] == "ended":
                 break
             clock = frame["trial"]["clock_s"]
+            overdue_looks += clock >= frame["trial"]["duration_s"]
+            if overdue_looks > 50:  # past its time limit and still running: never ends
+                raise BotError(f"trial {trial_id} is still running after its time limit")
             probe = frame.get("probe")
             if probe and probe["phase"] == "ready":
                 self._ok(
