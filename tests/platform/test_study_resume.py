@@ -8,9 +8,11 @@ the deadline, when the participant comes back.
 from __future__ import annotations
 
 from flask import Flask
+from sqlalchemy import select
 
 from hcss.platform.bots import BotReport, PageParser, ParticipantBot
-from hcss.platform.study import load_study
+from hcss.platform.models import Participant
+from hcss.platform.study import current_position, load_study
 from tests.platform.study_fixtures import (
     Visitor,
     demo_app,  # noqa: F401  (a fixture)
@@ -70,6 +72,10 @@ def test_mid_mrt_refresh_and_restart_return_to_the_same_item_and_deadline(databa
     page = v.page()
     assert (page.step, page.mrt_item) == ("part_1", "mrt_04") and "2:30" in v.html
     assert _entered(app, token, "part_1").deadline == deadline
+    with app.extensions["hcss_db"].session_scope() as session:
+        participant = session.scalars(select(Participant).where(Participant.token == token)).one()
+        position = current_position(session, participant)
+        assert (position.slot.name, position.step) == ("mental_rotation", "part_1")  # type: ignore[union-attr]
     # Away past the deadline: the part is timed out at its deadline, the answers kept.
     stale = page
     v.advance(200.0)

@@ -8,6 +8,15 @@ counterbalancing; `views` serves `/p/<token>`.
 """
 
 from hcss.platform.study.enrolment import assign_cell, participant_status
+from hcss.platform.study.flow import Position, current_position
 from hcss.platform.study.studyfile import Study, StudyFileError, load_study
 
-__all__ = ["Study", "StudyFileError", "assign_cell", "load_study", "participant_status"]
+__all__ = [
+    "Position",
+    "Study",
+    "StudyFileError",
+    "assign_cell",
+    "current_position",
+    "load_study",
+    "participant_status",
+]

@@ -23,7 +23,6 @@ from hcss.platform.models import (
     Participant,
     StageEvent,
     StudyEnrolment,
-    utcnow,
 )
 from hcss.platform.study.studyfile import Study, load_study
 
@@ -175,7 +174,7 @@ def _check_reassignable(
 
 def participant_status(session: Session, participant: Participant) -> str:
     """``in_progress``, ``completed``, ``declined`` or ``aborted`` (the export's status)."""
-    from hcss.platform.study.flow import Flow
+    from hcss.platform.study.flow import current_position
 
     if participant.id in _not_counted(session):
         consent = session.scalars(
@@ -185,7 +184,5 @@ def participant_status(session: Session, participant: Participant) -> str:
             .limit(1)
         ).first()
         return "declined" if consent == "decline" else "aborted"
-    enrolment = current_enrolment(session, participant.id)
-    if enrolment is None:
-        return "in_progress"
-    return Flow(session, participant, enrolment, utcnow()).locate().status
+    status = current_position(session, participant).status
+    return "in_progress" if status == "not_enrolled" else status

@@ -220,3 +220,19 @@ class Flow:
             kind, at = ended
             self.record(position.slot, position.step, kind, at=at)
         raise RuntimeError(f"participant {self.participant.code}: the study flow does not settle")
+
+
+def current_position(session: Session, participant: Participant) -> Position:
+    """Which stage now, for anyone who asks (the console, the export): read only.
+
+    It does not settle deadlines that passed unobserved; the participant's
+    next request records those. A participant not yet enrolled is before the
+    first stage.
+    """
+    from hcss.platform.models import utcnow
+    from hcss.platform.study.enrolment import current_enrolment
+
+    enrolment = current_enrolment(session, participant.id)
+    if enrolment is None:
+        return Position(None, status="not_enrolled")
+    return Flow(session, participant, enrolment, utcnow()).locate()
