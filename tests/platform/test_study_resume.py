@@ -154,3 +154,26 @@ def test_a_trial_whose_deadline_passed_while_away_is_run_to_its_end(demo_app) ->
             select(TrialStatusChange).where(TrialStatusChange.status == "ended")
         )
         assert ended.reason == "time_limit" and ended.step > 0
+
+
+def test_the_last_mrt_part_timing_out_still_scores_the_answers_given(demo_app) -> None:  # noqa: F811
+    from hcss.platform.models import Score
+    from hcss.questionnaires import mrt
+
+    token = new_participant(demo_app)
+    v = visitor(demo_app, token)
+    walk_to(v, "mental_rotation", "part_1")  # the demo's only part: 4 items, 60 s
+    bank = {item.key: item for item in mrt.item_bank()}
+    for _ in range(2):
+        page = v.page()
+        correct = [str(i) for i in sorted(bank[page.mrt_item].correct)]
+        assert v.submit({"chosen": correct}, page).status_code == 302
+    assert v.page().mrt_item == "mrt_03"
+    v.advance(61.0)
+    assert (v.page().stage, v.page().step) == ("introduction", "page_1")
+    with demo_app.extensions["hcss_db"].session_scope() as session:
+        scores = {
+            s.scale: s.score
+            for s in session.scalars(select(Score).where(Score.instrument == "mrt"))
+        }
+    assert scores == {"total": 2.0, "part_1": 2.0}
