@@ -163,16 +163,19 @@ def test_declined_and_aborted_participants_are_told_apart(
     assert {p["participant"]: p["status"] for p in participants} == codes
 
 
-def test_the_live_table_shows_the_study_stage(app, console) -> None:
+def test_the_live_table_shows_the_study_engines_stage(app, console) -> None:
+    clock = app.extensions["hcss_runner"].clock
+    clock.now = T0.timestamp()
+    console.post("/console/participants", {"count": "1"})
+    (code,) = console.progress()
+    assert console.progress()[code]["stage"] == "not started"
     with app.extensions["hcss_db"].session_scope() as session:
-        participant = Participant()
-        session.add(participant)
-        session.flush()
-        _record_study(session, participant)
-        code = participant.code
-    app.extensions["hcss_runner"].clock.now = _at(530).timestamp()
+        token = session.scalars(select(Participant.token).where(Participant.code == code)).one()
+    participant = app.test_client()
+    assert participant.get(f"/p/{token}", follow_redirects=True).status_code == 200
+    clock.now += 30.0
     row = console.progress()[code]
-    assert row["stage"] == "post_trial M2" and row["time_in_stage_s"] == 30.0
+    assert (row["stage"], row["time_in_stage_s"], row["trial_clock_s"]) == ("consent", 30.0, None)
 
 
 def test_a_cell_override_enrols_through_the_study_engine(app, console) -> None:

@@ -17,6 +17,7 @@ from sqlalchemy.orm import Session
 from hcss.platform.console.pauses import paused_intervals
 from hcss.platform.console.sessions import session_state
 from hcss.platform.models import Participant, StageEvent, Trial, TrialStatusChange
+from hcss.platform.study.flow import Position, current_position
 
 
 @dataclass(frozen=True)
@@ -61,41 +62,61 @@ def _latest_stage_events(session: Session) -> dict[int, StageEvent]:
     }
 
 
-def _stage_label(event: StageEvent) -> str:
-    """``mental_rotation part_1``, ``trial M2``; ``(done)`` once submitted or timed out."""
-    label = " ".join(
-        part for part in (event.stage, event.model, event.step) if part and part != "form"
-    )
-    return label if event.kind == "entered" else f"{label} ({event.kind.replace('_', ' ')})"
+def _entered_at(session: Session, participant_id: int, position: Position) -> StageEvent | None:
+    assert position.slot is not None
+    return session.scalars(
+        select(StageEvent).where(
+            StageEvent.participant_id == participant_id,
+            StageEvent.stage_index == position.slot.index,
+            StageEvent.step == position.step,
+            StageEvent.kind == "entered",
+        )
+    ).first()
+
+
+def _stage_label(position: Position) -> str:
+    """``mental_rotation part_1``, ``post_trial M2``; the status once the study is over."""
+    if position.slot is None:
+        return "not started" if position.status == "not_enrolled" else position.status
+    parts = (position.slot.name, position.slot.model, position.step)
+    return " ".join(part for part in parts if part and part != "form")
 
 
 def progress_rows(session: Session, now: float) -> list[ProgressRow]:
     """One row per participant, newest first.
 
-    A running trial shows its clock; otherwise the stage is the study flow's
-    newest stage event. Participants outside the study flow (`hcss
-    demo-trial`) have only their newest trial to show.
+    The stage is the study engine's own answer to "which stage now?"
+    (`current_position`), so the console never disagrees with what the
+    participant sees; a running trial adds its clock. Time in stage counts
+    from the step's entry, or from the last thing that happened when the
+    participant has not opened the next step yet.
     """
     trials = _latest_trials(session)
-    stage_events = _latest_stage_events(session)
+    last_events = _latest_stage_events(session)
     rows = []
     for participant in session.scalars(select(Participant).order_by(Participant.id.desc())):
         state = session_state(session, participant.id)
         trial = trials.get(participant.id)
-        event = stage_events.get(participant.id)
         status = None if trial is None else _trial_status(session, trial.id)
+        position = current_position(session, participant)
+        last = last_events.get(participant.id)
         clock = duration = None
+        since = participant.created_at.timestamp() if last is None else last.at.timestamp()
         if trial is not None and status is not None and status.status == "running":
             stage, since = f"{trial.kind} {trial.model}", trial.started_at.timestamp()
             clock, duration = trial_clock_s(session, trial, now), trial.duration_s
-        elif event is not None:
-            stage, since = _stage_label(event), event.at.timestamp()
-        elif trial is not None:
+        elif position.status == "not_enrolled" and trial is not None:
+            # A participant outside the study flow (`hcss demo-trial`).
             reason = "" if status is None else f" ({status.reason})"
             stage = f"{trial.kind} {trial.model} ended{reason}"
             since = (trial.started_at if status is None else status.created_at).timestamp()
         else:
-            stage, since = "not started", participant.created_at.timestamp()
+            stage = _stage_label(position)
+            entered = (
+                None if position.slot is None else _entered_at(session, participant.id, position)
+            )
+            if entered is not None:
+                since = entered.at.timestamp()
         rows.append(
             ProgressRow(
                 code=participant.code,
