@@ -127,3 +127,33 @@ def test_another_design_is_a_study_file_not_code() -> None:
     doc["sequence"]["before"] = ["consent", "quiz"]
     with pytest.raises(StudyFileError, match="unknown stage 'quiz'"):
         parse_study(doc, source="latin.toml")
+
+
+def test_on_postgresql_concurrent_assignments_wait_for_each_other(study_app, database_url) -> None:  # noqa: F811
+    """Two arrivals at once: the second sees the first's cell, so it cannot take it blindly."""
+    import threading
+    import time
+
+    if not database_url.startswith("postgresql"):
+        pytest.skip("SQLite serialises writes itself; the advisory lock is PostgreSQL's")
+    database = study_app.extensions["hcss_db"]
+    first_assigned, waited = threading.Event(), {}
+
+    def first() -> None:
+        with study_app.app_context(), database.session_scope() as session:
+            _enrol(session)
+            first_assigned.set()
+            time.sleep(1.0)  # still uncommitted: the second must wait for this
+
+    thread = threading.Thread(target=first)
+    thread.start()
+    assert first_assigned.wait(10)
+    with study_app.app_context(), database.session_scope() as session:
+        started = time.monotonic()
+        second = _enrol(session)
+        waited["s"] = time.monotonic() - started
+    thread.join()
+    assert waited["s"] >= 0.5
+    with database.session_scope() as session:
+        cells = [e.cell for e in session.scalars(select(StudyEnrolment))]
+    assert len(set(cells)) == 2 and second.cell in cells

@@ -14,7 +14,7 @@ import secrets
 from collections import Counter
 
 from flask import current_app, has_app_context
-from sqlalchemy import func, select
+from sqlalchemy import func, select, text
 from sqlalchemy.orm import Session
 
 from hcss.platform.models import (
@@ -27,6 +27,8 @@ from hcss.platform.models import (
 from hcss.platform.study.studyfile import Study, load_study
 
 POOLS = ("real", "pilot", "bot", "demo")
+#: Advisory-lock key of cell assignment on PostgreSQL ("HCSS" in ASCII).
+ASSIGNMENT_LOCK = 0x48435353
 
 
 def pool_of(participant: Participant) -> str:
@@ -124,6 +126,7 @@ def assign_cell(
     if existing is not None:
         _check_reassignable(session, participant, existing, chosen_study)
     pool = pool_of(participant)
+    _one_assignment_at_a_time(session)
     if override is not None:
         if isinstance(override, bool) or not isinstance(override, int):
             raise ValueError(f"a cell is a whole number, got {override!r}")
@@ -149,6 +152,17 @@ def assign_cell(
     session.add(enrolment)
     session.flush()
     return enrolment
+
+
+def _one_assignment_at_a_time(session: Session) -> None:
+    """On PostgreSQL, two participants arriving at once must not both see the same counts.
+
+    A transaction-scoped advisory lock queues concurrent assignments until the
+    earlier one commits. SQLite serialises every write, so a race there can at
+    worst give two near-simultaneous arrivals the same least-filled cell.
+    """
+    if session.get_bind().dialect.name == "postgresql":
+        session.execute(text("SELECT pg_advisory_xact_lock(:key)"), {"key": ASSIGNMENT_LOCK})
 
 
 def _check_reassignable(
