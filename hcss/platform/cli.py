@@ -105,7 +105,7 @@ def demo_trial(
     from hcss.platform.models import Participant
 
     database = Database(database_url())
-    with database.session_scope() as session:
+    with database.command_scope() as session:
         participant = Participant(is_demo=True)
         session.add(participant)
         session.flush()

@@ -62,6 +62,27 @@ class Database:
         finally:
             session.close()
 
+    @contextmanager
+    def command_scope(self) -> Iterator[Session]:
+        """`session_scope` for CLI commands: database errors become a clear message.
+
+        The usual cause is a database that was never migrated, so the message
+        says how to fix that instead of showing a SQLAlchemy traceback. The
+        engine is disposed afterwards, since a command uses it once.
+        """
+        import click
+        from sqlalchemy.exc import OperationalError, ProgrammingError
+
+        try:
+            with self.session_scope() as session:
+                yield session
+        except (OperationalError, ProgrammingError) as error:
+            raise click.ClickException(
+                f"cannot use the database ({error.orig}); is it migrated? Run `hcss db upgrade`."
+            ) from error
+        finally:
+            self.engine.dispose()
+
     def create_all(self) -> None:
         """Create every table directly; for tests. Deployments use `hcss db upgrade`."""
         Base.metadata.create_all(self.engine)

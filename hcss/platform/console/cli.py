@@ -21,7 +21,6 @@ def admin_group() -> None:
 )
 def admin_create(username: str, password: str) -> None:
     """Create an experimenter account in the database (DATABASE_URL, else instance/)."""
-    from sqlalchemy.exc import OperationalError, ProgrammingError
 
     from hcss.platform.config import database_url
     from hcss.platform.console.accounts import AccountError, create_experimenter
@@ -29,14 +28,8 @@ def admin_create(username: str, password: str) -> None:
 
     database = Database(database_url())
     try:
-        with database.session_scope() as session:
+        with database.command_scope() as session:
             create_experimenter(session, username, password)
     except AccountError as error:
         raise click.ClickException(str(error)) from error
-    except (OperationalError, ProgrammingError) as error:
-        raise click.ClickException(
-            "the database has no experimenter table; run `hcss db upgrade` first"
-        ) from error
-    finally:
-        database.engine.dispose()
     click.echo(f"experimenter {username.strip()!r} created; sign in at /console/")

@@ -21,7 +21,6 @@ def export(outdir: Path, replace: bool, database_url: str | None) -> None:
     Participants appear by code only. Pilot, bot and demo participants are
     flagged in participants.csv; `hcss analyze` leaves them out unless asked.
     """
-    from sqlalchemy.exc import OperationalError, ProgrammingError
 
     from hcss.platform.config import database_url as default_url
     from hcss.platform.db import Database
@@ -30,7 +29,7 @@ def export(outdir: Path, replace: bool, database_url: str | None) -> None:
 
     database = Database(database_url or default_url())
     try:
-        with database.session_scope() as session:
+        with database.command_scope() as session:
             counts = write_export(session, outdir, replace=replace)
             session.add(
                 AuditRecord(
@@ -39,12 +38,6 @@ def export(outdir: Path, replace: bool, database_url: str | None) -> None:
             )
     except ExportError as error:
         raise click.ClickException(str(error)) from error
-    except (OperationalError, ProgrammingError) as error:
-        raise click.ClickException(
-            f"cannot read the database ({error.orig}); is it migrated (`hcss db upgrade`)?"
-        ) from error
-    finally:
-        database.engine.dispose()
     participants = counts.get("participants", 0)
     decisions = counts.get("decisions", 0)
     click.echo(f"exported {participants} participants, {decisions} decisions to {outdir}")

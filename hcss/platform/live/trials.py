@@ -35,7 +35,7 @@ def start_trial(
     open or the server was down in between. `started_at` (default: now) lets
     the study flow start it on the runner's clock, which tests and bots move.
     """
-    from hcss.simulation import Scenario
+    from hcss.simulation import Params, Scenario
 
     if kind not in TRIAL_DURATION_S:
         raise ValueError(f"trial kind must be one of {sorted(TRIAL_DURATION_S)}, not {kind!r}")
@@ -62,7 +62,8 @@ def start_trial(
         scenario_id=str(getattr(scenario, "scenario_id", None) or f"seed-{seed}"),
         seed=int(seed),
         first_section=None if kind == "training" else first_section,
-        params=None,
+        # A live trial has no per-decision cap, only its own time limit (spec §2).
+        params=Params().with_changes(decision_timeout_s=None).to_dict(),
         time_acceleration=time_acceleration,
         duration_s=duration,
         started_at=started_at,
