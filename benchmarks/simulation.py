@@ -65,7 +65,9 @@ def full_experiment(workers: int = 2) -> None:
     out = Path("out/bench-experiment")
     exp.write_decisions(rows, out / "decisions.csv")
     table = exp.summary_table(exp.summarise(rows))
-    (out / "summary.md").write_text(f"# Simulation-only experiment (make bench)\n\n{table}\n", encoding="utf-8")
+    (out / "summary.md").write_text(
+        f"# Simulation-only experiment (make bench)\n\n{table}\n", encoding="utf-8"
+    )
     print(
         f"(2) full simulation-only experiment ({len(jobs)} runs, {len(rows)} decisions, {workers} workers): "
         f"{elapsed / 60:.1f} min wall, peak memory {sampler.peak_mib:,.0f} MiB (all processes)   "
