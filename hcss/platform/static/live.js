@@ -39,80 +39,117 @@
   function note(text) { $("request-note").textContent = text || ""; }
 
   // ---- map ---------------------------------------------------------------
-  function drawMap(view) {
-    const ranges = $("layer-ranges"), moves = $("layer-moves");
-    const targets = $("layer-targets"), hubs = $("layer-collectives");
-    for (const layer of [ranges, moves, targets, hubs]) layer.replaceChildren();
-    const hub = state.selectedHub === null ? null : view.collectives[state.selectedHub];
-    if (hub) el("circle", { cx: hub.hub[0], cy: -hub.hub[1], r: hub.range_m, class: "range" }, ranges);
-    for (const t of view.targets) drawTarget(targets, t, hub);
-    for (const c of view.collectives) {
-      drawCollective(hubs, c);
-      if (c.move) drawMove(moves, hubs, c, view);
+  // Glyphs are created once per collective or target and updated in place:
+  // replacing them at every frame would lose a click whose mousedown and
+  // mouseup land on two different copies.
+  const glyphs = { target: new Map(), collective: new Map(), move: new Map() };
+
+  function syncLayer(kind, items, key, create, update, layer) {
+    const seen = new Set();
+    for (const item of items) {
+      const id = key(item);
+      seen.add(id);
+      let glyph = glyphs[kind].get(id);
+      if (!glyph) { glyph = create(item, layer); glyphs[kind].set(id, glyph); }
+      update(glyph, item);
     }
+    for (const [id, glyph] of glyphs[kind]) {
+      if (!seen.has(id)) { glyph.root.remove(); glyphs[kind].delete(id); }
+    }
+  }
+
+  function drawMap(view) {
+    const hub = state.selectedHub === null ? null : view.collectives[state.selectedHub];
+    const ranges = $("layer-ranges");
+    ranges.replaceChildren();
+    if (hub) el("circle", { cx: hub.hub[0], cy: -hub.hub[1], r: hub.range_m, class: "range" }, ranges);
+    syncLayer("target", view.targets, (t) => t.id, createTarget, (g, t) => updateTarget(g, t, hub), $("layer-targets"));
+    syncLayer("collective", view.collectives, (c) => c.index, createCollective, updateCollective, $("layer-collectives"));
+    syncLayer("move", view.collectives.filter((c) => c.move), (c) => c.index, createMove, (g, c) => updateMove(g, c, view), $("layer-moves"));
     drawFlag();
   }
 
-  function drawTarget(layer, t, hub) {
-    const [x, y] = [t.position[0], -t.position[1]];
+  function createTarget(t, layer) {
+    const h = TARGET / 2;
+    const root = el("g", { "data-target": t.id }, layer);
+    const glyph = {
+      root,
+      hit: el("rect", { x: -h, y: -h, width: TARGET, height: TARGET, fill: "transparent" }, root),
+      green: el("rect", { x: -h, y: -h, width: TARGET, height: h, class: "target-green" }, root),
+      blue: el("rect", { x: -h, y: 0, width: TARGET, height: h, class: "target-blue" }, root),
+      frame: el("rect", { x: -h, y: -h, width: TARGET, height: TARGET, class: "target-frame" }, root),
+      mark: el("rect", { x: -h - 9, y: -h - 9, width: TARGET + 18, height: TARGET + 18, class: "range-mark" }, root),
+    };
+    el("text", { x: h + 18, y: -h + 4, class: "target-id" }, root).textContent = t.id;
+    root.addEventListener("click", () => clickTarget(t.id, "left"));
+    root.addEventListener("contextmenu", (e) => { e.preventDefault(); clickTarget(t.id, "right"); });
+    return glyph;
+  }
+
+  function updateTarget(glyph, t, hub) {
     const classes = ["target"];
     if (!t.drawn) classes.push("undrawn");
     if (t.outline_executing) classes.push("executing");
     else if (t.outline_support) classes.push("support");
     if (state.selectedTarget === t.id) classes.push("selected");
-    const g = el("g", { class: classes.join(" "), "data-target": t.id, transform: `translate(${x},${y})` }, layer);
-    const h = TARGET / 2;
-    if (t.drawn) {
-      el("rect", { x: -h, y: -h, width: TARGET, height: h, class: "target-green", "fill-opacity": t.value ?? 0 }, g);
-      el("rect", { x: -h, y: 0, width: TARGET, height: h, class: "target-blue", "fill-opacity": t.max_support }, g);
-    } else {
-      el("rect", { x: -h, y: -h, width: TARGET, height: TARGET, fill: "transparent" }, g);
-    }
-    el("rect", { x: -h, y: -h, width: TARGET, height: TARGET, class: "target-frame" }, g);
-    el("text", { x: h + 18, y: -h + 4, class: "target-id" }, g).textContent = t.id;
-    if (hub && t.in_range_of.includes(hub.index)) {
+    glyph.root.setAttribute("class", classes.join(" "));
+    glyph.root.setAttribute("transform", `translate(${t.position[0]},${-t.position[1]})`);
+    // Transparent until two agents have reported it.
+    glyph.green.setAttribute("fill-opacity", t.drawn ? (t.value ?? 0) : 0);
+    glyph.blue.setAttribute("fill-opacity", t.drawn ? t.max_support : 0);
+    const inRange = hub && t.in_range_of.includes(hub.index);
+    glyph.mark.style.display = inRange ? "" : "none";
+    if (inRange) {
       const supported = t.support[hub.index] > 0;
-      el("rect", { x: -h - 9, y: -h - 9, width: TARGET + 18, height: TARGET + 18,
-        class: "range-mark " + (supported ? "supported" : "unsupported") }, g);
+      glyph.mark.setAttribute("class", "range-mark " + (supported ? "supported" : "unsupported"));
     }
-    g.addEventListener("click", () => clickTarget(t.id, "left"));
-    g.addEventListener("contextmenu", (e) => { e.preventDefault(); clickTarget(t.id, "right"); });
   }
 
-  function drawCollective(layer, c) {
-    const [x, y] = [c.hub[0], -c.hub[1]];
-    const selected = state.selectedHub === c.index ? " selected" : "";
-    const g = el("g", { class: "collective" + selected, "data-collective": c.index, transform: `translate(${x},${y})` }, layer);
+  function createCollective(c, layer) {
     const h = HUB / 2, q = HUB / 2;
-    el("text", { x: 0, y: -h - 10, class: "hub-name" }, g).textContent = ROMAN[c.index];
-    el("rect", { x: -h, y: -h, width: HUB, height: HUB, class: "hub-box" }, g);
-    const quads = [["U", -h, -h], ["F", 0, -h], ["C", -h, 0], ["X", 0, 0]];
-    for (const [name, qx, qy] of quads) {
-      el("rect", { x: qx, y: qy, width: q, height: q, class: "quad", "fill-opacity": c.fractions[name] }, g);
-      el("text", { x: qx + q / 2, y: qy + q / 2, class: "quad-label" }, g).textContent = name;
+    const root = el("g", { "data-collective": c.index }, layer);
+    el("text", { x: 0, y: -h - 10, class: "hub-name" }, root).textContent = ROMAN[c.index];
+    el("rect", { x: -h, y: -h, width: HUB, height: HUB, class: "hub-box" }, root);
+    const quads = {};
+    for (const [name, qx, qy] of [["U", -h, -h], ["F", 0, -h], ["C", -h, 0], ["X", 0, 0]]) {
+      quads[name] = el("rect", { x: qx, y: qy, width: q, height: q, class: "quad" }, root);
+      el("text", { x: qx + q / 2, y: qy + q / 2, class: "quad-label" }, root).textContent = name;
     }
-    g.addEventListener("click", () => clickHub(c.index, "left"));
-    g.addEventListener("contextmenu", (e) => { e.preventDefault(); clickHub(c.index, "right"); });
+    root.addEventListener("click", () => clickHub(c.index, "left"));
+    root.addEventListener("contextmenu", (e) => { e.preventDefault(); clickHub(c.index, "right"); });
+    return { root, quads };
   }
 
-  function drawMove(moves, layer, c, view) {
+  function updateCollective(glyph, c) {
+    glyph.root.setAttribute("class", "collective" + (state.selectedHub === c.index ? " selected" : ""));
+    glyph.root.setAttribute("transform", `translate(${c.hub[0]},${-c.hub[1]})`);
+    for (const name of ["U", "F", "C", "X"]) glyph.quads[name].setAttribute("fill-opacity", c.fractions[name]);
+  }
+
+  function createMove(c, layer) {
+    const root = el("g", { class: "moving" }, layer);
+    const line = el("line", { class: "move-line" }, root);
+    const box = el("g", {}, root);
+    el("rect", { x: -30, y: -30, width: 60, height: 60, class: "move-box" }, box);
+    el("text", { x: 0, y: 0, class: "quad-label" }, box).textContent = ROMAN[c.index];
+    return { root, line, box };
+  }
+
+  function updateMove(glyph, c, view) {
     const target = view.targets.find((t) => t.id === c.move.target);
-    if (target) el("line", { x1: c.hub[0], y1: -c.hub[1], x2: target.position[0], y2: -target.position[1], class: "move-line" }, moves);
-    const [x, y] = [c.move.position[0], -c.move.position[1]];
-    const g = el("g", { class: "moving", transform: `translate(${x},${y})` }, layer);
-    el("rect", { x: -30, y: -30, width: 60, height: 60, class: "move-box" }, g);
-    el("text", { x: 0, y: 10, class: "quad-label" }, g).textContent = ROMAN[c.index];
+    const goal = target ? target.position : c.move.position;
+    for (const [k, v] of Object.entries({ x1: c.hub[0], y1: -c.hub[1], x2: goal[0], y2: -goal[1] })) glyph.line.setAttribute(k, v);
+    glyph.box.setAttribute("transform", `translate(${c.move.position[0]},${-c.move.position[1]})`);
   }
 
   function drawFlag() {
     const layer = $("layer-flags");
-    layer.replaceChildren();
     const view = state.view;
-    if (!state.flag || !view) return;
+    if (!state.flag || !view) { layer.replaceChildren(); state.flagKey = null; return; }
     let anchor, lines;
     if (state.flag.kind === "target") {
       const t = view.targets.find((x) => x.id === state.flag.id);
-      if (!t) { state.flag = null; return; }
+      if (!t) { state.flag = null; layer.replaceChildren(); state.flagKey = null; return; }
       anchor = t.position;
       lines = [`Target ${t.id}: support`].concat(
         t.support.map((s, i) => `${ROMAN[i]}: ${Math.round(s * 100)}%`));
@@ -122,6 +159,10 @@
       lines = [`Collective ${ROMAN[c.index]}`].concat(
         ["U", "F", "C", "X"].map((k) => `${k}: ${c.counts[k]}`));
     }
+    const key = JSON.stringify([anchor, lines]);
+    if (key === state.flagKey) return;
+    state.flagKey = key;
+    layer.replaceChildren();
     const g = el("g", { class: "flag", transform: `translate(${anchor[0] + 50},${-anchor[1] - 40})` }, layer);
     el("rect", { x: 0, y: 0, width: 230, height: 26 * lines.length + 12, rx: 6 }, g);
     lines.forEach((line, i) => { el("text", { x: 12, y: 28 + 26 * i }, g).textContent = line; });
@@ -204,8 +245,12 @@
   // ---- Collective Assignments ------------------------------------------------
   function drawAssignments(view) {
     const list = $("assignments");
-    list.replaceChildren();
     if (!view.requests.some((r) => r.id === state.selectedAssignment)) state.selectedAssignment = null;
+    // Rebuild only on change, so a click on a row is never lost to a redraw.
+    const key = JSON.stringify([view.requests, state.selectedAssignment]);
+    if (key === state.assignmentsKey) return;
+    state.assignmentsKey = key;
+    list.replaceChildren();
     for (const r of view.requests) {
       const li = document.createElement("li");
       li.dataset.request = r.id; li.dataset.kind = r.kind;
