@@ -156,3 +156,27 @@ def make_trial(app: Flask):  # type: ignore[no-untyped-def]
         return handle
 
     return make
+
+
+# Debian's Chromium, driven by Playwright (its own browser download does not work here).
+CHROMIUM = "/usr/bin/chromium"
+CHROMIUM_ARGS = [
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--no-first-run",
+]
+
+
+@pytest.fixture
+def browser():  # type: ignore[no-untyped-def]
+    """A headless Chromium for the browser tests; skipped when it is not installed."""
+    if not os.path.exists(CHROMIUM):
+        pytest.skip(f"browser tests need {CHROMIUM} (make browser installs it)")
+    sync_api = pytest.importorskip("playwright.sync_api")
+    with sync_api.sync_playwright() as playwright:
+        browser = playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+        yield browser
+        browser.close()
