@@ -82,6 +82,8 @@ def test_participant_runs_a_trial_in_the_browser(browser, live_trial) -> None:
     )
     expect(assignment).to_have_count(1)
     expect(assignment.locator(".dot")).to_have_class(re.compile("in_progress|completed"))
+    expect(page.locator("#request-note")).to_contain_text("accepted")
+    expect(page.locator("#request-kind")).to_have_value("")  # the form resets after a commit
     page.screenshot(path=str(ARTIFACTS / "trial-assignment.png"))
 
     # Right-click a target: its support flag; logged as an observation action.

@@ -237,8 +237,8 @@
     }
     try {
       const outcome = await post("/requests", { kind, collective: Number(collective), target: Number(target), selections });
-      note(outcome.accepted ? `Request ${outcome.request_id} accepted.` : `Refused: ${outcome.reason}`);
       if (outcome.accepted) resetForm();
+      note(outcome.accepted ? `Request ${outcome.request_id} accepted.` : `Refused: ${outcome.reason}`);
     } catch (e) { note(e.message); }
   }
 
@@ -355,7 +355,7 @@
   }
 
   $("request-form").addEventListener("submit", commit);
-  $("reset").addEventListener("click", resetForm);
+  $("request-reset").addEventListener("click", resetForm);
   $("cancel-assignment").addEventListener("click", cancelAssignment);
   $("probe-ready").addEventListener("click", readyProbe);
   $("map").addEventListener("contextmenu", (e) => e.preventDefault());
