@@ -125,6 +125,7 @@ def index() -> str:
         audits=audits,
         action_labels=ACTION_LABELS,
         connected_within_s=CONNECTED_WITHIN_S,
+        poll_s=float(current_app.config.get("CONSOLE_POLL_S", 2.0)),
     )
 
 

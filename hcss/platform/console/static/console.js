@@ -1,4 +1,4 @@
-// The live participant table: refreshed every two seconds from /console/progress.json,
+// The live participant table: refreshed every two seconds (CONSOLE_POLL_S) from /console/progress.json,
 // with filters that hide pilot, bot and demo participants (remembered in this browser).
 (function () {
   "use strict";
@@ -120,9 +120,29 @@
     if (shownCount) shownCount.textContent = "showing " + shown + " of " + total;
   }
 
+  // Cells are replaced only where their content changed, so a button (and the click on it)
+  // survives the refresh of everything around it.
+  function sync(tr, fresh) {
+    for (const flag of ["pilot", "bot", "demo"]) tr.dataset[flag] = fresh.dataset[flag];
+    const old = Array.from(tr.children);
+    const now = Array.from(fresh.children);
+    if (old.length !== now.length) {
+      tr.replaceChildren(...now);
+      return;
+    }
+    now.forEach((td, i) => {
+      if (old[i].outerHTML !== td.outerHTML) old[i].replaceWith(td);
+    });
+  }
+
   function render(participants) {
     if (pressing) return; // a click half done must not lose its button to a redraw
-    body.replaceChildren();
+    const wanted = new Set(participants.map((p) => p.code));
+    const existing = new Map();
+    for (const tr of Array.from(body.children)) {
+      if (tr.dataset.code && wanted.has(tr.dataset.code)) existing.set(tr.dataset.code, tr);
+      else tr.remove();
+    }
     if (participants.length === 0) {
       const tr = document.createElement("tr");
       const td = cell("No participants yet.");
@@ -130,7 +150,16 @@
       tr.append(td);
       body.append(tr);
     }
-    for (const p of participants) body.append(row(p));
+    let previous = null;
+    for (const p of participants) {
+      const fresh = row(p);
+      let tr = existing.get(p.code);
+      if (tr) sync(tr, fresh);
+      else tr = fresh;
+      const place = previous ? previous.nextSibling : body.firstChild;
+      if (place !== tr) body.insertBefore(tr, place);
+      previous = tr;
+    }
     applyFilters();
   }
 
@@ -155,5 +184,5 @@
     });
   }
   applyFilters();
-  setInterval(poll, 2000);
+  setInterval(poll, Number(table.dataset.pollMs) || 2000);
 })();
