@@ -20,6 +20,15 @@ def _new(console) -> tuple[str, str]:  # type: ignore[no-untyped-def]
     return code, token
 
 
+def _token(app) -> str:  # type: ignore[no-untyped-def]
+    """A participant made straight in the database (no console sign-in: argon2 is slow)."""
+    with app.extensions["hcss_db"].session_scope() as session:
+        participant = Participant(study="demo")
+        session.add(participant)
+        session.flush()
+        return participant.token
+
+
 def _presence_rows(app) -> int:  # type: ignore[no-untyped-def]
     with app.extensions["hcss_db"].session_scope() as session:
         return session.scalar(select(func.count()).select_from(ParticipantPresence)) or 0
@@ -74,8 +83,8 @@ def test_the_participants_page_beats_and_the_console_shows_it(app, console) -> N
         ("/p/{token}/heartbeat/", 404),
     ],
 )
-def test_a_heartbeat_for_no_participant_is_404(app, console, path, status) -> None:
-    _, token = _new(console)
+def test_a_heartbeat_for_no_participant_is_404(app, path, status) -> None:
+    token = _token(app)
     url = path.format(token=token, unknown="x" * 32)
     assert app.test_client().post(url, json={}).status_code == status
     assert _presence_rows(app) == 0
@@ -100,9 +109,9 @@ def test_a_heartbeat_for_no_participant_is_404(app, console, path, status) -> No
     ],
 )
 def test_a_malformed_heartbeat_is_refused_and_writes_nothing(
-    app, console, body, content_type, status
+    app, body, content_type, status
 ) -> None:
-    _, token = _new(console)
+    token = _token(app)
     response = app.test_client().post(
         f"/p/{token}/heartbeat", data=body, headers={"Content-Type": content_type}
     )
@@ -110,7 +119,18 @@ def test_a_malformed_heartbeat_is_refused_and_writes_nothing(
     assert _presence_rows(app) == 0
 
 
-def test_only_post_beats(app, console) -> None:
-    _, token = _new(console)
+def test_only_post_beats(app) -> None:
+    token = _token(app)
     assert app.test_client().get(f"/p/{token}/heartbeat").status_code == 405
     assert _presence_rows(app) == 0
+
+
+def test_the_trial_page_beats_too(app, make_trial) -> None:
+    trial = make_trial()
+    page = trial.client.get(f"/live/{trial.token}").get_data(as_text=True)
+    assert f'data-heartbeat-url="/p/{trial.token}/heartbeat"' in page
+    beat = trial.client.post(f"/p/{trial.token}/heartbeat", json={"page": "trial"})
+    assert beat.status_code == 204
+    with app.extensions["hcss_db"].session_scope() as session:
+        (row,) = session.scalars(select(ParticipantPresence)).all()
+        assert (row.page, row.hidden) == ("trial", False)
