@@ -17,16 +17,17 @@ from sqlalchemy.orm import Session
 
 from hcss.platform.console.pauses import paused_intervals
 from hcss.platform.console.presence import CONNECTED_WITHIN_S, presence_by_participant
-from hcss.platform.console.sessions import available_actions, session_state
+from hcss.platform.console.sessions import available_actions, session_states
 from hcss.platform.models import (
     Participant,
     ParticipantPresence,
     StageEvent,
+    StudyEnrolment,
     Trial,
     TrialStatusChange,
     utcnow,
 )
-from hcss.platform.study.enrolment import current_enrolment, default_study_name
+from hcss.platform.study.enrolment import default_study_name
 from hcss.platform.study.flow import Flow, Position
 
 
@@ -81,18 +82,6 @@ def _latest_stage_events(session: Session) -> dict[int, StageEvent]:
     }
 
 
-def _entered_at(session: Session, participant_id: int, position: Position) -> StageEvent | None:
-    assert position.slot is not None
-    return session.scalars(
-        select(StageEvent).where(
-            StageEvent.participant_id == participant_id,
-            StageEvent.stage_index == position.slot.index,
-            StageEvent.step == position.step,
-            StageEvent.kind == "entered",
-        )
-    ).first()
-
-
 def _stage_label(position: Position) -> str:
     """``mental_rotation part_1``, ``post_trial M2``; the status once the study is over."""
     if position.slot is None:
@@ -110,19 +99,29 @@ class _Place:
     cell: int | None
     stage_number: int | None
     stage_count: int | None
+    entered: StageEvent | None  # when the current step was entered, if it was
 
 
-def _place(session: Session, participant: Participant) -> _Place:
+def _latest_enrolments(session: Session) -> dict[int, StudyEnrolment]:
+    """Each participant's enrolment (the newest row, as `current_enrolment`), in one query."""
+    newest = select(func.max(StudyEnrolment.id)).group_by(StudyEnrolment.participant_id)
+    return {
+        e.participant_id: e
+        for e in session.scalars(select(StudyEnrolment).where(StudyEnrolment.id.in_(newest)))
+    }
+
+
+def _place(session: Session, participant: Participant, enrolment: StudyEnrolment | None) -> _Place:
     """The study engine's own answer to "which stage now?" (read only, like `current_position`)."""
-    enrolment = current_enrolment(session, participant.id)
     if enrolment is None:
         study = participant.study or default_study_name()
-        return _Place(Position(None, status="not_enrolled"), study, None, None, None)
+        return _Place(Position(None, status="not_enrolled"), study, None, None, None, None)
     flow = Flow(session, participant, enrolment, utcnow())
     position = flow.locate()
     count = len(flow.slots)
     number = count if position.slot is None else position.slot.index + 1
-    return _Place(position, enrolment.study, enrolment.cell, number, count)
+    entered = None if position.slot is None else flow.event(number - 1, position.step, "entered")
+    return _Place(position, enrolment.study, enrolment.cell, number, count, entered)
 
 
 def _presence(row: ParticipantPresence | None, now: float) -> tuple[float | None, bool, bool]:
@@ -143,12 +142,14 @@ def progress_rows(session: Session, now: float) -> list[ProgressRow]:
     trials = _latest_trials(session)
     last_events = _latest_stage_events(session)
     presence = presence_by_participant(session)
+    states = session_states(session)
+    enrolments = _latest_enrolments(session)
     rows = []
     for participant in session.scalars(select(Participant).order_by(Participant.id.desc())):
-        state = session_state(session, participant.id)
+        state = states.get(participant.id, "active")
         trial = trials.get(participant.id)
         status = None if trial is None else _trial_status(session, trial.id)
-        place = _place(session, participant)
+        place = _place(session, participant, enrolments.get(participant.id))
         position = place.position
         last = last_events.get(participant.id)
         clock = duration = None
@@ -163,11 +164,8 @@ def progress_rows(session: Session, now: float) -> list[ProgressRow]:
             since = (trial.started_at if status is None else status.created_at).timestamp()
         else:
             stage = _stage_label(position)
-            entered = (
-                None if position.slot is None else _entered_at(session, participant.id, position)
-            )
-            if entered is not None:
-                since = entered.at.timestamp()
+            if place.entered is not None:
+                since = place.entered.at.timestamp()
         last_seen, connected, hidden = _presence(presence.get(participant.id), now)
         rows.append(
             ProgressRow(
