@@ -93,7 +93,9 @@ def serve(
     ensure_first_login(app)  # prints a console login once, on a server with no experimenter
     url = f"http://{host}:{port}/"
     log_events_to_stderr()
-    write_serving_file(url, study or "original")
+    # A server on every interface is reached from this machine at 127.0.0.1.
+    local = host if host not in ("0.0.0.0", "::", "") else "127.0.0.1"
+    write_serving_file(f"http://{local}:{port}", study or "original")
     click.echo(
         f"hcss serving on {url}  (Ctrl-C stops); new participants: study {study or 'original'}"
     )
