@@ -184,4 +184,11 @@ def test_console_batch_links_live_table_and_pause_resume(browser, console_app) -
     page.locator("#progress").screenshot(path=str(ARTIFACTS / "console-table.png"))
     if os.environ.get("HCSS_UPDATE_DOCS_SCREENSHOTS") == "1":
         shutil.copyfile(ARTIFACTS / "console-table.png", DOCS_SCREENSHOT)
+
+    # The participant's own console page copies their link too.
+    visitor_row.locator("a").click()
+    expect(page.locator("h1")).to_have_text(f"Participant {visitor}")
+    page.click("button.copy")
+    expect(page.locator("button.copy")).to_have_text("Copied")
+    assert page.evaluate("navigator.clipboard.readText()") == links[1]
     context.close()

@@ -174,7 +174,9 @@
 
   let pressing = false;
   table.addEventListener("pointerdown", () => { pressing = true; });
-  document.addEventListener("pointerup", () => { setTimeout(() => { pressing = false; }, 0); });
+  const released = () => { setTimeout(() => { pressing = false; }, 0); };
+  for (const type of ["pointerup", "pointercancel"]) document.addEventListener(type, released);
+  window.addEventListener("blur", released);
 
   for (const box of filters) {
     box.checked = localStorage.getItem("hcss-hide-" + box.dataset.flag) === "1";
