@@ -134,3 +134,19 @@ def test_the_trial_page_beats_too(app, make_trial) -> None:
     with app.extensions["hcss_db"].session_scope() as session:
         (row,) = session.scalars(select(ParticipantPresence)).all()
         assert (row.page, row.hidden) == ("trial", False)
+
+
+def test_a_busy_database_is_a_503_not_a_500(app, monkeypatch) -> None:
+    from sqlalchemy.exc import OperationalError
+
+    from hcss.platform.console import presence
+
+    token = _token(app)
+
+    def locked(*_args, **_kwargs):  # type: ignore[no-untyped-def]
+        raise OperationalError("UPDATE participant_presence", {}, Exception("database is locked"))
+
+    monkeypatch.setattr(presence, "record_heartbeat", locked)
+    response = app.test_client().post(f"/p/{token}/heartbeat", json={"page": "study"})
+    assert response.status_code == 503 and "Traceback" not in response.get_data(as_text=True)
+    assert _presence_rows(app) == 0
