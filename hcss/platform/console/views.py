@@ -208,6 +208,7 @@ def links_csv_download() -> Response:
 def participant(code: str) -> str:
     found = _participant(code)
     session = get_session()
+    state, status = session_state(session, found.id), study_status(session, found)
     actions = session.scalars(
         select(ConsoleAction)
         .where(ConsoleAction.participant_id == found.id)
@@ -217,12 +218,10 @@ def participant(code: str) -> str:
         "console/participant.html",
         participant=found,
         link=participant_link(found),
-        state=session_state(session, found.id),
-        status=study_status(session, found),
+        state=state,
+        status=status,
         enrolment=current_enrolment(session, found.id),
-        offered=available_actions(
-            session_state(session, found.id), study_status(session, found), found.is_pilot
-        ),
+        offered=available_actions(state, status, found.is_pilot),
         action_labels=ACTION_LABELS,
         actions=actions,
         action_form=forms.ActionForm(),
