@@ -88,7 +88,7 @@ def serve(
     if time_acceleration is not None:
         config["TIME_ACCELERATION"] = time_acceleration
     if study is not None:
-        config["STUDY"] = _checked_study(study)
+        config["STUDY"] = _study_file(study).name
     app = create_app(config)
     ensure_first_login(app)  # prints a console login once, on a server with no experimenter
     url = f"http://{host}:{port}/"
@@ -101,15 +101,6 @@ def serve(
     )
     click.echo(f"console: {url}console/   a demo trial:  hcss demo-trial --port {port}")
     waitress_serve(app, host=host, port=port, threads=threads, channel_timeout=3600, ident="hcss")
-
-
-def _checked_study(name: str) -> str:
-    from hcss.platform.study.studyfile import StudyFileError, load_study
-
-    try:
-        return load_study(name).name
-    except StudyFileError as error:
-        raise click.BadParameter(str(error), param_hint="--study / STUDY") from error
 
 
 @click.command("demo-trial")

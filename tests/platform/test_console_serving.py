@@ -99,3 +99,9 @@ def test_the_server_prints_participant_events_and_enrols_in_its_study(instance) 
     assert re.search(rf"^\d\d:\d\d:\d\d {code} enrolled: study demo, cell \d+ ", log, re.M), log
     assert re.search(rf"^\d\d:\d\d:\d\d {code} stage 1 consent: entered$", log, re.M), log
     assert token not in log
+
+
+def test_serve_refuses_an_unknown_study_before_listening(instance) -> None:
+    result = CliRunner().invoke(main, ["serve", "--port", "1", "--study", "nope"])
+    assert result.exit_code == 2 and "no study file nope.toml" in result.output
+    assert "Traceback" not in result.output
