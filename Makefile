@@ -17,12 +17,15 @@ $(STAMP): pyproject.toml | $(PY)
 
 install: $(STAMP)
 
-# The study platform on http://127.0.0.1:5000/ ; in another terminal,
-# `.venv/bin/hcss demo-trial` prints the link of a live demo trial.
+# The study platform on http://127.0.0.1:$(PORT)/ (make run PORT=8080 STUDY=demo);
+# STUDY is the study new participants get. In another terminal,
+# `.venv/bin/hcss demo-trial` prints the link of a live demo trial on that port.
+PORT  ?= 5000
+STUDY ?= $(or $(HCSS_STUDY),original)
 run: install
 	$(HCSS) db upgrade
 	@echo 'Open a demo trial: in another terminal run  $(HCSS) demo-trial'
-	$(HCSS) serve
+	$(HCSS) serve --port $(PORT) --study $(STUDY)
 
 # Browser tests need Debian's Chromium; scripts/ensure-chromium installs it when missing.
 browser:

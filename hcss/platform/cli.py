@@ -9,6 +9,7 @@ import click
 from hcss.platform.config import PROJECT_ROOT
 
 MIGRATIONS = PROJECT_ROOT / "migrations"
+DEFAULT_PORT = 5000
 
 
 def alembic_config(database_url: str | None = None):  # type: ignore[no-untyped-def]
@@ -53,7 +54,13 @@ def _redacted(url: str) -> str:
 
 @click.command("serve")
 @click.option("--host", default="127.0.0.1", show_default=True)
-@click.option("--port", default=5000, show_default=True, type=int)
+@click.option("--port", default=DEFAULT_PORT, show_default=True, type=click.IntRange(1, 65535))
+@click.option(
+    "--study",
+    default=None,
+    envvar="HCSS_STUDY",
+    help="Study file (studies/NAME.toml) for new participants; default: original.",
+)
 @click.option(
     "--threads",
     default=64,
@@ -67,46 +74,86 @@ def _redacted(url: str) -> str:
     default=None,
     help="Trial seconds per wall second for trials started by this server (tests, bots).",
 )
-def serve(host: str, port: int, threads: int, time_acceleration: float | None) -> None:
-    """Serve the study platform with waitress."""
+def serve(
+    host: str, port: int, study: str | None, threads: int, time_acceleration: float | None
+) -> None:
+    """Serve the study platform with waitress; one line per participant event on stderr."""
     from waitress import serve as waitress_serve
 
     from hcss.platform.app import create_app
     from hcss.platform.console.accounts import ensure_first_login
+    from hcss.platform.serving import log_events_to_stderr, write_serving_file
 
     config: dict[str, object] = {}
     if time_acceleration is not None:
         config["TIME_ACCELERATION"] = time_acceleration
+    if study is not None:
+        config["STUDY"] = _study_file(study).name
     app = create_app(config)
     ensure_first_login(app)  # prints a console login once, on a server with no experimenter
     url = f"http://{host}:{port}/"
-    click.echo(f"hcss serving on {url}  (Ctrl-C stops)")
-    click.echo(f"open a demo trial:  hcss demo-trial --base-url {url.rstrip('/')}")
+    log_events_to_stderr()
+    # A server on every interface is reached from this machine at 127.0.0.1.
+    local = host if host not in ("0.0.0.0", "::", "") else "127.0.0.1"
+    write_serving_file(f"http://{local}:{port}", study or "original")
+    click.echo(
+        f"hcss serving on {url}  (Ctrl-C stops); new participants: study {study or 'original'}"
+    )
+    click.echo(f"console: {url}console/   a demo trial:  hcss demo-trial --port {port}")
     waitress_serve(app, host=host, port=port, threads=threads, channel_timeout=3600, ident="hcss")
 
 
 @click.command("demo-trial")
-@click.option("--base-url", default="http://127.0.0.1:5000", show_default=True)
+@click.option(
+    "--port",
+    type=click.IntRange(1, 65535),
+    default=None,
+    help="The server's port; default: the port `hcss serve` (make run) last started on.",
+)
+@click.option("--base-url", default=None, help="The server's address (overrides --port).")
+@click.option(
+    "--study",
+    default=None,
+    envvar="HCSS_STUDY",
+    help="The study whose trial length is used; default: the running server's study.",
+)
 @click.option("--model", type=click.Choice(["M1", "M2", "M3"]), default="M1", show_default=True)
-@click.option("--training", is_flag=True, help="A 5-minute training trial with two collectives.")
+@click.option("--training", is_flag=True, help="A training trial (two collectives).")
 @click.option("--seed", type=int, default=None, help="Scenario seed (random when omitted).")
 @click.option("--minutes", type=float, default=None, help="Trial length (default: the study's).")
 def demo_trial(
-    base_url: str, model: str, training: bool, seed: int | None, minutes: float | None
+    port: int | None,
+    base_url: str | None,
+    study: str | None,
+    model: str,
+    training: bool,
+    seed: int | None,
+    minutes: float | None,
 ) -> None:
     """Create a demo participant with a live, recorded trial and print its link.
 
     The trial's clock starts now and runs on the server (`hcss serve`), whether
-    or not the page is open. Its data are flagged demo.
+    or not the page is open. Its data are flagged demo. The link points at the
+    server `make run` started (its port and study), unless told otherwise.
     """
     from hcss.platform.config import database_url
     from hcss.platform.db import Database
     from hcss.platform.live.trials import start_trial
     from hcss.platform.models import Participant
+    from hcss.platform.serving import read_serving_file
 
+    serving = read_serving_file()
+    if base_url is None:
+        base_url = (
+            f"http://127.0.0.1:{port}"
+            if port is not None
+            else serving.get("url", f"http://127.0.0.1:{DEFAULT_PORT}")
+        )
+    study_file = _study_file(study or serving.get("study") or "original")
+    length_s = study_file.training_s if training else study_file.trial_s
     database = Database(database_url())
     with database.command_scope() as session:
-        participant = Participant(is_demo=True)
+        participant = Participant(is_demo=True, study=study_file.name)
         session.add(participant)
         session.flush()
         trial = start_trial(
@@ -115,9 +162,21 @@ def demo_trial(
             kind="training" if training else "trial",
             model=model,
             seed=seed,
-            duration_s=None if minutes is None else minutes * 60.0,
+            duration_s=length_s if minutes is None else minutes * 60.0,
             time_acceleration=float(os.environ.get("HCSS_TIME_ACCELERATION", "1.0")),
         )
         link = f"{base_url.rstrip('/')}/live/{participant.token}"
-        click.echo(f"demo participant {participant.code}, {trial.kind} {trial.id} ({model})")
+        click.echo(
+            f"demo participant {participant.code}, {trial.kind} {trial.id} ({model}, "
+            f"{trial.duration_s / 60:g} min, study {study_file.name})"
+        )
     click.echo(link)
+
+
+def _study_file(name: str):  # type: ignore[no-untyped-def]
+    from hcss.platform.study.studyfile import StudyFileError, load_study
+
+    try:
+        return load_study(name)
+    except StudyFileError as error:
+        raise click.BadParameter(str(error), param_hint="--study / STUDY") from error

@@ -2,11 +2,21 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 from flask_wtf import FlaskForm
-from wtforms import BooleanField, IntegerField, PasswordField, StringField
+from wtforms import BooleanField, IntegerField, PasswordField, SelectField, StringField
 from wtforms.validators import DataRequired, InputRequired, Length, NumberRange, Optional
 
+from hcss.platform.study.enrolment import default_study_name
+from hcss.platform.study.studyfile import STUDIES_DIR
+
 MAX_NEW_PARTICIPANTS = 50
+
+
+def available_studies() -> list[str]:
+    """The study files in `studies/`, by name; read on each request so a new file shows at once."""
+    return sorted(path.stem for path in STUDIES_DIR.glob("*.toml"))
 
 
 class LoginForm(FlaskForm):
@@ -15,6 +25,7 @@ class LoginForm(FlaskForm):
 
 
 class CreateParticipantsForm(FlaskForm):
+    study = SelectField("Study", validators=[DataRequired()])
     count = IntegerField(
         "How many",
         default=1,
@@ -25,6 +36,14 @@ class CreateParticipantsForm(FlaskForm):
         "Counterbalancing cell (override; empty = assigned)",
         validators=[Optional(), NumberRange(min=1, max=64)],
     )
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        names = available_studies()
+        self.study.choices = [(name, name) for name in names]
+        if self.study.data is None:  # not sent (a blank form, or an older page): the default
+            default = default_study_name()
+            self.study.data = default if default in names else (names[0] if names else None)
 
 
 class ActionForm(FlaskForm):

@@ -1,9 +1,10 @@
-"""The live table: every participant's stage, time in stage and trial clock.
+"""The live table: every participant's study, cell, stage, clocks, presence and actions.
 
 Read straight from the database on each poll (a few hundred participants at
 most), so the table is right whichever server process runs the trials. The
 trial clock is computed the way the runner computes it: running wall time,
-pauses excluded, times the trial's acceleration.
+pauses excluded, times the trial's acceleration. Presence comes from the
+heartbeats of the participant's page (hcss.platform.console.presence).
 """
 
 from __future__ import annotations
@@ -15,22 +16,41 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from hcss.platform.console.pauses import paused_intervals
-from hcss.platform.console.sessions import session_state
-from hcss.platform.models import Participant, StageEvent, Trial, TrialStatusChange
-from hcss.platform.study.flow import Position, current_position
+from hcss.platform.console.presence import CONNECTED_WITHIN_S, presence_by_participant
+from hcss.platform.console.sessions import available_actions, session_states
+from hcss.platform.models import (
+    Participant,
+    ParticipantPresence,
+    StageEvent,
+    StudyEnrolment,
+    Trial,
+    TrialStatusChange,
+    utcnow,
+)
+from hcss.platform.study.enrolment import default_study_name
+from hcss.platform.study.flow import Flow, Position
 
 
 @dataclass(frozen=True)
 class ProgressRow:
     code: str
-    state: str  # active, paused, aborted
+    state: str  # active, paused, aborted (the experimenter's hold)
+    status: str  # not_enrolled, in_progress, completed, declined (the study engine's)
+    study: str
+    cell: int | None  # None until the participant's first visit (or a cell override)
     stage: str
+    stage_number: int | None  # 1-based; None before enrolment
+    stage_count: int | None
     time_in_stage_s: float
     trial_clock_s: float | None  # None outside a running trial
     trial_duration_s: float | None
+    last_seen_s: float | None  # seconds since the page's last heartbeat; None: never
+    connected: bool
+    page_hidden: bool  # the page is open in a background tab
     is_pilot: bool
     is_bot: bool
     is_demo: bool
+    actions: list[str]  # what the console offers for this row now
 
 
 def trial_clock_s(session: Session, trial: Trial, now: float) -> float:
@@ -62,18 +82,6 @@ def _latest_stage_events(session: Session) -> dict[int, StageEvent]:
     }
 
 
-def _entered_at(session: Session, participant_id: int, position: Position) -> StageEvent | None:
-    assert position.slot is not None
-    return session.scalars(
-        select(StageEvent).where(
-            StageEvent.participant_id == participant_id,
-            StageEvent.stage_index == position.slot.index,
-            StageEvent.step == position.step,
-            StageEvent.kind == "entered",
-        )
-    ).first()
-
-
 def _stage_label(position: Position) -> str:
     """``mental_rotation part_1``, ``post_trial M2``; the status once the study is over."""
     if position.slot is None:
@@ -82,23 +90,67 @@ def _stage_label(position: Position) -> str:
     return " ".join(part for part in parts if part and part != "form")
 
 
+@dataclass(frozen=True)
+class _Place:
+    """Where a participant is in their study, as the study engine says."""
+
+    position: Position
+    study: str
+    cell: int | None
+    stage_number: int | None
+    stage_count: int | None
+    entered: StageEvent | None  # when the current step was entered, if it was
+
+
+def _latest_enrolments(session: Session) -> dict[int, StudyEnrolment]:
+    """Each participant's enrolment (the newest row, as `current_enrolment`), in one query."""
+    newest = select(func.max(StudyEnrolment.id)).group_by(StudyEnrolment.participant_id)
+    return {
+        e.participant_id: e
+        for e in session.scalars(select(StudyEnrolment).where(StudyEnrolment.id.in_(newest)))
+    }
+
+
+def _place(session: Session, participant: Participant, enrolment: StudyEnrolment | None) -> _Place:
+    """The study engine's own answer to "which stage now?" (read only, like `current_position`)."""
+    if enrolment is None:
+        study = participant.study or default_study_name()
+        return _Place(Position(None, status="not_enrolled"), study, None, None, None, None)
+    flow = Flow(session, participant, enrolment, utcnow())
+    position = flow.locate()
+    count = len(flow.slots)
+    number = count if position.slot is None else position.slot.index + 1
+    entered = None if position.slot is None else flow.event(number - 1, position.step, "entered")
+    return _Place(position, enrolment.study, enrolment.cell, number, count, entered)
+
+
+def _presence(row: ParticipantPresence | None, now: float) -> tuple[float | None, bool, bool]:
+    if row is None:
+        return None, False, False
+    ago = max(0.0, now - row.last_seen_epoch)
+    return ago, ago <= CONNECTED_WITHIN_S, bool(row.hidden)
+
+
 def progress_rows(session: Session, now: float) -> list[ProgressRow]:
     """One row per participant, newest first.
 
-    The stage is the study engine's own answer to "which stage now?"
-    (`current_position`), so the console never disagrees with what the
-    participant sees; a running trial adds its clock. Time in stage counts
-    from the step's entry, or from the last thing that happened when the
-    participant has not opened the next step yet.
+    The stage is the study engine's own answer, so the console never
+    disagrees with what the participant sees; a running trial adds its
+    clock. Time in stage counts from the step's entry, or from the last thing
+    that happened when the participant has not opened the next step yet.
     """
     trials = _latest_trials(session)
     last_events = _latest_stage_events(session)
+    presence = presence_by_participant(session)
+    states = session_states(session)
+    enrolments = _latest_enrolments(session)
     rows = []
     for participant in session.scalars(select(Participant).order_by(Participant.id.desc())):
-        state = session_state(session, participant.id)
+        state = states.get(participant.id, "active")
         trial = trials.get(participant.id)
         status = None if trial is None else _trial_status(session, trial.id)
-        position = current_position(session, participant)
+        place = _place(session, participant, enrolments.get(participant.id))
+        position = place.position
         last = last_events.get(participant.id)
         clock = duration = None
         since = participant.created_at.timestamp() if last is None else last.at.timestamp()
@@ -112,22 +164,29 @@ def progress_rows(session: Session, now: float) -> list[ProgressRow]:
             since = (trial.started_at if status is None else status.created_at).timestamp()
         else:
             stage = _stage_label(position)
-            entered = (
-                None if position.slot is None else _entered_at(session, participant.id, position)
-            )
-            if entered is not None:
-                since = entered.at.timestamp()
+            if place.entered is not None:
+                since = place.entered.at.timestamp()
+        last_seen, connected, hidden = _presence(presence.get(participant.id), now)
         rows.append(
             ProgressRow(
                 code=participant.code,
                 state=state,
+                status=position.status,
+                study=place.study,
+                cell=place.cell,
                 stage=stage,
+                stage_number=place.stage_number,
+                stage_count=place.stage_count,
                 time_in_stage_s=max(0.0, now - since),
                 trial_clock_s=clock,
                 trial_duration_s=duration,
+                last_seen_s=last_seen,
+                connected=connected,
+                page_hidden=hidden,
                 is_pilot=participant.is_pilot,
                 is_bot=participant.is_bot,
                 is_demo=participant.is_demo,
+                actions=available_actions(state, position.status, participant.is_pilot),
             )
         )
     return rows

@@ -9,7 +9,7 @@ hold a paused or aborted participant in place.
 
 from __future__ import annotations
 
-from sqlalchemy import select
+from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from hcss.platform.console.pauses import pause_clock, resume_clock
@@ -39,6 +39,48 @@ def session_state(session: Session, participant_id: int) -> str:
         .limit(1)
     ).first()
     return {"pause": "paused", "abort": "aborted"}.get(latest or "", "active")
+
+
+def session_states(session: Session) -> dict[int, str]:
+    """`session_state` of every participant with a pause/resume/abort row, in one query."""
+    newest = (
+        select(func.max(ConsoleAction.id))
+        .where(ConsoleAction.action.in_(STATE_ACTIONS))
+        .group_by(ConsoleAction.participant_id)
+    )
+    rows = session.execute(
+        select(ConsoleAction.participant_id, ConsoleAction.action).where(
+            ConsoleAction.id.in_(newest)
+        )
+    )
+    return {pid: {"pause": "paused", "abort": "aborted"}.get(a, "active") for pid, a in rows}
+
+
+#: Statuses of a participant the study is over for: nothing left to pause or abort.
+FINISHED = ("completed", "declined")
+
+
+def available_actions(state: str, status: str, is_pilot: bool) -> list[str]:
+    """The actions that apply now, in the order the console offers them.
+
+    `state` is `session_state`; `status` the study engine's (``in_progress``,
+    ``not_enrolled``, ``completed``, ``declined``). A finished or aborted
+    session can only have its pilot flag changed; a paused one can be resumed
+    or aborted, an active one paused or aborted.
+    """
+    actions: list[str] = []
+    if state != "aborted" and status not in FINISHED:
+        actions += ["resume"] if state == "paused" else ["pause"]
+        actions.append("abort")
+    actions.append("unmark_pilot" if is_pilot else "mark_pilot")
+    return actions
+
+
+def study_status(session: Session, participant: Participant) -> str:
+    """The study engine's status of the participant (see `available_actions`)."""
+    from hcss.platform.study.flow import current_position  # the study engine imports this module
+
+    return current_position(session, participant).status
 
 
 def _live_trial(session: Session, runner: Runner, participant: Participant) -> LiveTrial | None:
@@ -89,6 +131,15 @@ def change_session(
         raise ConsoleError(f"{participant.code}'s session is already paused")
     if action == "resume" and state != "paused":
         raise ConsoleError(f"{participant.code}'s session is not paused")
+    with database.session_scope() as session:
+        row = session.get(Participant, participant.id)
+        if row is None:
+            raise ConsoleError("no such participant")
+        status = study_status(session, row)
+    if status in FINISHED:
+        raise ConsoleError(
+            f"{participant.code} has {status} the study; there is nothing to {action}"
+        )
     now = runner.clock()
     if live is None:
         _record(database, participant, experimenter, action, now)

@@ -6,6 +6,7 @@ and console URLs name participants by code, never by token.
 
 from __future__ import annotations
 
+import re
 from urllib.parse import urlsplit
 
 from flask import (
@@ -27,25 +28,42 @@ from flask import (
 from flask_login import LoginManager, current_user, login_required, login_user, logout_user
 from sqlalchemy import select
 
-from hcss.platform.console import forms
+from hcss.platform.console import eventlog, forms
 from hcss.platform.console.accounts import authenticate
-from hcss.platform.console.participants import create_participants, participant_link
+from hcss.platform.console.participants import (
+    create_participants,
+    link_rows,
+    links_csv,
+    participant_link,
+    participants_by_code,
+)
+from hcss.platform.console.presence import CONNECTED_WITHIN_S
 from hcss.platform.console.progress import progress_json, progress_rows
-from hcss.platform.console.sessions import ConsoleError, change_session, session_state, set_pilot
+from hcss.platform.console.sessions import (
+    ConsoleError,
+    available_actions,
+    change_session,
+    session_state,
+    set_pilot,
+    study_status,
+)
 from hcss.platform.console.withdrawal import WithdrawalError, withdraw
 from hcss.platform.db import database, get_session
 from hcss.platform.models import AuditRecord, ConsoleAction, Experimenter, Participant
+from hcss.platform.study.enrolment import current_enrolment
 
 bp = Blueprint("console", __name__, url_prefix="/console", static_folder="static")
 login_manager = LoginManager()
 login_manager.login_view = "console.login"
 login_manager.login_message = "Sign in to use the console."
 login_manager.session_protection = "strong"
+CODE = re.compile(r"[A-Z0-9]{1,32}")
 
 
 @bp.record_once
 def _init_login(state) -> None:  # type: ignore[no-untyped-def]
     login_manager.init_app(state.app)
+    eventlog.install(state.app)
 
 
 @login_manager.user_loader
@@ -105,6 +123,9 @@ def index() -> str:
         create_form=forms.CreateParticipantsForm(),
         action_form=forms.ActionForm(),
         audits=audits,
+        action_labels=ACTION_LABELS,
+        connected_within_s=CONNECTED_WITHIN_S,
+        poll_s=float(current_app.config.get("CONSOLE_POLL_S", 2.0)),
     )
 
 
@@ -130,15 +151,56 @@ def create():  # type: ignore[no-untyped-def]
             cell=form.cell.data,
             experimenter=current_user,
             now=_runner().clock(),
+            study=form.study.data,
         )
     except ConsoleError as error:
         get_session().rollback()
         flash(str(error))
         return redirect(url_for("console.index")), 303
-    flash(f"created {', '.join(p.code for p in made)}")
+    get_session().commit()
     if len(made) == 1:
+        flash(f"created {made[0].code}")
         return redirect(url_for("console.participant", code=made[0].code)), 303
-    return redirect(url_for("console.index")), 303
+    flash(f"created {len(made)} participants in study {form.study.data}")
+    return redirect(url_for("console.links", codes=",".join(p.code for p in made))), 303
+
+
+MAX_LINKS = 500
+
+
+def _named_participants() -> list[Participant]:
+    """The participants in ``?codes=P1,P2``: a batch just created, or any selection."""
+    raw = request.args.get("codes", "")
+    codes = [code.strip() for code in raw.split(",") if code.strip()]
+    if not codes or len(codes) > MAX_LINKS or any(not CODE.fullmatch(c) for c in codes):
+        abort(400, f"codes= lists 1 to {MAX_LINKS} participant codes, comma-separated")
+    try:
+        return participants_by_code(get_session(), codes)
+    except ConsoleError as error:
+        abort(404, str(error))
+
+
+@bp.get("/links")
+@login_required
+def links() -> str:
+    """Every link of a batch, each with a copy button, and the same list as CSV."""
+    rows = link_rows(get_session(), _named_participants())
+    return render_template(
+        "console/links.html",
+        rows=rows,
+        csv_url=url_for("console.links_csv_download", codes=request.args.get("codes", "")),
+    )
+
+
+@bp.get("/links.csv")
+@login_required
+def links_csv_download() -> Response:
+    rows = link_rows(get_session(), _named_participants())
+    return Response(
+        links_csv(rows),
+        mimetype="text/csv",
+        headers={"Content-Disposition": "attachment; filename=participant-links.csv"},
+    )
 
 
 @bp.get("/participants/<code>")
@@ -146,6 +208,7 @@ def create():  # type: ignore[no-untyped-def]
 def participant(code: str) -> str:
     found = _participant(code)
     session = get_session()
+    state, status = session_state(session, found.id), study_status(session, found)
     actions = session.scalars(
         select(ConsoleAction)
         .where(ConsoleAction.participant_id == found.id)
@@ -155,7 +218,11 @@ def participant(code: str) -> str:
         "console/participant.html",
         participant=found,
         link=participant_link(found),
-        state=session_state(session, found.id),
+        state=state,
+        status=status,
+        enrolment=current_enrolment(session, found.id),
+        offered=available_actions(state, status, found.is_pilot),
+        action_labels=ACTION_LABELS,
         actions=actions,
         action_form=forms.ActionForm(),
         withdraw_form=forms.WithdrawForm(),
@@ -163,6 +230,13 @@ def participant(code: str) -> str:
 
 
 SESSION_ACTIONS = {"pause", "resume", "abort", "mark_pilot", "unmark_pilot"}
+ACTION_LABELS = {
+    "pause": "Pause",
+    "resume": "Resume",
+    "abort": "Abort",
+    "mark_pilot": "Mark pilot",
+    "unmark_pilot": "Unmark pilot",
+}
 
 
 @bp.post("/participants/<code>/<action>")
@@ -173,6 +247,9 @@ def act(code: str, action: str):  # type: ignore[no-untyped-def]
     if not forms.ActionForm().validate_on_submit():
         abort(400)
     found = _participant(code)
+    # The live table's buttons come back to the table; the participant page's to itself.
+    back = request.form.get("next")
+    back = _safe_next(back) if back else url_for("console.participant", code=code)
     try:
         if action in ("mark_pilot", "unmark_pilot"):
             set_pilot(database(), _runner(), found, current_user, action == "mark_pilot")
@@ -180,9 +257,9 @@ def act(code: str, action: str):  # type: ignore[no-untyped-def]
             change_session(database(), _runner(), found, current_user, action)
     except ConsoleError as error:
         flash(str(error))
-        return redirect(url_for("console.participant", code=code)), 303
+        return redirect(back), 303
     flash(f"{code}: {action.replace('_', ' ')} done")
-    return redirect(url_for("console.participant", code=code)), 303
+    return redirect(back), 303
 
 
 @bp.post("/participants/<code>/withdraw")

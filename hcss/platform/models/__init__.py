@@ -5,6 +5,7 @@ from hcss.platform.models.console import AuditRecord, ConsoleAction, Experimente
 from hcss.platform.models.observation import Observation
 from hcss.platform.models.outcome import DecisionRow, SimEvent
 from hcss.platform.models.participant import Participant, new_code, new_token
+from hcss.platform.models.presence import ParticipantPresence
 from hcss.platform.models.probe import Probe, ProbeEvent
 from hcss.platform.models.requests import (
     COMMAND_KINDS,
@@ -35,6 +36,7 @@ __all__ = [
     "Interruption",
     "Observation",
     "Participant",
+    "ParticipantPresence",
     "Probe",
     "ProbeEvent",
     "QuestionnaireItem",

@@ -29,6 +29,9 @@ class Participant(CreatedAt, Base):
     is_demo: Mapped[bool] = mapped_column(default=False)
     is_pilot: Mapped[bool] = mapped_column(default=False)
     is_bot: Mapped[bool] = mapped_column(default=False)
+    #: The study file chosen when the experimenter created the participant; None means
+    #: the server's default. The enrolment (first visit) uses it; it is never changed.
+    study: Mapped[str | None] = mapped_column(String(64), default=None)
 
     def __repr__(self) -> str:
         return f"Participant({self.code!r})"

@@ -122,7 +122,8 @@ def assign_cell(
     or a participant whose model-specific stages have already begun.
     """
     existing = current_enrolment(session, participant.id)
-    chosen_study = load_study(study or (existing.study if existing else default_study_name()))
+    first_choice = participant.study or default_study_name()  # chosen at creation, if any
+    chosen_study = load_study(study or (existing.study if existing else first_choice))
     if existing is not None:
         _check_reassignable(session, participant, existing, chosen_study)
     pool = pool_of(participant)

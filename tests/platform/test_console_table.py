@@ -1,0 +1,157 @@
+"""The console's live table and batches: the study chosen, links to hand out, actions that apply."""
+
+from __future__ import annotations
+
+import csv
+import io
+import re
+
+import pytest
+from sqlalchemy import select
+
+from hcss.platform.bots import run_bots
+from hcss.platform.console.progress import progress_rows
+from hcss.platform.console.sessions import ConsoleError, change_session
+from hcss.platform.models import ConsoleAction, Participant, StudyEnrolment
+from hcss.platform.study.flow import sequence
+from hcss.platform.study.studyfile import load_study
+from tests.platform import console_support
+from tests.platform.study_fixtures import demo_app  # noqa: F401
+
+console, experimenter = console_support.console, console_support.experimenter
+LINK = re.compile(r'value="(http://localhost/p/[A-Za-z0-9_-]+)"')
+
+
+def _enrolment(app, code: str) -> StudyEnrolment | None:  # type: ignore[no-untyped-def]
+    with app.extensions["hcss_db"].session_scope() as session:
+        return session.scalars(
+            select(StudyEnrolment)
+            .join(Participant, Participant.id == StudyEnrolment.participant_id)
+            .where(Participant.code == code)
+        ).first()
+
+
+def test_a_batch_on_a_chosen_study_lists_every_link_and_a_csv(app, console) -> None:
+    assert app.config.get("STUDY") in (None, "original")  # the server's default is not demo
+    index = console.get("/console/").get_data(as_text=True)
+    assert '<option value="demo">' in index and 'value="original"' in index
+
+    response = console.post("/console/participants", {"study": "demo", "count": "3"})
+    assert response.status_code == 303
+    page = console.get(response.headers["Location"])
+    html = page.get_data(as_text=True)
+    links = LINK.findall(html)
+    assert len(links) == 3 and html.count('class="copy"') == 3
+    codes = set(console.progress())
+    assert len(codes) == 3
+    rows = {row["code"]: row for row in console.progress().values()}
+    assert {(r["study"], r["cell"], r["stage"]) for r in rows.values()} == {
+        ("demo", None, "not started")
+    }
+
+    csv_url = re.search(r'href="(/console/links\.csv\?[^"]+)"', html).group(1)
+    download = console.client.get(csv_url.replace("&amp;", "&"))
+    assert download.status_code == 200 and download.mimetype == "text/csv"
+    assert "attachment" in download.headers["Content-Disposition"]
+    table = list(csv.DictReader(io.StringIO(download.get_data(as_text=True))))
+    assert {row["code"] for row in table} == codes
+    assert sorted(row["link"] for row in table) == sorted(links)
+    assert {(row["study"], row["cell"], row["pilot"]) for row in table} == {("demo", "", "no")}
+
+    # The participant's first visit enrols them in the chosen study, not the default one.
+    first = table[0]
+    participant = app.test_client()
+    assert participant.get(first["link"], follow_redirects=True).status_code == 200
+    enrolment = _enrolment(app, first["code"])
+    assert enrolment is not None and enrolment.study == "demo"
+    row = console.progress()[first["code"]]
+    assert (row["study"], row["cell"]) == ("demo", enrolment.cell)
+    count = len(sequence(load_study("demo"), enrolment))
+    assert (row["stage"], row["stage_number"], row["stage_count"]) == ("consent", 1, count)
+
+
+@pytest.mark.parametrize(
+    "fields",
+    [
+        {"study": "nope", "count": "1"},
+        {"study": "../original", "count": "1"},
+        {"study": "demo\x00", "count": "1"},
+        {"study": "demo", "count": "1", "cell": "99"},  # demo has 8 cells
+    ],
+)
+def test_an_unknown_study_or_cell_creates_nobody(app, console, fields) -> None:
+    response = console.post("/console/participants", fields)
+    assert response.status_code == 303 and response.headers["Location"] == "/console/"
+    assert console.progress() == {}
+    with app.extensions["hcss_db"].session_scope() as session:
+        assert session.scalars(select(ConsoleAction)).first() is None
+
+
+@pytest.mark.parametrize(
+    ("query", "status"),
+    [
+        ("", 400),
+        ("codes=", 400),
+        ("codes=P0000000%00", 400),
+        ("codes=" + ",".join(["PAAAAAAAA"] * 501), 400),
+        ("codes=PFFFFFFFF", 404),
+        ("codes=<script>", 400),
+    ],
+)
+def test_the_links_page_refuses_bad_code_lists(console, query, status) -> None:
+    assert console.client.get(f"/console/links?{query}").status_code == status
+    assert console.client.get(f"/console/links.csv?{query}").status_code == status
+
+
+def test_the_links_page_needs_a_signed_in_experimenter(app, console) -> None:
+    console.post("/console/participants", {"count": "2"})
+    codes = ",".join(console.progress())
+    stranger = app.test_client()
+    for path in ("/console/links", "/console/links.csv"):
+        response = stranger.get(f"{path}?codes={codes}")
+        assert response.status_code == 302 and "/console/login" in response.headers["Location"]
+
+
+def test_each_row_offers_only_the_actions_that_apply(app, console) -> None:
+    console.post("/console/participants", {"count": "1", "study": "demo"})
+    (code,) = console.progress()
+    assert console.progress()[code]["actions"] == ["pause", "abort", "mark_pilot"]
+    index = console.get("/console/").get_data(as_text=True)
+    row = index[index.index(f'<tr data-code="{code}"') :]
+    row = row[: row.index("</tr>")]
+    assert re.findall(r'data-action="(\w+)"', row) == ["pause", "abort", "mark_pilot"]
+
+    # A button in the table comes back to the table.
+    response = console.post(f"/console/participants/{code}/pause", {"next": "/console/"})
+    assert response.status_code == 303 and response.headers["Location"] == "/console/"
+    assert console.progress()[code]["actions"] == ["resume", "abort", "mark_pilot"]
+    # ... and a "next" leading elsewhere is not followed.
+    response = console.post(f"/console/participants/{code}/resume", {"next": "https://evil/"})
+    assert response.headers["Location"] == "/console/"
+    assert console.progress()[code]["state"] == "active"
+    console.act(code, "abort")
+    row = console.progress()[code]
+    assert (row["state"], row["actions"]) == ("aborted", ["mark_pilot"])
+    page = console.get(f"/console/participants/{code}").get_data(as_text=True)
+    assert re.findall(r'data-action="(\w+)"', page) == ["mark_pilot"]
+
+
+@pytest.mark.slow  # a bot walks the whole demo study (about 10 s)
+def test_a_participant_who_finished_shows_completed_and_cannot_be_paused(demo_app) -> None:  # noqa: F811
+    (report,) = run_bots(demo_app, 1)
+    database = demo_app.extensions["hcss_db"]
+    with demo_app.app_context(), database.session_scope() as session:
+        (row,) = progress_rows(session, demo_app.extensions["hcss_runner"].clock())
+        participant = session.scalars(select(Participant)).one()
+    assert row.code == report.code
+    assert (row.status, row.state, row.stage) == ("completed", "active", "completed")
+    assert row.stage_number == row.stage_count and row.study == "demo" and row.cell is not None
+    assert row.actions == ["mark_pilot"] and row.is_bot
+    with demo_app.app_context():
+        for action in ("pause", "abort"):
+            with pytest.raises(ConsoleError, match="completed the study"):
+                change_session(
+                    database, demo_app.extensions["hcss_runner"], participant, None, action
+                )
+    with database.session_scope() as session:
+        assert session.scalars(select(ConsoleAction)).first() is None
