@@ -24,6 +24,7 @@ BLUEPRINTS: list[tuple[str, str]] = [
     ("hcss.platform.live.api", "bp"),
     ("hcss.platform.study.views", "bp"),
     ("hcss.platform.console.views", "bp"),
+    ("hcss.platform.study.recruitment", "bp"),
 ]
 
 csrf = CSRFProtect()
