@@ -244,3 +244,48 @@ def test_the_migration_creates_the_recruitment_table_as_modelled(tmp_path) -> No
         assert "recruitment" not in set(inspect(create_engine(url)).get_table_names())
     finally:
         engine.dispose()
+
+
+def test_the_debrief_gives_the_completion_code_only_to_online_participants(
+    database_url, monkeypatch
+) -> None:  # type: ignore[no-untyped-def]
+    from hcss.platform.bots import bot_app, run_bots
+    from hcss.platform.study import studyfile
+
+    app = bot_app(database_url, "demo")
+    app.extensions["hcss_db"].create_all()
+    try:
+        (report,) = run_bots(app, 1)  # a lab participant (made by hand, not by the link)
+        with app.extensions["hcss_db"].session_scope() as session:
+            participant = session.scalars(select(Participant)).one()
+            token = participant.token
+
+        def debrief() -> str:
+            page = app.test_client().get(f"/p/{token}", follow_redirects=True)
+            text = page.get_data(as_text=True)
+            assert 'data-stage="debrief"' in text
+            return text
+
+        assert "completion-code" not in debrief() and "You may close this window" in debrief()
+        with app.extensions["hcss_db"].session_scope() as session:
+            session.add(
+                Recruitment(
+                    participant_id=participant.id, study="demo", source="sona", recruitment_id="41"
+                )
+            )
+        online = debrief()
+        assert '<strong id="completion-code" class="code">DEMO2026</strong>' in online
+        assert 'href="https://app.prolific.com/submissions/complete?cc=DEMO2026"' in online
+        assert 'http-equiv="refresh"' not in online
+        demo = load_study("demo")
+        redirecting = dataclasses.replace(
+            demo, online=dataclasses.replace(demo.online, redirect=True)
+        )
+        monkeypatch.setattr(studyfile, "load_study", lambda name: redirecting)
+        assert (
+            '<meta http-equiv="refresh" content="5; url=https://app.prolific.com/submissions/'
+            'complete?cc=DEMO2026">' in debrief()
+        )
+    finally:
+        app.extensions["hcss_db"].engine.dispose()
+    assert report.pages > 30

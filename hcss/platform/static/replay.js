@@ -74,7 +74,7 @@
     for (const p of state.timeline.probes) {
       const verdict = p.correct === true ? "correct" : p.correct === false ? "wrong" : "missed";
       const answer = p.timed_out ? "timed out" : `answered ${p.answer}`;
-      add(p.shown, "probe " + verdict, `probe ${p.index} (level ${p.level}): ${p.question} ${answer}; truth ${p.truth ?? "?"}`);
+      add(p.shown, "probe-mark " + verdict, `probe ${p.index} (level ${p.level}): ${p.question} ${answer}; truth ${p.truth ?? "?"}`);
     }
   }
   function showProbe(t) {
