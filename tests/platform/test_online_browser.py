@@ -62,6 +62,7 @@ def _screenshot(page, name: str, *, docs: bool = False) -> None:  # type: ignore
         shutil.copyfile(ARTIFACTS / name, ROOT / "docs" / name)
 
 
+@pytest.mark.slow
 def test_a_prolific_visitor_walks_the_demo_to_its_completion_code(
     browser, demo_app, tmp_path
 ) -> None:  # type: ignore[no-untyped-def]
@@ -111,13 +112,14 @@ def test_a_prolific_visitor_walks_the_demo_to_its_completion_code(
     assert (participant["participant"], participant["status"]) == (report.code, "completed")
 
 
+@pytest.mark.slow
 def test_a_finished_trial_replays_at_20x_to_the_recorded_digest(
     browser, app, make_trial, experimenter
 ) -> None:  # type: ignore[no-untyped-def]
     from playwright.sync_api import expect
 
-    trial = make_trial(seed=7, duration_s=180.0)
-    sent = operate(trial, 180.0)
+    trial = make_trial(seed=7, duration_s=120.0)
+    sent = operate(trial, 120.0)
     with app.extensions["hcss_db"].session_scope() as session:
         final = session.scalars(
             select(Snapshot).where(Snapshot.trial_id == trial.trial_id).order_by(Snapshot.id.desc())
@@ -142,7 +144,7 @@ def test_a_finished_trial_replays_at_20x_to_the_recorded_digest(
         page.locator("#replay-play").click()
         expect(replay).to_have_attribute("data-state", "playing")
         # Midway: pause for the screenshot, then play on to the end.
-        page.wait_for_function("Number(document.getElementById('replay').dataset.step) >= 95")
+        page.wait_for_function("Number(document.getElementById('replay').dataset.step) >= 60")
         page.locator("#replay-play").click()
         expect(replay).to_have_attribute("data-state", "paused")
         expect(page.locator("#messages li").first).to_be_visible()
@@ -150,6 +152,6 @@ def test_a_finished_trial_replays_at_20x_to_the_recorded_digest(
         page.locator("#replay-play").click()
         expect(replay).to_have_attribute("data-state", "ended", timeout=30_000)
         assert replay.get_attribute("data-end-digest") == recorded
-        assert replay.get_attribute("data-step") == "180"
+        assert replay.get_attribute("data-step") == "120"
         expect(page.locator("#replay-verdict")).to_contain_text("identical to the recording")
         _screenshot(page, "screenshot-replay-end.png")

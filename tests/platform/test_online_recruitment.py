@@ -246,6 +246,7 @@ def test_the_migration_creates_the_recruitment_table_as_modelled(tmp_path) -> No
         engine.dispose()
 
 
+@pytest.mark.slow
 def test_the_debrief_gives_the_completion_code_only_to_online_participants(
     database_url, monkeypatch
 ) -> None:  # type: ignore[no-untyped-def]
