@@ -11,7 +11,7 @@
   const state = {
     timeline: null, dt: 1, frames: [], horizon: 0, ended: false, digests: null,
     t: 0, speed: 1, playing: false, shownStep: -1, messagesShown: 0, loading: false,
-    lastTick: null, finished: false,
+    lastTick: null,
   };
 
   function clock(seconds) {
@@ -129,14 +129,12 @@
     const target = Math.max(0, Math.min(time, endTime(), loadedUpTo() * state.dt));
     if (target < state.t) { face.clearMessages(); state.messagesShown = 0; }
     state.t = target;
-    state.finished = false;
     render();
   }
   function finish() {
     state.playing = false;
-    state.finished = true;
+    if (!state.ended) { $("replay-play").textContent = "Play on"; root.dataset.state = "caught-up"; return; }
     $("replay-play").textContent = "Play again";
-    if (!state.ended) { root.dataset.state = "caught-up"; return; }
     root.dataset.state = "ended";
     const digests = state.digests;
     if (!digests) return;
@@ -167,7 +165,8 @@
       $("replay-play").textContent = "Play";
       return;
     }
-    if (state.finished || state.t >= endTime()) seek(0);
+    // An ended trial played to its end starts again; a live one goes on as its recording grows.
+    if (state.ended && state.t >= endTime()) seek(0);
     state.playing = true;
     root.dataset.state = "playing";
     $("replay-play").textContent = "Pause";
