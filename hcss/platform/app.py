@@ -25,6 +25,8 @@ BLUEPRINTS: list[tuple[str, str]] = [
     ("hcss.platform.study.views", "bp"),
     ("hcss.platform.console.views", "bp"),
     ("hcss.platform.console.presence", "bp"),
+    ("hcss.platform.study.recruitment", "bp"),
+    ("hcss.platform.replay.views", "bp"),
 ]
 
 csrf = CSRFProtect()

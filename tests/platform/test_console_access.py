@@ -14,7 +14,7 @@ from tests.platform.console_support import PASSWORD, USERNAME, code_of, sign_in
 console, experimenter = console_support.console, console_support.experimenter
 
 
-def _console_urls(app, code: str) -> list[tuple[str, str]]:  # type: ignore[no-untyped-def]
+def _console_urls(app, code: str, trial_id: int = 1) -> list[tuple[str, str]]:  # type: ignore[no-untyped-def]
     """Every console route (but sign-in and static files), filled with a real participant."""
     urls = []
     for rule in app.url_map.iter_rules():
@@ -24,6 +24,7 @@ def _console_urls(app, code: str) -> list[tuple[str, str]]:  # type: ignore[no-u
         ):
             continue
         path = rule.rule.replace("<code>", code).replace("<action>", "pause")
+        path = path.replace("<int:trial_id>", str(trial_id))
         for method in sorted(rule.methods - {"HEAD", "OPTIONS"}):
             urls.append((method, path))
     return urls
@@ -37,7 +38,7 @@ def _action_count(app) -> int:  # type: ignore[no-untyped-def]
 def test_no_console_page_or_download_without_signing_in(app, make_trial, experimenter) -> None:
     trial = make_trial(duration_s=120.0)
     code = code_of(app, trial.token)
-    urls = _console_urls(app, code)
+    urls = _console_urls(app, code, trial.trial_id)
     assert ("GET", "/console/export.zip") in urls and (
         "POST",
         f"/console/participants/{code}/withdraw",

@@ -59,6 +59,15 @@ TABLES: dict[str, tuple[tuple[str, str], ...]] = {
         *((f"tlx_overall_{model}", "float") for model in MODELS),
         *((f"sart_{model}", "float") for model in MODELS),
     ),
+    "recruitment": (
+        ("participant", "str"),
+        ("study", "str"),
+        ("source", "str"),
+        ("recruitment_id", "str"),
+        ("recruiter_study_id", "str"),
+        ("recruiter_session_id", "str"),
+        ("enrolled_at", "str"),
+    ),
     "requests": (
         *_TRIAL_KEYS,
         ("request_id", "int"),

@@ -20,6 +20,7 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from hcss.platform.config import PROJECT_ROOT
+from hcss.platform.export.recruitment_rows import recruitment_rows
 from hcss.platform.export.rows import TRIAL_ROW_BUILDERS
 from hcss.platform.export.study_rows import participant_rows, study_flow_rows
 from hcss.platform.export.tables import TABLES, TRIAL_TABLES, columns
@@ -53,6 +54,7 @@ def collect(session: Session) -> dict[str, list[dict[str, Any]]]:
     tables: dict[str, list[dict[str, Any]]] = defaultdict(list)
     tables["participants"] = participant_rows(session, participants)
     tables.update(study_flow_rows(session, participants))
+    tables["recruitment"] = recruitment_rows(session)
     for trial in session.scalars(select(Trial).order_by(Trial.id)):
         prefix = f"{TRAINING_DIR}/" if trial.kind == "training" else ""
         for table, build in TRIAL_ROW_BUILDERS.items():

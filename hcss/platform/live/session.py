@@ -16,6 +16,18 @@ from typing import Any
 from hcss.questionnaires.probes import ScheduledProbe
 
 
+def participant_view(sim: Any) -> dict[str, Any]:
+    """What the Collective Interface draws: `sim.view()` without the true values.
+
+    The live stream and the console's replay both draw this, so a replay
+    shows exactly what the participant could see.
+    """
+    view = sim.view()
+    for target in view.get("targets", []):
+        target.pop("true_value", None)  # for analysis only, never shown
+    return view
+
+
 @dataclass
 class CurrentProbe:
     """The probe on screen now (its `Probe` row id and what the page needs)."""
@@ -128,9 +140,7 @@ class LiveTrial:
 
     def _cached_view(self) -> tuple[dict[str, Any], str]:
         if self._view_cache is None or self._view_cache[0] != self.version:
-            view = self.sim.view()
-            for target in view.get("targets", []):
-                target.pop("true_value", None)  # for analysis only, never shown
+            view = participant_view(self.sim)
             self._view_cache = (self.version, view, json.dumps(view, separators=(",", ":")))
         return self._view_cache[1], self._view_cache[2]
 

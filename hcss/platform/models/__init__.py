@@ -7,6 +7,7 @@ from hcss.platform.models.outcome import DecisionRow, SimEvent
 from hcss.platform.models.participant import Participant, new_code, new_token
 from hcss.platform.models.presence import ParticipantPresence
 from hcss.platform.models.probe import Probe, ProbeEvent
+from hcss.platform.models.recruitment import Recruitment
 from hcss.platform.models.requests import (
     COMMAND_KINDS,
     Command,
@@ -40,6 +41,7 @@ __all__ = [
     "Probe",
     "ProbeEvent",
     "QuestionnaireItem",
+    "Recruitment",
     "RequestStatusChange",
     "Score",
     "SimEvent",

@@ -6,6 +6,8 @@
   const ROMAN = ["I", "II", "III", "IV", "V", "VI"];
   const HUB = 96, TARGET = 56;
   const root = document.getElementById("interface");
+  // The console's replay page (status "replay") feeds recorded frames to onFrame; nothing is sent.
+  const replaying = root.dataset.status === "replay";
   const apiUrl = root.dataset.apiUrl;
   const csrf = document.querySelector('meta[name="csrf-token"]').content;
   const $ = (id) => document.getElementById(id);
@@ -26,6 +28,7 @@
     return Math.floor(s / 60) + ":" + String(s % 60).padStart(2, "0");
   }
   async function post(path, body) {
+    if (replaying) throw new Error("This is a replay: nothing is sent.");
     const response = await fetch(apiUrl + path, {
       method: "POST", credentials: "same-origin",
       headers: { "Content-Type": "application/json", "X-CSRFToken": csrf },
@@ -367,6 +370,11 @@
     state.selectedTarget = e.target.value === "" ? null : Number(e.target.value);
     if (state.view) drawMap(state.view);
   });
-  if (root.dataset.status === "ended") endTrial();
-  connect();
+  if (replaying) {
+    const clearMessages = () => { $("messages").replaceChildren(); state.seenMessages.clear(); };
+    window.hcssInterface = { onFrame, clearMessages };
+  } else {
+    if (root.dataset.status === "ended") endTrial();
+    connect();
+  }
 })();

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from hcss.platform.config import PROJECT_ROOT
+from hcss.platform.study.online import OnlineSettings, parse_online
 from hcss.questionnaires.consent import consent_versions
 from hcss.questionnaires.mrt import item_bank, practice_items
 from hcss.questionnaires.probes import DEFAULT_COUNTS, ProbeLevel
@@ -65,6 +66,7 @@ class Study:
     probe_counts: dict[int, int]
     cells: tuple[Cell, ...]
     digest: str  # sha256 of the file, stored with each enrolment
+    online: OnlineSettings = OnlineSettings()  # the `[online]` table: study link, completion
 
     def cell(self, number: int) -> Cell:
         for cell in self.cells:
@@ -168,6 +170,7 @@ def parse_study(doc: dict[str, Any], *, source: str, digest: str = "") -> Study:
         probe_counts=probe_counts,
         cells=_cells(doc, models, source),
         digest=digest,
+        online=parse_online(doc, source),
     )
 
 

@@ -147,8 +147,13 @@ def _refused(token: str, message: str) -> str:
 def _finished(flow: Flow, position: Position) -> str:
     if position.status == "declined":
         return render_template("study/declined.html")
+    from hcss.platform.study.recruitment import completion_for
+    from hcss.platform.study.studyfile import load_study
+
     return render_template(
-        "study/debrief.html", text_html=render_markdown(pages.debrief_text().markdown)
+        "study/debrief.html",
+        text_html=render_markdown(pages.debrief_text().markdown),
+        completion=completion_for(flow.session, flow.participant, load_study(flow.enrolment.study)),
     )
 
 

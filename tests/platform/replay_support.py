@@ -1,0 +1,37 @@
+"""A scripted operator for replay tests: many requests, accepted and refused, and probe answers."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from hcss.simulation.operators import InvestigateThenDecide
+
+
+def operate(trial: Any, until_s: float, *, from_s: float = 0.0, every_s: float = 4.0) -> int:
+    """Drive a `LiveTrialHandle` from `from_s` to `until_s` as a participant would; returns commands sent.
+
+    Every few trial seconds: answer the probe on screen, send the policy's
+    requests and one that the simulation must refuse (an unknown target).
+    """
+    policy = InvestigateThenDecide(abandon_below=0.3)
+    sent = 0
+    second = from_s
+    while second + every_s < until_s:
+        second += every_s
+        trial.run_to(second)
+        frame = trial.state()
+        if frame["trial"]["status"] == "ended":
+            break
+        probe = frame["probe"]
+        if probe and probe["phase"] == "ready":
+            trial.post(f"/probes/{probe['id']}/ready", {})
+            choices = trial.state()["probe"]["choices"]
+            trial.post(f"/probes/{probe['id']}/answer", {"answer": choices[0]})
+        commands = policy.commands(frame["view"])[:3]
+        if int(second) % 20 == 0:
+            commands.append({"kind": "decide", "collective": 1, "target": 999})  # refused
+        for command in commands:
+            assert trial.post("/requests", command).status_code == 200
+            sent += 1
+    trial.run_to(until_s)
+    return sent
