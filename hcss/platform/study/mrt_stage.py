@@ -127,6 +127,7 @@ class MentalRotation(Stage):
             "svgs": None if item is None else _svgs(item),
             "number": number,
             "count": len(self._part_items(flow, step)),
+            "feedback": None,  # timed items are answered, never marked
             "chosen_before": set(),
         }
 
