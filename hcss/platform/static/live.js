@@ -25,16 +25,40 @@
     const s = Math.max(0, Math.floor(seconds));
     return Math.floor(s / 60) + ":" + String(s % 60).padStart(2, "0");
   }
+  // Every command carries a fresh Idempotency-Key: the server carries out a
+  // key once and answers a repeat (a double click, a retry) with the first
+  // outcome. getRandomValues works on plain http too, unlike randomUUID.
+  function newKey() {
+    const bytes = crypto.getRandomValues(new Uint8Array(16));
+    return Array.from(bytes, (b) => b.toString(16).padStart(2, "0")).join("");
+  }
   async function post(path, body) {
-    const response = await fetch(apiUrl + path, {
-      method: "POST", credentials: "same-origin",
-      headers: { "Content-Type": "application/json", "X-CSRFToken": csrf },
-      body: JSON.stringify(body || {}),
-    });
+    const key = newKey();
+    let response;
+    for (let attempt = 0; ; attempt++) {
+      try {
+        response = await fetch(apiUrl + path, {
+          method: "POST", credentials: "same-origin",
+          headers: { "Content-Type": "application/json", "X-CSRFToken": csrf, "Idempotency-Key": key },
+          body: JSON.stringify(body || {}),
+        });
+        break;
+      } catch (e) {  // the connection dropped: the same key again is safe
+        if (attempt >= 2) throw new Error("No connection to the server; please try again.");
+        await new Promise((resolve) => setTimeout(resolve, 300 * (attempt + 1)));
+      }
+    }
     let payload = {};
     try { payload = await response.json(); } catch (e) { /* empty body */ }
     if (!response.ok) throw new Error(payload.message || response.statusText);
     return payload;
+  }
+  // A button that sends a command is disabled until its answer is in.
+  async function inFlight(buttons, action) {
+    if (buttons.some((b) => b.disabled)) return;
+    buttons.forEach((b) => { b.disabled = true; });
+    try { await action(); } catch (e) { note(e.message); }
+    finally { buttons.forEach((b) => { b.disabled = false; }); }
   }
   function note(text) { $("request-note").textContent = text || ""; }
 
@@ -226,6 +250,7 @@
   }
   async function commit(event) {
     event.preventDefault();
+    if (state.committing) return;
     const kind = $("request-kind").value, collective = $("request-collective").value;
     const target = $("request-target").value;
     if (!kind || collective === "" || target === "") { note("Choose a type, a collective and a target."); return; }
@@ -235,11 +260,19 @@
       const s = state.selections[slot];
       if (s && s.id !== null && s.value === value) selections.push(s.id);
     }
+    // One request per press: the button stays disabled until the answer is in.
+    state.committing = true;
+    $("commit").disabled = true;
+    note("Sending…");
     try {
       const outcome = await post("/requests", { kind, collective: Number(collective), target: Number(target), selections });
       if (outcome.accepted) resetForm();
       note(outcome.accepted ? `Request ${outcome.request_id} accepted.` : `Refused: ${outcome.reason}`);
     } catch (e) { note(e.message); }
+    finally {
+      state.committing = false;
+      $("commit").disabled = state.ended;
+    }
   }
 
   // ---- Collective Assignments ------------------------------------------------
@@ -266,12 +299,13 @@
     const selected = view.requests.find((r) => r.id === state.selectedAssignment);
     $("cancel-assignment").disabled = !(selected && selected.kind === "abandon");
   }
-  async function cancelAssignment() {
+  function cancelAssignment() {
     if (state.selectedAssignment === null) return;
-    try {
-      const outcome = await post("/requests", { kind: "cancel", request_id: state.selectedAssignment });
+    const request_id = state.selectedAssignment;
+    return inFlight([$("cancel-assignment")], async () => {
+      const outcome = await post("/requests", { kind: "cancel", request_id });
       note(outcome.accepted ? "Assignment cancelled." : `Refused: ${outcome.reason}`);
-    } catch (e) { note(e.message); }
+    });
   }
 
   // ---- System Messages -----------------------------------------------------
@@ -312,13 +346,13 @@
       }
     }
   }
-  async function readyProbe() {
+  function readyProbe() {
     const id = Number($("probe").dataset.probe);
-    try { await post(`/probes/${id}/ready`); } catch (e) { note(e.message); }
+    return inFlight([$("probe-ready")], () => post(`/probes/${id}/ready`));
   }
-  async function answerProbe(id, answer) {
-    try { await post(`/probes/${id}/answer`, { answer }); $("probe").hidden = true; }
-    catch (e) { note(e.message); }
+  function answerProbe(id, answer) {
+    const buttons = Array.from($("probe-choices").querySelectorAll("button"));
+    return inFlight(buttons, async () => { await post(`/probes/${id}/answer`, { answer }); $("probe").hidden = true; });
   }
 
   // ---- the stream ---------------------------------------------------------------
