@@ -1,8 +1,9 @@
-"""Idempotency keys of the live interface's commands (issue 8).
+"""Idempotency keys of the live interface's commands, and probe latencies in ms (issue 8).
 
-Written by hand to match hcss/platform/models/idempotency.py. The unique
-constraint on (trial_id, key) is what guarantees that a double-clicked
-Commit, or a retried POST, is carried out and stored once.
+Written by hand to match hcss/platform/models/idempotency.py and probe.py. The
+unique constraint on (trial_id, key) is what guarantees that a double-clicked
+Commit, or a retried POST, is carried out and stored once. `probe_event`
+gains `latency_ms`, the wall-clock latency of a ready press or an answer.
 
 Revision ID: 0004_p8_idempotency
 Revises: 0003_study
@@ -39,9 +40,13 @@ def upgrade() -> None:
     )
     with op.batch_alter_table("command_key", schema=None) as batch_op:
         batch_op.create_index(batch_op.f("ix_command_key_trial_id"), ["trial_id"], unique=False)
+    with op.batch_alter_table("probe_event", schema=None) as batch_op:
+        batch_op.add_column(sa.Column("latency_ms", sa.Double(), nullable=True))
 
 
 def downgrade() -> None:
+    with op.batch_alter_table("probe_event", schema=None) as batch_op:
+        batch_op.drop_column("latency_ms")
     with op.batch_alter_table("command_key", schema=None) as batch_op:
         batch_op.drop_index(batch_op.f("ix_command_key_trial_id"))
     op.drop_table("command_key")

@@ -145,7 +145,7 @@ def observe(token: str, trial_id: int):  # type: ignore[no-untyped-def]
 @idempotent
 def probe_ready(token: str, trial_id: int, probe_id: int):  # type: ignore[no-untyped-def]
     live = _live(token, trial_id)
-    actions.probe_ready(database(), live, probe_id)
+    actions.probe_ready(database(), live, probe_id, now=runner().clock())
     return jsonify(ok=True)
 
 
@@ -156,5 +156,5 @@ def probe_answer(token: str, trial_id: int, probe_id: int):  # type: ignore[no-u
     answer = _body().get("answer")
     if not isinstance(answer, str):
         raise actions.ActionError("'answer' must be one of the choices, as a string")
-    actions.probe_answer(database(), live, probe_id, answer)
+    actions.probe_answer(database(), live, probe_id, answer, now=runner().clock())
     return jsonify(ok=True)
