@@ -17,6 +17,7 @@ from hcss.platform.study.flow import Flow
 from hcss.platform.study.forms import mrt_form
 from hcss.platform.study.markdown import render_markdown
 from hcss.platform.study.stage import Refused, Slot, Stage
+from hcss.platform.study.texts import duration
 from hcss.questionnaires import mrt
 from hcss.questionnaires.definitions import ScoreRow
 from hcss.questionnaires.mrt.items import MrtItem
@@ -36,11 +37,10 @@ def _instructions(flow: Flow) -> Markup:
     """The protocol's instructions, with the paragraph on parts and timing made to fit the study."""
     settings = flow.study.mrt
     parts = settings.part_items
-    minutes = settings.part_time_limit_s / 60
     counts = " and ".join(str(n) for n in parts)
     timing = (
         f"The test has {len(parts)} part{'s' if len(parts) > 1 else ''} of {counts} rows. "
-        f"You have {minutes:g} minute{'s' if minutes != 1 else ''} for each part"
+        f"You have {duration(settings.part_time_limit_s)} for each part"
         + (", with a short break between them." if len(parts) > 1 else ".")
         + " Work quickly but carefully."
         + (

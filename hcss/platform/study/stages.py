@@ -29,6 +29,7 @@ from hcss.platform.study.forms import (
 from hcss.platform.study.markdown import render_markdown
 from hcss.platform.study.mrt_stage import MentalRotation
 from hcss.platform.study.stage import Refused, Slot, Stage
+from hcss.platform.study.texts import fill
 from hcss.platform.study.trial_stage import Training, Trial
 from hcss.questionnaires import consent, demographics, pages, post_trial, ranking, sart, tlx
 from hcss.questionnaires.definitions import Questionnaire, ValidationErrors
@@ -48,7 +49,7 @@ class Consent(Stage):
 
     def context(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> dict[str, Any]:
         text = consent.consent_text(flow.study.consent_version)
-        return {"text_html": render_markdown(text.markdown)}
+        return {"text_html": render_markdown(fill(text.markdown, flow.study))}
 
     def submit(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> bool:
         answers = answers_of(form, ("decision", "version"))
@@ -256,7 +257,7 @@ class Introduction(Stage):
         all_pages = pages.introduction_pages()
         page = all_pages[int(step.removeprefix("page_")) - 1]
         return {
-            "text_html": render_markdown(page.markdown),
+            "text_html": render_markdown(fill(page.markdown, flow.study)),
             "page_number": page.number,
             "page_count": len(all_pages),
         }

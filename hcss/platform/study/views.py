@@ -25,6 +25,7 @@ from hcss.platform.study.enrolment import assign_cell, current_enrolment
 from hcss.platform.study.flow import Flow, Position, study_now
 from hcss.platform.study.markdown import render_markdown
 from hcss.platform.study.stage import Refused
+from hcss.platform.study.texts import fill
 from hcss.questionnaires import pages
 
 bp = Blueprint("study", __name__, url_prefix="/p")
@@ -35,6 +36,17 @@ def _continue_after_trials(state: Any) -> None:
     """The live trial page's Continue link leads back into the study."""
     app: Flask = state.app
     app.config.setdefault("LIVE_CONTINUE_URL", "/p/{token}")
+
+
+@bp.context_processor
+def _participant_code() -> dict[str, Any]:
+    """Every study page shows the participant's code: consent and debrief say to
+    quote it to withdraw, so it must be on screen to be noted down."""
+    token = (request.view_args or {}).get("token")
+    if not isinstance(token, str):
+        return {}
+    code = get_session().scalar(select(Participant.code).where(Participant.token == token))
+    return {"participant_code": code} if code else {}
 
 
 def _participant(token: str) -> Participant:
@@ -148,7 +160,8 @@ def _finished(flow: Flow, position: Position) -> str:
     if position.status == "declined":
         return render_template("study/declined.html")
     return render_template(
-        "study/debrief.html", text_html=render_markdown(pages.debrief_text().markdown)
+        "study/debrief.html",
+        text_html=render_markdown(fill(pages.debrief_text().markdown, flow.study)),
     )
 
 
