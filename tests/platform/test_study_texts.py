@@ -119,3 +119,26 @@ def test_consent_page_and_footer_show_the_participant_code(demo_app) -> None:  #
     assert f'Your participant code is <b class="participant-code">{code}</b>' in guest.html
     assert "a 1-minute training" in guest.html  # the demo's numbers, rendered
     assert f'Your participant code: <b class="participant-code">{code}</b>' in guest.html
+
+
+def test_demographics_keep_their_promise_and_label_each_scale_end_once(demo_app) -> None:  # noqa: F811
+    from hcss.questionnaires.definitions import ChoiceItem
+    from hcss.questionnaires.demographics import DEMOGRAPHICS
+
+    guest = visitor(demo_app, new_participant(demo_app))
+    page = guest.page()
+    guest.submit({"decision": "agree"}, page)
+    guest.page()
+    html = guest.html
+    assert (
+        "age, gender, education and colour vision each have a choice that lets you not say" in html
+    )
+    for key in ("age_band", "gender", "education", "colour_vision"):
+        item = DEMOGRAPHICS.item(key)
+        assert isinstance(item, ChoiceItem) and "not_said" in item.values(), key
+        assert re.search(rf'<input[^>]*name="{key}"[^>]*value="not_said"', html), key
+    # The experience scales label every point ("None" ... "Extensive"); no extra end labels.
+    fieldset = html[html.index('id="q-video_games"') :]
+    fieldset = fieldset[: fieldset.index("</fieldset>")]
+    assert fieldset.count("Extensive") == 1 and fieldset.count(">None<") == 1
+    assert 'class="anchor"' not in fieldset
