@@ -34,6 +34,11 @@ from hcss.platform.study.trial_stage import Training, Trial
 from hcss.questionnaires import consent, demographics, pages, post_trial, ranking, sart, tlx
 from hcss.questionnaires.definitions import Questionnaire, ValidationErrors
 
+DECLINE_QUESTION = (
+    "You chose not to take part. If that is right, press Confirm: the study ends here and "
+    "nothing is kept except that you declined. To take part after all, choose I agree."
+)
+
 
 class Consent(Stage):
     name = "consent"
@@ -44,6 +49,8 @@ class Consent(Stage):
         fields = {
             "decision": item_field(consent.DECISION),
             "version": HiddenField(default=flow.study.consent_version),
+            # "yes" once the participant has been asked to confirm a decline.
+            "confirm_decline": HiddenField(default=""),
         }
         return form_of(fields, formdata, "ConsentForm")
 
@@ -58,6 +65,11 @@ class Consent(Stage):
             errors["version"] = ["The consent text has changed; please read it again."]
         if errors:
             attach_errors(form, errors)
+            return False
+        if answers["decision"] == "decline" and form["confirm_decline"].data != "yes":
+            # Declining ends the study for good: ask once before recording it.
+            form["confirm_decline"].data = "yes"
+            attach_errors(form, {"": [DECLINE_QUESTION]})
             return False
         flow.session.add(
             ConsentRecord(

@@ -130,6 +130,13 @@ def submit(token: str, index: int, step: str) -> Response | tuple[str, int] | st
     return redirect(url_for("study.stage", token=token))
 
 
+@bp.get("/<token>/stage/<int:index>/<step>")
+def submit_address(token: str, index: int, step: str) -> Response:
+    """A form's POST address opened as a page (a bookmark, a reload): go to the stage."""
+    _participant(token)
+    return redirect(url_for("study.stage", token=token))
+
+
 def _check_current(flow: Flow, position: Position, index: int, step: str) -> None:
     if position.slot is not None and (position.slot.index, position.step) == (index, step):
         if flow.event(index, step, "entered") is None:
