@@ -96,7 +96,7 @@ def expected_pages(study: Study) -> list[tuple[str, str]]:
     settings = study.mrt
     mrt_steps = ["instructions"] + [f"practice_{n}" for n in range(1, settings.practice_items + 1)]
     for number in range(1, len(settings.part_items) + 1):
-        mrt_steps += ([f"break_{number - 1}"] if number > 1 else []) + [f"part_{number}"]
+        mrt_steps += [f"break_{number - 1}" if number > 1 else "begin_1", f"part_{number}"]
     steps = {
         "mental_rotation": mrt_steps,
         "introduction": intro,

@@ -73,7 +73,12 @@ def answer_mrt(page, server: StudyServer) -> dict[str, str]:  # type: ignore[no-
     page.get_by_role("button", name="Check").click()
     expect(page.locator(".feedback")).to_be_visible()
     page.get_by_role("button", name="Continue").click()
+    expect_stage(page, "mental_rotation", "begin_1")
+    expect(page.locator("h2#part-begins")).to_have_text("Part 1 begins")
+    expect(page.locator(".part-limit")).to_contain_text("you have 1 minute for it")
+    page.get_by_role("button", name="Start part 1").click()
     expect_stage(page, "mental_rotation", "part_1")
+    expect(page.get_by_role("timer")).to_contain_text("Time left: 1:00")
     bank = {item.key: item for item in mrt.item_bank()}
     given = {}
     for number, how in enumerate(PATTERN, start=1):
@@ -111,3 +116,34 @@ def test_timed_mrt_answers_are_stored_and_scored(browser, demo_server: StudyServ
         }
     assert {key: stored[key] for key in given} == given
     assert scores == {"total": HAND_COUNT, "part_1": HAND_COUNT}
+
+
+def test_mrt_countdown_runs_out_into_a_time_is_up_page(browser, demo_server: StudyServer) -> None:
+    from playwright.sync_api import expect
+
+    token = demo_server.participant()
+    page = browser.new_page(viewport=VIEWPORT)
+    page.clock.install()  # the page's timers, moved by the test with the server's clock
+    page.goto(f"{demo_server.url}/p/{token}")
+    consent_and_demographics(page)
+    page.get_by_role("button", name="Begin").click()
+    page.locator('input[name="chosen"][value="0"]').check()
+    page.get_by_role("button", name="Check").click()
+    page.get_by_role("button", name="Continue").click()
+    page.get_by_role("button", name="Start part 1").click()
+    expect_stage(page, "mental_rotation", "part_1")
+    page.locator('input[name="chosen"][value="1"]').check()
+    page.get_by_role("button", name="Next").click()
+    expect(page.locator("p.muted", has_text="item 2 of 4")).to_be_visible()
+    expect(page.get_by_role("timer")).to_contain_text("1:00")
+    page.clock.run_for(20_000)
+    expect(page.get_by_role("timer")).to_contain_text("0:40")  # the countdown is visible
+
+    demo_server.advance(61.0)  # the server's deadline passes ...
+    page.clock.run_for(41_000)  # ... and the page's countdown reaches zero and reloads
+    expect_stage(page, "mental_rotation", "time_up_1")
+    expect(page.locator("h2#time-up")).to_have_text("Time is up")
+    expect(page.locator("main")).to_contain_text("You answered 1 of its 4 items")
+    page.get_by_role("button", name="Continue").click()
+    expect_stage(page, "introduction")
+    page.close()
