@@ -199,6 +199,8 @@ class ParticipantBot:
         stage, step = page.stage, page.step
         if stage == "consent":
             return self.post_form(page, {"decision": "agree"}), True
+        if stage == "screen_check":  # a bot's "window": comfortably large enough
+            return self.post_form(page, {"width": "1280", "height": "800"}), True
         if stage == "ranking":
             fields = {}
             for dimension in ranking.DIMENSIONS:

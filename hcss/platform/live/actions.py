@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from hcss.platform.db import Database
-from hcss.platform.live.rebuild import refusal_text
+from hcss.platform.live.rebuild import accepted_text, refusal_text
 from hcss.platform.live.session import LiveTrial
 from hcss.platform.models import (
     Command,
@@ -96,7 +96,9 @@ def submit_request(database: Database, live: LiveTrial, request: RequestInput) -
                     )
                 )
                 live.request_status[int(outcome.request_id)] = "in_progress"
-        if not accepted:
+        if accepted:
+            live.add_message(sim.time, "accepted", accepted_text(command, outcome.request_id))
+        else:
             live.add_message(sim.time, "refusal", refusal_text(command, reason))
         live.touch()
         return {

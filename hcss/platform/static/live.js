@@ -12,7 +12,7 @@
   const state = {
     view: null, probe: null, selectedHub: null, selectedTarget: null,
     selectedAssignment: null, selections: { collective: null, target: null },
-    flag: null, ended: false, seenMessages: new Set(),
+    flag: null, ended: false, paused: false, committing: false, seenMessages: new Set(),
   };
 
   function el(name, attrs, parent) {
@@ -93,6 +93,20 @@
     drawFlag();
   }
 
+  // Hubs and targets are buttons for the keyboard too: Tab reaches them, Enter or
+  // Space is a left click, and "i", the context-menu key or Shift+F10 a right click.
+  function makeKeyboardButton(node, label, onClick) {
+    node.setAttribute("tabindex", "0");
+    node.setAttribute("role", "button");
+    node.setAttribute("aria-label", label);
+    node.addEventListener("keydown", (e) => {
+      if (e.key === "Enter" || e.key === " ") { e.preventDefault(); onClick("left"); }
+      else if (e.key === "i" || e.key === "ContextMenu" || (e.key === "F10" && e.shiftKey)) {
+        e.preventDefault(); onClick("right");
+      }
+    });
+  }
+
   function createTarget(t, layer) {
     const h = TARGET / 2;
     const root = el("g", { "data-target": t.id }, layer);
@@ -107,6 +121,7 @@
     el("text", { x: h + 18, y: -h + 4, class: "target-id" }, root).textContent = t.id;
     root.addEventListener("click", () => clickTarget(t.id, "left"));
     root.addEventListener("contextmenu", (e) => { e.preventDefault(); clickTarget(t.id, "right"); });
+    makeKeyboardButton(root, `Target ${t.id}`, (button) => clickTarget(t.id, button));
     return glyph;
   }
 
@@ -118,6 +133,9 @@
     if (state.selectedTarget === t.id) classes.push("selected");
     glyph.root.setAttribute("class", classes.join(" "));
     glyph.root.setAttribute("transform", `translate(${t.position[0]},${-t.position[1]})`);
+    const label = `Target ${t.id}` + (t.drawn ? `, highest support ${Math.round(t.max_support * 100)}%` : ", not yet reported")
+      + (state.selectedTarget === t.id ? ", selected" : "");
+    if (glyph.root.getAttribute("aria-label") !== label) glyph.root.setAttribute("aria-label", label);
     // Transparent until two agents have reported it.
     glyph.green.setAttribute("fill-opacity", t.drawn ? (t.value ?? 0) : 0);
     glyph.blue.setAttribute("fill-opacity", t.drawn ? t.max_support : 0);
@@ -141,11 +159,13 @@
     }
     root.addEventListener("click", () => clickHub(c.index, "left"));
     root.addEventListener("contextmenu", (e) => { e.preventDefault(); clickHub(c.index, "right"); });
+    makeKeyboardButton(root, `Collective ${ROMAN[c.index]} hub`, (button) => clickHub(c.index, button));
     return { root, quads };
   }
 
   function updateCollective(glyph, c) {
     glyph.root.setAttribute("class", "collective" + (state.selectedHub === c.index ? " selected" : ""));
+    glyph.root.setAttribute("aria-pressed", state.selectedHub === c.index ? "true" : "false");
     glyph.root.setAttribute("transform", `translate(${c.hub[0]},${-c.hub[1]})`);
     for (const name of ["U", "F", "C", "X"]) glyph.quads[name].setAttribute("fill-opacity", c.fractions[name]);
   }
@@ -187,10 +207,22 @@
     if (key === state.flagKey) return;
     state.flagKey = key;
     layer.replaceChildren();
+    // The box lets every click through to the map (pointer-events: none in live.css);
+    // only its close control takes clicks. Escape closes it too.
     const g = el("g", { class: "flag", transform: `translate(${anchor[0] + 50},${-anchor[1] - 40})` }, layer);
     el("rect", { x: 0, y: 0, width: 230, height: 26 * lines.length + 12, rx: 6 }, g);
     lines.forEach((line, i) => { el("text", { x: 12, y: 28 + 26 * i }, g).textContent = line; });
-    g.addEventListener("click", () => { state.flag = null; drawFlag(); });
+    const close = el("g", { class: "flag-close", transform: "translate(200,4)" }, g);
+    el("rect", { x: 0, y: 0, width: 26, height: 26, rx: 4 }, close);
+    el("text", { x: 13, y: 19 }, close).textContent = "×";
+    makeKeyboardButton(close, "Close the info box", () => closeFlag());
+    close.addEventListener("click", (e) => { e.stopPropagation(); closeFlag(); });
+    $("sr-status").textContent = lines.join(", ");
+  }
+  function closeFlag() {
+    state.flag = null;
+    drawFlag();
+    $("sr-status").textContent = "Info box closed";
   }
 
   // ---- clicks: selection and observation actions --------------------------
@@ -271,7 +303,7 @@
     } catch (e) { note(e.message); }
     finally {
       state.committing = false;
-      $("commit").disabled = state.ended;
+      $("commit").disabled = state.ended || state.paused;
     }
   }
 
@@ -283,6 +315,8 @@
     const key = JSON.stringify([view.requests, state.selectedAssignment]);
     if (key === state.assignmentsKey) return;
     state.assignmentsKey = key;
+    const active = document.activeElement;
+    const focused = active && active.parentElement === list ? active.dataset.request : null;
     list.replaceChildren();
     for (const r of view.requests) {
       const li = document.createElement("li");
@@ -293,8 +327,19 @@
       const label = document.createElement("span");
       label.textContent = `${r.kind} · ${ROMAN[r.collective]} → target ${r.target}`;
       li.append(dot, label);
-      li.addEventListener("click", () => { state.selectedAssignment = r.id; drawAssignments(view); });
+      li.tabIndex = 0;
+      li.setAttribute("role", "button");
+      li.setAttribute("aria-pressed", r.id === state.selectedAssignment ? "true" : "false");
+      li.setAttribute("aria-label", `${r.kind}, collective ${ROMAN[r.collective]}, target ${r.target}, ${r.status.replace("_", " ")}`);
+      const select = () => { state.selectedAssignment = r.id; drawAssignments(state.view || view); };
+      li.addEventListener("click", select);
+      li.addEventListener("keydown", (e) => { if (e.key === "Enter" || e.key === " ") { e.preventDefault(); select(); } });
       list.appendChild(li);
+    }
+    // A rebuild must not throw the keyboard user's focus away.
+    if (focused !== null) {
+      const again = list.querySelector(`li[data-request="${focused}"]`);
+      if (again) again.focus();
     }
     const selected = view.requests.find((r) => r.id === state.selectedAssignment);
     $("cancel-assignment").disabled = !(selected && selected.kind === "abandon");
@@ -324,8 +369,10 @@
   }
 
   // ---- SA probes --------------------------------------------------------------
-  function drawProbe(probe) {
+  function drawProbe(probe, clockS) {
     const box = $("probe");
+    // The countdown moves with every frame; the rest only when the probe changes.
+    if (probe) $("probe-countdown").textContent = clock(probe.timeout_s - clockS);
     const key = probe ? probe.id + ":" + probe.phase : null;
     if (key === state.probeKey) return;
     state.probeKey = key;
@@ -344,6 +391,10 @@
         button.addEventListener("click", () => answerProbe(probe.id, choice));
         choices.appendChild(button);
       }
+      const first = choices.querySelector("button");
+      if (first) first.focus();
+    } else {
+      $("probe-ready").focus();  // a question is waiting: Enter or Space answers "Ready"
     }
   }
   function readyProbe() {
@@ -356,8 +407,17 @@
   }
 
   // ---- the stream ---------------------------------------------------------------
+  function showPause(paused) {
+    if (paused === state.paused) return;
+    state.paused = paused;
+    $("paused").hidden = !paused;
+    $("clock-box").classList.toggle("paused", paused);
+    $("clock-state").textContent = paused ? "paused" : "";
+    $("commit").disabled = paused || state.ended || state.committing;
+  }
   function onFrame(frame) {
     $("clock").textContent = clock(frame.trial.clock_s);
+    showPause(frame.trial.status === "paused");
     if (frame.messages) addMessages(frame.messages);
     if (frame.view) {
       state.view = frame.view;
@@ -366,7 +426,7 @@
       drawMap(frame.view);
       drawAssignments(frame.view);
     }
-    drawProbe(frame.probe || null);
+    drawProbe(frame.probe || null, frame.trial.clock_s);
     if (frame.trial.status === "ended") endTrial();
   }
   function endTrial() {
@@ -380,12 +440,41 @@
     if (next) { $("continue").href = next; $("continue").hidden = false; }
   }
 
+  // Another tab or window opened the same trial: the server tells this one
+  // ("takeover" event) and ends its stream; it must not reconnect and run twice.
+  function takenOver() {
+    state.ended = true;
+    if (stream) stream.close();
+    $("probe").hidden = true;
+    $("paused").hidden = true;
+    $("taken-over").hidden = false;
+    $("commit").disabled = true;
+    $("connection").textContent = "opened elsewhere";
+    $("connection").className = "connection";
+  }
+
   let stream = null;
   function connect() {
     stream = new EventSource(root.dataset.streamUrl);
     stream.onopen = () => { $("connection").textContent = "live"; $("connection").className = "connection ok"; };
     stream.onerror = () => { if (!state.ended) { $("connection").textContent = "reconnecting…"; $("connection").className = "connection"; } };
     stream.onmessage = (event) => onFrame(JSON.parse(event.data));
+    stream.addEventListener("takeover", takenOver);
+  }
+
+  document.addEventListener("keydown", (e) => {
+    if (e.key === "Escape" && state.flag) { e.preventDefault(); closeFlag(); }
+  });
+  const fullscreen = $("fullscreen");
+  if (document.fullscreenEnabled) {
+    fullscreen.hidden = false;
+    fullscreen.addEventListener("click", () => {
+      if (document.fullscreenElement) document.exitFullscreen();
+      else document.documentElement.requestFullscreen().catch(() => note("Full screen is not available here."));
+    });
+    document.addEventListener("fullscreenchange", () => {
+      fullscreen.textContent = document.fullscreenElement ? "Leave full screen" : "Full screen";
+    });
   }
 
   $("request-form").addEventListener("submit", commit);

@@ -28,6 +28,7 @@ from hcss.platform.study.forms import (
 )
 from hcss.platform.study.markdown import render_markdown
 from hcss.platform.study.mrt_stage import MentalRotation
+from hcss.platform.study.screen_check import ScreenCheck
 from hcss.platform.study.stage import Refused, Slot, Stage
 from hcss.platform.study.texts import fill
 from hcss.platform.study.trial_stage import Training, Trial
@@ -292,6 +293,7 @@ for _stage in (
     Demographics,
     MentalRotation,
     Introduction,
+    ScreenCheck,
     Training,
     Trial,
     PostTrial,
