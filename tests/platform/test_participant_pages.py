@@ -89,3 +89,28 @@ def test_error_pages_use_the_study_look_and_say_what_to_do(demo_app, monkeypatch
     assert failed.status_code == 500
     assert "Your answers so far are saved" in html and "database on fire" not in html
     assert "Traceback" not in html and f'href="/p/{token}"' in html
+
+
+def test_the_screen_check_refuses_a_small_or_bogus_window_on_the_server(demo_app) -> None:  # noqa: F811
+    from tests.platform.test_study_resume import walk_to
+
+    guest = visitor(demo_app, new_participant(demo_app))
+    page = walk_to(guest, "screen_check", "form")
+    assert "at least\n1024 x 700 pixels" in guest.html
+    for width, height in (
+        ("800", "600"),
+        ("1024", "699"),
+        ("abc", "900"),
+        ("", ""),
+        ("1" * 40, "900"),
+        ("-5", "900"),
+        ("1280\x00", "900"),
+    ):
+        response = guest.submit({"width": width, "height": height}, page)
+        assert response.status_code == 200, (width, height)
+        assert 'class="error' in guest.html and 'data-stage="screen_check"' in guest.html
+    assert "Your window is 800 x 600 pixels" in guest.client.post(
+        page.action, data=dict(page.hidden) | {"width": "800", "height": "600"}
+    ).get_data(as_text=True)
+    assert guest.submit({"width": "1280", "height": "800"}, page).status_code == 302
+    assert guest.page().stage == "training"
