@@ -12,6 +12,13 @@ from hcss.platform.cli import alembic_config
 from hcss.platform.models import AuditRecord, Base, ConsoleAction, Experimenter
 
 CONSOLE_TABLES = {m.__tablename__ for m in (Experimenter, ConsoleAction, AuditRecord)}
+# (table, column) added by revisions after 0002 to tables that exist by then.
+LATER_COLUMNS = {("probe_event", "latency_ms")}  # 0004_p8_idempotency
+
+
+def _added_later(difference: tuple) -> bool:  # type: ignore[type-arg]
+    kind, _schema, table, column = (*difference, None, None, None, None)[:4]
+    return kind == "add_column" and (table, getattr(column, "name", None)) in LATER_COLUMNS
 
 
 def test_the_migrations_have_one_head() -> None:
@@ -35,7 +42,9 @@ def test_upgrade_creates_the_console_tables_as_modelled_and_downgrade_removes_th
             if table.name in present | CONSOLE_TABLES:
                 table.to_metadata(expected)
         with engine.connect() as connection:
-            assert compare_metadata(MigrationContext.configure(connection), expected) == []
+            differences = compare_metadata(MigrationContext.configure(connection), expected)
+        # Columns that later revisions add to these tables are not there yet.
+        assert [d for d in differences if not _added_later(d)] == []
         command.downgrade(config, "0001")
         assert not CONSOLE_TABLES & set(inspect(create_engine(url)).get_table_names())
     finally:
