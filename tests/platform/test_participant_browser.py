@@ -279,6 +279,7 @@ def supervise_first_trial(page, server: StudyServer, token: str) -> dict[str, in
     return {"target": target["id"], "probes": answered}
 
 
+@pytest.mark.slow  # about 25 s: six live trials on the manual clock, in a browser
 def test_the_demo_study_from_the_link_to_the_debrief(browser, demo_server: StudyServer) -> None:
     from playwright.sync_api import expect
 
