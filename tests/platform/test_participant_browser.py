@@ -520,3 +520,22 @@ def test_a_takeover_event_stops_the_older_tab(browser, demo_server: StudyServer)
     page.wait_for_timeout(800)  # eight reconnection delays
     assert len(opened) == 1, "the tab that was taken over must not reconnect"
     page.close()
+
+
+def test_declining_in_the_browser_asks_once(browser, demo_server: StudyServer) -> None:
+    from playwright.sync_api import expect
+
+    token = demo_server.participant()
+    page = browser.new_page(viewport=VIEWPORT)
+    page.goto(f"{demo_server.url}/p/{token}")
+    page.get_by_label("I do not agree").check()
+    page.get_by_role("button", name="Continue").click()
+    expect(page.locator("#confirm-decline")).to_contain_text("If that is right, press Confirm")
+    page.get_by_label("I agree", exact=True).check()
+    expect(page.locator("#consent-submit")).to_have_text("Continue")
+    page.get_by_label("I do not agree").check()
+    expect(page.locator("#consent-submit")).to_have_text("Confirm")
+    page.get_by_role("button", name="Confirm").click()
+    expect_stage(page, "declined")
+    expect(page.locator("main")).to_contain_text("You have chosen not to take part")
+    page.close()

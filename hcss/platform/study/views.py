@@ -14,7 +14,7 @@ from typing import Any
 
 from flask import Blueprint, Flask, redirect, render_template, request, url_for
 from sqlalchemy import select
-from sqlalchemy.exc import IntegrityError
+from sqlalchemy.exc import IntegrityError, SQLAlchemyError
 from werkzeug.exceptions import NotFound
 from werkzeug.wrappers import Response
 
@@ -45,7 +45,10 @@ def _participant_code() -> dict[str, Any]:
     token = (request.view_args or {}).get("token")
     if not isinstance(token, str):
         return {}
-    code = get_session().scalar(select(Participant.code).where(Participant.token == token))
+    try:
+        code = get_session().scalar(select(Participant.code).where(Participant.token == token))
+    except SQLAlchemyError:  # an error page for a failed database still renders
+        return {}
     return {"participant_code": code} if code else {}
 
 
