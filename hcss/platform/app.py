@@ -16,6 +16,7 @@ from werkzeug.exceptions import HTTPException
 
 from hcss.platform import config as platform_config
 from hcss.platform import db
+from hcss.platform.errors import error_page, http_error_page
 
 # (module, attribute) of each blueprint; each part of the platform adds its line.
 BLUEPRINTS: list[tuple[str, str]] = [
@@ -59,7 +60,7 @@ def _register_json_errors(app: Flask) -> None:
     def _csrf_error(error: CSRFError):  # type: ignore[no-untyped-def]
         if request.path.startswith("/api/"):
             return jsonify(error="csrf", message=error.description), 400
-        return error.description, 400
+        return error_page(400)
 
     @app.errorhandler(HTTPException)
     def _http_error(error: HTTPException):  # type: ignore[no-untyped-def]
@@ -67,4 +68,4 @@ def _register_json_errors(app: Flask) -> None:
             return jsonify(error=error.name.lower().replace(" ", "_"), message=error.description), (
                 error.code or 500
             )
-        return error
+        return http_error_page(error)

@@ -96,7 +96,7 @@ def expected_pages(study: Study) -> list[tuple[str, str]]:
     settings = study.mrt
     mrt_steps = ["instructions"] + [f"practice_{n}" for n in range(1, settings.practice_items + 1)]
     for number in range(1, len(settings.part_items) + 1):
-        mrt_steps += ([f"break_{number - 1}"] if number > 1 else []) + [f"part_{number}"]
+        mrt_steps += [f"break_{number - 1}" if number > 1 else "begin_1", f"part_{number}"]
     steps = {
         "mental_rotation": mrt_steps,
         "introduction": intro,
@@ -199,6 +199,8 @@ class ParticipantBot:
         stage, step = page.stage, page.step
         if stage == "consent":
             return self.post_form(page, {"decision": "agree"}), True
+        if stage == "screen_check":  # a bot's "window": comfortably large enough
+            return self.post_form(page, {"width": "1280", "height": "800"}), True
         if stage == "ranking":
             fields = {}
             for dimension in ranking.DIMENSIONS:

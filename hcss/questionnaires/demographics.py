@@ -38,8 +38,8 @@ def _experience(key: str, prompt: str) -> RatingItem:
 DEMOGRAPHICS = Questionnaire(
     instrument=INSTRUMENT,
     title="About you",
-    instructions="Please answer a few questions about yourself. Every question has a choice "
-    "that lets you not say.",
+    instructions="Please answer a few questions about yourself. The questions on your age, "
+    "gender, education and colour vision each have a choice that lets you not say.",
     items=(
         ChoiceItem(
             key="age_band",
@@ -48,6 +48,7 @@ DEMOGRAPHICS = Questionnaire(
                 Choice("18-30", "18 to 30"),
                 Choice("31-50", "31 to 50"),
                 Choice("51+", "51 or older"),
+                Choice("not_said", "Prefer not to say"),
             ),
         ),
         ChoiceItem(
@@ -77,7 +78,12 @@ DEMOGRAPHICS = Questionnaire(
         ChoiceItem(
             key="colour_vision",
             prompt="Do you have a colour-vision deficiency (colour blindness)?",
-            choices=(Choice("yes", "Yes"), Choice("no", "No"), Choice("unsure", "Unsure")),
+            choices=(
+                Choice("yes", "Yes"),
+                Choice("no", "No"),
+                Choice("unsure", "Unsure"),
+                Choice("not_said", "Prefer not to say"),
+            ),
         ),
         _experience("video_games", "How much experience do you have with playing video games?"),
         _experience("robots", "How much experience do you have with robots?"),

@@ -126,8 +126,8 @@ def tiny_export(tmp_path: Path) -> Path:
     write_table(pd.DataFrame(observations), study / "observations.csv")
     probe = {
         "question": "q",
-        "ready_latency_s": 1.0,
-        "answer_latency_s": 2.0,
+        "ready_latency_ms": 1000.0,
+        "answer_latency_ms": 2000.0,
         "answer": "I",
         "truth": "I",
     }

@@ -13,7 +13,7 @@ from hcss.platform.models import AuditRecord, Base, ConsoleAction, Experimenter
 
 CONSOLE_TABLES = {m.__tablename__ for m in (Experimenter, ConsoleAction, AuditRecord)}
 #: Columns later revisions add to tables that exist at 0002_console (table, column).
-LATER_COLUMNS = {("participant", "study")}
+LATER_COLUMNS = {("participant", "study"), ("probe_event", "latency_ms")}
 
 
 def _not_added_later(obj, name, type_, reflected, compare_to) -> bool:  # type: ignore[no-untyped-def]

@@ -92,7 +92,7 @@ def test_export_rows_carry_the_recorded_trial(exported, app) -> None:  # type: i
         str(i) for i in range(1, len(probes) + 1)
     ]
     answered = [p for p in probes if p["answer"]]
-    assert len(answered) == 3 and all(float(p["ready_latency_s"]) >= 0 for p in answered)
+    assert len(answered) == 3 and all(float(p["ready_latency_ms"]) >= 0 for p in answered)
     assert all(p["timed_out"] == "true" for p in probes if not p["answer"])
     _, participants = read_csv(outdir / "participants.csv")
     row = next(p for p in participants if p["participant"] == code)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import csv
+
 import numpy as np
 import pytest
 from sqlalchemy import select
@@ -129,3 +131,46 @@ def test_projection_is_scored_when_the_next_decision_happens(make_trial) -> None
     assert answer.kind == "answer" and answer.correct is None
     assert scored.kind == "scored" and scored.truth == ROMAN[decision.collective]
     assert scored.correct is (ROMAN[decision.collective] == "II")
+
+
+def test_latencies_are_wall_clock_milliseconds_from_delivery(
+    make_trial, database_url, tmp_path
+) -> None:
+    """Sub-second answers keep their milliseconds (they were whole simulation seconds,
+    exported as 0.0), and an experimenter's pause in between does not count."""
+    from click.testing import CliRunner
+
+    from hcss.cli import main
+    from hcss.platform.console.sessions import change_session
+    from hcss.platform.models import Participant
+
+    trial = make_trial(seed=4)
+    probe, _, _ = _until_probe(trial, 0)  # this state() read delivered the prompt
+    clock = trial.runner.clock
+    clock.now += 0.250
+    assert trial.post(f"/probes/{probe['id']}/ready", {}).status_code == 200
+    clock.now += 0.100
+    choice = trial.state()["probe"]["choices"][0]  # the question is delivered now
+    clock.now += 0.200
+    with trial.app.app_context():
+        with trial.app.extensions["hcss_db"].session_scope() as session:
+            participant = session.scalars(
+                select(Participant).where(Participant.token == trial.token)
+            ).one()
+            session.expunge(participant)
+        change_session(trial.app.extensions["hcss_db"], trial.runner, participant, None, "pause")
+        clock.now += 5.0  # the pause: wall time that is no one's latency
+        change_session(trial.app.extensions["hcss_db"], trial.runner, participant, None, "resume")
+    clock.now += 0.133
+    assert trial.post(f"/probes/{probe['id']}/answer", {"answer": choice}).status_code == 200
+
+    ready, answer = (e for e in _events(trial.app, probe["id"]) if e.kind in ("ready", "answer"))
+    assert ready.latency_ms == pytest.approx(250.0, abs=0.1)
+    assert answer.latency_ms == pytest.approx(333.0, abs=0.1)
+
+    out = tmp_path / "export"
+    result = CliRunner().invoke(main, ["export", str(out), "--database-url", database_url])
+    assert result.exit_code == 0, result.output
+    with (out / "probes.csv").open() as handle:
+        row = next(r for r in csv.DictReader(handle) if r["probe_index"] == str(probe["index"]))
+    assert (float(row["ready_latency_ms"]), float(row["answer_latency_ms"])) == (250.0, 333.0)

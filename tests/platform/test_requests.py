@@ -190,3 +190,20 @@ def test_bad_input_gets_a_json_error_and_changes_nothing(make_trial) -> None:
     assert not_json.status_code == 400 and "JSON" in not_json.get_json()["message"]
     assert _count(trial.app, Command) == 0
     assert _count(trial.app, CommandOutcome) == 0
+
+
+def test_accepted_requests_are_logged_in_system_messages_and_survive_a_rebuild(
+    make_trial,
+) -> None:
+    trial = make_trial()
+    trial.run_to(60)
+    target = _in_range_target(trial.state()["view"], 0)
+    outcome = trial.post(
+        "/requests", {"kind": "investigate", "collective": 0, "target": target["id"]}
+    ).get_json()
+    expected = f"Request {outcome['request_id']} accepted (investigate by collective I on target {target['id']})"
+    shown = [m for m in trial.state()["messages"] if m["kind"] == "accepted"]
+    assert [m["text"] for m in shown] == [expected]
+    trial.runner.trials.pop(trial.trial_id)  # forget it: the next look rebuilds from the log
+    rebuilt = [m["text"] for m in trial.live().messages if m["kind"] == "accepted"]
+    assert rebuilt == [expected]

@@ -7,6 +7,7 @@ test-artifacts/ and docs/screenshot-mrt.png.
 
 from __future__ import annotations
 
+import os
 import re
 import shutil
 from pathlib import Path
@@ -71,7 +72,8 @@ def test_consent_to_the_first_mrt_item_in_the_browser(browser, study_server) -> 
     expect(page.locator(".mrt-target svg")).to_have_count(1)
     ARTIFACTS.mkdir(exist_ok=True)
     page.screenshot(path=str(ARTIFACTS / "study-mrt-item.png"), full_page=True)
-    shutil.copyfile(ARTIFACTS / "study-mrt-item.png", ROOT / "docs" / "screenshot-mrt.png")
+    if os.environ.get("HCSS_UPDATE_SCREENSHOTS") == "1":
+        shutil.copyfile(ARTIFACTS / "study-mrt-item.png", ROOT / "docs" / "screenshot-mrt.png")
 
     page.locator('input[name="chosen"][value="0"]').check()
     page.locator('input[name="chosen"][value="1"]').check()

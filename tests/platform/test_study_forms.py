@@ -126,7 +126,9 @@ def test_declining_consent_keeps_only_the_refusal(demo_app) -> None:  # noqa: F8
     v = visitor(demo_app, token)
     page = v.page()
     assert page.stage == "consent" and "Consent to take part" in v.html
-    assert v.submit({"decision": "decline"}, page).status_code == 302
+    assert v.submit({"decision": "decline"}, page).status_code == 200  # asked to confirm
+    confirmed = {"decision": "decline", "confirm_decline": "yes"}
+    assert v.submit(confirmed, page).status_code == 302
     assert v.page().stage == "declined" and "chosen not to take part" in v.html
     assert v.submit({"decision": "agree"}, page).status_code == 409  # no change of mind by replay
     with demo_app.extensions["hcss_db"].session_scope() as session:

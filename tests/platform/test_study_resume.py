@@ -79,7 +79,9 @@ def test_mid_mrt_refresh_and_restart_return_to_the_same_item_and_deadline(databa
     # Away past the deadline: the part is timed out at its deadline, the answers kept.
     stale = page
     v.advance(200.0)
-    assert v.page().step == "break_1"
+    assert v.page().step == "time_up_1" and "You answered 3 of its 12 items" in v.html
+    assert v.submit({}).status_code == 302
+    assert v.page().step == "break_1" and "you will have <b>3 minutes</b>" in v.html
     timed_out = [e for e in events(app, token) if e.step == "part_1" and e.kind == "timed_out"]
     assert len(timed_out) == 1 and timed_out[0].at == deadline
     assert v.submit({"chosen": ["0"]}, stale).status_code == 409
@@ -170,6 +172,9 @@ def test_the_last_mrt_part_timing_out_still_scores_the_answers_given(demo_app) -
         assert v.submit({"chosen": correct}, page).status_code == 302
     assert v.page().mrt_item == "mrt_03"
     v.advance(61.0)
+    assert (v.page().stage, v.page().step) == ("mental_rotation", "time_up_1")
+    assert "Time is up" in v.html and "You answered 2 of its 4 items" in v.html
+    assert v.submit({}).status_code == 302
     assert (v.page().stage, v.page().step) == ("introduction", "page_1")
     with demo_app.extensions["hcss_db"].session_scope() as session:
         scores = {

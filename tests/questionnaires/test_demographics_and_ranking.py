@@ -27,9 +27,9 @@ def test_demographics_items_match_the_data_dictionary() -> None:
         "robots",
     )
     age = demographics.DEMOGRAPHICS.item("age_band")
-    assert isinstance(age, ChoiceItem) and age.values() == ("18-30", "31-50", "51+")
+    assert isinstance(age, ChoiceItem) and age.values() == ("18-30", "31-50", "51+", "not_said")
     vision = demographics.DEMOGRAPHICS.item("colour_vision")
-    assert isinstance(vision, ChoiceItem) and vision.values() == ("yes", "no", "unsure")
+    assert isinstance(vision, ChoiceItem) and vision.values() == ("yes", "no", "unsure", "not_said")
     games = demographics.DEMOGRAPHICS.item("video_games")
     assert isinstance(games, RatingItem) and games.points() == (1, 2, 3, 4, 5)
     assert len(games.point_labels) == 5
@@ -40,7 +40,7 @@ def test_demographics_validation() -> None:
     errors = demographics.validate(
         {**VALID_DEMOGRAPHICS, "age_band": "17", "robots": 6, "gender": ""} | {"name": "Ann"}
     )
-    assert errors["age_band"] == ["Please choose one of: 18-30, 31-50, 51+."]
+    assert errors["age_band"] == ["Please choose one of: 18-30, 31-50, 51+, not_said."]
     assert errors["robots"] == ["Must be between 1 and 5, got 6."]
     assert errors["gender"] == ["This question needs an answer."]
     assert errors["name"] == ["Not a question of this form."]

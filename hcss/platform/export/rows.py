@@ -126,10 +126,8 @@ def _probe_row(trial: Trial, code: str, probe: Probe, events: Iterable[ProbeEven
         "probe_index": probe.probe_index,
         "level": probe.level,
         "question": probe.question,
-        "ready_latency_s": None if ready is None else ready.sim_time - probe.shown_sim_time,
-        "answer_latency_s": None
-        if answer is None or ready is None
-        else answer.sim_time - ready.sim_time,
+        "ready_latency_ms": None if ready is None else ready.latency_ms,
+        "answer_latency_ms": None if answer is None else answer.latency_ms,
         "answer": None if answer is None else answer.answer,
         "truth": scored.truth if scored is not None and scored.truth else probe.truth,
         "correct": None if scored is None else scored.correct,

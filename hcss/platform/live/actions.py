@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from hcss.platform.db import Database
-from hcss.platform.live.rebuild import refusal_text
+from hcss.platform.live.rebuild import accepted_text, refusal_text
 from hcss.platform.live.session import LiveTrial
 from hcss.platform.models import (
     Command,
@@ -96,7 +96,9 @@ def submit_request(database: Database, live: LiveTrial, request: RequestInput) -
                     )
                 )
                 live.request_status[int(outcome.request_id)] = "in_progress"
-        if not accepted:
+        if accepted:
+            live.add_message(sim.time, "accepted", accepted_text(command, outcome.request_id))
+        else:
             live.add_message(sim.time, "refusal", refusal_text(command, reason))
         live.touch()
         return {
@@ -139,18 +141,27 @@ def record_observation(
         return row.id
 
 
-def probe_ready(database: Database, live: LiveTrial, probe_id: int) -> None:
+def probe_ready(
+    database: Database, live: LiveTrial, probe_id: int, now: float | None = None
+) -> None:
+    """The Ready press; `now` (the runner's wall clock) times it from the prompt's delivery."""
     with live.lock:
         probe = _current_probe(live, probe_id)
         if probe.ready:
             raise ActionError("this probe's question is already shown", 409, "already_ready")
+        running_s = None if now is None else live.running_wall_s(now)
+        event = _probe_event(live, probe_id, "ready")
+        event.latency_ms = _latency_ms(probe.delivered_s, running_s)
         with database.session_scope() as session:
-            session.add(_probe_event(live, probe_id, "ready"))
-        probe.ready = True
+            session.add(event)
+        probe.ready, probe.ready_s = True, running_s
         live.touch()
 
 
-def probe_answer(database: Database, live: LiveTrial, probe_id: int, answer: str) -> None:
+def probe_answer(
+    database: Database, live: LiveTrial, probe_id: int, answer: str, now: float | None = None
+) -> None:
+    """The answer; timed from the question's delivery (or the Ready press, if never sent)."""
     with live.lock:
         probe = _current_probe(live, probe_id)
         if not probe.ready:
@@ -158,8 +169,14 @@ def probe_answer(database: Database, live: LiveTrial, probe_id: int, answer: str
         if answer not in probe.choices:
             raise ActionError(f"{answer!r} is not one of the choices {probe.choices}")
         correct = None if probe.truth is None else answer == probe.truth
+        running_s = None if now is None else live.running_wall_s(now)
+        asked_s = (
+            probe.question_delivered_s if probe.question_delivered_s is not None else probe.ready_s
+        )
+        answered = _probe_event(live, probe_id, "answer", answer=answer)
+        answered.latency_ms = _latency_ms(asked_s, running_s)
         with database.session_scope() as session:
-            session.add(_probe_event(live, probe_id, "answer", answer=answer))
+            session.add(answered)
             if probe.truth is not None:
                 event = _probe_event(live, probe_id, "scored", answer=answer)
                 event.truth, event.correct = probe.truth, correct
@@ -181,6 +198,12 @@ def _probe_event(live: LiveTrial, probe_id: int, kind: str, answer: str | None =
         step=live.sim.step_count,
         sim_time=float(live.sim.time),
     )
+
+
+def _latency_ms(since_s: float | None, now_s: float | None) -> float | None:
+    if since_s is None or now_s is None:
+        return None
+    return round(max(0.0, now_s - since_s) * 1000.0, 1)
 
 
 def _current_probe(live: LiveTrial, probe_id: int):  # type: ignore[no-untyped-def]

@@ -2,7 +2,8 @@
 
 Every route is under the participant's token and checks that the trial is
 theirs. Every POST is CSRF-protected (X-CSRFToken header, from the page's
-meta tag). Bad input gets a JSON error and changes nothing.
+meta tag) and idempotent when it carries an Idempotency-Key header
+(hcss.platform.live.idempotency). Bad input gets a JSON error and changes nothing.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from sqlalchemy import select
 from hcss.platform.db import database, get_session
 from hcss.platform.live import actions
 from hcss.platform.live.access import runner, trial_for
+from hcss.platform.live.idempotency import idempotent
 from hcss.platform.live.session import LiveTrial
 from hcss.platform.live.stream import ended_stream, event_stream
 from hcss.platform.models import COMMAND_KINDS, Observation
@@ -80,6 +82,7 @@ def state(token: str, trial_id: int) -> Response:
 
 
 @bp.post("/requests")
+@idempotent
 def submit_request(token: str, trial_id: int):  # type: ignore[no-untyped-def]
     live = _live(token, trial_id)
     body = _body()
@@ -118,6 +121,7 @@ def _selections(body: dict[str, Any], trial_id: int) -> tuple[int, ...]:
 
 
 @bp.post("/observations")
+@idempotent
 def observe(token: str, trial_id: int):  # type: ignore[no-untyped-def]
     live = _live(token, trial_id)
     body = _body()
@@ -138,17 +142,19 @@ def observe(token: str, trial_id: int):  # type: ignore[no-untyped-def]
 
 
 @bp.post("/probes/<int:probe_id>/ready")
+@idempotent
 def probe_ready(token: str, trial_id: int, probe_id: int):  # type: ignore[no-untyped-def]
     live = _live(token, trial_id)
-    actions.probe_ready(database(), live, probe_id)
+    actions.probe_ready(database(), live, probe_id, now=runner().clock())
     return jsonify(ok=True)
 
 
 @bp.post("/probes/<int:probe_id>/answer")
+@idempotent
 def probe_answer(token: str, trial_id: int, probe_id: int):  # type: ignore[no-untyped-def]
     live = _live(token, trial_id)
     answer = _body().get("answer")
     if not isinstance(answer, str):
         raise actions.ActionError("'answer' must be one of the choices, as a string")
-    actions.probe_answer(database(), live, probe_id, answer)
+    actions.probe_answer(database(), live, probe_id, answer, now=runner().clock())
     return jsonify(ok=True)

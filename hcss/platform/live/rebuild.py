@@ -147,12 +147,17 @@ def _restore_messages(session: Session, live: LiveTrial) -> None:
         (e.sim_time, e.id, e.kind, e.text)
         for e in session.scalars(select(SimEvent).where(SimEvent.trial_id == live.trial_id))
     ]
-    refusals = session.execute(
+    outcomes = session.execute(
         select(Command, CommandOutcome)
         .join(CommandOutcome, CommandOutcome.command_id == Command.id)
-        .where(Command.trial_id == live.trial_id, CommandOutcome.accepted.is_(False))
+        .where(Command.trial_id == live.trial_id)
     )
-    events += [(c.sim_time, c.id, "refusal", refusal_text(c, o.reason)) for c, o in refusals]
+    events += [
+        (c.sim_time, c.id, "accepted", accepted_text(c, o.request_id))
+        if o.accepted
+        else (c.sim_time, c.id, "refusal", refusal_text(c, o.reason))
+        for c, o in outcomes
+    ]
     for time, _id, kind, text in sorted(events):
         live.add_message(time, kind, text)
 
@@ -195,12 +200,21 @@ def _last_seen(session: Session, trial_id: int):  # type: ignore[no-untyped-def]
     return max(present) if present else None
 
 
-def refusal_text(command: Command, reason: str) -> str:
+def _subject(command: Command) -> str:
     from hcss.platform.live.probes import ROMAN
 
     if command.kind == "cancel":
-        subject = f"cancel of assignment {command.cancel_request_id}"
-    else:
-        collective = ROMAN[command.collective] if command.collective is not None else "?"
-        subject = f"{command.kind} by collective {collective} on target {command.target}"
-    return f"Request refused ({subject}): {reason}"
+        return f"cancel of assignment {command.cancel_request_id}"
+    collective = ROMAN[command.collective] if command.collective is not None else "?"
+    return f"{command.kind} by collective {collective} on target {command.target}"
+
+
+def refusal_text(command: Command, reason: str) -> str:
+    return f"Request refused ({_subject(command)}): {reason}"
+
+
+def accepted_text(command: Command, request_id: int | None) -> str:
+    """System Messages log accepted requests as well as refusals (issue 8)."""
+    if command.kind == "cancel":
+        return f"Request accepted ({_subject(command)})"
+    return f"Request {request_id} accepted ({_subject(command)})"

@@ -41,6 +41,20 @@ class CurrentProbe:
     shown_sim_time: float
     timeout_sim_time: float
     ready: bool = False
+    # Running wall seconds (LiveTrial.running_wall_s) when the prompt, then the
+    # question, was first sent to the page, and when Ready was pressed: the
+    # latencies are measured from these. Lost in a restart: the first frame
+    # after it delivers again.
+    delivered_s: float | None = None
+    question_delivered_s: float | None = None
+    ready_s: float | None = None
+
+    def delivered(self, running_s: float) -> None:
+        """A frame carrying this probe is being sent."""
+        if self.delivered_s is None:
+            self.delivered_s = running_s
+        if self.ready and self.question_delivered_s is None:
+            self.question_delivered_s = running_s
 
     def public(self) -> dict[str, Any]:
         """What the browser sees: never the truth."""
@@ -102,10 +116,10 @@ class LiveTrial:
 
     def due_step(self, now: float) -> int:
         """The step the wall clock says the trial should have reached."""
-        elapsed = self._running_wall_s(now) * self.acceleration
+        elapsed = self.running_wall_s(now) * self.acceleration
         return min(self.total_steps, int(math.floor(elapsed / self.dt + 1e-9)))
 
-    def _running_wall_s(self, now: float) -> float:
+    def running_wall_s(self, now: float) -> float:
         """Wall seconds the trial clock has run: pauses do not count."""
         stopped = now if self.paused_since is None else min(now, self.paused_since)
         return max(0.0, stopped - self.started_epoch - self.paused_s)
@@ -114,7 +128,7 @@ class LiveTrial:
         """Trial time by the wall clock, for the page's timer (runs between steps)."""
         if self.ended:
             return self.duration_s
-        return min(self.duration_s, self._running_wall_s(now) * self.acceleration)
+        return min(self.duration_s, self.running_wall_s(now) * self.acceleration)
 
     def touch(self) -> None:
         """Mark the state as changed and wake every stream; call with `lock` held."""
@@ -146,6 +160,8 @@ class LiveTrial:
 
     def frame(self, now: float, after_seq: int) -> tuple[str, int]:
         """One stream frame (JSON text) and the newest message seq it carries."""
+        if self.current_probe is not None:
+            self.current_probe.delivered(self.running_wall_s(now))
         new_messages = [m for m in self.messages if m["seq"] > after_seq]
         last_seq = new_messages[-1]["seq"] if new_messages else after_seq
         head = {

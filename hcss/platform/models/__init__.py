@@ -2,6 +2,7 @@
 
 from hcss.platform.models.base import Base, CreatedAt, UTCDateTime, utcnow
 from hcss.platform.models.console import AuditRecord, ConsoleAction, Experimenter
+from hcss.platform.models.idempotency import CommandKey
 from hcss.platform.models.observation import Observation
 from hcss.platform.models.outcome import DecisionRow, SimEvent
 from hcss.platform.models.participant import Participant, new_code, new_token
@@ -32,6 +33,7 @@ __all__ = [
     "Command",
     "ConsentRecord",
     "CommandOutcome",
+    "CommandKey",
     "CreatedAt",
     "DecisionRow",
     "Interruption",

@@ -2,7 +2,8 @@
 
 A `Probe` row is written when the probe is shown, with its question, choices
 and (for levels 1 and 2) the truth at that moment. Each later event, the
-"ready" press, the answer, the time-out and the scoring, is a `ProbeEvent`.
+"ready" press, the answer, the time-out and the scoring, is a `ProbeEvent`;
+the press and the answer carry their latency in wall-clock milliseconds.
 """
 
 from __future__ import annotations
@@ -43,3 +44,8 @@ class ProbeEvent(CreatedAt, Base):
     correct: Mapped[bool | None]
     step: Mapped[int]
     sim_time: Mapped[float]
+    # Wall-clock milliseconds the participant took, measured on the server while the
+    # trial clock ran (an experimenter's pause does not count): for "ready", from the
+    # first delivery of the prompt to the press; for "answer", from the first delivery
+    # of the question to the answer. None for other kinds, or when never delivered.
+    latency_ms: Mapped[float | None]

@@ -14,7 +14,7 @@
   const state = {
     view: null, probe: null, selectedHub: null, selectedTarget: null,
     selectedAssignment: null, selections: { collective: null, target: null },
-    flag: null, ended: false, seenMessages: new Set(),
+    flag: null, ended: false, paused: false, committing: false, seenMessages: new Set(),
   };
 
   function el(name, attrs, parent) {
@@ -27,17 +27,41 @@
     const s = Math.max(0, Math.floor(seconds));
     return Math.floor(s / 60) + ":" + String(s % 60).padStart(2, "0");
   }
+  // Every command carries a fresh Idempotency-Key: the server carries out a
+  // key once and answers a repeat (a double click, a retry) with the first
+  // outcome. getRandomValues works on plain http too, unlike randomUUID.
+  function newKey() {
+    const bytes = crypto.getRandomValues(new Uint8Array(16));
+    return Array.from(bytes, (b) => b.toString(16).padStart(2, "0")).join("");
+  }
   async function post(path, body) {
     if (replaying) throw new Error("This is a replay: nothing is sent.");
-    const response = await fetch(apiUrl + path, {
-      method: "POST", credentials: "same-origin",
-      headers: { "Content-Type": "application/json", "X-CSRFToken": csrf },
-      body: JSON.stringify(body || {}),
-    });
+    const key = newKey();
+    let response;
+    for (let attempt = 0; ; attempt++) {
+      try {
+        response = await fetch(apiUrl + path, {
+          method: "POST", credentials: "same-origin",
+          headers: { "Content-Type": "application/json", "X-CSRFToken": csrf, "Idempotency-Key": key },
+          body: JSON.stringify(body || {}),
+        });
+        break;
+      } catch (e) {  // the connection dropped: the same key again is safe
+        if (attempt >= 2) throw new Error("No connection to the server; please try again.");
+        await new Promise((resolve) => setTimeout(resolve, 300 * (attempt + 1)));
+      }
+    }
     let payload = {};
     try { payload = await response.json(); } catch (e) { /* empty body */ }
     if (!response.ok) throw new Error(payload.message || response.statusText);
     return payload;
+  }
+  // A button that sends a command is disabled until its answer is in.
+  async function inFlight(buttons, action) {
+    if (buttons.some((b) => b.disabled)) return;
+    buttons.forEach((b) => { b.disabled = true; });
+    try { await action(); } catch (e) { note(e.message); }
+    finally { buttons.forEach((b) => { b.disabled = false; }); }
   }
   function note(text) { $("request-note").textContent = text || ""; }
 
@@ -72,6 +96,20 @@
     drawFlag();
   }
 
+  // Hubs and targets are buttons for the keyboard too: Tab reaches them, Enter or
+  // Space is a left click, and "i", the context-menu key or Shift+F10 a right click.
+  function makeKeyboardButton(node, label, onClick) {
+    node.setAttribute("tabindex", "0");
+    node.setAttribute("role", "button");
+    node.setAttribute("aria-label", label);
+    node.addEventListener("keydown", (e) => {
+      if (e.key === "Enter" || e.key === " ") { e.preventDefault(); onClick("left"); }
+      else if (e.key === "i" || e.key === "ContextMenu" || (e.key === "F10" && e.shiftKey)) {
+        e.preventDefault(); onClick("right");
+      }
+    });
+  }
+
   function createTarget(t, layer) {
     const h = TARGET / 2;
     const root = el("g", { "data-target": t.id }, layer);
@@ -86,6 +124,7 @@
     el("text", { x: h + 18, y: -h + 4, class: "target-id" }, root).textContent = t.id;
     root.addEventListener("click", () => clickTarget(t.id, "left"));
     root.addEventListener("contextmenu", (e) => { e.preventDefault(); clickTarget(t.id, "right"); });
+    makeKeyboardButton(root, `Target ${t.id}`, (button) => clickTarget(t.id, button));
     return glyph;
   }
 
@@ -97,6 +136,9 @@
     if (state.selectedTarget === t.id) classes.push("selected");
     glyph.root.setAttribute("class", classes.join(" "));
     glyph.root.setAttribute("transform", `translate(${t.position[0]},${-t.position[1]})`);
+    const label = `Target ${t.id}` + (t.drawn ? `, highest support ${Math.round(t.max_support * 100)}%` : ", not yet reported")
+      + (state.selectedTarget === t.id ? ", selected" : "");
+    if (glyph.root.getAttribute("aria-label") !== label) glyph.root.setAttribute("aria-label", label);
     // Transparent until two agents have reported it.
     glyph.green.setAttribute("fill-opacity", t.drawn ? (t.value ?? 0) : 0);
     glyph.blue.setAttribute("fill-opacity", t.drawn ? t.max_support : 0);
@@ -120,11 +162,13 @@
     }
     root.addEventListener("click", () => clickHub(c.index, "left"));
     root.addEventListener("contextmenu", (e) => { e.preventDefault(); clickHub(c.index, "right"); });
+    makeKeyboardButton(root, `Collective ${ROMAN[c.index]} hub`, (button) => clickHub(c.index, button));
     return { root, quads };
   }
 
   function updateCollective(glyph, c) {
     glyph.root.setAttribute("class", "collective" + (state.selectedHub === c.index ? " selected" : ""));
+    glyph.root.setAttribute("aria-pressed", state.selectedHub === c.index ? "true" : "false");
     glyph.root.setAttribute("transform", `translate(${c.hub[0]},${-c.hub[1]})`);
     for (const name of ["U", "F", "C", "X"]) glyph.quads[name].setAttribute("fill-opacity", c.fractions[name]);
   }
@@ -166,10 +210,22 @@
     if (key === state.flagKey) return;
     state.flagKey = key;
     layer.replaceChildren();
+    // The box lets every click through to the map (pointer-events: none in live.css);
+    // only its close control takes clicks. Escape closes it too.
     const g = el("g", { class: "flag", transform: `translate(${anchor[0] + 50},${-anchor[1] - 40})` }, layer);
     el("rect", { x: 0, y: 0, width: 230, height: 26 * lines.length + 12, rx: 6 }, g);
     lines.forEach((line, i) => { el("text", { x: 12, y: 28 + 26 * i }, g).textContent = line; });
-    g.addEventListener("click", () => { state.flag = null; drawFlag(); });
+    const close = el("g", { class: "flag-close", transform: "translate(200,4)" }, g);
+    el("rect", { x: 0, y: 0, width: 26, height: 26, rx: 4 }, close);
+    el("text", { x: 13, y: 19 }, close).textContent = "×";
+    makeKeyboardButton(close, "Close the info box", () => closeFlag());
+    close.addEventListener("click", (e) => { e.stopPropagation(); closeFlag(); });
+    $("sr-status").textContent = lines.join(", ");
+  }
+  function closeFlag() {
+    state.flag = null;
+    drawFlag();
+    $("sr-status").textContent = "Info box closed";
   }
 
   // ---- clicks: selection and observation actions --------------------------
@@ -229,6 +285,7 @@
   }
   async function commit(event) {
     event.preventDefault();
+    if (state.committing) return;
     const kind = $("request-kind").value, collective = $("request-collective").value;
     const target = $("request-target").value;
     if (!kind || collective === "" || target === "") { note("Choose a type, a collective and a target."); return; }
@@ -238,11 +295,19 @@
       const s = state.selections[slot];
       if (s && s.id !== null && s.value === value) selections.push(s.id);
     }
+    // One request per press: the button stays disabled until the answer is in.
+    state.committing = true;
+    $("commit").disabled = true;
+    note("Sending…");
     try {
       const outcome = await post("/requests", { kind, collective: Number(collective), target: Number(target), selections });
       if (outcome.accepted) resetForm();
       note(outcome.accepted ? `Request ${outcome.request_id} accepted.` : `Refused: ${outcome.reason}`);
     } catch (e) { note(e.message); }
+    finally {
+      state.committing = false;
+      $("commit").disabled = state.ended || state.paused;
+    }
   }
 
   // ---- Collective Assignments ------------------------------------------------
@@ -253,6 +318,8 @@
     const key = JSON.stringify([view.requests, state.selectedAssignment]);
     if (key === state.assignmentsKey) return;
     state.assignmentsKey = key;
+    const active = document.activeElement;
+    const focused = active && active.parentElement === list ? active.dataset.request : null;
     list.replaceChildren();
     for (const r of view.requests) {
       const li = document.createElement("li");
@@ -263,18 +330,30 @@
       const label = document.createElement("span");
       label.textContent = `${r.kind} · ${ROMAN[r.collective]} → target ${r.target}`;
       li.append(dot, label);
-      li.addEventListener("click", () => { state.selectedAssignment = r.id; drawAssignments(view); });
+      li.tabIndex = 0;
+      li.setAttribute("role", "button");
+      li.setAttribute("aria-pressed", r.id === state.selectedAssignment ? "true" : "false");
+      li.setAttribute("aria-label", `${r.kind}, collective ${ROMAN[r.collective]}, target ${r.target}, ${r.status.replace("_", " ")}`);
+      const select = () => { state.selectedAssignment = r.id; drawAssignments(state.view || view); };
+      li.addEventListener("click", select);
+      li.addEventListener("keydown", (e) => { if (e.key === "Enter" || e.key === " ") { e.preventDefault(); select(); } });
       list.appendChild(li);
+    }
+    // A rebuild must not throw the keyboard user's focus away.
+    if (focused !== null) {
+      const again = list.querySelector(`li[data-request="${focused}"]`);
+      if (again) again.focus();
     }
     const selected = view.requests.find((r) => r.id === state.selectedAssignment);
     $("cancel-assignment").disabled = !(selected && selected.kind === "abandon");
   }
-  async function cancelAssignment() {
+  function cancelAssignment() {
     if (state.selectedAssignment === null) return;
-    try {
-      const outcome = await post("/requests", { kind: "cancel", request_id: state.selectedAssignment });
+    const request_id = state.selectedAssignment;
+    return inFlight([$("cancel-assignment")], async () => {
+      const outcome = await post("/requests", { kind: "cancel", request_id });
       note(outcome.accepted ? "Assignment cancelled." : `Refused: ${outcome.reason}`);
-    } catch (e) { note(e.message); }
+    });
   }
 
   // ---- System Messages -----------------------------------------------------
@@ -293,8 +372,10 @@
   }
 
   // ---- SA probes --------------------------------------------------------------
-  function drawProbe(probe) {
+  function drawProbe(probe, clockS) {
     const box = $("probe");
+    // The countdown moves with every frame; the rest only when the probe changes.
+    if (probe) $("probe-countdown").textContent = clock(probe.timeout_s - clockS);
     const key = probe ? probe.id + ":" + probe.phase : null;
     if (key === state.probeKey) return;
     state.probeKey = key;
@@ -313,20 +394,33 @@
         button.addEventListener("click", () => answerProbe(probe.id, choice));
         choices.appendChild(button);
       }
+      const first = choices.querySelector("button");
+      if (first) first.focus();
+    } else {
+      $("probe-ready").focus();  // a question is waiting: Enter or Space answers "Ready"
     }
   }
-  async function readyProbe() {
+  function readyProbe() {
     const id = Number($("probe").dataset.probe);
-    try { await post(`/probes/${id}/ready`); } catch (e) { note(e.message); }
+    return inFlight([$("probe-ready")], () => post(`/probes/${id}/ready`));
   }
-  async function answerProbe(id, answer) {
-    try { await post(`/probes/${id}/answer`, { answer }); $("probe").hidden = true; }
-    catch (e) { note(e.message); }
+  function answerProbe(id, answer) {
+    const buttons = Array.from($("probe-choices").querySelectorAll("button"));
+    return inFlight(buttons, async () => { await post(`/probes/${id}/answer`, { answer }); $("probe").hidden = true; });
   }
 
   // ---- the stream ---------------------------------------------------------------
+  function showPause(paused) {
+    if (paused === state.paused) return;
+    state.paused = paused;
+    $("paused").hidden = !paused;
+    $("clock-box").classList.toggle("paused", paused);
+    $("clock-state").textContent = paused ? "paused" : "";
+    $("commit").disabled = paused || state.ended || state.committing;
+  }
   function onFrame(frame) {
     $("clock").textContent = clock(frame.trial.clock_s);
+    showPause(frame.trial.status === "paused");
     if (frame.messages) addMessages(frame.messages);
     if (frame.view) {
       state.view = frame.view;
@@ -335,7 +429,7 @@
       drawMap(frame.view);
       drawAssignments(frame.view);
     }
-    drawProbe(frame.probe || null);
+    drawProbe(frame.probe || null, frame.trial.clock_s);
     if (frame.trial.status === "ended") endTrial();
   }
   function endTrial() {
@@ -349,12 +443,41 @@
     if (next) { $("continue").href = next; $("continue").hidden = false; }
   }
 
+  // Another tab or window opened the same trial: the server tells this one
+  // ("takeover" event) and ends its stream; it must not reconnect and run twice.
+  function takenOver() {
+    state.ended = true;
+    if (stream) stream.close();
+    $("probe").hidden = true;
+    $("paused").hidden = true;
+    $("taken-over").hidden = false;
+    $("commit").disabled = true;
+    $("connection").textContent = "opened elsewhere";
+    $("connection").className = "connection";
+  }
+
   let stream = null;
   function connect() {
     stream = new EventSource(root.dataset.streamUrl);
     stream.onopen = () => { $("connection").textContent = "live"; $("connection").className = "connection ok"; };
     stream.onerror = () => { if (!state.ended) { $("connection").textContent = "reconnecting…"; $("connection").className = "connection"; } };
     stream.onmessage = (event) => onFrame(JSON.parse(event.data));
+    stream.addEventListener("takeover", takenOver);
+  }
+
+  document.addEventListener("keydown", (e) => {
+    if (e.key === "Escape" && state.flag) { e.preventDefault(); closeFlag(); }
+  });
+  const fullscreen = $("fullscreen");
+  if (document.fullscreenEnabled) {
+    fullscreen.hidden = false;
+    fullscreen.addEventListener("click", () => {
+      if (document.fullscreenElement) document.exitFullscreen();
+      else document.documentElement.requestFullscreen().catch(() => note("Full screen is not available here."));
+    });
+    document.addEventListener("fullscreenchange", () => {
+      fullscreen.textContent = document.fullscreenElement ? "Leave full screen" : "Full screen";
+    });
   }
 
   $("request-form").addEventListener("submit", commit);

@@ -17,6 +17,7 @@ from hcss.platform.study.flow import Flow
 from hcss.platform.study.forms import mrt_form
 from hcss.platform.study.markdown import render_markdown
 from hcss.platform.study.stage import Refused, Slot, Stage
+from hcss.platform.study.texts import duration
 from hcss.questionnaires import mrt
 from hcss.questionnaires.definitions import ScoreRow
 from hcss.questionnaires.mrt.items import MrtItem
@@ -36,11 +37,10 @@ def _instructions(flow: Flow) -> Markup:
     """The protocol's instructions, with the paragraph on parts and timing made to fit the study."""
     settings = flow.study.mrt
     parts = settings.part_items
-    minutes = settings.part_time_limit_s / 60
     counts = " and ".join(str(n) for n in parts)
     timing = (
         f"The test has {len(parts)} part{'s' if len(parts) > 1 else ''} of {counts} rows. "
-        f"You have {minutes:g} minute{'s' if minutes != 1 else ''} for each part"
+        f"You have {duration(settings.part_time_limit_s)} for each part"
         + (", with a short break between them." if len(parts) > 1 else ".")
         + " Work quickly but carefully."
         + (
@@ -59,12 +59,15 @@ class MentalRotation(Stage):
     template = "study/mrt.html"
 
     def steps(self, flow: Flow, slot: Slot) -> tuple[str, ...]:
+        """Instructions, practice, "Part 1 begins", then each part (after a break from the
+        second on); a part whose time ran out is followed by a page saying so."""
         steps = ["instructions"]
         steps += [f"practice_{n}" for n in range(1, flow.study.mrt.practice_items + 1)]
         for number in range(1, len(flow.study.mrt.part_items) + 1):
-            if number > 1:
-                steps.append(f"break_{number - 1}")
+            steps.append("begin_1" if number == 1 else f"break_{number - 1}")
             steps.append(f"part_{number}")
+            if flow.event(slot.index, f"part_{number}", "timed_out") is not None:
+                steps.append(f"time_up_{number}")
         return tuple(steps)
 
     def timeout_s(self, flow: Flow, slot: Slot, step: str) -> float | None:
@@ -81,6 +84,10 @@ class MentalRotation(Stage):
 
     def _part_items(self, flow: Flow, step: str) -> tuple[MrtItem, ...]:
         return _parts(flow)[int(step.removeprefix("part_")) - 1]
+
+    def _answered_in(self, flow: Flow, slot: Slot, number: int) -> int:
+        answered = flow.answers(slot.index, INSTRUMENT)
+        return sum(item.key in answered for item in _parts(flow)[number - 1])
 
     def _next_item(self, flow: Flow, slot: Slot, step: str) -> tuple[int, MrtItem] | None:
         answered = flow.answers(slot.index, INSTRUMENT)
@@ -104,8 +111,25 @@ class MentalRotation(Stage):
     def context(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> dict[str, Any]:
         if step == "instructions":
             return {"kind": "instructions", "text_html": _instructions(flow)}
-        if step.startswith("break_"):
-            return {"kind": "break", "next_part": int(step.removeprefix("break_")) + 1}
+        settings = flow.study.mrt
+        if step == "begin_1" or step.startswith("break_"):
+            number = 1 if step == "begin_1" else int(step.removeprefix("break_")) + 1
+            return {
+                "kind": "begin" if step == "begin_1" else "break",
+                "next_part": number,
+                "part_count": len(settings.part_items),
+                "items": settings.part_items[number - 1],
+                "limit": duration(settings.part_time_limit_s),
+            }
+        if step.startswith("time_up_"):
+            number = int(step.removeprefix("time_up_"))
+            return {
+                "kind": "time_up",
+                "part": number,
+                "answered": self._answered_in(flow, slot, number),
+                "items": settings.part_items[number - 1],
+                "last": number == len(settings.part_items),
+            }
         if step.startswith("practice_"):
             item = self._practice_item(step)
             answer = flow.answers(slot.index, INSTRUMENT).get(item.key)
@@ -127,6 +151,7 @@ class MentalRotation(Stage):
             "svgs": None if item is None else _svgs(item),
             "number": number,
             "count": len(self._part_items(flow, step)),
+            "feedback": None,  # timed items are answered, never marked
             "chosen_before": set(),
         }
 

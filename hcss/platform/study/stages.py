@@ -28,10 +28,17 @@ from hcss.platform.study.forms import (
 )
 from hcss.platform.study.markdown import render_markdown
 from hcss.platform.study.mrt_stage import MentalRotation
+from hcss.platform.study.screen_check import ScreenCheck
 from hcss.platform.study.stage import Refused, Slot, Stage
+from hcss.platform.study.texts import fill
 from hcss.platform.study.trial_stage import Training, Trial
 from hcss.questionnaires import consent, demographics, pages, post_trial, ranking, sart, tlx
 from hcss.questionnaires.definitions import Questionnaire, ValidationErrors
+
+DECLINE_QUESTION = (
+    "You chose not to take part. If that is right, press Confirm: the study ends here and "
+    "nothing is kept except that you declined. To take part after all, choose I agree."
+)
 
 
 class Consent(Stage):
@@ -43,12 +50,14 @@ class Consent(Stage):
         fields = {
             "decision": item_field(consent.DECISION),
             "version": HiddenField(default=flow.study.consent_version),
+            # "yes" once the participant has been asked to confirm a decline.
+            "confirm_decline": HiddenField(default=""),
         }
         return form_of(fields, formdata, "ConsentForm")
 
     def context(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> dict[str, Any]:
         text = consent.consent_text(flow.study.consent_version)
-        return {"text_html": render_markdown(text.markdown)}
+        return {"text_html": render_markdown(fill(text.markdown, flow.study))}
 
     def submit(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> bool:
         answers = answers_of(form, ("decision", "version"))
@@ -57,6 +66,11 @@ class Consent(Stage):
             errors["version"] = ["The consent text has changed; please read it again."]
         if errors:
             attach_errors(form, errors)
+            return False
+        if answers["decision"] == "decline" and form["confirm_decline"].data != "yes":
+            # Declining ends the study for good: ask once before recording it.
+            form["confirm_decline"].data = "yes"
+            attach_errors(form, {"": [DECLINE_QUESTION]})
             return False
         flow.session.add(
             ConsentRecord(
@@ -256,7 +270,7 @@ class Introduction(Stage):
         all_pages = pages.introduction_pages()
         page = all_pages[int(step.removeprefix("page_")) - 1]
         return {
-            "text_html": render_markdown(page.markdown),
+            "text_html": render_markdown(fill(page.markdown, flow.study)),
             "page_number": page.number,
             "page_count": len(all_pages),
         }
@@ -279,6 +293,7 @@ for _stage in (
     Demographics,
     MentalRotation,
     Introduction,
+    ScreenCheck,
     Training,
     Trial,
     PostTrial,

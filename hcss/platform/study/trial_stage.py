@@ -21,6 +21,7 @@ from hcss.platform.models import StageEvent
 from hcss.platform.models import Trial as TrialRow
 from hcss.platform.study.flow import Flow
 from hcss.platform.study.stage import Refused, Slot, Stage
+from hcss.platform.study.texts import duration
 
 
 class LiveTrialStage(Stage):
@@ -38,7 +39,7 @@ class LiveTrialStage(Stage):
         return {
             "kind": self.kind,
             "type_name": f"{slot.order_label} collective type",
-            "minutes": self.duration_s(flow) / 60,
+            "duration": duration(self.duration_s(flow)),
         }
 
     def submit(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> bool:

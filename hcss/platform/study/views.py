@@ -14,7 +14,7 @@ from typing import Any
 
 from flask import Blueprint, Flask, redirect, render_template, request, url_for
 from sqlalchemy import select
-from sqlalchemy.exc import IntegrityError
+from sqlalchemy.exc import IntegrityError, SQLAlchemyError
 from werkzeug.exceptions import NotFound
 from werkzeug.wrappers import Response
 
@@ -25,6 +25,7 @@ from hcss.platform.study.enrolment import assign_cell, current_enrolment
 from hcss.platform.study.flow import Flow, Position, study_now
 from hcss.platform.study.markdown import render_markdown
 from hcss.platform.study.stage import Refused
+from hcss.platform.study.texts import fill
 from hcss.questionnaires import pages
 
 bp = Blueprint("study", __name__, url_prefix="/p")
@@ -35,6 +36,20 @@ def _continue_after_trials(state: Any) -> None:
     """The live trial page's Continue link leads back into the study."""
     app: Flask = state.app
     app.config.setdefault("LIVE_CONTINUE_URL", "/p/{token}")
+
+
+@bp.context_processor
+def _participant_code() -> dict[str, Any]:
+    """Every study page shows the participant's code: consent and debrief say to
+    quote it to withdraw, so it must be on screen to be noted down."""
+    token = (request.view_args or {}).get("token")
+    if not isinstance(token, str):
+        return {}
+    try:
+        code = get_session().scalar(select(Participant.code).where(Participant.token == token))
+    except SQLAlchemyError:  # an error page for a failed database still renders
+        return {}
+    return {"participant_code": code} if code else {}
 
 
 def _participant(token: str) -> Participant:
@@ -118,6 +133,13 @@ def submit(token: str, index: int, step: str) -> Response | tuple[str, int] | st
     return redirect(url_for("study.stage", token=token))
 
 
+@bp.get("/<token>/stage/<int:index>/<step>")
+def submit_address(token: str, index: int, step: str) -> Response:
+    """A form's POST address opened as a page (a bookmark, a reload): go to the stage."""
+    _participant(token)
+    return redirect(url_for("study.stage", token=token))
+
+
 def _check_current(flow: Flow, position: Position, index: int, step: str) -> None:
     if position.slot is not None and (position.slot.index, position.step) == (index, step):
         if flow.event(index, step, "entered") is None:
@@ -148,12 +170,11 @@ def _finished(flow: Flow, position: Position) -> str:
     if position.status == "declined":
         return render_template("study/declined.html")
     from hcss.platform.study.recruitment import completion_for
-    from hcss.platform.study.studyfile import load_study
 
     return render_template(
         "study/debrief.html",
-        text_html=render_markdown(pages.debrief_text().markdown),
-        completion=completion_for(flow.session, flow.participant, load_study(flow.enrolment.study)),
+        text_html=render_markdown(fill(pages.debrief_text().markdown, flow.study)),
+        completion=completion_for(flow.session, flow.participant, flow.study),
     )
 
 

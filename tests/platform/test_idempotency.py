@@ -1,0 +1,204 @@
+"""Idempotent commands: a repeated or racing POST with the same key is carried out once.
+
+The double-clicked Commit of issue 8 recorded two investigate requests 14 ms
+apart; with a key per command the second POST gets the first answer and
+writes nothing.
+"""
+
+from __future__ import annotations
+
+import threading
+import uuid
+
+from sqlalchemy import func, select
+
+from hcss.platform.models import Command, CommandKey, CommandOutcome, Observation, ProbeEvent
+from tests.platform.conftest import csrf_token_of
+from tests.platform.test_probes import _until_probe
+
+
+def _count(app, model) -> int:  # type: ignore[no-untyped-def]
+    with app.extensions["hcss_db"].session_scope() as session:
+        return session.scalar(select(func.count()).select_from(model))
+
+
+def _keyed(trial, path: str, body, key: str):  # type: ignore[no-untyped-def]
+    return trial.client.post(
+        trial.api + path,
+        json=body,
+        headers={"X-CSRFToken": trial.csrf, "Idempotency-Key": key},
+    )
+
+
+def _investigate(trial):  # type: ignore[no-untyped-def]
+    trial.run_to(60)
+    target = next(t for t in trial.state()["view"]["targets"] if 0 in t["in_range_of"])
+    return {"kind": "investigate", "collective": 0, "target": target["id"]}
+
+
+def test_the_same_key_twice_gives_one_request_and_the_same_answer(make_trial) -> None:
+    trial = make_trial()
+    body, key = _investigate(trial), str(uuid.uuid4())
+
+    first = _keyed(trial, "/requests", body, key)
+    trial.run_to(61)  # the repeat comes later, after the simulation moved on
+    second = _keyed(trial, "/requests", body, key)
+
+    assert first.status_code == second.status_code == 200
+    assert first.get_json()["accepted"] is True
+    assert second.get_json() == first.get_json()
+    assert second.headers["Idempotent-Replayed"] == "true"
+    assert (_count(trial.app, Command), _count(trial.app, CommandOutcome)) == (1, 1)
+    assert _count(trial.app, CommandKey) == 1
+    assert len(trial.state()["view"]["requests"]) == 1
+    # A fresh key is a new command: refused now (the collective is already investigating).
+    third = _keyed(trial, "/requests", body, str(uuid.uuid4()))
+    assert third.status_code == 200 and _count(trial.app, Command) == 2
+
+
+def test_a_refusal_is_recorded_once_and_replayed(make_trial) -> None:
+    trial = make_trial()
+    trial.run_to(60)
+    target = min(trial.state()["view"]["targets"], key=lambda t: t["support"][0])
+    body, key = {"kind": "decide", "collective": 0, "target": target["id"]}, "k-" + "7" * 30
+    first, second = (_keyed(trial, "/requests", body, key) for _ in range(2))
+    assert first.get_json()["accepted"] is False
+    assert (second.status_code, second.get_json()) == (first.status_code, first.get_json())
+    assert _count(trial.app, Command) == 1
+    refusals = [m for m in trial.live().messages if m["kind"] == "refusal"]
+    assert len(refusals) == 1  # System Messages say it once
+
+
+def test_two_racing_posts_with_one_key_give_one_row(make_trial) -> None:
+    trial = make_trial()
+    body, key = _investigate(trial), str(uuid.uuid4())
+    barrier, answers = threading.Barrier(2), []
+
+    def post() -> None:
+        client = trial.app.test_client()
+        page = client.get(f"/live/{trial.token}")  # each racer its own browser session
+        csrf = csrf_token_of(page.get_data(as_text=True))
+        barrier.wait()
+        response = client.post(
+            trial.api + "/requests",
+            json=body,
+            headers={"X-CSRFToken": csrf, "Idempotency-Key": key},
+        )
+        answers.append((response.status_code, response.get_json()))
+
+    racers = [threading.Thread(target=post) for _ in range(2)]
+    for racer in racers:
+        racer.start()
+    for racer in racers:
+        racer.join(timeout=30)
+    assert len(answers) == 2 and answers[0] == answers[1]
+    assert answers[0][0] == 200
+    assert (_count(trial.app, Command), _count(trial.app, CommandKey)) == (1, 1)
+
+
+def test_clicks_and_probe_answers_are_idempotent_too(make_trial) -> None:
+    trial = make_trial(seed=4)
+    click = {"kind": "collective", "collective": 1, "button": "right"}
+    first, second = (_keyed(trial, "/observations", click, "click-key-1") for _ in range(2))
+    assert first.status_code == second.status_code == 201
+    assert first.get_json() == second.get_json()
+    assert _count(trial.app, Observation) == 1
+
+    probe, _, _ = _until_probe(trial, 0)
+    ready = [_keyed(trial, f"/probes/{probe['id']}/ready", {}, "ready-key-1") for _ in range(2)]
+    assert [r.status_code for r in ready] == [200, 200]  # not a 409 "already ready"
+    choice = trial.state()["probe"]["choices"][0]
+    answers = [
+        _keyed(trial, f"/probes/{probe['id']}/answer", {"answer": choice}, "answer-key-1")
+        for _ in range(2)
+    ]
+    assert [r.status_code for r in answers] == [200, 200]
+    with trial.app.extensions["hcss_db"].session_scope() as session:
+        kinds = list(
+            session.scalars(select(ProbeEvent.kind).where(ProbeEvent.probe_id == probe["id"]))
+        )
+    assert kinds.count("ready") == 1 and kinds.count("answer") == 1
+
+
+def test_an_error_is_the_first_outcome_too(make_trial) -> None:
+    trial = make_trial()
+    trial.run_to(10)
+    bad = {"kind": "investigate", "collective": "I", "target": 1}
+    first, second = (_keyed(trial, "/requests", bad, "err-key-01") for _ in range(2))
+    assert first.status_code == second.status_code == 400
+    assert first.get_json() == second.get_json()
+    assert (_count(trial.app, Command), _count(trial.app, CommandKey)) == (0, 1)
+
+
+def test_bad_keys_get_a_clear_400_and_change_nothing(make_trial) -> None:
+    trial = make_trial()
+    body = _investigate(trial)
+    for key in (
+        "short",
+        "x" * 65,
+        "a" * 100_000,
+        "has space in it",
+        "nul\x00byte-key",
+        "ünïcode-key",
+    ):
+        try:
+            response = _keyed(trial, "/requests", body, key)
+        except ValueError:  # the test client refuses to send some headers at all
+            continue
+        assert response.status_code == 400, key
+        assert response.get_json()["error"] == "bad_idempotency_key"
+    assert (_count(trial.app, Command), _count(trial.app, CommandKey)) == (0, 0)
+
+
+def test_a_key_reused_for_another_command_is_refused(make_trial) -> None:
+    trial = make_trial()
+    body = _investigate(trial)
+    assert _keyed(trial, "/requests", body, "reused-key").status_code == 200
+    other = {**body, "collective": 1}
+    response = _keyed(trial, "/requests", other, "reused-key")
+    assert response.status_code == 422
+    assert response.get_json()["error"] == "idempotency_key_reused"
+    assert _count(trial.app, Command) == 1
+
+
+def test_without_a_key_a_command_is_carried_out_as_before(make_trial) -> None:
+    """Bots and scripts without keys still work; only keyed commands are deduplicated."""
+    trial = make_trial()
+    body = _investigate(trial)
+    assert trial.post("/requests", body).status_code == 200
+    assert trial.post("/requests", body).status_code == 200
+    assert (_count(trial.app, Command), _count(trial.app, CommandKey)) == (2, 0)
+
+
+def test_the_same_key_in_another_participants_trial_is_another_command(make_trial) -> None:
+    first, second = make_trial(), make_trial()
+    for trial in (first, second):
+        assert _keyed(trial, "/requests", _investigate(trial), "shared-key").status_code == 200
+    assert (_count(first.app, Command), _count(first.app, CommandKey)) == (2, 2)
+
+
+def test_the_migration_creates_the_key_table_as_modelled_and_removes_it(database_url) -> None:
+    """0004_p8_idempotency against the model, on SQLite and PostgreSQL; then downgraded."""
+    from alembic import command
+    from alembic.autogenerate import compare_metadata
+    from alembic.migration import MigrationContext
+    from sqlalchemy import MetaData, create_engine, inspect
+
+    from hcss.platform.cli import alembic_config
+    from hcss.platform.models import Base
+
+    config = alembic_config(database_url)
+    command.upgrade(config, "0004_p8_idempotency")
+    engine = create_engine(database_url)
+    try:
+        expected = MetaData(naming_convention=Base.metadata.naming_convention)
+        for table in Base.metadata.sorted_tables:
+            if table.name in set(inspect(engine).get_table_names()):
+                table.to_metadata(expected)
+        assert "command_key" in expected.tables
+        with engine.connect() as connection:
+            assert compare_metadata(MigrationContext.configure(connection), expected) == []
+        command.downgrade(config, "0003_study")
+        assert "command_key" not in inspect(create_engine(database_url)).get_table_names()
+    finally:
+        engine.dispose()

@@ -1,0 +1,144 @@
+"""The participant's texts follow the study file: durations, counts, plurals and the design.
+
+Every text is rendered for `original` and `demo` and its numbers are checked
+against the study file (the expected phrases are worked out by hand below from
+the two TOML files), and the consent and debrief pages show the participant's
+code, as the texts tell participants to quote it to withdraw.
+"""
+
+from __future__ import annotations
+
+import re
+
+import pytest
+
+from hcss.platform.study.studyfile import load_study
+from hcss.platform.study.texts import duration, fill, length, order_sentence
+from hcss.questionnaires import consent, pages
+from tests.platform.study_fixtures import demo_app, new_participant, visitor  # noqa: F401
+
+# By hand from studies/*.toml:
+#   original: training 300 s, trial 1200 s, MRT 2 parts x 180 s + one 60 s break,
+#             4 practice items -> 6 + 1 + 1 (instructions) + 2 (practice) = 10 minutes;
+#             session 10 + 10 + 5 + 3 x (5 + 20 + 5) = 115 minutes -> about two hours.
+#   demo:     training 60 s, trial 120 s, MRT 1 part x 60 s, 1 practice item
+#             -> 1 + 1 + 0.5 = 2.5 -> 3 minutes; session 10 + 3 + 5 + 3 x (1 + 2 + 5) = 42
+#             -> about 40 minutes.
+EXPECTED = {
+    "original": {
+        "consent": [
+            "a 5-minute training",
+            "a 20-minute trial",
+            "(about 10 minutes)",
+            "takes about two hours",
+            "Three times",
+            "Rank the three types",
+        ],
+        "introduction": [
+            "a 5-minute **training**",
+            "a 20-minute **trial**",
+            "A trial lasts 20 minutes",
+            "meet three different",
+        ],
+    },
+    "demo": {
+        "consent": [
+            "a 1-minute training",
+            "a 2-minute trial",
+            "(about 3 minutes)",
+            "takes about 40 minutes",
+            "Three times",
+        ],
+        "introduction": [
+            "a 1-minute **training**",
+            "a 2-minute **trial**",
+            "A trial lasts 2 minutes",
+        ],
+    },
+}
+WRONG_PLURALS = re.compile(r"\b1 (minutes|seconds|hours)\b|\b(2|3|4|5|10|20) (minute|hour)\b")
+
+
+def _texts(study_name: str) -> dict[str, str]:
+    study = load_study(study_name)
+    return {
+        "consent": fill(consent.consent_text(study.consent_version).markdown, study),
+        "introduction": "\n".join(fill(p.markdown, study) for p in pages.introduction_pages()),
+        "debrief": fill(pages.debrief_text().markdown, study),
+    }
+
+
+@pytest.mark.parametrize("study_name", ["original", "demo"])
+def test_each_text_states_the_study_files_numbers(study_name: str) -> None:
+    texts = _texts(study_name)
+    for name, text in texts.items():
+        assert "{{" not in text and "}}" not in text, name
+        assert not WRONG_PLURALS.search(text), (name, WRONG_PLURALS.search(text))
+        assert "equally often" not in text  # the design never balanced M3's position
+    for name, phrases in EXPECTED[study_name].items():
+        for phrase in phrases:
+            assert phrase in texts[name], (study_name, name, phrase)
+
+
+def test_the_debrief_says_what_the_counterbalancing_did() -> None:
+    # Both studies: M3 always last; M1/M2 order and their first sections varied; M3 easy.
+    for name in ("original", "demo"):
+        sentence = order_sentence(load_study(name))
+        assert sentence == (
+            "The order in which you met the types was set by the study design: the type "
+            "with no deliberation of its own always came last and the order of the other "
+            "two varied between participants. Whether a trial began with its easy or its "
+            "difficult situation also varied, except that the trial with the type with no "
+            "deliberation of its own always began with the easy one."
+        )
+        assert sentence in _texts(name)["debrief"]
+
+
+def test_durations_have_correct_plurals() -> None:
+    assert [duration(s) for s in (60, 120, 1200, 90, 1)] == [
+        "1 minute",
+        "2 minutes",
+        "20 minutes",
+        "90 seconds",
+        "1 second",
+    ]
+    assert [length(s) for s in (60, 300, 45)] == ["1-minute", "5-minute", "45-second"]
+
+
+def test_consent_page_and_footer_show_the_participant_code(demo_app) -> None:  # noqa: F811
+    token = new_participant(demo_app)
+    guest = visitor(demo_app, token)
+    with demo_app.app_context():
+        from sqlalchemy import select
+
+        from hcss.platform.models import Participant
+
+        with demo_app.extensions["hcss_db"].session_scope() as session:
+            code = session.scalar(select(Participant.code).where(Participant.token == token))
+    guest.page()
+    assert f'Your participant code is <b class="participant-code">{code}</b>' in guest.html
+    assert "a 1-minute training" in guest.html  # the demo's numbers, rendered
+    assert f'Your participant code: <b class="participant-code">{code}</b>' in guest.html
+
+
+def test_demographics_keep_their_promise_and_label_each_scale_end_once(demo_app) -> None:  # noqa: F811
+    from hcss.questionnaires.definitions import ChoiceItem
+    from hcss.questionnaires.demographics import DEMOGRAPHICS
+
+    guest = visitor(demo_app, new_participant(demo_app))
+    page = guest.page()
+    guest.submit({"decision": "agree"}, page)
+    guest.page()
+    html = guest.html
+    assert (
+        "age, gender, education and colour vision each have a choice that lets you not say" in html
+    )
+    for key in ("age_band", "gender", "education", "colour_vision"):
+        item = DEMOGRAPHICS.item(key)
+        assert isinstance(item, ChoiceItem) and "not_said" in item.values(), key
+        assert re.search(rf'<input[^>]*name="{key}"[^>]*value="not_said"', html), key
+    # The experience scales label every point ("None" ... "Extensive"); no extra end labels.
+    fieldset = html[html.index('id="q-video_games"') :]
+    fieldset = fieldset[: fieldset.index("</fieldset>")]
+    assert fieldset.count("Extensive") == 1 and fieldset.count(">None<") == 1
+    assert 'class="anchor"' not in fieldset
