@@ -251,7 +251,7 @@ def test_the_debrief_gives_the_completion_code_only_to_online_participants(
     database_url, monkeypatch
 ) -> None:  # type: ignore[no-untyped-def]
     from hcss.platform.bots import bot_app, run_bots
-    from hcss.platform.study import studyfile
+    from hcss.platform.study import flow
 
     app = bot_app(database_url, "demo")
     app.extensions["hcss_db"].create_all()
@@ -282,7 +282,8 @@ def test_the_debrief_gives_the_completion_code_only_to_online_participants(
         redirecting = dataclasses.replace(
             demo, online=dataclasses.replace(demo.online, redirect=True)
         )
-        monkeypatch.setattr(studyfile, "load_study", lambda name: redirecting)
+        # The participant's flow loads its study once per request (flow.Flow.study).
+        monkeypatch.setattr(flow, "load_study", lambda name: redirecting)
         assert (
             '<meta http-equiv="refresh" content="5; url=https://app.prolific.com/submissions/'
             'complete?cc=DEMO2026">' in debrief()
