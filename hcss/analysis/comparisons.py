@@ -12,12 +12,19 @@
 
 A test that cannot run (too few groups or values, a constant variable) is
 recorded with its reason instead of stopping the report: a small pilot
-export must still give every table.
+export must still give every table. Library warnings are caught into the
+same note (:func:`quietly`), so the terminal shows only the progress bar.
+Independent-groups tests carry a design note when a group has fewer than
+:data:`SMALL_N` units or the groups share participants (each participant
+meets every human model): the paired tests are in :mod:`hcss.analysis.paired`.
 """
 
 from __future__ import annotations
 
+import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TypeVar
 
 import pandas as pd
 
@@ -40,6 +47,8 @@ from hcss.analysis.stats import (
 )
 
 HUMAN_GROUPS = ("M1", "M2", "M3")
+#: Below this many units per group a table says its p is fragile.
+SMALL_N = 10
 SIMULATION_PAIR = ("M1SIM", "M2SIM")
 POOLED_HUMAN = "M1–M3"
 
@@ -89,6 +98,45 @@ class Correlation:
     note: str = ""
 
 
+Result = TypeVar("Result")
+
+
+def quietly(function: Callable[..., Result], *arguments) -> tuple[Result, str]:
+    """Call ``function`` with library warnings caught; return them as one note."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = function(*arguments)
+    messages = sorted({str(warning.message).split("\n")[0] for warning in caught})
+    return result, "; ".join(messages)
+
+
+def join_notes(*notes: str) -> str:
+    """Non-empty notes joined with semicolons."""
+    return "; ".join(note for note in notes if note)
+
+
+def design_note(measures: pd.DataFrame, measure: str, split: str, groups) -> str:
+    """Warnings about the design: small groups, or groups sharing participants."""
+    chosen = measures[
+        (measures["measure"] == measure)
+        & (measures["split"] == split)
+        & measures["group"].isin(groups)
+    ].dropna(subset=["value"])
+    counts = chosen.groupby("group").size()
+    notes = []
+    small = [group for group in groups if 0 < counts.get(group, 0) < SMALL_N]
+    if small:
+        notes.append(f"n < {SMALL_N} in {', '.join(small)}")
+    people = chosen[chosen["participant"].astype(str) != ""]
+    shared = people.groupby("participant")["group"].nunique()
+    if (shared > 1).any():
+        notes.append(
+            f"groups share {int((shared > 1).sum())} participants: independence does not hold "
+            "(see the repeated-measures tests)"
+        )
+    return "; ".join(notes)
+
+
 def _values(measures: pd.DataFrame, measure: str, split: str, group: str) -> list[float]:
     chosen = measures[
         (measures["measure"] == measure)
@@ -113,22 +161,25 @@ def _omnibus(measures, measure, split, family, groups) -> OmnibusComparison | No
     if len(samples) < 2:
         return None
     names = tuple(samples)
+    design = design_note(measures, measure, split, names)
     try:
-        result = kruskal_wallis(samples)
+        result, caught = quietly(kruskal_wallis, samples)
     except ValueError as error:
         return OmnibusComparison(measure, split, family, names, None, (), str(error))
-    posthoc, notes = [], []
-    flavours = [tukey_kramer_ranks, dunn_holm, tukey_hsd]
-    if any(len(values) < 2 for values in samples.values()):
-        flavours.remove(tukey_hsd)  # its pooled error variance needs 2+ values per group
-        notes.append("tukey_hsd: a group has fewer than 2 values")
-    for flavour in flavours:
+    posthoc, notes = [], [design, result.note, caught]
+    for flavour in (tukey_kramer_ranks, dunn_holm, tukey_hsd):
         try:
-            posthoc.append(flavour(samples))
+            comparison, caught = quietly(flavour, samples)
         except ValueError as error:
             notes.append(f"{flavour.__name__}: {error}")
+            continue
+        posthoc.append(comparison)
+        if comparison.note and comparison.note != result.note:
+            notes.append(f"{flavour.__name__}: {comparison.note}")
+        if caught:
+            notes.append(f"{flavour.__name__}: {caught}")
     return OmnibusComparison(
-        measure, split, family, names, result, tuple(posthoc), "; ".join(notes)
+        measure, split, family, names, result, tuple(posthoc), join_notes(*notes)
     )
 
 
@@ -162,7 +213,8 @@ def simulation_comparisons(
         if not first and not second:
             continue
         try:
-            result, note = mann_whitney(first, second, method, continuity), ""
+            result, caught = quietly(mann_whitney, first, second, method, continuity)
+            note = join_notes(result.note, caught)
         except ValueError as error:
             result, note = None, str(error)
         comparisons.append(TwoSampleComparison(measure, split, SIMULATION_PAIR, result, note))
@@ -199,7 +251,8 @@ def correlations(measures: pd.DataFrame) -> list[Correlation]:
             if subset[x].notna().sum() == 0:
                 continue
             try:
-                result, note = spearman(subset[x], subset[y]), ""
+                result, caught = quietly(spearman, subset[x], subset[y])
+                note = join_notes(result.note, caught)
             except ValueError as error:
                 result, note = None, str(error)
             results.append(Correlation(x, y, group, result, note))

@@ -7,7 +7,7 @@ Three flavours, because the study's analyses used more than one:
   statsmodels or scikit-posthocs function computes this, so it is written
   here, from scipy's studentized-range distribution.
 - :func:`tukey_hsd`: classic Tukey HSD (Tukey-Kramer for unequal sizes) on
-  the raw values, from ``scipy.stats.tukey_hsd``; R's ``TukeyHSD(aov(...))``.
+  the raw values, as R's ``TukeyHSD(aov(...))`` (a group of one value included).
 - :func:`dunn_holm`: Dunn's z test on mean ranks with Holm's step-down
   adjustment; raw p from scikit-posthocs, z and Holm recomputed here.
 
@@ -26,6 +26,8 @@ import numpy as np
 import pandas as pd
 import scikit_posthocs
 from scipy import stats
+
+from hcss.analysis.stats import ALL_EQUAL, all_equal
 
 
 @dataclass(frozen=True)
@@ -49,6 +51,7 @@ class PairwiseComparison:
     statistic_name: str
     n: int
     rows: tuple[PairRow, ...]
+    note: str = ""
 
     def pair(self, group_a: str, group_b: str) -> PairRow:
         """The row for ``group_a − group_b``, turned round if stored the other way."""
@@ -108,6 +111,8 @@ def tukey_kramer_ranks(
     Intervals are R̄ᵢ − R̄ⱼ ± q₁₋α·se.
     """
     samples = _samples(groups)
+    if all_equal(np.concatenate(list(samples.values()))):
+        return _undefined("tukey_kramer_ranks", "q", samples)
     mean_ranks, variance, n = _mean_ranks(samples)
     k = len(samples)
     critical = float(stats.studentized_range.ppf(1 - alpha, k, np.inf))
@@ -115,8 +120,8 @@ def tukey_kramer_ranks(
     for a, b in combinations(samples, 2):
         se = np.sqrt(variance * (1 / len(samples[a]) + 1 / len(samples[b])) / 2.0)
         difference = mean_ranks[a] - mean_ranks[b]
-        q = difference / se if se > 0 else 0.0
-        p = float(stats.studentized_range.sf(abs(q), k, np.inf)) if se > 0 else 1.0
+        q = difference / se
+        p = float(stats.studentized_range.sf(abs(q), k, np.inf))
         rows.append(
             PairRow(
                 a,
@@ -145,38 +150,65 @@ def studentized_range_quantile(probability: float, k: int, df: float) -> float:
 def tukey_hsd(groups: Mapping[str, Sequence[float]], alpha: float = 0.05) -> PairwiseComparison:
     """Classic Tukey HSD on raw values (``TukeyHSD(aov(y ~ g))`` in R).
 
-    ``scipy.stats.tukey_hsd`` gives the differences and p (Tukey-Kramer for
-    unequal sizes). The intervals are R's, diff ± q₁₋α(k, N − k)·sqrt(MSE/2 ·
-    (1/nᵢ + 1/nⱼ)), built here from a cached quantile instead of scipy's
-    ``confidence_interval()``, which recomputes that quantile on every call;
-    the test suite checks them against R's interval.
+    Computed as R does, not through ``scipy.stats.tukey_hsd``, which refuses
+    a group of one value: a single value contributes no spread, but the
+    pooled error variance MSE (from the other groups, N − k df) exists, so
+    its mean can still be compared. For groups i, j:
+    se = sqrt(MSE/2 · (1/nᵢ + 1/nⱼ)), q = (ȳᵢ − ȳⱼ)/se, p = P(Q > |q|) for
+    the studentized range with k groups and N − k df, and the interval
+    diff ± q₁₋α·se. Undefined (NaN, with a note) when there are no error df
+    (every group has one value) or no error variance.
     """
     samples = _samples(groups)
     names = list(samples)
     sizes = [len(values) for values in samples.values()]
-    result = stats.tukey_hsd(*samples.values())
     n, k = sum(sizes), len(names)
     error_df = n - k
+    if error_df < 1:
+        return _undefined("tukey_hsd", "q", samples, "no error degrees of freedom (N = k)")
     mean_square_error = (
         sum(float(((values - values.mean()) ** 2).sum()) for values in samples.values()) / error_df
     )
+    if mean_square_error == 0:
+        note = (
+            ALL_EQUAL
+            if all_equal(np.concatenate(list(samples.values())))
+            else ("no variance within groups")
+        )
+        return _undefined("tukey_hsd", "q", samples, note)
+    means = [float(values.mean()) for values in samples.values()]
     critical = studentized_range_quantile(1 - alpha, k, float(error_df))
     rows = []
     for i, j in combinations(range(k), 2):
-        difference = float(result.statistic[i, j])
-        se = np.sqrt(mean_square_error / 2 * (1 / sizes[i] + 1 / sizes[j]))
+        difference = means[i] - means[j]
+        se = float(np.sqrt(mean_square_error / 2 * (1 / sizes[i] + 1 / sizes[j])))
+        q = difference / se
+        p = float(stats.studentized_range.sf(abs(q), k, float(error_df)))
         rows.append(
             PairRow(
                 names[i],
                 names[j],
                 difference,
-                float(difference - critical * se),
-                float(difference + critical * se),
-                float(difference / se) if se > 0 else float("nan"),
-                float(result.pvalue[i, j]),
+                difference - critical * se,
+                difference + critical * se,
+                q,
+                min(p, 1.0),
             )
         )
-    return PairwiseComparison("tukey_hsd", "q", n, tuple(rows))
+    note = "a group has one value (it adds no spread to MSE)" if min(sizes) == 1 else ""
+    return PairwiseComparison("tukey_hsd", "q", n, tuple(rows), note)
+
+
+def _undefined(
+    test: str, statistic: str, samples: dict[str, np.ndarray], note: str = ALL_EQUAL
+) -> PairwiseComparison:
+    """Every pair with NaN difference-test results: what R returns for degenerate data."""
+    nan = float("nan")
+    rows = tuple(
+        PairRow(a, b, float(samples[a].mean() - samples[b].mean()), nan, nan, nan, nan)
+        for a, b in combinations(samples, 2)
+    )
+    return PairwiseComparison(test, statistic, sum(map(len, samples.values())), rows, note)
 
 
 def holm(p_values: Sequence[float]) -> np.ndarray:
@@ -205,6 +237,8 @@ def dunn_holm(groups: Mapping[str, Sequence[float]]) -> PairwiseComparison:
     not defined for a step-down adjustment and are left NaN.
     """
     samples = _samples(groups)
+    if all_equal(np.concatenate(list(samples.values()))):
+        return _undefined("dunn_holm", "z", samples)
     long = pd.DataFrame(
         {
             "value": np.concatenate(list(samples.values())),
@@ -219,6 +253,6 @@ def dunn_holm(groups: Mapping[str, Sequence[float]]) -> PairwiseComparison:
     for (a, b), p in zip(pairs, adjusted, strict=True):
         se = np.sqrt(variance * (1 / len(samples[a]) + 1 / len(samples[b])))
         difference = mean_ranks[a] - mean_ranks[b]
-        z = difference / se if se > 0 else 0.0
+        z = difference / se
         rows.append(PairRow(a, b, difference, np.nan, np.nan, float(z), float(p)))
     return PairwiseComparison("dunn_holm", "z", n, tuple(rows))
