@@ -15,6 +15,7 @@ from hcss.analysis.comparisons import Correlation, OmnibusComparison, TwoSampleC
 from hcss.analysis.decision_measures import SPLITS
 from hcss.analysis.load import GROUP_ORDER
 from hcss.analysis.measures import measure_label, measure_order
+from hcss.analysis.stats import mann_whitney_u
 from hcss.analysis.tables import Table, format_number, format_p
 
 SPLIT_LABELS = {"overall": "Overall", "easy": "Easy", "difficult": "Difficult"}
@@ -91,9 +92,9 @@ def kruskal_table(comparisons: list[OmnibusComparison]) -> Table:
     for comparison in comparisons:
         result = comparison.kruskal
         if result is None:
-            text, p, effect = comparison.note, "–", "–"
+            text, p, effect = "–", "–", "–"
         else:
-            text = f"χ²({result.df:g}, N = {result.n}) = {result.statistic:.2f}"
+            text = f"χ²({result.df:g}, N = {result.n}) = {format_number(result.statistic)}"
             p, effect = format_p(result.p), format_number(result.effect_size)
         rows.append(
             (
@@ -103,6 +104,7 @@ def kruskal_table(comparisons: list[OmnibusComparison]) -> Table:
                 text,
                 p,
                 effect,
+                comparison.note,
             )
         )
         records.append(
@@ -119,7 +121,7 @@ def kruskal_table(comparisons: list[OmnibusComparison]) -> Table:
                 "note": comparison.note,
             }
         )
-    header = ("Measure", "Split", "Models", "χ²(df, N)", "p", "ε²")
+    header = ("Measure", "Split", "Models", "χ²(df, N)", "p", "ε²", "Note")
     return Table(
         "kruskal_wallis",
         "Kruskal-Wallis tests across models",
@@ -195,20 +197,28 @@ def posthoc_tables(comparisons: list[OmnibusComparison]) -> list[Table]:
 
 
 def mann_whitney_table(comparisons: list[TwoSampleComparison]) -> Table:
-    """Mann-Whitney M1SIM vs M2SIM: U, p and rank-biserial r."""
+    """Mann-Whitney M1SIM vs M2SIM as the paper prints it: n₁, n₂, U, R's W, p, r.
+
+    U = min(U₁, U₂) is the paper's statistic; W = U₁ is what R's
+    ``wilcox.test`` prints, so both are given.
+    """
     rows, records = [], []
     for comparison in comparisons:
         result = comparison.result
+        n1, n2 = comparison.sizes
+        u = mann_whitney_u(result, n1, n2) if result else None
         rows.append(
             (
                 measure_label(comparison.measure),
                 SPLIT_LABELS[comparison.split],
-                " vs ".join(comparison.groups),
-                format_number(result.statistic, 1) if result else comparison.note,
+                str(n1),
+                str(n2),
+                format_number(u, 1) if result else "–",
+                format_number(result.statistic, 1) if result else "–",
                 format_p(result.p) if result else "–",
                 format_number(result.effect_size) if result else "–",
-                str(result.n) if result else "–",
                 result.method if result else "",
+                comparison.note,
             )
         )
         records.append(
@@ -217,18 +227,21 @@ def mann_whitney_table(comparisons: list[TwoSampleComparison]) -> Table:
                 "split": comparison.split,
                 "group_a": comparison.groups[0],
                 "group_b": comparison.groups[1],
-                "U": result.statistic if result else None,
+                "n_a": n1,
+                "n_b": n2,
+                "U": u,
+                "W": result.statistic if result else None,
                 "p": result.p if result else None,
                 "rank_biserial_r": result.effect_size if result else None,
-                "n": result.n if result else None,
                 "method": result.method if result else "",
                 "note": comparison.note,
             }
         )
-    header = ("Measure", "Split", "Models", "U", "p", "r", "N", "Method")
+    a, b = comparisons[0].groups if comparisons else ("M1SIM", "M2SIM")
+    header = ("Measure", "Split", f"n {a}", f"n {b}", "U", "W (R)", "p", "r", "Method", "Note")
     return Table(
         "mann_whitney",
-        "Mann-Whitney-Wilcoxon tests, simulation-only models",
+        f"Mann-Whitney-Wilcoxon tests, {a} vs {b} (U = min(U₁, U₂); W as R prints it)",
         header,
         tuple(rows),
         pd.DataFrame(records),
@@ -244,10 +257,12 @@ def spearman_table(results: list[Correlation]) -> Table:
             (
                 f"{measure_label(correlation.x)} vs {measure_label(correlation.y)}",
                 correlation.group,
-                format_number(result.statistic) if result else correlation.note,
+                format_number(result.statistic) if result else "–",
                 f"{result.df:g}" if result else "–",
                 format_p(result.p) if result else "–",
                 str(result.n) if result else "–",
+                result.method if result else "",
+                correlation.note,
             )
         )
         records.append(
@@ -259,10 +274,11 @@ def spearman_table(results: list[Correlation]) -> Table:
                 "df": result.df if result else None,
                 "p": result.p if result else None,
                 "n": result.n if result else None,
+                "method": result.method if result else "",
                 "note": correlation.note,
             }
         )
-    header = ("Correlation", "Models", "ρ", "df", "p", "N")
+    header = ("Correlation", "Models", "ρ", "df", "p", "N", "p method", "Note")
     return Table(
         "spearman",
         "Spearman correlations with success rate",

@@ -106,12 +106,11 @@ def _fit(outcome, method, ratio_name, data, fit) -> ClusteredModel:
         warnings.simplefilter("always")
         try:
             result = fit(data)
+            terms = _terms(result)  # standard errors are computed lazily, warnings and all
         except (ValueError, np.linalg.LinAlgError) as error:
             return ClusteredModel(outcome, method, ratio_name, n, clusters, (), str(error))
     notes = sorted({str(warning.message).split("\n")[0] for warning in caught})
-    return ClusteredModel(
-        outcome, method, ratio_name, n, clusters, _terms(result), "; ".join(notes)
-    )
+    return ClusteredModel(outcome, method, ratio_name, n, clusters, terms, "; ".join(notes))
 
 
 def success_gee(decisions: pd.DataFrame) -> ClusteredModel:

@@ -85,6 +85,7 @@ class TwoSampleComparison:
     groups: tuple[str, str]
     result: TestResult | None
     note: str = ""
+    sizes: tuple[int, int] = (0, 0)
 
 
 @dataclass(frozen=True)
@@ -217,7 +218,11 @@ def simulation_comparisons(
             note = join_notes(result.note, caught)
         except ValueError as error:
             result, note = None, str(error)
-        comparisons.append(TwoSampleComparison(measure, split, SIMULATION_PAIR, result, note))
+        comparisons.append(
+            TwoSampleComparison(
+                measure, split, SIMULATION_PAIR, result, note, (len(first), len(second))
+            )
+        )
     return comparisons
 
 

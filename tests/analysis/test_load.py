@@ -64,7 +64,7 @@ def test_unknown_model_and_source_are_refused(tmp_path: Path):
 
 
 def test_directory_without_decisions_and_missing_path(tmp_path: Path):
-    with pytest.raises(AnalysisInputError, match="no decisions.csv"):
+    with pytest.raises(AnalysisInputError, match="no export tables"):
         load_inputs([tmp_path])
     with pytest.raises(AnalysisInputError, match="no such file"):
         load_inputs([tmp_path / "nowhere"])
