@@ -189,12 +189,14 @@ def omnibus_comparisons(measures: pd.DataFrame) -> list[OmnibusComparison]:
     comparisons = []
     sources = set(measures["source"])
     all_groups = [group for group in GROUP_ORDER if group in set(measures["group"])]
+    subsets = dict(list(measures.groupby(["measure", "split"], sort=False)))
     for measure, split in _measure_splits(measures):
-        human = _omnibus(measures, measure, split, "human-collective models", HUMAN_GROUPS)
+        subset = subsets[(measure, split)]  # filter once, not per group and test
+        human = _omnibus(subset, measure, split, "human-collective models", HUMAN_GROUPS)
         if human is not None:
             comparisons.append(human)
         if len(sources) > 1:
-            everyone = _omnibus(measures, measure, split, "all models", all_groups)
+            everyone = _omnibus(subset, measure, split, "all models", all_groups)
             if everyone is not None and any(g in SIMULATION_PAIR for g in everyone.groups):
                 comparisons.append(everyone)
     return comparisons

@@ -178,23 +178,26 @@ def tukey_hsd(groups: Mapping[str, Sequence[float]], alpha: float = 0.05) -> Pai
         return _undefined("tukey_hsd", "q", samples, note)
     means = [float(values.mean()) for values in samples.values()]
     critical = studentized_range_quantile(1 - alpha, k, float(error_df))
-    rows = []
-    for i, j in combinations(range(k), 2):
-        difference = means[i] - means[j]
-        se = float(np.sqrt(mean_square_error / 2 * (1 / sizes[i] + 1 / sizes[j])))
-        q = difference / se
-        p = float(stats.studentized_range.sf(abs(q), k, float(error_df)))
-        rows.append(
-            PairRow(
-                names[i],
-                names[j],
-                difference,
-                difference - critical * se,
-                difference + critical * se,
-                q,
-                min(p, 1.0),
-            )
+    pairs = list(combinations(range(k), 2))
+    differences = np.array([means[i] - means[j] for i, j in pairs])
+    errors = np.sqrt(
+        mean_square_error / 2 * np.array([1 / sizes[i] + 1 / sizes[j] for i, j in pairs])
+    )
+    q = differences / errors
+    # one vectorised call: each p is a numerical integral, costly one at a time
+    p = np.minimum(stats.studentized_range.sf(np.abs(q), k, float(error_df)), 1.0)
+    rows = [
+        PairRow(
+            names[i],
+            names[j],
+            float(differences[index]),
+            float(differences[index] - critical * errors[index]),
+            float(differences[index] + critical * errors[index]),
+            float(q[index]),
+            float(p[index]),
         )
+        for index, (i, j) in enumerate(pairs)
+    ]
     note = "a group has one value (it adds no spread to MSE)" if min(sizes) == 1 else ""
     return PairwiseComparison("tukey_hsd", "q", n, tuple(rows), note)
 

@@ -22,7 +22,9 @@ from hcss.platform.export.archive import export_archive
 from hcss.platform.export.writer import write_export
 from tests.analysis.synthetic import simulation_decisions, write_table
 
-pytestmark = pytest.mark.slow  # one bot walk of the demo study (~10 s) for the module
+# slow: one bot walk of the demo study (~10 s) for the module; any library warning that
+# escapes to the terminal fails the test
+pytestmark = [pytest.mark.slow, pytest.mark.filterwarnings("error")]
 
 QUESTIONNAIRE_SECTIONS = ["sa_probes", "nasa_tlx", "sart", "post_trial", "ranking", "mrt"]
 
