@@ -157,8 +157,10 @@ def _measure_splits(measures: pd.DataFrame) -> list[tuple[str, str]]:
 
 
 def _omnibus(measures, measure, split, family, groups) -> OmnibusComparison | None:
-    samples = {group: _values(measures, measure, split, group) for group in groups}
-    samples = {group: values for group, values in samples.items() if values}
+    by_group = {
+        group: values.dropna().tolist() for group, values in measures.groupby("group")["value"]
+    }  # ``measures`` is already this measure and split
+    samples = {group: by_group[group] for group in groups if by_group.get(group)}
     if len(samples) < 2:
         return None
     names = tuple(samples)
@@ -220,6 +222,10 @@ def simulation_comparisons(
             note = join_notes(result.note, caught)
         except ValueError as error:
             result, note = None, str(error)
+        small = [
+            g for g, v in zip(SIMULATION_PAIR, (first, second), strict=True) if len(v) < SMALL_N
+        ]
+        note = join_notes(f"n < {SMALL_N} in {', '.join(small)}" if small else "", note)
         comparisons.append(
             TwoSampleComparison(
                 measure, split, SIMULATION_PAIR, result, note, (len(first), len(second))

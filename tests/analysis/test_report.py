@@ -84,6 +84,7 @@ def test_a_simulation_experiment_plus_bot_export(bot_export, tmp_path):
     mann_whitney = pd.read_csv(out / "tables" / "mann_whitney.csv")
     assert (mann_whitney[["n_a", "n_b"]] == 6).all().all()
     assert (mann_whitney["U"] <= 18).all()  # min(U1, U2) <= n1 n2 / 2
+    assert mann_whitney["note"].str.startswith("n < 10 in M1SIM, M2SIM").all()
 
 
 def test_b_bot_export_without_decisions_still_gives_every_questionnaire_table(bot_export, tmp_path):
