@@ -53,9 +53,11 @@ def analyze(
 ) -> None:
     """Analyse study exports and simulation decision tables.
 
-    Each INPUT is an export directory (decisions.csv and, for a study, the
-    other export tables) or a decisions CSV file from the simulation-only
-    experiment. Writes descriptive tables, tests, figures and report.html.
+    Each INPUT is the console's export zip as downloaded, an export
+    directory (decisions and, for a study, the other export tables, as CSV
+    or Parquet), or a decisions CSV or Parquet file from the simulation-only
+    experiment. Writes tables, figures and report.html; an INPUT left with no
+    rows after exclusions is named in a warning.
     """
     # Imported here so `hcss --help` stays fast: the analysis pulls in
     # scipy, statsmodels and matplotlib.

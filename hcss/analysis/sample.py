@@ -66,8 +66,12 @@ def attrition_table(stage_timings: pd.DataFrame) -> Table:
     timings = stage_timings
     rows, records = [], []
     if not timings.empty:
+        if "stage_index" in timings:
+            position = pd.to_numeric(timings["stage_index"], errors="coerce")
+        else:  # older exports: the order rows were written in
+            position = pd.Series(range(len(timings)), index=timings.index, dtype=float)
         order = (
-            timings.assign(position=pd.to_numeric(timings.get("stage_index"), errors="coerce"))
+            timings.assign(position=position)
             .groupby("stage", sort=False)["position"]
             .median()
             .sort_values(kind="stable")
