@@ -5,7 +5,7 @@ Three flavours, because the study's analyses used more than one:
 - :func:`tukey_kramer_ranks`: Tukey-Kramer on the Kruskal-Wallis mean ranks,
   as MATLAB's ``multcompare`` does after ``kruskalwallis``. No scipy,
   statsmodels or scikit-posthocs function computes this, so it is written
-  here, from scipy's studentized-range distribution.
+  here, from R's studentized-range distribution (:mod:`tukey_distribution`).
 - :func:`tukey_hsd`: classic Tukey HSD (Tukey-Kramer for unequal sizes) on
   the raw values, as R's ``TukeyHSD(aov(...))`` (a group of one value included).
 - :func:`dunn_holm`: Dunn's z test on mean ranks with Holm's step-down
@@ -17,9 +17,9 @@ given order; :meth:`PairwiseComparison.pair` turns a row round if needed.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
-from functools import lru_cache
 from itertools import combinations
 
 import numpy as np
@@ -28,6 +28,7 @@ import scikit_posthocs
 from scipy import stats
 
 from hcss.analysis.stats import ALL_EQUAL, all_equal
+from hcss.analysis.tukey_distribution import qtukey, tukey_sf
 
 
 @dataclass(frozen=True)
@@ -106,22 +107,22 @@ def tukey_kramer_ranks(
     For groups i, j with nᵢ, nⱼ values: se = sqrt(v·(1/nᵢ + 1/nⱼ)/2), with v
     the tie-corrected rank variance, q = (R̄ᵢ − R̄ⱼ)/se, and p from the
     studentized range with k groups and infinite degrees of freedom (the
-    ranks' variance is known, not estimated). scipy's ``studentized_range``
-    switches to its infinite-df form for huge df, so ``np.inf`` is exact.
-    Intervals are R̄ᵢ − R̄ⱼ ± q₁₋α·se.
+    ranks' variance is known, not estimated): R's ``ptukey(q, k, Inf)``,
+    which integrates the range of k normals only. Intervals are
+    R̄ᵢ − R̄ⱼ ± q₁₋α·se.
     """
     samples = _samples(groups)
     if all_equal(np.concatenate(list(samples.values()))):
         return _undefined("tukey_kramer_ranks", "q", samples)
     mean_ranks, variance, n = _mean_ranks(samples)
     k = len(samples)
-    critical = float(stats.studentized_range.ppf(1 - alpha, k, np.inf))
+    critical = qtukey(1 - alpha, k, math.inf)
     rows = []
     for a, b in combinations(samples, 2):
         se = np.sqrt(variance * (1 / len(samples[a]) + 1 / len(samples[b])) / 2.0)
         difference = mean_ranks[a] - mean_ranks[b]
         q = difference / se
-        p = float(stats.studentized_range.sf(abs(q), k, np.inf))
+        p = tukey_sf(abs(q), k, math.inf)
         rows.append(
             PairRow(
                 a,
@@ -136,17 +137,6 @@ def tukey_kramer_ranks(
     return PairwiseComparison("tukey_kramer_ranks", "q", n, tuple(rows))
 
 
-@lru_cache(maxsize=256)
-def studentized_range_quantile(probability: float, k: int, df: float) -> float:
-    """Cached ``studentized_range.ppf``: a root search over a numerical integral.
-
-    Each call costs tens of milliseconds and a report asks for the same
-    (k, df) for every measure with the same design, so caching turns the
-    post-hoc step from seconds into a fraction of one.
-    """
-    return float(stats.studentized_range.ppf(probability, k, df))
-
-
 def tukey_hsd(groups: Mapping[str, Sequence[float]], alpha: float = 0.05) -> PairwiseComparison:
     """Classic Tukey HSD on raw values (``TukeyHSD(aov(y ~ g))`` in R).
 
@@ -156,7 +146,8 @@ def tukey_hsd(groups: Mapping[str, Sequence[float]], alpha: float = 0.05) -> Pai
     its mean can still be compared. For groups i, j:
     se = sqrt(MSE/2 · (1/nᵢ + 1/nⱼ)), q = (ȳᵢ − ȳⱼ)/se, p = P(Q > |q|) for
     the studentized range with k groups and N − k df, and the interval
-    diff ± q₁₋α·se. Undefined (NaN, with a note) when there are no error df
+    diff ± q₁₋α·se, with p and q₁₋α from R's own ``ptukey``/``qtukey``
+    (:mod:`hcss.analysis.tukey_distribution`). Undefined (NaN, with a note) when there are no error df
     (every group has one value) or no error variance.
     """
     samples = _samples(groups)
@@ -177,15 +168,14 @@ def tukey_hsd(groups: Mapping[str, Sequence[float]], alpha: float = 0.05) -> Pai
         )
         return _undefined("tukey_hsd", "q", samples, note)
     means = [float(values.mean()) for values in samples.values()]
-    critical = studentized_range_quantile(1 - alpha, k, float(error_df))
+    critical = qtukey(1 - alpha, k, float(error_df))
     pairs = list(combinations(range(k), 2))
     differences = np.array([means[i] - means[j] for i, j in pairs])
     errors = np.sqrt(
         mean_square_error / 2 * np.array([1 / sizes[i] + 1 / sizes[j] for i, j in pairs])
     )
     q = differences / errors
-    # one vectorised call: each p is a numerical integral, costly one at a time
-    p = np.minimum(stats.studentized_range.sf(np.abs(q), k, float(error_df)), 1.0)
+    p = np.array([tukey_sf(abs(value), k, float(error_df)) for value in q])
     rows = [
         PairRow(
             names[i],

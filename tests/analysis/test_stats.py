@@ -180,8 +180,44 @@ def test_holm_by_hand():
 
 
 def test_tukey_hsd_q_is_consistent_with_its_p(plant_growth):
-    """q from the hand-built interval formula gives scipy's p back (k = 3, df = 27)."""
+    """q from the interval formula gives the p back through scipy's independent
+    studentized range (k = 3, df = 27); R's ptukey and scipy agree to 1e-5 here."""
     from scipy.stats import studentized_range
 
     for row in posthoc.tukey_hsd(plant_growth).rows:
         assert studentized_range.sf(abs(row.statistic), 3, 27) == pytest.approx(row.p, rel=1e-5)
+
+
+@pytest.mark.parametrize(
+    ("q", "groups", "df", "expected"),
+    [
+        # options(digits = 17); ptukey(3.5, 3, 5)  # 0.880727057619895
+        (3.5, 3, 5, 0.880727057619895),
+        # ptukey(1.2, 3, 27)  # 0.32336716585082398
+        (1.2, 3, 27, 0.32336716585082398),
+        # ptukey(2.0, 5, 100)  # 0.37996598332546166 (half-unit intervals)
+        (2.0, 5, 100, 0.37996598332546166),
+        # ptukey(3.0, 4, 500)  # 0.8522863948802194
+        (3.0, 4, 500, 0.8522863948802194),
+        # ptukey(3.3, 3, 30000)  # 0.94868909358101372 (df > 25000: range only)
+        (3.3, 3, 30000, 0.94868909358101372),
+        # ptukey(0.5, 2, 2)  # 0.24254212290936839
+        (0.5, 2, 2, 0.24254212290936839),
+        # ptukey(6, 10, 12)  # 0.97489137535679427
+        (6.0, 10, 12, 0.97489137535679427),
+    ],
+)
+def test_ptukey_is_rs(q, groups, df, expected):
+    from hcss.analysis.tukey_distribution import ptukey
+
+    assert ptukey(q, groups, df) == pytest.approx(expected, rel=1e-12)
+
+
+def test_qtukey_is_rs():
+    from hcss.analysis.tukey_distribution import qtukey
+
+    # c(qtukey(0.95, 3, 27), qtukey(0.95, 3, 5), qtukey(0.95, 5, 1e6))
+    #   3.5064261233926857 4.6017254459428374 3.8576555268516346
+    assert qtukey(0.95, 3, 27) == pytest.approx(3.5064261233926857, rel=1e-12)
+    assert qtukey(0.95, 3, 5) == pytest.approx(4.6017254459428374, rel=1e-12)
+    assert qtukey(0.95, 5, 1e6) == pytest.approx(3.8576555268516346, rel=1e-12)
