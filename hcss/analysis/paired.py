@@ -96,8 +96,14 @@ def _compare(measures: pd.DataFrame, measure: str, split: str) -> RepeatedCompar
 def repeated_comparisons(measures: pd.DataFrame) -> list[RepeatedComparison]:
     """Friedman + pairwise Wilcoxon for every measure and split with per-model values."""
     results = []
+    human = measures[
+        measures["group"].isin(HUMAN_GROUPS) & (measures["participant"].astype(str) != "")
+    ]
+    subsets = dict(list(human.groupby(["measure", "split"], sort=False)))
     for measure, split in _measure_splits(measures):
-        comparison = _compare(measures, measure, split)
+        if (measure, split) not in subsets:
+            continue
+        comparison = _compare(subsets[(measure, split)], measure, split)
         if comparison is not None:
             results.append(comparison)
     return results
