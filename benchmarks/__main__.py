@@ -5,7 +5,7 @@ from __future__ import annotations
 import importlib
 import sys
 
-SUITES = ("simulation", "live")
+SUITES = ("simulation", "live", "analysis")
 
 
 def main(argv: list[str]) -> None:
