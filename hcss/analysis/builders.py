@@ -7,6 +7,7 @@ for Overall, Easy and Difficult side by side.
 
 from __future__ import annotations
 
+import math
 import re
 
 import pandas as pd
@@ -91,7 +92,7 @@ def kruskal_table(comparisons: list[OmnibusComparison]) -> Table:
     rows, records = [], []
     for comparison in comparisons:
         result = comparison.kruskal
-        if result is None:
+        if result is None or math.isnan(result.statistic):
             text, p, effect = "–", "–", "–"
         else:
             text = f"χ²({result.df:g}, N = {result.n}) = {format_number(result.statistic)}"

@@ -74,6 +74,8 @@ def analyze(
         )
     except AnalysisInputError as error:
         raise click.ClickException(str(error)) from error
+    for warning in report.warnings:
+        click.echo(f"Warning: {warning}", err=True)
     click.echo(
         f"Wrote {len(report.tables)} tables and {len(report.figures)} figures; "
         f"open {report.html_path}"

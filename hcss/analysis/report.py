@@ -44,6 +44,7 @@ class Report:
     figures: tuple[str, ...]
     html_path: Path
     sections: tuple[str, ...] = ()
+    warnings: tuple[str, ...] = ()
 
 
 def _inputs_html(tables: StudyTables) -> str:
@@ -163,4 +164,5 @@ def run_analysis(
         tuple(name for names in figures.values() for name in names),
         html_path,
         tuple(section.key for section in sections),
+        tables.warnings,
     )

@@ -110,3 +110,28 @@ def test_sample_attrition_and_demographics_tables():
     assert genders.to_dict() == {"f": 2, "m": 1}
     games = demographics[demographics["item"] == "video_games"].iloc[0]
     assert games["mean"] == 3 and games["sd"] == 2
+
+
+def test_a_constant_measure_shows_no_p_but_says_all_values_equal():
+    import warnings
+
+    from hcss.analysis.builders import kruskal_table, posthoc_tables
+    from hcss.analysis.comparisons import omnibus_comparisons
+
+    rows = [
+        ("success_rate", "overall", model, "study", f"P{unit}", f"P{unit}", 1.0)
+        for model in ("M1", "M2", "M3")
+        for unit in range(4)
+    ]
+    measures = pd.DataFrame(
+        rows, columns=["measure", "split", "group", "source", "unit", "participant", "value"]
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        comparisons = omnibus_comparisons(measures)
+    table = kruskal_table(comparisons)
+    (row,) = table.rows
+    assert row[3:6] == ("–", "–", "–")  # no statistic, p or effect that looks like a result
+    assert "all values equal" in row[6]
+    for posthoc in posthoc_tables(comparisons):
+        assert all(cells[-1] == "–" for cells in posthoc.rows)
