@@ -31,7 +31,8 @@ def _file_name(text: str) -> str:
     return re.sub(r"[^a-z0-9]+", "_", text.lower()).strip("_")
 
 
-def _group_key(group: str) -> tuple[int, str]:
+def group_key(group: str) -> tuple[int, str]:
+    """Sort key: simulation models, then M1–M3, then anything else (e.g. "All")."""
     return (GROUP_ORDER.index(group), group) if group in GROUP_ORDER else (len(GROUP_ORDER), group)
 
 
@@ -48,7 +49,7 @@ def descriptive_tables(summary: pd.DataFrame) -> list[Table]:
                 f"{SPLIT_LABELS[split]} median (min–max)",
             ]
         rows = []
-        for group in sorted(rows_of_measure["group"].unique(), key=_group_key):
+        for group in sorted(rows_of_measure["group"].unique(), key=group_key):
             top, bottom = [f"{group}"], [""]
             for split in splits:
                 found = rows_of_measure[
@@ -70,7 +71,7 @@ def descriptive_tables(summary: pd.DataFrame) -> list[Table]:
         order = sorted(
             rows_of_measure.index,
             key=lambda index: (
-                _group_key(rows_of_measure.at[index, "group"]),
+                group_key(rows_of_measure.at[index, "group"]),
                 SPLITS.index(rows_of_measure.at[index, "split"]),
             ),
         )

@@ -147,7 +147,8 @@ def _values(measures: pd.DataFrame, measure: str, split: str, group: str) -> lis
     return chosen["value"].dropna().tolist()
 
 
-def _measure_splits(measures: pd.DataFrame) -> list[tuple[str, str]]:
+def measure_splits(measures: pd.DataFrame) -> list[tuple[str, str]]:
+    """Every (measure, split) to test, in report order; MRT is per participant, not per model."""
     pairs = measures[["measure", "split"]].drop_duplicates()
     pairs = pairs[pairs["measure"].ne(MRT_MEASURE)]
     return sorted(
@@ -192,7 +193,7 @@ def omnibus_comparisons(measures: pd.DataFrame) -> list[OmnibusComparison]:
     sources = set(measures["source"])
     all_groups = [group for group in GROUP_ORDER if group in set(measures["group"])]
     subsets = dict(list(measures.groupby(["measure", "split"], sort=False)))
-    for measure, split in _measure_splits(measures):
+    for measure, split in measure_splits(measures):
         subset = subsets[(measure, split)]  # filter once, not per group and test
         human = _omnibus(subset, measure, split, "human-collective models", HUMAN_GROUPS)
         if human is not None:
@@ -213,7 +214,7 @@ def simulation_comparisons(
     defaults reproduce R's ``wilcox.test``.
     """
     comparisons = []
-    for measure, split in _measure_splits(measures):
+    for measure, split in measure_splits(measures):
         first, second = (_values(measures, measure, split, g) for g in SIMULATION_PAIR)
         if not first and not second:
             continue

@@ -17,8 +17,8 @@ import pandas as pd
 from hcss.analysis.comparisons import (
     HUMAN_GROUPS,
     SMALL_N,
-    _measure_splits,
     join_notes,
+    measure_splits,
     quietly,
 )
 from hcss.analysis.posthoc import holm
@@ -100,7 +100,7 @@ def repeated_comparisons(measures: pd.DataFrame) -> list[RepeatedComparison]:
         measures["group"].isin(HUMAN_GROUPS) & (measures["participant"].astype(str) != "")
     ]
     subsets = dict(list(human.groupby(["measure", "split"], sort=False)))
-    for measure, split in _measure_splits(measures):
+    for measure, split in measure_splits(measures):
         if (measure, split) not in subsets:
             continue
         comparison = _compare(subsets[(measure, split)], measure, split)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import pandas as pd
 
-from hcss.analysis.builders import SPLIT_LABELS, _group_key
+from hcss.analysis.builders import SPLIT_LABELS, group_key
 from hcss.analysis.comparisons import HUMAN_GROUPS, OmnibusComparison
 from hcss.analysis.decision_measures import SPLITS
 from hcss.analysis.families import Family
@@ -38,7 +38,7 @@ def family_table(
     if not members:
         return None
     chosen = summary[summary["measure"].isin(members)]
-    groups = sorted(chosen["group"].unique(), key=_group_key)
+    groups = sorted(chosen["group"].unique(), key=group_key)
     header = (
         "Measure",
         "Split",
