@@ -210,13 +210,18 @@ def holm(p_values: Sequence[float]) -> np.ndarray:
     Written out because statsmodels' ``multipletests(method="holm")`` runs a
     full ``gc.collect()`` on every call, which made a report with a hundred
     comparisons spend most of its time in the garbage collector. The test
-    suite checks this against statsmodels.
+    suite checks this against statsmodels and R. A NaN p (a degenerate pair)
+    stays NaN and does not count in m, as in R's ``p.adjust``.
     """
     p = np.asarray(p_values, dtype=float)
-    order = np.argsort(p, kind="stable")
-    scaled = p[order] * np.arange(len(p), 0, -1)
-    adjusted = np.empty_like(p)
-    adjusted[order] = np.minimum(np.maximum.accumulate(scaled), 1.0)
+    adjusted = np.full_like(p, np.nan)
+    present = ~np.isnan(p)  # as R's p.adjust: a missing p is no comparison
+    kept = p[present]
+    order = np.argsort(kept, kind="stable")
+    scaled = kept[order] * np.arange(len(kept), 0, -1)
+    result = np.empty_like(kept)
+    result[order] = np.minimum(np.maximum.accumulate(scaled), 1.0)
+    adjusted[present] = result
     return adjusted
 
 

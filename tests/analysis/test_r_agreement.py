@@ -222,6 +222,13 @@ def test_paired_wilcoxon_holm_matches_r():
     )
 
 
+def test_holm_leaves_missing_p_out_as_r_does():
+    # p.adjust(c(NA, 0.01, 0.02), "holm")  # NA 0.02 0.02 (failed before: NaN counted in m)
+    adjusted = posthoc.holm([float("nan"), 0.01, 0.02])
+    assert np.isnan(adjusted[0])
+    assert adjusted[1:] == pytest.approx([0.02, 0.02], rel=REL)
+
+
 def test_paired_wilcoxon_exact_and_effect_size_match_r():
     # x <- c(183, 50, 162, 248, 168, 188, 155, 306, 130)
     # y <- c(88, 65, 60, 205, 106, 129, 106, 314, 129)
