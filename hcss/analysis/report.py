@@ -66,6 +66,14 @@ def _inputs_html(tables: StudyTables) -> str:
     )
 
 
+def _table_html(table: Table) -> str:
+    return (
+        f"{to_html(table)}<p class='files'><a href='tables/{table.name}.csv'>CSV</a> · "
+        f"<a href='tables/{table.name}.tex'>LaTeX</a> · "
+        f"<a href='tables/{table.name}.md'>Markdown</a></p>"
+    )
+
+
 def _section_html(section: Section, figures: list[str]) -> str:
     parts = [f"<section id='{section.key}'><h2>{html.escape(section.title)}</h2>"]
     if section.intro:
@@ -76,11 +84,13 @@ def _section_html(section: Section, figures: list[str]) -> str:
             f"<figcaption>{html.escape(name)} (<a href='figures/{name}.svg'>SVG</a> · "
             f"<a href='figures/{name}.png'>PNG</a>)</figcaption></figure>"
         )
-    for table in section.tables:
+    parts += [_table_html(table) for table in section.tables]
+    if section.details:
         parts.append(
-            f"{to_html(table)}<p class='files'><a href='tables/{table.name}.csv'>CSV</a> · "
-            f"<a href='tables/{table.name}.tex'>LaTeX</a> · "
-            f"<a href='tables/{table.name}.md'>Markdown</a></p>"
+            f"<details><summary>Per-scale tables ({len(section.details)}): mean (SD) and "
+            "median (min–max)</summary>"
+            + "".join(_table_html(table) for table in section.details)
+            + "</details>"
         )
     parts.append("</section>")
     return "".join(parts)
@@ -143,7 +153,7 @@ def run_analysis(
     steps.update()
     steps.set_postfix_str("tests")
     sections = build_sections(tables, measures, include_pilot, mann_whitney_method, continuity)
-    built = [table for section in sections for table in section.tables]
+    built = [table for section in sections for table in (*section.tables, *section.details)]
     steps.update()
     steps.set_postfix_str("writing tables")
     for table in built:

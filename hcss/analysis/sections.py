@@ -56,23 +56,29 @@ class Section:
     intro: str = ""
     tables: tuple[Table, ...] = ()
     figures: tuple[tuple[str, Callable[[], Figure]], ...] = field(default=())
+    details: tuple[Table, ...] = ()  # written and linked, shown folded (per-scale tables)
 
 
 def _family_section(family, measures, summary, kruskal, friedman, extra=()) -> Section | None:
     members = family.members(measures)
     if not members:
         return None
-    tables = [family_table(family, summary, kruskal, friedman)]
-    chosen = summary[summary["measure"].isin(members)]
-    tables += descriptive_tables(chosen)
-    tables += list(extra)
+    tables = [family_table(family, summary, kruskal, friedman), *extra]
+    per_measure = descriptive_tables(summary[summary["measure"].isin(members)])
+    details: list[Table] = []
+    if family.profile:  # one table for the instrument; per-scale tables folded away
+        details = per_measure
+    else:
+        tables += per_measure
     if family.profile:
         figures = [(family.key, lambda: profile_figure(measures, members, family.title))]
     elif family.key == "performance":
         figures = [(name, lambda name=name: comparison_figure(measures, name)) for name in members]
     else:
         figures = [(family.key, lambda: family_figure(measures, members, family.title))]
-    return Section(family.key, family.title, "", tuple(t for t in tables if t), tuple(figures))
+    return Section(
+        family.key, family.title, "", tuple(t for t in tables if t), tuple(figures), tuple(details)
+    )
 
 
 def _sample_section(tables: StudyTables, include_pilot: bool) -> Section | None:
