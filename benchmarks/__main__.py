@@ -5,7 +5,7 @@ from __future__ import annotations
 import importlib
 import sys
 
-SUITES = ("simulation", "live", "console")
+SUITES = ("simulation", "live", "console", "analysis")
 
 
 def main(argv: list[str]) -> None:

@@ -64,7 +64,7 @@ def full_experiment(workers: int = 2) -> None:
     sampler.stop()
     out = Path("out/bench-experiment")
     exp.write_decisions(rows, out / "decisions.csv")
-    table = exp.summary_table(exp.summarise(rows))
+    table = exp.summary_table(out / "decisions.csv")
     (out / "summary.md").write_text(
         f"# Simulation-only experiment (make bench)\n\n{table}\n", encoding="utf-8"
     )

@@ -7,6 +7,7 @@ for Overall, Easy and Difficult side by side.
 
 from __future__ import annotations
 
+import math
 import re
 
 import pandas as pd
@@ -15,6 +16,7 @@ from hcss.analysis.comparisons import Correlation, OmnibusComparison, TwoSampleC
 from hcss.analysis.decision_measures import SPLITS
 from hcss.analysis.load import GROUP_ORDER
 from hcss.analysis.measures import measure_label, measure_order
+from hcss.analysis.stats import mann_whitney_u
 from hcss.analysis.tables import Table, format_number, format_p
 
 SPLIT_LABELS = {"overall": "Overall", "easy": "Easy", "difficult": "Difficult"}
@@ -29,7 +31,8 @@ def _file_name(text: str) -> str:
     return re.sub(r"[^a-z0-9]+", "_", text.lower()).strip("_")
 
 
-def _group_key(group: str) -> tuple[int, str]:
+def group_key(group: str) -> tuple[int, str]:
+    """Sort key: simulation models, then M1–M3, then anything else (e.g. "All")."""
     return (GROUP_ORDER.index(group), group) if group in GROUP_ORDER else (len(GROUP_ORDER), group)
 
 
@@ -46,7 +49,7 @@ def descriptive_tables(summary: pd.DataFrame) -> list[Table]:
                 f"{SPLIT_LABELS[split]} median (min–max)",
             ]
         rows = []
-        for group in sorted(rows_of_measure["group"].unique(), key=_group_key):
+        for group in sorted(rows_of_measure["group"].unique(), key=group_key):
             top, bottom = [f"{group}"], [""]
             for split in splits:
                 found = rows_of_measure[
@@ -68,7 +71,7 @@ def descriptive_tables(summary: pd.DataFrame) -> list[Table]:
         order = sorted(
             rows_of_measure.index,
             key=lambda index: (
-                _group_key(rows_of_measure.at[index, "group"]),
+                group_key(rows_of_measure.at[index, "group"]),
                 SPLITS.index(rows_of_measure.at[index, "split"]),
             ),
         )
@@ -90,10 +93,10 @@ def kruskal_table(comparisons: list[OmnibusComparison]) -> Table:
     rows, records = [], []
     for comparison in comparisons:
         result = comparison.kruskal
-        if result is None:
-            text, p, effect = comparison.note, "–", "–"
+        if result is None or math.isnan(result.statistic):
+            text, p, effect = "–", "–", "–"
         else:
-            text = f"χ²({result.df:g}, N = {result.n}) = {result.statistic:.2f}"
+            text = f"χ²({result.df:g}, N = {result.n}) = {format_number(result.statistic)}"
             p, effect = format_p(result.p), format_number(result.effect_size)
         rows.append(
             (
@@ -103,6 +106,7 @@ def kruskal_table(comparisons: list[OmnibusComparison]) -> Table:
                 text,
                 p,
                 effect,
+                comparison.note,
             )
         )
         records.append(
@@ -119,7 +123,7 @@ def kruskal_table(comparisons: list[OmnibusComparison]) -> Table:
                 "note": comparison.note,
             }
         )
-    header = ("Measure", "Split", "Models", "χ²(df, N)", "p", "ε²")
+    header = ("Measure", "Split", "Models", "χ²(df, N)", "p", "ε²", "Note")
     return Table(
         "kruskal_wallis",
         "Kruskal-Wallis tests across models",
@@ -195,20 +199,28 @@ def posthoc_tables(comparisons: list[OmnibusComparison]) -> list[Table]:
 
 
 def mann_whitney_table(comparisons: list[TwoSampleComparison]) -> Table:
-    """Mann-Whitney M1SIM vs M2SIM: U, p and rank-biserial r."""
+    """Mann-Whitney M1SIM vs M2SIM as the paper prints it: n₁, n₂, U, R's W, p, r.
+
+    U = min(U₁, U₂) is the paper's statistic; W = U₁ is what R's
+    ``wilcox.test`` prints, so both are given.
+    """
     rows, records = [], []
     for comparison in comparisons:
         result = comparison.result
+        n1, n2 = comparison.sizes
+        u = mann_whitney_u(result, n1, n2) if result else None
         rows.append(
             (
                 measure_label(comparison.measure),
                 SPLIT_LABELS[comparison.split],
-                " vs ".join(comparison.groups),
-                format_number(result.statistic, 1) if result else comparison.note,
+                str(n1),
+                str(n2),
+                format_number(u, 1) if result else "–",
+                format_number(result.statistic, 1) if result else "–",
                 format_p(result.p) if result else "–",
                 format_number(result.effect_size) if result else "–",
-                str(result.n) if result else "–",
                 result.method if result else "",
+                comparison.note,
             )
         )
         records.append(
@@ -217,18 +229,21 @@ def mann_whitney_table(comparisons: list[TwoSampleComparison]) -> Table:
                 "split": comparison.split,
                 "group_a": comparison.groups[0],
                 "group_b": comparison.groups[1],
-                "U": result.statistic if result else None,
+                "n_a": n1,
+                "n_b": n2,
+                "U": u,
+                "W": result.statistic if result else None,
                 "p": result.p if result else None,
                 "rank_biserial_r": result.effect_size if result else None,
-                "n": result.n if result else None,
                 "method": result.method if result else "",
                 "note": comparison.note,
             }
         )
-    header = ("Measure", "Split", "Models", "U", "p", "r", "N", "Method")
+    a, b = comparisons[0].groups if comparisons else ("M1SIM", "M2SIM")
+    header = ("Measure", "Split", f"n {a}", f"n {b}", "U", "W (R)", "p", "r", "Method", "Note")
     return Table(
         "mann_whitney",
-        "Mann-Whitney-Wilcoxon tests, simulation-only models",
+        f"Mann-Whitney-Wilcoxon tests, {a} vs {b} (U = min(U₁, U₂); W as R prints it)",
         header,
         tuple(rows),
         pd.DataFrame(records),
@@ -244,10 +259,12 @@ def spearman_table(results: list[Correlation]) -> Table:
             (
                 f"{measure_label(correlation.x)} vs {measure_label(correlation.y)}",
                 correlation.group,
-                format_number(result.statistic) if result else correlation.note,
+                format_number(result.statistic) if result else "–",
                 f"{result.df:g}" if result else "–",
                 format_p(result.p) if result else "–",
                 str(result.n) if result else "–",
+                result.method if result else "",
+                correlation.note,
             )
         )
         records.append(
@@ -259,10 +276,11 @@ def spearman_table(results: list[Correlation]) -> Table:
                 "df": result.df if result else None,
                 "p": result.p if result else None,
                 "n": result.n if result else None,
+                "method": result.method if result else "",
                 "note": correlation.note,
             }
         )
-    header = ("Correlation", "Models", "ρ", "df", "p", "N")
+    header = ("Correlation", "Models", "ρ", "df", "p", "N", "p method", "Note")
     return Table(
         "spearman",
         "Spearman correlations with success rate",

@@ -53,9 +53,11 @@ def analyze(
 ) -> None:
     """Analyse study exports and simulation decision tables.
 
-    Each INPUT is an export directory (decisions.csv and, for a study, the
-    other export tables) or a decisions CSV file from the simulation-only
-    experiment. Writes descriptive tables, tests, figures and report.html.
+    Each INPUT is the console's export zip as downloaded, an export
+    directory (decisions and, for a study, the other export tables, as CSV
+    or Parquet), or a decisions CSV or Parquet file from the simulation-only
+    experiment. Writes tables, figures and report.html; an INPUT left with no
+    rows after exclusions is named in a warning.
     """
     # Imported here so `hcss --help` stays fast: the analysis pulls in
     # scipy, statsmodels and matplotlib.
@@ -72,6 +74,8 @@ def analyze(
         )
     except AnalysisInputError as error:
         raise click.ClickException(str(error)) from error
+    for warning in report.warnings:
+        click.echo(f"Warning: {warning}", err=True)
     click.echo(
         f"Wrote {len(report.tables)} tables and {len(report.figures)} figures; "
         f"open {report.html_path}"

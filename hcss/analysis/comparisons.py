@@ -12,12 +12,19 @@
 
 A test that cannot run (too few groups or values, a constant variable) is
 recorded with its reason instead of stopping the report: a small pilot
-export must still give every table.
+export must still give every table. Library warnings are caught into the
+same note (:func:`quietly`), so the terminal shows only the progress bar.
+Independent-groups tests carry a design note when a group has fewer than
+:data:`SMALL_N` units or the groups share participants (each participant
+meets every human model): the paired tests are in :mod:`hcss.analysis.paired`.
 """
 
 from __future__ import annotations
 
+import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TypeVar
 
 import pandas as pd
 
@@ -40,6 +47,8 @@ from hcss.analysis.stats import (
 )
 
 HUMAN_GROUPS = ("M1", "M2", "M3")
+#: Below this many units per group a table says its p is fragile.
+SMALL_N = 10
 SIMULATION_PAIR = ("M1SIM", "M2SIM")
 POOLED_HUMAN = "M1–M3"
 
@@ -76,6 +85,7 @@ class TwoSampleComparison:
     groups: tuple[str, str]
     result: TestResult | None
     note: str = ""
+    sizes: tuple[int, int] = (0, 0)
 
 
 @dataclass(frozen=True)
@@ -89,6 +99,45 @@ class Correlation:
     note: str = ""
 
 
+Result = TypeVar("Result")
+
+
+def quietly(function: Callable[..., Result], *arguments) -> tuple[Result, str]:
+    """Call ``function`` with library warnings caught; return them as one note."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = function(*arguments)
+    messages = sorted({str(warning.message).split("\n")[0] for warning in caught})
+    return result, "; ".join(messages)
+
+
+def join_notes(*notes: str) -> str:
+    """Non-empty notes joined with semicolons."""
+    return "; ".join(note for note in notes if note)
+
+
+def design_note(measures: pd.DataFrame, measure: str, split: str, groups) -> str:
+    """Warnings about the design: small groups, or groups sharing participants."""
+    chosen = measures[
+        (measures["measure"] == measure)
+        & (measures["split"] == split)
+        & measures["group"].isin(groups)
+    ].dropna(subset=["value"])
+    counts = chosen.groupby("group").size()
+    notes = []
+    small = [group for group in groups if 0 < counts.get(group, 0) < SMALL_N]
+    if small:
+        notes.append(f"n < {SMALL_N} in {', '.join(small)}")
+    people = chosen[chosen["participant"].astype(str) != ""]
+    shared = people.groupby("participant")["group"].nunique()
+    if (shared > 1).any():
+        notes.append(
+            f"groups share {int((shared > 1).sum())} participants: independence does not hold "
+            "(see the repeated-measures tests)"
+        )
+    return "; ".join(notes)
+
+
 def _values(measures: pd.DataFrame, measure: str, split: str, group: str) -> list[float]:
     chosen = measures[
         (measures["measure"] == measure)
@@ -98,7 +147,8 @@ def _values(measures: pd.DataFrame, measure: str, split: str, group: str) -> lis
     return chosen["value"].dropna().tolist()
 
 
-def _measure_splits(measures: pd.DataFrame) -> list[tuple[str, str]]:
+def measure_splits(measures: pd.DataFrame) -> list[tuple[str, str]]:
+    """Every (measure, split) to test, in report order; MRT is per participant, not per model."""
     pairs = measures[["measure", "split"]].drop_duplicates()
     pairs = pairs[pairs["measure"].ne(MRT_MEASURE)]
     return sorted(
@@ -108,27 +158,32 @@ def _measure_splits(measures: pd.DataFrame) -> list[tuple[str, str]]:
 
 
 def _omnibus(measures, measure, split, family, groups) -> OmnibusComparison | None:
-    samples = {group: _values(measures, measure, split, group) for group in groups}
-    samples = {group: values for group, values in samples.items() if values}
+    by_group = {
+        group: values.dropna().tolist() for group, values in measures.groupby("group")["value"]
+    }  # ``measures`` is already this measure and split
+    samples = {group: by_group[group] for group in groups if by_group.get(group)}
     if len(samples) < 2:
         return None
     names = tuple(samples)
+    design = design_note(measures, measure, split, names)
     try:
-        result = kruskal_wallis(samples)
+        result, caught = quietly(kruskal_wallis, samples)
     except ValueError as error:
         return OmnibusComparison(measure, split, family, names, None, (), str(error))
-    posthoc, notes = [], []
-    flavours = [tukey_kramer_ranks, dunn_holm, tukey_hsd]
-    if any(len(values) < 2 for values in samples.values()):
-        flavours.remove(tukey_hsd)  # its pooled error variance needs 2+ values per group
-        notes.append("tukey_hsd: a group has fewer than 2 values")
-    for flavour in flavours:
+    posthoc, notes = [], [design, result.note, caught]
+    for flavour in (tukey_kramer_ranks, dunn_holm, tukey_hsd):
         try:
-            posthoc.append(flavour(samples))
+            comparison, caught = quietly(flavour, samples)
         except ValueError as error:
             notes.append(f"{flavour.__name__}: {error}")
+            continue
+        posthoc.append(comparison)
+        if comparison.note and comparison.note != result.note:
+            notes.append(f"{flavour.__name__}: {comparison.note}")
+        if caught:
+            notes.append(f"{flavour.__name__}: {caught}")
     return OmnibusComparison(
-        measure, split, family, names, result, tuple(posthoc), "; ".join(notes)
+        measure, split, family, names, result, tuple(posthoc), join_notes(*notes)
     )
 
 
@@ -137,12 +192,14 @@ def omnibus_comparisons(measures: pd.DataFrame) -> list[OmnibusComparison]:
     comparisons = []
     sources = set(measures["source"])
     all_groups = [group for group in GROUP_ORDER if group in set(measures["group"])]
-    for measure, split in _measure_splits(measures):
-        human = _omnibus(measures, measure, split, "human-collective models", HUMAN_GROUPS)
+    subsets = dict(list(measures.groupby(["measure", "split"], sort=False)))
+    for measure, split in measure_splits(measures):
+        subset = subsets[(measure, split)]  # filter once, not per group and test
+        human = _omnibus(subset, measure, split, "human-collective models", HUMAN_GROUPS)
         if human is not None:
             comparisons.append(human)
         if len(sources) > 1:
-            everyone = _omnibus(measures, measure, split, "all models", all_groups)
+            everyone = _omnibus(subset, measure, split, "all models", all_groups)
             if everyone is not None and any(g in SIMULATION_PAIR for g in everyone.groups):
                 comparisons.append(everyone)
     return comparisons
@@ -157,15 +214,24 @@ def simulation_comparisons(
     defaults reproduce R's ``wilcox.test``.
     """
     comparisons = []
-    for measure, split in _measure_splits(measures):
+    for measure, split in measure_splits(measures):
         first, second = (_values(measures, measure, split, g) for g in SIMULATION_PAIR)
         if not first and not second:
             continue
         try:
-            result, note = mann_whitney(first, second, method, continuity), ""
+            result, caught = quietly(mann_whitney, first, second, method, continuity)
+            note = join_notes(result.note, caught)
         except ValueError as error:
             result, note = None, str(error)
-        comparisons.append(TwoSampleComparison(measure, split, SIMULATION_PAIR, result, note))
+        small = [
+            g for g, v in zip(SIMULATION_PAIR, (first, second), strict=True) if len(v) < SMALL_N
+        ]
+        note = join_notes(f"n < {SMALL_N} in {', '.join(small)}" if small else "", note)
+        comparisons.append(
+            TwoSampleComparison(
+                measure, split, SIMULATION_PAIR, result, note, (len(first), len(second))
+            )
+        )
     return comparisons
 
 
@@ -199,7 +265,8 @@ def correlations(measures: pd.DataFrame) -> list[Correlation]:
             if subset[x].notna().sum() == 0:
                 continue
             try:
-                result, note = spearman(subset[x], subset[y]), ""
+                result, caught = quietly(spearman, subset[x], subset[y])
+                note = join_notes(result.note, caught)
             except ValueError as error:
                 result, note = None, str(error)
             results.append(Correlation(x, y, group, result, note))

@@ -51,7 +51,10 @@ def trial_measures(decisions: pd.DataFrame) -> dict[str, float]:
     - ``success_rate``: correct decisions / decisions (0–1). Timed-out
       decisions count, as incorrect, since the collective failed to choose.
     - ``decision_time_min``: mean decision time in minutes, time-outs included
-      at their cap.
+      at their cap: the seconds are summed, then divided once by 60·n, so
+      two trials with the same total time give the same number (averaging
+      seconds/60 gave values one ulp apart, which rank tests then ranked
+      apart).
     - ``request_frequency`` and one per kind: for each decision, its accepted
       requests divided by its decision time in minutes, then averaged over the
       trial's decisions ("requests per decision per minute"). A decision of
@@ -62,10 +65,12 @@ def trial_measures(decisions: pd.DataFrame) -> dict[str, float]:
     """
     if decisions.empty:
         return {}
-    minutes = decisions["decision_time_s"].astype(float) / 60.0
+    seconds = decisions["decision_time_s"].astype(float)
+    minutes = seconds / 60.0
+    correct = int(decisions["correct"].fillna(False).astype(bool).sum())
     measures = {
-        "success_rate": float(decisions["correct"].fillna(False).astype(bool).mean()),
-        "decision_time_min": float(minutes.mean()),
+        "success_rate": correct / len(decisions),
+        "decision_time_min": float(seconds.sum()) / (60.0 * len(decisions)),
         "interventions": float(decisions["n_interventions"].astype(float).sum()),
     }
     positive = minutes > 0
@@ -75,12 +80,18 @@ def trial_measures(decisions: pd.DataFrame) -> dict[str, float]:
     return measures
 
 
+#: Unit values are rounded to this many decimals (far below any reported
+#: precision) so that quantities equal in exact arithmetic are equal floats
+#: and rank tests see the ties R sees.
+VALUE_DECIMALS = 9
+
+
 def decision_measures(decisions: pd.DataFrame) -> pd.DataFrame:
     """Every decision measure for every unit and split, as a tidy frame.
 
     Columns: measure, split, group, source, unit, participant, value. For
     simulation units, ``value`` is the mean over the scenario's runs and
-    ``participant`` is empty.
+    ``participant`` is empty. Values are rounded to :data:`VALUE_DECIMALS`.
     """
     rows = []
     for (group, source, participant, scenario, trial), trial_decisions in decisions.groupby(
@@ -104,6 +115,7 @@ def decision_measures(decisions: pd.DataFrame) -> pd.DataFrame:
         .mean()
         .reset_index()
     )
+    per_unit["value"] = per_unit["value"].round(VALUE_DECIMALS)
     return per_unit[MEASURE_COLUMNS]
 
 

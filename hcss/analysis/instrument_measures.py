@@ -24,6 +24,7 @@ import pandas as pd
 
 from hcss.analysis.decision_measures import MEASURE_COLUMNS
 from hcss.analysis.load import STUDY
+from hcss.questionnaires.tlx import SUBSCALE_KEYS
 
 #: Per-model instruments, in report order.
 MODEL_INSTRUMENTS = ("nasa_tlx", "sart", "post_trial", "ranking")
@@ -78,6 +79,18 @@ def _item_rows(
     return chosen[MEASURE_COLUMNS]
 
 
+def _tlx_ratings(items: pd.DataFrame) -> pd.DataFrame:
+    """The six raw NASA-TLX ratings (0–100) as ``nasa_tlx.<subscale>_rating``.
+
+    The scores table holds the weighted components and both totals; the raw
+    ratings are answers, so they come from the items, beside the weighted
+    ones in the paper's TLX table.
+    """
+    ratings = items[(items["instrument"] == "nasa_tlx") & items["item"].isin(SUBSCALE_KEYS)]
+    ratings = ratings.assign(item=ratings["item"].astype(str) + "_rating")
+    return _item_rows(ratings, "nasa_tlx", "item", "value")
+
+
 def questionnaire_measures(scores: pd.DataFrame, items: pd.DataFrame) -> pd.DataFrame:
     """NASA-TLX, SART, post-trial, ranking and MRT, from scores or raw items."""
     scores = _latest(scores, ["participant", "instrument", "model", "scale"])
@@ -86,6 +99,8 @@ def questionnaire_measures(scores: pd.DataFrame, items: pd.DataFrame) -> pd.Data
     for instrument in (*MODEL_INSTRUMENTS, "mrt"):
         if (scores["instrument"] == instrument).any():
             frames.append(_item_rows(scores, instrument, "scale", "score"))
+            if instrument == "nasa_tlx":
+                frames.append(_tlx_ratings(items))
         elif instrument != "mrt" and (items["instrument"] == instrument).any():
             frames.append(_item_rows(items, instrument, "item", "value"))
     frames = [frame for frame in frames if not frame.empty]

@@ -13,10 +13,12 @@ the person running ``hcss analyze``; the command turns it into a click error.
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import pandas as pd
+
+from hcss.analysis.sources import SourceError, read_tables
 
 SIMULATION = "simulation"
 STUDY = "study"
@@ -69,12 +71,27 @@ class AnalysisInputError(ValueError):
 
 
 @dataclass(frozen=True)
+class InputSummary:
+    """One INPUT and how many rows of each table it gave after exclusions."""
+
+    path: str
+    table_rows: tuple[tuple[str, int], ...]
+
+    @property
+    def rows(self) -> int:
+        return sum(count for _, count in self.table_rows)
+
+
+@dataclass(frozen=True)
 class StudyTables:
     """Every table the analysis reads, already filtered and tagged.
 
-    ``decisions`` always exists; the study-only tables are empty frames (with
-    their columns) when no study export was given, so measures that need them
-    simply produce no rows.
+    Every table exists; a table no INPUT held is an empty frame with its
+    columns, so measures that need it simply produce no rows (an export whose
+    trials have no decisions still gives its questionnaires and probes).
+    ``all_participants`` is the participants table before exclusions (the
+    report's sample and attrition count the excluded too); every table has an
+    ``input`` column naming the INPUT a row came from.
     """
 
     decisions: pd.DataFrame
@@ -85,6 +102,9 @@ class StudyTables:
     scores: pd.DataFrame
     participants: pd.DataFrame
     stage_timings: pd.DataFrame
+    all_participants: pd.DataFrame = field(default_factory=pd.DataFrame)
+    inputs: tuple[InputSummary, ...] = ()
+    warnings: tuple[str, ...] = ()
 
     @property
     def groups(self) -> list[str]:
@@ -114,69 +134,69 @@ def parse_bool(column: pd.Series) -> pd.Series:
     return mapped.astype("boolean")
 
 
-def _read_csv(path: Path, table: str, required: Sequence[str]) -> pd.DataFrame:
-    try:
-        frame = pd.read_csv(path, dtype={name: "string" for name in TEXT_COLUMNS})
-    except pd.errors.EmptyDataError as error:
-        raise AnalysisInputError(f"{path}: the {table} table is empty (no header)") from error
-    except (OSError, pd.errors.ParserError, UnicodeDecodeError) as error:
-        raise AnalysisInputError(f"{path}: cannot read the {table} table: {error}") from error
+def _checked(frame: pd.DataFrame, where: str, table: str, required: Sequence[str]) -> pd.DataFrame:
+    """The raw table with its required columns present and booleans parsed."""
     missing = [name for name in required if name not in frame.columns]
     if missing:
-        raise AnalysisInputError(f"{path}: the {table} table lacks column(s) {', '.join(missing)}")
+        raise AnalysisInputError(f"{where}: the {table} table lacks column(s) {', '.join(missing)}")
     for name in BOOLEAN_COLUMNS.intersection(frame.columns):
         try:
             frame[name] = parse_bool(frame[name])
         except AnalysisInputError as error:
-            raise AnalysisInputError(f"{path}: {error}") from error
+            raise AnalysisInputError(f"{where}: {error}") from error
     return frame
 
 
-def _read_decisions(path: Path) -> pd.DataFrame:
-    decisions = _read_csv(path, "decisions", DECISION_COLUMNS)
-    if decisions.empty:
-        raise AnalysisInputError(f"{path}: the decisions table has no rows")
+def _decisions(frame: pd.DataFrame, where: str) -> pd.DataFrame:
+    decisions = _checked(frame, where, "decisions", DECISION_COLUMNS)
     sources = set(decisions["source"].dropna())
     unknown = sources - {SIMULATION, STUDY}
     if unknown or decisions["source"].isna().any():
         raise AnalysisInputError(
-            f"{path}: source must be 'simulation' or 'study', found {sorted(unknown) or 'empty'}"
+            f"{where}: source must be 'simulation' or 'study', found {sorted(unknown) or 'empty'}"
         )
     difficulties = set(decisions["difficulty"].dropna()) - {"easy", "difficult"}
     if difficulties:
         raise AnalysisInputError(
-            f"{path}: difficulty must be 'easy' or 'difficult', found {sorted(difficulties)}"
+            f"{where}: difficulty must be 'easy' or 'difficult', found {sorted(difficulties)}"
         )
     decisions["participant"] = decisions["participant"].fillna("")
-    decisions["group"] = [
-        group_label(source, model)
-        for source, model in zip(decisions["source"], decisions["model"], strict=True)
-    ]
+    decisions["group"] = pd.Series(
+        [
+            group_label(source, model)
+            for source, model in zip(decisions["source"], decisions["model"], strict=True)
+        ],
+        index=decisions.index,
+        dtype="object",
+    )
     unknown_groups = set(decisions["group"]) - set(GROUP_ORDER)
     if unknown_groups:
-        raise AnalysisInputError(f"{path}: unknown model(s) {sorted(unknown_groups)}")
-    decisions["input"] = str(path)
+        raise AnalysisInputError(f"{where}: unknown model(s) {sorted(unknown_groups)}")
     return decisions
 
 
 def _empty(table: str) -> pd.DataFrame:
-    return pd.DataFrame({name: pd.Series(dtype="object") for name in STUDY_TABLES[table]})
+    columns = DECISION_COLUMNS + ("group",) if table == "decisions" else STUDY_TABLES[table]
+    return pd.DataFrame({name: pd.Series(dtype="object") for name in (*columns, "input")})
 
 
 def _read_input(path: Path) -> dict[str, pd.DataFrame]:
-    """One INPUT: a directory holding decisions.csv (and maybe more), or a CSV file."""
-    if path.is_file():
-        return {"decisions": _read_decisions(path)}
-    if not path.is_dir():
-        raise AnalysisInputError(f"{path}: no such file or directory")
-    decisions_path = path / "decisions.csv"
-    if not decisions_path.is_file():
-        raise AnalysisInputError(f"{path}: no decisions.csv in this directory")
-    tables = {"decisions": _read_decisions(decisions_path)}
-    for table, required in STUDY_TABLES.items():
-        table_path = path / f"{table}.csv"
-        if table_path.is_file():
-            tables[table] = _read_csv(table_path, table, required)
+    """One INPUT's tables, checked and tagged with the INPUT they came from."""
+    try:
+        raw = read_tables(path, ("decisions", *STUDY_TABLES), TEXT_COLUMNS)
+    except SourceError as error:
+        raise AnalysisInputError(str(error)) from error
+    if not raw:
+        raise AnalysisInputError(
+            f"{path}: no export tables here (decisions.csv, participants.csv, ...)"
+        )
+    tables = {}
+    for table, (where, frame) in raw.items():
+        if table == "decisions":
+            frame = _decisions(frame, where)
+        else:
+            frame = _checked(frame, where, table, STUDY_TABLES[table])
+        tables[table] = frame.assign(input=str(path))
     return tables
 
 
@@ -186,49 +206,87 @@ def _excluded_participants(participants: pd.DataFrame) -> set[str]:
     return set(participants.loc[flags.any(axis=1), "participant"].astype(str))
 
 
+def _has_study_rows(combined: dict[str, pd.DataFrame]) -> bool:
+    if (combined["decisions"]["source"] == STUDY).any():
+        return True
+    return any(len(combined[table]) for table in STUDY_TABLES if table != "participants")
+
+
+def _exclude(combined: dict[str, pd.DataFrame]) -> None:
+    """Drop bot, pilot and demo participants from every table, in place."""
+    excluded = _excluded_participants(combined["participants"])
+    for table, frame in combined.items():
+        if "participant" in frame.columns and len(frame):
+            combined[table] = frame[~frame["participant"].astype(str).isin(excluded)]
+
+
+def _contributions(
+    paths: list[Path], combined: dict[str, pd.DataFrame]
+) -> tuple[InputSummary, ...]:
+    summaries = []
+    for path in paths:
+        rows = {
+            table: int((frame["input"] == str(path)).sum())
+            for table, frame in combined.items()
+            if "input" in frame.columns
+        }
+        summaries.append(InputSummary(str(path), tuple(sorted(rows.items()))))
+    return tuple(summaries)
+
+
 def load_inputs(paths: Iterable[str | Path], include_pilot: bool = False) -> StudyTables:
     """Read and combine every INPUT, tag groups and drop flagged participants.
 
-    Study decisions without a participants table are refused unless
+    Study data without a participants table are refused unless
     ``include_pilot`` is set: without it there is no way to tell bots and
     pilots from real participants, and silently analysing them would be worse
-    than stopping.
+    than stopping. An INPUT left with no rows after the exclusions is named
+    in ``warnings`` (it does not vanish silently); when no INPUT is left with
+    any row the analysis stops with that explanation.
     """
-    collected: dict[str, list[pd.DataFrame]] = {"decisions": []}
-    for path in map(Path, paths):
+    inputs = [Path(path) for path in paths]
+    if not inputs:
+        raise AnalysisInputError("no INPUT given")
+    collected: dict[str, list[pd.DataFrame]] = {}
+    for path in inputs:
         for table, frame in _read_input(path).items():
             collected.setdefault(table, []).append(frame)
-    if not collected["decisions"]:
-        raise AnalysisInputError("no INPUT given")
     combined = {
         table: pd.concat(collected[table], ignore_index=True)
         if collected.get(table)
         else _empty(table)
         for table in ("decisions", *STUDY_TABLES)
     }
-    decisions = combined["decisions"]
-    has_study = (decisions["source"] == STUDY).any()
-    if has_study and not include_pilot:
+    all_participants = combined["participants"].reset_index(drop=True)
+    before = {summary.path: summary.rows for summary in _contributions(inputs, combined)}
+    if _has_study_rows(combined) and not include_pilot:
         if not collected.get("participants"):
             raise AnalysisInputError(
-                "study decisions were given without participants.csv, so bot, pilot and demo "
+                "study data were given without participants.csv, so bot, pilot and demo "
                 "participants cannot be excluded; add the export's participants.csv or pass "
                 "--include-pilot"
             )
-        excluded = _excluded_participants(combined["participants"])
-        for table in combined:
-            frame = combined[table]
-            if "participant" in frame.columns and len(frame):
-                combined[table] = frame[~frame["participant"].astype(str).isin(excluded)]
-        if combined["decisions"].empty:
-            raise AnalysisInputError(
-                "no decisions left after excluding bot, pilot and demo participants; "
-                "pass --include-pilot to analyse them"
-            )
+        _exclude(combined)
+    summaries = _contributions(inputs, combined)
+    warnings = tuple(
+        f"{summary.path} contributes nothing: "
+        + (
+            "every row belongs to a bot, pilot or demo participant (pass --include-pilot "
+            "to analyse them)"
+            if before[summary.path]
+            else "its tables have no rows"
+        )
+        for summary in summaries
+        if summary.rows == 0
+    )
+    if len(warnings) == len(inputs):
+        raise AnalysisInputError("no data to analyse: " + "; ".join(warnings))
     for table in STUDY_TABLES:
         frame = combined[table]
         if "model" in frame.columns:
             frame = frame.assign(model=frame["model"].astype("string"))
         combined[table] = frame.reset_index(drop=True)
     combined["decisions"] = combined["decisions"].reset_index(drop=True)
-    return StudyTables(**combined)
+    return StudyTables(
+        **combined, all_participants=all_participants, inputs=summaries, warnings=warnings
+    )

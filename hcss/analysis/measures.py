@@ -35,6 +35,9 @@ MEASURE_LABELS = {
     "sa_level1": "SA probes correct, level 1 perception (%)",
     "sa_level2": "SA probes correct, level 2 comprehension (%)",
     "sa_level3": "SA probes correct, level 3 projection (%)",
+    "nasa_tlx.overall": "NASA-TLX: weighted total",
+    "nasa_tlx.raw_tlx": "NASA-TLX: raw total",
+    "sart.overall": "SART: total SU − (DAR − SAR)",
 }
 
 INSTRUMENT_LABELS = {
@@ -60,7 +63,7 @@ def measure_label(measure: str) -> str:
 
 def measure_order(measure: str) -> tuple[int, str]:
     """Sort key: fixed measures in their listed order, then instruments."""
-    fixed = list(MEASURE_LABELS)
+    fixed = [name for name in MEASURE_LABELS if "." not in name]
     if measure in fixed:
         return (fixed.index(measure), "")
     instrument = measure.partition(".")[0]

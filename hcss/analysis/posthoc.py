@@ -5,9 +5,9 @@ Three flavours, because the study's analyses used more than one:
 - :func:`tukey_kramer_ranks`: Tukey-Kramer on the Kruskal-Wallis mean ranks,
   as MATLAB's ``multcompare`` does after ``kruskalwallis``. No scipy,
   statsmodels or scikit-posthocs function computes this, so it is written
-  here, from scipy's studentized-range distribution.
+  here, from R's studentized-range distribution (:mod:`tukey_distribution`).
 - :func:`tukey_hsd`: classic Tukey HSD (Tukey-Kramer for unequal sizes) on
-  the raw values, from ``scipy.stats.tukey_hsd``; R's ``TukeyHSD(aov(...))``.
+  the raw values, as R's ``TukeyHSD(aov(...))`` (a group of one value included).
 - :func:`dunn_holm`: Dunn's z test on mean ranks with Holm's step-down
   adjustment; raw p from scikit-posthocs, z and Holm recomputed here.
 
@@ -17,15 +17,18 @@ given order; :meth:`PairwiseComparison.pair` turns a row round if needed.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
-from functools import lru_cache
 from itertools import combinations
 
 import numpy as np
 import pandas as pd
 import scikit_posthocs
 from scipy import stats
+
+from hcss.analysis.stats import ALL_EQUAL, all_equal
+from hcss.analysis.tukey_distribution import qtukey, tukey_sf
 
 
 @dataclass(frozen=True)
@@ -49,6 +52,7 @@ class PairwiseComparison:
     statistic_name: str
     n: int
     rows: tuple[PairRow, ...]
+    note: str = ""
 
     def pair(self, group_a: str, group_b: str) -> PairRow:
         """The row for ``group_a − group_b``, turned round if stored the other way."""
@@ -103,20 +107,22 @@ def tukey_kramer_ranks(
     For groups i, j with nᵢ, nⱼ values: se = sqrt(v·(1/nᵢ + 1/nⱼ)/2), with v
     the tie-corrected rank variance, q = (R̄ᵢ − R̄ⱼ)/se, and p from the
     studentized range with k groups and infinite degrees of freedom (the
-    ranks' variance is known, not estimated). scipy's ``studentized_range``
-    switches to its infinite-df form for huge df, so ``np.inf`` is exact.
-    Intervals are R̄ᵢ − R̄ⱼ ± q₁₋α·se.
+    ranks' variance is known, not estimated): R's ``ptukey(q, k, Inf)``,
+    which integrates the range of k normals only. Intervals are
+    R̄ᵢ − R̄ⱼ ± q₁₋α·se.
     """
     samples = _samples(groups)
+    if all_equal(np.concatenate(list(samples.values()))):
+        return _undefined("tukey_kramer_ranks", "q", samples)
     mean_ranks, variance, n = _mean_ranks(samples)
     k = len(samples)
-    critical = float(stats.studentized_range.ppf(1 - alpha, k, np.inf))
+    critical = qtukey(1 - alpha, k, math.inf)
     rows = []
     for a, b in combinations(samples, 2):
         se = np.sqrt(variance * (1 / len(samples[a]) + 1 / len(samples[b])) / 2.0)
         difference = mean_ranks[a] - mean_ranks[b]
-        q = difference / se if se > 0 else 0.0
-        p = float(stats.studentized_range.sf(abs(q), k, np.inf)) if se > 0 else 1.0
+        q = difference / se
+        p = tukey_sf(abs(q), k, math.inf)
         rows.append(
             PairRow(
                 a,
@@ -131,52 +137,71 @@ def tukey_kramer_ranks(
     return PairwiseComparison("tukey_kramer_ranks", "q", n, tuple(rows))
 
 
-@lru_cache(maxsize=256)
-def studentized_range_quantile(probability: float, k: int, df: float) -> float:
-    """Cached ``studentized_range.ppf``: a root search over a numerical integral.
-
-    Each call costs tens of milliseconds and a report asks for the same
-    (k, df) for every measure with the same design, so caching turns the
-    post-hoc step from seconds into a fraction of one.
-    """
-    return float(stats.studentized_range.ppf(probability, k, df))
-
-
 def tukey_hsd(groups: Mapping[str, Sequence[float]], alpha: float = 0.05) -> PairwiseComparison:
     """Classic Tukey HSD on raw values (``TukeyHSD(aov(y ~ g))`` in R).
 
-    ``scipy.stats.tukey_hsd`` gives the differences and p (Tukey-Kramer for
-    unequal sizes). The intervals are R's, diff ± q₁₋α(k, N − k)·sqrt(MSE/2 ·
-    (1/nᵢ + 1/nⱼ)), built here from a cached quantile instead of scipy's
-    ``confidence_interval()``, which recomputes that quantile on every call;
-    the test suite checks them against R's interval.
+    Computed as R does, not through ``scipy.stats.tukey_hsd``, which refuses
+    a group of one value: a single value contributes no spread, but the
+    pooled error variance MSE (from the other groups, N − k df) exists, so
+    its mean can still be compared. For groups i, j:
+    se = sqrt(MSE/2 · (1/nᵢ + 1/nⱼ)), q = (ȳᵢ − ȳⱼ)/se, p = P(Q > |q|) for
+    the studentized range with k groups and N − k df, and the interval
+    diff ± q₁₋α·se, with p and q₁₋α from R's own ``ptukey``/``qtukey``
+    (:mod:`hcss.analysis.tukey_distribution`). Undefined (NaN, with a note) when there are no error df
+    (every group has one value) or no error variance.
     """
     samples = _samples(groups)
     names = list(samples)
     sizes = [len(values) for values in samples.values()]
-    result = stats.tukey_hsd(*samples.values())
     n, k = sum(sizes), len(names)
     error_df = n - k
+    if error_df < 1:
+        return _undefined("tukey_hsd", "q", samples, "no error degrees of freedom (N = k)")
     mean_square_error = (
         sum(float(((values - values.mean()) ** 2).sum()) for values in samples.values()) / error_df
     )
-    critical = studentized_range_quantile(1 - alpha, k, float(error_df))
-    rows = []
-    for i, j in combinations(range(k), 2):
-        difference = float(result.statistic[i, j])
-        se = np.sqrt(mean_square_error / 2 * (1 / sizes[i] + 1 / sizes[j]))
-        rows.append(
-            PairRow(
-                names[i],
-                names[j],
-                difference,
-                float(difference - critical * se),
-                float(difference + critical * se),
-                float(difference / se) if se > 0 else float("nan"),
-                float(result.pvalue[i, j]),
-            )
+    if mean_square_error == 0:
+        note = (
+            ALL_EQUAL
+            if all_equal(np.concatenate(list(samples.values())))
+            else ("no variance within groups")
         )
-    return PairwiseComparison("tukey_hsd", "q", n, tuple(rows))
+        return _undefined("tukey_hsd", "q", samples, note)
+    means = [float(values.mean()) for values in samples.values()]
+    critical = qtukey(1 - alpha, k, float(error_df))
+    pairs = list(combinations(range(k), 2))
+    differences = np.array([means[i] - means[j] for i, j in pairs])
+    errors = np.sqrt(
+        mean_square_error / 2 * np.array([1 / sizes[i] + 1 / sizes[j] for i, j in pairs])
+    )
+    q = differences / errors
+    p = np.array([tukey_sf(abs(value), k, float(error_df)) for value in q])
+    rows = [
+        PairRow(
+            names[i],
+            names[j],
+            float(differences[index]),
+            float(differences[index] - critical * errors[index]),
+            float(differences[index] + critical * errors[index]),
+            float(q[index]),
+            float(p[index]),
+        )
+        for index, (i, j) in enumerate(pairs)
+    ]
+    note = "a group has one value (it adds no spread to MSE)" if min(sizes) == 1 else ""
+    return PairwiseComparison("tukey_hsd", "q", n, tuple(rows), note)
+
+
+def _undefined(
+    test: str, statistic: str, samples: dict[str, np.ndarray], note: str = ALL_EQUAL
+) -> PairwiseComparison:
+    """Every pair with NaN difference-test results: what R returns for degenerate data."""
+    nan = float("nan")
+    rows = tuple(
+        PairRow(a, b, float(samples[a].mean() - samples[b].mean()), nan, nan, nan, nan)
+        for a, b in combinations(samples, 2)
+    )
+    return PairwiseComparison(test, statistic, sum(map(len, samples.values())), rows, note)
 
 
 def holm(p_values: Sequence[float]) -> np.ndarray:
@@ -185,13 +210,18 @@ def holm(p_values: Sequence[float]) -> np.ndarray:
     Written out because statsmodels' ``multipletests(method="holm")`` runs a
     full ``gc.collect()`` on every call, which made a report with a hundred
     comparisons spend most of its time in the garbage collector. The test
-    suite checks this against statsmodels.
+    suite checks this against statsmodels and R. A NaN p (a degenerate pair)
+    stays NaN and does not count in m, as in R's ``p.adjust``.
     """
     p = np.asarray(p_values, dtype=float)
-    order = np.argsort(p, kind="stable")
-    scaled = p[order] * np.arange(len(p), 0, -1)
-    adjusted = np.empty_like(p)
-    adjusted[order] = np.minimum(np.maximum.accumulate(scaled), 1.0)
+    adjusted = np.full_like(p, np.nan)
+    present = ~np.isnan(p)  # as R's p.adjust: a missing p is no comparison
+    kept = p[present]
+    order = np.argsort(kept, kind="stable")
+    scaled = kept[order] * np.arange(len(kept), 0, -1)
+    result = np.empty_like(kept)
+    result[order] = np.minimum(np.maximum.accumulate(scaled), 1.0)
+    adjusted[present] = result
     return adjusted
 
 
@@ -205,6 +235,8 @@ def dunn_holm(groups: Mapping[str, Sequence[float]]) -> PairwiseComparison:
     not defined for a step-down adjustment and are left NaN.
     """
     samples = _samples(groups)
+    if all_equal(np.concatenate(list(samples.values()))):
+        return _undefined("dunn_holm", "z", samples)
     long = pd.DataFrame(
         {
             "value": np.concatenate(list(samples.values())),
@@ -219,6 +251,6 @@ def dunn_holm(groups: Mapping[str, Sequence[float]]) -> PairwiseComparison:
     for (a, b), p in zip(pairs, adjusted, strict=True):
         se = np.sqrt(variance * (1 / len(samples[a]) + 1 / len(samples[b])))
         difference = mean_ranks[a] - mean_ranks[b]
-        z = difference / se if se > 0 else 0.0
+        z = difference / se
         rows.append(PairRow(a, b, difference, np.nan, np.nan, float(z), float(p)))
     return PairwiseComparison("dunn_holm", "z", n, tuple(rows))

@@ -12,26 +12,27 @@ from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 
-import pandas as pd
 from tqdm import tqdm
 
-from hcss.analysis.builders import (
-    descriptive_tables,
-    kruskal_table,
-    mann_whitney_table,
-    posthoc_tables,
-    spearman_table,
-)
-from hcss.analysis.comparisons import correlations, omnibus_comparisons, simulation_comparisons
-from hcss.analysis.descriptive import descriptive_frame
-from hcss.analysis.figures import comparison_figure, write_figure
+from hcss.analysis.figures import write_figure
 from hcss.analysis.load import AnalysisInputError, StudyTables, load_inputs
 from hcss.analysis.measures import all_measures
+from hcss.analysis.sections import Section, build_sections
 from hcss.analysis.stats import MannWhitneyMethod
 from hcss.analysis.tables import Table, to_html, write_table
 
-#: Measures drawn in the study's comparison figure.
-FIGURE_MEASURES = ("success_rate", "decision_time_min")
+STYLE = """
+body { font-family: sans-serif; margin: 2em; max-width: 80em; color: #222; }
+table { border-collapse: collapse; margin: 1em 0; font-size: 0.88em; }
+caption { text-align: left; font-weight: bold; padding: 0.3em 0; }
+th, td { border-bottom: 1px solid #ccc; padding: 0.2em 0.6em; text-align: right; }
+th:first-child, td:first-child { text-align: left; }
+figure { display: inline-block; margin: 0.5em; }
+img { max-width: 46em; }
+.files { font-size: 0.8em; }
+.warning { background: #fff3cd; border-left: 4px solid #e0a800; padding: 0.4em 0.8em; }
+nav ol { columns: 2; }
+"""
 
 
 @dataclass(frozen=True)
@@ -42,72 +43,86 @@ class Report:
     tables: tuple[Table, ...]
     figures: tuple[str, ...]
     html_path: Path
+    sections: tuple[str, ...] = ()
+    warnings: tuple[str, ...] = ()
 
 
-def build_tables(
-    measures: pd.DataFrame, mann_whitney_method: MannWhitneyMethod = "auto", continuity: bool = True
-) -> list[Table]:
-    """Every table, in report order."""
-    tables = descriptive_tables(descriptive_frame(measures))
-    omnibus = omnibus_comparisons(measures)
-    if omnibus:
-        tables.append(kruskal_table(omnibus))
-        tables += [table for table in posthoc_tables(omnibus) if table.rows]
-    two_sample = simulation_comparisons(measures, mann_whitney_method, continuity)
-    if two_sample:
-        tables.append(mann_whitney_table(two_sample))
-    correlation_results = correlations(measures)
-    if correlation_results:
-        tables.append(spearman_table(correlation_results))
-    return tables
+def _inputs_html(tables: StudyTables) -> str:
+    """The inputs actually read, with their rows per table after exclusions."""
+    items = []
+    for summary in tables.inputs:
+        counts = ", ".join(f"{table} {rows}" for table, rows in summary.table_rows if rows)
+        items.append(
+            f"<li><code>{html.escape(summary.path)}</code>: {html.escape(counts or 'no rows')}</li>"
+        )
+    warnings = "".join(
+        f"<p class='warning'>Warning: {html.escape(text)}</p>" for text in tables.warnings
+    )
+    groups = tables.decisions.groupby("group").size()
+    decided = ", ".join(f"{group}: {groups[group]} decisions" for group in tables.groups)
+    return (
+        f"<ul>{''.join(items)}</ul>{warnings}"
+        f"<p>{html.escape(decided or 'No completed decisions in the inputs.')}</p>"
+    )
 
 
-def _inputs_summary(tables: StudyTables) -> str:
-    decisions = tables.decisions
-    counts = decisions.groupby("group").size()
-    units = ", ".join(f"{group}: {counts.get(group, 0)} decisions" for group in tables.groups)
-    inputs = ", ".join(sorted(set(decisions["input"])))
-    return f"Inputs: {html.escape(inputs)}. {html.escape(units)}."
+def _table_html(table: Table) -> str:
+    return (
+        f"{to_html(table)}<p class='files'><a href='tables/{table.name}.csv'>CSV</a> · "
+        f"<a href='tables/{table.name}.tex'>LaTeX</a> · "
+        f"<a href='tables/{table.name}.md'>Markdown</a></p>"
+    )
+
+
+def _section_html(section: Section, figures: list[str]) -> str:
+    parts = [f"<section id='{section.key}'><h2>{html.escape(section.title)}</h2>"]
+    if section.intro:
+        parts.append(f"<p>{html.escape(section.intro)}</p>")
+    for name in figures:
+        parts.append(
+            f'<figure><img src="figures/{name}.svg" alt="{html.escape(name)}">'
+            f"<figcaption>{html.escape(name)} (<a href='figures/{name}.svg'>SVG</a> · "
+            f"<a href='figures/{name}.png'>PNG</a>)</figcaption></figure>"
+        )
+    parts += [_table_html(table) for table in section.tables]
+    if section.details:
+        parts.append(
+            f"<details><summary>Per-scale tables ({len(section.details)}): mean (SD) and "
+            "median (min–max)</summary>"
+            + "".join(_table_html(table) for table in section.details)
+            + "</details>"
+        )
+    parts.append("</section>")
+    return "".join(parts)
 
 
 def write_html(
-    directory: Path, tables: list[Table], figures: list[str], summary: str, include_pilot: bool
+    directory: Path,
+    sections: list[Section],
+    figures: dict[str, list[str]],
+    tables: StudyTables,
+    include_pilot: bool,
 ) -> Path:
-    """One self-contained page linking the figures and holding every table."""
+    """One page: contents, inputs, then every section with its figures and tables."""
     stamp = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
     pilot = (
         "Bot, pilot and demo participants are <strong>included</strong>."
         if include_pilot
         else "Bot, pilot and demo participants are excluded."
     )
-    figure_html = "".join(
-        f'<figure><img src="figures/{name}.svg" alt="{html.escape(name)}">'
-        f"<figcaption>{html.escape(name)} (<a href='figures/{name}.png'>PNG</a>)</figcaption>"
-        "</figure>"
-        for name in figures
+    contents = "".join(
+        f"<li><a href='#{section.key}'>{html.escape(section.title)}</a></li>"
+        for section in sections
     )
-    table_html = "".join(
-        f"<section>{to_html(table)}<p class='files'>"
-        f"<a href='tables/{table.name}.csv'>CSV</a> · <a href='tables/{table.name}.tex'>LaTeX</a>"
-        f" · <a href='tables/{table.name}.md'>Markdown</a></p></section>"
-        for table in tables
-    )
+    body = "".join(_section_html(section, figures.get(section.key, [])) for section in sections)
     page = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>hcss analysis report</title>
-<style>
-body {{ font-family: sans-serif; margin: 2em; max-width: 75em; }}
-table {{ border-collapse: collapse; margin: 1em 0; font-size: 0.9em; }}
-caption {{ text-align: left; font-weight: bold; padding: 0.3em 0; }}
-th, td {{ border-bottom: 1px solid #ccc; padding: 0.2em 0.6em; text-align: right; }}
-th:first-child, td:first-child {{ text-align: left; }}
-figure {{ display: inline-block; margin: 0.5em; }}
-img {{ max-width: 40em; }}
-.files {{ font-size: 0.8em; }}
-</style></head><body>
+<style>{STYLE}</style></head><body>
 <h1>hcss analysis report</h1>
-<p>Generated {stamp}. {summary} {pilot}</p>
-<h2>Figures</h2>{figure_html}
-<h2>Tables</h2>{table_html}
+<p>Generated {stamp}. {pilot}</p>
+<nav id="contents"><h2>Contents</h2><ol><li><a href="#inputs">Inputs read</a></li>{contents}</ol></nav>
+<section id="inputs"><h2>Inputs read</h2>{_inputs_html(tables)}</section>
+{body}
 </body></html>
 """
     path = directory / "report.html"
@@ -131,25 +146,33 @@ def run_analysis(
     steps.update()
     steps.set_postfix_str("measures")
     measures = all_measures(tables)
-    if measures.empty:
-        raise AnalysisInputError("the inputs hold no decisions or answers to analyse")
+    if measures.empty and tables.all_participants.empty:
+        raise AnalysisInputError("the inputs hold no decisions, answers or participants to analyse")
     directory.mkdir(parents=True, exist_ok=True)
     measures.to_csv(directory / "measures.csv", index=False)
     steps.update()
     steps.set_postfix_str("tests")
-    built = build_tables(measures, mann_whitney_method, continuity)
+    sections = build_sections(tables, measures, include_pilot, mann_whitney_method, continuity)
+    built = [table for section in sections for table in (*section.tables, *section.details)]
     steps.update()
     steps.set_postfix_str("writing tables")
     for table in built:
         write_table(table, directory / "tables")
     steps.update()
     steps.set_postfix_str("figures")
-    figures = []
-    for measure in FIGURE_MEASURES:
-        if (measures["measure"] == measure).any():
-            write_figure(comparison_figure(measures, measure), directory / "figures", measure)
-            figures.append(measure)
-    html_path = write_html(directory, built, figures, _inputs_summary(tables), include_pilot)
+    figures: dict[str, list[str]] = {}
+    for section in sections:
+        for name, draw in section.figures:
+            write_figure(draw(), directory / "figures", name)
+            figures.setdefault(section.key, []).append(name)
+    html_path = write_html(directory, sections, figures, tables, include_pilot)
     steps.update()
     steps.close()
-    return Report(directory, tuple(built), tuple(figures), html_path)
+    return Report(
+        directory,
+        tuple(built),
+        tuple(name for names in figures.values() for name in names),
+        html_path,
+        tuple(section.key for section in sections),
+        tables.warnings,
+    )

@@ -106,7 +106,8 @@ def experiment(
 ) -> None:
     """The simulation-only experiment: scenarios × runs × models, no operator.
 
-    Writes OUT/decisions.csv and OUT/summary.md, and prints the summary.
+    Writes OUT/decisions.csv, OUT/summary.md (and summary.csv/.tex, by hcss.analysis),
+    and prints the summary.
     """
     chosen = [m.strip() for m in models.split(",") if m.strip()]
     unknown = [m for m in chosen if m not in MODELS]
@@ -125,10 +126,11 @@ def experiment(
     elapsed = time.perf_counter() - started
     out.mkdir(parents=True, exist_ok=True)
     exp.write_decisions(rows, out / "decisions.csv")
-    table = exp.summary_table(exp.summarise(rows))
+    table = exp.summary_table(out / "decisions.csv")
     (out / "summary.md").write_text(
         f"# Simulation-only experiment\n\n{len(jobs)} runs, {len(rows)} decisions, {elapsed:.0f} s.\n\n"
-        "Success rate: per trial, correct decisions / decisions. Decision time: per decision, minutes.\n\n"
+        "Unit: the scenario (each run's success rate and mean decision time, averaged over "
+        "the scenario's runs), as `hcss analyze` computes it.\n\n"
         f"{table}\n",
         encoding="utf-8",
     )

@@ -8,8 +8,6 @@ pool or, for sweeps that outgrow one machine, on Dask distributed.
 from __future__ import annotations
 
 import csv
-import math
-import statistics
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
@@ -116,72 +114,18 @@ def _execute_dask(jobs: list[Job], workers: int, address: str) -> Iterator[tuple
 
 
 # ----------------------------------------------------------------- summaries
-@dataclass(frozen=True)
-class Spread:
-    """Mean, SD (n − 1), median, min and max of a sample."""
+def summary_table(decisions_path: Path) -> str:
+    """The experiment's summary as Markdown, computed by ``hcss.analysis``.
 
-    n: int
-    mean: float
-    sd: float
-    median: float
-    min: float
-    max: float
-
-    @classmethod
-    def of(cls, values: list[float]) -> Spread:
-        if not values:
-            return cls(0, math.nan, math.nan, math.nan, math.nan, math.nan)
-        sd = statistics.stdev(values) if len(values) > 1 else math.nan
-        return cls(
-            len(values),
-            statistics.fmean(values),
-            sd,
-            statistics.median(values),
-            min(values),
-            max(values),
-        )
-
-
-def summarise(rows: list[dict]) -> dict[tuple[str, str], dict[str, Spread]]:
-    """Per model and split: success rate over trials, and decision time in minutes over decisions.
-
-    A trial's success rate is its correct decisions over its decisions in the
-    split; the spread is over trials.
+    The analysis reads the decisions file just written, with its unit of
+    analysis (a scenario, runs averaged) and its table writer (summary.csv
+    and summary.tex beside the file), so this summary and ``hcss analyze``
+    never disagree on the same decisions.
     """
-    summary: dict[tuple[str, str], dict[str, Spread]] = {}
-    for model in sorted({r["model"] for r in rows}):
-        for split in SPLITS:
-            chosen = [
-                r
-                for r in rows
-                if r["model"] == model and (split == "overall" or r["difficulty"] == split)
-            ]
-            by_trial: dict[str, list[bool]] = {}
-            for r in chosen:
-                by_trial.setdefault(r["trial_id"], []).append(bool(r["correct"]))
-            rates = [sum(v) / len(v) for v in by_trial.values()]
-            minutes = [r["decision_time_s"] / 60.0 for r in chosen]
-            summary[(model, split)] = {
-                "success_rate": Spread.of(rates),
-                "decision_time_min": Spread.of(minutes),
-            }
-    return summary
+    from hcss.analysis.summary import write_simulation_summary
+    from hcss.analysis.tables import to_markdown
 
-
-def summary_table(summary: dict[tuple[str, str], dict[str, Spread]]) -> str:
-    """A Markdown table of the summary, one row per model and split."""
-    lines = [
-        "| model | split | trials | success mean | SD | median | min | max "
-        "| decisions | time mean (min) | SD | median | min | max |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
-    ]
-    for (model, split), spreads in summary.items():
-        s, t = spreads["success_rate"], spreads["decision_time_min"]
-        lines.append(
-            f"| {model} | {split} | {s.n} | {s.mean:.3f} | {s.sd:.3f} | {s.median:.3f} | {s.min:.3f} | {s.max:.3f} "
-            f"| {t.n} | {t.mean:.2f} | {t.sd:.2f} | {t.median:.2f} | {t.min:.2f} | {t.max:.2f} |"
-        )
-    return "\n".join(lines)
+    return to_markdown(write_simulation_summary(decisions_path, decisions_path.parent))
 
 
 def write_decisions(rows: list[dict], path: Path) -> None:

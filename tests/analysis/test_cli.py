@@ -211,3 +211,29 @@ def test_one_simulation_model_and_bare_study_export_still_report(tmp_path):
     names = {path.stem for path in (out / "tables").glob("*.csv")}
     assert {"descriptive_request_frequency", "descriptive_mrt_overall", "kruskal_wallis"} <= names
     assert "descriptive_sa_overall" not in names  # no probes exported, no probe table
+
+
+def test_independent_tests_warn_about_the_design_and_paired_tests_respect_it(study_report):
+    _, report = study_report
+    kruskal = pd.read_csv(report / "tables" / "kruskal_wallis.csv")
+    human = kruskal[kruskal["family"] == "human-collective models"]
+    # 5 participants, each meeting M1, M2 and M3
+    assert human["note"].str.contains("n < 10 in M1, M2, M3").all()
+    assert human["note"].str.contains("groups share 5 participants").all()
+    friedman = pd.read_csv(report / "tables" / "friedman.csv")
+    row = friedman[(friedman["measure"] == "success_rate") & (friedman["split"] == "overall")]
+    assert row["n"].item() == 5 and row["df"].item() == 2
+    assert row["kendall_w"].item() == pytest.approx(row["chi2"].item() / (5 * 2))
+    assert "n = 5 < 10" in row["note"].item()
+    paired = pd.read_csv(report / "tables" / "wilcoxon_paired.csv")
+    chosen = paired[(paired["measure"] == "success_rate") & (paired["split"] == "overall")]
+    assert list(zip(chosen["group_a"], chosen["group_b"], strict=True)) == [
+        ("M1", "M2"),
+        ("M1", "M3"),
+        ("M2", "M3"),
+    ]
+    assert (chosen["p_holm"] >= chosen["p"]).all()
+    matrix = pd.read_csv(report / "tables" / "pmatrix_performance.csv")
+    assert set(matrix["test"]) == {"tukey_kramer_ranks", "wilcoxon_holm"}
+    page = (report / "report.html").read_text()
+    assert "Tests that respect the design" in page and "do not respect" in page

@@ -64,7 +64,7 @@ def test_unknown_model_and_source_are_refused(tmp_path: Path):
 
 
 def test_directory_without_decisions_and_missing_path(tmp_path: Path):
-    with pytest.raises(AnalysisInputError, match="no decisions.csv"):
+    with pytest.raises(AnalysisInputError, match="no export tables"):
         load_inputs([tmp_path])
     with pytest.raises(AnalysisInputError, match="no such file"):
         load_inputs([tmp_path / "nowhere"])
@@ -97,3 +97,71 @@ def test_parse_bool_reads_dictionary_booleans_and_refuses_others():
     assert pd.isna(parsed[2]) and parsed[3]
     with pytest.raises(AnalysisInputError, match="expected true or false"):
         parse_bool(pd.Series(["maybe"], name="correct"))
+
+
+def test_parquet_file_folder_and_zip_give_the_same_decisions(tmp_path: Path):
+    import zipfile
+
+    decisions = simulation_decisions(scenarios=2, runs=1)
+    csv_path = write_table(decisions, tmp_path / "csv" / "decisions.csv")
+    (tmp_path / "parquet").mkdir()
+    decisions.to_parquet(tmp_path / "parquet" / "decisions.parquet")  # real booleans
+    with zipfile.ZipFile(tmp_path / "export.zip", "w") as archive:
+        archive.write(csv_path, "hcss-export-x/decisions.csv")
+        archive.writestr("hcss-export-x/training/decisions.csv", "not,read\n")
+    expected = load_inputs([csv_path]).decisions
+    for source in (
+        tmp_path / "parquet" / "decisions.parquet",
+        tmp_path / "parquet",
+        tmp_path / "export.zip",
+    ):
+        loaded = load_inputs([source]).decisions
+        assert loaded["correct"].tolist() == expected["correct"].tolist(), source
+        assert loaded["group"].tolist() == expected["group"].tolist(), source
+        assert loaded["decision_time_s"].tolist() == expected["decision_time_s"].tolist()
+        assert set(loaded["input"]) == {str(source)}
+
+
+@pytest.mark.parametrize(
+    ("name", "content", "message"),
+    [
+        ("broken.zip", b"PK\x03\x04 not really a zip", "not a CSV, Parquet or zip"),
+        ("notes.txt", b"hello", "not a CSV, Parquet or zip"),
+        ("decisions.parquet", b"PAR1\x00garbage", "cannot read the decisions table"),
+        ("decisions.csv", b"source,model\x00\nstudy,M1\n", "lacks column(s)"),
+    ],
+)
+def test_hostile_files_are_clear_errors(tmp_path: Path, name: str, content: bytes, message: str):
+    (tmp_path / name).write_bytes(content)
+    with pytest.raises(AnalysisInputError, match=re_escape(message)):
+        load_inputs([tmp_path / name])
+
+
+def test_zip_with_two_exports_or_no_tables_is_refused(tmp_path: Path):
+    import zipfile
+
+    with zipfile.ZipFile(tmp_path / "two.zip", "w") as archive:
+        archive.writestr("a/decisions.csv", "x\n")
+        archive.writestr("b/decisions.csv", "x\n")
+    with pytest.raises(AnalysisInputError, match="several exports"):
+        load_inputs([tmp_path / "two.zip"])
+    with zipfile.ZipFile(tmp_path / "empty.zip", "w") as archive:
+        archive.writestr("readme.txt", "nothing")
+    with pytest.raises(AnalysisInputError, match="no export tables"):
+        load_inputs([tmp_path / "empty.zip"])
+
+
+def test_an_input_that_contributes_nothing_is_named(tmp_path: Path):
+    write_table(simulation_decisions(scenarios=2, runs=1), tmp_path / "sim.csv")
+    write_table(simulation_decisions(scenarios=1, runs=1).iloc[:0], tmp_path / "empty.csv")
+    tables = load_inputs([tmp_path / "sim.csv", tmp_path / "empty.csv"])
+    assert tables.warnings == (
+        f"{tmp_path / 'empty.csv'} contributes nothing: its tables have no rows",
+    )
+    assert [summary.rows for summary in tables.inputs] == [48, 0]
+
+
+def re_escape(text: str) -> str:
+    import re
+
+    return re.escape(text)

@@ -153,18 +153,18 @@ def test_spearman_by_hand():
     result = stats.spearman(x, y)
     assert result.statistic == pytest.approx(rho, rel=REL)
     assert result.df == 4
-    t = rho * np.sqrt(4 / (1 - rho**2))
-    from scipy.stats import t as student
+    # n = 6 without ties: R's exact p (cor.test(1:6, c(2,1,4,3,6,5), method = "spearman")
+    # gives p = 0.0583333333333), i.e. 2 * #{permutations with S <= 6} / 6! = 2 * 21 / 720
+    assert result.p == pytest.approx(2 * 21 / 720, rel=REL)
 
-    assert result.p == pytest.approx(2 * student.sf(t, 4), rel=REL)
 
-
-def test_spearman_drops_incomplete_pairs_and_refuses_constants():
+def test_spearman_drops_incomplete_pairs_and_gives_nan_for_constants():
     result = stats.spearman([1, 2, np.nan, 4, 5], [1, 2, 3, 4, 6])
     assert result.n == 4
     assert result.statistic == pytest.approx(1.0)
-    with pytest.raises(ValueError, match="constant"):
-        stats.spearman([1, 1, 1, 1], [1, 2, 3, 4])
+    # cor.test(c(1,2,4,5), c(1,1,1,1), method = "spearman")$p.value  # NA (sd is zero)
+    constant = stats.spearman([1, 1, 1, 1], [1, 2, 3, 4])
+    assert np.isnan(constant.p) and constant.note == "all values equal"
 
 
 def test_kruskal_wallis_needs_two_groups():
@@ -180,8 +180,44 @@ def test_holm_by_hand():
 
 
 def test_tukey_hsd_q_is_consistent_with_its_p(plant_growth):
-    """q from the hand-built interval formula gives scipy's p back (k = 3, df = 27)."""
+    """q from the interval formula gives the p back through scipy's independent
+    studentized range (k = 3, df = 27); R's ptukey and scipy agree to 1e-5 here."""
     from scipy.stats import studentized_range
 
     for row in posthoc.tukey_hsd(plant_growth).rows:
         assert studentized_range.sf(abs(row.statistic), 3, 27) == pytest.approx(row.p, rel=1e-5)
+
+
+@pytest.mark.parametrize(
+    ("q", "groups", "df", "expected"),
+    [
+        # options(digits = 17); ptukey(3.5, 3, 5)  # 0.880727057619895
+        (3.5, 3, 5, 0.880727057619895),
+        # ptukey(1.2, 3, 27)  # 0.32336716585082398
+        (1.2, 3, 27, 0.32336716585082398),
+        # ptukey(2.0, 5, 100)  # 0.37996598332546166 (half-unit intervals)
+        (2.0, 5, 100, 0.37996598332546166),
+        # ptukey(3.0, 4, 500)  # 0.8522863948802194
+        (3.0, 4, 500, 0.8522863948802194),
+        # ptukey(3.3, 3, 30000)  # 0.94868909358101372 (df > 25000: range only)
+        (3.3, 3, 30000, 0.94868909358101372),
+        # ptukey(0.5, 2, 2)  # 0.24254212290936839
+        (0.5, 2, 2, 0.24254212290936839),
+        # ptukey(6, 10, 12)  # 0.97489137535679427
+        (6.0, 10, 12, 0.97489137535679427),
+    ],
+)
+def test_ptukey_is_rs(q, groups, df, expected):
+    from hcss.analysis.tukey_distribution import ptukey
+
+    assert ptukey(q, groups, df) == pytest.approx(expected, rel=1e-12)
+
+
+def test_qtukey_is_rs():
+    from hcss.analysis.tukey_distribution import qtukey
+
+    # c(qtukey(0.95, 3, 27), qtukey(0.95, 3, 5), qtukey(0.95, 5, 1e6))
+    #   3.5064261233926857 4.6017254459428374 3.8576555268516346
+    assert qtukey(0.95, 3, 27) == pytest.approx(3.5064261233926857, rel=1e-12)
+    assert qtukey(0.95, 3, 5) == pytest.approx(4.6017254459428374, rel=1e-12)
+    assert qtukey(0.95, 5, 1e6) == pytest.approx(3.8576555268516346, rel=1e-12)

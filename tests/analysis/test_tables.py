@@ -74,3 +74,64 @@ def test_latex_escape_and_p_format_edges():
     assert format_p(1.0) == "1.000"
     assert format_p(0.5) == ".500"
     assert format_p(float("nan")) == "–"
+
+
+def test_sample_attrition_and_demographics_tables():
+    from hcss.analysis.sample import attrition_table, demographics_table, sample_table
+
+    participants = pd.DataFrame(
+        {
+            "participant": ["P1", "P2", "P3", "B1"],
+            "is_bot": [False, False, False, True],
+            "is_pilot": [False, False, False, False],
+            "is_demo": [False, False, False, False],
+            "status": ["completed", "aborted", "completed", "completed"],
+            "gender": ["f", "m", "f", "x"],
+            "video_games": [1, 3, 5, None],
+        }
+    )
+    sample = sample_table(participants, include_pilot=False).frame.set_index("row")["n"]
+    assert sample["Enrolled (real participants)"] == 3
+    assert sample["Completed"] == 2 and sample["Withdrawn (aborted)"] == 1
+    assert sample["Excluded: bots"] == 1
+    timings = pd.DataFrame(
+        {
+            "participant": ["P1", "P1", "P2", "P2", "P3", "P3"],
+            "stage": ["consent", "trial", "consent", "trial", "consent", "trial"],
+            "entered_at": ["t"] * 6,
+            "submitted_at": ["t", "t", "t", None, "t", "t"],
+        }
+    )  # no stage_index column: rows' order is the protocol's
+    attrition = attrition_table(timings).frame
+    assert attrition["stage"].tolist() == ["consent", "trial"]
+    assert attrition["lost"].tolist() == [0, 1]
+    demographics = demographics_table(participants[participants["participant"] != "B1"]).frame
+    genders = demographics[demographics["item"] == "gender"].set_index("value")["n"]
+    assert genders.to_dict() == {"f": 2, "m": 1}
+    games = demographics[demographics["item"] == "video_games"].iloc[0]
+    assert games["mean"] == 3 and games["sd"] == 2
+
+
+def test_a_constant_measure_shows_no_p_but_says_all_values_equal():
+    import warnings
+
+    from hcss.analysis.builders import kruskal_table, posthoc_tables
+    from hcss.analysis.comparisons import omnibus_comparisons
+
+    rows = [
+        ("success_rate", "overall", model, "study", f"P{unit}", f"P{unit}", 1.0)
+        for model in ("M1", "M2", "M3")
+        for unit in range(4)
+    ]
+    measures = pd.DataFrame(
+        rows, columns=["measure", "split", "group", "source", "unit", "participant", "value"]
+    )
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        comparisons = omnibus_comparisons(measures)
+    table = kruskal_table(comparisons)
+    (row,) = table.rows
+    assert row[3:6] == ("–", "–", "–")  # no statistic, p or effect that looks like a result
+    assert "all values equal" in row[6]
+    for posthoc in posthoc_tables(comparisons):
+        assert all(cells[-1] == "–" for cells in posthoc.rows)

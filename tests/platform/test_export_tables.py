@@ -136,7 +136,9 @@ def test_the_analysis_reads_the_export(exported, tmp_path) -> None:  # type: ign
     assert len(tables.decisions) > 0 and set(tables.decisions["group"]) == {"M1"}
     assert len(tables.requests) > 0 and len(tables.probes) > 0
     # The participant is a bot: a real-data analysis leaves them out.
-    with pytest.raises(AnalysisInputError, match="no decisions left"):
+    with pytest.raises(
+        AnalysisInputError, match="every row belongs to a bot, pilot or demo participant"
+    ):
         load_inputs([outdir])
     report = tmp_path / "report"
     result = CliRunner().invoke(

@@ -38,36 +38,26 @@ def test_dask_local_cluster_runs_the_same_jobs(tiny_jobs):
     )
 
 
-def test_summary_computes_success_per_trial_and_time_per_decision():
-    rows = [
-        {
-            "model": "M1",
-            "trial_id": "a",
-            "difficulty": "easy",
-            "correct": True,
-            "decision_time_s": 60.0,
-        },
-        {
-            "model": "M1",
-            "trial_id": "a",
-            "difficulty": "difficult",
-            "correct": False,
-            "decision_time_s": 180.0,
-        },
-        {
-            "model": "M1",
-            "trial_id": "b",
-            "difficulty": "easy",
-            "correct": True,
-            "decision_time_s": 120.0,
-        },
-    ]
-    summary = exp.summarise(rows)
-    overall = summary[("M1", "overall")]
-    assert overall["success_rate"].n == 2 and overall["success_rate"].mean == pytest.approx(0.75)
-    assert overall["decision_time_min"].mean == pytest.approx(2.0)
-    assert overall["decision_time_min"].sd == pytest.approx(1.0)  # n − 1
-    assert summary[("M1", "difficult")]["success_rate"].mean == 0.0
+def test_summary_is_the_analysis_of_the_same_decisions_file(tmp_path):
+    """One unit of analysis (the scenario, runs averaged) and one writer for both commands."""
+    import pandas as pd
+
+    from hcss.analysis.report import run_analysis
+    from tests.analysis.synthetic import simulation_decisions
+
+    rows = simulation_decisions(scenarios=4, runs=3).to_dict("records")
+    exp.write_decisions(rows, tmp_path / "decisions.csv")
+    markdown = exp.summary_table(tmp_path / "decisions.csv")
+    assert "| M1 | overall | 4 |" in markdown  # 4 scenarios, not 12 runs
+    summary = pd.read_csv(tmp_path / "summary.csv")
+    run_analysis([tmp_path / "decisions.csv"], tmp_path / "report", progress=False)
+    for measure in ("success_rate", "decision_time_min"):
+        analysed = pd.read_csv(tmp_path / "report" / "tables" / f"descriptive_{measure}.csv")
+        analysed["model"] = analysed["group"].str.removesuffix("SIM")
+        merged = summary[summary["measure"] == measure].merge(analysed, on=["model", "split"])
+        assert len(merged) == 6  # two models x three splits
+        for column in ("n", "mean", "sd", "median", "minimum", "maximum"):
+            assert (merged[f"{column}_x"] == merged[f"{column}_y"]).all(), (measure, column)
 
 
 def test_experiment_command_writes_the_decisions_table_and_summary(tmp_path):
