@@ -114,7 +114,17 @@ TABLES: dict[str, tuple[tuple[str, str], ...]] = {
         ("submitted_at", "str"),
         ("timed_out", "bool"),
     ),
+    "export_problems": (
+        ("participant", "str"),
+        ("trial_id", "str"),
+        ("table", "str"),
+        ("record", "str"),
+        ("problem", "str"),
+    ),
 }
+
+#: Records the export could not read; see hcss.platform.export.problems.
+PROBLEMS_TABLE = "export_problems"
 
 #: Tables of what happens inside a trial; training trials get their own copies.
 TRIAL_TABLES = ("decisions", "requests", "observations", "probes")

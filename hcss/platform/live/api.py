@@ -10,14 +10,12 @@ from __future__ import annotations
 from typing import Any
 
 from flask import Blueprint, Response, current_app, jsonify, request
-from sqlalchemy import select
 
 from hcss.platform.db import database, get_session
-from hcss.platform.live import actions
+from hcss.platform.live import actions, validation
 from hcss.platform.live.access import runner, trial_for
 from hcss.platform.live.session import LiveTrial
 from hcss.platform.live.stream import ended_stream, event_stream
-from hcss.platform.models import COMMAND_KINDS, Observation
 
 bp = Blueprint("api", __name__, url_prefix="/api/live/<token>/trials/<int:trial_id>")
 
@@ -40,15 +38,6 @@ def _body() -> dict[str, Any]:
     if not isinstance(body, dict):
         raise actions.ActionError("send a JSON object (Content-Type: application/json)")
     return body
-
-
-def _int_field(body: dict[str, Any], name: str, *, required: bool = True) -> int | None:
-    value = body.get(name)
-    if value is None and not required:
-        return None
-    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-        raise actions.ActionError(f"'{name}' must be a non-negative integer")
-    return value
 
 
 @bp.get("/stream")
@@ -82,39 +71,11 @@ def state(token: str, trial_id: int) -> Response:
 @bp.post("/requests")
 def submit_request(token: str, trial_id: int):  # type: ignore[no-untyped-def]
     live = _live(token, trial_id)
-    body = _body()
-    kind = body.get("kind")
-    if kind not in COMMAND_KINDS:
-        raise actions.ActionError(f"'kind' must be one of {', '.join(COMMAND_KINDS)}")
-    if kind == "cancel":
-        request_input = actions.RequestInput(kind, request_id=_int_field(body, "request_id"))
-    else:
-        request_input = actions.RequestInput(
-            kind,
-            collective=_int_field(body, "collective"),
-            target=_int_field(body, "target"),
-            selections=_selections(body, trial_id),
-        )
+    request_input = validation.parse_request(
+        request.get_json(silent=True), live, get_session(), trial_id
+    )
     outcome = actions.submit_request(database(), live, request_input)
     return jsonify(outcome), 200
-
-
-def _selections(body: dict[str, Any], trial_id: int) -> tuple[int, ...]:
-    """Observation ids of the clicks that filled the form; they must be this trial's."""
-    ids = body.get("selections", [])
-    if not isinstance(ids, list) or any(isinstance(i, bool) or not isinstance(i, int) for i in ids):
-        raise actions.ActionError("'selections' must be a list of observation ids")
-    if ids:
-        found = set(
-            get_session().scalars(
-                select(Observation.id).where(
-                    Observation.id.in_(ids), Observation.trial_id == trial_id
-                )
-            )
-        )
-        if found != set(ids):
-            raise actions.ActionError("'selections' names observations of another trial")
-    return tuple(ids)
 
 
 @bp.post("/observations")
@@ -122,6 +83,7 @@ def observe(token: str, trial_id: int):  # type: ignore[no-untyped-def]
     live = _live(token, trial_id)
     body = _body()
     kind, button = body.get("kind"), body.get("button")
+    collectives, targets, _ = validation.trial_ranges(live)
     if kind not in ("collective", "target"):
         raise actions.ActionError("'kind' must be 'collective' or 'target'")
     if button not in ("left", "right"):
@@ -130,11 +92,19 @@ def observe(token: str, trial_id: int):  # type: ignore[no-untyped-def]
         database(),
         live,
         kind=kind,
-        collective=_int_field(body, "collective", required=kind == "collective"),
-        target=_int_field(body, "target", required=kind == "target"),
+        collective=_clicked(body, "collective", kind, collectives - 1, low=0),
+        target=_clicked(body, "target", kind, targets, low=1),
         button=button,
     )
     return jsonify(observation_id=observation_id), 201
+
+
+def _clicked(body: dict[str, Any], name: str, kind: str, high: int, *, low: int) -> int | None:
+    """The clicked collective or target: required for its own kind, optional otherwise."""
+    value = body.get(name)
+    if value is None and kind != name:
+        return None
+    return validation.bounded_int(value, name, low, high)
 
 
 @bp.post("/probes/<int:probe_id>/ready")

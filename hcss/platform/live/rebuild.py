@@ -27,7 +27,9 @@ from hcss.platform.models import (
     SimEvent,
     Snapshot,
     Trial,
+    TrialProblem,
 )
+from hcss.platform.naming import Uninterpretable, collective_name
 
 
 def load_trial(session: Session, trial: Trial, now: float) -> LiveTrial:
@@ -152,7 +154,20 @@ def _restore_messages(session: Session, live: LiveTrial) -> None:
         .join(CommandOutcome, CommandOutcome.command_id == Command.id)
         .where(Command.trial_id == live.trial_id, CommandOutcome.accepted.is_(False))
     )
-    events += [(c.sim_time, c.id, "refusal", refusal_text(c, o.reason)) for c, o in refusals]
+    for command, outcome in refusals:
+        try:
+            events.append(
+                (command.sim_time, command.id, "refusal", refusal_text(command, outcome.reason))
+            )
+        except Uninterpretable as error:
+            session.add(
+                TrialProblem(
+                    trial_id=live.trial_id,
+                    source="rebuild",
+                    record=f"command {command.id}",
+                    problem=f"refusal not shown in System Messages: {error}"[:300],
+                )
+            )
     for time, _id, kind, text in sorted(events):
         live.add_message(time, kind, text)
 
@@ -196,11 +211,10 @@ def _last_seen(session: Session, trial_id: int):  # type: ignore[no-untyped-def]
 
 
 def refusal_text(command: Command, reason: str) -> str:
-    from hcss.platform.live.probes import ROMAN
-
+    """The System Message of a refused command; Uninterpretable for a collective no trial has."""
     if command.kind == "cancel":
         subject = f"cancel of assignment {command.cancel_request_id}"
     else:
-        collective = ROMAN[command.collective] if command.collective is not None else "?"
+        collective = collective_name(command.collective) or "?"
         subject = f"{command.kind} by collective {collective} on target {command.target}"
     return f"Request refused ({subject}): {reason}"

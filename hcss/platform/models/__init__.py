@@ -19,7 +19,13 @@ from hcss.platform.models.study import (
     StageEvent,
     StudyEnrolment,
 )
-from hcss.platform.models.trial import Interruption, Snapshot, Trial, TrialStatusChange
+from hcss.platform.models.trial import (
+    Interruption,
+    Snapshot,
+    Trial,
+    TrialProblem,
+    TrialStatusChange,
+)
 
 __all__ = [
     "COMMAND_KINDS",
@@ -45,6 +51,7 @@ __all__ = [
     "StageEvent",
     "StudyEnrolment",
     "Trial",
+    "TrialProblem",
     "TrialStatusChange",
     "UTCDateTime",
     "new_code",
