@@ -82,7 +82,15 @@ def serve(host: str, port: int, threads: int, time_acceleration: float | None) -
     url = f"http://{host}:{port}/"
     click.echo(f"hcss serving on {url}  (Ctrl-C stops)")
     click.echo(f"open a demo trial:  hcss demo-trial --base-url {url.rstrip('/')}")
-    waitress_serve(app, host=host, port=port, threads=threads, channel_timeout=3600, ident="hcss")
+    waitress_serve(
+        app,
+        host=host,
+        port=port,
+        threads=threads,
+        channel_timeout=3600,
+        ident="hcss",
+        max_request_body_size=int(app.config["MAX_CONTENT_LENGTH"]),
+    )
 
 
 @click.command("demo-trial")

@@ -73,4 +73,7 @@ def defaults() -> dict[str, object]:
         # Close a stream after this many wall seconds; EventSource reconnects by itself,
         # so this only bounds how long one waitress thread is held.
         "STREAM_MAX_S": 300.0,
+        # Bytes of request body (Flask answers 413 past it; `hcss serve` tells waitress too).
+        # The largest legitimate body, a questionnaire page, is a few kB.
+        "MAX_CONTENT_LENGTH": 256 * 1024,
     }

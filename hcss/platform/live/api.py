@@ -7,6 +7,7 @@ meta tag). Bad input gets a JSON error and changes nothing.
 
 from __future__ import annotations
 
+import re
 from typing import Any
 
 from flask import Blueprint, Response, current_app, jsonify, request
@@ -16,6 +17,8 @@ from hcss.platform.live import actions, validation
 from hcss.platform.live.access import runner, trial_for
 from hcss.platform.live.session import LiveTrial
 from hcss.platform.live.stream import ended_stream, event_stream
+
+_POSITION = re.compile(r"[0-9]{1,18}")
 
 bp = Blueprint("api", __name__, url_prefix="/api/live/<token>/trials/<int:trial_id>")
 
@@ -40,6 +43,15 @@ def _body() -> dict[str, Any]:
     return body
 
 
+def stream_position(text: str) -> int:
+    """The message number a reconnecting stream resumes after; 0 for anything but a plain number.
+
+    ``str.isdigit`` accepts "²" and 5,000-digit strings, which ``int`` then
+    refuses; a position is at most 18 ASCII digits.
+    """
+    return int(text) if _POSITION.fullmatch(text) else 0
+
+
 @bp.get("/stream")
 def stream(token: str, trial_id: int) -> Response:
     trial = trial_for(token, trial_id)
@@ -51,7 +63,7 @@ def stream(token: str, trial_id: int) -> Response:
         last = request.headers.get("Last-Event-ID", request.args.get("after", "0"))
         body = event_stream(
             live,
-            after_seq=int(last) if last.isdigit() else 0,
+            after_seq=stream_position(last),
             interval_s=float(current_app.config["STREAM_INTERVAL_S"]),
             max_s=float(current_app.config["STREAM_MAX_S"]),
             clock=runner().clock,
