@@ -56,10 +56,11 @@ def _redacted(url: str) -> str:
 @click.option("--port", default=5000, show_default=True, type=int)
 @click.option(
     "--threads",
-    default=64,
+    default=256,
     show_default=True,
     type=int,
-    help="Waitress worker threads; each open trial page holds one for its stream.",
+    help="Waitress worker threads; each open trial page holds one for its stream, "
+    "and an eighth (at least 16) are kept for page loads and the console.",
 )
 @click.option(
     "--time-acceleration",
@@ -73,8 +74,10 @@ def serve(host: str, port: int, threads: int, time_acceleration: float | None) -
 
     from hcss.platform.app import create_app
     from hcss.platform.console.accounts import ensure_first_login
+    from hcss.platform.live.streams import reserve_for_pages
 
-    config: dict[str, object] = {}
+    # Streams hold a thread each; the reserve keeps page loads and the console answering.
+    config: dict[str, object] = {"MAX_STREAMS": threads - reserve_for_pages(threads)}
     if time_acceleration is not None:
         config["TIME_ACCELERATION"] = time_acceleration
     app = create_app(config)

@@ -73,6 +73,11 @@ def defaults() -> dict[str, object]:
         # Close a stream after this many wall seconds; EventSource reconnects by itself,
         # so this only bounds how long one waitress thread is held.
         "STREAM_MAX_S": 300.0,
+        # Open live streams the server allows (each holds a thread); None: no ceiling.
+        # `hcss serve` sets it to its thread count less a reserve for pages and the console.
+        "MAX_STREAMS": None,
+        # Streams per participant link; the newest takes over ("takeover" event).
+        "STREAMS_PER_TOKEN": 1,
         # Bytes of request body (Flask answers 413 past it; `hcss serve` tells waitress too).
         # The largest legitimate body, a questionnaire page, is a few kB.
         "MAX_CONTENT_LENGTH": 256 * 1024,

@@ -17,6 +17,7 @@ from hcss.platform.live import actions, validation
 from hcss.platform.live.access import runner, trial_for
 from hcss.platform.live.session import LiveTrial
 from hcss.platform.live.stream import ended_stream, event_stream
+from hcss.platform.live.streams import RETRY_AFTER_S, StreamSlots
 
 _POSITION = re.compile(r"[0-9]{1,18}")
 
@@ -25,7 +26,22 @@ bp = Blueprint("api", __name__, url_prefix="/api/live/<token>/trials/<int:trial_
 
 @bp.errorhandler(actions.ActionError)
 def _action_error(error: actions.ActionError):  # type: ignore[no-untyped-def]
-    return jsonify(error=error.code, message=error.message), error.status
+    response = jsonify(error=error.code, message=error.message)
+    if error.status == 503:
+        response.headers["Retry-After"] = str(RETRY_AFTER_S)
+    return response, error.status
+
+
+def stream_slots() -> StreamSlots:
+    """The app's stream allowance (made on first use from MAX_STREAMS, STREAMS_PER_TOKEN)."""
+    slots = current_app.extensions.get("hcss_streams")
+    if slots is None:
+        config = current_app.config
+        slots = current_app.extensions.setdefault(
+            "hcss_streams",
+            StreamSlots(config.get("MAX_STREAMS"), int(config.get("STREAMS_PER_TOKEN", 1))),
+        )
+    return slots
 
 
 def _live(token: str, trial_id: int) -> LiveTrial:
@@ -58,17 +74,31 @@ def stream(token: str, trial_id: int) -> Response:
     live = runner().get(trial.id)
     headers = {"Cache-Control": "no-cache", "X-Accel-Buffering": "no"}
     if live is None:
-        body = ended_stream(trial.id, trial.duration_s)
-    else:
-        last = request.headers.get("Last-Event-ID", request.args.get("after", "0"))
-        body = event_stream(
-            live,
-            after_seq=stream_position(last),
-            interval_s=float(current_app.config["STREAM_INTERVAL_S"]),
-            max_s=float(current_app.config["STREAM_MAX_S"]),
-            clock=runner().clock,
+        return Response(
+            ended_stream(trial.id, trial.duration_s), mimetype="text/event-stream", headers=headers
         )
-    return Response(body, mimetype="text/event-stream", headers=headers)
+    slots = stream_slots()
+    ticket = slots.acquire(token)
+    if ticket is None:
+        raise actions.ActionError(
+            "the server has as many live streams as it can hold; retrying shortly",
+            503,
+            "busy",
+        )
+    with live.changed:
+        live.changed.notify_all()  # an older stream of this link wakes up and hands over
+    last = request.headers.get("Last-Event-ID", request.args.get("after", "0"))
+    body = event_stream(
+        live,
+        after_seq=stream_position(last),
+        interval_s=float(current_app.config["STREAM_INTERVAL_S"]),
+        max_s=float(current_app.config["STREAM_MAX_S"]),
+        clock=runner().clock,
+        superseded=lambda: slots.superseded(ticket),
+    )
+    response = Response(body, mimetype="text/event-stream", headers=headers)
+    response.call_on_close(lambda: slots.release(ticket))
+    return response
 
 
 @bp.get("/state")
