@@ -14,6 +14,29 @@ from hcss.platform.models import AuditRecord, Base, ConsoleAction, Experimenter
 CONSOLE_TABLES = {m.__tablename__ for m in (Experimenter, ConsoleAction, AuditRecord)}
 
 
+#: (table, column) added to an older table by a later revision (0004_h13_hardening).
+LATER_COLUMNS = {("interruption", "outage_s")}
+
+
+def _added_later(difference) -> bool:  # type: ignore[no-untyped-def]
+    return (
+        isinstance(difference, tuple)
+        and difference[0] == "add_column"
+        and (difference[2], difference[3].name) in LATER_COLUMNS
+    )
+
+
+def test_the_models_match_the_migrations_at_head(tmp_path) -> None:
+    url = f"sqlite:///{tmp_path / 'head.sqlite3'}"
+    command.upgrade(alembic_config(url), "head")
+    engine = create_engine(url)
+    try:
+        with engine.connect() as connection:
+            assert compare_metadata(MigrationContext.configure(connection), Base.metadata) == []
+    finally:
+        engine.dispose()
+
+
 def test_the_migrations_have_one_head() -> None:
     assert len(ScriptDirectory.from_config(alembic_config("sqlite://")).get_heads()) == 1
 
@@ -35,7 +58,9 @@ def test_upgrade_creates_the_console_tables_as_modelled_and_downgrade_removes_th
             if table.name in present | CONSOLE_TABLES:
                 table.to_metadata(expected)
         with engine.connect() as connection:
-            assert compare_metadata(MigrationContext.configure(connection), expected) == []
+            differences = compare_metadata(MigrationContext.configure(connection), expected)
+        # Columns later revisions add to these tables are not here yet.
+        assert [d for d in differences if not _added_later(d)] == []
         command.downgrade(config, "0001")
         assert not CONSOLE_TABLES & set(inspect(create_engine(url)).get_table_names())
     finally:

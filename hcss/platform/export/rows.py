@@ -21,12 +21,14 @@ from hcss.platform.models import (
     Command,
     CommandOutcome,
     DecisionRow,
+    Interruption,
     Probe,
     ProbeEvent,
     Trial,
 )
 from hcss.platform.naming import collective_name
 from hcss.simulation import DECISION_COLUMNS
+from hcss.simulation.params import Params
 
 Row = dict[str, Any]
 
@@ -150,6 +152,36 @@ def _probe_row(trial: Trial, code: str, probe: Probe, events: Iterable[ProbeEven
         "correct": None if scored is None else scored.correct,
         "timed_out": answer is None and "timeout" in first,
     }
+
+
+def interruption_rows(session: Session, trial: Trial, code: str, problems: ProblemLog) -> list[Row]:
+    """Server restarts that found the trial live (training and main trials alike)."""
+    rows = []
+    for stopped in session.scalars(
+        select(Interruption).where(Interruption.trial_id == trial.id).order_by(Interruption.id)
+    ):
+        with problems.guard(
+            "interruptions", f"interruption {stopped.id}", participant=code, trial_id=trial.id
+        ):
+            rows.append(
+                {
+                    "participant": code,
+                    "trial_id": str(trial.id),
+                    "trial_kind": trial.kind,
+                    "model": trial.model,
+                    "last_seen_at": iso(stopped.last_seen_at),
+                    "resumed_at": iso(stopped.created_at),
+                    "outage_s": float(stopped.outage_s),
+                    "resumed_step": stopped.resumed_step,
+                    "resumed_sim_time_s": stopped.resumed_step * _dt(trial),
+                    "replayed_commands": stopped.replayed_commands,
+                }
+            )
+    return rows
+
+
+def _dt(trial: Trial) -> float:
+    return float((trial.params or {}).get("dt_s", Params().dt_s))
 
 
 TRIAL_ROW_BUILDERS = {

@@ -114,6 +114,18 @@ TABLES: dict[str, tuple[tuple[str, str], ...]] = {
         ("submitted_at", "str"),
         ("timed_out", "bool"),
     ),
+    "interruptions": (
+        ("participant", "str"),
+        ("trial_id", "str"),
+        ("trial_kind", "str"),
+        ("model", "str"),
+        ("last_seen_at", "str"),
+        ("resumed_at", "str"),
+        ("outage_s", "float"),
+        ("resumed_step", "int"),
+        ("resumed_sim_time_s", "float"),
+        ("replayed_commands", "int"),
+    ),
     "export_problems": (
         ("participant", "str"),
         ("trial_id", "str"),

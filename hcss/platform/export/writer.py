@@ -21,7 +21,7 @@ from sqlalchemy.orm import Session
 
 from hcss.platform.config import PROJECT_ROOT
 from hcss.platform.export.problems import ProblemLog
-from hcss.platform.export.rows import TRIAL_ROW_BUILDERS
+from hcss.platform.export.rows import TRIAL_ROW_BUILDERS, interruption_rows
 from hcss.platform.export.study_rows import participant_rows, study_flow_rows
 from hcss.platform.export.tables import PROBLEMS_TABLE, TABLES, TRIAL_TABLES, columns
 from hcss.platform.models import Participant, Trial
@@ -66,6 +66,10 @@ def collect(session: Session) -> dict[str, list[dict[str, Any]]]:
         for table, build in TRIAL_ROW_BUILDERS.items():
             with problems.guard(table, f"trial {trial.id}", participant=code, trial_id=trial.id):
                 tables[prefix + table].extend(build(session, trial, code, problems))
+        with problems.guard(
+            "interruptions", f"trial {trial.id}", participant=code, trial_id=trial.id
+        ):
+            tables["interruptions"].extend(interruption_rows(session, trial, code, problems))
     for name in list(tables):
         table = name.rsplit("/", 1)[-1]
         tables[name] = problems.typed(table, TABLES[table], tables[name])

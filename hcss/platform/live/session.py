@@ -90,10 +90,10 @@ class LiveTrial:
 
     def due_step(self, now: float) -> int:
         """The step the wall clock says the trial should have reached."""
-        elapsed = self._running_wall_s(now) * self.acceleration
+        elapsed = self.running_wall_s(now) * self.acceleration
         return min(self.total_steps, int(math.floor(elapsed / self.dt + 1e-9)))
 
-    def _running_wall_s(self, now: float) -> float:
+    def running_wall_s(self, now: float) -> float:
         """Wall seconds the trial clock has run: pauses do not count."""
         stopped = now if self.paused_since is None else min(now, self.paused_since)
         return max(0.0, stopped - self.started_epoch - self.paused_s)
@@ -102,7 +102,7 @@ class LiveTrial:
         """Trial time by the wall clock, for the page's timer (runs between steps)."""
         if self.ended:
             return self.duration_s
-        return min(self.duration_s, self._running_wall_s(now) * self.acceleration)
+        return min(self.duration_s, self.running_wall_s(now) * self.acceleration)
 
     def touch(self) -> None:
         """Mark the state as changed and wake every stream; call with `lock` held."""

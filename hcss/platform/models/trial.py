@@ -79,6 +79,8 @@ class Interruption(CreatedAt, Base):
     replayed_commands: Mapped[int]
     state_digest: Mapped[str] = mapped_column(String(128))  # at resumed_step
     last_seen_at: Mapped[datetime | None]  # newest row written before the interruption
+    # Wall seconds the trial clock stood still for the outage (hcss.platform.live.outages).
+    outage_s: Mapped[float] = mapped_column(default=0.0)
 
 
 class TrialProblem(CreatedAt, Base):
