@@ -81,6 +81,9 @@ def serve(host: str, port: int, threads: int, time_acceleration: float | None) -
     if time_acceleration is not None:
         config["TIME_ACCELERATION"] = time_acceleration
     app = create_app(config)
+    from hcss.questionnaires.mrt import item_bank
+
+    item_bank()  # build the MRT figures now, not in the first participants' requests
     ensure_first_login(app)  # prints a console login once, on a server with no experimenter
     url = f"http://{host}:{port}/"
     click.echo(f"hcss serving on {url}  (Ctrl-C stops)")
