@@ -17,6 +17,7 @@ from sqlalchemy.orm import Session
 from hcss.platform.console.pauses import paused_intervals
 from hcss.platform.console.sessions import session_state
 from hcss.platform.models import Participant, StageEvent, Trial, TrialStatusChange
+from hcss.platform.pilots import is_pilot
 from hcss.platform.study.flow import Position, current_position
 
 
@@ -125,7 +126,7 @@ def progress_rows(session: Session, now: float) -> list[ProgressRow]:
                 time_in_stage_s=max(0.0, now - since),
                 trial_clock_s=clock,
                 trial_duration_s=duration,
-                is_pilot=participant.is_pilot,
+                is_pilot=is_pilot(session, participant),
                 is_bot=participant.is_bot,
                 is_demo=participant.is_demo,
             )

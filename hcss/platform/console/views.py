@@ -35,6 +35,7 @@ from hcss.platform.console.sessions import ConsoleError, change_session, session
 from hcss.platform.console.withdrawal import WithdrawalError, withdraw
 from hcss.platform.db import database, get_session
 from hcss.platform.models import AuditRecord, ConsoleAction, Experimenter, Participant
+from hcss.platform.pilots import is_pilot
 
 bp = Blueprint("console", __name__, url_prefix="/console", static_folder="static")
 login_manager = LoginManager()
@@ -154,6 +155,7 @@ def participant(code: str) -> str:
     return render_template(
         "console/participant.html",
         participant=found,
+        pilot=is_pilot(session, found),
         link=participant_link(found),
         state=session_state(session, found.id),
         actions=actions,

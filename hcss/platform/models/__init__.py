@@ -1,5 +1,6 @@
 """Every table of the platform; importing this package registers them all on `Base`."""
 
+from hcss.platform.models.append_only import APPEND_ONLY_TABLES, DeletionPermit
 from hcss.platform.models.base import Base, CreatedAt, UTCDateTime, utcnow
 from hcss.platform.models.console import AuditRecord, ConsoleAction, Experimenter
 from hcss.platform.models.observation import Observation
@@ -28,6 +29,8 @@ from hcss.platform.models.trial import (
 )
 
 __all__ = [
+    "APPEND_ONLY_TABLES",
+    "DeletionPermit",
     "COMMAND_KINDS",
     "AuditRecord",
     "ConsoleAction",

@@ -15,7 +15,7 @@ from collections import Counter
 
 from flask import current_app, has_app_context
 from sqlalchemy import func, select, text
-from sqlalchemy.orm import Session
+from sqlalchemy.orm import Session, object_session
 
 from hcss.platform.models import (
     ConsentRecord,
@@ -24,6 +24,7 @@ from hcss.platform.models import (
     StageEvent,
     StudyEnrolment,
 )
+from hcss.platform.pilots import is_pilot
 from hcss.platform.study.studyfile import Study, load_study
 
 POOLS = ("real", "pilot", "bot", "demo")
@@ -37,7 +38,8 @@ def pool_of(participant: Participant) -> str:
         return "bot"
     if participant.is_demo:
         return "demo"
-    if participant.is_pilot:
+    session = object_session(participant)
+    if participant.is_pilot if session is None else is_pilot(session, participant):
         return "pilot"
     return "real"
 
