@@ -6,6 +6,8 @@ then ended with reason ``rebuild_failed``). Written by hand against
 hcss/platform/models/trial.py; the app only ever inserts into it.
 `interruption.outage_s` is the wall time the trial clock stood still while
 the server was down (hcss/platform/live/outages.py); 0 for older rows.
+`experimenter.login_generation` moves on at each sign-out, ending the
+account's cookies server-side (hcss/platform/console/login_sessions.py).
 Triggers refuse UPDATE and DELETE on the append-only tables; a DELETE passes
 only inside a withdrawal's transaction, which holds a `deletion_permit` row
 (hcss/platform/models/append_only.py, whose DDL this revision runs).
@@ -79,6 +81,10 @@ def upgrade() -> None:
         batch_op.add_column(
             sa.Column("outage_s", sa.Double(), nullable=False, server_default=sa.text("0"))
         )
+    with op.batch_alter_table("experimenter", schema=None) as batch_op:
+        batch_op.add_column(
+            sa.Column("login_generation", sa.Integer(), nullable=False, server_default=sa.text("0"))
+        )
     # After the batch operations: SQLite's batch mode recreates a table, dropping its triggers.
     dialect = op.get_bind().dialect.name
     for statement in append_only.trigger_statements(dialect, APPEND_ONLY_TABLES):
@@ -89,6 +95,8 @@ def downgrade() -> None:
     for statement in append_only.drop_statements(op.get_bind().dialect.name, APPEND_ONLY_TABLES):
         op.execute(statement)
     op.drop_table("deletion_permit")
+    with op.batch_alter_table("experimenter", schema=None) as batch_op:
+        batch_op.drop_column("login_generation")
     with op.batch_alter_table("interruption", schema=None) as batch_op:
         batch_op.drop_column("outage_s")
     with op.batch_alter_table("trial_problem", schema=None) as batch_op:

@@ -15,7 +15,7 @@ CONSOLE_TABLES = {m.__tablename__ for m in (Experimenter, ConsoleAction, AuditRe
 
 
 #: (table, column) added to an older table by a later revision (0004_h13_hardening).
-LATER_COLUMNS = {("interruption", "outage_s")}
+LATER_COLUMNS = {("interruption", "outage_s"), ("experimenter", "login_generation")}
 
 
 def _added_later(difference) -> bool:  # type: ignore[no-untyped-def]

@@ -6,6 +6,7 @@ and console URLs name participants by code, never by token.
 
 from __future__ import annotations
 
+from math import ceil
 from urllib.parse import urlsplit
 
 from flask import (
@@ -29,6 +30,8 @@ from sqlalchemy import select
 
 from hcss.platform.console import forms
 from hcss.platform.console.accounts import authenticate
+from hcss.platform.console.lockout import LoginThrottle, audit_lockouts
+from hcss.platform.console.login_sessions import end_sessions, experimenter_for_cookie
 from hcss.platform.console.participants import create_participants, participant_link
 from hcss.platform.console.progress import progress_json, progress_rows
 from hcss.platform.console.sessions import ConsoleError, change_session, session_state, set_pilot
@@ -51,7 +54,14 @@ def _init_login(state) -> None:  # type: ignore[no-untyped-def]
 
 @login_manager.user_loader
 def _load_experimenter(user_id: str) -> Experimenter | None:
-    return get_session().get(Experimenter, int(user_id)) if user_id.isdigit() else None
+    return experimenter_for_cookie(get_session(), user_id)
+
+
+def _throttle() -> LoginThrottle | None:
+    """The app's sign-in throttle; None when LOGIN_RATE_LIMIT is off (the fuzz test)."""
+    if not current_app.config.get("LOGIN_RATE_LIMIT", True):
+        return None
+    return current_app.extensions.setdefault("hcss_login_throttle", LoginThrottle())
 
 
 def _runner():  # type: ignore[no-untyped-def]
@@ -76,11 +86,21 @@ def _safe_next(target: str | None) -> str:
 def login():  # type: ignore[no-untyped-def]
     form = forms.LoginForm()
     if form.validate_on_submit():
+        throttle, keys = _throttle(), LoginThrottle.keys(form.username.data, request.remote_addr)
+        wait_s = throttle.retry_after(keys) if throttle else 0.0
+        if wait_s > 0:
+            flash(f"Too many failed sign-ins; try again in {ceil(wait_s / 60)} minute(s).")
+            page = render_template("console/login.html", form=form)
+            return page, 429, {"Retry-After": str(ceil(wait_s))}
         account = authenticate(get_session(), form.username.data, form.password.data)
         if account is not None:
+            if throttle:
+                throttle.succeeded(keys)
             cookie_session.clear()  # no session fixation across the sign-in
             login_user(account)
             return redirect(_safe_next(request.args.get("next")))
+        if throttle:
+            audit_lockouts(database(), throttle.failed(keys), form.username.data)
         flash("Wrong username or password.")
         return render_template("console/login.html", form=form), 401
     return render_template("console/login.html", form=form)
@@ -91,7 +111,9 @@ def login():  # type: ignore[no-untyped-def]
 def logout():  # type: ignore[no-untyped-def]
     if not forms.ActionForm().validate_on_submit():
         abort(400)
+    end_sessions(get_session(), current_user.id)  # every cookie issued so far stops working
     logout_user()
+    cookie_session.clear()
     return redirect(url_for("console.login"))
 
 
