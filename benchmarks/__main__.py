@@ -1,11 +1,11 @@
-"""Run every benchmark and print its figures: `python -m benchmarks [simulation|live]`."""
+"""Run every benchmark and print its figures: `python -m benchmarks [simulation|live|study]`."""
 
 from __future__ import annotations
 
 import importlib
 import sys
 
-SUITES = ("simulation", "live")
+SUITES = ("simulation", "live", "study")
 
 
 def main(argv: list[str]) -> None:
