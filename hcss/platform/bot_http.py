@@ -15,6 +15,7 @@ first visit, as it does a real participant. Target 127.0.0.1 only.
 
 from __future__ import annotations
 
+import http.client
 import http.cookiejar
 import json
 import threading
@@ -72,6 +73,11 @@ def percentile(values: list[float], q: float) -> float:
     return ordered[min(len(ordered) - 1, max(0, round(q / 100 * (len(ordered) - 1))))]
 
 
+#: While a server restarts: up to 60 s of retries, 0.25 s apart.
+RECONNECT_TRIES = 240
+RECONNECT_WAIT_S = 0.25
+
+
 class _Response(SimpleNamespace):
     """The part of Flask's test response the bot reads."""
 
@@ -122,11 +128,21 @@ class HttpClient:
 
     def _send(self, request: urllib.request.Request) -> _Response:
         started = time.perf_counter()
-        try:
-            with self.opener.open(request, timeout=60) as answer:
-                status, body, final = answer.status, answer.read(), answer.geturl()
-        except urllib.error.HTTPError as error:
-            status, body, final = error.code, error.read(), error.geturl()
+        for attempt in range(RECONNECT_TRIES):
+            try:
+                with self.opener.open(request, timeout=60) as answer:
+                    status, body, final = answer.status, answer.read(), answer.geturl()
+                break
+            except urllib.error.HTTPError as error:
+                status, body, final = error.code, error.read(), error.geturl()
+                break
+            except (urllib.error.URLError, ConnectionError, http.client.HTTPException) as error:
+                # A browser retries while the server restarts. A GET is safe to repeat; a
+                # POST only when it never reached the server (connection refused).
+                refused = isinstance(getattr(error, "reason", error), ConnectionRefusedError)
+                if attempt == RECONNECT_TRIES - 1 or (request.method == "POST" and not refused):
+                    raise
+                time.sleep(RECONNECT_WAIT_S)
         self.figures.record(request.full_url, status, time.perf_counter() - started)
         path = urllib.parse.urlsplit(final).path
         return _Response(status_code=status, body=body, request=SimpleNamespace(path=path))
