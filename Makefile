@@ -4,7 +4,7 @@ PY     := $(VENV)/bin/python
 HCSS   := $(VENV)/bin/hcss
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: install run test bench lint format browser
+.PHONY: install run test bench lint format browser fuzz
 
 $(PY):
 	python3 -m venv $(VENV)
@@ -33,6 +33,16 @@ browser:
 
 test: install browser
 	$(PY) -m pytest -q -n 2
+
+# Long fuzz run of every route (tests/platform/test_fuzz.py): 3 groups x FUZZ_EXAMPLES requests
+# on SQLite, and as many again on PostgreSQL when HCSS_TEST_DATABASE_URL is set.
+FUZZ_EXAMPLES ?= 3400
+fuzz: install
+	mkdir -p test-artifacts && rm -f test-artifacts/fuzz-tally.txt
+	HCSS_FUZZ_EXAMPLES=$(FUZZ_EXAMPLES) HCSS_FUZZ_TALLY=test-artifacts/fuzz-tally.txt \
+		$(PY) -m pytest tests/platform/test_fuzz.py -q -n 2
+	@awk '{n[$$1]+=$$2; t+=$$2} END {for (s in n) printf "  HTTP %s: %d\n", s, n[s]; \
+		printf "fuzz: %d requests\n", t}' test-artifacts/fuzz-tally.txt | sort
 
 bench: install
 	$(PY) -m benchmarks

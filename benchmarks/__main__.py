@@ -1,11 +1,11 @@
-"""Run every benchmark and print its figures: `python -m benchmarks [simulation|live|console]`."""
+"""Run every benchmark and print its figures: `python -m benchmarks [simulation|live|console|analysis|study]`."""
 
 from __future__ import annotations
 
 import importlib
 import sys
 
-SUITES = ("simulation", "live", "console", "analysis")
+SUITES = ("simulation", "live", "console", "analysis", "study")
 
 
 def main(argv: list[str]) -> None:

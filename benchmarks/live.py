@@ -2,10 +2,13 @@
 
 A real server (waitress, its own process, SQLite in WAL mode) runs N live
 trials at wall-clock pace. N clients each read their trial's Server-Sent
-Events stream and, every two seconds, POST a command. The command names a
-target id no trial has, so the server refuses it, logs it and shows the
-refusal in System Messages; the delay from the POST to the frame carrying that
-message is the command-to-stream latency. Loopback only; bounded in time.
+Events stream and, every two seconds, POST a command: a decide for target 1,
+which no collective supports enough in the first minute, so the simulation
+refuses it, logs it and shows the refusal in System Messages. (A target id no
+trial has is a 400 and stored nowhere since issue 13, so it cannot be the
+probe any more.) Only this client commands its trial, so its refusals arrive
+in order: the delay from each POST to the frame carrying the next new refusal
+is the command-to-stream latency. Loopback only; bounded in time.
 """
 
 from __future__ import annotations
@@ -23,7 +26,7 @@ from hcss.platform.live.trials import start_trial
 from hcss.platform.localserver import LocalServer
 from hcss.platform.models import Participant
 
-TRIAL_COUNTS = (10, 20, 40, 60, 80)
+TRIAL_COUNTS = (10, 20, 40, 80, 120, 160, 200)
 MEASURE_S = 20.0
 COMMAND_EVERY_S = 2.0
 TARGET_RATE_HZ = 2.0
@@ -38,7 +41,7 @@ class StreamReader(threading.Thread):
         self.client = client
         self.stop = stop
         self.frame_times: list[float] = []
-        self.sent: dict[str, float] = {}  # marker text -> POST time
+        self.sent: list[float] = []  # POST times of refusals not yet seen, oldest first
         self.latencies_ms: list[float] = []
         self.lock = threading.Lock()
 
@@ -50,20 +53,24 @@ class StreamReader(threading.Thread):
                 self.frame_times.append(now)
                 for message in frame.get("messages") or []:
                     with self.lock:
-                        for marker, sent_at in list(self.sent.items()):
-                            if marker in message.get("text", ""):
-                                self.latencies_ms.append((now - sent_at) * 1000.0)
-                                del self.sent[marker]
+                        if message.get("kind") == "refusal" and self.sent:
+                            self.latencies_ms.append((now - self.sent.pop(0)) * 1000.0)
                 if self.stop.is_set():
                     break
         finally:
             frames.close()
 
     def command(self, number: int) -> None:
-        target = 100_000 + number  # no trial has such a target: refused and shown
+        sent_at = time.perf_counter()
         with self.lock:
-            self.sent[f"target {target}"] = time.perf_counter()
-        self.client.post("/requests", {"kind": "investigate", "collective": 0, "target": target})
+            self.sent.append(sent_at)
+        status, outcome = self.client.post(
+            "/requests", {"kind": "decide", "collective": number % 4, "target": 1}
+        )
+        if status != 200 or outcome.get("accepted"):
+            with self.lock:  # no refusal will be shown for this one
+                if sent_at in self.sent:
+                    self.sent.remove(sent_at)
 
 
 def measure(n_trials: int, workdir: Path) -> dict[str, float]:

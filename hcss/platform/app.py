@@ -15,7 +15,7 @@ from flask_wtf.csrf import CSRFError, CSRFProtect
 from werkzeug.exceptions import HTTPException
 
 from hcss.platform import config as platform_config
-from hcss.platform import db
+from hcss.platform import db, hardening
 from hcss.platform.errors import error_page, http_error_page
 
 # (module, attribute) of each blueprint; each part of the platform adds its line.
@@ -41,6 +41,7 @@ def create_app(config: Mapping[str, Any] | None = None) -> Flask:
     if not app.config.get("SECRET_KEY"):
         app.config["SECRET_KEY"] = platform_config.secret_key()
 
+    hardening.install(app)
     db.init_app(app)
     csrf.init_app(app)
     _register_json_errors(app)

@@ -24,7 +24,6 @@ from typing import Any
 import click
 import numpy as np
 from flask import Flask
-from flask.testing import FlaskClient
 from sqlalchemy import select
 
 from hcss.platform.models import Participant
@@ -124,21 +123,33 @@ class ParticipantBot:
 
     def __init__(
         self,
-        app: Flask,
+        app: Flask | None,
         token: str,
         *,
         seed: int = 0,
         tick_s: float = 2.0,
         policy_every_s: float = 6.0,
         mrt_accuracy: float = 0.6,
+        client: Any = None,
+        code: str | None = None,
+        look_every_wall_s: float = 0.2,
     ) -> None:
+        """In-process (`app`, a test client, the bot moves the clock), or over HTTP
+        (`client` from hcss.platform.bot_http, the server's own clock, `code` known)."""
         self.app = app
-        self.client: FlaskClient = app.test_client()
         self.token = token
+        self.code = code
         self.rng = np.random.default_rng(seed)
-        self.tick_s = tick_s  # trial seconds per look at the interface
+        self.tick_s = tick_s  # trial seconds per look at the interface (in-process)
+        self.look_every_wall_s = look_every_wall_s  # wall seconds per look (over HTTP)
         self.policy_every_s = policy_every_s
         self.mrt_accuracy = mrt_accuracy
+        self.runner = None
+        if client is not None:
+            self.client = client
+            return
+        assert app is not None
+        self.client = app.test_client()
         self.runner = app.extensions["hcss_runner"]
         if not isinstance(self.runner.clock, ManualClock):
             raise BotError("bots need the app's runner on a ManualClock (use bot_app)")
@@ -162,13 +173,15 @@ class ParticipantBot:
     # --- the walk --------------------------------------------------------------------
 
     def run(self, study: Study) -> BotReport:
-        with self.app.app_context():
-            from hcss.platform.db import database
+        code = self.code
+        if code is None and self.app is not None:
+            with self.app.app_context():
+                from hcss.platform.db import database
 
-            with database().session_scope() as session:
-                code = session.scalar(
-                    select(Participant.code).where(Participant.token == self.token)
-                )
+                with database().session_scope() as session:
+                    code = session.scalar(
+                        select(Participant.code).where(Participant.token == self.token)
+                    )
         report = BotReport(code=code or "?")
         plan = expected_pages(study)
         _, html = self.get(f"/p/{self.token}")
@@ -278,14 +291,22 @@ class ParticipantBot:
                     hub = int(self.rng.integers(len(frame["view"]["collectives"])))
                     click = {"kind": "collective", "collective": hub, "button": "right"}
                     self._ok(self.client.post(f"{api}/observations", json=click, headers=headers))
-            self.runner.clock.now += self.tick_s / self._acceleration(frame)
-            self.runner.tick()
+            self._next_look(frame)
         continue_url = page.interface.get("data-continue-url")
         if not continue_url:
             raise BotError("the trial page offers no way on to the next stage")
         return self.get(continue_url)[1]
 
+    def _next_look(self, frame: dict[str, Any]) -> None:
+        """In-process: move the clock and let the runner step. Over HTTP: wait."""
+        if self.runner is None:
+            time.sleep(self.look_every_wall_s)
+            return
+        self.runner.clock.now += self.tick_s / self._acceleration(frame)
+        self.runner.tick()
+
     def _acceleration(self, frame: dict[str, Any]) -> float:
+        assert self.runner is not None
         live = self.runner.trials.get(frame["trial"]["id"])
         return live.acceleration if live is not None else 1.0
 
@@ -340,11 +361,35 @@ def run_bots(app: Flask, n: int, *, seed: int = 0, progress: Any = None) -> list
 @click.option("--study", default="original", show_default=True, help="Study file in studies/.")
 @click.option("--seed", default=0, show_default=True, type=int, help="First bot's seed.")
 @click.option("--database-url", default=None, help="Default: DATABASE_URL, else instance/.")
-def bots_command(count: int, study: str, seed: int, database_url: str | None) -> None:
+@click.option(
+    "--base-url",
+    default=None,
+    help="Drive this running server over HTTP (e.g. http://127.0.0.1:5000) instead of "
+    "an in-process app. Start it with the same study and a time acceleration: "
+    "HCSS_STUDY=demo hcss serve --time-acceleration 20.",
+)
+@click.option(
+    "--concurrency",
+    default=1,
+    show_default=True,
+    type=click.IntRange(min=1, max=256),
+    help="Bots walking at once (with --base-url).",
+)
+def bots_command(
+    count: int,
+    study: str,
+    seed: int,
+    database_url: str | None,
+    base_url: str | None,
+    concurrency: int,
+) -> None:
     """Walk N participant bots through the whole study, filling a pilot database.
 
-    Bots are flagged is_bot and balanced apart from real participants; their
-    trials run on a clock the bots move, so a full protocol takes seconds.
+    Bots are flagged is_bot and balanced apart from real participants. In
+    process, their trials run on a clock the bots move, so a full protocol
+    takes seconds; with --base-url they drive a real server over HTTP,
+    CONCURRENCY at a time, and the command reports errors and page latencies
+    (the load tool; `make bench` uses it).
     """
     from tqdm import tqdm
 
@@ -358,6 +403,19 @@ def bots_command(count: int, study: str, seed: int, database_url: str | None) ->
     except StudyFileError as error:
         raise click.BadParameter(str(error), param_hint="--study") from error
     upgrade_database(url)
+    if base_url is not None:
+        from hcss.platform.bot_http import run_http_bots
+
+        with tqdm(total=count, unit="bot") as bar:
+            figures = run_http_bots(
+                base_url, url, study, count, concurrency=concurrency, seed=seed, progress=bar.update
+            )
+        for error in figures.errors:
+            click.echo(f"failed: {error}", err=True)
+        click.echo(figures.summary())
+        if figures.errors:
+            raise SystemExit(1)
+        return
     app = bot_app(url, study)
     try:
         with tqdm(total=count, unit="bot") as bar:

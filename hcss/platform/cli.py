@@ -63,10 +63,11 @@ def _redacted(url: str) -> str:
 )
 @click.option(
     "--threads",
-    default=64,
+    default=256,
     show_default=True,
     type=int,
-    help="Waitress worker threads; each open trial page holds one for its stream.",
+    help="Waitress worker threads; each open trial page holds one for its stream, "
+    "and an eighth (at least 16) are kept for page loads and the console.",
 )
 @click.option(
     "--time-acceleration",
@@ -82,14 +83,19 @@ def serve(
 
     from hcss.platform.app import create_app
     from hcss.platform.console.accounts import ensure_first_login
+    from hcss.platform.live.streams import reserve_for_pages
     from hcss.platform.serving import log_events_to_stderr, write_serving_file
 
-    config: dict[str, object] = {}
+    # Streams hold a thread each; the reserve keeps page loads and the console answering.
+    config: dict[str, object] = {"MAX_STREAMS": threads - reserve_for_pages(threads)}
     if time_acceleration is not None:
         config["TIME_ACCELERATION"] = time_acceleration
     if study is not None:
         config["STUDY"] = _study_file(study).name
     app = create_app(config)
+    from hcss.questionnaires.mrt import item_bank
+
+    item_bank()  # build the MRT figures now, not in the first participants' requests
     ensure_first_login(app)  # prints a console login once, on a server with no experimenter
     url = f"http://{host}:{port}/"
     log_events_to_stderr()
@@ -100,7 +106,15 @@ def serve(
         f"hcss serving on {url}  (Ctrl-C stops); new participants: study {study or 'original'}"
     )
     click.echo(f"console: {url}console/   a demo trial:  hcss demo-trial --port {port}")
-    waitress_serve(app, host=host, port=port, threads=threads, channel_timeout=3600, ident="hcss")
+    waitress_serve(
+        app,
+        host=host,
+        port=port,
+        threads=threads,
+        channel_timeout=3600,
+        ident="hcss",
+        max_request_body_size=int(app.config["MAX_CONTENT_LENGTH"]),
+    )
 
 
 @click.command("demo-trial")

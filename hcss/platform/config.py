@@ -73,4 +73,20 @@ def defaults() -> dict[str, object]:
         # Close a stream after this many wall seconds; EventSource reconnects by itself,
         # so this only bounds how long one waitress thread is held.
         "STREAM_MAX_S": 300.0,
+        # Open live streams the server allows (each holds a thread); None: no ceiling.
+        # `hcss serve` sets it to its thread count less a reserve for pages and the console.
+        "MAX_STREAMS": None,
+        # Streams per participant link; the newest takes over ("takeover" event).
+        "STREAMS_PER_TOKEN": 1,
+        # Session cookies: not sent on cross-site subrequests; Secure when served over
+        # HTTPS (set HCSS_SECURE_COOKIES=1 behind TLS, so they never travel in clear).
+        "SESSION_COOKIE_SAMESITE": "Lax",
+        "SESSION_COOKIE_HTTPONLY": True,
+        "SESSION_COOKIE_SECURE": os.environ.get("HCSS_SECURE_COOKIES", "") == "1",
+        "REMEMBER_COOKIE_SAMESITE": "Lax",
+        "REMEMBER_COOKIE_HTTPONLY": True,
+        "REMEMBER_COOKIE_SECURE": os.environ.get("HCSS_SECURE_COOKIES", "") == "1",
+        # Bytes of request body (Flask answers 413 past it; `hcss serve` tells waitress too).
+        # The largest legitimate body, a questionnaire page, is a few kB.
+        "MAX_CONTENT_LENGTH": 256 * 1024,
     }

@@ -84,8 +84,12 @@ class Database:
             self.engine.dispose()
 
     def create_all(self) -> None:
-        """Create every table directly; for tests. Deployments use `hcss db upgrade`."""
+        """Create every table and the append-only triggers; for tests. Deployments migrate."""
+        from hcss.platform.models.append_only import install_triggers
+
         Base.metadata.create_all(self.engine)
+        with self.engine.begin() as connection:
+            install_triggers(connection)
 
 
 def init_app(app: Flask) -> Database:

@@ -143,7 +143,14 @@ def play_trial(trial: Any, until_s: float) -> None:  # LiveTrialHandle
     in_range = [t["id"] for t in view["targets"] if 0 in t["in_range_of"]]
     if in_range:
         trial.post("/requests", {"kind": "investigate", "collective": 0, "target": in_range[0]})
-    trial.post("/requests", {"kind": "decide", "collective": 1, "target": 999})  # refused
+    # Refused: a target too few of collective II favour (or, with none visible, undiscovered).
+    weak = next((t["id"] for t in view["targets"] if t["support"][1] < 0.3), None)
+    shown = {t["id"] for t in view["targets"]}
+    weak = weak if weak is not None else min(set(range(1, len(shown) + 2)) - shown)
+    assert (
+        trial.post("/requests", {"kind": "decide", "collective": 1, "target": weak}).status_code
+        == 200
+    )
     trial.post("/observations", {"kind": "collective", "collective": 2, "button": "right"})
     if view["targets"]:
         trial.post(

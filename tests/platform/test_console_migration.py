@@ -13,7 +13,12 @@ from hcss.platform.models import AuditRecord, Base, ConsoleAction, Experimenter
 
 CONSOLE_TABLES = {m.__tablename__ for m in (Experimenter, ConsoleAction, AuditRecord)}
 #: Columns later revisions add to tables that exist at 0002_console (table, column).
-LATER_COLUMNS = {("participant", "study"), ("probe_event", "latency_ms")}
+LATER_COLUMNS = {
+    ("participant", "study"),  # 0004_c8_console
+    ("probe_event", "latency_ms"),  # 0004_p8_idempotency
+    ("interruption", "outage_s"),  # 0004_h13_hardening
+    ("experimenter", "login_generation"),  # 0004_h13_hardening
+}
 
 
 def _not_added_later(obj, name, type_, reflected, compare_to) -> bool:  # type: ignore[no-untyped-def]

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 from sqlalchemy import select
 
 from hcss.platform.app import create_app
@@ -11,6 +12,8 @@ from tests.platform.replaying import replay_trial
 
 
 def test_rebuild_after_a_crash_equals_an_uninterrupted_run(app, make_trial, database_url) -> None:
+    """The outage stops the trial clock (hcss.platform.live.outages): the rebuilt trial
+    resumes at the step the dead server reached, exactly as that server had it."""
     trial = make_trial(seed=5)
     trial.run_to(60)
     view = trial.state()["view"]
@@ -31,19 +34,25 @@ def test_rebuild_after_a_crash_equals_an_uninterrupted_run(app, make_trial, data
     )
     restarted.extensions["hcss_runner"].clock = FakeClock(trial.started_epoch + 150)
     try:
-        rebuilt = restarted.extensions["hcss_runner"].get(trial.trial_id)
-        assert rebuilt is not crashed and rebuilt.sim.step_count == 150
-        crashed.sim.step(150 - crashed.sim.step_count)  # what would have happened uninterrupted
+        runner = restarted.extensions["hcss_runner"]
+        rebuilt = runner.get(trial.trial_id)
+        reached = crashed.sim.step_count  # 97: the dead server's last rows are at step 97
+        assert rebuilt is not crashed and rebuilt.sim.step_count == reached
         assert rebuilt.sim.state_digest() == crashed.sim.state_digest()
         with restarted.extensions["hcss_db"].session_scope() as session:
             (interruption,) = session.scalars(select(Interruption)).all()
-            assert interruption.resumed_step == 150
+            assert interruption.resumed_step == reached
+            assert interruption.outage_s == pytest.approx(150 - reached)  # dt 1 s, real time
             assert interruption.snapshot_step == last_snapshot.step
             assert interruption.replayed_commands >= 1
             assert interruption.state_digest == rebuilt.sim.state_digest()
-            independent = replay_trial(session, trial.trial_id, 150)
+            independent = replay_trial(session, trial.trial_id, reached)
             assert independent.state_digest() == interruption.state_digest
             assert len(session.scalars(select(CommandOutcome)).all()) == 3
+        # The clock runs again from there: ten wall seconds later, ten steps on.
+        runner.clock.now += 10
+        runner.tick()
+        assert rebuilt.sim.step_count == reached + 10
         # The page's history survives: earlier messages are still there, in order.
         before = [m["text"] for m in crashed.messages]
         assert [m["text"] for m in rebuilt.messages][: len(before)] == before

@@ -27,6 +27,7 @@ from hcss.platform.models import (
     TrialStatusChange,
     utcnow,
 )
+from hcss.platform.pilots import pilot_flags
 from hcss.platform.study.enrolment import default_study_name
 from hcss.platform.study.flow import Flow, Position
 
@@ -144,8 +145,10 @@ def progress_rows(session: Session, now: float) -> list[ProgressRow]:
     presence = presence_by_participant(session)
     states = session_states(session)
     enrolments = _latest_enrolments(session)
+    participants = list(session.scalars(select(Participant).order_by(Participant.id.desc())))
+    pilots = pilot_flags(session, participants)
     rows = []
-    for participant in session.scalars(select(Participant).order_by(Participant.id.desc())):
+    for participant in participants:
         state = states.get(participant.id, "active")
         trial = trials.get(participant.id)
         status = None if trial is None else _trial_status(session, trial.id)
@@ -183,10 +186,10 @@ def progress_rows(session: Session, now: float) -> list[ProgressRow]:
                 last_seen_s=last_seen,
                 connected=connected,
                 page_hidden=hidden,
-                is_pilot=participant.is_pilot,
+                is_pilot=pilots[participant.id],
                 is_bot=participant.is_bot,
                 is_demo=participant.is_demo,
-                actions=available_actions(state, position.status, participant.is_pilot),
+                actions=available_actions(state, position.status, pilots[participant.id]),
             )
         )
     return rows

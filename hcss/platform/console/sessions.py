@@ -19,6 +19,7 @@ from hcss.platform.live.runner import Runner
 from hcss.platform.live.session import LiveTrial
 from hcss.platform.live.trials import current_trial, latest_status
 from hcss.platform.models import ConsoleAction, Experimenter, Participant
+from hcss.platform.pilots import is_pilot
 
 STATE_ACTIONS = ("pause", "resume", "abort")
 
@@ -178,14 +179,13 @@ def set_pilot(
     experimenter: Experimenter | None,
     pilot: bool,
 ) -> None:
-    """Flag (or unflag) a pilot; the action row keeps the history of the flag."""
+    """Flag (or unflag) a pilot: an action row, the flag's history (hcss.platform.pilots)."""
     with database.session_scope() as session:
         row = session.get(Participant, participant.id)
         if row is None:
             raise ConsoleError("no such participant")
-        if row.is_pilot == pilot:
+        if is_pilot(session, row) == pilot:
             raise ConsoleError(f"{row.code} is {'already' if pilot else 'not'} a pilot")
-        row.is_pilot = pilot
         session.add(
             ConsoleAction(
                 participant_id=row.id,

@@ -7,6 +7,7 @@ and console URLs name participants by code, never by token.
 from __future__ import annotations
 
 import re
+from math import ceil
 from urllib.parse import urlsplit
 
 from flask import (
@@ -30,6 +31,8 @@ from sqlalchemy import select
 
 from hcss.platform.console import eventlog, forms
 from hcss.platform.console.accounts import authenticate
+from hcss.platform.console.lockout import LoginThrottle, audit_lockouts
+from hcss.platform.console.login_sessions import end_sessions, experimenter_for_cookie
 from hcss.platform.console.participants import (
     create_participants,
     link_rows,
@@ -50,6 +53,7 @@ from hcss.platform.console.sessions import (
 from hcss.platform.console.withdrawal import WithdrawalError, withdraw
 from hcss.platform.db import database, get_session
 from hcss.platform.models import AuditRecord, ConsoleAction, Experimenter, Participant
+from hcss.platform.pilots import is_pilot
 from hcss.platform.study.enrolment import current_enrolment
 
 bp = Blueprint("console", __name__, url_prefix="/console", static_folder="static")
@@ -68,7 +72,14 @@ def _init_login(state) -> None:  # type: ignore[no-untyped-def]
 
 @login_manager.user_loader
 def _load_experimenter(user_id: str) -> Experimenter | None:
-    return get_session().get(Experimenter, int(user_id)) if user_id.isdigit() else None
+    return experimenter_for_cookie(get_session(), user_id)
+
+
+def _throttle() -> LoginThrottle | None:
+    """The app's sign-in throttle; None when LOGIN_RATE_LIMIT is off (the fuzz test)."""
+    if not current_app.config.get("LOGIN_RATE_LIMIT", True):
+        return None
+    return current_app.extensions.setdefault("hcss_login_throttle", LoginThrottle())
 
 
 def _runner():  # type: ignore[no-untyped-def]
@@ -93,11 +104,21 @@ def _safe_next(target: str | None) -> str:
 def login():  # type: ignore[no-untyped-def]
     form = forms.LoginForm()
     if form.validate_on_submit():
+        throttle, keys = _throttle(), LoginThrottle.keys(form.username.data, request.remote_addr)
+        wait_s = throttle.retry_after(keys) if throttle else 0.0
+        if wait_s > 0:
+            flash(f"Too many failed sign-ins; try again in {ceil(wait_s / 60)} minute(s).")
+            page = render_template("console/login.html", form=form)
+            return page, 429, {"Retry-After": str(ceil(wait_s))}
         account = authenticate(get_session(), form.username.data, form.password.data)
         if account is not None:
+            if throttle:
+                throttle.succeeded(keys)
             cookie_session.clear()  # no session fixation across the sign-in
             login_user(account)
             return redirect(_safe_next(request.args.get("next")))
+        if throttle:
+            audit_lockouts(database(), throttle.failed(keys), form.username.data)
         flash("Wrong username or password.")
         return render_template("console/login.html", form=form), 401
     return render_template("console/login.html", form=form)
@@ -108,7 +129,9 @@ def login():  # type: ignore[no-untyped-def]
 def logout():  # type: ignore[no-untyped-def]
     if not forms.ActionForm().validate_on_submit():
         abort(400)
+    end_sessions(get_session(), current_user.id)  # every cookie issued so far stops working
     logout_user()
+    cookie_session.clear()
     return redirect(url_for("console.login"))
 
 
@@ -209,6 +232,7 @@ def participant(code: str) -> str:
     found = _participant(code)
     session = get_session()
     state, status = session_state(session, found.id), study_status(session, found)
+    pilot = is_pilot(session, found)
     actions = session.scalars(
         select(ConsoleAction)
         .where(ConsoleAction.participant_id == found.id)
@@ -217,11 +241,12 @@ def participant(code: str) -> str:
     return render_template(
         "console/participant.html",
         participant=found,
+        pilot=pilot,
         link=participant_link(found),
         state=state,
         status=status,
         enrolment=current_enrolment(session, found.id),
-        offered=available_actions(state, status, found.is_pilot),
+        offered=available_actions(state, status, pilot),
         action_labels=ACTION_LABELS,
         actions=actions,
         action_form=forms.ActionForm(),

@@ -15,7 +15,7 @@ from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
 from hcss.platform.live.runner import Runner
-from hcss.platform.models import AuditRecord, Base, Participant, Trial
+from hcss.platform.models import AuditRecord, Base, DeletionPermit, Participant, Trial
 
 
 class WithdrawalError(ValueError):
@@ -104,8 +104,14 @@ def _delete_all(
     owned = {t.name for t in tables}
     with database.session_scope() as session:
         counts = participant_row_counts(session, participant_id)
+        # The append-only triggers let a DELETE through only while this transaction holds
+        # a permit (hcss.platform.models.append_only); it is gone again before the commit.
+        permit = DeletionPermit(reason="withdrawal")
+        session.add(permit)
+        session.flush()
         for table in tables:  # children first, so no foreign key is left dangling
             session.execute(delete(table).where(_belongs(table, participant_id, owned)))
+        session.execute(delete(DeletionPermit).where(DeletionPermit.id == permit.id))
         session.add(
             AuditRecord(
                 action="withdrawal",

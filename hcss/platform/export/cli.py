@@ -41,3 +41,10 @@ def export(outdir: Path, replace: bool, database_url: str | None) -> None:
     participants = counts.get("participants", 0)
     decisions = counts.get("decisions", 0)
     click.echo(f"exported {participants} participants, {decisions} decisions to {outdir}")
+    problems = counts.get("export_problems", 0)
+    if problems:
+        click.echo(
+            f"warning: {problems} record(s) could not be read and were skipped; "
+            f"see {outdir / 'export_problems.csv'}",
+            err=True,
+        )

@@ -15,17 +15,20 @@ from typing import Any
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
+from hcss.platform.export.problems import ProblemLog
 from hcss.platform.live.queries import observation_actions
 from hcss.platform.models import (
     Command,
     CommandOutcome,
     DecisionRow,
+    Interruption,
     Probe,
     ProbeEvent,
     Trial,
 )
+from hcss.platform.naming import collective_name
 from hcss.simulation import DECISION_COLUMNS
-from hcss.simulation.params import ROMAN
+from hcss.simulation.params import Params
 
 Row = dict[str, Any]
 
@@ -38,7 +41,8 @@ def iso(moment: datetime | None) -> str | None:
 
 
 def roman(collective: int | None) -> str | None:
-    return None if collective is None else ROMAN[collective]
+    """The collective's numeral; Uninterpretable for an index no trial has."""
+    return collective_name(collective)
 
 
 def _keys(trial: Trial, code: str, sim_time: float, wall: datetime) -> Row:
@@ -51,18 +55,21 @@ def _keys(trial: Trial, code: str, sim_time: float, wall: datetime) -> Row:
     }
 
 
-def decision_rows(session: Session, trial: Trial, code: str) -> list[Row]:
+def decision_rows(session: Session, trial: Trial, code: str, problems: ProblemLog) -> list[Row]:
     rows = []
     for stored in session.scalars(
         select(DecisionRow).where(DecisionRow.trial_id == trial.id).order_by(DecisionRow.id)
     ):
-        row = {column: stored.record.get(column) for column in DECISION_COLUMNS}
-        row.update(source="study", participant=code, trial_id=str(trial.id), run=0)
-        rows.append(row)
+        with problems.guard(
+            "decisions", f"decision {stored.id}", participant=code, trial_id=trial.id
+        ):
+            row = {column: stored.record.get(column) for column in DECISION_COLUMNS}
+            row.update(source="study", participant=code, trial_id=str(trial.id), run=0)
+            rows.append(row)
     return rows
 
 
-def request_rows(session: Session, trial: Trial, code: str) -> list[Row]:
+def request_rows(session: Session, trial: Trial, code: str, problems: ProblemLog) -> list[Row]:
     """Every request, accepted or refused, with the context logged when it was made."""
     rows = []
     for command, outcome in session.execute(
@@ -71,38 +78,48 @@ def request_rows(session: Session, trial: Trial, code: str) -> list[Row]:
         .where(Command.trial_id == trial.id)
         .order_by(Command.id)
     ):
-        rows.append(
-            {
-                **_keys(trial, code, command.sim_time, command.created_at),
-                "request_id": None if outcome is None else outcome.request_id,
-                "kind": command.kind,
-                "collective": roman(command.collective),
-                "target": command.target,
-                "accepted": None if outcome is None else outcome.accepted,
-                "reason": None if outcome is None or outcome.accepted else outcome.reason,
-                "support": command.support,
-                "intervention": None if outcome is None else outcome.intervention,
-                "decision_index": command.decision_index,
-            }
-        )
+        with problems.guard(
+            "requests", f"command {command.id}", participant=code, trial_id=trial.id
+        ):
+            rows.append(_request_row(trial, code, command, outcome))
     return rows
 
 
-def observation_rows(session: Session, trial: Trial, code: str) -> list[Row]:
+def _request_row(trial: Trial, code: str, command: Command, outcome: CommandOutcome | None) -> Row:
+    return {
+        **_keys(trial, code, command.sim_time, command.created_at),
+        "request_id": None if outcome is None else outcome.request_id,
+        "kind": command.kind,
+        "collective": roman(command.collective),
+        "target": command.target,
+        "accepted": None if outcome is None else outcome.accepted,
+        "reason": None if outcome is None or outcome.accepted else outcome.reason,
+        "support": command.support,
+        "intervention": None if outcome is None else outcome.intervention,
+        "decision_index": command.decision_index,
+    }
+
+
+def observation_rows(session: Session, trial: Trial, code: str, problems: ProblemLog) -> list[Row]:
     """Observation actions only: clicks that filled a committed request are part of it."""
-    return [
-        {
-            **_keys(trial, code, click.sim_time, click.created_at),
-            "kind": click.kind,
-            "collective": roman(click.collective),
-            "target": click.target,
-            "button": click.button,
-        }
-        for click in observation_actions(session, trial.id)
-    ]
+    rows = []
+    for click in observation_actions(session, trial.id):
+        with problems.guard(
+            "observations", f"observation {click.id}", participant=code, trial_id=trial.id
+        ):
+            rows.append(
+                {
+                    **_keys(trial, code, click.sim_time, click.created_at),
+                    "kind": click.kind,
+                    "collective": roman(click.collective),
+                    "target": click.target,
+                    "button": click.button,
+                }
+            )
+    return rows
 
 
-def probe_rows(session: Session, trial: Trial, code: str) -> list[Row]:
+def probe_rows(session: Session, trial: Trial, code: str, problems: ProblemLog) -> list[Row]:
     probes = list(
         session.scalars(select(Probe).where(Probe.trial_id == trial.id).order_by(Probe.id))
     )
@@ -133,6 +150,36 @@ def _probe_row(trial: Trial, code: str, probe: Probe, events: Iterable[ProbeEven
         "correct": None if scored is None else scored.correct,
         "timed_out": answer is None and "timeout" in first,
     }
+
+
+def interruption_rows(session: Session, trial: Trial, code: str, problems: ProblemLog) -> list[Row]:
+    """Server restarts that found the trial live (training and main trials alike)."""
+    rows = []
+    for stopped in session.scalars(
+        select(Interruption).where(Interruption.trial_id == trial.id).order_by(Interruption.id)
+    ):
+        with problems.guard(
+            "interruptions", f"interruption {stopped.id}", participant=code, trial_id=trial.id
+        ):
+            rows.append(
+                {
+                    "participant": code,
+                    "trial_id": str(trial.id),
+                    "trial_kind": trial.kind,
+                    "model": trial.model,
+                    "last_seen_at": iso(stopped.last_seen_at),
+                    "resumed_at": iso(stopped.created_at),
+                    "outage_s": float(stopped.outage_s),
+                    "resumed_step": stopped.resumed_step,
+                    "resumed_sim_time_s": stopped.resumed_step * _dt(trial),
+                    "replayed_commands": stopped.replayed_commands,
+                }
+            )
+    return rows
+
+
+def _dt(trial: Trial) -> float:
+    return float((trial.params or {}).get("dt_s", Params().dt_s))
 
 
 TRIAL_ROW_BUILDERS = {

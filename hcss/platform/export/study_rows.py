@@ -26,6 +26,7 @@ from hcss.platform.models import (
     StudyEnrolment,
     Trial,
 )
+from hcss.platform.pilots import is_pilot
 from hcss.platform.study.enrolment import participant_status
 
 Row = dict[str, Any]
@@ -67,7 +68,7 @@ def participant_rows(session: Session, participants: list[Participant]) -> list[
         row.update(
             participant=participant.code,
             model_order=model_order(session, participant) or None,
-            is_pilot=participant.is_pilot,
+            is_pilot=is_pilot(session, participant),
             is_bot=participant.is_bot,
             is_demo=participant.is_demo,
         )

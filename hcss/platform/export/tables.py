@@ -123,7 +123,29 @@ TABLES: dict[str, tuple[tuple[str, str], ...]] = {
         ("submitted_at", "str"),
         ("timed_out", "bool"),
     ),
+    "interruptions": (
+        ("participant", "str"),
+        ("trial_id", "str"),
+        ("trial_kind", "str"),
+        ("model", "str"),
+        ("last_seen_at", "str"),
+        ("resumed_at", "str"),
+        ("outage_s", "float"),
+        ("resumed_step", "int"),
+        ("resumed_sim_time_s", "float"),
+        ("replayed_commands", "int"),
+    ),
+    "export_problems": (
+        ("participant", "str"),
+        ("trial_id", "str"),
+        ("table", "str"),
+        ("record", "str"),
+        ("problem", "str"),
+    ),
 }
+
+#: Records the export could not read; see hcss.platform.export.problems.
+PROBLEMS_TABLE = "export_problems"
 
 #: Tables of what happens inside a trial; training trials get their own copies.
 TRIAL_TABLES = ("decisions", "requests", "observations", "probes")

@@ -20,10 +20,11 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from hcss.platform.config import PROJECT_ROOT
+from hcss.platform.export.problems import ProblemLog
 from hcss.platform.export.recruitment_rows import recruitment_rows
-from hcss.platform.export.rows import TRIAL_ROW_BUILDERS
+from hcss.platform.export.rows import TRIAL_ROW_BUILDERS, interruption_rows
 from hcss.platform.export.study_rows import participant_rows, study_flow_rows
-from hcss.platform.export.tables import TABLES, TRIAL_TABLES, columns
+from hcss.platform.export.tables import PROBLEMS_TABLE, TABLES, TRIAL_TABLES, columns
 from hcss.platform.models import Participant, Trial
 
 DICTIONARY = PROJECT_ROOT / "docs" / "data-dictionary.md"
@@ -48,20 +49,61 @@ class ExportError(ValueError):
 
 
 def collect(session: Session) -> dict[str, list[dict[str, Any]]]:
-    """Every table's rows, keyed by file name relative to the export directory."""
+    """Every table's rows, keyed by file name relative to the export directory.
+
+    Total: a record that cannot be read is skipped and listed in
+    `export_problems` (see `hcss.platform.export.problems`), so one bad row
+    never stops the export of any other.
+    """
+    problems = ProblemLog()
     participants = list(session.scalars(select(Participant).order_by(Participant.id)))
     codes = {p.id: p.code for p in participants}
     tables: dict[str, list[dict[str, Any]]] = defaultdict(list)
-    tables["participants"] = participant_rows(session, participants)
-    tables.update(study_flow_rows(session, participants))
-    tables["recruitment"] = recruitment_rows(session)
+    for table, rows in _participant_tables(session, participants, problems).items():
+        tables[table].extend(rows)
+    with problems.guard("recruitment", "recruitment table"):
+        tables["recruitment"] = recruitment_rows(session)
     for trial in session.scalars(select(Trial).order_by(Trial.id)):
         prefix = f"{TRAINING_DIR}/" if trial.kind == "training" else ""
+        code = codes.get(trial.participant_id)
         for table, build in TRIAL_ROW_BUILDERS.items():
-            tables[prefix + table].extend(build(session, trial, codes[trial.participant_id]))
+            with problems.guard(table, f"trial {trial.id}", participant=code, trial_id=trial.id):
+                tables[prefix + table].extend(build(session, trial, code, problems))
+        with problems.guard(
+            "interruptions", f"trial {trial.id}", participant=code, trial_id=trial.id
+        ):
+            tables["interruptions"].extend(interruption_rows(session, trial, code, problems))
+    for name in list(tables):
+        table = name.rsplit("/", 1)[-1]
+        tables[name] = problems.typed(table, TABLES[table], tables[name])
+    tables[PROBLEMS_TABLE] = problems.rows
     for table in (*TABLES, *(f"{TRAINING_DIR}/{t}" for t in TRIAL_TABLES)):
         tables.setdefault(table, [])
     return dict(tables)
+
+
+def _participant_tables(
+    session: Session, participants: list[Participant], problems: ProblemLog
+) -> dict[str, list[dict[str, Any]]]:
+    """The per-participant tables in one pass; participant by participant if that fails."""
+    try:
+        return {
+            "participants": participant_rows(session, participants),
+            **study_flow_rows(session, participants),
+        }
+    except Exception:  # noqa: BLE001 - find the participant whose records cannot be read
+        tables: dict[str, list[dict[str, Any]]] = defaultdict(list)
+        for participant in participants:
+            with problems.guard(
+                "participants", f"participant {participant.id}", participant=participant.code
+            ):
+                one = {
+                    "participants": participant_rows(session, [participant]),
+                    **study_flow_rows(session, [participant]),
+                }
+                for table, rows in one.items():
+                    tables[table].extend(rows)
+        return tables
 
 
 def _csv_cell(value: Any) -> Any:

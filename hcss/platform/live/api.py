@@ -8,25 +8,42 @@ meta tag) and idempotent when it carries an Idempotency-Key header
 
 from __future__ import annotations
 
+import re
 from typing import Any
 
 from flask import Blueprint, Response, current_app, jsonify, request
-from sqlalchemy import select
 
 from hcss.platform.db import database, get_session
-from hcss.platform.live import actions
+from hcss.platform.live import actions, validation
 from hcss.platform.live.access import runner, trial_for
 from hcss.platform.live.idempotency import idempotent
 from hcss.platform.live.session import LiveTrial
 from hcss.platform.live.stream import ended_stream, event_stream
-from hcss.platform.models import COMMAND_KINDS, Observation
+from hcss.platform.live.streams import RETRY_AFTER_S, StreamSlots
+
+_POSITION = re.compile(r"[0-9]{1,18}")
 
 bp = Blueprint("api", __name__, url_prefix="/api/live/<token>/trials/<int:trial_id>")
 
 
 @bp.errorhandler(actions.ActionError)
 def _action_error(error: actions.ActionError):  # type: ignore[no-untyped-def]
-    return jsonify(error=error.code, message=error.message), error.status
+    response = jsonify(error=error.code, message=error.message)
+    if error.status == 503:
+        response.headers["Retry-After"] = str(RETRY_AFTER_S)
+    return response, error.status
+
+
+def stream_slots() -> StreamSlots:
+    """The app's stream allowance (made on first use from MAX_STREAMS, STREAMS_PER_TOKEN)."""
+    slots = current_app.extensions.get("hcss_streams")
+    if slots is None:
+        config = current_app.config
+        slots = current_app.extensions.setdefault(
+            "hcss_streams",
+            StreamSlots(config.get("MAX_STREAMS"), int(config.get("STREAMS_PER_TOKEN", 1))),
+        )
+    return slots
 
 
 def _live(token: str, trial_id: int) -> LiveTrial:
@@ -44,13 +61,13 @@ def _body() -> dict[str, Any]:
     return body
 
 
-def _int_field(body: dict[str, Any], name: str, *, required: bool = True) -> int | None:
-    value = body.get(name)
-    if value is None and not required:
-        return None
-    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
-        raise actions.ActionError(f"'{name}' must be a non-negative integer")
-    return value
+def stream_position(text: str) -> int:
+    """The message number a reconnecting stream resumes after; 0 for anything but a plain number.
+
+    ``str.isdigit`` accepts "²" and 5,000-digit strings, which ``int`` then
+    refuses; a position is at most 18 ASCII digits.
+    """
+    return int(text) if _POSITION.fullmatch(text) else 0
 
 
 @bp.get("/stream")
@@ -59,17 +76,31 @@ def stream(token: str, trial_id: int) -> Response:
     live = runner().get(trial.id)
     headers = {"Cache-Control": "no-cache", "X-Accel-Buffering": "no"}
     if live is None:
-        body = ended_stream(trial.id, trial.duration_s)
-    else:
-        last = request.headers.get("Last-Event-ID", request.args.get("after", "0"))
-        body = event_stream(
-            live,
-            after_seq=int(last) if last.isdigit() else 0,
-            interval_s=float(current_app.config["STREAM_INTERVAL_S"]),
-            max_s=float(current_app.config["STREAM_MAX_S"]),
-            clock=runner().clock,
+        return Response(
+            ended_stream(trial.id, trial.duration_s), mimetype="text/event-stream", headers=headers
         )
-    return Response(body, mimetype="text/event-stream", headers=headers)
+    slots = stream_slots()
+    ticket = slots.acquire(token)
+    if ticket is None:
+        raise actions.ActionError(
+            "the server has as many live streams as it can hold; retrying shortly",
+            503,
+            "busy",
+        )
+    with live.changed:
+        live.changed.notify_all()  # an older stream of this link wakes up and hands over
+    last = request.headers.get("Last-Event-ID", request.args.get("after", "0"))
+    body = event_stream(
+        live,
+        after_seq=stream_position(last),
+        interval_s=float(current_app.config["STREAM_INTERVAL_S"]),
+        max_s=float(current_app.config["STREAM_MAX_S"]),
+        clock=runner().clock,
+        superseded=lambda: slots.superseded(ticket),
+    )
+    response = Response(body, mimetype="text/event-stream", headers=headers)
+    response.call_on_close(lambda: slots.release(ticket))
+    return response
 
 
 @bp.get("/state")
@@ -85,39 +116,11 @@ def state(token: str, trial_id: int) -> Response:
 @idempotent
 def submit_request(token: str, trial_id: int):  # type: ignore[no-untyped-def]
     live = _live(token, trial_id)
-    body = _body()
-    kind = body.get("kind")
-    if kind not in COMMAND_KINDS:
-        raise actions.ActionError(f"'kind' must be one of {', '.join(COMMAND_KINDS)}")
-    if kind == "cancel":
-        request_input = actions.RequestInput(kind, request_id=_int_field(body, "request_id"))
-    else:
-        request_input = actions.RequestInput(
-            kind,
-            collective=_int_field(body, "collective"),
-            target=_int_field(body, "target"),
-            selections=_selections(body, trial_id),
-        )
+    request_input = validation.parse_request(
+        request.get_json(silent=True), live, get_session(), trial_id
+    )
     outcome = actions.submit_request(database(), live, request_input)
     return jsonify(outcome), 200
-
-
-def _selections(body: dict[str, Any], trial_id: int) -> tuple[int, ...]:
-    """Observation ids of the clicks that filled the form; they must be this trial's."""
-    ids = body.get("selections", [])
-    if not isinstance(ids, list) or any(isinstance(i, bool) or not isinstance(i, int) for i in ids):
-        raise actions.ActionError("'selections' must be a list of observation ids")
-    if ids:
-        found = set(
-            get_session().scalars(
-                select(Observation.id).where(
-                    Observation.id.in_(ids), Observation.trial_id == trial_id
-                )
-            )
-        )
-        if found != set(ids):
-            raise actions.ActionError("'selections' names observations of another trial")
-    return tuple(ids)
 
 
 @bp.post("/observations")
@@ -126,6 +129,7 @@ def observe(token: str, trial_id: int):  # type: ignore[no-untyped-def]
     live = _live(token, trial_id)
     body = _body()
     kind, button = body.get("kind"), body.get("button")
+    collectives, targets, _ = validation.trial_ranges(live)
     if kind not in ("collective", "target"):
         raise actions.ActionError("'kind' must be 'collective' or 'target'")
     if button not in ("left", "right"):
@@ -134,11 +138,19 @@ def observe(token: str, trial_id: int):  # type: ignore[no-untyped-def]
         database(),
         live,
         kind=kind,
-        collective=_int_field(body, "collective", required=kind == "collective"),
-        target=_int_field(body, "target", required=kind == "target"),
+        collective=_clicked(body, "collective", kind, collectives - 1, low=0),
+        target=_clicked(body, "target", kind, targets, low=1),
         button=button,
     )
     return jsonify(observation_id=observation_id), 201
+
+
+def _clicked(body: dict[str, Any], name: str, kind: str, high: int, *, low: int) -> int | None:
+    """The clicked collective or target: required for its own kind, optional otherwise."""
+    value = body.get(name)
+    if value is None and kind != name:
+        return None
+    return validation.bounded_int(value, name, low, high)
 
 
 @bp.post("/probes/<int:probe_id>/ready")

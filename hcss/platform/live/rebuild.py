@@ -2,7 +2,8 @@
 
 Deterministic replay makes the rebuild exact: restore the latest snapshot,
 apply each logged command at the step it was applied live, and step on to the
-step the wall clock says is due. A trial that had been running in some server
+step the wall clock says is due, not counting the outage itself
+(hcss.platform.live.outages: the trial clock stands still while the server is down). A trial that had been running in some server
 before (it has a snapshot) gets an `Interruption` row with the rebuilt
 state's digest.
 """
@@ -13,6 +14,12 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from hcss.platform.console.pauses import restore_pauses
+from hcss.platform.live.outages import (
+    earlier_outages_s,
+    last_reached_step,
+    last_seen,
+    stop_clock_for_outage,
+)
 from hcss.platform.live.probes import probe_plan
 from hcss.platform.live.recorder import record_progress, write_snapshot
 from hcss.platform.live.session import CurrentProbe, LiveTrial
@@ -27,7 +34,9 @@ from hcss.platform.models import (
     SimEvent,
     Snapshot,
     Trial,
+    TrialProblem,
 )
+from hcss.platform.naming import Uninterpretable, collective_name
 
 
 def load_trial(session: Session, trial: Trial, now: float) -> LiveTrial:
@@ -61,8 +70,14 @@ def load_trial(session: Session, trial: Trial, now: float) -> LiveTrial:
         probe_plan=probe_plan(trial.seed, trial.duration_s),
     )
     live.last_command_id = None if snapshot is None else snapshot.last_command_id
+    seen = last_seen(session, trial.id)  # before this rebuild writes anything
     restore_pauses(session, live)  # the experimenter's pauses stop the trial clock
+    live.paused_s += earlier_outages_s(session, trial.id)  # and so did earlier outages
     replayed = _replay_commands(session, live)
+    outage_s = 0.0
+    if snapshot is not None:  # it ran in a server that died: the outage stops its clock
+        reached = max(last_reached_step(session, trial.id), sim.step_count)
+        outage_s = stop_clock_for_outage(live, reached, now)
     due = live.due_step(now)
     if sim.step_count < due:
         sim.step(due - sim.step_count)
@@ -76,7 +91,8 @@ def load_trial(session: Session, trial: Trial, now: float) -> LiveTrial:
                 resumed_step=sim.step_count,
                 replayed_commands=replayed,
                 state_digest=sim.state_digest(),
-                last_seen_at=_last_seen(session, trial.id),
+                last_seen_at=seen,
+                outage_s=outage_s,
             )
         )
     write_snapshot(live, session, now)
@@ -152,12 +168,32 @@ def _restore_messages(session: Session, live: LiveTrial) -> None:
         .join(CommandOutcome, CommandOutcome.command_id == Command.id)
         .where(Command.trial_id == live.trial_id)
     )
-    events += [
-        (c.sim_time, c.id, "accepted", accepted_text(c, o.request_id))
-        if o.accepted
-        else (c.sim_time, c.id, "refusal", refusal_text(c, o.reason))
-        for c, o in outcomes
-    ]
+    for command, outcome in outcomes:
+        try:
+            events.append(
+                (
+                    command.sim_time,
+                    command.id,
+                    "accepted",
+                    accepted_text(command, outcome.request_id),
+                )
+                if outcome.accepted
+                else (
+                    command.sim_time,
+                    command.id,
+                    "refusal",
+                    refusal_text(command, outcome.reason),
+                )
+            )
+        except Uninterpretable as error:
+            session.add(
+                TrialProblem(
+                    trial_id=live.trial_id,
+                    source="rebuild",
+                    record=f"command {command.id}",
+                    problem=f"not shown in System Messages: {error}"[:300],
+                )
+            )
     for time, _id, kind, text in sorted(events):
         live.add_message(time, kind, text)
 
@@ -191,25 +227,16 @@ def _restore_probes(session: Session, live: LiveTrial) -> None:
             )
 
 
-def _last_seen(session: Session, trial_id: int):  # type: ignore[no-untyped-def]
-    candidates = [
-        session.scalar(select(func.max(model.created_at)).where(model.trial_id == trial_id))
-        for model in (Snapshot, Command, SimEvent)
-    ]
-    present = [c for c in candidates if c is not None]
-    return max(present) if present else None
-
-
 def _subject(command: Command) -> str:
-    from hcss.platform.live.probes import ROMAN
-
+    """What a command was about; Uninterpretable for a collective no trial has."""
     if command.kind == "cancel":
         return f"cancel of assignment {command.cancel_request_id}"
-    collective = ROMAN[command.collective] if command.collective is not None else "?"
+    collective = collective_name(command.collective) or "?"
     return f"{command.kind} by collective {collective} on target {command.target}"
 
 
 def refusal_text(command: Command, reason: str) -> str:
+    """The System Message of a refused command."""
     return f"Request refused ({_subject(command)}): {reason}"
 
 

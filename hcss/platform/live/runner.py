@@ -14,13 +14,14 @@ import time as wallclock
 from collections.abc import Callable
 
 from flask import Flask
+from sqlalchemy.exc import DBAPIError
 
 from hcss.platform.db import Database
 from hcss.platform.live.rebuild import load_trial
 from hcss.platform.live.recorder import end_trial, record_progress, write_snapshot
 from hcss.platform.live.session import LiveTrial
 from hcss.platform.live.trials import latest_status, running_trial_ids
-from hcss.platform.models import Trial
+from hcss.platform.models import Trial, TrialProblem, TrialStatusChange
 
 log = logging.getLogger(__name__)
 
@@ -56,13 +57,41 @@ class Runner:
             live = self.trials.get(trial_id)
             if live is not None:
                 return live
-            with self.database.session_scope() as session:
-                if latest_status(session, trial_id) != "running":
-                    return None
-                trial = session.get(Trial, trial_id)
-                live = load_trial(session, trial, self.clock())
+            try:
+                with self.database.session_scope() as session:
+                    if latest_status(session, trial_id) != "running":
+                        return None
+                    trial = session.get(Trial, trial_id)
+                    live = load_trial(session, trial, self.clock())
+            except DBAPIError:
+                raise  # the database is away: try again later, the trial is not at fault
+            except Exception as error:
+                log.exception("live trial %s cannot be rebuilt; ending it", trial_id)
+                self._give_up(trial_id, error)
+                return None
             self.trials[trial_id] = live
             return live
+
+    def _give_up(self, trial_id: int, error: Exception) -> None:
+        """End a trial whose records cannot be rebuilt, saying why, instead of failing forever.
+
+        Without this, every tick would retry and log a traceback, and the
+        participant's stream, state and stage page would fail until someone
+        edited the database. The ended status lets the study move on; the
+        `TrialProblem` row tells the analyst the trial stopped here and why.
+        """
+        with self.database.session_scope() as session:
+            session.add(
+                TrialProblem(
+                    trial_id=trial_id,
+                    source="rebuild",
+                    record=f"trial {trial_id}",
+                    problem=f"cannot be rebuilt: {type(error).__name__}: {error}"[:300],
+                )
+            )
+            session.add(
+                TrialStatusChange(trial_id=trial_id, status="ended", reason="rebuild_failed")
+            )
 
     def sync(self) -> None:
         """Load every running trial not yet in memory (after a restart, or from the CLI)."""

@@ -12,6 +12,7 @@ import time as wallclock
 from collections.abc import Callable, Iterator
 
 from hcss.platform.live.session import LiveTrial
+from hcss.platform.live.streams import takeover_frame
 
 MIN_GAP_S = 0.05  # at most 20 frames a second per stream, even under acceleration
 
@@ -23,8 +24,13 @@ def event_stream(
     interval_s: float,
     max_s: float,
     clock: Callable[[], float],
+    superseded: Callable[[], bool] = lambda: False,
 ) -> Iterator[str]:
-    """Frames until the trial ends or `max_s` passes (then the browser reconnects)."""
+    """Frames until the trial ends or `max_s` passes (then the browser reconnects).
+
+    When a newer stream of the same link takes over (`superseded`), this one
+    sends a ``takeover`` event and closes (see hcss.platform.live.streams).
+    """
     yield "retry: 1000\n\n"
     stop_at = wallclock.monotonic() + max_s
     sent_version = -1
@@ -33,6 +39,8 @@ def event_stream(
         with live.changed:
             if live.version == sent_version and not live.ended:
                 live.changed.wait(timeout=interval_s)
+            if superseded():
+                break
             text, after_seq = live.frame(clock(), after_seq)
             sent_version, ended = live.version, live.ended
         yield f"id: {after_seq}\ndata: {text}\n\n"
@@ -42,6 +50,7 @@ def event_stream(
         last_sent = wallclock.monotonic()
         if gap > 0:
             wallclock.sleep(gap)
+    yield takeover_frame()
 
 
 def ended_stream(trial_id: int, duration_s: float) -> Iterator[str]:

@@ -1,5 +1,6 @@
 """Every table of the platform; importing this package registers them all on `Base`."""
 
+from hcss.platform.models.append_only import APPEND_ONLY_TABLES, DeletionPermit
 from hcss.platform.models.base import Base, CreatedAt, UTCDateTime, utcnow
 from hcss.platform.models.console import AuditRecord, ConsoleAction, Experimenter
 from hcss.platform.models.idempotency import CommandKey
@@ -22,9 +23,17 @@ from hcss.platform.models.study import (
     StageEvent,
     StudyEnrolment,
 )
-from hcss.platform.models.trial import Interruption, Snapshot, Trial, TrialStatusChange
+from hcss.platform.models.trial import (
+    Interruption,
+    Snapshot,
+    Trial,
+    TrialProblem,
+    TrialStatusChange,
+)
 
 __all__ = [
+    "APPEND_ONLY_TABLES",
+    "DeletionPermit",
     "COMMAND_KINDS",
     "AuditRecord",
     "ConsoleAction",
@@ -51,6 +60,7 @@ __all__ = [
     "StageEvent",
     "StudyEnrolment",
     "Trial",
+    "TrialProblem",
     "TrialStatusChange",
     "UTCDateTime",
     "new_code",

@@ -38,6 +38,13 @@ class Experimenter(UserMixin, CreatedAt, Base):
     id: Mapped[int] = mapped_column(primary_key=True)
     username: Mapped[str] = mapped_column(String(64), unique=True)
     password_hash: Mapped[str] = mapped_column(String(256))
+    # Moves on at every sign-out; cookies of older generations stop working
+    # (hcss.platform.console.login_sessions).
+    login_generation: Mapped[int] = mapped_column(default=0)
+
+    def get_id(self) -> str:
+        """What Flask-Login puts in the session cookie: the account and its generation."""
+        return f"{self.id}.{self.login_generation}"
 
     def __repr__(self) -> str:
         return f"Experimenter({self.username!r})"

@@ -79,3 +79,22 @@ class Interruption(CreatedAt, Base):
     replayed_commands: Mapped[int]
     state_digest: Mapped[str] = mapped_column(String(128))  # at resumed_step
     last_seen_at: Mapped[datetime | None]  # newest row written before the interruption
+    # Wall seconds the trial clock stood still for the outage (hcss.platform.live.outages).
+    outage_s: Mapped[float] = mapped_column(default=0.0)
+
+
+class TrialProblem(CreatedAt, Base):
+    """A stored record a rebuild could not use, or a trial that could not be rebuilt at all.
+
+    The rebuild skips such a record (or, when the trial cannot be loaded,
+    ends it with reason ``rebuild_failed``) and writes this row, so one bad
+    row costs no other trial anything and the data say what happened.
+    """
+
+    __tablename__ = "trial_problem"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    trial_id: Mapped[int] = mapped_column(ForeignKey("trial.id"), index=True)
+    source: Mapped[str] = mapped_column(String(16))  # "rebuild"
+    record: Mapped[str] = mapped_column(String(64))  # e.g. "command 17", "trial 4"
+    problem: Mapped[str] = mapped_column(String(300))

@@ -15,7 +15,7 @@ from collections import Counter
 
 from flask import current_app, has_app_context
 from sqlalchemy import func, select, text
-from sqlalchemy.orm import Session
+from sqlalchemy.orm import Session, object_session
 
 from hcss.platform.models import (
     ConsentRecord,
@@ -24,6 +24,7 @@ from hcss.platform.models import (
     StageEvent,
     StudyEnrolment,
 )
+from hcss.platform.pilots import is_pilot
 from hcss.platform.study.studyfile import Study, load_study
 
 POOLS = ("real", "pilot", "bot", "demo")
@@ -37,7 +38,8 @@ def pool_of(participant: Participant) -> str:
         return "bot"
     if participant.is_demo:
         return "demo"
-    if participant.is_pilot:
+    session = object_session(participant)
+    if participant.is_pilot if session is None else is_pilot(session, participant):
         return "pilot"
     return "real"
 
@@ -155,15 +157,37 @@ def assign_cell(
     return enrolment
 
 
-def _one_assignment_at_a_time(session: Session) -> None:
-    """On PostgreSQL, two participants arriving at once must not both see the same counts.
+def first_enrolment(session: Session, participant: Participant) -> StudyEnrolment:
+    """The participant's enrolment, made on their first visit; one even for racing first visits.
 
-    A transaction-scoped advisory lock queues concurrent assignments until the
-    earlier one commits. SQLite serialises every write, so a race there can at
-    worst give two near-simultaneous arrivals the same least-filled cell.
+    Eight tabs opening one link at once all find no enrolment; each then
+    queues on the assignment lock and looks again, so only the first enrols
+    and the others read its row.
     """
-    if session.get_bind().dialect.name == "postgresql":
+    _one_assignment_at_a_time(session)
+    existing = current_enrolment(session, participant.id)
+    if existing is not None:
+        return existing
+    return assign_cell(session, participant)
+
+
+def _one_assignment_at_a_time(session: Session) -> None:
+    """Two participants arriving at once must not both see the same counts.
+
+    PostgreSQL: a transaction-scoped advisory lock queues concurrent
+    assignments until the earlier one commits. SQLite: a write statement that
+    changes nothing takes the database's write lock now (pysqlite begins the
+    transaction before it), instead of at the enrolment's INSERT after the
+    counts were read; the next arrival waits for this commit (busy timeout)
+    and then reads counts that include it. Without it, 48 simultaneous
+    arrivals filled the 8 cells 3/3/13/5/4/13/3/3. Both locks are held until
+    the request's transaction ends and may be taken again in it.
+    """
+    dialect = session.get_bind().dialect.name
+    if dialect == "postgresql":
         session.execute(text("SELECT pg_advisory_xact_lock(:key)"), {"key": ASSIGNMENT_LOCK})
+    elif dialect == "sqlite":
+        session.execute(text("UPDATE study_enrolment SET cell = cell WHERE 0 = 1"))
 
 
 def _check_reassignable(

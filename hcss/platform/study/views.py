@@ -21,7 +21,7 @@ from werkzeug.wrappers import Response
 from hcss.platform.console.sessions import session_state
 from hcss.platform.db import get_session
 from hcss.platform.models import Participant
-from hcss.platform.study.enrolment import assign_cell, current_enrolment
+from hcss.platform.study.enrolment import current_enrolment, first_enrolment
 from hcss.platform.study.flow import Flow, Position, study_now
 from hcss.platform.study.markdown import render_markdown
 from hcss.platform.study.stage import Refused
@@ -68,7 +68,7 @@ def _flow(token: str) -> Flow:
     participant = _participant(token)
     enrolment = current_enrolment(session, participant.id)
     if enrolment is None:
-        enrolment = assign_cell(session, participant)
+        enrolment = first_enrolment(session, participant)
     return Flow(session, participant, enrolment, study_now())
 
 
@@ -86,8 +86,26 @@ def enter(token: str) -> Response:
     return redirect(url_for("study.stage", token=token))
 
 
+#: A page load that lost a race (another tab recorded the same step first) looks again.
+RACE_RETRIES = 3
+
+
 @bp.get("/<token>/stage")
-def stage(token: str) -> Response | str:
+def stage(token: str) -> Response | str | tuple[str, int]:
+    """The current step; simultaneous loads (several tabs, a double click) see one step entered.
+
+    `StageEvent`'s unique constraint lets only one of them record the entry;
+    the others roll back and read the step it recorded, instead of a 500.
+    """
+    for _ in range(RACE_RETRIES):
+        try:
+            return _current_stage(token)
+        except IntegrityError:
+            get_session().rollback()
+    return _refused(token, "This page is being opened elsewhere; please reload it."), 409
+
+
+def _current_stage(token: str) -> Response | str:
     flow = _flow(token)
     held = _held(flow)
     if held is not None:

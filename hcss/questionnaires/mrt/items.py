@@ -15,11 +15,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from enum import StrEnum
-from functools import cache
 
 import numpy as np
 
 from hcss.questionnaires.mrt import shapes
+from hcss.questionnaires.mrt.once import built_once
 from hcss.questionnaires.mrt.render import figure_radius, figure_svg
 
 BANK_SEED = 1971
@@ -254,13 +254,16 @@ def build_bank(seed: int = BANK_SEED) -> tuple[tuple[MrtItem, ...], tuple[MrtIte
     return test_items, practice_items
 
 
-@cache
+@built_once
+def _bank() -> tuple[tuple[MrtItem, ...], tuple[MrtItem, ...]]:
+    return build_bank()
+
+
 def item_bank() -> tuple[MrtItem, ...]:
     """The 24 scored items, in presentation order (part 1 is items 1-12)."""
-    return build_bank()[0]
+    return _bank()[0]
 
 
-@cache
 def practice_items() -> tuple[MrtItem, ...]:
     """The practice items shown, with feedback, before part 1."""
-    return build_bank()[1]
+    return _bank()[1]

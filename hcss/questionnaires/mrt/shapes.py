@@ -22,6 +22,8 @@ from functools import cache
 
 import numpy as np
 
+from hcss.questionnaires.mrt.once import built_once
+
 CUBE_COUNT = 10
 ARM_COUNT = 4
 #: Arm lengths in cubes (corner cubes count in both arms). Two-cube stubs and
@@ -185,7 +187,7 @@ def _step_splits(total: int, parts: int) -> list[tuple[int, ...]]:
     ]
 
 
-@cache
+@built_once
 def figure_catalogue() -> tuple[ArmPath, ...]:
     """Every valid figure up to rotation, one chiral pair per entry, in a fixed order.
 

@@ -2,6 +2,11 @@
 // with filters that hide pilot, bot and demo participants (remembered in this browser).
 (function () {
   "use strict";
+  // A button that asks first (Abort): one delegated handler, since inline script is forbidden (CSP).
+  document.addEventListener("click", (event) => {
+    const button = event.target.closest && event.target.closest("button[data-confirm]");
+    if (button && !window.confirm(button.dataset.confirm)) event.preventDefault();
+  });
   const table = document.getElementById("progress");
   if (!table) return;
   const body = table.querySelector("tbody");
@@ -68,11 +73,7 @@
       button.type = "submit";
       button.dataset.action = action;
       button.textContent = labels[action];
-      if (action === "abort") {
-        button.addEventListener("click", (event) => {
-          if (!confirm("Abort this session?")) event.preventDefault();
-        });
-      }
+      if (action === "abort") button.dataset.confirm = "Abort this session?";
       form.append(button);
       td.append(form);
     }

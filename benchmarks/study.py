@@ -1,0 +1,41 @@
+"""Study load benchmark: N participant bots walk the whole demo study at once over HTTP.
+
+One waitress server in its own process (SQLite, WAL) runs the demo study at
+time acceleration 20; `hcss.platform.bot_http` walks N bots through every
+page, questionnaire, MRT part and live trial concurrently, as browsers
+would. Figures: bots completed and failed, answers >= 500, and the page and
+live-API latency percentiles. Loopback only; bounded in count and time.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from tempfile import TemporaryDirectory
+
+from hcss.platform.bot_http import percentile, run_http_bots
+from hcss.platform.cli import upgrade_database
+from hcss.platform.localserver import LocalServer
+
+BOT_COUNTS = (8, 24)
+ACCELERATION = 20.0
+TARGET_PAGE_P95_MS = 500.0
+
+
+def run() -> None:
+    with TemporaryDirectory() as tmp:
+        for count in BOT_COUNTS:
+            url = f"sqlite:///{Path(tmp) / f'study-{count}.sqlite3'}"
+            upgrade_database(url)
+            env = {"HCSS_STUDY": "demo", "HCSS_TIME_ACCELERATION": str(ACCELERATION)}
+            with LocalServer(
+                url, Path(tmp) / f"instance-{count}", threads=64, extra_env=env
+            ) as server:
+                figures = run_http_bots(server.url, url, "demo", count, concurrency=count)
+            ok = not figures.errors and percentile(figures.page_ms, 95) < TARGET_PAGE_P95_MS
+            print(f"    {figures.summary()}  {'ok' if ok else 'below target'}")
+            for error in figures.errors[:5]:
+                print(f"      failed: {error}")
+    print(
+        f"(5) study load: concurrent bots through the demo study over HTTP, "
+        f"page p95 target < {TARGET_PAGE_P95_MS:.0f} ms, 0 errors"
+    )

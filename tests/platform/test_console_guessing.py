@@ -1,0 +1,126 @@
+"""Issue 13 §5: the console resists guessing and stale sessions.
+
+Before: 400 wrong passwords all got a plain 401; a sign-out only deleted the
+browser's cookie (a copied one kept working); cookies had no SameSite, and
+no response carried a CSP, frame-ancestors or nosniff.
+"""
+
+from __future__ import annotations
+
+from sqlalchemy import select
+
+from hcss.platform.console.lockout import ACCOUNT_FAILURES, ADDRESS_FAILURES, LOCKOUT_S
+from hcss.platform.models import AuditRecord
+from tests.platform import console_support
+from tests.platform.conftest import FakeClock, csrf_token_of
+from tests.platform.console_support import PASSWORD, USERNAME
+
+console, experimenter = console_support.console, console_support.experimenter
+
+
+def _attempt(app, username: str, password: str, address: str = "10.0.0.1"):  # type: ignore[no-untyped-def]
+    client = app.test_client()
+    client.environ_base["REMOTE_ADDR"] = address
+    page = client.get("/console/login")
+    return client.post(
+        "/console/login",
+        data={
+            "csrf_token": csrf_token_of(page.get_data(as_text=True)),
+            "username": username,
+            "password": password,
+        },
+    )
+
+
+def _audits(app) -> list[AuditRecord]:  # type: ignore[no-untyped-def]
+    with app.extensions["hcss_db"].session_scope() as session:
+        return list(
+            session.scalars(select(AuditRecord).where(AuditRecord.action == "login_lockout"))
+        )
+
+
+def test_repeated_wrong_passwords_lock_the_account_and_the_lockout_is_audited(
+    app, experimenter
+) -> None:
+    from hcss.platform.console.lockout import LoginThrottle
+
+    clock = FakeClock(1000.0)
+    app.extensions["hcss_login_throttle"] = LoginThrottle(clock)
+    statuses = [_attempt(app, USERNAME, "wrong").status_code for _ in range(ACCOUNT_FAILURES)]
+    assert statuses == [401] * ACCOUNT_FAILURES
+
+    locked = _attempt(app, USERNAME, PASSWORD, address="10.9.9.9")  # right password, other address
+    assert locked.status_code == 429 and int(locked.headers["Retry-After"]) == LOCKOUT_S
+    assert "Too many failed sign-ins" in locked.get_data(as_text=True)
+    (audit,) = _audits(app)
+    assert audit.experimenter == USERNAME
+    assert (
+        audit.row_counts["scope"] == "account" and audit.row_counts["failures"] == ACCOUNT_FAILURES
+    )
+
+    clock.now += LOCKOUT_S + 1
+    assert _attempt(app, USERNAME, PASSWORD).status_code == 302  # the lockout ends
+
+
+def test_one_address_guessing_many_accounts_is_locked_out(app, experimenter) -> None:
+    statuses = [
+        _attempt(app, f"user{i}", "wrong", address="10.6.6.6").status_code
+        for i in range(ADDRESS_FAILURES)
+    ]
+    assert statuses == [401] * ADDRESS_FAILURES
+    assert _attempt(app, USERNAME, PASSWORD, address="10.6.6.6").status_code == 429
+    assert _attempt(app, USERNAME, PASSWORD, address="10.7.7.7").status_code == 302
+    assert [a.row_counts["scope"] for a in _audits(app)] == ["address"]
+
+
+def test_sign_out_ends_the_session_on_the_server(app, console) -> None:
+    cookie = console.client.get_cookie("session")
+    assert cookie is not None
+    assert console.get("/console/").status_code == 200
+    assert console.post("/console/logout").status_code == 302
+
+    stolen = app.test_client()
+    stolen.set_cookie("session", cookie.value)  # the cookie from before the sign-out
+    response = stolen.get("/console/")
+    assert response.status_code == 302 and "/console/login" in response.headers["Location"]
+    assert stolen.get("/console/progress.json").status_code in (302, 401)
+
+
+def test_cookies_are_samesite_lax_httponly_and_secure_when_configured(app, experimenter) -> None:
+    response = _attempt(app, USERNAME, PASSWORD)
+    header = response.headers["Set-Cookie"]
+    assert "SameSite=Lax" in header and "HttpOnly" in header and "Secure" not in header
+    app.config["SESSION_COOKIE_SECURE"] = True
+    assert "Secure" in _attempt(app, USERNAME, PASSWORD).headers["Set-Cookie"]
+
+
+def test_every_answer_carries_the_security_headers(app, make_trial, console) -> None:
+    trial = make_trial()
+    for response in (
+        trial.client.get(f"/live/{trial.token}"),
+        trial.client.get(f"{trial.api}/state"),
+        trial.client.get("/p/not-a-token"),
+        console.get("/console/"),
+        app.test_client().get("/console/login"),
+    ):
+        csp = response.headers["Content-Security-Policy"]
+        assert "frame-ancestors 'none'" in csp and "script-src 'self'" in csp
+        assert "unsafe-inline" not in csp
+        assert response.headers["X-Content-Type-Options"] == "nosniff"
+        assert response.headers["Referrer-Policy"] == "no-referrer"
+
+
+def test_pages_have_no_inline_script_or_handlers(app, make_trial, console) -> None:
+    """What the CSP forbids must not be on the pages (the browser tests run them too)."""
+    trial = make_trial()
+    code = console_support.code_of(app, trial.token)
+    for html in (
+        trial.client.get(f"/live/{trial.token}").get_data(as_text=True),
+        console.get("/console/").get_data(as_text=True),
+        console.get(f"/console/participants/{code}").get_data(as_text=True),
+        app.test_client().get("/console/login").get_data(as_text=True),
+    ):
+        lowered = html.lower()
+        assert "<script>" not in lowered and "<style" not in lowered
+        assert " onclick=" not in lowered and " onfocus=" not in lowered
+        assert " style=" not in lowered

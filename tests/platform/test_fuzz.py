@@ -1,0 +1,309 @@
+"""Property-based fuzzing of every route (issue 13 §2): no input gives a 5xx or a traceback.
+
+Hypothesis draws a route and fills its path, query, headers and body with
+what a hostile or clumsy client sends: the real token, trial and codes (so
+the request gets past the first check) mixed with huge and negative ids, NUL
+bytes, superscript digits, 5,000-digit numbers, JSON nested thousands deep,
+wrong types and random text. CSRF is off here (it is tested on its own in
+test_console_access and test_access) so the fuzz reaches the code behind it.
+
+`make test` runs a few hundred examples per route group on each database;
+`make fuzz` sets HCSS_FUZZ_EXAMPLES for a long run and prints the tally.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from collections import Counter
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from typing import Any
+from urllib.parse import quote
+
+import pytest
+from flask import Flask
+from flask.testing import FlaskClient
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from hcss.platform.app import create_app
+from hcss.platform.console.accounts import create_experimenter
+from hcss.platform.live.trials import start_trial
+from hcss.platform.models import Participant
+from tests.platform.conftest import FakeClock
+from tests.platform.console_support import sign_in
+
+EXAMPLES = int(os.environ.get("HCSS_FUZZ_EXAMPLES", "300"))
+TALLY_FILE = os.environ.get("HCSS_FUZZ_TALLY")  # `make fuzz` collects the counts here
+
+HUGE = [2**31 - 1, 2**31, 2**32, 2**53 + 1, 2**63 - 1, 2**63, 2**64, -(2**63) - 1, 10**40]
+NASTY_TEXT = [
+    "a\x00b",
+    "\x00",
+    "²",
+    "\u00b2\u00b3",
+    "9" * 5000,
+    "-1",
+    "1e9",
+    "%00",
+    "../",
+    "' OR 1=1 --",
+    "<script>",
+    "🐝",
+    "",
+]
+
+ints = st.one_of(st.integers(-5, 40), st.sampled_from(HUGE), st.integers())
+texts = st.one_of(st.sampled_from(NASTY_TEXT), st.text(max_size=40))
+scalars = st.one_of(st.none(), st.booleans(), ints, st.floats(), texts)
+json_values = st.recursive(
+    scalars, lambda inner: st.lists(inner, max_size=4) | st.dictionaries(texts, inner, max_size=4)
+)
+command_bodies = st.fixed_dictionaries(
+    {},
+    optional={
+        "kind": st.one_of(
+            st.sampled_from(["investigate", "abandon", "decide", "cancel", "collective", "target"]),
+            json_values,
+        ),
+        "collective": st.one_of(ints, json_values),
+        "target": st.one_of(ints, json_values),
+        "request_id": st.one_of(ints, json_values),
+        "selections": st.one_of(st.lists(ints, max_size=40), json_values),
+        "button": st.one_of(st.sampled_from(["left", "right"]), json_values),
+        "answer": st.one_of(texts, json_values),
+    },
+)
+
+
+@st.composite
+def deep_json(draw: st.DrawFn) -> str:
+    depth = draw(st.sampled_from([50, 999, 1000, 1001, 5000, 50000]))
+    opener, closer = draw(st.sampled_from([("[", "]"), ('{"a":', "}")]))
+    return opener * depth + ("1" if opener == "[" else "1") + closer * depth
+
+
+@dataclass
+class Target:
+    """The fuzzed app and the real names in it."""
+
+    app: Flask
+    participant: FlaskClient
+    console: FlaskClient
+    token: str
+    code: str
+    trial_id: int
+    tally: Counter[str] = field(default_factory=Counter)
+
+
+def _segment(draw: st.DrawFn, real: Any) -> str:
+    value = real if draw(st.integers(0, 9)) < 7 else draw(st.one_of(ints, texts))
+    return quote(str(value), safe="")
+
+
+@pytest.fixture
+def target(database_url: str) -> Iterator[Target]:
+    app = create_app(
+        {
+            "DATABASE_URL": database_url,
+            "SECRET_KEY": "fuzz-secret",
+            "LIVE_RUNNER": False,
+            "WTF_CSRF_ENABLED": False,
+            "STREAM_MAX_S": 0.0,  # one frame, then the stream closes
+            "STREAM_INTERVAL_S": 0.0,
+            "LOGIN_RATE_LIMIT": False,
+        }
+    )
+    app.extensions["hcss_db"].create_all()
+    app.extensions["hcss_runner"].clock = FakeClock(0.0)
+    with app.extensions["hcss_db"].session_scope() as session:
+        create_experimenter(session, "alice", "correct horse battery")
+        participant = Participant(is_bot=True)
+        session.add(participant)
+        session.flush()
+        trial = start_trial(session, participant, seed=2, time_acceleration=10.0)
+        token, code, trial_id = participant.token, participant.code, trial.id
+        app.extensions["hcss_runner"].clock.now = trial.started_at.timestamp() + 5.0
+    console = app.test_client()
+    assert sign_in(console, "alice", "correct horse battery").status_code == 302
+    fuzzed = Target(app, app.test_client(), console, token, code, trial_id)
+    yield fuzzed
+    if TALLY_FILE:
+        with open(TALLY_FILE, "a", encoding="utf-8") as handle:
+            for status, count in sorted(fuzzed.tally.items()):
+                handle.write(f"{status} {count}\n")
+    app.extensions["hcss_db"].engine.dispose()
+
+
+def _send(target: Target, client: FlaskClient, method: str, path: str, **options: Any) -> None:
+    """One request; it must not answer 5xx, and nothing may be logged as an error."""
+    response = client.open(path, method=method, **options)
+    body = response.get_data()  # runs a stream's generator too
+    target.tally[str(response.status_code)] += 1
+    assert response.status_code < 500, (method, path[:200], repr(options)[:300], body[:300])
+
+
+def _body_options(draw: st.DrawFn, *, form_fields: tuple[str, ...] = ()) -> dict[str, Any]:
+    """JSON mostly for the API, form fields mostly for pages; each sometimes gets the other."""
+    kinds = (
+        ["form", "form", "form", "json", "deep", "raw"]
+        if form_fields
+        else ["json", "json", "deep", "raw", "form"]
+    )
+    kind = draw(st.sampled_from(kinds))
+    if kind == "json":
+        return {"json": draw(st.one_of(command_bodies, json_values))}
+    if kind == "deep":
+        return {"data": draw(deep_json()), "content_type": "application/json"}
+    if kind == "raw":
+        return {
+            "data": draw(st.binary(max_size=200)),
+            "content_type": draw(st.sampled_from(["application/json", "text/plain", ""])),
+        }
+    names = form_fields or ("x",)
+    return {"data": draw(st.dictionaries(st.sampled_from(names) | texts, texts, max_size=4))}
+
+
+@st.composite
+def live_requests(draw: st.DrawFn, target: Target) -> tuple[str, str, dict[str, Any]]:
+    token = _segment(draw, target.token)
+    trial = _segment(draw, target.trial_id)
+    base = f"/api/live/{token}/trials/{trial}"
+    route = draw(
+        st.sampled_from(["stream", "state", "requests", "observations", "ready", "answer", "page"])
+    )
+    if route == "page":
+        return "GET", f"/live/{token}", {}
+    if route in ("stream", "state"):
+        after = quote(str(draw(st.one_of(ints, texts))), safe="")
+        headers = {}
+        if draw(st.booleans()):
+            header = draw(st.one_of(texts, st.just("\xb2"), st.just("9" * 5000)))
+            # Any bytes but line breaks (which end a header): UTF-8 read back as Latin-1.
+            header = header.encode("utf-8", "replace").decode("latin-1")
+            headers["Last-Event-ID"] = header.replace("\r", "").replace("\n", "")
+        return "GET", f"{base}/{route}?after={after}", {"headers": headers}
+    if route in ("ready", "answer"):
+        probe = _segment(draw, 1)
+        return "POST", f"{base}/probes/{probe}/{route}", _body_options(draw)
+    return "POST", f"{base}/{route}", _body_options(draw)
+
+
+@st.composite
+def study_requests(draw: st.DrawFn, target: Target) -> tuple[str, str, dict[str, Any]]:
+    token = _segment(draw, target.token)
+    route = draw(st.sampled_from(["enter", "stage", "submit", "home"]))
+    if route == "home":
+        return "GET", "/", {}
+    if route == "enter":
+        return "GET", f"/p/{token}", {}
+    if route == "stage":
+        return "GET", f"/p/{token}/stage", {}
+    index = _segment(draw, 0)
+    step = _segment(draw, draw(st.sampled_from(["form", "ready", "part_1", "page_1"])))
+    fields = ("decision", "age_band", "gender", "answer", "mental_demand", "submit")
+    return "POST", f"/p/{token}/stage/{index}/{step}", _body_options(draw, form_fields=fields)
+
+
+@st.composite
+def console_requests(draw: st.DrawFn, target: Target) -> tuple[str, str, dict[str, Any]]:
+    code = _segment(draw, target.code)
+    route = draw(
+        st.sampled_from(
+            [
+                "login_get",
+                "login",
+                "logout",
+                "index",
+                "progress",
+                "create",
+                "show",
+                "act",
+                "withdraw",
+                "export",
+            ]
+        )
+    )
+    if route == "login_get":
+        return "GET", f"/console/login?next={quote(draw(texts), safe='')}", {}
+    if route == "login":
+        return "POST", "/console/login", _body_options(draw, form_fields=("username", "password"))
+    if route == "logout":
+        return "POST", "/console/logout", {"headers": {"X-Logout": "anonymous"}}
+    if route == "index":
+        return "GET", "/console/", {}
+    if route == "progress":
+        return "GET", "/console/progress.json", {}
+    if route == "export":
+        return "GET", "/console/export.zip", {}
+    if route == "create":
+        return (
+            "POST",
+            "/console/participants",
+            _body_options(draw, form_fields=("count", "pilot", "cell")),
+        )
+    if route == "show":
+        return "GET", f"/console/participants/{code}", {}
+    if route == "withdraw":
+        return (
+            "POST",
+            f"/console/participants/{code}/withdraw",
+            _body_options(draw, form_fields=("confirm_code",)),
+        )
+    action = _segment(
+        draw, draw(st.sampled_from(["pause", "resume", "abort", "mark_pilot", "unmark_pilot"]))
+    )
+    return "POST", f"/console/participants/{code}/{action}", {}
+
+
+FUZZ_SETTINGS = settings(
+    max_examples=EXAMPLES,
+    deadline=None,
+    derandomize=EXAMPLES <= 300,  # the suite's run is repeatable; `make fuzz` explores
+    suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
+    database=None,
+)
+
+
+def _run(
+    target: Target, client: FlaskClient, request: tuple[str, str, dict[str, Any]], caplog
+) -> None:  # type: ignore[no-untyped-def]
+    method, path, options = request
+    caplog.clear()
+    with caplog.at_level(logging.ERROR):
+        _send(target, client, method, path, **options)
+    errors = [r for r in caplog.records if r.levelno >= logging.ERROR]
+    assert not errors, [r.getMessage()[:300] for r in errors][:3]
+
+
+@pytest.mark.slow
+def test_fuzz_live_api(target: Target, caplog) -> None:  # type: ignore[no-untyped-def]
+    @FUZZ_SETTINGS
+    @given(data=st.data())
+    def fuzz(data: st.DataObject) -> None:
+        _run(target, target.participant, data.draw(live_requests(target)), caplog)
+
+    fuzz()
+
+
+@pytest.mark.slow
+def test_fuzz_study_pages(target: Target, caplog) -> None:  # type: ignore[no-untyped-def]
+    @FUZZ_SETTINGS
+    @given(data=st.data())
+    def fuzz(data: st.DataObject) -> None:
+        _run(target, target.participant, data.draw(study_requests(target)), caplog)
+
+    fuzz()
+
+
+@pytest.mark.slow
+def test_fuzz_console(target: Target, caplog) -> None:  # type: ignore[no-untyped-def]
+    @FUZZ_SETTINGS
+    @given(data=st.data())
+    def fuzz(data: st.DataObject) -> None:
+        request = data.draw(console_requests(target))
+        signed_in = data.draw(st.booleans()) and request[1] != "/console/logout"
+        _run(target, target.console if signed_in else target.participant, request, caplog)
+
+    fuzz()

@@ -1,0 +1,145 @@
+"""Issue 13 §3: one participant cannot starve the server.
+
+One link's newest stream takes over (the older one gets a `takeover` event
+and closes); the server holds at most MAX_STREAMS streams (one more is a 503
+with Retry-After); the threads above that ceiling keep answering pages and
+the console. The last test drives a real waitress server over HTTP: before
+the fix, 70 streams of one token took every thread and page loads timed out.
+"""
+
+from __future__ import annotations
+
+import http.client
+import threading
+import time
+from urllib.parse import urlsplit
+
+import pytest
+
+from hcss.platform.cli import upgrade_database
+from hcss.platform.db import Database
+from hcss.platform.live.streams import StreamSlots
+from hcss.platform.live.trials import start_trial
+from hcss.platform.localserver import LocalServer
+from hcss.platform.models import Participant
+
+
+def _stream(trial):  # type: ignore[no-untyped-def]
+    response = trial.client.get(f"{trial.api}/stream", buffered=False)
+    assert response.status_code == 200
+    chunks = iter(response.response)
+    assert next(chunks).startswith(b"retry:")
+    assert b"data: {" in next(chunks)  # the first frame at once
+    return response, chunks
+
+
+def test_the_newest_stream_of_a_link_takes_over(app, make_trial) -> None:
+    trial = make_trial()
+    older, older_chunks = _stream(trial)
+    newer, newer_chunks = _stream(trial)
+
+    rest = b"".join(older_chunks)  # the older stream ends by itself
+
+    assert rest.endswith(b'event: takeover\ndata: {"reason": "another_tab"}\n\n')
+    assert b"event: takeover" not in next(newer_chunks)
+    older.close()
+    newer.close()
+    assert app.extensions["hcss_streams"].count == 0
+
+
+def test_the_server_refuses_a_stream_above_its_ceiling_with_retry_after(app, make_trial) -> None:
+    app.config["MAX_STREAMS"] = 2
+    first, second, third = make_trial(), make_trial(seed=3), make_trial(seed=4)
+    (older, older_chunks), (held, _) = _stream(first), _stream(second)
+
+    refused = third.client.get(f"{third.api}/stream")
+    assert refused.status_code == 503
+    assert refused.headers["Retry-After"] == "5" and refused.get_json()["error"] == "busy"
+    again, _ = _stream(first)  # a takeover replaces its own stream, so it is allowed
+    assert b"".join(older_chunks).endswith(b"\n\n")  # the replaced stream ends ...
+    older.close()  # ... and its thread is free
+    assert third.client.get(f"{third.api}/stream").status_code == 503  # still two open
+
+    held.close()  # the second participant leaves
+    admitted, _ = _stream(third)
+    for response in (again, admitted):
+        response.close()
+    assert app.extensions["hcss_streams"].count == 0
+
+
+def test_slots_count_takeovers_once() -> None:
+    slots = StreamSlots(max_streams=3, per_token=1)
+    tickets = [slots.acquire("a") for _ in range(70)]
+    assert all(tickets) and slots.count == 70  # until the superseded ones close
+    assert [slots.superseded(t) for t in tickets] == [True] * 69 + [False]
+    for ticket in tickets[:-1]:
+        slots.release(ticket)
+    assert slots.count == 1
+    assert slots.acquire("b") and slots.acquire("c")
+    assert slots.acquire("d") is None
+    assert slots.acquire("a") is not None  # "a" replaces its own stream
+
+
+def _open_stream(base: str, path: str, results: list, index: int) -> None:  # type: ignore[type-arg]
+    """A raw HTTP stream read for up to 8 s; records (status, saw takeover)."""
+    parts = urlsplit(base)
+    connection = http.client.HTTPConnection(parts.hostname, parts.port, timeout=30)
+    give_up = time.monotonic() + 8.0
+    try:
+        connection.request("GET", path)
+        response = connection.getresponse()
+        body = b""
+        while response.status == 200 and time.monotonic() < give_up:
+            chunk = response.read1(4096)
+            if not chunk:
+                break
+            body += chunk
+        results[index] = (response.status, b"event: takeover" in body)
+    except (OSError, http.client.HTTPException) as error:
+        results[index] = (0, repr(error))
+    finally:
+        connection.close()
+
+
+def _page_time(base: str, path: str) -> float:
+    parts = urlsplit(base)
+    started = time.perf_counter()
+    connection = http.client.HTTPConnection(parts.hostname, parts.port, timeout=10)
+    connection.request("GET", path)
+    status = connection.getresponse().status
+    connection.close()
+    assert status in (200, 302), (path, status)
+    return time.perf_counter() - started
+
+
+@pytest.mark.slow
+def test_seventy_streams_of_one_link_leave_the_console_answering(tmp_path) -> None:
+    url = f"sqlite:///{tmp_path / 'streams.sqlite3'}"
+    upgrade_database(url)
+    database = Database(url)
+    with database.session_scope() as session:
+        participant = Participant(is_bot=True)
+        session.add(participant)
+        session.flush()
+        trial = start_trial(session, participant, seed=2, duration_s=600.0)
+        path = f"/api/live/{participant.token}/trials/{trial.id}/stream"
+    database.engine.dispose()
+
+    with LocalServer(url, tmp_path / "instance", threads=32) as server:  # 16 for streams
+        results: list = [None] * 70
+        threads = [
+            threading.Thread(target=_open_stream, args=(server.url, path, results, i))
+            for i in range(70)
+        ]
+        for thread in threads:
+            thread.start()
+            time.sleep(0.01)
+        page_s = max(_page_time(server.url, p) for p in ("/console/login", "/", "/console/"))
+        for thread in threads:
+            thread.join(timeout=30)
+        log = server.log_path.read_text()
+
+    assert page_s < 2.0
+    assert sum(1 for r in results if r == (200, True)) >= 60, results  # all but the newest
+    assert all(r is not None and r[0] in (200, 503) for r in results), results
+    assert "Traceback" not in log
