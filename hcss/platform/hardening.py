@@ -9,7 +9,8 @@ answered here with a 4xx and no database work:
 - a NUL byte in the path, the query or a form field is a 400;
 - JSON nested too deeply is bad JSON (``get_json(silent=True)`` gives None);
 - a body over ``MAX_CONTENT_LENGTH`` is a 413 before it is read;
-- a JSON body to a page (not ``/api/``) is a 415: pages take forms.
+- a JSON body to a page (not ``/api/``, nor a view marked `takes_json`) is a 415:
+  pages take forms.
 
 Every answer also carries the security headers (CSP, frame-ancestors, nosniff).
 """
@@ -18,7 +19,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from flask import Flask, Response, abort, request
+from flask import Flask, Response, abort, current_app, request
 from flask.json.provider import DefaultJSONProvider
 from werkzeug.routing import IntegerConverter
 
@@ -44,9 +45,20 @@ class BoundedJSONProvider(DefaultJSONProvider):
             raise ValueError("JSON nested too deeply") from error
 
 
+def takes_json(view: Any) -> Any:
+    """Mark a view outside ``/api/`` that reads a JSON body itself (the page heartbeat)."""
+    view.takes_json = True
+    return view
+
+
 def _refuse_json_to_pages() -> None:
     """Pages take forms; Flask-WTF would read a JSON body as the form and fail on non-objects."""
-    if request.method == "POST" and request.is_json and not request.path.startswith("/api/"):
+    if request.method != "POST" or not request.is_json or request.path.startswith("/api/"):
+        return
+    if request.routing_exception is not None:
+        return  # no such page: its 404 or 405 says more than a 415
+    view = current_app.view_functions.get(request.endpoint or "")
+    if not getattr(view, "takes_json", False):
         abort(415, description="This page takes a form, not JSON.")
 
 

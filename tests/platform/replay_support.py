@@ -19,7 +19,10 @@ def operate(trial: Any, until_s: float, *, from_s: float = 0.0, every_s: float =
     while second + every_s < until_s:
         second += every_s
         trial.run_to(second)
-        frame = trial.state()
+        response = trial.client.get(trial.api + "/state")
+        if response.status_code == 409:  # the trial has ended (and left the runner)
+            break
+        frame = response.get_json()
         if frame["trial"]["status"] == "ended":
             break
         probe = frame["probe"]
@@ -29,7 +32,7 @@ def operate(trial: Any, until_s: float, *, from_s: float = 0.0, every_s: float =
             trial.post(f"/probes/{probe['id']}/answer", {"answer": choices[0]})
         commands = policy.commands(frame["view"])[:3]
         if int(second) % 20 == 0:
-            commands.append({"kind": "decide", "collective": 1, "target": 999})  # refused
+            commands.append({"kind": "decide", "collective": 1, "target": 16})  # refused (in range)
         for command in commands:
             assert trial.post("/requests", command).status_code == 200
             sent += 1

@@ -20,7 +20,7 @@ import time
 from pathlib import Path
 
 import pytest
-from sqlalchemy import select, update
+from sqlalchemy import select
 from waitress.server import create_server
 
 from hcss.platform.bots import ParticipantBot, bot_app
@@ -117,7 +117,6 @@ def test_console_batch_links_live_table_and_pause_resume(browser, console_app) -
 
     # The first link is handed to a bot; the table follows it through the study.
     with database.session_scope() as session:
-        session.execute(update(Participant).where(Participant.code == walker).values(is_bot=True))
         token = session.scalars(select(Participant.token).where(Participant.code == walker)).one()
     failures: list[BaseException] = []
 
@@ -146,12 +145,15 @@ def test_console_batch_links_live_table_and_pause_resume(browser, console_app) -
     expect(walker_row.locator("button[data-action]")).to_have_count(1)  # only Mark pilot
     expect(walker_row.locator('button[data-action="mark_pilot"]')).to_have_count(1)
 
-    # Filters: hiding bots hides the walker's row, and only it.
-    page.check("#hide-bot")
+    # The experimenter marks the walker as a pilot (an event: participants are append-only);
+    # hiding pilots then hides the walker's row, and only it.
+    walker_row.locator('button[data-action="mark_pilot"]').click()
+    expect(walker_row.locator('button[data-action="unmark_pilot"]')).to_have_count(1)
+    page.check("#hide-pilot")
     expect(walker_row).to_be_hidden()
     expect(_row(page, visitor)).to_be_visible()
     expect(page.locator("#shown-count")).to_have_text("showing 2 of 3")
-    page.uncheck("#hide-bot")
+    page.uncheck("#hide-pilot")
     expect(walker_row).to_be_visible()
 
     # Pause the visitor from the table: Resume replaces Pause, and their page is held.

@@ -17,6 +17,7 @@ from __future__ import annotations
 import csv
 import os
 import shutil
+import time
 from pathlib import Path
 from urllib.parse import urlencode
 
@@ -144,7 +145,11 @@ def test_a_finished_trial_replays_at_20x_to_the_recorded_digest(
         page.locator("#replay-play").click()
         expect(replay).to_have_attribute("data-state", "playing")
         # Midway: pause for the screenshot, then play on to the end.
-        page.wait_for_function("Number(document.getElementById('replay').dataset.step) >= 60")
+        # Polled from Python: the page's CSP forbids the eval behind wait_for_function.
+        deadline = time.monotonic() + 30
+        while int(replay.get_attribute("data-step") or 0) < 60:
+            assert time.monotonic() < deadline, "the replay did not reach step 60"
+            page.wait_for_timeout(50)
         page.locator("#replay-play").click()
         expect(replay).to_have_attribute("data-state", "paused")
         expect(page.locator("#messages li").first).to_be_visible()

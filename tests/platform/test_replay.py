@@ -42,8 +42,9 @@ def test_a_finished_trial_replays_to_the_recorded_end_state(app, make_trial, con
     trial = make_trial(seed=7, duration_s=180.0)
     sent = operate(trial, 90.0)
     # An interruption midway (the runner lets go and rebuilds from a snapshot) changes nothing.
+    # The outage stops the trial clock (hcss.platform.live.outages): it ends a little later.
     trial.runner.trials.pop(trial.trial_id)
-    sent += operate(trial, 180.0, from_s=90.0)
+    sent += operate(trial, 200.0, from_s=90.0)
     assert sent >= 10
     frames, last = _all_frames(console, trial.trial_id)
     assert last["ended"] and last["horizon"] == 180 and len(frames) == 181
@@ -71,7 +72,7 @@ def test_the_timeline_marks_requests_probe_answers_and_messages(app, make_trial,
     assert len(body["commands"]) == sent
     refused = [c for c in body["commands"] if c["accepted"] is False]
     assert refused and all(c["reason"] for c in refused)
-    assert any(c["reason"] == "There is no target 999." for c in refused)
+    assert any(c["label"] == "decide II → target 16" for c in refused)
     assert any(c["accepted"] for c in body["commands"])
     answered = [p for p in body["probes"] if not p["timed_out"]]
     assert answered and all(p["answer"] is not None and p["ready"] is not None for p in answered)
@@ -113,7 +114,9 @@ def test_the_participant_page_links_each_trial_to_its_replay(app, make_trial, co
 def test_bad_frame_requests_are_refused(app, make_trial, console, query: str) -> None:  # type: ignore[no-untyped-def]
     trial = make_trial(seed=3, duration_s=30.0)
     response = console.get(f"/console/trials/{trial.trial_id}/replay/frames?{query}")
-    assert response.status_code == 400 and response.get_json()["error"] == "bad_request"
+    assert response.status_code == 400
+    if "%00" not in query:  # a NUL byte is refused before the view (hcss.platform.hardening)
+        assert response.get_json()["error"] == "bad_request"
 
 
 def test_replay_is_for_signed_in_experimenters_only(app, make_trial, console) -> None:  # type: ignore[no-untyped-def]

@@ -28,6 +28,7 @@ from sqlalchemy.exc import SQLAlchemyError
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import get_session
+from hcss.platform.hardening import takes_json
 from hcss.platform.models import Participant, ParticipantPresence
 
 HEARTBEAT_EVERY_S = 10.0
@@ -97,6 +98,7 @@ def record_heartbeat(
 
 
 @bp.post("/<token>/heartbeat")
+@takes_json
 def heartbeat(token: str) -> Response:
     if not TOKEN.fullmatch(token):
         abort(404)
