@@ -222,7 +222,14 @@ class ParticipantBot:
                     fields[ranking.item_key(dimension.key, label)] = str(rank)
             return self.post_form(page, fields), True
         if stage == "mental_rotation" and page.mrt_item:
-            html = self.post_form(page, {"chosen": self.mrt_choice(page.mrt_item)})
+            try:
+                html = self.post_form(page, {"chosen": self.mrt_choice(page.mrt_item)})
+            except BotError as refusal:
+                # Over HTTP the part's time can run out under load (409, as for a slow
+                # participant); the server has moved on, and so does the bot.
+                if self.runner is not None or "answered 409" not in str(refusal):
+                    raise
+                html = self.get(f"/p/{self.token}/stage")[1]
             report.mrt_answers += page.hidden.get("action") == "answer"
             after = parse_page(html)
             done = (after.stage, after.step) != (stage, step)

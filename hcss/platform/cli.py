@@ -114,6 +114,9 @@ def serve(
         channel_timeout=3600,
         ident="hcss",
         max_request_body_size=int(app.config["MAX_CONTENT_LENGTH"]),
+        # Waitress accepts 100 connections by default: past ~90 open streams the
+        # rest were reset. Every thread's stream plus as many short requests.
+        connection_limit=2 * threads,
     )
 
 
