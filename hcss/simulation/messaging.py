@@ -69,7 +69,7 @@ def compose(world: World, params: Params, rng: np.random.Generator, model: str) 
     in_hub = world.leg == S.AT_HUB
     senders = np.flatnonzero(in_hub & S.SENDING[world.state])
     rate = np.full(senders.size, params.message_rate)
-    if model == "M2":
+    if params.m2_uses(model, "modulation"):
         favouring = world.state[senders] == S.F_I
         t = world.target[senders[favouring]]
         rate[favouring] *= frequency_modulation(

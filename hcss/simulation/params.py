@@ -18,6 +18,7 @@ DISCOVERY_READINGS = ("spatial", "per_agent")
 M2_DISTANCE_BOUNDS = ("site_distances", "search_space")
 M2_BEYOND_DMAX = ("guard", "clamp")
 FOREIGN_TARGETS = ("eligible", "own_only")
+M2_MECHANISMS = ("discovery_delay", "reassessment_delay", "modulation")
 
 
 @dataclass(frozen=True)
@@ -104,6 +105,10 @@ class Params:
     #   "own_only": only the targets placed around the collective's start hub
     #     (discovery, best target and difficulty all use only those).
     foreign_targets: str = "eligible"
+    # M2's mechanisms, all on by default. Removing one is an ablation for
+    # diagnosis (`hcss simulate fidelity`), never a setting of the study:
+    # "discovery_delay" (F_D), "reassessment_delay" (F_R), "modulation" (M_i).
+    m2_mechanisms: tuple[str, ...] = M2_MECHANISMS
 
     # --- quorum (spec §7) -------------------------------------------------
     quorum_k: int = 15
@@ -129,10 +134,19 @@ class Params:
                 raise ValueError(
                     f"{name} must be one of {', '.join(allowed)}, not {getattr(self, name)!r}"
                 )
+        unknown = set(self.m2_mechanisms) - set(M2_MECHANISMS)
+        if unknown:
+            raise ValueError(
+                f"m2_mechanisms must be among {', '.join(M2_MECHANISMS)}, not {sorted(unknown)}"
+            )
         if not self.sensing_radius_m > 0 or not self.message_rate > 0:
             raise ValueError("sensing_radius_m and message_rate must be positive")
 
     # --- derived quantities ----------------------------------------------
+    def m2_uses(self, model: str, mechanism: str) -> bool:
+        """Whether `model` runs one of M2's mechanisms (only M2 does; ablations remove them)."""
+        return model == "M2" and mechanism in self.m2_mechanisms
+
     @property
     def m2_d_min_m(self) -> float:
         """d_min of M2's delays and modulation, under the chosen reading."""
@@ -190,7 +204,7 @@ class Params:
     @classmethod
     def from_dict(cls, values: dict[str, object]) -> Params:
         known = {k: v for k, v in values.items() if k in cls.__dataclass_fields__}
-        for key in ("target_values", "target_distances_m"):
+        for key in ("target_values", "target_distances_m", "m2_mechanisms"):
             if key in known:
                 known[key] = tuple(known[key])  # JSON turns tuples into lists
         return cls(**known)

@@ -109,7 +109,7 @@ def adopt_on_discovery(
     world.estimate[adopters] = estimate[adopt]
     world.report_target[adopters] = targets[adopt]
     world.leg[adopters] = S.TO_HUB
-    world.arrival_state[adopters] = S.F_D if model == "M2" else S.F_I
+    world.arrival_state[adopters] = S.F_D if params.m2_uses(model, "discovery_delay") else S.F_I
 
 
 @dataclass(frozen=True)
@@ -185,7 +185,9 @@ def reach_target(
     world.report_target[fresh] = world.target[fresh]
     abandon = rng.random(fresh.size) < abandon_probability(world, fresh, params)
     world.arrival_state[fresh[abandon]] = S.U_I
-    world.arrival_state[fresh[~abandon]] = S.F_R if model == "M2" else S.F_I
+    world.arrival_state[fresh[~abandon]] = (
+        S.F_R if params.m2_uses(model, "reassessment_delay") else S.F_I
+    )
 
 
 def reach_hub(world: World, agents: np.ndarray) -> np.ndarray:
