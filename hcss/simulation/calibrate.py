@@ -184,8 +184,29 @@ def fit_message_rate(
         step = (math.log(target_min) - math.log(t1)) / slope
         r2 = float(np.clip(math.exp(math.log(r1) + step), r1 / 4, r1 * 4))
         r0, t0, r1, t1 = r1, t1, r2, measure(r2)
-    best = min(tried, key=lambda row: abs(math.log(row[1] / target_min)))
-    return RateFit(tried=tuple(tried), rate=round(best[0], 3), target_min=target_min)
+    return RateFit(
+        tried=tuple(tried), rate=interpolate_rate(tried, target_min), target_min=target_min
+    )
+
+
+def interpolate_rate(tried: list[tuple[float, float, float]], target_min: float) -> float:
+    """The rate where the line through the two measurements nearest the target meets it.
+
+    log(time) against log(r_msg) through the two (rate, minutes) points whose
+    times are closest to the target; the nearest point alone if the line is
+    flat or rising (noise), so the fit never leaves the measured region by much.
+    """
+    nearest = sorted(tried, key=lambda row: abs(math.log(row[1] / target_min)))
+    (ra, ta, _), *rest = nearest
+    if not rest:
+        return round(ra, 3)
+    rb, tb, _ = rest[0]
+    if ra == rb or math.log(tb / ta) / math.log(rb / ra) >= 0:
+        return round(ra, 3)
+    slope = math.log(tb / ta) / math.log(rb / ra)
+    rate = math.exp(math.log(ra) + math.log(target_min / ta) / slope)
+    low, high = min(r for r, _, _ in tried), max(r for r, _, _ in tried)
+    return round(float(np.clip(rate, low / 2, high * 2)), 3)
 
 
 def radius_table(fit: RadiusFit) -> str:

@@ -314,3 +314,35 @@ def fidelity(scenarios: int, runs: int, workers: int, ablations: bool, **reading
     click.echo("")
     click.echo(fid.claims_table(table))
     click.echo(f"\n{time.perf_counter() - started:.0f} s.")
+
+
+@simulate.command()
+@_reading_options
+@click.option(
+    "--runs",
+    type=click.IntRange(min=2, max=1000),
+    default=10,
+    show_default=True,
+    help="Chain and agent runs per layout and model.",
+)
+def meanfield(runs: int, **readings: object) -> None:
+    """The paper's equations beside the agent model on simple layouts (one collective).
+
+    ODEs (scipy), the stochastic N-agent chain and the agent model, each on
+    the easy and the difficult layout, for M1 and M2: best-site share and
+    decision time. The agent model uses the current params; the mean-field
+    model always discovers per agent (the paper's P_γ = v·g(d)).
+    """
+    from hcss.simulation import crosscheck
+
+    params = _params_with(**readings)
+    rows = [
+        crosscheck.compare(layout, model, params, runs)
+        for layout in crosscheck.LAYOUTS
+        for model in ("M1", "M2")
+    ]
+    click.echo(
+        f"discovery = {params.discovery}, m2_distance_bounds = {params.m2_distance_bounds}, "
+        f"r_msg = {params.message_rate:g}/s\n"
+    )
+    click.echo(crosscheck.comparison_table(rows))

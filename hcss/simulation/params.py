@@ -59,7 +59,7 @@ class Params:
     # [calibrated] r_msg, messages per second per sender. Fitted by `hcss simulate
     # calibrate` so that M1's mean decision time in the simulation-only
     # experiment is the study's published 2.46 min.
-    message_rate: float = 2.04
+    message_rate: float = 1.65
     abandon_alpha: float = 0.05  # [choice] "5% per metre", read per 100 m
     abandon_unit_m: float = 100.0
     neighbour_draws: int = 8  # [choice] rejection-sampling draws to find a neighbour
@@ -81,7 +81,7 @@ class Params:
     #     agent discovers each eligible in-range site at rate g(d_i) and adopts
     #     it with probability v̂; its flights stay spatial (it flies home from
     #     where it is).
-    discovery: str = "spatial"
+    discovery: str = "per_agent"
     # d_min and d_max of M2's delays and modulation. The paper: "the minimum and
     # maximum site distances (d_min and d_max) that define the collective's
     # search space", assuming every site distance is below d_max.
@@ -90,21 +90,21 @@ class Params:
     #   "search_space": d_max is the search space's bound, R (exploration_range_m);
     #     d_min stays site_d_min_m (the search space has no inner bound but the
     #     hub, and M_i's scale is the calibrated message rate's).
-    m2_distance_bounds: str = "site_distances"
+    m2_distance_bounds: str = "search_space"
     # A site at d ≥ d_max (another collective's target, or any site after the hub
     # moved). The paper assumes none exists ("all site distances are below d_max").
     #   "guard": spec §5: the delays are skipped (the state is left at once) and
     #     M_i = d/d_min grows without bound (up to 3.3 at 500 m).
     #   "clamp": d is clamped to [d_min, d_max] in the delays and in M_i: such a
     #     site is treated as one at d_max (no delay, M_i = d_max/d_min).
-    m2_beyond_dmax: str = "guard"
+    m2_beyond_dmax: str = "clamp"
     # Whether another collective's targets are eligible for a collective's
     # decisions. The paper's problem is one collective's search space with its
     # own sites; the study's shared arena puts neighbours' sites in range.
     #   "eligible": every active in-range target (spec §2).
     #   "own_only": only the targets placed around the collective's start hub
     #     (discovery, best target and difficulty all use only those).
-    foreign_targets: str = "eligible"
+    foreign_targets: str = "own_only"
     # M2's mechanisms, all on by default. Removing one is an ablation for
     # diagnosis (`hcss simulate fidelity`), never a setting of the study:
     # "discovery_delay" (F_D), "reassessment_delay" (F_R), "modulation" (M_i).

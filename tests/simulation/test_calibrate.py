@@ -58,6 +58,18 @@ def test_the_rate_fit_finds_the_rate_of_a_known_curve(monkeypatch: pytest.Monkey
     assert "| 1.000 |" in cal.rate_table(fit)
 
 
+def test_the_rate_is_interpolated_between_the_two_nearest_measurements() -> None:
+    """The P4 calibration's measurements: 2.33 min at 1.700/s, 2.57 at 1.616/s, 1.51 at 2.550/s.
+
+    By hand: slope = ln(2.57/2.33)/ln(1.616/1.700) = -1.933;
+    r = 1.700·exp(ln(2.46/2.33)/-1.933) = 1.653 (the line through 1.616 gives the same).
+    """
+    tried = [(1.7, 2.33, 0.08), (2.55, 1.51, 0.03), (1.616, 2.57, 0.08)]
+    assert cal.interpolate_rate(tried, 2.46) == pytest.approx(1.653, abs=0.002)
+    # A rising curve (noise) falls back to the nearest measurement.
+    assert cal.interpolate_rate([(1.0, 2.5, 0.1), (2.0, 2.6, 0.1)], 2.46) == 1.0
+
+
 @pytest.mark.parametrize(
     "args",
     [

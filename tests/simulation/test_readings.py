@@ -46,8 +46,9 @@ def test_search_space_bounds_move_d_max_to_the_range() -> None:
 
 def test_clamp_caps_modulation_at_d_max_and_guard_does_not() -> None:
     d = np.array([100.0, 150.0, 350.0, 500.0])
-    guard = Params().with_changes(m2_beyond_dmax="guard")
-    clamp = Params().with_changes(m2_beyond_dmax="clamp")
+    site = Params().with_changes(m2_distance_bounds="site_distances")
+    guard = site.with_changes(m2_beyond_dmax="guard")
+    clamp = site.with_changes(m2_beyond_dmax="clamp")
     assert frequency_modulation(d, guard) == pytest.approx(d / 150.0)
     assert frequency_modulation(d, clamp) == pytest.approx([1.0, 1.0, 350 / 150, 350 / 150])
     # Beyond d_max both readings skip the delays (gap ≤ 0 means leave at once).
@@ -56,7 +57,7 @@ def test_clamp_caps_modulation_at_d_max_and_guard_does_not() -> None:
 
 
 def test_own_only_excludes_foreign_targets_from_discovery_and_best_choice() -> None:
-    eligible = make_sim("M1")
+    eligible = make_sim("M1", foreign_targets="eligible")
     own = make_sim("M1", foreign_targets="own_only")
     w = own.world
     for c in range(w.n_collectives):
