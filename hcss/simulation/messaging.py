@@ -69,7 +69,7 @@ def compose(world: World, params: Params, rng: np.random.Generator, model: str) 
     in_hub = world.leg == S.AT_HUB
     senders = np.flatnonzero(in_hub & S.SENDING[world.state])
     rate = np.full(senders.size, params.message_rate)
-    if model == "M2":
+    if params.m2_uses(model, "modulation"):
         favouring = world.state[senders] == S.F_I
         t = world.target[senders[favouring]]
         rate[favouring] *= frequency_modulation(
@@ -95,8 +95,11 @@ def compose(world: World, params: Params, rng: np.random.Generator, model: str) 
 
 
 def frequency_modulation(distance_m: np.ndarray, params: Params) -> np.ndarray:
-    """M2's M_i = d_i / d_min: farther targets recruit and inhibit more often."""
-    return distance_m / params.site_d_min_m
+    """M2's M_i = d_i / d_min: farther targets recruit and inhibit more often.
+
+    d_min and the treatment of sites beyond d_max follow the chosen reading.
+    """
+    return params.m2_distance(distance_m) / params.m2_d_min_m
 
 
 def hub_area(world: World) -> np.ndarray:

@@ -33,9 +33,15 @@ def assess(
 def discovery(world: World, params: Params, rng: np.random.Generator, model: str) -> None:
     """U_L → F_L(i): an explorer within the sensing radius of target i adopts it with probability v̂.
 
-    Only active targets in range of the agent's hub, not reserved by another
-    collective and not under a standing abandon order count.
+    Only targets eligible for the agent's collective count (`discoverable`).
+    Under the per-agent reading (`params.discovery == "per_agent"`) explorers
+    find sites at the paper's rate g(d) instead of by encounter.
     """
+    if params.discovery == "per_agent":
+        from hcss.simulation.discovery import discover_per_agent
+
+        discover_per_agent(world, params, rng, model)
+        return
     explorers = np.flatnonzero((world.leg == S.EXPLORING) & (world.state == S.U_L))
     candidates = np.flatnonzero(world.active)
     if explorers.size == 0 or candidates.size == 0:
@@ -54,17 +60,46 @@ def discovery(world: World, params: Params, rng: np.random.Generator, model: str
     if not near.any():
         return
     col = world.collective[explorers]
-    near &= world.hub_distance[col[:, None], candidates[None, :]] <= params.exploration_range_m
-    reserved = world.reserved_by[candidates]
-    near &= (reserved[None, :] < 0) | (reserved[None, :] == col[:, None])
-    near &= ~world.abandon_order[col[:, None], candidates[None, :]]
+    near &= discoverable(world, params)[col[:, None], candidates[None, :]]
     found = near.any(axis=1)
     if not found.any():
         return
     agents = explorers[found]
     # The nearest encountered target, if an explorer senses two at once.
     distance = np.where(near[found], distance2[found], np.inf)
-    targets = candidates[np.argmin(distance, axis=1)]
+    adopt_on_discovery(world, agents, candidates[np.argmin(distance, axis=1)], params, rng, model)
+
+
+def discoverable(world: World, params: Params) -> np.ndarray:
+    """(C, T): targets a collective's explorers can adopt.
+
+    Active, in range of the hub, not reserved by another collective, not under
+    a standing abandon order, and (reading `foreign_targets="own_only"`)
+    placed around the collective's own start hub.
+    """
+    n_c = world.n_collectives
+    reserved = world.reserved_by[None, :]
+    mine = np.arange(n_c)[:, None]
+    ok = (
+        world.active[None, :]
+        & (world.hub_distance <= params.exploration_range_m)
+        & ((reserved < 0) | (reserved == mine))
+        & ~world.abandon_order
+    )
+    if params.foreign_targets == "own_only":
+        ok &= world.target_around[None, :] == mine
+    return ok
+
+
+def adopt_on_discovery(
+    world: World,
+    agents: np.ndarray,
+    targets: np.ndarray,
+    params: Params,
+    rng: np.random.Generator,
+    model: str,
+) -> None:
+    """Explorers that found a target assess it, adopt it with probability v̂ and fly home."""
     world.target[agents] = targets  # provisional, to read the value; reset below if not adopted
     estimate = assess(world, agents, params, rng)
     adopt = rng.random(agents.size) < estimate
@@ -74,7 +109,7 @@ def discovery(world: World, params: Params, rng: np.random.Generator, model: str
     world.estimate[adopters] = estimate[adopt]
     world.report_target[adopters] = targets[adopt]
     world.leg[adopters] = S.TO_HUB
-    world.arrival_state[adopters] = S.F_D if model == "M2" else S.F_I
+    world.arrival_state[adopters] = S.F_D if params.m2_uses(model, "discovery_delay") else S.F_I
 
 
 @dataclass(frozen=True)
@@ -150,7 +185,9 @@ def reach_target(
     world.report_target[fresh] = world.target[fresh]
     abandon = rng.random(fresh.size) < abandon_probability(world, fresh, params)
     world.arrival_state[fresh[abandon]] = S.U_I
-    world.arrival_state[fresh[~abandon]] = S.F_R if model == "M2" else S.F_I
+    world.arrival_state[fresh[~abandon]] = (
+        S.F_R if params.m2_uses(model, "reassessment_delay") else S.F_I
+    )
 
 
 def reach_hub(world: World, agents: np.ndarray) -> np.ndarray:
@@ -216,15 +253,19 @@ def _interaction_delay(world: World, params: Params, draw: np.ndarray, in_hub: n
 
 
 def discovery_gap(distance_m: np.ndarray, params: Params) -> np.ndarray:
-    """1/g(d_max) − 1/g(d_i): the extra wait that equalises discovery times."""
-    return 1.0 / params.discovery_rate(params.site_d_max_m) - 1.0 / params.discovery_rate(
-        distance_m
-    )
+    """1/g(d_max) − 1/g(d_i): the extra wait that equalises discovery times.
+
+    d_max and the treatment of sites beyond it follow the chosen reading
+    (`params.m2_distance_bounds`, `params.m2_beyond_dmax`).
+    """
+    d = params.m2_distance(distance_m)
+    return 1.0 / params.discovery_rate(params.m2_d_max_m) - 1.0 / params.discovery_rate(d)
 
 
 def round_trip_gap(distance_m: np.ndarray, params: Params) -> np.ndarray:
     """τ_max − τ_i: the extra wait that equalises round-trip times."""
-    return params.round_trip_s(params.site_d_max_m) - params.round_trip_s(distance_m)
+    d = params.m2_distance(distance_m)
+    return params.round_trip_s(params.m2_d_max_m) - params.round_trip_s(d)
 
 
 def leave_rate(estimate: np.ndarray, gap: np.ndarray) -> np.ndarray:

@@ -44,6 +44,7 @@ class World:
     target_pos: np.ndarray  # float64 (T, 2)
     target_value: np.ndarray  # float64
     target_section: np.ndarray  # int32, 0-based section
+    target_around: np.ndarray  # int32, collective whose start hub it was placed around
     active: np.ndarray  # bool: placed and not yet taken
     reserved_by: np.ndarray  # int32, collective executing a move to it, or -1
     report_sum: np.ndarray  # float64, sum of estimates reported at hubs
@@ -93,6 +94,7 @@ class World:
             target_section=np.array(
                 [i for i, s in enumerate(scenario.sections) for _ in s.targets], dtype=np.int32
             ),
+            target_around=np.array([t.around for t in placed], dtype=np.int32),
             active=np.zeros(n_t, dtype=bool),
             reserved_by=np.full(n_t, -1, dtype=np.int32),
             report_sum=np.zeros(n_t),

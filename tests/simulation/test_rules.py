@@ -21,6 +21,17 @@ from hcss.simulation.rules import (
 
 from .conftest import agents_of, make_sim, place
 
+# These tests check spec §4-5's formulas as first written: spatial encounter,
+# d_min, d_max = 150, 350 m and the guard beyond d_max. The other readings
+# (params.py) are checked in test_readings.py.
+FIRST_READING = {
+    "discovery": "spatial",
+    "m2_distance_bounds": "site_distances",
+    "m2_beyond_dmax": "guard",
+    "foreign_targets": "eligible",
+}
+SPEC5 = Params().with_changes(**FIRST_READING)
+
 
 def g(d_m: float) -> float:
     """The study's fitted discovery rate, written out independently: d in 100 m units."""
@@ -38,7 +49,7 @@ def test_fitted_discovery_times_are_those_the_spec_quotes():
 def test_discovery_delay_rate_follows_its_formula(distance):
     estimate = np.array([0.85])
     expected = 0.85 / (1 / g(350) - 1 / g(distance))
-    assert leave_rate(estimate, discovery_gap(np.array([distance]), Params()))[0] == pytest.approx(
+    assert leave_rate(estimate, discovery_gap(np.array([distance]), SPEC5))[0] == pytest.approx(
         expected
     )
 
@@ -47,15 +58,15 @@ def test_discovery_delay_rate_follows_its_formula(distance):
 def test_reassessment_delay_rate_follows_its_formula(distance):
     speed = 60 / 3.6
     expected = 0.9 / (2 * 350 / speed - 2 * distance / speed)
-    assert leave_rate(np.array([0.9]), round_trip_gap(np.array([distance]), Params()))[
+    assert leave_rate(np.array([0.9]), round_trip_gap(np.array([distance]), SPEC5))[
         0
     ] == pytest.approx(expected)
 
 
 @pytest.mark.parametrize("distance", [350.0, 420.0])
 def test_delay_is_skipped_at_or_beyond_d_max(distance):
-    assert leave_rate(np.array([0.7]), discovery_gap(np.array([distance]), Params()))[0] == np.inf
-    assert leave_rate(np.array([0.7]), round_trip_gap(np.array([distance]), Params()))[0] == np.inf
+    assert leave_rate(np.array([0.7]), discovery_gap(np.array([distance]), SPEC5))[0] == np.inf
+    assert leave_rate(np.array([0.7]), round_trip_gap(np.array([distance]), SPEC5))[0] == np.inf
 
 
 def _target_at(sim, collective, near):
@@ -66,7 +77,7 @@ def _target_at(sim, collective, near):
 
 
 def test_m2_agents_leave_discovery_delay_at_the_per_step_rate():
-    sim = make_sim("M2", n_agents=4000)
+    sim = make_sim("M2", n_agents=4000, **FIRST_READING)
     w = sim.world
     t = _target_at(sim, 0, near=True)
     waiting = agents_of(w, 0, 3000)
@@ -79,7 +90,7 @@ def test_m2_agents_leave_discovery_delay_at_the_per_step_rate():
 
 
 def test_m2_agents_of_the_farthest_target_leave_the_delay_at_once():
-    sim = make_sim("M2")
+    sim = make_sim("M2", **FIRST_READING)
     w = sim.world
     t = _target_at(sim, 0, near=False)
     assert w.hub_distance[0, t] >= 350.0 - 1e-6
@@ -90,13 +101,13 @@ def test_m2_agents_of_the_farthest_target_leave_the_delay_at_once():
 
 
 def test_m1_has_no_delay_states():
-    sim = make_sim("M1")
+    sim = make_sim("M1", **FIRST_READING)
     sim.step(400)
     assert not np.any(np.isin(sim.world.state, (S.F_D, S.F_R)))
 
 
 def test_abandon_probability_grows_with_distance_and_falls_with_value():
-    sim = make_sim("M1")
+    sim = make_sim("M1", **FIRST_READING)
     w = sim.world
     a = agents_of(w, 0, 2)
     t = _target_at(sim, 0, near=False)
@@ -108,12 +119,12 @@ def test_abandon_probability_grows_with_distance_and_falls_with_value():
 
 
 def test_explorers_adopt_a_sensed_target_with_probability_of_their_estimate():
-    sim = make_sim("M1", n_agents=3000)
+    sim = make_sim("M1", n_agents=3000, **FIRST_READING)
     w = sim.world
     t = _target_at(sim, 0, near=True)
     explorers = agents_of(w, 0, 3000)
     place(w, explorers, S.U_L, leg=S.EXPLORING)
-    w.pos[explorers] = w.target_pos[t] + 5.0  # within the 20 m sensing radius
+    w.pos[explorers] = w.target_pos[t] + 2.0  # within the 4.5 m sensing radius
     discovery(w, sim.params, sim.rng, "M1")
     adopted = w.state[explorers] == S.F_L
     assert np.all(w.target[explorers[adopted]] == t) and np.all(
@@ -128,7 +139,7 @@ def test_explorers_adopt_a_sensed_target_with_probability_of_their_estimate():
 
 
 def test_explorers_ignore_targets_under_an_abandon_order():
-    sim = make_sim("M1")
+    sim = make_sim("M1", **FIRST_READING)
     w = sim.world
     t = _target_at(sim, 0, near=True)
     explorers = agents_of(w, 0, 100)
