@@ -212,21 +212,21 @@ def _params_with(**readings: object) -> Params:
 @_reading_options
 @click.option(
     "--radius-runs",
-    type=click.IntRange(min=2),
+    type=click.IntRange(min=2, max=10_000),
     default=60,
     show_default=True,
     help="Walks per fit of the sensing radius.",
 )
-@click.option("--scenarios", type=click.IntRange(min=2), default=28, show_default=True)
+@click.option("--scenarios", type=click.IntRange(min=2, max=10_000), default=28, show_default=True)
 @click.option(
     "--runs",
-    type=click.IntRange(min=1),
+    type=click.IntRange(min=1, max=1000),
     default=2,
     show_default=True,
     help="Runs per scenario for each r_msg tried.",
 )
-@click.option("--iterations", type=click.IntRange(min=2), default=4, show_default=True)
-@click.option("--workers", type=click.IntRange(min=1), default=2, show_default=True)
+@click.option("--iterations", type=click.IntRange(min=2, max=20), default=4, show_default=True)
+@click.option("--workers", type=click.IntRange(min=1, max=64), default=2, show_default=True)
 def calibrate(
     radius_runs: int, scenarios: int, runs: int, iterations: int, workers: int, **readings: object
 ) -> None:
@@ -278,15 +278,15 @@ def calibrate(
 
 @simulate.command()
 @_reading_options
-@click.option("--scenarios", type=click.IntRange(min=2), default=28, show_default=True)
+@click.option("--scenarios", type=click.IntRange(min=2, max=10_000), default=28, show_default=True)
 @click.option(
     "--runs",
-    type=click.IntRange(min=1),
+    type=click.IntRange(min=1, max=1000),
     default=2,
     show_default=True,
     help="Runs per scenario and variant.",
 )
-@click.option("--workers", type=click.IntRange(min=1), default=2, show_default=True)
+@click.option("--workers", type=click.IntRange(min=1, max=64), default=2, show_default=True)
 @click.option(
     "--ablations/--no-ablations",
     default=True,

@@ -116,7 +116,9 @@ def test_unanswered_probe_times_out_on_the_server(make_trial) -> None:
 
 
 def test_projection_is_scored_when_the_next_decision_happens(make_trial) -> None:
-    trial = make_trial(seed=4)
+    # M2: its decisions take minutes, so the trial is still running when the next
+    # decision after a late projection probe comes (M1 may have finished all 12).
+    trial = make_trial(seed=4, model="M2")
     probe, _state, second = _until_probe(trial, 0, level=ProbeLevel.PROJECTION)
     assert _probe_row(trial.app, probe["id"]).truth is None
     trial.post(f"/probes/{probe['id']}/ready", {})
