@@ -30,6 +30,7 @@ class Job:
     scenario: dict  # Scenario.to_dict(): plain values travel to workers cheaply
     model: str
     run: int
+    params: dict | None = None  # Params.to_dict(); None for the defaults
 
     @property
     def trial_id(self) -> str:
@@ -48,12 +49,15 @@ def experiment_scenarios(n: int = 28, base_seed: int = 20_150_000) -> list[Scena
     ]
 
 
-def jobs_for(scenarios: Iterable[Scenario], models: Iterable[str], runs: int) -> list[Job]:
-    return [Job(s.to_dict(), m, r) for s in scenarios for m in models for r in range(runs)]
+def jobs_for(
+    scenarios: Iterable[Scenario], models: Iterable[str], runs: int, params: dict | None = None
+) -> list[Job]:
+    return [Job(s.to_dict(), m, r, params) for s in scenarios for m in models for r in range(runs)]
 
 
-def run_job(job: Job, params: Params | None = None) -> list[dict]:
+def run_job(job: Job) -> list[dict]:
     """Run one trial to completion and return its decisions-table rows."""
+    params = Params.from_dict(job.params) if job.params is not None else None
     sim = Simulation(Scenario.from_dict(job.scenario), job.model, params, run=job.run)
     sim.run_until_finished()
     return [
