@@ -8,9 +8,20 @@ from pathlib import Path
 import click
 from tqdm import tqdm
 
+from hcss.simulation import calibrate as cal
 from hcss.simulation import experiment as exp
+from hcss.simulation import fidelity as fid
 from hcss.simulation.engine import Simulation
-from hcss.simulation.params import MODELS, ROMAN
+from hcss.simulation.operators import OPERATORS
+from hcss.simulation.params import (
+    DISCOVERY_READINGS,
+    FOREIGN_TARGETS,
+    M2_BEYOND_DMAX,
+    M2_DISTANCE_BOUNDS,
+    MODELS,
+    ROMAN,
+    Params,
+)
 from hcss.simulation.scenario import Scenario
 
 
@@ -76,7 +87,11 @@ def demo(model: str, seed: int, first_section: str, speed: float, minutes: float
     show_default=True,
     help="Runs per scenario and model.",
 )
-@click.option("--models", default="M1,M2", show_default=True, help="Comma-separated models.")
+@click.option(
+    "--models",
+    default=None,
+    help="Comma-separated models [default: M1,M2; M1,M2,M3 with --operator].",
+)
 @click.option(
     "--workers", type=click.IntRange(min=1), default=2, show_default=True, help="Local processes."
 )
@@ -95,26 +110,41 @@ def demo(model: str, seed: int, first_section: str, speed: float, minutes: float
     default=Path("out/simulation"),
     show_default=True,
 )
+@click.option(
+    "--operator",
+    type=click.Choice(OPERATORS),
+    default=None,
+    help="Run operated trials (human-team condition) with this scripted operator; "
+    "--models then defaults to M1,M2,M3.",
+)
 def experiment(
     scenarios: int,
     runs: int,
-    models: str,
+    models: str | None,
     workers: int,
     dask_address: str | None,
     seed: int,
     out: Path,
+    operator: str | None,
 ) -> None:
     """The simulation-only experiment: scenarios × runs × models, no operator.
 
+    With --operator NAME, the same trials with a scripted operator whose
+    requests go through the request API: a pilot of the human-team
+    conditions. Analyse those with `hcss analyze OUT --include-pilot --out REPORT`
+    (simulated operators have no participants table).
+
     Writes OUT/decisions.csv and OUT/summary.md, and prints the summary.
     """
+    if models is None:
+        models = "M1,M2" if operator is None else "M1,M2,M3"
     chosen = [m.strip() for m in models.split(",") if m.strip()]
     unknown = [m for m in chosen if m not in MODELS]
     if unknown or not chosen:
         raise click.BadParameter(
             f"models must be among {', '.join(MODELS)}; got {models!r}", param_hint="--models"
         )
-    jobs = exp.jobs_for(exp.experiment_scenarios(scenarios, seed), chosen, runs)
+    jobs = exp.jobs_for(exp.experiment_scenarios(scenarios, seed), chosen, runs, operator)
     where = f"Dask ({dask_address})" if dask_address else f"{workers} local process(es)"
     click.echo(
         f"{len(jobs)} runs ({scenarios} scenarios × {runs} runs × {', '.join(chosen)}) on {where}."
@@ -127,7 +157,7 @@ def experiment(
     exp.write_decisions(rows, out / "decisions.csv")
     table = exp.summary_table(exp.summarise(rows))
     (out / "summary.md").write_text(
-        f"# Simulation-only experiment\n\n{len(jobs)} runs, {len(rows)} decisions, {elapsed:.0f} s.\n\n"
+        f"# {'Operated experiment: ' + operator if operator else 'Simulation-only experiment'}\n\n{len(jobs)} runs, {len(rows)} decisions, {elapsed:.0f} s.\n\n"
         "Success rate: per trial, correct decisions / decisions. Decision time: per decision, minutes.\n\n"
         f"{table}\n",
         encoding="utf-8",
@@ -149,3 +179,138 @@ def _status(view: dict) -> str:
             f"{ROMAN[c['index']]} U{f['U']:.0%} F{f['F']:.0%} C{f['C']:.0%} X{f['X']:.0%}{move}"
         )
     return f"section {view['section']} | " + " | ".join(parts)
+
+
+def _reading_options(command: click.Command) -> click.Command:
+    """Options that override the readings of the paper (params.py) for one command."""
+    for name, choices in reversed(
+        (
+            ("discovery", DISCOVERY_READINGS),
+            ("m2-distance-bounds", M2_DISTANCE_BOUNDS),
+            ("m2-beyond-dmax", M2_BEYOND_DMAX),
+            ("foreign-targets", FOREIGN_TARGETS),
+        )
+    ):
+        command = click.option(
+            f"--{name}",
+            type=click.Choice(choices),
+            default=None,
+            help="Override this reading (default: params.py).",
+        )(command)
+    return command
+
+
+def _params_with(**readings: object) -> Params:
+    changes = {k: v for k, v in readings.items() if v is not None}
+    return Params().with_changes(**changes) if changes else Params()
+
+
+@simulate.command()
+@_reading_options
+@click.option(
+    "--radius-runs",
+    type=click.IntRange(min=2),
+    default=60,
+    show_default=True,
+    help="Walks per fit of the sensing radius.",
+)
+@click.option("--scenarios", type=click.IntRange(min=2), default=28, show_default=True)
+@click.option(
+    "--runs",
+    type=click.IntRange(min=1),
+    default=2,
+    show_default=True,
+    help="Runs per scenario for each r_msg tried.",
+)
+@click.option("--iterations", type=click.IntRange(min=2), default=4, show_default=True)
+@click.option("--workers", type=click.IntRange(min=1), default=2, show_default=True)
+def calibrate(
+    radius_runs: int, scenarios: int, runs: int, iterations: int, workers: int, **readings: object
+) -> None:
+    """Re-fit the shared calibrations from the engine and print the fit.
+
+    The sensing radius (discovery "spatial") so that a collective's first
+    explorer finds a site at d after the study's 1/g(d); then r_msg so that
+    M1's mean decision time in the simulation-only experiment is 2.46 min.
+    Copy the printed values into hcss/simulation/params.py.
+    """
+    params = _params_with(**readings)
+    click.echo(
+        f"Calibrating with dt = {params.dt_s:g} s, discovery = {params.discovery}, "
+        f"foreign_targets = {params.foreign_targets}."
+    )
+    if params.discovery == "spatial":
+        with tqdm(total=radius_runs, unit="walk", desc="sensing radius", leave=False) as bar:
+            radius = cal.fit_sensing_radius(params, runs=radius_runs, progress=bar.update)
+        click.echo(
+            f"\nSensing radius: {radius.radius_m:g} m "
+            f"(least squares in log time over {radius.runs} walks per distance)\n"
+        )
+        click.echo(cal.radius_table(radius))
+        params = params.with_changes(sensing_radius_m=radius.radius_m)
+    else:
+        click.echo("\nDiscovery per agent follows g(d) itself: no sensing radius to fit.")
+    click.echo(
+        f"\nMessage rate: M1, {scenarios} scenarios × {runs} runs per rate, "
+        f"target {cal.STUDY_M1_DECISION_MIN} min.\n"
+    )
+    fit = cal.fit_message_rate(
+        params,
+        scenarios=scenarios,
+        runs=runs,
+        workers=workers,
+        iterations=iterations,
+        report=lambda r, m, s: click.echo(f"  r_msg {r:.3f}/s: {m:.2f} ± {s:.2f} min", err=True),
+    )
+    click.echo(cal.rate_table(fit))
+    click.echo(
+        f"\nFit: message_rate = {fit.rate:g}"
+        + (
+            f", sensing_radius_m = {params.sensing_radius_m:g}"
+            if params.discovery == "spatial"
+            else ""
+        )
+    )
+
+
+@simulate.command()
+@_reading_options
+@click.option("--scenarios", type=click.IntRange(min=2), default=28, show_default=True)
+@click.option(
+    "--runs",
+    type=click.IntRange(min=1),
+    default=2,
+    show_default=True,
+    help="Runs per scenario and variant.",
+)
+@click.option("--workers", type=click.IntRange(min=1), default=2, show_default=True)
+@click.option(
+    "--ablations/--no-ablations",
+    default=True,
+    show_default=True,
+    help="Also run M2 without F_D, without F_R and without M_i.",
+)
+def fidelity(scenarios: int, runs: int, workers: int, ablations: bool, **readings: object) -> None:
+    """The reduced experiment for M1, M2 and M2's ablations, as Markdown with standard errors.
+
+    Also prints which of the study's qualitative claims (spec §10) the rows meet.
+    """
+    params = _params_with(**readings)
+    click.echo(
+        f"Reduced experiment: {scenarios} scenarios × {runs} runs; discovery = {params.discovery}, "
+        f"m2_distance_bounds = {params.m2_distance_bounds}, m2_beyond_dmax = {params.m2_beyond_dmax}, "
+        f"foreign_targets = {params.foreign_targets}, r_msg = {params.message_rate:g}/s.\n"
+    )
+    started = time.perf_counter()
+    table = fid.run_fidelity(
+        params,
+        scenarios,
+        runs,
+        workers,
+        ablations,
+        on_variant=lambda label: click.echo(f"  running {label}", err=True),
+    )
+    click.echo(fid.fidelity_table(table))
+    click.echo("")
+    click.echo(fid.claims_table(table))
+    click.echo(f"\n{time.perf_counter() - started:.0f} s.")

@@ -33,6 +33,11 @@ class Constants(NamedTuple):
     neighbour_draws: int
     quorum_k: int
     silence_limit_s: float
+    discovery_per_agent: bool  # params.discovery == "per_agent"
+    own_targets_only: bool  # params.foreign_targets == "own_only"
+    discovery_delay: bool  # M2's mechanisms in force for this model
+    reassessment_delay: bool
+    modulation: bool
 
 
 @functools.lru_cache(maxsize=256)
@@ -55,4 +60,9 @@ def constants_for(params: Params, model: str) -> Constants:
         neighbour_draws=int(params.neighbour_draws),
         quorum_k=int(params.quorum_k),
         silence_limit_s=float(params.silence_limit_s),
+        discovery_per_agent=params.discovery == "per_agent",
+        own_targets_only=params.foreign_targets == "own_only",
+        discovery_delay=params.m2_uses(model, "discovery_delay"),
+        reassessment_delay=params.m2_uses(model, "reassessment_delay"),
+        modulation=params.m2_uses(model, "modulation"),
     )

@@ -120,13 +120,20 @@ class DecisionRecord:
 
 
 def in_range_targets(world: World, collective: int, params: Params) -> np.ndarray:
-    """Active targets within R of the hub and not reserved by another collective."""
+    """Active targets within R of the hub and not reserved by another collective.
+
+    Under the reading `foreign_targets="own_only"`, only the targets placed
+    around the collective's own start hub.
+    """
     owner = world.reserved_by
-    return np.flatnonzero(
+    ok = (
         world.active
         & (world.hub_distance[collective] <= params.exploration_range_m)
         & ((owner < 0) | (owner == collective))
     )
+    if params.foreign_targets == "own_only":
+        ok &= world.target_around == collective
+    return np.flatnonzero(ok)
 
 
 def best_available(world: World, collective: int, params: Params) -> int:

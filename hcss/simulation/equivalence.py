@@ -73,6 +73,12 @@ PRE_CHANGE_PARAMS: dict[str, object] = {
     "outline_support": 0.30,
     "visible_reports": 1,
     "drawn_reports": 2,
+    # Readings named later (issue 12); these values are the pre-change engine's rules.
+    "discovery": "spatial",
+    "m2_distance_bounds": "site_distances",
+    "m2_beyond_dmax": "guard",
+    "foreign_targets": "eligible",
+    "m2_mechanisms": ("discovery_delay", "reassessment_delay", "modulation"),
 }
 
 REFERENCE_SCENARIOS = 28
@@ -86,7 +92,8 @@ TIME_TOLERANCE = 0.15  # relative difference of mean per-trial decision times
 
 
 def pinned_params() -> Params:
-    return Params().with_changes(**PRE_CHANGE_PARAMS)
+    known = {k: v for k, v in PRE_CHANGE_PARAMS.items() if k in Params.__dataclass_fields__}
+    return Params().with_changes(**known)
 
 
 def run_outcomes(
@@ -96,10 +103,8 @@ def run_outcomes(
     workers: int = 1,
 ) -> list[dict]:
     """The reduced experiment at the pinned parameters: one outcome row per decision."""
-    jobs = exp.jobs_for(
-        exp.experiment_scenarios(scenarios), models, runs, params=pinned_params().to_dict()
-    )
-    rows = exp.run_jobs(jobs, workers=workers)
+    jobs = exp.jobs_for(exp.experiment_scenarios(scenarios), models, runs)
+    rows = exp.run_jobs(jobs, workers=workers, params=pinned_params())
     return [{column: row[column] for column in OUTCOME_COLUMNS} for row in rows]
 
 

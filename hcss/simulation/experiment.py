@@ -30,11 +30,19 @@ class Job:
     scenario: dict  # Scenario.to_dict(): plain values travel to workers cheaply
     model: str
     run: int
-    params: dict | None = None  # Params.to_dict(); None for the defaults
+    operator: str | None = None  # a scripted operator (operators.OPERATORS), or none
 
     @property
     def trial_id(self) -> str:
-        return f"{self.scenario['scenario_id']}-{self.model}-r{self.run}"
+        base = f"{self.scenario['scenario_id']}-{self.model}-r{self.run}"
+        return base if self.operator is None else f"simop-{self.operator}-{base}"
+
+    @property
+    def participant(self) -> str:
+        """A simulated operator stands in for a participant: one per scenario and run."""
+        if self.operator is None:
+            return ""
+        return f"simop-{self.operator}-{self.scenario['scenario_id']}-r{self.run}"
 
 
 def experiment_scenarios(n: int = 28, base_seed: int = 20_150_000) -> list[Scenario]:
@@ -50,18 +58,34 @@ def experiment_scenarios(n: int = 28, base_seed: int = 20_150_000) -> list[Scena
 
 
 def jobs_for(
-    scenarios: Iterable[Scenario], models: Iterable[str], runs: int, params: dict | None = None
+    scenarios: Iterable[Scenario], models: Iterable[str], runs: int, operator: str | None = None
 ) -> list[Job]:
-    return [Job(s.to_dict(), m, r, params) for s in scenarios for m in models for r in range(runs)]
-
-
-def run_job(job: Job) -> list[dict]:
-    """Run one trial to completion and return its decisions-table rows."""
-    params = Params.from_dict(job.params) if job.params is not None else None
-    sim = Simulation(Scenario.from_dict(job.scenario), job.model, params, run=job.run)
-    sim.run_until_finished()
     return [
-        d.as_row(source="simulation", trial_id=job.trial_id, run=job.run) for d in sim.decisions
+        Job(s.to_dict(), m, r, operator) for s in scenarios for m in models for r in range(runs)
+    ]
+
+
+def run_job(job: Job, params: Params | None = None) -> list[dict]:
+    """Run one trial to completion and return its decisions-table rows.
+
+    With an operator, the trial is an operated one (the human-team condition,
+    simulated): the scripted operator's requests go through the request API
+    and its rows are `source="study"` rows of a simulated participant (code
+    `simop-...`), so `hcss analyze --include-pilot` gives the human-team tables.
+    """
+    sim = Simulation(Scenario.from_dict(job.scenario), job.model, params, run=job.run)
+    if job.operator is None:
+        sim.run_until_finished()
+        source = "simulation"
+    else:
+        from hcss.simulation.operators import OperatedRun, operator_named
+
+        policy, interval, pace = operator_named(job.operator)
+        OperatedRun(sim, policy, interval_s=interval, pace=pace).run()
+        source = "study"
+    return [
+        d.as_row(source=source, participant=job.participant, trial_id=job.trial_id, run=job.run)
+        for d in sim.decisions
     ]
 
 
@@ -70,10 +94,14 @@ def run_jobs(
     workers: int = 1,
     dask_address: str | None = None,
     on_done: Callable[[], None] | None = None,
+    params: Params | None = None,
 ) -> list[dict]:
-    """Run every job and return all rows, in job order whatever order they finish in."""
+    """Run every job and return all rows, in job order whatever order they finish in.
+
+    `params` (default: `Params()`) applies to every job: M1, M2 and M3 share them.
+    """
     results: dict[int, list[dict]] = {}
-    for index, rows in _execute(jobs, workers, dask_address):
+    for index, rows in _execute(jobs, workers, dask_address, params):
         results[index] = rows
         if on_done is not None:
             on_done()
@@ -81,21 +109,23 @@ def run_jobs(
 
 
 def _execute(
-    jobs: list[Job], workers: int, dask_address: str | None
+    jobs: list[Job], workers: int, dask_address: str | None, params: Params | None = None
 ) -> Iterator[tuple[int, list[dict]]]:
     if dask_address:
-        yield from _execute_dask(jobs, workers, dask_address)
+        yield from _execute_dask(jobs, workers, dask_address, params)
     elif workers <= 1:
         for index, job in enumerate(jobs):
-            yield index, run_job(job)
+            yield index, run_job(job, params)
     else:
         with ProcessPoolExecutor(max_workers=workers) as pool:
-            futures = {pool.submit(run_job, job): index for index, job in enumerate(jobs)}
+            futures = {pool.submit(run_job, job, params): index for index, job in enumerate(jobs)}
             for future in as_completed(futures):
                 yield futures[future], future.result()
 
 
-def _execute_dask(jobs: list[Job], workers: int, address: str) -> Iterator[tuple[int, list[dict]]]:
+def _execute_dask(
+    jobs: list[Job], workers: int, address: str, params: Params | None = None
+) -> Iterator[tuple[int, list[dict]]]:
     """Run the jobs on a Dask scheduler, or on a LocalCluster when the address is "local"."""
     from dask.distributed import Client, LocalCluster
     from dask.distributed import as_completed as dask_completed
@@ -109,7 +139,7 @@ def _execute_dask(jobs: list[Job], workers: int, address: str) -> Iterator[tuple
     else:
         client = Client(address)
     try:
-        futures = client.map(run_job, jobs, pure=False)
+        futures = client.map(run_job, jobs, params=params, pure=False)
         index_of = {future.key: i for i, future in enumerate(futures)}
         for future in dask_completed(futures):
             yield index_of[future.key], future.result()

@@ -31,7 +31,7 @@ from hcss.simulation.params import Params
 from hcss.simulation.rules import frequency_modulation  # noqa: F401 - part of this rule's API
 from hcss.simulation.world import Arrays, World, set_state_one
 
-M2, M3 = 2, 3
+M3 = 3
 
 
 @dataclass(frozen=True)
@@ -86,7 +86,7 @@ def compose_kernel(w: Arrays, k: Constants):
             continue
         if w.state[i] == S.U_I and listeners[area[i]] == 0:
             continue  # every message it could send would be dropped below
-        if k.model == M2 and w.state[i] == S.F_I:
+        if k.modulation and w.state[i] == S.F_I:
             rate = k.message_rate * w.send_factor[w.collective[i], w.target[i]]
             count = stream.poisson(w.stream, rate * k.dt_s)
         elif k.message_rate * k.dt_s <= 20.0:

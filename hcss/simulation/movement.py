@@ -15,7 +15,8 @@ from numba import njit
 
 from hcss.simulation import states as S
 from hcss.simulation import stream
-from hcss.simulation.constants import Constants
+from hcss.simulation.constants import Constants, constants_for
+from hcss.simulation.params import Params
 from hcss.simulation.world import Arrays, World
 
 
@@ -30,7 +31,7 @@ def home(w, i):
 
 
 @njit(cache=True)
-def move(w: Arrays, k: Constants, at_target, at_hub):
+def move_kernel(w: Arrays, k: Constants, at_target, at_hub):
     """Advance every agent one step.
 
     Fills `at_target` and `at_hub` with the agents that reached their target or
@@ -105,3 +106,13 @@ def scatter_kernel(w: Arrays, k: Constants, agents):
 
 def scatter_in_hub(world: World, agents: np.ndarray, k: Constants) -> None:
     scatter_kernel(world.kernel_arrays(), k, np.asarray(agents, dtype=np.int64))
+
+
+def move(world: World, params: Params) -> tuple[np.ndarray, np.ndarray]:
+    """Advance every agent one step; the agents that reached their target and their hub."""
+    at_target = np.empty(world.state.size, dtype=np.int64)
+    at_hub = np.empty(world.state.size, dtype=np.int64)
+    n_target, n_hub = move_kernel(
+        world.kernel_arrays(), constants_for(params, "M1"), at_target, at_hub
+    )
+    return at_target[:n_target], at_hub[:n_hub]

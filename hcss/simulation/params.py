@@ -12,6 +12,14 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+# Named readings of the paper where it can be read more than one way. Each
+# option is a string, so that a trial's stored params record which one it used.
+DISCOVERY_READINGS = ("spatial", "per_agent")
+M2_DISTANCE_BOUNDS = ("site_distances", "search_space")
+M2_BEYOND_DMAX = ("guard", "clamp")
+FOREIGN_TARGETS = ("eligible", "own_only")
+M2_MECHANISMS = ("discovery_delay", "reassessment_delay", "modulation")
+
 
 @dataclass(frozen=True)
 class Params:
@@ -30,7 +38,11 @@ class Params:
     exploration_range_m: float = 500.0  # R, around the collective's current hub
     comm_range_m: float = 30.0  # peer-to-peer range inside the hub area
     hub_radius_m: float = 50.0  # [choice] hub area disc
-    sensing_radius_m: float = 20.0  # [choice] an explorer this close encounters a target
+    # [calibrated] An explorer this close encounters a target (discovery="spatial").
+    # Fitted by `hcss simulate calibrate` so that a collective's FIRST explorer
+    # finds a site at d after 1/g(d) on average (the study's g(d): 40/89/167 s
+    # at 150/250/350 m): the per-collective reading of the paper's discovery rate.
+    sensing_radius_m: float = 20.0
     value_error: float = 0.1  # [choice] "10% error": v·(1+e), e ~ U[-0.1, 0.1]
     dt_s: float = 1.0  # time step
     turn_sd_rad: float = 0.5  # [choice] correlated random walk turning sd
@@ -44,7 +56,10 @@ class Params:
 
     # --- rates (spec §4) --------------------------------------------------
     resume_factor: float = 9.0  # P_L = 9 · P_U^I
-    message_rate: float = 1.0  # [choice] r_msg, messages per second per sender
+    # [calibrated] r_msg, messages per second per sender. Fitted by `hcss simulate
+    # calibrate` so that M1's mean decision time in the simulation-only
+    # experiment is the study's published 2.46 min.
+    message_rate: float = 1.0
     abandon_alpha: float = 0.05  # [choice] "5% per metre", read per 100 m
     abandon_unit_m: float = 100.0
     neighbour_draws: int = 8  # [choice] rejection-sampling draws to find a neighbour
@@ -55,6 +70,45 @@ class Params:
     discovery_unit_m: float = 100.0  # [choice] the fit's distance unit
     site_d_min_m: float = 150.0  # [choice] minimum site distance of the problem
     site_d_max_m: float = 350.0  # [choice] maximum site distance of the problem
+
+    # --- readings of the paper (named options; see docs/simulation-notes.md) ---
+    # How an explorer discovers a site.
+    #   "spatial": by encounter within sensing_radius_m during its walk. With the
+    #     calibrated radius this is the per-collective reading of g(d): "the
+    #     fitted discovery rate" is the rate at which the collective's first
+    #     explorer finds a site at distance d.
+    #   "per_agent": the paper's P_γ = v·g(d) read per agent: every exploring
+    #     agent discovers each eligible in-range site at rate g(d_i) and adopts
+    #     it with probability v̂; its flights stay spatial (it flies home from
+    #     where it is).
+    discovery: str = "spatial"
+    # d_min and d_max of M2's delays and modulation. The paper: "the minimum and
+    # maximum site distances (d_min and d_max) that define the collective's
+    # search space", assuming every site distance is below d_max.
+    #   "site_distances": (site_d_min_m, site_d_max_m), the problem's site
+    #     distances, 150 and 350 m.
+    #   "search_space": d_max is the search space's bound, R (exploration_range_m);
+    #     d_min stays site_d_min_m (the search space has no inner bound but the
+    #     hub, and M_i's scale is the calibrated message rate's).
+    m2_distance_bounds: str = "site_distances"
+    # A site at d ≥ d_max (another collective's target, or any site after the hub
+    # moved). The paper assumes none exists ("all site distances are below d_max").
+    #   "guard": spec §5: the delays are skipped (the state is left at once) and
+    #     M_i = d/d_min grows without bound (up to 3.3 at 500 m).
+    #   "clamp": d is clamped to [d_min, d_max] in the delays and in M_i: such a
+    #     site is treated as one at d_max (no delay, M_i = d_max/d_min).
+    m2_beyond_dmax: str = "guard"
+    # Whether another collective's targets are eligible for a collective's
+    # decisions. The paper's problem is one collective's search space with its
+    # own sites; the study's shared arena puts neighbours' sites in range.
+    #   "eligible": every active in-range target (spec §2).
+    #   "own_only": only the targets placed around the collective's start hub
+    #     (discovery, best target and difficulty all use only those).
+    foreign_targets: str = "eligible"
+    # M2's mechanisms, all on by default. Removing one is an ablation for
+    # diagnosis (`hcss simulate fidelity`), never a setting of the study:
+    # "discovery_delay" (F_D), "reassessment_delay" (F_R), "modulation" (M_i).
+    m2_mechanisms: tuple[str, ...] = M2_MECHANISMS
 
     # --- quorum (spec §7) -------------------------------------------------
     quorum_k: int = 15
@@ -69,7 +123,48 @@ class Params:
     visible_reports: int = 1  # reports before a target appears to the operator
     drawn_reports: int = 2  # reports before it is drawn with its value colour
 
+    def __post_init__(self) -> None:
+        for name, allowed in (
+            ("discovery", DISCOVERY_READINGS),
+            ("m2_distance_bounds", M2_DISTANCE_BOUNDS),
+            ("m2_beyond_dmax", M2_BEYOND_DMAX),
+            ("foreign_targets", FOREIGN_TARGETS),
+        ):
+            if getattr(self, name) not in allowed:
+                raise ValueError(
+                    f"{name} must be one of {', '.join(allowed)}, not {getattr(self, name)!r}"
+                )
+        unknown = set(self.m2_mechanisms) - set(M2_MECHANISMS)
+        if unknown:
+            raise ValueError(
+                f"m2_mechanisms must be among {', '.join(M2_MECHANISMS)}, not {sorted(unknown)}"
+            )
+        if not self.sensing_radius_m > 0 or not self.message_rate > 0:
+            raise ValueError("sensing_radius_m and message_rate must be positive")
+
     # --- derived quantities ----------------------------------------------
+    def m2_uses(self, model: str, mechanism: str) -> bool:
+        """Whether `model` runs one of M2's mechanisms (only M2 does; ablations remove them)."""
+        return model == "M2" and mechanism in self.m2_mechanisms
+
+    @property
+    def m2_d_min_m(self) -> float:
+        """d_min of M2's delays and modulation, under the chosen reading."""
+        return self.site_d_min_m
+
+    @property
+    def m2_d_max_m(self) -> float:
+        """d_max of M2's delays, under the chosen reading."""
+        if self.m2_distance_bounds == "search_space":
+            return self.exploration_range_m
+        return self.site_d_max_m
+
+    def m2_distance(self, distance_m: np.ndarray) -> np.ndarray:
+        """The distance M2's delays and M_i use: as is ("guard") or clamped to [d_min, d_max]."""
+        if self.m2_beyond_dmax == "clamp":
+            return np.clip(distance_m, self.m2_d_min_m, self.m2_d_max_m)
+        return np.asarray(distance_m, dtype=float)
+
     @property
     def mean_round_trip_s(self) -> float:
         """τ̄ = 2·(2R/3)/speed: mean round trip over the exploration disc [choice]."""
@@ -109,7 +204,7 @@ class Params:
     @classmethod
     def from_dict(cls, values: dict[str, object]) -> Params:
         known = {k: v for k, v in values.items() if k in cls.__dataclass_fields__}
-        for key in ("target_values", "target_distances_m"):
+        for key in ("target_values", "target_distances_m", "m2_mechanisms"):
             if key in known:
                 known[key] = tuple(known[key])  # JSON turns tuples into lists
         return cls(**known)

@@ -23,8 +23,6 @@ from hcss.simulation.constants import Constants, constants_for
 from hcss.simulation.params import Params
 from hcss.simulation.world import Arrays, World, set_state_one
 
-M2 = 2
-
 
 # ----------------------------------------------------------------- formulas
 @njit(cache=True)
@@ -54,20 +52,36 @@ def abandon_probability_one(w: Arrays, k: Constants, i):
 
 
 def discovery_gap(distance_m: np.ndarray, params: Params) -> np.ndarray:
-    """1/g(d_max) − 1/g(d_i): the extra wait that equalises discovery times."""
-    return 1.0 / params.discovery_rate(params.site_d_max_m) - 1.0 / params.discovery_rate(
-        distance_m
-    )
+    """1/g(d_max) − 1/g(d_i): the extra wait that equalises discovery times.
+
+    d_max and the treatment of sites beyond it follow the chosen reading
+    (`params.m2_distance_bounds`, `params.m2_beyond_dmax`).
+    """
+    d = params.m2_distance(distance_m)
+    return 1.0 / params.discovery_rate(params.m2_d_max_m) - 1.0 / params.discovery_rate(d)
 
 
 def round_trip_gap(distance_m: np.ndarray, params: Params) -> np.ndarray:
     """τ_max − τ_i: the extra wait that equalises round-trip times."""
-    return params.round_trip_s(params.site_d_max_m) - params.round_trip_s(distance_m)
+    d = params.m2_distance(distance_m)
+    return params.round_trip_s(params.m2_d_max_m) - params.round_trip_s(d)
 
 
 def frequency_modulation(distance_m: np.ndarray, params: Params) -> np.ndarray:
-    """M2's M_i = d_i / d_min: farther targets recruit and inhibit more often."""
-    return distance_m / params.site_d_min_m
+    """M2's M_i = d_i / d_min: farther targets recruit and inhibit more often.
+
+    d_min and the treatment of sites beyond d_max follow the chosen reading.
+    """
+    return params.m2_distance(distance_m) / params.m2_d_min_m
+
+
+def site_rate(distance_m: np.ndarray, params: Params) -> np.ndarray:
+    """Per-agent discovery rate g(d) (discovery "per_agent").
+
+    Distances are floored at the hub radius: a site can be no nearer than the
+    edge of the hub area, and g(d) diverges at d = 0.
+    """
+    return params.discovery_rate(np.maximum(distance_m, params.hub_radius_m))
 
 
 def refresh_geometry(world: World, params: Params) -> None:
@@ -77,16 +91,49 @@ def refresh_geometry(world: World, params: Params) -> None:
         world.discovery_gap = discovery_gap(world.hub_distance, params)
     world.round_trip_gap = round_trip_gap(world.hub_distance, params)
     world.send_factor = frequency_modulation(world.hub_distance, params)
+    world.site_rate = site_rate(world.hub_distance, params)
 
 
 # -------------------------------------------------------------------- rules
 @njit(cache=True)
-def discovery_kernel(w: Arrays, k: Constants):
-    """U_L → F_L(i): an explorer within the sensing radius of target i adopts it with probability v̂.
+def discoverable_one(w: Arrays, k: Constants, c, t):
+    """Whether collective c's explorers can adopt target t.
 
-    Only active targets in range of the agent's hub, not reserved by another
-    collective and not under a standing abandon order count; of two sensed at
-    once, the nearer.
+    Active, in range of the hub, not reserved by another collective, not under
+    a standing abandon order, and (reading `foreign_targets="own_only"`)
+    placed around the collective's own start hub.
+    """
+    owner = w.reserved_by[t]
+    return (
+        w.active[t]
+        and w.hub_distance[c, t] <= k.exploration_range_m
+        and (owner < 0 or owner == c)
+        and not w.abandon_order[c, t]
+        and (not k.own_targets_only or w.target_around[t] == c)
+    )
+
+
+@njit(cache=True)
+def adopt_on_discovery(w: Arrays, k: Constants, i, t):
+    """An explorer that found target t assesses it, adopts it with probability v̂ and flies home."""
+    estimate = assess(w, k, t)
+    if stream.uniform(w.stream) < estimate:
+        set_state_one(w.state, w.target, w.streak, i, S.F_L, t)
+        w.estimate[i] = estimate
+        w.report_target[i] = t
+        w.leg[i] = S.TO_HUB
+        w.arrival_state[i] = S.F_D if k.discovery_delay else S.F_I
+
+
+@njit(cache=True)
+def discovery_kernel(w: Arrays, k: Constants):
+    """U_L → F_L(i): an explorer discovers a target and adopts it with probability v̂.
+
+    Reading "spatial": the explorer encounters target i within the sensing
+    radius (of two sensed at once, the nearer). Reading "per_agent" (the
+    paper's P_γ = v·g(d) per agent): it finds each discoverable site at rate
+    g(d_i), some site within a step with probability 1 − exp(−Σ g(d_i)·dt),
+    which one in proportion to the rates; its flights stay spatial.
     """
     radius2 = k.sensing_radius_m * k.sensing_radius_m
     n_targets = w.active.size
@@ -94,31 +141,35 @@ def discovery_kernel(w: Arrays, k: Constants):
         if w.leg[i] != S.EXPLORING or w.state[i] != S.U_L:
             continue
         c = w.collective[i]
-        best, best_d2 = -1, radius2
-        for t in range(n_targets):
-            if not w.active[t]:
+        best = -1
+        if k.discovery_per_agent:
+            total = 0.0
+            for t in range(n_targets):
+                if discoverable_one(w, k, c, t):
+                    total += w.site_rate[c, t]
+            if total <= 0.0 or stream.uniform(w.stream) >= per_step_probability(total, k.dt_s):
                 continue
-            dx = w.pos[i, 0] - w.target_pos[t, 0]
-            dy = w.pos[i, 1] - w.target_pos[t, 1]
-            d2 = dx * dx + dy * dy
-            if d2 > best_d2 or (best >= 0 and d2 == best_d2):
-                continue
-            owner = w.reserved_by[t]
-            if (
-                w.hub_distance[c, t] <= k.exploration_range_m
-                and (owner < 0 or owner == c)
-                and not w.abandon_order[c, t]
-            ):
-                best, best_d2 = t, d2
-        if best < 0:
-            continue
-        estimate = assess(w, k, best)
-        if stream.uniform(w.stream) < estimate:
-            set_state_one(w.state, w.target, w.streak, i, S.F_L, best)
-            w.estimate[i] = estimate
-            w.report_target[i] = best
-            w.leg[i] = S.TO_HUB
-            w.arrival_state[i] = S.F_D if k.model == M2 else S.F_I
+            pick = stream.uniform(w.stream) * total
+            for t in range(n_targets):
+                if discoverable_one(w, k, c, t):
+                    best = t
+                    pick -= w.site_rate[c, t]
+                    if pick < 0.0:
+                        break
+        else:
+            best_d2 = radius2
+            for t in range(n_targets):
+                if not w.active[t]:
+                    continue
+                dx = w.pos[i, 0] - w.target_pos[t, 0]
+                dy = w.pos[i, 1] - w.target_pos[t, 1]
+                d2 = dx * dx + dy * dy
+                if d2 > best_d2 or (best >= 0 and d2 == best_d2):
+                    continue
+                if discoverable_one(w, k, c, t):
+                    best, best_d2 = t, d2
+        if best >= 0:
+            adopt_on_discovery(w, k, i, best)
 
 
 @njit(cache=True)
@@ -148,7 +199,7 @@ def reach_target_kernel(w: Arrays, k: Constants, agents, n):
             if stream.uniform(w.stream) < abandon_probability_one(w, k, i):
                 w.arrival_state[i] = S.U_I
             else:
-                w.arrival_state[i] = S.F_R if k.model == M2 else S.F_I
+                w.arrival_state[i] = S.F_R if k.reassessment_delay else S.F_I
 
 
 @njit(cache=True)
@@ -198,7 +249,7 @@ def rate_transitions_kernel(w: Arrays, k: Constants):
                 if stream.uniform(w.stream) < k.leave_probability:
                     set_state_one(w.state, w.target, w.streak, i, S.F_L, w.target[i])
                     w.leg[i] = S.TO_TARGET
-            elif k.model == M2 and (state == S.F_D or state == S.F_R):
+            elif state == S.F_D or state == S.F_R:  # only M2 (with its delays) has them
                 c, t = w.collective[i], w.target[i]
                 gap = w.discovery_gap[c, t] if state == S.F_D else w.round_trip_gap[c, t]
                 rate = leave_rate_one(w.estimate[i], gap)
@@ -245,6 +296,28 @@ def abandon_probability(world: World, agents: np.ndarray, params: Params) -> np.
     k = constants_for(params, "M1")
     w = world.kernel_arrays()
     return np.array([abandon_probability_one(w, k, int(i)) for i in agents])
+
+
+def reach_hub(world: World, agents: np.ndarray) -> np.ndarray:
+    """Agents arriving home enter their arrival state and report; the newly visible targets."""
+    agents = np.asarray(agents, dtype=np.int64)
+    visible = np.empty(world.active.size, dtype=np.int64)
+    n = reach_hub_kernel(world.kernel_arrays(), agents, agents.size, visible)
+    return visible[:n]
+
+
+def discoverable(world: World, params: Params) -> np.ndarray:
+    """(C, T): targets each collective's explorers can adopt (`discoverable_one`)."""
+    ok = np.zeros(world.abandon_order.shape, dtype=np.bool_)
+    _discoverable_kernel(world.kernel_arrays(), constants_for(params, "M1"), ok)
+    return ok
+
+
+@njit(cache=True)
+def _discoverable_kernel(w, k, ok):
+    for c in range(ok.shape[0]):
+        for t in range(ok.shape[1]):
+            ok[c, t] = discoverable_one(w, k, c, t)
 
 
 def discovery(world: World, params: Params, model: str) -> None:

@@ -15,7 +15,7 @@ from numba import njit
 
 from hcss.simulation import states as S
 from hcss.simulation.messaging import exchange_kernel, initiating_silence_kernel
-from hcss.simulation.movement import move
+from hcss.simulation.movement import move_kernel
 from hcss.simulation.rules import (
     discovery_kernel,
     enforce_orders_kernel,
@@ -28,7 +28,7 @@ from hcss.simulation.rules import (
 @njit(cache=True)
 def advance_agents(w, k, at_target, at_hub, newly_visible):
     """Move, arrive, enforce orders, discover, rate transitions. Returns the newly visible count."""
-    n_target, n_hub = move(w, k, at_target, at_hub)
+    n_target, n_hub = move_kernel(w, k, at_target, at_hub)
     reach_target_kernel(w, k, at_target, n_target)
     n_visible = reach_hub_kernel(w, at_hub, n_hub, newly_visible)
     enforce_orders_kernel(w)

@@ -39,6 +39,7 @@ class Arrays(NamedTuple):
     hub: np.ndarray
     target_pos: np.ndarray
     target_value: np.ndarray
+    target_around: np.ndarray
     active: np.ndarray
     reserved_by: np.ndarray
     report_sum: np.ndarray
@@ -48,6 +49,7 @@ class Arrays(NamedTuple):
     discovery_gap: np.ndarray
     round_trip_gap: np.ndarray
     send_factor: np.ndarray
+    site_rate: np.ndarray
     stream: np.ndarray
 
 
@@ -77,6 +79,7 @@ class World:
     target_pos: np.ndarray  # float64 (T, 2)
     target_value: np.ndarray  # float64
     target_section: np.ndarray  # int32, 0-based section
+    target_around: np.ndarray  # int32, collective whose start hub it was placed around
     active: np.ndarray  # bool: placed and not yet taken
     reserved_by: np.ndarray  # int32, collective executing a move to it, or -1
     report_sum: np.ndarray  # float64, sum of estimates reported at hubs
@@ -87,6 +90,7 @@ class World:
     discovery_gap: np.ndarray  # float64, 1/g(d_max) - 1/g(d): discovery delay's denominator
     round_trip_gap: np.ndarray  # float64, τ_max - τ_i: reassessment delay's denominator
     send_factor: np.ndarray  # float64, M_i = d_i/d_min: message rate factor of F_I(i) senders
+    site_rate: np.ndarray  # float64, g(d) per explorer (discovery "per_agent"), before eligibility
     # the kernels' random stream (stream.py) --------------------------------
     stream: np.ndarray  # uint64 (4,), xoshiro256** state
     # clock --------------------------------------------------------------
@@ -132,6 +136,7 @@ class World:
             target_section=np.array(
                 [i for i, s in enumerate(scenario.sections) for _ in s.targets], dtype=np.int32
             ),
+            target_around=np.array([t.around for t in placed], dtype=np.int32),
             active=np.zeros(n_t, dtype=bool),
             reserved_by=np.full(n_t, -1, dtype=np.int32),
             report_sum=np.zeros(n_t),
@@ -141,6 +146,7 @@ class World:
             discovery_gap=np.zeros((n_c, n_t)),
             round_trip_gap=np.zeros((n_c, n_t)),
             send_factor=np.ones((n_c, n_t)),
+            site_rate=np.zeros((n_c, n_t)),
             stream=seed_stream(scenario.seed, run),
         )
         return world
@@ -163,6 +169,7 @@ class World:
             self.hub,
             self.target_pos,
             self.target_value,
+            self.target_around,
             self.active,
             self.reserved_by,
             self.report_sum,
@@ -172,6 +179,7 @@ class World:
             self.discovery_gap,
             self.round_trip_gap,
             self.send_factor,
+            self.site_rate,
             self.stream,
         )
 

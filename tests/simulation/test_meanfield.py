@@ -1,0 +1,62 @@
+"""The paper's equations as a mean-field model, and its agreement with the agent model."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hcss.simulation import Params
+from hcss.simulation.crosscheck import LAYOUTS
+from hcss.simulation.meanfield import Site, solve_meanfield
+from hcss.simulation.meanfield_chain import run_chain
+
+SEARCH_SPACE = Params().with_changes(m2_distance_bounds="search_space")
+SITE_BOUNDS = Params().with_changes(m2_distance_bounds="site_distances")
+
+
+def test_win_probabilities_and_undecided_share_add_up_to_one() -> None:
+    prediction = solve_meanfield(LAYOUTS["easy"], "M2", SEARCH_SPACE)
+    assert sum(prediction.win_probability) + prediction.undecided == pytest.approx(1.0, abs=1e-3)
+    assert 0 < prediction.quorum_s < prediction.decision_s
+
+
+def test_m1_picks_the_nearest_good_site_whatever_is_best() -> None:
+    """The paper's bias: M1 is right when the best is near, wrong when it is the farthest."""
+    easy = solve_meanfield(LAYOUTS["easy"], "M1", Params())
+    difficult = solve_meanfield(LAYOUTS["difficult"], "M1", Params())
+    assert easy.winner == 0 and easy.win_probability[0] > 0.9
+    assert difficult.winner == 1  # the 0.9 site at 150 m, not the 1.0 site at 350 m
+
+
+def test_m2_with_the_search_space_bounds_is_accurate_and_slower() -> None:
+    for layout in ("easy", "difficult"):
+        m1 = solve_meanfield(LAYOUTS[layout], "M1", SEARCH_SPACE)
+        m2 = solve_meanfield(LAYOUTS[layout], "M2", SEARCH_SPACE)
+        assert m2.winner == 0 and m2.win_probability[0] > 0.9
+        assert m2.quorum_s > m1.quorum_s
+
+
+def test_m2_with_the_site_distance_bounds_favours_the_farthest_site() -> None:
+    """d_max = 350 m: the 350 m sites skip the delays and get the largest M_i."""
+    easy = solve_meanfield(LAYOUTS["easy"], "M2", SITE_BOUNDS)
+    assert LAYOUTS["easy"][easy.winner].distance_m == 350.0
+
+
+def test_a_single_site_is_chosen_by_every_reading() -> None:
+    site = [Site(250.0, 0.9)]
+    for model in ("M1", "M2"):
+        prediction = solve_meanfield(site, model, Params())
+        assert prediction.win_probability[0] == pytest.approx(1.0, abs=1e-3)
+        rng = np.random.default_rng(4)
+        outcome = run_chain(site, model, Params(), rng)
+        assert outcome.chosen == 0
+
+
+def test_the_chain_agrees_with_the_odes_on_the_winner() -> None:
+    """Each reading of the equations checks the other: the chain's modal site is the ODEs' winner."""
+    rng = np.random.default_rng(11)
+    for layout, model in (("easy", "M1"), ("difficult", "M1"), ("difficult", "M2")):
+        params = SEARCH_SPACE
+        ode = solve_meanfield(LAYOUTS[layout], model, params)
+        chosen = [run_chain(LAYOUTS[layout], model, params, rng).chosen for _ in range(4)]
+        assert max(set(chosen), key=chosen.count) == ode.winner, (layout, model, chosen)
