@@ -29,7 +29,7 @@ from hcss.simulation import stream
 from hcss.simulation.constants import Constants, constants_for
 from hcss.simulation.params import Params
 from hcss.simulation.rules import frequency_modulation  # noqa: F401 - part of this rule's API
-from hcss.simulation.world import Arrays, World, set_state_one
+from hcss.simulation.world import Arrays, World, decision_changed, set_state_one, target_in
 
 M3 = 3
 
@@ -45,7 +45,7 @@ class Inbox:
     sender_estimate: np.ndarray
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def decision_key(state, target):
     """One integer for a decision state: phase and target (uncommitted agents have target -1)."""
     return S.PHASE_OF_STATE[state] * 4096 + target + 1
@@ -118,43 +118,54 @@ def compose_kernel(w: Arrays, k: Constants):
 
 
 @njit(cache=True)
-def deliver_one(w: Arrays, k: Constants, r, s_state, s_target, s_estimate, draw, finished):
-    """Apply one message to its receiver r.
+def deliver_messages(
+    w: Arrays, k: Constants, receiver, s_state, s_target, s_estimate, draw, finished
+):
+    """Apply the messages one after another, each to the state the previous ones left.
 
-    Every rule reads the receiver's state before this message, so at most one
-    rule fires per message. A D(i) quorum marks the receiver's collective in
-    `finished` (the first such transition ends its decision).
+    Message m goes to `receiver[m]` from a sender in state `s_state[m]` for
+    target `s_target[m]` with estimate `s_estimate[m]`; `draw[m]` is its
+    uniform draw for recruitment and cross-inhibition. Every rule reads the
+    receiver's state before the message, so at most one rule fires per
+    message. A D(i) quorum marks the receiver's collective in `finished` (the
+    first such transition ends its decision). One loop, no per-message call:
+    a call that takes the world's arrays costs more than the rules themselves.
     """
-    state, target = w.state[r], w.target[r]
-    w.silence[r] = 0.0
-    key = decision_key(state, target)
-    streak = w.streak[r] + 1 if key == decision_key(s_state, s_target) else 0
-    new_state, new_target, new_leg = state, target, w.leg[r]
-    changed = False
-    if s_state == S.C and S.DELIBERATING[state]:  # commitment spreads to deliberating agents
-        new_state, new_target, changed = S.C, s_target, True
-    elif s_state == S.I and (
-        state == S.U_I or state == S.F_I or (state == S.C and target == s_target)
-    ):  # initiation spreads
-        new_state, new_target, changed = S.I, s_target, True
-    elif k.model != M3 and s_state == S.F_I and draw < s_estimate:
-        if state == S.U_I and not w.abandon_order[w.collective[r], s_target]:  # recruitment
-            new_state, new_target, new_leg, changed = S.F_L, s_target, S.TO_TARGET, True
-        elif S.FAVOURING_IN_HUB[state] and target != s_target:  # cross-inhibition
-            new_state, new_target, new_leg, changed = S.U_L, -1, S.EXPLORING, True
-    if streak >= k.quorum_k and not changed:
-        if k.model != M3 and state == S.F_I:  # F_I(i) → C(i)
-            new_state = S.C
-        elif state == S.C:  # C(i) → I(i)
-            new_state = S.I
-        elif state == S.I:  # I(i) → X(i)
-            new_state, new_leg = S.X, S.TO_TARGET
-        elif state == S.D:  # a D(i) quorum ends the decision
-            finished[w.collective[r]] = True
-    set_state_one(w.state, w.target, w.streak, r, new_state, new_target)  # clears on a change
-    if decision_key(w.state[r], w.target[r]) == key:
-        w.streak[r] = streak
-    w.leg[r] = new_leg
+    state, target, streak, leg = w.state, w.target, w.streak, w.leg
+    for m in range(receiver.size):
+        r, sender_state, sender_target = receiver[m], s_state[m], s_target[m]
+        old_state, old_target = state[r], target[r]
+        w.silence[r] = 0.0
+        key = decision_key(old_state, old_target)
+        run = streak[r] + 1 if key == decision_key(sender_state, sender_target) else 0
+        new_state, new_target, new_leg = old_state, old_target, leg[r]
+        changed = False
+        if sender_state == S.C and S.DELIBERATING[old_state]:  # commitment spreads
+            new_state, new_target, changed = S.C, sender_target, True
+        elif sender_state == S.I and (
+            old_state == S.U_I
+            or old_state == S.F_I
+            or (old_state == S.C and old_target == sender_target)
+        ):  # initiation spreads
+            new_state, new_target, changed = S.I, sender_target, True
+        elif k.model != M3 and sender_state == S.F_I and draw[m] < s_estimate[m]:
+            if old_state == S.U_I and not w.abandon_order[w.collective[r], sender_target]:
+                new_state, new_target, new_leg, changed = S.F_L, sender_target, S.TO_TARGET, True
+            elif S.FAVOURING_IN_HUB[old_state] and old_target != sender_target:
+                new_state, new_target, new_leg, changed = S.U_L, -1, S.EXPLORING, True
+        if run >= k.quorum_k and not changed:
+            if k.model != M3 and old_state == S.F_I:  # F_I(i) → C(i)
+                new_state = S.C
+            elif old_state == S.C:  # C(i) → I(i)
+                new_state = S.I
+            elif old_state == S.I:  # I(i) → X(i)
+                new_state, new_leg = S.X, S.TO_TARGET
+            elif old_state == S.D:  # a D(i) quorum ends the decision
+                finished[w.collective[r]] = True
+        new_target = target_in(new_state, new_target)
+        state[r], target[r], leg[r] = new_state, new_target, new_leg
+        # The window is cleared when the decision state changes (set_state_one's rule).
+        streak[r] = 0 if decision_changed(old_state, old_target, new_state, new_target) else run
 
 
 @njit(cache=True)
@@ -167,20 +178,20 @@ def exchange_kernel(w: Arrays, k: Constants, finished):
         w.silence[i] += k.dt_s
     sender, receiver = compose_kernel(w, k)
     n = sender.size
+    for m in range(n - 1, 0, -1):  # Fisher-Yates shuffle: a random order of arrival
+        j = stream.below(w.stream, m + 1)
+        sender[m], sender[j] = sender[j], sender[m]
+        receiver[m], receiver[j] = receiver[j], receiver[m]
     s_state = np.empty(n, dtype=np.int8)
     s_target = np.empty(n, dtype=np.int32)
     s_estimate = np.empty(n, dtype=np.float64)
+    draw = np.empty(n, dtype=np.float64)
     for m in range(n):  # senders speak from their state at composition
         s_state[m] = w.state[sender[m]]
         s_target[m] = w.target[sender[m]]
         s_estimate[m] = w.estimate[sender[m]]
-    order = np.arange(n)
-    for m in range(n - 1, 0, -1):  # Fisher-Yates shuffle
-        j = stream.below(w.stream, m + 1)
-        order[m], order[j] = order[j], order[m]
-    for m in order:
-        draw = stream.uniform(w.stream) if s_state[m] == S.F_I else 1.0
-        deliver_one(w, k, receiver[m], s_state[m], s_target[m], s_estimate[m], draw, finished)
+        draw[m] = stream.uniform(w.stream)
+    deliver_messages(w, k, receiver, s_state, s_target, s_estimate, draw, finished)
 
 
 @njit(cache=True)
@@ -213,7 +224,7 @@ def deliver(
     Returns the collectives in which a D(i) quorum was reached.
     """
     finished = np.zeros(world.n_collectives, dtype=np.bool_)
-    _deliver_kernel(
+    deliver_messages(
         world.kernel_arrays(),
         constants_for(params, model),
         inbox.receiver[messages].astype(np.int64),
@@ -224,9 +235,3 @@ def deliver(
         finished,
     )
     return finished
-
-
-@njit(cache=True)
-def _deliver_kernel(w, k, receiver, s_state, s_target, s_estimate, draw, finished):
-    for m in range(receiver.size):
-        deliver_one(w, k, receiver[m], s_state[m], s_target[m], s_estimate[m], draw[m], finished)

@@ -20,7 +20,7 @@ from hcss.simulation.params import Params
 from hcss.simulation.world import Arrays, World
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def home(w, i):
     """Centre of agent i's hub area: its collective's hub, or the new site for X and D."""
     if w.state[i] >= S.X:
@@ -41,26 +41,27 @@ def move_kernel(w: Arrays, k: Constants, at_target, at_hub):
     step = k.speed_mps * k.dt_s
     n_target = 0
     n_hub = 0
-    spare, has_spare = 0.0, False  # normals come in pairs; the second serves the next walker
+    n_walkers = 0
+    for i in range(w.state.size):
+        n_walkers += w.leg[i] <= S.EXPLORING
+    turns = np.empty(n_walkers)  # every walker's turning deviate, drawn in one tight loop
+    stream.fill_normals(w.stream, turns)
+    n_walkers = 0
     for i in range(w.state.size):
         hx, hy = home(w, i)
         leg = w.leg[i]
         if leg <= S.EXPLORING:  # correlated random walk in the hub area or the exploration disc
-            if has_spare:
-                turn, has_spare = spare, False
-            else:
-                turn, spare = stream.normal_pair(w.stream)
-                has_spare = True
-            heading = w.heading[i] + k.turn_sd_rad * turn
-            x = w.pos[i, 0] + step * math.cos(heading)
-            y = w.pos[i, 1] + step * math.sin(heading)
+            heading = w.heading[i] + k.turn_sd_rad * turns[n_walkers]
+            n_walkers += 1
+            dx, dy = math.cos(heading), math.sin(heading)
+            x = w.pos[i, 0] + step * dx
+            y = w.pos[i, 1] + step * dy
             radius = k.hub_radius_m if leg == S.AT_HUB else k.exploration_range_m
             ox, oy = x - hx, y - hy
             distance2 = ox * ox + oy * oy
             if distance2 > radius * radius:  # mirror the overshoot and the radial heading
                 distance = math.sqrt(distance2)
                 nx, ny = ox / distance, oy / distance
-                dx, dy = math.cos(heading), math.sin(heading)
                 dot = dx * nx + dy * ny
                 back = min(max(2.0 * radius - distance, 0.0), radius)
                 x, y = hx + nx * back, hy + ny * back

@@ -37,14 +37,14 @@ def leave_rate_one(estimate, gap):
     return estimate / gap if gap > 0.0 else math.inf
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def assess(w: Arrays, k: Constants, t):
     """A fresh estimate v̂ = v·(1+e) of target t, e ~ U[-0.1, 0.1], clipped to (0, 1]."""
     error = k.value_error * (2.0 * stream.uniform(w.stream) - 1.0)
     return min(max(w.target_value[t] * (1.0 + error), 1e-9), 1.0)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def abandon_probability_one(w: Arrays, k: Constants, i):
     """P_α = min(1, α·(d_i/100 m)/v̂): farther and poorer targets are abandoned more."""
     d = w.hub_distance[w.collective[i], w.target[i]]
@@ -95,7 +95,7 @@ def refresh_geometry(world: World, params: Params) -> None:
 
 
 # -------------------------------------------------------------------- rules
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def discoverable_one(w: Arrays, k: Constants, c, t):
     """Whether collective c's explorers can adopt target t.
 
@@ -113,7 +113,7 @@ def discoverable_one(w: Arrays, k: Constants, c, t):
     )
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def adopt_on_discovery(w: Arrays, k: Constants, i, t):
     """An explorer that found target t assesses it, adopts it with probability v̂ and flies home."""
     estimate = assess(w, k, t)

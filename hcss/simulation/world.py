@@ -257,13 +257,23 @@ class World:
 
 
 @njit(cache=True)
+def target_in(new_state, new_target):
+    """Uncommitted agents have no target (-1): the invariant decision keys rely on."""
+    return -1 if S.PHASE_OF_STATE[new_state] == 0 else new_target
+
+
+@njit(cache=True)
+def decision_changed(old_state, old_target, new_state, new_target):
+    """Whether the decision state (phase and target) changes: the quorum window is then cleared."""
+    return S.PHASE_OF_STATE[old_state] != S.PHASE_OF_STATE[new_state] or old_target != new_target
+
+
+@njit(cache=True, inline="always")
 def set_state_one(state, target, streak, agent, new_state, new_target):
     """The one rule for a change of state: uncommitted agents have no target, and the
     quorum streak is cleared when the decision state (phase and target) changes."""
-    new_phase = S.PHASE_OF_STATE[new_state]
-    if new_phase == 0:
-        new_target = -1
-    if S.PHASE_OF_STATE[state[agent]] != new_phase or target[agent] != new_target:
+    new_target = target_in(new_state, new_target)
+    if decision_changed(state[agent], target[agent], new_state, new_target):
         streak[agent] = 0
     state[agent] = new_state
     target[agent] = new_target
