@@ -136,7 +136,15 @@ def discovery_kernel(w: Arrays, k: Constants):
     which one in proportion to the rates; its flights stay spatial.
     """
     radius2 = k.sensing_radius_m * k.sensing_radius_m
-    n_targets = w.active.size
+    # Per collective, the active targets within R of its hub: only they can be discovered.
+    n_c, n_t = w.hub_distance.shape
+    count = np.zeros(n_c, dtype=np.int64)
+    candidates = np.empty((n_c, n_t), dtype=np.int64)
+    for c in range(n_c):
+        for t in range(n_t):
+            if w.active[t] and w.hub_distance[c, t] <= k.exploration_range_m:
+                candidates[c, count[c]] = t
+                count[c] += 1
     for i in range(w.state.size):
         if w.leg[i] != S.EXPLORING or w.state[i] != S.U_L:
             continue
@@ -144,13 +152,15 @@ def discovery_kernel(w: Arrays, k: Constants):
         best = -1
         if k.discovery_per_agent:
             total = 0.0
-            for t in range(n_targets):
+            for j in range(count[c]):
+                t = candidates[c, j]
                 if discoverable_one(w, k, c, t):
                     total += w.site_rate[c, t]
             if total <= 0.0 or stream.uniform(w.stream) >= per_step_probability(total, k.dt_s):
                 continue
             pick = stream.uniform(w.stream) * total
-            for t in range(n_targets):
+            for j in range(count[c]):
+                t = candidates[c, j]
                 if discoverable_one(w, k, c, t):
                     best = t
                     pick -= w.site_rate[c, t]
@@ -158,9 +168,8 @@ def discovery_kernel(w: Arrays, k: Constants):
                         break
         else:
             best_d2 = radius2
-            for t in range(n_targets):
-                if not w.active[t]:
-                    continue
+            for j in range(count[c]):
+                t = candidates[c, j]
                 dx = w.pos[i, 0] - w.target_pos[t, 0]
                 dy = w.pos[i, 1] - w.target_pos[t, 1]
                 d2 = dx * dx + dy * dy
