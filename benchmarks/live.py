@@ -23,11 +23,11 @@ from hcss.platform.live.trials import start_trial
 from hcss.platform.localserver import LocalServer
 from hcss.platform.models import Participant
 
-TRIAL_COUNTS = (10, 20, 40, 60, 80)
+TRIAL_COUNTS = (10, 20, 40, 80, 200)
 MEASURE_S = 20.0
 COMMAND_EVERY_S = 2.0
 TARGET_RATE_HZ = 2.0
-TARGET_P95_MS = 250.0
+TARGET_P95_MS = 100.0
 
 
 class StreamReader(threading.Thread):

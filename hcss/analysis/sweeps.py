@@ -106,7 +106,17 @@ def heatmap(table: pd.DataFrame, x: str, y: str | None, path: Path) -> Path:
             )
             for (i, j), value in np.ndenumerate(values):
                 if np.isfinite(value):
-                    ax.text(j, i, f"{value:.2f}", ha="center", va="center", color="w", fontsize=8)
+                    shade = image.norm(value)  # dark cells get white figures
+                    dark = shade < 0.6 if is_rate else shade > 0.45
+                    ax.text(
+                        j,
+                        i,
+                        f"{value:.2f}",
+                        ha="center",
+                        va="center",
+                        fontsize=8,
+                        color="white" if dark else "black",
+                    )
             ax.set_xticks(
                 range(values.shape[1]),
                 [f"{v:g}" if isinstance(v, float) else str(v) for v in grid.columns],
