@@ -14,6 +14,7 @@ request log reproduce a run bit for bit.
 from __future__ import annotations
 
 import hashlib
+import math
 import pickle
 from types import SimpleNamespace
 
@@ -26,7 +27,7 @@ from hcss.simulation.constants import constants_for
 from hcss.simulation.params import MODELS, ROMAN, Params
 from hcss.simulation.requests import Request, RequestOutcome, recruit_for, refusal
 from hcss.simulation.scenario import Scenario
-from hcss.simulation.step import advance_agents, exchange_and_report, step_agents
+from hcss.simulation.step import advance_agents, exchange_and_report, quiet_steps
 from hcss.simulation.view import render_view
 from hcss.simulation.world import World
 
@@ -95,31 +96,27 @@ class Simulation:
 
     def step(self, n: int = 1) -> None:
         """Advance n steps of dt seconds (fewer if the trial finishes)."""
-        for _ in range(n):
-            if self.world.finished:
-                return
-            self._step_once()
+        self._advance(self.world.step_count + n)
 
     def run_until_finished(self, max_steps: int | None = None) -> None:
-        limit = max_steps if max_steps is not None else 10**9
-        while not self.world.finished and self.world.step_count < limit:
-            self._step_once()
+        self._advance(max_steps if max_steps is not None else 10**9)
 
-    def _step_once(self) -> None:
+    def _advance(self, until_step: int) -> None:
+        """Step until `until_step` or the end of the trial.
+
+        Steps in which nothing needs Python (no discovery to announce, no new
+        commitment, no move to begin, no decision ending or timing out, no
+        request waiting for agents) run inside one compiled call, exactly as
+        they would one by one.
+        """
         w, scratch = self.world, self._scratch
-        arrays = w.kernel_arrays()
-        if any(r.needed and r.active for r in self.requests):
-            n_visible = advance_agents(
-                arrays, self._k, scratch.at_target, scratch.at_hub, scratch.visible
-            )
-            for request in self.requests:
-                recruit_for(w, request, self.rng)
-            exchange_and_report(
-                arrays, self._k, scratch.finished, scratch.counts, scratch.committed, scratch.moving
-            )
-        else:  # the same rules in one call
-            n_visible = step_agents(
-                arrays,
+        while not w.finished and w.step_count < until_step:
+            if any(r.needed and r.active for r in self.requests):
+                self._step_once()
+                continue
+            budget = min(until_step, self._timeout_step()) - w.step_count
+            done, n_visible = quiet_steps(
+                w.kernel_arrays(),
                 self._k,
                 scratch.at_target,
                 scratch.at_hub,
@@ -128,7 +125,45 @@ class Simulation:
                 scratch.counts,
                 scratch.committed,
                 scratch.moving,
+                w.commit_announced,
+                w.executing,
+                max(1, budget),
             )
+            w.step_count += done - 1  # the last step's bookkeeping follows
+            self._after_step(n_visible)
+
+    def _timeout_step(self) -> int:
+        """The first step count at which an open decision reaches the time limit."""
+        limit, dt = self.params.decision_timeout_s, self.params.dt_s
+        if limit is None:
+            return 10**18
+        first = 10**18
+        for decision in self.open:
+            if decision is not None:
+                step = math.ceil((decision.start_s + limit) / dt)
+                while step > 0 and (step - 1) * dt - decision.start_s >= limit:
+                    step -= 1
+                while step * dt - decision.start_s < limit:
+                    step += 1
+                first = min(first, step)
+        return first
+
+    def _step_once(self) -> None:
+        w, scratch = self.world, self._scratch
+        arrays = w.kernel_arrays()
+        n_visible = advance_agents(
+            arrays, self._k, scratch.at_target, scratch.at_hub, scratch.visible
+        )
+        for request in self.requests:
+            recruit_for(w, request, self.rng)
+        exchange_and_report(
+            arrays, self._k, scratch.finished, scratch.counts, scratch.committed, scratch.moving
+        )
+        self._after_step(n_visible)
+
+    def _after_step(self, n_visible: int) -> None:
+        """What follows a step in Python: events, commitments, moves, decisions ending."""
+        w, scratch = self.world, self._scratch
         w.step_count += 1
         w.time = w.step_count * self.params.dt_s
         for t in scratch.visible[:n_visible].tolist():

@@ -11,6 +11,7 @@ array operations.
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit
 
 from hcss.simulation import states as S
@@ -69,3 +70,40 @@ def step_agents(w, k, at_target, at_hub, newly_visible, finished, state_counts, 
     n_visible = advance_agents(w, k, at_target, at_hub, newly_visible)
     exchange_and_report(w, k, finished, state_counts, committed, moving)
     return n_visible
+
+
+@njit(cache=True)
+def quiet_steps(
+    w,
+    k,
+    at_target,
+    at_hub,
+    newly_visible,
+    finished,
+    state_counts,
+    committed,
+    moving,
+    commit_announced,
+    executing,
+    max_steps,
+):
+    """Up to `max_steps` steps, stopping after the first one that needs the engine.
+
+    A step needs the engine (Python) when a target became visible, a
+    collective's committed agents favour a target not yet announced, a
+    collective without a move under way has executing agents, or a D(i)
+    quorum was reached. Returns (steps taken, targets made visible in the last).
+    """
+    for done in range(1, max_steps + 1):
+        n_visible = step_agents(
+            w, k, at_target, at_hub, newly_visible, finished, state_counts, committed, moving
+        )
+        if n_visible > 0 or finished.any():
+            return done, n_visible
+        for c in range(committed.shape[0]):
+            announce = state_counts[S.C] and committed[c].max() > 0
+            if announce and np.argmax(committed[c]) != commit_announced[c]:
+                return done, n_visible
+            if state_counts[S.X] and executing[c] < 0 and moving[c].max() > 0:
+                return done, n_visible
+    return max_steps, 0
