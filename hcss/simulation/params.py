@@ -42,7 +42,7 @@ class Params:
     # Fitted by `hcss simulate calibrate` so that a collective's FIRST explorer
     # finds a site at d after 1/g(d) on average (the study's g(d): 40/89/167 s
     # at 150/250/350 m): the per-collective reading of the paper's discovery rate.
-    sensing_radius_m: float = 20.0
+    sensing_radius_m: float = 4.5
     value_error: float = 0.1  # [choice] "10% error": v·(1+e), e ~ U[-0.1, 0.1]
     dt_s: float = 1.0  # time step
     turn_sd_rad: float = 0.5  # [choice] correlated random walk turning sd
@@ -59,7 +59,7 @@ class Params:
     # [calibrated] r_msg, messages per second per sender. Fitted by `hcss simulate
     # calibrate` so that M1's mean decision time in the simulation-only
     # experiment is the study's published 2.46 min.
-    message_rate: float = 1.0
+    message_rate: float = 2.04
     abandon_alpha: float = 0.05  # [choice] "5% per metre", read per 100 m
     abandon_unit_m: float = 100.0
     neighbour_draws: int = 8  # [choice] rejection-sampling draws to find a neighbour
