@@ -170,7 +170,7 @@ def test_m3_without_an_operator_makes_no_commitment_in_ten_minutes():
 
 
 def test_m2_frequency_modulation_scales_the_send_rate_with_distance():
-    sim = make_sim("M2", n_agents=400)
+    sim = make_sim("M2", n_agents=400, message_rate=1.0)  # r_msg = 1: M_i is the send rate
     w = sim.world
     far = int(np.argmax(np.where(w.active, w.hub_distance[0], 0)))
     senders = agents_of(w, 0, 100)
@@ -185,7 +185,7 @@ def test_m2_frequency_modulation_scales_the_send_rate_with_distance():
     per_sender = np.mean(counts) / senders.size
     # Neighbour search can fail rarely; the Poisson mean is M_i · r_msg · dt.
     assert per_sender == pytest.approx(expected, rel=0.08)
-    m1 = make_sim("M1", n_agents=400)
+    m1 = make_sim("M1", n_agents=400, message_rate=1.0)
     place(m1.world, agents_of(m1.world, 0, 100), S.F_I, target=far)  # same layout: same seed
     m1_senders = agents_of(m1.world, 0, 100)
     m1_counts = [

@@ -108,7 +108,7 @@ def test_abandon_probability_grows_with_distance_and_falls_with_value():
 
 
 def test_explorers_adopt_a_sensed_target_with_probability_of_their_estimate():
-    sim = make_sim("M1", n_agents=3000)
+    sim = make_sim("M1", n_agents=3000, sensing_radius_m=20.0)  # not the calibrated default
     w = sim.world
     t = _target_at(sim, 0, near=True)
     explorers = agents_of(w, 0, 3000)
