@@ -30,7 +30,7 @@ TRIAL_COUNTS = (10, 20, 40, 80, 120, 160, 200)
 MEASURE_S = 20.0
 COMMAND_EVERY_S = 2.0
 TARGET_RATE_HZ = 2.0
-TARGET_P95_MS = 250.0
+TARGET_P95_MS = 100.0
 
 
 class StreamReader(threading.Thread):
@@ -133,7 +133,11 @@ def run() -> None:
     sustained = 0
     with TemporaryDirectory() as tmp:
         for n in TRIAL_COUNTS:
-            result = measure(n, Path(tmp))
+            try:
+                result = measure(n, Path(tmp))
+            except OSError as error:  # e.g. waitress' connection limit (100 by default)
+                print(f"    {n:>3} live trials: failed ({type(error).__name__}: {error})")
+                break
             ok = (
                 result["min_rate_hz"] >= TARGET_RATE_HZ * 0.95
                 and result["p95_ms"] < TARGET_P95_MS
@@ -150,6 +154,7 @@ def run() -> None:
             if not ok:
                 break
     print(
+        "    before (numpy engine, commit 7b80ac4): 80 trials, 2.50 Hz min per trial, p95 13 ms\n"
         f"(4) live trials one process sustains at 2 Hz with p95 < {TARGET_P95_MS:.0f} ms: "
         f"{sustained}{'+' if sustained == TRIAL_COUNTS[-1] else ''}   [target >= 20]"
     )

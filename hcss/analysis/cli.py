@@ -62,6 +62,19 @@ def analyze(
     # Imported here so `hcss --help` stays fast: the analysis pulls in
     # scipy, statsmodels and matplotlib.
     from hcss.analysis.report import run_analysis
+    from hcss.analysis.sweeps import SweepInputError, analyse_sweep, is_sweep
+
+    if any(is_sweep(path) for path in inputs):  # `hcss simulate sweep` output
+        if len(inputs) != 1:
+            raise click.ClickException("analyse one sweep directory at a time")
+        try:
+            swept = analyse_sweep(inputs[0], out)
+        except SweepInputError as error:
+            raise click.ClickException(str(error)) from error
+        click.echo(
+            f"Wrote {len(swept.tables)} tables and {len(swept.figures)} heat map figures to {out}"
+        )
+        return
 
     try:
         report = run_analysis(

@@ -1,9 +1,10 @@
 """The model: collectives of simulated UAVs choosing sites (SPEC-simulation.md).
 
-Pure numpy: no Flask, no database. The public API is documented in
+numpy and numba (compiled rules, cached: see jit.py); no Flask, no database. The public API is documented in
 docs/simulation-api.md.
 """
 
+from hcss.simulation import jit  # noqa: F401 - sets the kernels' cache before they are defined
 from hcss.simulation.decisions import DECISION_COLUMNS, DecisionRecord
 from hcss.simulation.engine import Simulation, SimulationError
 from hcss.simulation.params import MODELS, ROMAN, Params

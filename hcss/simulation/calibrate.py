@@ -80,14 +80,14 @@ def first_encounters(
     from hcss.simulation.engine import Simulation
 
     sim = Simulation(single_collective_scenario(distances_m, params, seed), "M1", params)
-    w, rng = sim.world, sim.rng
+    w = sim.world
     first = np.full((radii_m.size, len(distances_m)), limit_s)
     pending = np.ones_like(first, dtype=bool)
     r2 = radii_m[:, None] ** 2
     while pending.any() and w.time < limit_s:
-        _, at_hub = movement.move(w, params, rng)
+        _, at_hub = movement.move(w, params)
         rules.reach_hub(w, at_hub)
-        rules.rate_transitions(w, params, rng, "M1")
+        rules.rate_transitions(w, params, "M1")
         w.step_count += 1
         w.time = w.step_count * params.dt_s
         explorers = np.flatnonzero((w.leg == S.EXPLORING) & (w.state == S.U_L))

@@ -349,3 +349,82 @@ def meanfield(runs: int, **readings: object) -> None:
         f"r_msg = {params.message_rate:g}/s\n"
     )
     click.echo(crosscheck.comparison_table(rows))
+
+
+@simulate.command("sweep")
+@click.option(
+    "--param",
+    "param_specs",
+    multiple=True,
+    required=True,
+    metavar="NAME=V1,V2,...",
+    help="A parameter of Params and its values; repeat for a grid.",
+)
+@click.option("--scenarios", type=click.IntRange(min=1, max=10_000), default=28, show_default=True)
+@click.option(
+    "--runs",
+    type=click.IntRange(min=1, max=10_000),
+    default=10,
+    show_default=True,
+    help="Runs per scenario and model.",
+)
+@click.option("--models", default="M1,M2", show_default=True, help="Comma-separated models.")
+@click.option(
+    "--workers", type=click.IntRange(min=1), default=2, show_default=True, help="Local processes."
+)
+@click.option(
+    "--dask",
+    "dask_address",
+    default=None,
+    help="Dask scheduler address, or 'local' for a LocalCluster.",
+)
+@click.option(
+    "--seed", type=int, default=20_150_000, show_default=True, help="Seed of the first scenario."
+)
+@click.option(
+    "--out",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=Path("out/sweep"),
+    show_default=True,
+)
+def sweep_command(
+    param_specs: tuple[str, ...],
+    scenarios: int,
+    runs: int,
+    models: str,
+    workers: int,
+    dask_address: str | None,
+    seed: int,
+    out: Path,
+) -> None:
+    """The simulation-only experiment over every combination of the given parameter values.
+
+    Writes OUT/cells/<cell>.csv per finished cell (an interrupted sweep resumes,
+    skipping them) and OUT/decisions.csv, one row per decision with the cell's
+    parameter values as columns. `hcss analyze OUT --out REPORT` draws the heat maps.
+    """
+    from hcss.simulation import sweep as sw
+
+    chosen = tuple(m.strip() for m in models.split(",") if m.strip())
+    if not chosen or any(m not in MODELS for m in chosen) or len(set(chosen)) != len(chosen):
+        raise click.BadParameter(
+            f"models must be among {', '.join(MODELS)}; got {models!r}", param_hint="--models"
+        )
+    try:
+        axes = tuple(sw.parse_axis(spec) for spec in param_specs)
+        plan = sw.Sweep(axes, scenarios, runs, chosen, seed)
+        n_cells = len(plan.cells)
+        pending = sw.prepare(plan, out)
+    except sw.SweepError as error:
+        raise click.BadParameter(str(error), param_hint="--param/--out") from None
+    n_jobs = len(plan.jobs())
+    where = f"Dask ({dask_address})" if dask_address else f"{workers} local process(es)"
+    click.echo(
+        f"{n_cells} cells × {n_jobs} runs ({scenarios} scenarios × {runs} runs × "
+        f"{', '.join(chosen)}) on {where}; {n_cells - len(pending)} cell(s) already written."
+    )
+    started = time.perf_counter()
+    with tqdm(total=n_cells * n_jobs, unit="run", desc="sweep", dynamic_ncols=True) as bar:
+        ran = sw.run_sweep(plan, out, workers, dask_address, on_done=bar.update)
+    elapsed = time.perf_counter() - started
+    click.echo(f"{ran} cell(s) run in {elapsed:.0f} s; all decisions in {out / 'decisions.csv'}.")

@@ -1,30 +1,38 @@
 """The Simulation: one trial of collectives choosing sites.
 
-`step()` runs the rules in a fixed order, each a vectorised function over all
-agents: move, arrive, enforce standing orders, discover, rate transitions,
-serve requests, exchange messages, begin moves, end decisions. One
-`numpy.random.Generator` per trial (seeded from the scenario and the run
-number) drives everything, and requests are applied between steps, so the
-same scenario, run and timed request log reproduce a run bit for bit.
+`step()` runs the rules in a fixed order, each a compiled function over all
+agents (fused into two calls, `step.py`): move, arrive, enforce standing
+orders, discover, rate transitions, serve requests, exchange messages; then,
+in Python and only when something happened, begin moves and end decisions.
+Randomness comes from the scenario's seed and the run number: the compiled
+rules draw from the World's own stream (`stream.py`), the Python-side request
+handling from one `numpy.random.Generator`; both are part of the state, and
+requests are applied between steps, so the same scenario, run and timed
+request log reproduce a run bit for bit.
 """
 
 from __future__ import annotations
 
 import hashlib
+import math
 import pickle
+from types import SimpleNamespace
 
 import numpy as np
 
 from hcss.simulation import decisions as dec
-from hcss.simulation import messaging, movement, rules
+from hcss.simulation import movement, rules
 from hcss.simulation import states as S
+from hcss.simulation.constants import constants_for
 from hcss.simulation.params import MODELS, ROMAN, Params
 from hcss.simulation.requests import Request, RequestOutcome, recruit_for, refusal
 from hcss.simulation.scenario import Scenario
+from hcss.simulation.step import advance_agents, exchange_and_report, quiet_steps
 from hcss.simulation.view import render_view
 from hcss.simulation.world import World
 
-SNAPSHOT_VERSION = 1
+SNAPSHOT_VERSION = 2  # 2: the compiled engine (World.stream and the M2 geometry arrays)
+DERIVED = ("rng", "scenario", "params", "_k", "_scratch")  # not pickled as such
 
 
 class SimulationError(ValueError):
@@ -46,7 +54,8 @@ class Simulation:
         self.rng = np.random.default_rng(
             np.random.SeedSequence(scenario.seed, spawn_key=(1, self.run))
         )
-        self.world = World.new(scenario, self.params)
+        self.world = World.new(scenario, self.params, run=self.run)
+        self._prepare()
         self.requests: list[Request] = []
         self.decisions: list[dec.DecisionRecord] = []
         self.open: list[dec.OpenDecision | None] = [None] * scenario.n_collectives
@@ -57,6 +66,20 @@ class Simulation:
         )
         self.events: list[dict] = []
         self._start_section(0)
+
+    def _prepare(self) -> None:
+        """The kernels' constants and scratch buffers (derived, rebuilt on restore)."""
+        w = self.world
+        self._k = constants_for(self.params, self.model)
+        self._scratch = SimpleNamespace(
+            at_target=np.empty(w.state.size, dtype=np.int64),
+            at_hub=np.empty(w.state.size, dtype=np.int64),
+            visible=np.empty(w.active.size, dtype=np.int64),
+            finished=np.zeros(w.n_collectives, dtype=np.bool_),
+            counts=np.zeros(len(S.NAMES), dtype=np.int64),
+            committed=np.zeros(w.abandon_order.shape, dtype=np.int64),
+            moving=np.zeros(w.abandon_order.shape, dtype=np.int64),
+        )
 
     # ------------------------------------------------------------------ clock
     @property
@@ -73,44 +96,91 @@ class Simulation:
 
     def step(self, n: int = 1) -> None:
         """Advance n steps of dt seconds (fewer if the trial finishes)."""
-        for _ in range(n):
-            if self.world.finished:
-                return
-            self._step_once()
+        self._advance(self.world.step_count + n)
 
     def run_until_finished(self, max_steps: int | None = None) -> None:
-        limit = max_steps if max_steps is not None else 10**9
-        while not self.world.finished and self.world.step_count < limit:
-            self._step_once()
+        self._advance(max_steps if max_steps is not None else 10**9)
+
+    def _advance(self, until_step: int) -> None:
+        """Step until `until_step` or the end of the trial.
+
+        Steps in which nothing needs Python (no discovery to announce, no new
+        commitment, no move to begin, no decision ending or timing out, no
+        request waiting for agents) run inside one compiled call, exactly as
+        they would one by one.
+        """
+        w, scratch = self.world, self._scratch
+        while not w.finished and w.step_count < until_step:
+            if any(r.needed and r.active for r in self.requests):
+                self._step_once()
+                continue
+            budget = min(until_step, self._timeout_step()) - w.step_count
+            done, n_visible = quiet_steps(
+                w.kernel_arrays(),
+                self._k,
+                scratch.at_target,
+                scratch.at_hub,
+                scratch.visible,
+                scratch.finished,
+                scratch.counts,
+                scratch.committed,
+                scratch.moving,
+                w.commit_announced,
+                w.executing,
+                max(1, budget),
+            )
+            w.step_count += done - 1  # the last step's bookkeeping follows
+            self._after_step(n_visible)
+
+    def _timeout_step(self) -> int:
+        """The first step count at which an open decision reaches the time limit."""
+        limit, dt = self.params.decision_timeout_s, self.params.dt_s
+        if limit is None:
+            return 10**18
+        first = 10**18
+        for decision in self.open:
+            if decision is not None:
+                step = math.ceil((decision.start_s + limit) / dt)
+                while step > 0 and (step - 1) * dt - decision.start_s >= limit:
+                    step -= 1
+                while step * dt - decision.start_s < limit:
+                    step += 1
+                first = min(first, step)
+        return first
 
     def _step_once(self) -> None:
-        w, p, rng, model = self.world, self.params, self.rng, self.model
-        at_target, at_hub = movement.move(w, p, rng)
-        rules.reach_target(w, at_target, p, rng, model)
-        visible = rules.reach_hub(w, at_hub)
-        rules.enforce_orders(w)
-        rules.discovery(w, p, rng, model)
-        rules.rate_transitions(w, p, rng, model)
+        w, scratch = self.world, self._scratch
+        arrays = w.kernel_arrays()
+        n_visible = advance_agents(
+            arrays, self._k, scratch.at_target, scratch.at_hub, scratch.visible
+        )
         for request in self.requests:
-            recruit_for(w, request, rng)
-        reached_done = messaging.exchange(w, p, rng, model)
-        messaging.initiating_silence(w, p)
-        in_hub = w.leg == S.AT_HUB
-        w.reported_quadrant[in_hub] = S.QUADRANT_OF_STATE[w.state[in_hub]]
+            recruit_for(w, request, self.rng)
+        exchange_and_report(
+            arrays, self._k, scratch.finished, scratch.counts, scratch.committed, scratch.moving
+        )
+        self._after_step(n_visible)
+
+    def _after_step(self, n_visible: int) -> None:
+        """What follows a step in Python: events, commitments, moves, decisions ending."""
+        w, scratch = self.world, self._scratch
         w.step_count += 1
-        w.time = w.step_count * p.dt_s
-        for t in visible:
-            self._event("discovery", None, int(t), f"Target {t + 1} discovered.")
-        self._announce_commitments()
-        self._begin_moves()
-        section = w.section
-        for c in np.flatnonzero(reached_done):
-            # A decision that completes the section discards the others under way,
-            # including any that reached their quorum in this same step.
-            if w.finished or w.section != section:
-                break
-            if self.open[c] is not None and w.executing[c] >= 0:
-                self._end_decision(int(c))
+        w.time = w.step_count * self.params.dt_s
+        for t in scratch.visible[:n_visible].tolist():
+            self._event("discovery", None, t, f"Target {t + 1} discovered.")
+        if scratch.counts[S.C]:
+            self._announce_commitments()
+        if scratch.counts[S.X] and (w.executing < 0).any():
+            self._begin_moves()
+        if scratch.finished.any():
+            section = w.section
+            for c in np.flatnonzero(scratch.finished):
+                # A decision that completes the section discards the others under way,
+                # including any that reached their quorum in this same step.
+                if w.finished or w.section != section:
+                    break
+                if self.open[c] is not None and w.executing[c] >= 0:
+                    self._end_decision(int(c))
         self._time_out_decisions()
 
     # -------------------------------------------------------------- requests
@@ -211,7 +281,7 @@ class Simulation:
         w.active[:] = w.target_section == section
         w.reserved_by[:] = -1
         w.hub[:] = w.start_hub
-        w.refresh_hub_distance()
+        rules.refresh_geometry(w, self.params)
         w.abandon_order[:] = False
         w.executing[:] = -1
         w.commit_announced[:] = -1
@@ -223,7 +293,7 @@ class Simulation:
         w.streak[:] = 0
         w.silence[:] = 0.0
         w.reported_quadrant[:] = 0
-        movement.scatter_in_hub(w, everyone, self.params, self.rng)
+        movement.scatter_in_hub(w, everyone, self._k)
         self.requests.clear()
         for c in range(w.n_collectives):
             self._open_decision(c)
@@ -239,13 +309,11 @@ class Simulation:
         )
 
     def _announce_commitments(self) -> None:
+        """Announce each collective's commitment: the target most of its C agents hold."""
         w = self.world
-        committed = np.flatnonzero(w.state == S.C)
-        if committed.size == 0:
-            return
-        for c in np.unique(w.collective[committed]):
-            targets = w.target[committed[w.collective[committed] == c]]
-            t = int(np.bincount(targets).argmax())
+        committed = self._scratch.committed  # (C, T) agents in C per target, from the kernel
+        for c in np.flatnonzero(committed.any(axis=1)).tolist():
+            t = int(committed[c].argmax())
             if w.commit_announced[c] != t:
                 w.commit_announced[c] = t
                 self._event(
@@ -258,14 +326,11 @@ class Simulation:
     def _begin_moves(self) -> None:
         """The first X agent of a collective begins its move: reserve the target, judge correctness."""
         w, p = self.world, self.params
-        moving = np.flatnonzero(w.state == S.X)
-        if moving.size == 0:
-            return
-        for c in np.unique(w.collective[moving]):
+        moving = self._scratch.moving  # (C, T) agents in X per target, from the kernel
+        for c in np.flatnonzero(moving.any(axis=1)).tolist():
             if w.executing[c] >= 0 or self.open[c] is None:
                 continue
-            mine = moving[w.collective[moving] == c]
-            t = int(np.bincount(w.target[mine]).argmax())
+            t = int(moving[c].argmax())
             mine_all = w.collective == c
             if w.reserved_by[t] >= 0 and w.reserved_by[t] != c:
                 self._send_home(
@@ -304,7 +369,7 @@ class Simulation:
         w.hub[c] = w.target_pos[t]
         w.active[t] = False
         w.reserved_by[t] = -1
-        w.refresh_hub_distance()
+        rules.refresh_geometry(w, self.params)
         self._reset_collective(c)
         self._event("arrival", c, t + 1, f"Collective {ROMAN[c]} arrived at target {t + 1}.")
         self._after_decision(c)
@@ -391,11 +456,7 @@ class Simulation:
     # ---------------------------------------------------------- persistence
     def snapshot(self) -> bytes:
         """The whole state, including the generator's, as bytes."""
-        state = {
-            name: value
-            for name, value in vars(self).items()
-            if name not in ("rng", "scenario", "params")
-        }
+        state = {name: value for name, value in vars(self).items() if name not in DERIVED}
         state.update(
             version=SNAPSHOT_VERSION,
             scenario=self.scenario.to_dict(),
@@ -424,6 +485,7 @@ class Simulation:
         sim.rng.bit_generator.state = state.pop("rng")
         state.pop("version")
         vars(sim).update(state)
+        sim._prepare()
         return sim
 
     def state_digest(self) -> str:

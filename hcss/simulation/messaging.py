@@ -4,25 +4,34 @@ Every agent in an interactive hub state sends messages as a Poisson process
 (rate r_msg, times M_i in M2 for agents favouring i). Each message goes to one
 random neighbour of its collective within the communication range in the same
 hub area. Receivers then apply the rules one message at a time, in a random
-order, exactly as if the messages had arrived one after another.
+order, exactly as if the messages had arrived one after another: a plain
+compiled loop over the messages, each applied to the state the previous one
+left. Senders speak from the state they had when the step's messages were
+composed.
 
 Neighbours are found by rejection sampling within each hub area: a sender
 draws a random agent of its hub area and keeps it if it is within range. This
 is exact (uniform over the sender's neighbours) and O(messages); a sender that
 finds nobody in `params.neighbour_draws` draws sends nothing this step
-[choice]. A pairwise distance matrix or a k-d tree per collective would cost
-more than the rest of the step at our sizes.
+[choice].
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from hcss.simulation import states as S
+from hcss.simulation import stream
+from hcss.simulation.constants import Constants, constants_for
 from hcss.simulation.params import Params
-from hcss.simulation.world import World
+from hcss.simulation.rules import frequency_modulation  # noqa: F401 - part of this rule's API
+from hcss.simulation.world import Arrays, World, decision_changed, set_state_one, target_in
+
+M3 = 3
 
 
 @dataclass(frozen=True)
@@ -33,182 +42,196 @@ class Inbox:
     receiver: np.ndarray
     sender_state: np.ndarray
     sender_target: np.ndarray
-    sender_key: np.ndarray
     sender_estimate: np.ndarray
 
 
-def exchange(world: World, params: Params, rng: np.random.Generator, model: str) -> np.ndarray:
-    """Send, deliver and apply one step of messages.
+@njit(cache=True, inline="always")
+def decision_key(state, target):
+    """One integer for a decision state: phase and target (uncommitted agents have target -1)."""
+    return S.PHASE_OF_STATE[state] * 4096 + target + 1
 
-    Returns the collectives in which a D(i) quorum was reached this step (the
-    first such transition ends their decision).
+
+@njit(cache=True)
+def compose_kernel(w: Arrays, k: Constants):
+    """Who sends how many messages to whom this step: (sender, receiver) arrays."""
+    n_agents = w.state.size
+    n_areas = 2 * w.hub.shape[0]
+    # Members of each hub area (its collective's hub, or for D agents the new site).
+    area = np.empty(n_agents, dtype=np.int64)
+    size = np.zeros(n_areas + 1, dtype=np.int64)
+    listeners = np.zeros(n_areas, dtype=np.int64)  # members a U_I sender can affect
+    for i in range(n_agents):
+        if w.leg[i] == S.AT_HUB:
+            area[i] = w.collective[i] + (n_areas // 2) * (w.state[i] == S.D)
+            size[area[i] + 1] += 1
+            listeners[area[i]] += w.state[i] != S.U_I
+        else:
+            area[i] = -1
+    start = np.cumsum(size)  # start[a] .. start[a + 1] are area a's members
+    fill = start[:-1].copy()
+    members = np.empty(start[-1], dtype=np.int64)
+    for i in range(n_agents):
+        if area[i] >= 0:
+            members[fill[area[i]]] = i
+            fill[area[i]] += 1
+
+    capacity = 64 + 4 * start[-1]
+    sender = np.empty(capacity, dtype=np.int64)
+    receiver = np.empty(capacity, dtype=np.int64)
+    n = 0
+    range2 = k.comm_range_m * k.comm_range_m
+    base_limit = math.exp(-k.message_rate * k.dt_s)  # most senders share the base rate
+    for i in range(n_agents):
+        if area[i] < 0 or not S.SENDING[w.state[i]]:
+            continue
+        if w.state[i] == S.U_I and listeners[area[i]] == 0:
+            continue  # every message it could send would be dropped below
+        if k.modulation and w.state[i] == S.F_I:
+            rate = k.message_rate * w.send_factor[w.collective[i], w.target[i]]
+            count = stream.poisson(w.stream, rate * k.dt_s)
+        elif k.message_rate * k.dt_s <= 20.0:
+            count = stream.poisson_below(w.stream, base_limit)
+        else:
+            count = stream.poisson(w.stream, k.message_rate * k.dt_s)
+        first, n_members = start[area[i]], start[area[i] + 1] - start[area[i]]
+        for _ in range(count):
+            found = -1
+            for _draw in range(k.neighbour_draws):
+                j = members[first + stream.below(w.stream, n_members)]
+                dx = w.pos[j, 0] - w.pos[i, 0]
+                dy = w.pos[j, 1] - w.pos[i, 1]
+                if j != i and dx * dx + dy * dy <= range2:
+                    found = j
+                    break
+            # A message between two uncommitted agents changes nothing: an
+            # uncommitted agent's streak is never used (any change of decision
+            # state clears it) and only initiating agents count silence.
+            if found < 0 or (w.state[i] == S.U_I and w.state[found] == S.U_I):
+                continue
+            if n == sender.size:
+                sender = np.concatenate((sender, np.empty(n, dtype=np.int64)))
+                receiver = np.concatenate((receiver, np.empty(n, dtype=np.int64)))
+            sender[n] = i
+            receiver[n] = found
+            n += 1
+    return sender[:n], receiver[:n]
+
+
+@njit(cache=True)
+def deliver_messages(
+    w: Arrays, k: Constants, receiver, s_state, s_target, s_estimate, draw, finished
+):
+    """Apply the messages one after another, each to the state the previous ones left.
+
+    Message m goes to `receiver[m]` from a sender in state `s_state[m]` for
+    target `s_target[m]` with estimate `s_estimate[m]`; `draw[m]` is its
+    uniform draw for recruitment and cross-inhibition. Every rule reads the
+    receiver's state before the message, so at most one rule fires per
+    message. A D(i) quorum marks the receiver's collective in `finished` (the
+    first such transition ends its decision). One loop, no per-message call:
+    a call that takes the world's arrays costs more than the rules themselves.
     """
-    world.silence += params.dt_s
-    inbox = compose(world, params, rng, model)
-    finished = np.zeros(world.n_collectives, dtype=bool)
-    if inbox.receiver.size == 0:
-        return finished
-    order = rng.permutation(inbox.receiver.size)
-    receivers = inbox.receiver[order]
-    # Rank each message among those to the same receiver; round r delivers the r-th.
-    by_receiver = np.argsort(receivers, kind="stable")
-    sorted_receivers = receivers[by_receiver]
-    first = np.flatnonzero(np.concatenate(([True], sorted_receivers[1:] != sorted_receivers[:-1])))
-    counts = np.diff(np.append(first, sorted_receivers.size))
-    rank = np.empty(receivers.size, dtype=np.int64)
-    rank[by_receiver] = np.arange(receivers.size) - np.repeat(first, counts)
-    draws = rng.random(receivers.size)
-    for r in range(int(rank.max()) + 1):
-        this_round = order[rank == r]
-        finished |= deliver(world, params, model, inbox, this_round, draws[rank == r])
-    return finished
+    state, target, streak, leg = w.state, w.target, w.streak, w.leg
+    for m in range(receiver.size):
+        r, sender_state, sender_target = receiver[m], s_state[m], s_target[m]
+        old_state, old_target = state[r], target[r]
+        w.silence[r] = 0.0
+        key = decision_key(old_state, old_target)
+        run = streak[r] + 1 if key == decision_key(sender_state, sender_target) else 0
+        new_state, new_target, new_leg = old_state, old_target, leg[r]
+        changed = False
+        if sender_state == S.C and S.DELIBERATING[old_state]:  # commitment spreads
+            new_state, new_target, changed = S.C, sender_target, True
+        elif sender_state == S.I and (
+            old_state == S.U_I
+            or old_state == S.F_I
+            or (old_state == S.C and old_target == sender_target)
+        ):  # initiation spreads
+            new_state, new_target, changed = S.I, sender_target, True
+        elif k.model != M3 and sender_state == S.F_I and draw[m] < s_estimate[m]:
+            if old_state == S.U_I and not w.abandon_order[w.collective[r], sender_target]:
+                new_state, new_target, new_leg, changed = S.F_L, sender_target, S.TO_TARGET, True
+            elif S.FAVOURING_IN_HUB[old_state] and old_target != sender_target:
+                new_state, new_target, new_leg, changed = S.U_L, -1, S.EXPLORING, True
+        if run >= k.quorum_k and not changed:
+            if k.model != M3 and old_state == S.F_I:  # F_I(i) → C(i)
+                new_state = S.C
+            elif old_state == S.C:  # C(i) → I(i)
+                new_state = S.I
+            elif old_state == S.I:  # I(i) → X(i)
+                new_state, new_leg = S.X, S.TO_TARGET
+            elif old_state == S.D:  # a D(i) quorum ends the decision
+                finished[w.collective[r]] = True
+        new_target = target_in(new_state, new_target)
+        state[r], target[r], leg[r] = new_state, new_target, new_leg
+        # The window is cleared when the decision state changes (set_state_one's rule).
+        streak[r] = 0 if decision_changed(old_state, old_target, new_state, new_target) else run
 
 
-def compose(world: World, params: Params, rng: np.random.Generator, model: str) -> Inbox:
-    """Who sends how many messages to whom this step."""
-    in_hub = world.leg == S.AT_HUB
-    senders = np.flatnonzero(in_hub & S.SENDING[world.state])
-    rate = np.full(senders.size, params.message_rate)
-    if params.m2_uses(model, "modulation"):
-        favouring = world.state[senders] == S.F_I
-        t = world.target[senders[favouring]]
-        rate[favouring] *= frequency_modulation(
-            world.hub_distance[world.collective[senders[favouring]], t], params
-        )
-    n_messages = rng.poisson(rate * params.dt_s)
-    senders = np.repeat(senders, n_messages)
-    receivers = find_neighbours(world, senders, in_hub, params, rng)
-    # A message between two uncommitted agents changes nothing: an uncommitted
-    # agent's streak is never used (any change of decision state clears it)
-    # and only initiating agents count silence. Dropping them is exact.
-    ok = receivers >= 0
-    ok[ok] = ~((world.state[senders[ok]] == S.U_I) & (world.state[receivers[ok]] == S.U_I))
-    senders, receivers = senders[ok], receivers[ok]
+@njit(cache=True)
+def exchange_kernel(w: Arrays, k: Constants, finished):
+    """Send, deliver and apply one step of messages, in a random order.
+
+    Marks in `finished` the collectives in which a D(i) quorum was reached.
+    """
+    for i in range(w.silence.size):
+        w.silence[i] += k.dt_s
+    sender, receiver = compose_kernel(w, k)
+    n = sender.size
+    for m in range(n - 1, 0, -1):  # Fisher-Yates shuffle: a random order of arrival
+        j = stream.below(w.stream, m + 1)
+        sender[m], sender[j] = sender[j], sender[m]
+        receiver[m], receiver[j] = receiver[j], receiver[m]
+    s_state = np.empty(n, dtype=np.int8)
+    s_target = np.empty(n, dtype=np.int32)
+    s_estimate = np.empty(n, dtype=np.float64)
+    draw = np.empty(n, dtype=np.float64)
+    for m in range(n):  # senders speak from their state at composition
+        s_state[m] = w.state[sender[m]]
+        s_target[m] = w.target[sender[m]]
+        s_estimate[m] = w.estimate[sender[m]]
+        draw[m] = stream.uniform(w.stream)
+    deliver_messages(w, k, receiver, s_state, s_target, s_estimate, draw, finished)
+
+
+@njit(cache=True)
+def initiating_silence_kernel(w: Arrays, k: Constants):
+    """I(i) → X(i) after k/r_msg seconds without receiving any message."""
+    for i in range(w.state.size):
+        if w.state[i] == S.I and w.silence[i] >= k.silence_limit_s:
+            set_state_one(w.state, w.target, w.streak, i, S.X, w.target[i])
+            w.leg[i] = S.TO_TARGET
+
+
+# ------------------------------------------------------- Python entry points
+def compose(world: World, params: Params, model: str) -> Inbox:
+    """The messages one step would send (advances the world's stream)."""
+    sender, receiver = compose_kernel(world.kernel_arrays(), constants_for(params, model))
     return Inbox(
-        sender=senders,
-        receiver=receivers,
-        sender_state=world.state[senders].copy(),
-        sender_target=world.target[senders].copy(),
-        sender_key=S.decision_key(world.state[senders], world.target[senders]),
-        sender_estimate=world.estimate[senders].copy(),
+        sender=sender,
+        receiver=receiver,
+        sender_state=world.state[sender].copy(),
+        sender_target=world.target[sender].copy(),
+        sender_estimate=world.estimate[sender].copy(),
     )
-
-
-def frequency_modulation(distance_m: np.ndarray, params: Params) -> np.ndarray:
-    """M2's M_i = d_i / d_min: farther targets recruit and inhibit more often.
-
-    d_min and the treatment of sites beyond d_max follow the chosen reading.
-    """
-    return params.m2_distance(distance_m) / params.m2_d_min_m
-
-
-def hub_area(world: World) -> np.ndarray:
-    """Which hub area an agent is in: its collective's hub, or (D agents) the new site."""
-    return world.collective.astype(np.int64) + world.n_collectives * (world.state == S.D)
-
-
-def find_neighbours(
-    world: World, senders: np.ndarray, in_hub: np.ndarray, params: Params, rng: np.random.Generator
-) -> np.ndarray:
-    """One random neighbour within range in the sender's hub area, or -1."""
-    receivers = np.full(senders.size, -1, dtype=np.int64)
-    if senders.size == 0:
-        return receivers
-    members = np.flatnonzero(in_hub)
-    area = hub_area(world)
-    members = members[np.argsort(area[members], kind="stable")]
-    size = np.bincount(area[members], minlength=2 * world.n_collectives)
-    start = np.cumsum(size) - size
-    sender_area = area[senders]
-    # Draw every candidate at once: (messages, draws); keep the first within range.
-    draws = rng.random((senders.size, params.neighbour_draws))
-    pick = members[start[sender_area, None] + (draws * size[sender_area, None]).astype(np.int64)]
-    dx = world.pos[pick, 0] - world.pos[senders, 0, None]
-    dy = world.pos[pick, 1] - world.pos[senders, 1, None]
-    good = (pick != senders[:, None]) & (dx * dx + dy * dy <= params.comm_range_m**2)
-    found = good.any(axis=1)
-    first = np.argmax(good, axis=1)
-    receivers[found] = pick[found, first[found]]
-    return receivers
 
 
 def deliver(
     world: World, params: Params, model: str, inbox: Inbox, messages: np.ndarray, draw: np.ndarray
 ) -> np.ndarray:
-    """Apply one message to each receiver (receivers in `messages` are distinct).
+    """Apply the given messages of an inbox in order, with the given recruitment draws.
 
-    Every rule reads the receiver's state before this message, so at most one
-    rule fires per message; the new states are written back at once.
+    Returns the collectives in which a D(i) quorum was reached.
     """
-    r = inbox.receiver[messages]
-    s_state = inbox.sender_state[messages]
-    s_target = inbox.sender_target[messages]
-    state = world.state[r]
-    target = world.target[r]
-    world.silence[r] = 0.0
-
-    key = S.decision_key(state, target)
-    streak = np.where(key == inbox.sender_key[messages], world.streak[r] + 1, 0)
-    quorum = streak >= params.quorum_k
-    new_state, new_target, new_leg = state.copy(), target.copy(), world.leg[r]
-
-    def become(
-        mask: np.ndarray, code: int, to_target: np.ndarray | None = None, leg: int | None = None
-    ) -> None:
-        new_state[mask] = code
-        if to_target is not None:
-            new_target[mask] = to_target[mask]
-        if leg is not None:
-            new_leg[mask] = leg
-
-    senders_by_state = np.bincount(s_state, minlength=len(S.NAMES))
-    changed = np.zeros(r.size, dtype=bool)
-    if senders_by_state[S.C]:  # commitment spreads to deliberating agents
-        changed = (s_state == S.C) & S.DELIBERATING[state]
-        become(changed, S.C, s_target)
-    if senders_by_state[S.I]:  # initiation spreads
-        initiate = (s_state == S.I) & (
-            (state == S.U_I) | (state == S.F_I) | ((state == S.C) & (target == s_target))
-        )
-        become(initiate, S.I, s_target)
-        changed |= initiate
-
-    if model != "M3" and senders_by_state[S.F_I]:
-        from_favouring = s_state == S.F_I
-        persuaded = from_favouring & (draw < inbox.sender_estimate[messages]) & ~changed
-        recruit = persuaded & (state == S.U_I)
-        if world.abandon_order.any():
-            recruit &= ~world.abandon_order[world.collective[r], np.maximum(s_target, 0)]
-        inhibit = persuaded & S.FAVOURING_IN_HUB[state] & (target != s_target)
-        become(recruit, S.F_L, s_target, S.TO_TARGET)
-        become(inhibit, S.U_L, None, S.EXPLORING)
-        changed |= recruit | inhibit
-    finished = np.zeros(world.n_collectives, dtype=bool)
-    if quorum.any():
-        quorum &= ~changed
-        if model != "M3":
-            become(quorum & (state == S.F_I), S.C)  # F_I(i) → C(i)
-        become(quorum & (state == S.C), S.I)  # C(i) → I(i)
-        become(quorum & (state == S.I), S.X, None, S.TO_TARGET)  # I(i) → X(i)
-        done = quorum & (state == S.D)  # D(i) quorum ends the decision
-        finished[world.collective[r[done]]] = True
-        changed |= quorum & (state != S.D)
-
-    if changed.any():
-        new_target[S.PHASE_OF_STATE[new_state] == 0] = -1
-        streak[S.decision_key(new_state, new_target) != key] = 0
-        world.state[r], world.target[r], world.leg[r] = new_state, new_target, new_leg
-    world.streak[r] = streak
+    finished = np.zeros(world.n_collectives, dtype=np.bool_)
+    deliver_messages(
+        world.kernel_arrays(),
+        constants_for(params, model),
+        inbox.receiver[messages].astype(np.int64),
+        inbox.sender_state[messages].astype(np.int8),
+        inbox.sender_target[messages].astype(np.int32),
+        inbox.sender_estimate[messages].astype(np.float64),
+        np.asarray(draw, dtype=np.float64),
+        finished,
+    )
     return finished
-
-
-def execute(world: World, agents: np.ndarray) -> None:
-    """I(i) → X(i): the agent leaves to fly to the new site."""
-    world.set_state(agents, S.X)
-    world.leg[agents] = S.TO_TARGET
-
-
-def initiating_silence(world: World, params: Params) -> None:
-    """I(i) → X(i) after k/r_msg seconds without receiving any message."""
-    quiet = np.flatnonzero((world.state == S.I) & (world.silence >= params.silence_limit_s))
-    execute(world, quiet)

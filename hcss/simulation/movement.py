@@ -2,101 +2,118 @@
 
 Agents in the hub area and explorers turn by a wrapped-normal angle each step
 and are reflected at the edge of their disc. Agents travelling between hub and
-target fly straight at constant speed.
+target fly straight at constant speed. Compiled (numba): one pass over the
+agents, no temporary arrays.
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from numba import njit
 
 from hcss.simulation import states as S
+from hcss.simulation import stream
+from hcss.simulation.constants import Constants, constants_for
 from hcss.simulation.params import Params
-from hcss.simulation.world import World
+from hcss.simulation.world import Arrays, World
 
 
-def move(world: World, params: Params, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+@njit(cache=True, inline="always")
+def home(w, i):
+    """Centre of agent i's hub area: its collective's hub, or the new site for X and D."""
+    if w.state[i] >= S.X:
+        t = w.target[i]
+        return w.target_pos[t, 0], w.target_pos[t, 1]
+    c = w.collective[i]
+    return w.hub[c, 0], w.hub[c, 1]
+
+
+@njit(cache=True)
+def move_kernel(w: Arrays, k: Constants, at_target, at_hub):
     """Advance every agent one step.
 
-    Returns the indices of agents that reached their target this step and of
-    agents that reached their hub area; the rules decide what they do there.
+    Fills `at_target` and `at_hub` with the agents that reached their target or
+    their hub area this step and returns how many of each; the rules decide
+    what they do there.
     """
-    step = params.speed_mps * params.dt_s
-    hx, hy = world.home_xy()
-    leg = world.leg
-    x, y = world.pos[:, 0].copy(), world.pos[:, 1].copy()
-
-    # Correlated random walk for agents in the hub area and explorers.
-    walking = np.flatnonzero(leg <= S.EXPLORING)  # AT_HUB or EXPLORING
-    heading = world.heading[walking] + rng.normal(0.0, params.turn_sd_rad, walking.size)
-    x[walking] += step * np.cos(heading)
-    y[walking] += step * np.sin(heading)
-    _reflect(x, y, heading, walking, leg, hx, hy, params)
-    world.heading[walking] = heading
-
-    # Straight flights: towards the target, or towards the hub.
-    flying = np.flatnonzero(leg >= S.TO_TARGET)
-    to_target = leg[flying] == S.TO_TARGET
-    goal_x, goal_y = hx[flying], hy[flying]
-    aim = world.target[flying[to_target]]
-    goal_x[to_target] = world.target_pos[aim, 0]
-    goal_y[to_target] = world.target_pos[aim, 1]
-    gx, gy = goal_x - x[flying], goal_y - y[flying]
-    distance = np.sqrt(gx * gx + gy * gy)
-    advance = np.minimum(step, distance)
-    scale = np.divide(advance, distance, out=np.zeros_like(distance), where=distance > 0)
-    x[flying] += gx * scale
-    y[flying] += gy * scale
-    world.pos = np.stack((x, y), axis=1)
-
-    remaining = distance - advance
-    arrived = np.where(to_target, remaining <= 1e-9, remaining <= params.hub_radius_m)
-    landed = flying[arrived]
-    # Arriving agents keep their flight direction as the heading of their next walk.
-    world.heading[landed] = np.arctan2(gy[arrived], gx[arrived])
-    return landed[to_target[arrived]], landed[~to_target[arrived]]
-
-
-def _reflect(
-    x: np.ndarray,
-    y: np.ndarray,
-    heading: np.ndarray,
-    walking: np.ndarray,
-    leg: np.ndarray,
-    hx: np.ndarray,
-    hy: np.ndarray,
-    params: Params,
-) -> None:
-    """Reflect walkers that left their disc: mirror the overshoot and the radial heading.
-
-    `heading` is indexed like `walking`; `x`, `y`, `leg`, `hx`, `hy` over all agents.
-    """
-    radius = np.where(leg[walking] == S.AT_HUB, params.hub_radius_m, params.exploration_range_m)
-    ox = x[walking] - hx[walking]
-    oy = y[walking] - hy[walking]
-    distance2 = ox * ox + oy * oy
-    out = np.flatnonzero(distance2 > radius * radius)
-    if out.size == 0:
-        return
-    agents = walking[out]
-    distance = np.sqrt(distance2[out])
-    nx, ny = ox[out] / distance, oy[out] / distance
-    dx, dy = np.cos(heading[out]), np.sin(heading[out])
-    dot = dx * nx + dy * ny
-    r = radius[out]
-    back = np.minimum(np.maximum(2.0 * r - distance, 0.0), r)
-    x[agents] = hx[agents] + nx * back
-    y[agents] = hy[agents] + ny * back
-    heading[out] = np.arctan2(dy - 2.0 * dot * ny, dx - 2.0 * dot * nx)
+    step = k.speed_mps * k.dt_s
+    n_target = 0
+    n_hub = 0
+    n_walkers = 0
+    for i in range(w.state.size):
+        n_walkers += w.leg[i] <= S.EXPLORING
+    turns = np.empty(n_walkers)  # every walker's turning deviate, drawn in one tight loop
+    stream.fill_normals(w.stream, turns)
+    n_walkers = 0
+    for i in range(w.state.size):
+        hx, hy = home(w, i)
+        leg = w.leg[i]
+        if leg <= S.EXPLORING:  # correlated random walk in the hub area or the exploration disc
+            heading = w.heading[i] + k.turn_sd_rad * turns[n_walkers]
+            n_walkers += 1
+            dx, dy = math.cos(heading), math.sin(heading)
+            x = w.pos[i, 0] + step * dx
+            y = w.pos[i, 1] + step * dy
+            radius = k.hub_radius_m if leg == S.AT_HUB else k.exploration_range_m
+            ox, oy = x - hx, y - hy
+            distance2 = ox * ox + oy * oy
+            if distance2 > radius * radius:  # mirror the overshoot and the radial heading
+                distance = math.sqrt(distance2)
+                nx, ny = ox / distance, oy / distance
+                dot = dx * nx + dy * ny
+                back = min(max(2.0 * radius - distance, 0.0), radius)
+                x, y = hx + nx * back, hy + ny * back
+                heading = math.atan2(dy - 2.0 * dot * ny, dx - 2.0 * dot * nx)
+            w.pos[i, 0], w.pos[i, 1], w.heading[i] = x, y, heading
+        else:  # straight flight towards the target or the hub
+            to_target = leg == S.TO_TARGET
+            if to_target:
+                gx = w.target_pos[w.target[i], 0] - w.pos[i, 0]
+                gy = w.target_pos[w.target[i], 1] - w.pos[i, 1]
+            else:
+                gx, gy = hx - w.pos[i, 0], hy - w.pos[i, 1]
+            distance = math.sqrt(gx * gx + gy * gy)
+            advance = min(step, distance)
+            if distance > 0.0:
+                w.pos[i, 0] += gx * advance / distance
+                w.pos[i, 1] += gy * advance / distance
+            remaining = distance - advance
+            if to_target and remaining <= 1e-9:
+                at_target[n_target] = i
+                n_target += 1
+            elif not to_target and remaining <= k.hub_radius_m:
+                at_hub[n_hub] = i
+                n_hub += 1
+            else:
+                continue
+            # Arriving agents keep their flight direction as the heading of their next walk.
+            w.heading[i] = math.atan2(gy, gx)
+    return n_target, n_hub
 
 
-def scatter_in_hub(
-    world: World, agents: np.ndarray, params: Params, rng: np.random.Generator
-) -> None:
+@njit(cache=True)
+def scatter_kernel(w: Arrays, k: Constants, agents):
     """Place agents uniformly in their hub disc with random headings."""
-    n = agents.size
-    radius = params.hub_radius_m * np.sqrt(rng.random(n))
-    angle = rng.uniform(0.0, 2.0 * np.pi, n)
-    hx, hy = world.home_xy()
-    world.pos[agents, 0] = hx[agents] + radius * np.cos(angle)
-    world.pos[agents, 1] = hy[agents] + radius * np.sin(angle)
-    world.heading[agents] = rng.uniform(0.0, 2.0 * np.pi, n)
+    for i in agents:
+        radius = k.hub_radius_m * math.sqrt(stream.uniform(w.stream))
+        angle = 2.0 * math.pi * stream.uniform(w.stream)
+        hx, hy = home(w, i)
+        w.pos[i, 0] = hx + radius * math.cos(angle)
+        w.pos[i, 1] = hy + radius * math.sin(angle)
+        w.heading[i] = 2.0 * math.pi * stream.uniform(w.stream)
+
+
+def scatter_in_hub(world: World, agents: np.ndarray, k: Constants) -> None:
+    scatter_kernel(world.kernel_arrays(), k, np.asarray(agents, dtype=np.int64))
+
+
+def move(world: World, params: Params) -> tuple[np.ndarray, np.ndarray]:
+    """Advance every agent one step; the agents that reached their target and their hub."""
+    at_target = np.empty(world.state.size, dtype=np.int64)
+    at_hub = np.empty(world.state.size, dtype=np.int64)
+    n_target, n_hub = move_kernel(
+        world.kernel_arrays(), constants_for(params, "M1"), at_target, at_hub
+    )
+    return at_target[:n_target], at_hub[:n_hub]

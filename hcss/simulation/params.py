@@ -211,21 +211,16 @@ class Params:
 
 
 MODELS: tuple[str, ...] = ("M1", "M2", "M3")
-ROMAN: tuple[str, ...] = (
-    "I",
-    "II",
-    "III",
-    "IV",
-    "V",
-    "VI",
-    "VII",
-    "VIII",
-    "IX",
-    "X",
-    "XI",
-    "XII",
-    "XIII",
-    "XIV",
-    "XV",
-    "XVI",
-)
+
+
+def _roman(n: int) -> str:
+    numerals = ((50, "L"), (40, "XL"), (10, "X"), (9, "IX"), (5, "V"), (4, "IV"), (1, "I"))
+    out = ""
+    for value, numeral in numerals:
+        count, n = divmod(n, value)
+        out += numeral * count
+    return out
+
+
+# Collective names: the study has four; scaling runs go up to 64.
+ROMAN: tuple[str, ...] = tuple(_roman(i) for i in range(1, 65))

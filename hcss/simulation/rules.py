@@ -1,255 +1,54 @@
 """The per-agent rules of spec §4–5 that do not involve messages.
 
-Each function is one rule, named as in the spec, and acts on all agents at
-once. Rates become per-step probabilities 1 - exp(-rate·dt).
+Each rule is one compiled (numba) function over the agents, named as in the
+spec; the engine runs them fused in `step.advance_agents`, and the thin
+Python wrappers below let a test or a request call one rule on its own. Rates
+become per-step probabilities 1 - exp(-rate·dt).
+
+Quantities that depend only on hub-to-target distances (M2's delay
+denominators and message-rate factor) are computed with numpy in
+`refresh_geometry` whenever a hub moves, so their formulas live in one place.
 """
 
 from __future__ import annotations
 
-import functools
-from dataclasses import dataclass
+import math
 
 import numpy as np
+from numba import njit
 
 from hcss.simulation import states as S
+from hcss.simulation import stream
+from hcss.simulation.constants import Constants, constants_for
 from hcss.simulation.params import Params
-from hcss.simulation.world import World
+from hcss.simulation.world import Arrays, World, set_state_one
 
 
-def per_step(rate: np.ndarray | float, params: Params) -> np.ndarray | float:
+# ----------------------------------------------------------------- formulas
+@njit(cache=True)
+def per_step_probability(rate, dt):
     """Probability that a Poisson event of the given rate happens within one step."""
-    return -np.expm1(-np.asarray(rate) * params.dt_s)
+    return -math.expm1(-rate * dt)
 
 
-def assess(
-    world: World, agents: np.ndarray, params: Params, rng: np.random.Generator
-) -> np.ndarray:
-    """A fresh estimate v̂ = v·(1+e) of each agent's target, e ~ U[-0.1, 0.1], clipped to (0, 1]."""
-    value = world.target_value[world.target[agents]]
-    error = rng.uniform(-params.value_error, params.value_error, agents.size)
-    return np.clip(value * (1.0 + error), 1e-9, 1.0)
+@njit(cache=True)
+def leave_rate_one(estimate, gap):
+    """v̂ / gap, with the guard of spec §5: infinite (leave at once) where gap ≤ 0."""
+    return estimate / gap if gap > 0.0 else math.inf
 
 
-def discovery(world: World, params: Params, rng: np.random.Generator, model: str) -> None:
-    """U_L → F_L(i): an explorer within the sensing radius of target i adopts it with probability v̂.
-
-    Only targets eligible for the agent's collective count (`discoverable`).
-    Under the per-agent reading (`params.discovery == "per_agent"`) explorers
-    find sites at the paper's rate g(d) instead of by encounter.
-    """
-    if params.discovery == "per_agent":
-        from hcss.simulation.discovery import discover_per_agent
-
-        discover_per_agent(world, params, rng, model)
-        return
-    explorers = np.flatnonzero((world.leg == S.EXPLORING) & (world.state == S.U_L))
-    candidates = np.flatnonzero(world.active)
-    if explorers.size == 0 or candidates.size == 0:
-        return
-    # Only explorers in a grid cell near some target need exact distances.
-    grid = sensing_grid(
-        world.target_pos[candidates].tobytes(), params.arena_side_m, params.sensing_radius_m
-    )
-    explorers = explorers[grid.covers(world.pos[explorers])]
-    if explorers.size == 0:
-        return
-    dx = world.pos[explorers, 0, None] - world.target_pos[None, candidates, 0]
-    dy = world.pos[explorers, 1, None] - world.target_pos[None, candidates, 1]
-    distance2 = dx * dx + dy * dy
-    near = distance2 <= params.sensing_radius_m**2
-    if not near.any():
-        return
-    col = world.collective[explorers]
-    near &= discoverable(world, params)[col[:, None], candidates[None, :]]
-    found = near.any(axis=1)
-    if not found.any():
-        return
-    agents = explorers[found]
-    # The nearest encountered target, if an explorer senses two at once.
-    distance = np.where(near[found], distance2[found], np.inf)
-    adopt_on_discovery(world, agents, candidates[np.argmin(distance, axis=1)], params, rng, model)
+@njit(cache=True, inline="always")
+def assess(w: Arrays, k: Constants, t):
+    """A fresh estimate v̂ = v·(1+e) of target t, e ~ U[-0.1, 0.1], clipped to (0, 1]."""
+    error = k.value_error * (2.0 * stream.uniform(w.stream) - 1.0)
+    return min(max(w.target_value[t] * (1.0 + error), 1e-9), 1.0)
 
 
-def discoverable(world: World, params: Params) -> np.ndarray:
-    """(C, T): targets a collective's explorers can adopt.
-
-    Active, in range of the hub, not reserved by another collective, not under
-    a standing abandon order, and (reading `foreign_targets="own_only"`)
-    placed around the collective's own start hub.
-    """
-    n_c = world.n_collectives
-    reserved = world.reserved_by[None, :]
-    mine = np.arange(n_c)[:, None]
-    ok = (
-        world.active[None, :]
-        & (world.hub_distance <= params.exploration_range_m)
-        & ((reserved < 0) | (reserved == mine))
-        & ~world.abandon_order
-    )
-    if params.foreign_targets == "own_only":
-        ok &= world.target_around[None, :] == mine
-    return ok
-
-
-def adopt_on_discovery(
-    world: World,
-    agents: np.ndarray,
-    targets: np.ndarray,
-    params: Params,
-    rng: np.random.Generator,
-    model: str,
-) -> None:
-    """Explorers that found a target assess it, adopt it with probability v̂ and fly home."""
-    world.target[agents] = targets  # provisional, to read the value; reset below if not adopted
-    estimate = assess(world, agents, params, rng)
-    adopt = rng.random(agents.size) < estimate
-    world.target[agents[~adopt]] = -1
-    adopters = agents[adopt]
-    world.set_state(adopters, S.F_L, targets[adopt])
-    world.estimate[adopters] = estimate[adopt]
-    world.report_target[adopters] = targets[adopt]
-    world.leg[adopters] = S.TO_HUB
-    world.arrival_state[adopters] = S.F_D if params.m2_uses(model, "discovery_delay") else S.F_I
-
-
-@dataclass(frozen=True)
-class SensingGrid:
-    """Cells of the arena within sensing range of some target: a cheap first filter."""
-
-    covered: np.ndarray  # bool (cells, cells)
-    origin: float
-    cell: float
-
-    def covers(self, pos: np.ndarray) -> np.ndarray:
-        index = ((pos - self.origin) / self.cell).astype(np.int64)
-        np.clip(index, 0, self.covered.shape[0] - 1, out=index)
-        return self.covered[index[:, 0], index[:, 1]]
-
-
-@functools.lru_cache(maxsize=64)
-def sensing_grid(target_pos: bytes, arena_side_m: float, sensing_radius_m: float) -> SensingGrid:
-    """Mark every cell that has a point within the sensing radius of a target.
-
-    Cached on the targets' positions, which change only at section starts and
-    relocations. Explorers reflect inside discs that may reach a little past
-    the arena, so the grid has a margin of one exploration step.
-    """
-    cell = sensing_radius_m / 2.0
-    origin = -arena_side_m / 2.0 - 4.0 * sensing_radius_m
-    n = int(np.ceil((arena_side_m + 8.0 * sensing_radius_m) / cell)) + 1
-    centres = origin + (np.arange(n) + 0.5) * cell
-    targets = np.frombuffer(target_pos).reshape(-1, 2)
-    reach = sensing_radius_m + cell  # cell half-diagonal < cell
-    covered = np.zeros((n, n), dtype=bool)
-    for x, y in targets:
-        near_x = np.abs(centres - x) <= reach
-        near_y = np.abs(centres - y) <= reach
-        covered |= near_x[:, None] & near_y[None, :]
-    return SensingGrid(covered, origin, cell)
-
-
-def abandon_probability(world: World, agents: np.ndarray, params: Params) -> np.ndarray:
+@njit(cache=True, inline="always")
+def abandon_probability_one(w: Arrays, k: Constants, i):
     """P_α = min(1, α·(d_i/100 m)/v̂): farther and poorer targets are abandoned more."""
-    d = world.hub_distance[world.collective[agents], world.target[agents]]
-    return np.minimum(
-        1.0, params.abandon_alpha * (d / params.abandon_unit_m) / world.estimate[agents]
-    )
-
-
-def reach_target(
-    world: World, agents: np.ndarray, params: Params, rng: np.random.Generator, model: str
-) -> None:
-    """Agents arriving at a target: executing agents enter D; assessing agents re-estimate it.
-
-    An assessing agent (F_L, sent to reassess, recruited or asked to
-    investigate) takes a fresh estimate and abandons with probability P_α,
-    returning uncommitted; otherwise it returns favouring the target (through
-    F_R in M2). A target taken or reserved by another collective meanwhile is
-    dropped without a report.
-    """
-    if agents.size == 0:
-        return
-    executing = agents[world.state[agents] == S.X]
-    world.set_state(executing, S.D)
-    world.leg[executing] = S.AT_HUB
-    assessing = agents[world.state[agents] == S.F_L]
-    if assessing.size == 0:
-        return
-    t = world.target[assessing]
-    owner = world.reserved_by[t]
-    gone = ~world.active[t] | ((owner >= 0) & (owner != world.collective[assessing]))
-    world.leg[assessing] = S.TO_HUB
-    world.arrival_state[assessing[gone]] = S.U_I
-    fresh = assessing[~gone]
-    world.estimate[fresh] = assess(world, fresh, params, rng)
-    world.report_target[fresh] = world.target[fresh]
-    abandon = rng.random(fresh.size) < abandon_probability(world, fresh, params)
-    world.arrival_state[fresh[abandon]] = S.U_I
-    world.arrival_state[fresh[~abandon]] = (
-        S.F_R if params.m2_uses(model, "reassessment_delay") else S.F_I
-    )
-
-
-def reach_hub(world: World, agents: np.ndarray) -> np.ndarray:
-    """Agents arriving home enter their arrival state and report their estimate.
-
-    Returns the targets that became visible to the operator with this report.
-    """
-    if agents.size == 0:
-        return agents
-    world.leg[agents] = S.AT_HUB
-    world.set_states(agents, world.arrival_state[agents])
-    carrying = agents[world.report_target[agents] >= 0]
-    if carrying.size == 0:
-        return carrying
-    reported = world.report_target[carrying]
-    before = world.report_count.copy()
-    np.add.at(world.report_sum, reported, world.estimate[carrying])
-    np.add.at(world.report_count, reported, 1)
-    world.report_target[carrying] = -1
-    return np.flatnonzero((before == 0) & (world.report_count > 0))
-
-
-def rate_transitions(world: World, params: Params, rng: np.random.Generator, model: str) -> None:
-    """Stop exploring (U_L → home), resume exploring (U_I → U_L), reassess (F_I → F_L), M2 delays."""
-    draw = rng.random(world.state.shape[0])
-    explorers = (world.leg == S.EXPLORING) & (world.state == S.U_L)
-    in_hub = world.leg == S.AT_HUB
-
-    stop = np.flatnonzero(explorers & (draw < per_step(params.stop_exploring_rate, params)))
-    world.leg[stop] = S.TO_HUB
-    world.arrival_state[stop] = S.U_I
-
-    leave = per_step(params.resume_rate, params)
-    resume = np.flatnonzero(in_hub & (world.state == S.U_I) & (draw < leave))
-    world.set_state(resume, S.U_L)
-    world.leg[resume] = S.EXPLORING
-
-    reassess = np.flatnonzero(in_hub & (world.state == S.F_I) & (draw < leave))
-    world.set_state(reassess, S.F_L)
-    world.leg[reassess] = S.TO_TARGET
-
-    if model == "M2":
-        _interaction_delay(world, params, draw, in_hub)
-
-
-def _interaction_delay(world: World, params: Params, draw: np.ndarray, in_hub: np.ndarray) -> None:
-    """M2: F_D → F_I at P_D(i) = v̂/(1/g(d_max) − 1/g(d_i)); F_R → F_I at P_R(i) = v̂/(τ_max − τ_i).
-
-    Near targets wait longer, so that every target's discovery-plus-delay and
-    round-trip-plus-delay times match those of a target at d_max. Where
-    d_i ≥ d_max the denominator is not positive and the state is left at once.
-    """
-    for state, gap in ((S.F_D, discovery_gap), (S.F_R, round_trip_gap)):
-        waiting = np.flatnonzero(in_hub & (world.state == state))
-        if waiting.size == 0:
-            continue
-        d = world.hub_distance[world.collective[waiting], world.target[waiting]]
-        rate = leave_rate(world.estimate[waiting], gap(d, params))
-        leave = waiting[
-            (rate == np.inf) | (draw[waiting] < per_step(np.where(rate == np.inf, 0, rate), params))
-        ]
-        world.set_state(leave, S.F_I)
+    d = w.hub_distance[w.collective[i], w.target[i]]
+    return min(1.0, k.abandon_alpha * (d / k.abandon_unit_m) / w.estimate[i])
 
 
 def discovery_gap(distance_m: np.ndarray, params: Params) -> np.ndarray:
@@ -268,36 +67,275 @@ def round_trip_gap(distance_m: np.ndarray, params: Params) -> np.ndarray:
     return params.round_trip_s(params.m2_d_max_m) - params.round_trip_s(d)
 
 
-def leave_rate(estimate: np.ndarray, gap: np.ndarray) -> np.ndarray:
-    """v̂ / gap, with the guard of spec §5: infinite (leave at once) where gap ≤ 0."""
-    with np.errstate(divide="ignore"):
-        return np.where(gap > 0, estimate / np.where(gap > 0, gap, 1.0), np.inf)
+def frequency_modulation(distance_m: np.ndarray, params: Params) -> np.ndarray:
+    """M2's M_i = d_i / d_min: farther targets recruit and inhibit more often.
+
+    d_min and the treatment of sites beyond d_max follow the chosen reading.
+    """
+    return params.m2_distance(distance_m) / params.m2_d_min_m
 
 
-def favouring_in_hub(world: World) -> np.ndarray:
-    """Agents favouring a target and physically in their hub (not flying)."""
-    return (world.leg == S.AT_HUB) & S.FAVOURING_IN_HUB[world.state]
+def site_rate(distance_m: np.ndarray, params: Params) -> np.ndarray:
+    """Per-agent discovery rate g(d) (discovery "per_agent").
+
+    Distances are floored at the hub radius: a site can be no nearer than the
+    edge of the hub area, and g(d) diverges at d = 0.
+    """
+    return params.discovery_rate(np.maximum(distance_m, params.hub_radius_m))
 
 
-def enforce_orders(world: World) -> None:
+def refresh_geometry(world: World, params: Params) -> None:
+    """Hub-to-target distances and what derives from them; called when a hub moves."""
+    world.refresh_hub_distance()
+    with np.errstate(divide="ignore", invalid="ignore"):
+        world.discovery_gap = discovery_gap(world.hub_distance, params)
+    world.round_trip_gap = round_trip_gap(world.hub_distance, params)
+    world.send_factor = frequency_modulation(world.hub_distance, params)
+    world.site_rate = site_rate(world.hub_distance, params)
+
+
+# -------------------------------------------------------------------- rules
+@njit(cache=True, inline="always")
+def discoverable_one(w: Arrays, k: Constants, c, t):
+    """Whether collective c's explorers can adopt target t.
+
+    Active, in range of the hub, not reserved by another collective, not under
+    a standing abandon order, and (reading `foreign_targets="own_only"`)
+    placed around the collective's own start hub.
+    """
+    owner = w.reserved_by[t]
+    return (
+        w.active[t]
+        and w.hub_distance[c, t] <= k.exploration_range_m
+        and (owner < 0 or owner == c)
+        and not w.abandon_order[c, t]
+        and (not k.own_targets_only or w.target_around[t] == c)
+    )
+
+
+@njit(cache=True, inline="always")
+def adopt_on_discovery(w: Arrays, k: Constants, i, t):
+    """An explorer that found target t assesses it, adopts it with probability v̂ and flies home."""
+    estimate = assess(w, k, t)
+    if stream.uniform(w.stream) < estimate:
+        set_state_one(w.state, w.target, w.streak, i, S.F_L, t)
+        w.estimate[i] = estimate
+        w.report_target[i] = t
+        w.leg[i] = S.TO_HUB
+        w.arrival_state[i] = S.F_D if k.discovery_delay else S.F_I
+
+
+@njit(cache=True)
+def discovery_kernel(w: Arrays, k: Constants):
+    """U_L → F_L(i): an explorer discovers a target and adopts it with probability v̂.
+
+    Reading "spatial": the explorer encounters target i within the sensing
+    radius (of two sensed at once, the nearer). Reading "per_agent" (the
+    paper's P_γ = v·g(d) per agent): it finds each discoverable site at rate
+    g(d_i), some site within a step with probability 1 − exp(−Σ g(d_i)·dt),
+    which one in proportion to the rates; its flights stay spatial.
+    """
+    radius2 = k.sensing_radius_m * k.sensing_radius_m
+    # Per collective, the active targets within R of its hub: only they can be discovered.
+    n_c, n_t = w.hub_distance.shape
+    count = np.zeros(n_c, dtype=np.int64)
+    candidates = np.empty((n_c, n_t), dtype=np.int64)
+    for c in range(n_c):
+        for t in range(n_t):
+            if w.active[t] and w.hub_distance[c, t] <= k.exploration_range_m:
+                candidates[c, count[c]] = t
+                count[c] += 1
+    for i in range(w.state.size):
+        if w.leg[i] != S.EXPLORING or w.state[i] != S.U_L:
+            continue
+        c = w.collective[i]
+        best = -1
+        if k.discovery_per_agent:
+            total = 0.0
+            for j in range(count[c]):
+                t = candidates[c, j]
+                if discoverable_one(w, k, c, t):
+                    total += w.site_rate[c, t]
+            if total <= 0.0 or stream.uniform(w.stream) >= per_step_probability(total, k.dt_s):
+                continue
+            pick = stream.uniform(w.stream) * total
+            for j in range(count[c]):
+                t = candidates[c, j]
+                if discoverable_one(w, k, c, t):
+                    best = t
+                    pick -= w.site_rate[c, t]
+                    if pick < 0.0:
+                        break
+        else:
+            best_d2 = radius2
+            for j in range(count[c]):
+                t = candidates[c, j]
+                dx = w.pos[i, 0] - w.target_pos[t, 0]
+                dy = w.pos[i, 1] - w.target_pos[t, 1]
+                d2 = dx * dx + dy * dy
+                if d2 > best_d2 or (best >= 0 and d2 == best_d2):
+                    continue
+                if discoverable_one(w, k, c, t):
+                    best, best_d2 = t, d2
+        if best >= 0:
+            adopt_on_discovery(w, k, i, best)
+
+
+@njit(cache=True)
+def reach_target_kernel(w: Arrays, k: Constants, agents, n):
+    """Agents arriving at a target: executing agents enter D; assessing agents re-estimate it.
+
+    An assessing agent (F_L, sent to reassess, recruited or asked to
+    investigate) takes a fresh estimate and abandons with probability P_α,
+    returning uncommitted; otherwise it returns favouring the target (through
+    F_R in M2). A target taken or reserved by another collective meanwhile is
+    dropped without a report.
+    """
+    for j in range(n):
+        i = agents[j]
+        if w.state[i] == S.X:
+            set_state_one(w.state, w.target, w.streak, i, S.D, w.target[i])
+            w.leg[i] = S.AT_HUB
+        elif w.state[i] == S.F_L:
+            t = w.target[i]
+            owner = w.reserved_by[t]
+            w.leg[i] = S.TO_HUB
+            if not w.active[t] or (owner >= 0 and owner != w.collective[i]):
+                w.arrival_state[i] = S.U_I
+                continue
+            w.estimate[i] = assess(w, k, t)
+            w.report_target[i] = t
+            if stream.uniform(w.stream) < abandon_probability_one(w, k, i):
+                w.arrival_state[i] = S.U_I
+            else:
+                w.arrival_state[i] = S.F_R if k.reassessment_delay else S.F_I
+
+
+@njit(cache=True)
+def reach_hub_kernel(w: Arrays, agents, n, newly_visible):
+    """Agents arriving home enter their arrival state and report their estimate.
+
+    Writes the targets that became visible to the operator with these reports
+    into `newly_visible` and returns how many.
+    """
+    n_visible = 0
+    for j in range(n):
+        i = agents[j]
+        w.leg[i] = S.AT_HUB
+        set_state_one(w.state, w.target, w.streak, i, w.arrival_state[i], w.target[i])
+        t = w.report_target[i]
+        if t >= 0:
+            if w.report_count[t] == 0:
+                newly_visible[n_visible] = t
+                n_visible += 1
+            w.report_sum[t] += w.estimate[i]
+            w.report_count[t] += 1
+            w.report_target[i] = -1
+    return n_visible
+
+
+@njit(cache=True)
+def rate_transitions_kernel(w: Arrays, k: Constants):
+    """Stop exploring (U_L → home), resume exploring (U_I → U_L), reassess (F_I → F_L), M2 delays.
+
+    M2: F_D → F_I at P_D(i) = v̂/(1/g(d_max) − 1/g(d_i)) and F_R → F_I at
+    P_R(i) = v̂/(τ_max − τ_i): near targets wait longer, so that every
+    target's discovery-plus-delay and round-trip-plus-delay times match those
+    of a target at d_max. Where d_i ≥ d_max the state is left at once.
+    """
+    for i in range(w.state.size):
+        state, leg = w.state[i], w.leg[i]
+        if leg == S.EXPLORING:
+            if state == S.U_L and stream.uniform(w.stream) < k.stop_probability:
+                w.leg[i] = S.TO_HUB
+                w.arrival_state[i] = S.U_I
+        elif leg == S.AT_HUB:
+            if state == S.U_I:
+                if stream.uniform(w.stream) < k.leave_probability:
+                    set_state_one(w.state, w.target, w.streak, i, S.U_L, -1)
+                    w.leg[i] = S.EXPLORING
+            elif state == S.F_I:
+                if stream.uniform(w.stream) < k.leave_probability:
+                    set_state_one(w.state, w.target, w.streak, i, S.F_L, w.target[i])
+                    w.leg[i] = S.TO_TARGET
+            elif state == S.F_D or state == S.F_R:  # only M2 (with its delays) has them
+                c, t = w.collective[i], w.target[i]
+                gap = w.discovery_gap[c, t] if state == S.F_D else w.round_trip_gap[c, t]
+                rate = leave_rate_one(w.estimate[i], gap)
+                if rate == math.inf or stream.uniform(w.stream) < per_step_probability(
+                    rate, k.dt_s
+                ):
+                    set_state_one(w.state, w.target, w.streak, i, S.F_I, t)
+
+
+@njit(cache=True)
+def enforce_orders_kernel(w: Arrays):
     """Standing abandon orders and reservations, applied to agents in their hub.
 
     An abandon order makes c's agents favouring t uncommitted when in the hub.
-    A target reserved by another collective is dropped the same way, and
-    committed or initiating agents for it return to deliberation.
+    A target reserved by another collective (or taken) is dropped the same
+    way, and committed or initiating agents for it return to deliberation.
     """
-    has_target = world.target >= 0
-    if not (
-        world.abandon_order.any()
-        or (world.reserved_by >= 0).any()
-        or (~world.active[world.target[has_target]]).any()
-    ):
-        return
-    in_hub_favouring = favouring_in_hub(world)
-    t = np.where(has_target, world.target, 0)
-    ordered = in_hub_favouring & world.abandon_order[world.collective, t] & has_target
-    owner = world.reserved_by[t]
-    taken = has_target & (((owner >= 0) & (owner != world.collective)) | ~world.active[t])
-    taken_here = taken & (in_hub_favouring | (world.state == S.C) | (world.state == S.I))
-    drop = np.flatnonzero(ordered | taken_here)
-    world.set_state(drop, S.U_I)
+    for i in range(w.state.size):
+        t = w.target[i]
+        if t < 0:
+            continue
+        c, state = w.collective[i], w.state[i]
+        favouring_here = w.leg[i] == S.AT_HUB and S.FAVOURING_IN_HUB[state]
+        owner = w.reserved_by[t]
+        taken = (owner >= 0 and owner != c) or not w.active[t]
+        if (favouring_here and w.abandon_order[c, t]) or (
+            taken and (favouring_here or state == S.C or state == S.I)
+        ):
+            set_state_one(w.state, w.target, w.streak, i, S.U_I, -1)
+
+
+# ------------------------------------------------------- Python entry points
+def per_step(rate: float, params: Params) -> float:
+    return per_step_probability(float(rate), float(params.dt_s))
+
+
+def leave_rate(estimate: np.ndarray, gap: np.ndarray) -> np.ndarray:
+    """Elementwise `leave_rate_one` (for tests and analysis)."""
+    estimate, gap = np.broadcast_arrays(np.asarray(estimate, float), np.asarray(gap, float))
+    return np.array([leave_rate_one(e, g) for e, g in zip(estimate.flat, gap.flat, strict=True)])
+
+
+def abandon_probability(world: World, agents: np.ndarray, params: Params) -> np.ndarray:
+    k = constants_for(params, "M1")
+    w = world.kernel_arrays()
+    return np.array([abandon_probability_one(w, k, int(i)) for i in agents])
+
+
+def reach_hub(world: World, agents: np.ndarray) -> np.ndarray:
+    """Agents arriving home enter their arrival state and report; the newly visible targets."""
+    agents = np.asarray(agents, dtype=np.int64)
+    visible = np.empty(world.active.size, dtype=np.int64)
+    n = reach_hub_kernel(world.kernel_arrays(), agents, agents.size, visible)
+    return visible[:n]
+
+
+def discoverable(world: World, params: Params) -> np.ndarray:
+    """(C, T): targets each collective's explorers can adopt (`discoverable_one`)."""
+    ok = np.zeros(world.abandon_order.shape, dtype=np.bool_)
+    _discoverable_kernel(world.kernel_arrays(), constants_for(params, "M1"), ok)
+    return ok
+
+
+@njit(cache=True)
+def _discoverable_kernel(w, k, ok):
+    for c in range(ok.shape[0]):
+        for t in range(ok.shape[1]):
+            ok[c, t] = discoverable_one(w, k, c, t)
+
+
+def discovery(world: World, params: Params, model: str) -> None:
+    discovery_kernel(world.kernel_arrays(), constants_for(params, model))
+
+
+def rate_transitions(world: World, params: Params, model: str) -> None:
+    rate_transitions_kernel(world.kernel_arrays(), constants_for(params, model))
+
+
+def enforce_orders(world: World) -> None:
+    enforce_orders_kernel(world.kernel_arrays())

@@ -16,7 +16,7 @@ from hcss.simulation.params import Params
 
 KINDS = ("easy", "difficult")
 START_HUBS = ((-1.0, 1.0), (1.0, 1.0), (-1.0, -1.0), (1.0, -1.0))  # I, II, III, IV (× offset)
-MAX_COLLECTIVES = 16
+MAX_COLLECTIVES = 64  # the study has 4; more only for scaling runs
 _MAX_DRAWS = 10_000
 
 

@@ -10,12 +10,47 @@ is what makes snapshots and restores exact.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, fields
+from typing import NamedTuple
 
 import numpy as np
+from numba import njit
 
 from hcss.simulation import states as S
 from hcss.simulation.params import Params
 from hcss.simulation.scenario import Scenario
+from hcss.simulation.stream import seed_stream
+
+
+class Arrays(NamedTuple):
+    """The World's arrays as the compiled kernels take them (one argument, cheap to pass)."""
+
+    collective: np.ndarray
+    state: np.ndarray
+    target: np.ndarray
+    leg: np.ndarray
+    pos: np.ndarray
+    heading: np.ndarray
+    estimate: np.ndarray
+    arrival_state: np.ndarray
+    report_target: np.ndarray
+    streak: np.ndarray
+    silence: np.ndarray
+    reported_quadrant: np.ndarray
+    hub: np.ndarray
+    target_pos: np.ndarray
+    target_value: np.ndarray
+    target_around: np.ndarray
+    active: np.ndarray
+    reserved_by: np.ndarray
+    report_sum: np.ndarray
+    report_count: np.ndarray
+    abandon_order: np.ndarray
+    hub_distance: np.ndarray
+    discovery_gap: np.ndarray
+    round_trip_gap: np.ndarray
+    send_factor: np.ndarray
+    site_rate: np.ndarray
+    stream: np.ndarray
 
 
 @dataclass
@@ -51,6 +86,13 @@ class World:
     report_count: np.ndarray  # int32
     abandon_order: np.ndarray  # bool (C, T): standing abandon requests
     hub_distance: np.ndarray  # float64 (C, T): distance from each hub to each target
+    # M2 (C, T), derived from hub_distance by rules.refresh_geometry
+    discovery_gap: np.ndarray  # float64, 1/g(d_max) - 1/g(d): discovery delay's denominator
+    round_trip_gap: np.ndarray  # float64, τ_max - τ_i: reassessment delay's denominator
+    send_factor: np.ndarray  # float64, M_i = d_i/d_min: message rate factor of F_I(i) senders
+    site_rate: np.ndarray  # float64, g(d) per explorer (discovery "per_agent"), before eligibility
+    # the kernels' random stream (stream.py) --------------------------------
+    stream: np.ndarray  # uint64 (4,), xoshiro256** state
     # clock --------------------------------------------------------------
     step_count: int = 0
     time: float = 0.0
@@ -64,7 +106,7 @@ class World:
         return int(self.hub.shape[0])
 
     @classmethod
-    def new(cls, scenario: Scenario, params: Params) -> World:
+    def new(cls, scenario: Scenario, params: Params, run: int = 0) -> World:
         n_c, n = scenario.n_collectives, params.n_agents
         a = n_c * n
         placed = [t for section in scenario.sections for t in section.targets]
@@ -101,8 +143,45 @@ class World:
             report_count=np.zeros(n_t, dtype=np.int32),
             abandon_order=np.zeros((n_c, n_t), dtype=bool),
             hub_distance=np.zeros((n_c, n_t)),
+            discovery_gap=np.zeros((n_c, n_t)),
+            round_trip_gap=np.zeros((n_c, n_t)),
+            send_factor=np.ones((n_c, n_t)),
+            site_rate=np.zeros((n_c, n_t)),
+            stream=seed_stream(scenario.seed, run),
         )
         return world
+
+    def kernel_arrays(self) -> Arrays:
+        """The arrays the kernels read and write in place."""
+        return Arrays(
+            self.collective,
+            self.state,
+            self.target,
+            self.leg,
+            self.pos,
+            self.heading,
+            self.estimate,
+            self.arrival_state,
+            self.report_target,
+            self.streak,
+            self.silence,
+            self.reported_quadrant,
+            self.hub,
+            self.target_pos,
+            self.target_value,
+            self.target_around,
+            self.active,
+            self.reserved_by,
+            self.report_sum,
+            self.report_count,
+            self.abandon_order,
+            self.hub_distance,
+            self.discovery_gap,
+            self.round_trip_gap,
+            self.send_factor,
+            self.site_rate,
+            self.stream,
+        )
 
     # -- derived views ----------------------------------------------------
     def refresh_hub_distance(self) -> None:
@@ -139,31 +218,23 @@ class World:
         self, agents: np.ndarray, new_state: int, new_target: np.ndarray | int | None = None
     ) -> None:
         """Move agents to a new state, clearing the quorum streak where the decision state changes."""
+        agents = np.asarray(agents)
         if agents.dtype == bool:
             agents = np.flatnonzero(agents)
         if agents.size == 0:
             return
-        new_phase = S.PHASE_OF_STATE[new_state]
-        if new_phase == 0:
-            new_target = -1
-        elif new_target is None:
-            new_target = self.target[agents]
-        changed = (S.PHASE_OF_STATE[self.state[agents]] != new_phase) | (
-            self.target[agents] != new_target
+        if new_target is None:
+            targets = self.target[agents]
+        else:
+            targets = np.broadcast_to(np.asarray(new_target, dtype=np.int32), agents.shape)
+        set_states_kernel(
+            self.state,
+            self.target,
+            self.streak,
+            agents.astype(np.int64),
+            np.full(agents.size, new_state, dtype=np.int8),
+            np.ascontiguousarray(targets, dtype=np.int32),
         )
-        self.state[agents] = new_state
-        self.target[agents] = new_target
-        self.streak[agents[changed]] = 0
-
-    def set_states(self, agents: np.ndarray, new_states: np.ndarray) -> None:
-        """Like set_state, with one new state per agent and targets kept (dropped if uncommitted)."""
-        if agents.size == 0:
-            return
-        new_phase = S.PHASE_OF_STATE[new_states]
-        changed = S.PHASE_OF_STATE[self.state[agents]] != new_phase
-        self.state[agents] = new_states
-        self.target[agents[new_phase == 0]] = -1
-        self.streak[agents[changed]] = 0
 
     # -- persistence ------------------------------------------------------
     def arrays(self) -> dict[str, np.ndarray]:
@@ -183,3 +254,32 @@ class World:
                 value = dict(value)
             values[f.name] = value
         return World(**values)
+
+
+@njit(cache=True)
+def target_in(new_state, new_target):
+    """Uncommitted agents have no target (-1): the invariant decision keys rely on."""
+    return -1 if S.PHASE_OF_STATE[new_state] == 0 else new_target
+
+
+@njit(cache=True)
+def decision_changed(old_state, old_target, new_state, new_target):
+    """Whether the decision state (phase and target) changes: the quorum window is then cleared."""
+    return S.PHASE_OF_STATE[old_state] != S.PHASE_OF_STATE[new_state] or old_target != new_target
+
+
+@njit(cache=True, inline="always")
+def set_state_one(state, target, streak, agent, new_state, new_target):
+    """The one rule for a change of state: uncommitted agents have no target, and the
+    quorum streak is cleared when the decision state (phase and target) changes."""
+    new_target = target_in(new_state, new_target)
+    if decision_changed(state[agent], target[agent], new_state, new_target):
+        streak[agent] = 0
+    state[agent] = new_state
+    target[agent] = new_target
+
+
+@njit(cache=True)
+def set_states_kernel(state, target, streak, agents, new_states, new_targets):
+    for i in range(agents.size):
+        set_state_one(state, target, streak, agents[i], new_states[i], new_targets[i])

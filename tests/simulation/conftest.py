@@ -55,7 +55,6 @@ def send(
         receiver=np.asarray(receivers),
         sender_state=w.state[senders].copy(),
         sender_target=w.target[senders].copy(),
-        sender_key=S.decision_key(w.state[senders], w.target[senders]),
         sender_estimate=w.estimate[senders].copy(),
     )
     messages = np.arange(len(receivers))

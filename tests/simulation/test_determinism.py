@@ -75,3 +75,19 @@ def test_replay_from_a_snapshot_skips_commands_it_already_contains():
 def test_garbage_is_not_a_snapshot():
     with pytest.raises(SimulationError):
         Simulation.restore(b"not a pickle")
+
+
+@pytest.mark.parametrize("model", ["M1", "M2", "M3"])
+def test_steps_run_in_one_compiled_call_equal_steps_taken_one_by_one(model):
+    """The engine runs quiet steps inside one kernel call; the trial must not notice.
+
+    M3 without an operator times its decisions out, so the time-out path is covered.
+    """
+    batched = Simulation(Scenario.generate(5), model)
+    single = Simulation(Scenario.generate(5), model)
+    batched.run_until_finished(max_steps=2500)
+    while not single.finished and single.step_count < 2500:
+        single._step_once()  # the two-call path, one step at a time
+    _assert_same_world(batched, single)
+    assert batched.drain_events() == single.drain_events()
+    assert len(batched.decisions) >= 2

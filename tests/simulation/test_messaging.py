@@ -53,7 +53,7 @@ def test_semi_interactive_and_latent_agents_do_not_send():
     for i, state in enumerate([S.F_D, S.F_R, S.F_L, S.U_L]):
         place(w, mine[i * 50 : (i + 1) * 50], state, target=3)
     place(w, agents_of(w, 1, 50), S.F_I, target=3)  # collective II still talks
-    inbox = compose(w, sim.params, sim.rng, "M2")
+    inbox = compose(w, sim.params, "M2")
     assert inbox.sender.size > 0
     assert not np.any(w.collective[inbox.sender] == 0)
 
@@ -182,7 +182,7 @@ def test_m2_frequency_modulation_scales_the_send_rate_with_distance():
     assert expected == pytest.approx(w.hub_distance[0, far] / 150.0)
     counts = []
     for _ in range(200):
-        inbox = compose(w, sim.params, sim.rng, "M2")
+        inbox = compose(w, sim.params, "M2")
         counts.append(np.isin(inbox.sender, senders).sum())
     per_sender = np.mean(counts) / senders.size
     # Neighbour search can fail rarely; the Poisson mean is M_i · r_msg · dt.
@@ -192,7 +192,6 @@ def test_m2_frequency_modulation_scales_the_send_rate_with_distance():
     place(m1.world, agents_of(m1.world, 0, 100), S.F_I, target=far)  # same layout: same seed
     m1_senders = agents_of(m1.world, 0, 100)
     m1_counts = [
-        np.isin(compose(m1.world, m1.params, m1.rng, "M1").sender, m1_senders).sum()
-        for _ in range(200)
+        np.isin(compose(m1.world, m1.params, "M1").sender, m1_senders).sum() for _ in range(200)
     ]
     assert np.mean(m1_counts) / 100 == pytest.approx(rate, rel=0.08)

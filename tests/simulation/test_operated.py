@@ -58,8 +58,12 @@ def test_attention_to_one_collective_at_a_time() -> None:
 
 def test_without_a_pace_the_policy_acts_on_every_collective_at_once() -> None:
     run = _operated(None, until_s=300.0)
-    first_step = run.log[0][0]
-    assert len({c["collective"] for s, c in run.log if s == first_step}) > 1
+    # Some glance issues requests to several collectives in the same step (which
+    # glance first does depends on the random stream, so any glance may show it).
+    by_step: dict[int, set[int]] = {}
+    for step, command in run.log:
+        by_step.setdefault(step, set()).add(command["collective"])
+    assert max(len(collectives) for collectives in by_step.values()) > 1
 
 
 def test_an_unknown_operator_or_a_negative_pace_is_refused() -> None:

@@ -88,7 +88,7 @@ def test_per_agent_discovery_follows_g_of_d() -> None:
     trials = 60
     for _ in range(trials):
         place(w, explorers, S.U_L, leg=S.EXPLORING)
-        discovery(w, p, sim.rng, "M1")
+        discovery(w, p, "M1")
         adopted += int(np.sum(w.leg[explorers] == S.TO_HUB))
     share = adopted / (trials * explorers.size)
     # Binomial(12000, ~0.04): 4 standard errors is about 0.007.
@@ -102,7 +102,7 @@ def test_per_agent_discovery_adopts_with_probability_v_hat() -> None:
     adopted: list[int] = []
     for _ in range(60):
         place(w, explorers, S.U_L, leg=S.EXPLORING)
-        discovery(w, p, sim.rng, "M2")
+        discovery(w, p, "M2")
         adopters = explorers[w.leg[explorers] == S.TO_HUB]
         assert np.all(w.state[adopters] == S.F_L)
         assert np.all(w.arrival_state[adopters] == S.F_D)

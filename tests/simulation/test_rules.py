@@ -84,7 +84,7 @@ def test_m2_agents_leave_discovery_delay_at_the_per_step_rate():
     place(w, waiting, S.F_D, target=t, estimate=0.8)
     d = w.hub_distance[0, t]
     p = per_step(0.8 / (1 / g(350) - 1 / g(d)), sim.params)
-    rate_transitions(w, sim.params, sim.rng, "M2")
+    rate_transitions(w, sim.params, "M2")
     share = np.mean(w.state[waiting] == S.F_I)
     assert abs(share - p) < 4 * math.sqrt(p * (1 - p) / waiting.size)
 
@@ -96,7 +96,7 @@ def test_m2_agents_of_the_farthest_target_leave_the_delay_at_once():
     assert w.hub_distance[0, t] >= 350.0 - 1e-6
     waiting = agents_of(w, 0, 20)
     place(w, waiting, S.F_R, target=t)
-    rate_transitions(w, sim.params, sim.rng, "M2")
+    rate_transitions(w, sim.params, "M2")
     assert np.all(w.state[waiting] == S.F_I)
 
 
@@ -125,7 +125,7 @@ def test_explorers_adopt_a_sensed_target_with_probability_of_their_estimate():
     explorers = agents_of(w, 0, 3000)
     place(w, explorers, S.U_L, leg=S.EXPLORING)
     w.pos[explorers] = w.target_pos[t] + 2.0  # within the 4.5 m sensing radius
-    discovery(w, sim.params, sim.rng, "M1")
+    discovery(w, sim.params, "M1")
     adopted = w.state[explorers] == S.F_L
     assert np.all(w.target[explorers[adopted]] == t) and np.all(
         w.leg[explorers[adopted]] == S.TO_HUB
@@ -146,5 +146,5 @@ def test_explorers_ignore_targets_under_an_abandon_order():
     place(w, explorers, S.U_L, leg=S.EXPLORING)
     w.pos[explorers] = w.target_pos[t]
     w.abandon_order[0, t] = True
-    discovery(w, sim.params, sim.rng, "M1")
+    discovery(w, sim.params, "M1")
     assert np.all(w.state[explorers] == S.U_L)

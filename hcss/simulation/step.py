@@ -1,0 +1,109 @@
+"""One step of the agent rules, fused into two compiled passes.
+
+`advance_agents` runs, in the spec's order, movement, arrival at targets and
+hubs, standing orders, discovery and the rate transitions; the engine then
+serves operator requests (Python, rare) and `exchange_and_report` runs the
+message round, the initiating agents' silence rule and the hub reports. Each
+rule is the single compiled function of its own module; this module only
+chains them so that a step costs two calls from Python instead of dozens of
+array operations.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from hcss.simulation import states as S
+from hcss.simulation.messaging import exchange_kernel, initiating_silence_kernel
+from hcss.simulation.movement import move_kernel
+from hcss.simulation.rules import (
+    discovery_kernel,
+    enforce_orders_kernel,
+    rate_transitions_kernel,
+    reach_hub_kernel,
+    reach_target_kernel,
+)
+
+
+@njit(cache=True)
+def advance_agents(w, k, at_target, at_hub, newly_visible):
+    """Move, arrive, enforce orders, discover, rate transitions. Returns the newly visible count."""
+    n_target, n_hub = move_kernel(w, k, at_target, at_hub)
+    reach_target_kernel(w, k, at_target, n_target)
+    n_visible = reach_hub_kernel(w, at_hub, n_hub, newly_visible)
+    enforce_orders_kernel(w)
+    discovery_kernel(w, k)
+    rate_transitions_kernel(w, k)
+    return n_visible
+
+
+@njit(cache=True)
+def exchange_and_report(w, k, finished, state_counts, committed, moving):
+    """Messages, the silence rule, and each agent in its hub reporting its state (spec §9).
+
+    `finished` marks collectives whose D(i) quorum was reached; `state_counts`
+    receives the number of agents in each state, and `committed` and `moving`
+    the (collective, target) counts of C and X agents, so the engine only
+    looks for commitments and moves when there are any.
+    """
+    finished[:] = False
+    exchange_kernel(w, k, finished)
+    initiating_silence_kernel(w, k)
+    state_counts[:] = 0
+    committed[:] = 0
+    moving[:] = 0
+    for i in range(w.state.size):
+        state = w.state[i]
+        state_counts[state] += 1
+        if state == S.C:
+            committed[w.collective[i], w.target[i]] += 1
+        elif state == S.X:
+            moving[w.collective[i], w.target[i]] += 1
+        if w.leg[i] == S.AT_HUB:
+            w.reported_quadrant[i] = S.QUADRANT_OF_STATE[state]
+
+
+@njit(cache=True)
+def step_agents(w, k, at_target, at_hub, newly_visible, finished, state_counts, committed, moving):
+    """A whole step of the agent rules when no operator request is waiting for agents."""
+    n_visible = advance_agents(w, k, at_target, at_hub, newly_visible)
+    exchange_and_report(w, k, finished, state_counts, committed, moving)
+    return n_visible
+
+
+@njit(cache=True)
+def quiet_steps(
+    w,
+    k,
+    at_target,
+    at_hub,
+    newly_visible,
+    finished,
+    state_counts,
+    committed,
+    moving,
+    commit_announced,
+    executing,
+    max_steps,
+):
+    """Up to `max_steps` steps, stopping after the first one that needs the engine.
+
+    A step needs the engine (Python) when a target became visible, a
+    collective's committed agents favour a target not yet announced, a
+    collective without a move under way has executing agents, or a D(i)
+    quorum was reached. Returns (steps taken, targets made visible in the last).
+    """
+    for done in range(1, max_steps + 1):
+        n_visible = step_agents(
+            w, k, at_target, at_hub, newly_visible, finished, state_counts, committed, moving
+        )
+        if n_visible > 0 or finished.any():
+            return done, n_visible
+        for c in range(committed.shape[0]):
+            announce = state_counts[S.C] and committed[c].max() > 0
+            if announce and np.argmax(committed[c]) != commit_announced[c]:
+                return done, n_visible
+            if state_counts[S.X] and executing[c] < 0 and moving[c].max() > 0:
+                return done, n_visible
+    return max_steps, 0
