@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import pytest
 from sqlalchemy import select
 
@@ -44,6 +46,8 @@ def test_a_finished_trial_replays_to_the_recorded_end_state(app, make_trial, con
     # An interruption midway (the runner lets go and rebuilds from a snapshot) changes nothing.
     trial.runner.trials.pop(trial.trial_id)
     sent += operate(trial, 180.0, from_s=90.0)
+    # The rebuild's outage is excluded from the trial clock, so the trial ends a little later.
+    trial.run_to(200.0)
     assert sent >= 10
     frames, last = _all_frames(console, trial.trial_id)
     assert last["ended"] and last["horizon"] == 180 and len(frames) == 181
@@ -71,7 +75,12 @@ def test_the_timeline_marks_requests_probe_answers_and_messages(app, make_trial,
     assert len(body["commands"]) == sent
     refused = [c for c in body["commands"] if c["accepted"] is False]
     assert refused and all(c["reason"] for c in refused)
-    assert any(c["reason"] == "There is no target 999." for c in refused)
+    assert any(
+        re.fullmatch(
+            r"(There is no target \d+|Target \d+ has not been discovered yet)\.", c["reason"]
+        )
+        for c in refused
+    )
     assert any(c["accepted"] for c in body["commands"])
     answered = [p for p in body["probes"] if not p["timed_out"]]
     assert answered and all(p["answer"] is not None and p["ready"] is not None for p in answered)
@@ -113,7 +122,9 @@ def test_the_participant_page_links_each_trial_to_its_replay(app, make_trial, co
 def test_bad_frame_requests_are_refused(app, make_trial, console, query: str) -> None:  # type: ignore[no-untyped-def]
     trial = make_trial(seed=3, duration_s=30.0)
     response = console.get(f"/console/trials/{trial.trial_id}/replay/frames?{query}")
-    assert response.status_code == 400 and response.get_json()["error"] == "bad_request"
+    assert response.status_code == 400
+    # A NUL byte is refused by the hardening layer before the route (an HTML error page).
+    assert response.is_json is False or response.get_json()["error"] == "bad_request"
 
 
 def test_replay_is_for_signed_in_experimenters_only(app, make_trial, console) -> None:  # type: ignore[no-untyped-def]
