@@ -87,7 +87,10 @@ def serve(
     from hcss.platform.serving import log_events_to_stderr, write_serving_file
 
     # Streams hold a thread each; the reserve keeps page loads and the console answering.
-    config: dict[str, object] = {"MAX_STREAMS": threads - reserve_for_pages(threads)}
+    config: dict[str, object] = {
+        "MAX_STREAMS": threads - reserve_for_pages(threads),
+        "LIVE_RUNNER": True,  # only a serving process keeps trials on time
+    }
     if time_acceleration is not None:
         config["TIME_ACCELERATION"] = time_acceleration
     if study is not None:

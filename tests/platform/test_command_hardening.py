@@ -182,7 +182,7 @@ def test_a_bad_row_in_the_database_breaks_neither_export_nor_rebuild(
     try:
         runner = restarted.extensions["hcss_runner"]
         runner.tick()
-        assert set(runner.trials) == {bad.trial_id, good.trial_id}
+        assert runner.loaded_ids() == {bad.trial_id, good.trial_id}
         client = restarted.test_client()
         for handle in (bad, good):
             assert client.get(f"{handle.api}/state").status_code == 200
@@ -214,7 +214,7 @@ def test_a_trial_that_cannot_be_rebuilt_is_ended_with_a_problem_record(
         runner = restarted.extensions["hcss_runner"]
         runner.tick()
         runner.tick()  # a second tick does not try (and log) again
-        assert set(runner.trials) == {healthy.trial_id}
+        assert runner.loaded_ids() == {healthy.trial_id}
         client = restarted.test_client()
         assert client.get(f"{broken.api}/state").status_code == 409  # ended, not 500
         assert client.get(f"{broken.api}/stream").status_code == 200  # the "ended" frame

@@ -176,7 +176,9 @@ def answer_every_radio_group(page, choose=lambda values: values[0]) -> None:  # 
 
 def live_trial(server: StudyServer):  # type: ignore[no-untyped-def]
     """The one trial the runner holds for the test's participant."""
-    (live,) = [t for t in server.runner.trials.values() if not t.ended]
+    (live,) = [
+        t for t in map(server.runner.loaded, server.runner.loaded_ids()) if t and not t.ended
+    ]
     return live
 
 

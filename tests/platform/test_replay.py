@@ -44,7 +44,7 @@ def test_a_finished_trial_replays_to_the_recorded_end_state(app, make_trial, con
     trial = make_trial(seed=7, duration_s=180.0)
     sent = operate(trial, 90.0)
     # An interruption midway (the runner lets go and rebuilds from a snapshot) changes nothing.
-    trial.runner.trials.pop(trial.trial_id)
+    trial.runner.forget(trial.trial_id)
     sent += operate(trial, 180.0, from_s=90.0)
     # The rebuild's outage is excluded from the trial clock, so the trial ends a little later.
     trial.run_to(200.0)
@@ -98,7 +98,7 @@ def test_a_live_trial_replays_up_to_its_newest_snapshot(app, make_trial, console
     assert first["replayed_digest"] == first["recorded_digest"]
     # The trial goes on; the cached replay continues with the newer commands.
     operate(trial, 150.0, from_s=60.0)
-    trial.runner.trials.pop(trial.trial_id)  # a restart: rebuilt from its snapshot
+    trial.runner.forget(trial.trial_id)  # a restart: rebuilt from its snapshot
     trial.run_to(155.0)
     more, later = _all_frames(console, trial.trial_id)
     assert later["horizon"] > first["horizon"] and more[: len(frames)] == frames

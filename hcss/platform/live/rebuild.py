@@ -13,7 +13,7 @@ from __future__ import annotations
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
-from hcss.platform.console.pauses import restore_pauses
+from hcss.platform.live.clock import restore_pauses
 from hcss.platform.live.outages import (
     earlier_outages_s,
     last_reached_step,

@@ -84,12 +84,7 @@ class LiveTrialStage(Stage):
 
     def _finish_overdue(self, trial_id: int) -> None:
         """Let the runner step an overdue trial to its end, recording everything on the way."""
-        runner = current_app.extensions["hcss_runner"]
-        live = runner.get(trial_id)
-        if live is not None:
-            runner.advance(live, runner.clock())
-            if live.ended:
-                runner.trials.pop(trial_id, None)
+        current_app.extensions["hcss_runner"].finish_overdue(trial_id)
 
 
 class Training(LiveTrialStage):
