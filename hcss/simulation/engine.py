@@ -430,8 +430,9 @@ class Simulation:
         return sim
 
     def state_digest(self) -> str:
-        """A digest of every state array, the clock, the generator and the requests."""
+        """A digest of the parameters, every state array, the clock, the generator and the requests."""
         h = hashlib.sha256()
+        h.update(repr(sorted(self.params.to_dict().items())).encode())
         for name, array in sorted(self.world.arrays().items()):
             h.update(name.encode())
             h.update(np.ascontiguousarray(array).tobytes())
