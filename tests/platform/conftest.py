@@ -29,6 +29,7 @@ from hcss.platform.app import create_app
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.trials import start_trial
 from hcss.platform.models import Participant
+from hcss.platform.study.studyfile import load_study
 
 PG_ENV = "HCSS_TEST_DATABASE_URL"
 
@@ -52,6 +53,11 @@ def database_url(request: pytest.FixtureRequest, tmp_path) -> Iterator[str]:  # 
         with admin.connect() as connection:
             connection.execute(text(f'DROP SCHEMA "{schema}" CASCADE'))
         admin.dispose()
+
+
+#: The original study's trial length (`timing.trial_s`), for trials a test starts directly.
+STUDY = load_study("original")
+STUDY_TRIAL_S = STUDY.trial_s
 
 
 class FakeClock:
@@ -137,6 +143,8 @@ def make_trial(app: Flask):  # type: ignore[no-untyped-def]
 
     def make(**options: Any) -> LiveTrialHandle:
         options.setdefault("seed", 2)
+        training = options.get("kind") == "training"
+        options.setdefault("duration_s", STUDY.training_s if training else STUDY.trial_s)
         database = app.extensions["hcss_db"]
         with database.session_scope() as session:
             participant = Participant(is_bot=True)

@@ -31,7 +31,7 @@ from hcss.platform.app import create_app
 from hcss.platform.console.accounts import create_experimenter
 from hcss.platform.live.trials import start_trial
 from hcss.platform.models import Participant
-from tests.platform.conftest import FakeClock
+from tests.platform.conftest import STUDY_TRIAL_S, FakeClock
 from tests.platform.console_support import sign_in
 
 EXAMPLES = int(os.environ.get("HCSS_FUZZ_EXAMPLES", "300"))
@@ -122,7 +122,9 @@ def target(database_url: str) -> Iterator[Target]:
         participant = Participant(is_bot=True)
         session.add(participant)
         session.flush()
-        trial = start_trial(session, participant, seed=2, time_acceleration=10.0)
+        trial = start_trial(
+            session, participant, seed=2, duration_s=STUDY_TRIAL_S, time_acceleration=10.0
+        )
         token, code, trial_id = participant.token, participant.code, trial.id
         app.extensions["hcss_runner"].clock.now = trial.started_at.timestamp() + 5.0
     console = app.test_client()

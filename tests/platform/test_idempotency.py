@@ -196,8 +196,18 @@ def test_the_migration_creates_the_key_table_as_modelled_and_removes_it(database
             if table.name in set(inspect(engine).get_table_names()):
                 table.to_metadata(expected)
         assert "command_key" in expected.tables
+        later = {  # columns revisions after 0004_p8_idempotency add to these tables
+            ("interruption", "outage_s"),  # 0004_h13_hardening
+            ("experimenter", "login_generation"),  # 0004_h13_hardening
+            ("trial", "probe_counts"),  # 0005_a10_vocabularies
+        }
+
+        def not_later(obj, name, type_, reflected, compare_to) -> bool:  # type: ignore[no-untyped-def]
+            return not (type_ == "column" and (obj.table.name, name) in later)
+
         with engine.connect() as connection:
-            assert compare_metadata(MigrationContext.configure(connection), expected) == []
+            context = MigrationContext.configure(connection, opts={"include_object": not_later})
+            assert compare_metadata(context, expected) == []
         command.downgrade(config, "0003_study")
         assert "command_key" not in inspect(create_engine(database_url)).get_table_names()
     finally:

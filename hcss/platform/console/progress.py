@@ -27,6 +27,7 @@ from hcss.platform.models import (
     TrialStatusChange,
     utcnow,
 )
+from hcss.platform.models.vocabularies import TrialStatus
 from hcss.platform.pilots import pilot_flags
 from hcss.platform.session_state import session_states
 from hcss.platform.study.enrolment import default_study_name
@@ -163,7 +164,7 @@ def progress_rows(session: Session, now: float) -> list[ProgressRow]:
         last = last_events.get(participant.id)
         clock = duration = None
         since = participant.created_at.timestamp() if last is None else last.at.timestamp()
-        if trial is not None and status is not None and status.status == "running":
+        if trial is not None and status is not None and status.status == TrialStatus.RUNNING:
             stage, since = f"{trial.kind} {trial.model}", trial.started_at.timestamp()
             clock, duration = trial_clock_s(session, trial, now), trial.duration_s
         elif position.status == "not_enrolled" and trial is not None:

@@ -16,6 +16,7 @@ from hcss.platform.live.runner import Runner
 from hcss.platform.live.session import LiveTrial
 from hcss.platform.live.trials import current_trial, latest_status
 from hcss.platform.models import ConsoleAction, Experimenter, Participant
+from hcss.platform.models.vocabularies import TrialStatus
 from hcss.platform.pilots import is_pilot
 from hcss.platform.session_state import STATE_ACTIONS, session_state
 from hcss.platform.study.flow import current_position
@@ -52,7 +53,7 @@ def study_status(session: Session, participant: Participant) -> str:
 
 def _live_trial(session: Session, runner: Runner, participant: Participant) -> LiveTrial | None:
     trial = current_trial(session, participant)
-    if trial is None or latest_status(session, trial.id) != "running":
+    if trial is None or latest_status(session, trial.id) != TrialStatus.RUNNING:
         return None
     return runner.get(trial.id)
 

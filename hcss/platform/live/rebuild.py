@@ -23,7 +23,7 @@ from hcss.platform.live.outages import (
     last_seen,
     stop_clock_for_outage,
 )
-from hcss.platform.live.probes import probe_plan
+from hcss.platform.live.probes import counts_of, probe_plan
 from hcss.platform.live.recorder import record_progress, write_snapshot
 from hcss.platform.live.session import CurrentProbe, LiveTrial
 from hcss.platform.models import (
@@ -39,6 +39,7 @@ from hcss.platform.models import (
     Trial,
     TrialProblem,
 )
+from hcss.platform.models.vocabularies import RequestStatus
 from hcss.platform.naming import Uninterpretable, collective_name
 
 if TYPE_CHECKING:
@@ -73,7 +74,7 @@ def load_trial(session: Session, trial: Trial, now: float) -> LiveTrial:
         acceleration=trial.time_acceleration,
         duration_s=trial.duration_s,
         dt=float(sim.params.dt_s),
-        probe_plan=probe_plan(trial.seed, trial.duration_s),
+        probe_plan=probe_plan(trial.seed, trial.duration_s, counts_of(trial.probe_counts)),
     )
     live.last_command_id = None if snapshot is None else snapshot.last_command_id
     seen = last_seen(session, trial.id)  # before this rebuild writes anything
@@ -176,7 +177,7 @@ def _restore_bookkeeping(session: Session, live: LiveTrial) -> None:
         .where(RequestStatusChange.trial_id == tid)
         .order_by(RequestStatusChange.id)
     ):
-        if change.status == "removed":
+        if change.status == RequestStatus.REMOVED:
             live.request_status.pop(change.request_id, None)
         else:
             live.request_status[change.request_id] = change.status

@@ -21,6 +21,7 @@ from hcss.platform.models import (
     Snapshot,
     TrialStatusChange,
 )
+from hcss.platform.models.vocabularies import RequestStatus, TrialStatus
 
 
 def record_progress(live: LiveTrial, session: Session) -> None:
@@ -101,7 +102,7 @@ def _record_request_statuses(live: LiveTrial, session: Session) -> None:
         if live.request_status.get(request_id) != status:
             _add_status(live, session, request_id, status)
     for request_id in [r for r in live.request_status if r not in now]:
-        _add_status(live, session, request_id, "removed")
+        _add_status(live, session, request_id, RequestStatus.REMOVED)
         del live.request_status[request_id]
 
 
@@ -200,7 +201,10 @@ def end_trial(live: LiveTrial, session: Session, reason: str, now: float) -> Non
     write_snapshot(live, session, now)
     session.add(
         TrialStatusChange(
-            trial_id=live.trial_id, status="ended", reason=reason, step=live.sim.step_count
+            trial_id=live.trial_id,
+            status=TrialStatus.ENDED,
+            reason=reason,
+            step=live.sim.step_count,
         )
     )
     live.ended = True

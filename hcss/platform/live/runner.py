@@ -30,6 +30,7 @@ from hcss.platform.live.recorder import end_trial, record_progress, write_snapsh
 from hcss.platform.live.session import LiveTrial
 from hcss.platform.live.trials import latest_status, running_trial_ids
 from hcss.platform.models import Trial, TrialProblem, TrialStatusChange
+from hcss.platform.models.vocabularies import TrialStatus
 
 log = logging.getLogger(__name__)
 
@@ -68,7 +69,7 @@ class Runner:
                 return live
             try:
                 with self.database.session_scope() as session:
-                    if latest_status(session, trial_id) != "running":
+                    if latest_status(session, trial_id) != TrialStatus.RUNNING:
                         return None
                     trial = session.get(Trial, trial_id)
                     live = load_trial(session, trial, self.clock())
@@ -168,7 +169,9 @@ class Runner:
                 )
             )
             session.add(
-                TrialStatusChange(trial_id=trial_id, status="ended", reason="rebuild_failed")
+                TrialStatusChange(
+                    trial_id=trial_id, status=TrialStatus.ENDED, reason="rebuild_failed"
+                )
             )
 
     def sync(self) -> None:

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from hcss.platform.live.clock import running_wall_s, trial_time_s
+from hcss.platform.models.vocabularies import TrialStatus
 from hcss.questionnaires.probes import ScheduledProbe
 
 
@@ -175,9 +176,10 @@ class LiveTrial:
             "trial": {
                 "id": self.trial_id,
                 "kind": self.kind,
-                "status": "ended"
+                # The page's status: the trial's, or "paused" while the experimenter holds it.
+                "status": TrialStatus.ENDED
                 if self.ended
-                else ("paused" if self.paused_since is not None else "running"),
+                else ("paused" if self.paused_since is not None else TrialStatus.RUNNING),
                 "clock_s": round(self.clock(now), 2),
                 "duration_s": self.duration_s,
                 "step": self.sim.step_count,
