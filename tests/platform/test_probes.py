@@ -94,7 +94,15 @@ def test_comprehension_truth_is_the_best_target(make_trial) -> None:
     probe, _state, _second = _until_probe(trial, 0, level=ProbeLevel.COMPREHENSION)
     row = _probe_row(trial.app, probe["id"])
     collective = ROMAN.index(row.question.rsplit(" ", 1)[1].rstrip("?"))
-    assert row.truth == str(trial.live().sim.best_target(collective))
+    # Independently of Simulation.best_target: of the targets offered (those in range),
+    # the highest true value, the nearer one on a tie.
+    world = trial.live().sim.world
+    offered = [int(choice) for choice in row.choices]
+    best = min(
+        offered,
+        key=lambda t: (-world.target_value[t - 1], world.hub_distance[collective, t - 1]),
+    )
+    assert row.truth == str(best)
     trial.post(f"/probes/{probe['id']}/ready", {})
     assert row.truth in trial.state()["probe"]["choices"]
     trial.post(f"/probes/{probe['id']}/answer", {"answer": row.truth})
