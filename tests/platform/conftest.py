@@ -26,6 +26,7 @@ from sqlalchemy import create_engine, text
 from sqlalchemy.engine import make_url
 
 from hcss.platform.app import create_app
+from hcss.platform.bots import ManualClock
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.trials import start_trial
 from hcss.platform.models import Participant
@@ -60,16 +61,6 @@ STUDY = load_study("original")
 STUDY_TRIAL_S = STUDY.trial_s
 
 
-class FakeClock:
-    """Wall-clock seconds since the epoch that move only when a test says so."""
-
-    def __init__(self, now: float) -> None:
-        self.now = now
-
-    def __call__(self) -> float:
-        return self.now
-
-
 @pytest.fixture
 def app(database_url: str) -> Iterator[Flask]:
     app = create_app(
@@ -82,7 +73,7 @@ def app(database_url: str) -> Iterator[Flask]:
         }
     )
     app.extensions["hcss_db"].create_all()
-    app.extensions["hcss_runner"].clock = FakeClock(0.0)
+    app.extensions["hcss_runner"].clock = ManualClock(0.0)
     yield app
     app.extensions["hcss_runner"].stop()
     app.extensions["hcss_db"].engine.dispose()

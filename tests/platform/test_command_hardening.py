@@ -18,6 +18,7 @@ from sqlalchemy import func, select
 
 from hcss.cli import main
 from hcss.platform.app import create_app
+from hcss.platform.bots import ManualClock
 from hcss.platform.models import (
     Command,
     CommandOutcome,
@@ -26,7 +27,6 @@ from hcss.platform.models import (
     TrialProblem,
     TrialStatusChange,
 )
-from tests.platform.conftest import FakeClock
 
 ISSUE_POST = {"kind": "investigate", "collective": 16, "target": 1}
 
@@ -70,7 +70,7 @@ def _restart(database_url: str, now: float):  # type: ignore[no-untyped-def]
     app = create_app(
         {"DATABASE_URL": database_url, "SECRET_KEY": "test-secret", "LIVE_RUNNER": False}
     )
-    app.extensions["hcss_runner"].clock = FakeClock(now)
+    app.extensions["hcss_runner"].clock = ManualClock(now)
     return app
 
 
