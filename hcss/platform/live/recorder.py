@@ -23,6 +23,9 @@ from hcss.platform.models import (
 )
 from hcss.platform.models.vocabularies import RequestStatus, TrialStatus
 
+#: Decision-table columns the export fills from the trial and participant, not stored per row.
+EXPORT_IDENTITY = ("source", "participant", "trial_id", "run")
+
 
 def record_progress(live: LiveTrial, session: Session) -> None:
     """Events, decisions, request statuses and probes up to the simulation's now."""
@@ -58,9 +61,8 @@ def _record_events(live: LiveTrial, session: Session) -> None:
 def _record_decisions(live: LiveTrial, session: Session) -> None:
     records = live.sim.decisions
     for record in records[live.decisions_recorded :]:
-        row = record.as_row(
-            source="study", participant=live.participant_code, trial_id=str(live.trial_id), run=0
-        )
+        # The record itself; who and where (source, participant, trial, run) the export adds.
+        row = {k: v for k, v in record.as_row().items() if k not in EXPORT_IDENTITY}
         session.add(
             DecisionRow(
                 trial_id=live.trial_id,

@@ -92,13 +92,15 @@ class LiveTrialStage(Stage):
         current_app.extensions["hcss_runner"].finish_overdue(trial_id)
 
 
-class Training(LiveTrialStage):
+class TrainingStage(LiveTrialStage):
     name = "training"
     title = "Training"
     kind = "training"
 
 
-class Trial(LiveTrialStage):
+class TrialStage(LiveTrialStage):
+    """The study's trial stage (the ORM row is `models.Trial`, the run in memory `LiveTrial`)."""
+
     name = "trial"
     title = "Trial"
     kind = "trial"
