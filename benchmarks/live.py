@@ -25,7 +25,9 @@ from hcss.platform.live.client import TrialClient
 from hcss.platform.live.trials import start_trial
 from hcss.platform.localserver import LocalServer
 from hcss.platform.models import Participant
+from hcss.platform.study.studyfile import load_study
 
+STUDY = load_study("original")  # the trial length the benchmark's trials run for
 TRIAL_COUNTS = (10, 20, 40, 80, 120, 160, 200)
 MEASURE_S = 20.0
 COMMAND_EVERY_S = 2.0
@@ -83,7 +85,7 @@ def measure(n_trials: int, workdir: Path) -> dict[str, float]:
             participant = Participant(is_bot=True)
             session.add(participant)
             session.flush()
-            start_trial(session, participant, seed=1000 + i)
+            start_trial(session, participant, seed=1000 + i, duration_s=STUDY.trial_s)
             tokens.append(participant.token)
     database.engine.dispose()
     stop = threading.Event()

@@ -314,7 +314,7 @@ class ParticipantBot:
 
     def _acceleration(self, frame: dict[str, Any]) -> float:
         assert self.runner is not None
-        live = self.runner.trials.get(frame["trial"]["id"])
+        live = self.runner.loaded(frame["trial"]["id"])
         return live.acceleration if live is not None else 1.0
 
     @staticmethod

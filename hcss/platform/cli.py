@@ -7,6 +7,7 @@ import os
 import click
 
 from hcss.platform.config import PROJECT_ROOT
+from hcss.simulation.params import MODELS
 
 MIGRATIONS = PROJECT_ROOT / "migrations"
 DEFAULT_PORT = 5000
@@ -87,7 +88,10 @@ def serve(
     from hcss.platform.serving import log_events_to_stderr, write_serving_file
 
     # Streams hold a thread each; the reserve keeps page loads and the console answering.
-    config: dict[str, object] = {"MAX_STREAMS": threads - reserve_for_pages(threads)}
+    config: dict[str, object] = {
+        "MAX_STREAMS": threads - reserve_for_pages(threads),
+        "LIVE_RUNNER": True,  # only a serving process keeps trials on time
+    }
     if time_acceleration is not None:
         config["TIME_ACCELERATION"] = time_acceleration
     if study is not None:
@@ -134,7 +138,7 @@ def serve(
     envvar="HCSS_STUDY",
     help="The study whose trial length is used; default: the running server's study.",
 )
-@click.option("--model", type=click.Choice(["M1", "M2", "M3"]), default="M1", show_default=True)
+@click.option("--model", type=click.Choice(MODELS), default="M1", show_default=True)
 @click.option("--training", is_flag=True, help="A training trial (two collectives).")
 @click.option("--seed", type=int, default=None, help="Scenario seed (random when omitted).")
 @click.option("--minutes", type=float, default=None, help="Trial length (default: the study's).")
@@ -181,6 +185,7 @@ def demo_trial(
             seed=seed,
             duration_s=length_s if minutes is None else minutes * 60.0,
             time_acceleration=float(os.environ.get("HCSS_TIME_ACCELERATION", "1.0")),
+            probe_counts=study_file.probe_counts,
         )
         link = f"{base_url.rstrip('/')}/live/{participant.token}"
         click.echo(

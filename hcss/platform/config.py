@@ -64,8 +64,9 @@ def defaults() -> dict[str, object]:
         "WTF_CSRF_TIME_LIMIT": None,  # a 20-minute trial page must still be able to POST
         # Trial time per wall-clock second. 1.0 in the study; tests and bots go faster.
         "TIME_ACCELERATION": float(os.environ.get("HCSS_TIME_ACCELERATION", "1.0")),
-        # Start the background runner thread. Tests drive `runner.tick()` themselves.
-        "LIVE_RUNNER": True,
+        # Start the background runner thread: only where trials are served (`hcss serve`
+        # sets it). An app built for a script or a check has no thread; tests tick it.
+        "LIVE_RUNNER": False,
         # Seconds of wall time between simulation snapshots of each live trial.
         "SNAPSHOT_INTERVAL_S": float(os.environ.get("HCSS_SNAPSHOT_INTERVAL_S", "5.0")),
         # Seconds between two stream frames when nothing changed (2 Hz floor).

@@ -24,6 +24,7 @@ from hcss.simulation import decisions as dec
 from hcss.simulation import movement, rules
 from hcss.simulation import states as S
 from hcss.simulation.constants import constants_for
+from hcss.simulation.ids import target_id, target_index
 from hcss.simulation.params import MODELS, ROMAN, Params
 from hcss.simulation.requests import Request, RequestOutcome, recruit_for, refusal
 from hcss.simulation.scenario import Scenario
@@ -167,7 +168,7 @@ class Simulation:
         w.step_count += 1
         w.time = w.step_count * self.params.dt_s
         for t in scratch.visible[:n_visible].tolist():
-            self._event("discovery", None, t, f"Target {t + 1} discovered.")
+            self._event("discovery", None, t, f"Target {target_id(t)} discovered.")
         if scratch.counts[S.C]:
             self._announce_commitments()
         if scratch.counts[S.X] and (w.executing < 0).any():
@@ -226,10 +227,10 @@ class Simulation:
         if c is None or t_id is None:
             return RequestOutcome(False, None, "A request needs a collective and a target.")
         w, p = self.world, self.params
-        reason = refusal(w, p, kind, c, t_id - 1)
+        t = target_index(t_id)
+        reason = refusal(w, p, kind, c, t)
         if reason:
             return RequestOutcome(False, None, reason)
-        t = t_id - 1
         support = float(np.sum((w.collective == c) & w.favouring() & (w.target == t))) / p.n_agents
         needed = {"investigate": p.investigate_agents, "decide": p.decide_agents}.get(kind, 0)
         request = Request(self.next_request_id, kind, c, t, needed, support=support)
@@ -261,9 +262,11 @@ class Simulation:
     def best_target(self, collective: int) -> int | None:
         """The best available target id for a collective: the truth for level-2 probes."""
         best = dec.best_available(self.world, collective, self.params)
-        return None if best < 0 else best + 1
+        return None if best < 0 else target_id(best)
 
-    def _event(self, kind: str, collective: int | None, target: int | None, text: str) -> None:
+    def _event(self, kind: str, collective: int | None, index: int | None, text: str) -> None:
+        """Queue a system message; `index` is the target's array index, stored as its public id."""
+        target = None if index is None else target_id(index)
         self.events.append(
             {
                 "time": self.world.time,
@@ -319,8 +322,8 @@ class Simulation:
                 self._event(
                     "commitment",
                     int(c),
-                    t + 1,
-                    f"Collective {ROMAN[c]} committed to target {t + 1}.",
+                    t,
+                    f"Collective {ROMAN[c]} committed to target {target_id(t)}.",
                 )
 
     def _begin_moves(self) -> None:
@@ -347,7 +350,7 @@ class Simulation:
             self._send_home(np.flatnonzero(rival))
             rules.enforce_orders(w)  # other collectives drop the target at once
             self._event(
-                "move", int(c), t + 1, f"Collective {ROMAN[c]} is moving to target {t + 1}."
+                "move", int(c), t, f"Collective {ROMAN[c]} is moving to target {target_id(t)}."
             )
 
     def _send_home(self, agents: np.ndarray) -> None:
@@ -371,7 +374,7 @@ class Simulation:
         w.reserved_by[t] = -1
         rules.refresh_geometry(w, self.params)
         self._reset_collective(c)
-        self._event("arrival", c, t + 1, f"Collective {ROMAN[c]} arrived at target {t + 1}.")
+        self._event("arrival", c, t, f"Collective {ROMAN[c]} arrived at target {target_id(t)}.")
         self._after_decision(c)
 
     def _time_out_decisions(self) -> None:
@@ -438,10 +441,10 @@ class Simulation:
                 start_s=decision.start_s,
                 end_s=w.time,
                 timed_out=timed_out,
-                chosen_target=None if t < 0 else t + 1,
+                chosen_target=None if t < 0 else target_id(t),
                 chosen_value=chosen_value,
                 chosen_distance_m=distance,
-                best_target=None if best < 0 else best + 1,
+                best_target=None if best < 0 else target_id(best),
                 best_value=None if best < 0 else decision.best_value,
                 correct=bool(
                     chosen_value is not None and best >= 0 and chosen_value >= decision.best_value
@@ -489,8 +492,9 @@ class Simulation:
         return sim
 
     def state_digest(self) -> str:
-        """A digest of every state array, the clock, the generator and the requests."""
+        """A digest of the parameters, every state array, the clock, the generator and the requests."""
         h = hashlib.sha256()
+        h.update(repr(sorted(self.params.to_dict().items())).encode())
         for name, array in sorted(self.world.arrays().items()):
             h.update(name.encode())
             h.update(np.ascontiguousarray(array).tobytes())

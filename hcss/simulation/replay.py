@@ -8,10 +8,11 @@ is replayed for analysis.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 
 from hcss.simulation.engine import Simulation
 from hcss.simulation.params import Params
+from hcss.simulation.requests import RequestOutcome
 from hcss.simulation.scenario import Scenario
 
 TimedCommand = tuple[int, dict]
@@ -25,15 +26,19 @@ def replay(
     params: Params | None = None,
     run: int = 0,
     start: Simulation | None = None,
+    on_outcome: Callable[[int, RequestOutcome], None] | None = None,
 ) -> Simulation:
     """Run to `until_step`, applying each command before the step it was logged at.
 
     `commands` is the whole log in the order the commands were applied.
     `start` continues from a restored snapshot instead of the trial's start:
     the first `start.commands_applied` commands are already in it.
+    `on_outcome(i, outcome)` hears each replayed command's outcome, `i` its
+    position in `commands` (the platform records outcomes a crash lost).
     """
     sim = start if start is not None else Simulation(scenario, model, params, run=run)
-    pending = [(int(step), command) for step, command in commands][sim.commands_applied :]
+    skipped = sim.commands_applied
+    pending = [(int(step), command) for step, command in commands][skipped:]
     if any(step < sim.step_count for step, _ in pending):
         raise ValueError(
             "the command log has commands before the snapshot that it does not contain"
@@ -41,7 +46,9 @@ def replay(
     i = 0
     while True:
         while i < len(pending) and pending[i][0] <= sim.step_count:
-            sim.apply(pending[i][1])
+            outcome = sim.apply(pending[i][1])
+            if on_outcome is not None:
+                on_outcome(skipped + i, outcome)
             i += 1
         if sim.step_count >= until_step or sim.finished:
             return sim

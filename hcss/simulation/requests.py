@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hcss.simulation import states as S
+from hcss.simulation.ids import target_id
 from hcss.simulation.params import ROMAN, Params
 from hcss.simulation.world import World
 
@@ -38,7 +39,7 @@ class Request:
     id: int
     kind: str
     collective: int
-    target: int  # target index (id - 1)
+    target: int  # array index; public outputs use ids.target_id(target)
     needed: int  # agents still to acknowledge; 0 for a standing abandon
     acknowledged: int = 0
     active: bool = True  # False once cancelled or when the collective's decision ends
@@ -55,7 +56,7 @@ class Request:
             "id": self.id,
             "kind": self.kind,
             "collective": self.collective,
-            "target": self.target + 1,
+            "target": target_id(self.target),
             "status": self.status,
             "acknowledged": self.acknowledged,
         }
@@ -75,12 +76,12 @@ def refusal(world: World, params: Params, kind: str, collective: int, target: in
         return f"There is no collective {collective + 1}."
     name = ROMAN[collective]
     if not 0 <= target < world.active.size or not world.active[target]:
-        return f"There is no target {target + 1}."
+        return f"There is no target {target_id(target)}."
     if world.report_count[target] < params.visible_reports:
-        return f"Target {target + 1} has not been discovered yet."
+        return f"Target {target_id(target)} has not been discovered yet."
     owner = int(world.reserved_by[target])
     if owner >= 0 and owner != collective:
-        return f"Target {target + 1} is taken by collective {ROMAN[owner]}."
+        return f"Target {target_id(target)} is taken by collective {ROMAN[owner]}."
     if executing(world, collective):
         return f"Collective {name} is executing a move and cannot take requests."
     support_count = int(
@@ -88,24 +89,22 @@ def refusal(world: World, params: Params, kind: str, collective: int, target: in
     )
     if kind == "investigate":
         if world.hub_distance[collective, target] > params.exploration_range_m:
-            return f"Target {target + 1} is out of range of collective {name}."
+            return f"Target {target_id(target)} is out of range of collective {name}."
         if world.abandon_order[collective, target]:
-            return (
-                f"Collective {name} has an abandon order for target {target + 1}; cancel it first."
-            )
+            return f"Collective {name} has an abandon order for target {target_id(target)}; cancel it first."
     elif kind == "abandon":
         if world.abandon_order[collective, target]:
-            return f"Collective {name} is already abandoning target {target + 1}."
+            return f"Collective {name} is already abandoning target {target_id(target)}."
         if support_count < params.abandon_min_supporters:
             return (
-                f"Only {support_count} agent(s) of collective {name} favour target {target + 1}; "
+                f"Only {support_count} agent(s) of collective {name} favour target {target_id(target)}; "
                 f"abandon needs at least {params.abandon_min_supporters}."
             )
     elif kind == "decide":
         share = support_count / params.n_agents
         if share < params.decide_min_support:
             return (
-                f"Only {share:.0%} of collective {name} favour target {target + 1}; "
+                f"Only {share:.0%} of collective {name} favour target {target_id(target)}; "
                 f"decide needs at least {params.decide_min_support:.0%}."
             )
     else:

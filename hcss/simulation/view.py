@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from hcss.simulation import states as S
+from hcss.simulation.ids import target_id
 from hcss.simulation.params import ROMAN
 
 if TYPE_CHECKING:
@@ -47,7 +48,7 @@ def render_view(sim: Simulation) -> dict:
         per_collective = [float(s) for s in support[:, t]]
         targets.append(
             {
-                "id": int(t) + 1,
+                "id": target_id(t),
                 "position": [float(w.target_pos[t, 0]), float(w.target_pos[t, 1])],
                 "value": float(w.report_sum[t] / count),
                 "true_value": float(w.target_value[t]),
@@ -93,7 +94,7 @@ def _move(sim: Simulation, c: int) -> dict | None:
         progress = 0.0
     position = start + progress * (goal - start)
     return {
-        "target": t + 1,
+        "target": target_id(t),
         "progress": progress,
         "position": [float(position[0]), float(position[1])],
     }

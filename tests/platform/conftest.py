@@ -26,9 +26,11 @@ from sqlalchemy import create_engine, text
 from sqlalchemy.engine import make_url
 
 from hcss.platform.app import create_app
+from hcss.platform.bots import ManualClock
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.trials import start_trial
 from hcss.platform.models import Participant
+from hcss.platform.study.studyfile import load_study
 
 PG_ENV = "HCSS_TEST_DATABASE_URL"
 
@@ -54,14 +56,9 @@ def database_url(request: pytest.FixtureRequest, tmp_path) -> Iterator[str]:  # 
         admin.dispose()
 
 
-class FakeClock:
-    """Wall-clock seconds since the epoch that move only when a test says so."""
-
-    def __init__(self, now: float) -> None:
-        self.now = now
-
-    def __call__(self) -> float:
-        return self.now
+#: The original study's trial length (`timing.trial_s`), for trials a test starts directly.
+STUDY = load_study("original")
+STUDY_TRIAL_S = STUDY.trial_s
 
 
 @pytest.fixture
@@ -76,7 +73,7 @@ def app(database_url: str) -> Iterator[Flask]:
         }
     )
     app.extensions["hcss_db"].create_all()
-    app.extensions["hcss_runner"].clock = FakeClock(0.0)
+    app.extensions["hcss_runner"].clock = ManualClock(0.0)
     yield app
     app.extensions["hcss_runner"].stop()
     app.extensions["hcss_db"].engine.dispose()
@@ -137,6 +134,8 @@ def make_trial(app: Flask):  # type: ignore[no-untyped-def]
 
     def make(**options: Any) -> LiveTrialHandle:
         options.setdefault("seed", 2)
+        training = options.get("kind") == "training"
+        options.setdefault("duration_s", STUDY.training_s if training else STUDY.trial_s)
         database = app.extensions["hcss_db"]
         with database.session_scope() as session:
             participant = Participant(is_bot=True)

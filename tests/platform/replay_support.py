@@ -32,9 +32,16 @@ def operate(trial: Any, until_s: float, *, from_s: float = 0.0, every_s: float =
             trial.post(f"/probes/{probe['id']}/answer", {"answer": choices[0]})
         commands = policy.commands(frame["view"])[:3]
         if int(second) % 20 == 0:
-            commands.append({"kind": "decide", "collective": 1, "target": 16})  # refused (in range)
+            commands.append(_undiscovered(frame["view"]))  # in range, refused by the simulation
         for command in commands:
             assert trial.post("/requests", command).status_code == 200
             sent += 1
     trial.run_to(until_s)
     return sent
+
+
+def _undiscovered(view: dict) -> dict:
+    """A decide on a target id the map does not show: valid input that the simulation refuses."""
+    shown = {t["id"] for t in view["targets"]}
+    target = next(i for i in range(1, 1000) if i not in shown)
+    return {"kind": "decide", "collective": 1, "target": target}

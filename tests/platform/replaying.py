@@ -6,16 +6,18 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from hcss.platform.models import Command, Trial
-from hcss.simulation import Scenario, Simulation
+from hcss.simulation import Params, Scenario, Simulation
+from hcss.simulation.replay import replay
 
 
 def replay_trial(session: Session, trial_id: int, until_step: int) -> Simulation:
-    """From the scenario, apply every logged command at its step, up to `until_step`.
+    """From the scenario and the trial's stored parameters, every logged command at its step.
 
-    Written without the platform's rebuild code (no snapshots), so the two
-    paths check each other.
+    No snapshot is used (the platform's rebuild starts from one), so the two
+    paths check each other; both go through the simulation's one `replay`.
     """
     trial = session.get(Trial, trial_id)
+    assert trial is not None
     commands = [
         (c.step_applied, c.as_sim_command())
         for c in session.scalars(
@@ -23,9 +25,5 @@ def replay_trial(session: Session, trial_id: int, until_step: int) -> Simulation
         )
         if c.step_applied <= until_step
     ]
-    sim = Simulation(Scenario.from_dict(trial.scenario), model=trial.model)
-    for step, command in commands:
-        sim.step(step - sim.step_count)
-        sim.apply(command)
-    sim.step(until_step - sim.step_count)
-    return sim
+    params = Params.from_dict(trial.params) if trial.params else None
+    return replay(Scenario.from_dict(trial.scenario), trial.model, commands, until_step, params)

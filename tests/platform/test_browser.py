@@ -15,6 +15,7 @@ from hcss.platform.live.trials import start_trial
 from hcss.platform.localserver import LocalServer
 from hcss.platform.models import Observation, ProbeEvent
 from hcss.simulation import ROMAN
+from tests.platform.conftest import STUDY_TRIAL_S
 
 pytestmark = pytest.mark.browser
 
@@ -33,7 +34,9 @@ def live_trial(tmp_path):  # type: ignore[no-untyped-def]
         participant = Participant(is_bot=True)
         session.add(participant)
         session.flush()
-        start_trial(session, participant, seed=2, time_acceleration=ACCELERATION)
+        start_trial(
+            session, participant, seed=2, duration_s=STUDY_TRIAL_S, time_acceleration=ACCELERATION
+        )
         token = participant.token
     with LocalServer(url, tmp_path / "instance") as server:
         yield server, token, database

@@ -6,6 +6,7 @@ import pytest
 from click.testing import CliRunner
 
 from hcss.cli import main
+from tests.platform.conftest import STUDY_TRIAL_S
 
 
 @pytest.mark.parametrize(
@@ -35,6 +36,8 @@ def test_live_trials_have_no_per_decision_cap(tmp_path):
         participant = Participant(is_demo=True)
         session.add(participant)
         session.flush()
-        trial = start_trial(session, participant, kind="trial", model="M1", seed=3)
+        trial = start_trial(
+            session, participant, kind="trial", model="M1", seed=3, duration_s=STUDY_TRIAL_S
+        )
         assert Params.from_dict(trial.params).decision_timeout_s is None
     database.engine.dispose()

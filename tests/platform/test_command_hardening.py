@@ -18,6 +18,7 @@ from sqlalchemy import func, select
 
 from hcss.cli import main
 from hcss.platform.app import create_app
+from hcss.platform.bots import ManualClock
 from hcss.platform.models import (
     Command,
     CommandOutcome,
@@ -26,7 +27,6 @@ from hcss.platform.models import (
     TrialProblem,
     TrialStatusChange,
 )
-from tests.platform.conftest import FakeClock
 
 ISSUE_POST = {"kind": "investigate", "collective": 16, "target": 1}
 
@@ -70,7 +70,7 @@ def _restart(database_url: str, now: float):  # type: ignore[no-untyped-def]
     app = create_app(
         {"DATABASE_URL": database_url, "SECRET_KEY": "test-secret", "LIVE_RUNNER": False}
     )
-    app.extensions["hcss_runner"].clock = FakeClock(now)
+    app.extensions["hcss_runner"].clock = ManualClock(now)
     return app
 
 
@@ -182,7 +182,7 @@ def test_a_bad_row_in_the_database_breaks_neither_export_nor_rebuild(
     try:
         runner = restarted.extensions["hcss_runner"]
         runner.tick()
-        assert set(runner.trials) == {bad.trial_id, good.trial_id}
+        assert runner.loaded_ids() == {bad.trial_id, good.trial_id}
         client = restarted.test_client()
         for handle in (bad, good):
             assert client.get(f"{handle.api}/state").status_code == 200
@@ -214,7 +214,7 @@ def test_a_trial_that_cannot_be_rebuilt_is_ended_with_a_problem_record(
         runner = restarted.extensions["hcss_runner"]
         runner.tick()
         runner.tick()  # a second tick does not try (and log) again
-        assert set(runner.trials) == {healthy.trial_id}
+        assert runner.loaded_ids() == {healthy.trial_id}
         client = restarted.test_client()
         assert client.get(f"{broken.api}/state").status_code == 409  # ended, not 500
         assert client.get(f"{broken.api}/stream").status_code == 200  # the "ended" frame

@@ -11,6 +11,7 @@ from hcss.platform.live.trials import start_trial
 from hcss.platform.models import Participant
 from hcss.platform.study import views as study_views
 from tests.platform import console_support
+from tests.platform.conftest import STUDY_TRIAL_S
 
 console, experimenter = console_support.console, console_support.experimenter
 
@@ -63,7 +64,7 @@ def test_a_rolled_back_transaction_logs_nothing(app, caplog) -> None:
         participant = Participant(is_demo=True)
         session.add(participant)
         session.flush()
-        start_trial(session, participant, seed=1)
+        start_trial(session, participant, seed=1, duration_s=STUDY_TRIAL_S)
         session.flush()
         raise RuntimeError("the request failed after the rows were flushed")
     assert _lines(caplog) == []

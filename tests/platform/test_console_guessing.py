@@ -9,10 +9,11 @@ from __future__ import annotations
 
 from sqlalchemy import select
 
+from hcss.platform.bots import ManualClock
 from hcss.platform.console.lockout import ACCOUNT_FAILURES, ADDRESS_FAILURES, LOCKOUT_S
 from hcss.platform.models import AuditRecord
 from tests.platform import console_support
-from tests.platform.conftest import FakeClock, csrf_token_of
+from tests.platform.conftest import csrf_token_of
 from tests.platform.console_support import PASSWORD, USERNAME
 
 console, experimenter = console_support.console, console_support.experimenter
@@ -44,7 +45,7 @@ def test_repeated_wrong_passwords_lock_the_account_and_the_lockout_is_audited(
 ) -> None:
     from hcss.platform.console.lockout import LoginThrottle
 
-    clock = FakeClock(1000.0)
+    clock = ManualClock(1000.0)
     app.extensions["hcss_login_throttle"] = LoginThrottle(clock)
     statuses = [_attempt(app, USERNAME, "wrong").status_code for _ in range(ACCOUNT_FAILURES)]
     assert statuses == [401] * ACCOUNT_FAILURES

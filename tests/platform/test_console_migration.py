@@ -18,6 +18,7 @@ LATER_COLUMNS = {
     ("probe_event", "latency_ms"),  # 0004_p8_idempotency
     ("interruption", "outage_s"),  # 0004_h13_hardening
     ("experimenter", "login_generation"),  # 0004_h13_hardening
+    ("trial", "probe_counts"),  # 0005_a10_vocabularies
 }
 
 

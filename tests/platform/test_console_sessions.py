@@ -5,10 +5,10 @@ from __future__ import annotations
 from sqlalchemy import select
 
 from hcss.platform.app import create_app
+from hcss.platform.bots import ManualClock
 from hcss.platform.live.trials import latest_status
 from hcss.platform.models import ConsoleAction, Participant
 from tests.platform import console_support
-from tests.platform.conftest import FakeClock
 from tests.platform.console_support import code_of
 
 # Fixtures of this part's own module (conftest.py belongs to the live trial tests).
@@ -71,7 +71,7 @@ def test_a_restart_during_a_pause_keeps_the_trial_paused(
         {"DATABASE_URL": database_url, "SECRET_KEY": "test-secret", "LIVE_RUNNER": False}
     )
     # The new server comes up 300 wall seconds later, still inside the pause.
-    restarted.extensions["hcss_runner"].clock = FakeClock(trial.started_epoch + 300.0)
+    restarted.extensions["hcss_runner"].clock = ManualClock(trial.started_epoch + 300.0)
     try:
         rebuilt = restarted.extensions["hcss_runner"].get(trial.trial_id)
         assert rebuilt.sim.step_count == paused_step

@@ -190,3 +190,30 @@ def test_export_of_an_unmigrated_database_says_what_to_do(tmp_path) -> None:
     result = CliRunner().invoke(main, ["export", str(outdir), "--database-url", empty])
     assert result.exit_code != 0 and "hcss db upgrade" in result.output
     assert not outdir.exists()
+
+
+def test_the_stored_decision_is_the_record_and_the_export_adds_who_and_where(exported, app) -> None:  # type: ignore[no-untyped-def]
+    """DecisionRow.record holds the simulation's record, not the participant's code (issue 10)."""
+    from sqlalchemy import select
+
+    from hcss.platform.models import DecisionRow
+
+    outdir, trial, _ = exported
+    code = code_of(app, trial.token)
+    with app.extensions["hcss_db"].session_scope() as session:
+        stored = [
+            r.record
+            for r in session.scalars(
+                select(DecisionRow).where(DecisionRow.trial_id == trial.trial_id)
+            )
+        ]
+    assert stored and all(
+        not {"source", "participant", "trial_id", "run"} & set(record) for record in stored
+    )
+    _, decisions = read_csv(outdir / "decisions.csv")
+    assert len(decisions) == len(stored)
+    assert all(
+        (d["participant"], d["trial_id"], d["run"]) == (code, str(trial.trial_id), "0")
+        for d in decisions
+    )
+    assert [d["decision_index"] for d in decisions] == [str(r["decision_index"]) for r in stored]

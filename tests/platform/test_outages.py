@@ -17,8 +17,8 @@ from sqlalchemy import select
 
 from hcss.cli import main
 from hcss.platform.app import create_app
+from hcss.platform.bots import ManualClock
 from hcss.platform.models import Interruption
-from tests.platform.conftest import FakeClock
 
 ACCELERATION = 4.0  # trial seconds per wall second
 
@@ -27,7 +27,7 @@ def _restart(database_url: str, now: float):  # type: ignore[no-untyped-def]
     app = create_app(
         {"DATABASE_URL": database_url, "SECRET_KEY": "test-secret", "LIVE_RUNNER": False}
     )
-    app.extensions["hcss_runner"].clock = FakeClock(now)
+    app.extensions["hcss_runner"].clock = ManualClock(now)
     return app
 
 

@@ -18,6 +18,7 @@ from sqlalchemy import func, select
 from hcss.platform.models import QuestionnaireItem, Score
 from hcss.questionnaires import mrt, ranking
 from hcss.questionnaires.demographics import ITEM_KEYS
+from tests.platform.conftest import STUDY_TRIAL_S
 from tests.platform.inprocess_server import StudyServer, study_server
 
 pytestmark = pytest.mark.browser
@@ -176,7 +177,9 @@ def answer_every_radio_group(page, choose=lambda values: values[0]) -> None:  # 
 
 def live_trial(server: StudyServer):  # type: ignore[no-untyped-def]
     """The one trial the runner holds for the test's participant."""
-    (live,) = [t for t in server.runner.trials.values() if not t.ended]
+    (live,) = [
+        t for t in map(server.runner.loaded, server.runner.loaded_ids()) if t and not t.ended
+    ]
     return live
 
 
@@ -393,6 +396,7 @@ def _start_live_trial(server: StudyServer, seed: int = 2) -> str:
             session,
             participant,
             seed=seed,
+            duration_s=STUDY_TRIAL_S,
             started_at=datetime.fromtimestamp(server.clock.now, UTC),
         )
         return participant.token

@@ -94,7 +94,15 @@ def test_comprehension_truth_is_the_best_target(make_trial) -> None:
     probe, _state, _second = _until_probe(trial, 0, level=ProbeLevel.COMPREHENSION)
     row = _probe_row(trial.app, probe["id"])
     collective = ROMAN.index(row.question.rsplit(" ", 1)[1].rstrip("?"))
-    assert row.truth == str(trial.live().sim.best_target(collective))
+    # Independently of Simulation.best_target: of the targets offered (those in range),
+    # the highest true value, the nearer one on a tie.
+    world = trial.live().sim.world
+    offered = [int(choice) for choice in row.choices]
+    best = min(
+        offered,
+        key=lambda t: (-world.target_value[t - 1], world.hub_distance[collective, t - 1]),
+    )
+    assert row.truth == str(best)
     trial.post(f"/probes/{probe['id']}/ready", {})
     assert row.truth in trial.state()["probe"]["choices"]
     trial.post(f"/probes/{probe['id']}/answer", {"answer": row.truth})
@@ -176,3 +184,31 @@ def test_latencies_are_wall_clock_milliseconds_from_delivery(
     with (out / "probes.csv").open() as handle:
         row = next(r for r in csv.DictReader(handle) if r["probe_index"] == str(probe["index"]))
     assert (float(row["ready_latency_ms"]), float(row["answer_latency_ms"])) == (250.0, 333.0)
+
+
+def test_the_study_files_probe_counts_reach_the_runner_and_survive_a_rebuild(
+    app, make_trial
+) -> None:  # type: ignore[no-untyped-def]
+    """A study asking 2/0/1 probes per 20 minutes gets exactly that, before and after a restart."""
+    trial = make_trial(seed=11, duration_s=1200.0, probe_counts={1: 2, 2: 0, 3: 1})
+    runner = app.extensions["hcss_runner"]
+    levels = [p.level for p in runner.get(trial.trial_id).probe_plan]
+    assert sorted(levels) == [1, 1, 3]
+    runner.forget(trial.trial_id)  # rebuilt from the database: the trial row keeps the counts
+    assert [p.level for p in runner.get(trial.trial_id).probe_plan] == levels
+    default = make_trial(seed=11, duration_s=1200.0)
+    assert len(runner.get(default.trial_id).probe_plan) == 12
+
+
+def test_a_study_file_with_other_probe_counts_is_accepted_and_bad_ones_refused() -> None:
+    import tomllib
+
+    from hcss.platform.study.studyfile import STUDIES_DIR, StudyFileError, parse_study
+
+    doc = tomllib.loads((STUDIES_DIR / "original.toml").read_text())
+    doc["probes"] = {"perception": 2, "comprehension": 0, "projection": 1}
+    assert parse_study(doc, source="t").probe_counts == {1: 2, 2: 0, 3: 1}
+    for bad in (-1, 10**6):
+        doc["probes"]["projection"] = bad
+        with pytest.raises(StudyFileError, match=r"\[probes\]"):
+            parse_study(doc, source="t")

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import pytest
 from sqlalchemy import select
 
@@ -42,9 +44,10 @@ def test_a_finished_trial_replays_to_the_recorded_end_state(app, make_trial, con
     trial = make_trial(seed=7, duration_s=180.0)
     sent = operate(trial, 90.0)
     # An interruption midway (the runner lets go and rebuilds from a snapshot) changes nothing.
-    # The outage stops the trial clock (hcss.platform.live.outages): it ends a little later.
-    trial.runner.trials.pop(trial.trial_id)
-    sent += operate(trial, 200.0, from_s=90.0)
+    trial.runner.forget(trial.trial_id)
+    sent += operate(trial, 180.0, from_s=90.0)
+    # The rebuild's outage is excluded from the trial clock, so the trial ends a little later.
+    trial.run_to(200.0)
     assert sent >= 10
     frames, last = _all_frames(console, trial.trial_id)
     assert last["ended"] and last["horizon"] == 180 and len(frames) == 181
@@ -72,7 +75,12 @@ def test_the_timeline_marks_requests_probe_answers_and_messages(app, make_trial,
     assert len(body["commands"]) == sent
     refused = [c for c in body["commands"] if c["accepted"] is False]
     assert refused and all(c["reason"] for c in refused)
-    assert any(c["label"] == "decide II → target 16" for c in refused)
+    assert any(
+        re.fullmatch(
+            r"(There is no target \d+|Target \d+ has not been discovered yet)\.", c["reason"]
+        )
+        for c in refused
+    )
     assert any(c["accepted"] for c in body["commands"])
     answered = [p for p in body["probes"] if not p["timed_out"]]
     assert answered and all(p["answer"] is not None and p["ready"] is not None for p in answered)
@@ -90,7 +98,7 @@ def test_a_live_trial_replays_up_to_its_newest_snapshot(app, make_trial, console
     assert first["replayed_digest"] == first["recorded_digest"]
     # The trial goes on; the cached replay continues with the newer commands.
     operate(trial, 150.0, from_s=60.0)
-    trial.runner.trials.pop(trial.trial_id)  # a restart: rebuilt from its snapshot
+    trial.runner.forget(trial.trial_id)  # a restart: rebuilt from its snapshot
     trial.run_to(155.0)
     more, later = _all_frames(console, trial.trial_id)
     assert later["horizon"] > first["horizon"] and more[: len(frames)] == frames
@@ -115,8 +123,8 @@ def test_bad_frame_requests_are_refused(app, make_trial, console, query: str) ->
     trial = make_trial(seed=3, duration_s=30.0)
     response = console.get(f"/console/trials/{trial.trial_id}/replay/frames?{query}")
     assert response.status_code == 400
-    if "%00" not in query:  # a NUL byte is refused before the view (hcss.platform.hardening)
-        assert response.get_json()["error"] == "bad_request"
+    # A NUL byte is refused by the hardening layer before the route (an HTML error page).
+    assert response.is_json is False or response.get_json()["error"] == "bad_request"
 
 
 def test_replay_is_for_signed_in_experimenters_only(app, make_trial, console) -> None:  # type: ignore[no-untyped-def]

@@ -206,6 +206,6 @@ def test_accepted_requests_are_logged_in_system_messages_and_survive_a_rebuild(
     expected = f"Request {outcome['request_id']} accepted (investigate by collective I on target {target['id']})"
     shown = [m for m in trial.state()["messages"] if m["kind"] == "accepted"]
     assert [m["text"] for m in shown] == [expected]
-    trial.runner.trials.pop(trial.trial_id)  # forget it: the next look rebuilds from the log
+    trial.runner.forget(trial.trial_id)  # forget it: the next look rebuilds from the log
     rebuilt = [m["text"] for m in trial.live().messages if m["kind"] == "accepted"]
     assert rebuilt == [expected]

@@ -21,6 +21,7 @@ from hcss.platform.models import (
     Probe,
     ProbeEvent,
 )
+from tests.platform.conftest import STUDY_TRIAL_S
 from tests.platform.replaying import replay_trial
 
 ACCELERATION = 20.0  # trial seconds per wall second
@@ -64,7 +65,9 @@ def test_kill_9_and_restart_loses_nothing_and_rebuilds_exactly(database_url, tmp
         participant = Participant(is_bot=True)
         session.add(participant)
         session.flush()
-        trial = start_trial(session, participant, seed=2, time_acceleration=ACCELERATION)
+        trial = start_trial(
+            session, participant, seed=2, duration_s=STUDY_TRIAL_S, time_acceleration=ACCELERATION
+        )
         token, trial_id = participant.token, trial.id
 
     server = LocalServer(database_url, tmp_path / "instance", snapshot_interval_s=1.0).start()

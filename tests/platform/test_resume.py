@@ -6,8 +6,8 @@ import pytest
 from sqlalchemy import select
 
 from hcss.platform.app import create_app
+from hcss.platform.bots import ManualClock
 from hcss.platform.models import CommandOutcome, Interruption, Snapshot
-from tests.platform.conftest import FakeClock
 from tests.platform.replaying import replay_trial
 
 
@@ -41,7 +41,7 @@ def test_rebuild_after_a_crash_equals_an_uninterrupted_run(app, make_trial, data
     restarted = create_app(
         {"DATABASE_URL": database_url, "SECRET_KEY": "test-secret", "LIVE_RUNNER": False}
     )
-    restarted.extensions["hcss_runner"].clock = FakeClock(trial.started_epoch + 150)
+    restarted.extensions["hcss_runner"].clock = ManualClock(trial.started_epoch + 150)
     try:
         runner = restarted.extensions["hcss_runner"]
         rebuilt = runner.get(trial.trial_id)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hcss.simulation import Scenario, Simulation, SimulationError
+from hcss.simulation import Params, Scenario, Simulation, SimulationError
 from hcss.simulation.operators import InvestigateThenDecide, OperatedRun
 from hcss.simulation.replay import replay
 
@@ -61,15 +61,21 @@ def test_replay_from_a_snapshot_skips_commands_it_already_contains():
     operated = OperatedRun(Simulation(scenario, "M1"), InvestigateThenDecide(), interval_s=10)
     operated.run(until_s=200)
     blob = operated.sim.snapshot()
+    in_snapshot = operated.sim.commands_applied
     operated.run(until_s=500)
+    heard: list[int] = []
     resumed = replay(
         scenario,
         "M1",
         operated.log,
         until_step=operated.sim.step_count,
         start=Simulation.restore(blob),
+        on_outcome=lambda i, outcome: heard.append(i),
     )
     _assert_same_world(operated.sim, resumed)
+    # Only the commands after the snapshot are replayed, each reported once, in log order.
+    assert heard == list(range(in_snapshot, len(operated.log)))
+    assert len(operated.log) > in_snapshot > 0
 
 
 def test_garbage_is_not_a_snapshot():
@@ -91,3 +97,13 @@ def test_steps_run_in_one_compiled_call_equal_steps_taken_one_by_one(model):
     _assert_same_world(batched, single)
     assert batched.drain_events() == single.drain_events()
     assert len(batched.decisions) >= 2
+
+
+def test_the_state_digest_covers_the_parameters():
+    """Two trials alike but for a parameter (a decision timeout) are not the same state."""
+    scenario = Scenario.generate(5)
+    live = Simulation(scenario, "M2", Params().with_changes(decision_timeout_s=None))
+    default = Simulation(scenario, "M2", Params())
+    assert live.state_digest() != default.state_digest()
+    again = Simulation(scenario, "M2", Params().with_changes(decision_timeout_s=None))
+    assert live.state_digest() == again.state_digest()

@@ -1,5 +1,4 @@
 """The experimenter console: accounts, participants, live progress, withdrawal, export.
 
-Kept import-light on purpose: the live runner imports `console.pauses`, and
-must not pull in the console's views to do so.
+Nothing outside the console imports it (docs/architecture.md).
 """

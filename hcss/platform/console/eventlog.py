@@ -21,6 +21,7 @@ from sqlalchemy import event, select
 from sqlalchemy.orm import Session
 
 from hcss.platform.models import Participant, StageEvent, StudyEnrolment, Trial, TrialStatusChange
+from hcss.platform.models.vocabularies import TrialStatus
 
 logger = logging.getLogger("hcss.events")
 _PENDING = "hcss_event_lines"
@@ -72,7 +73,7 @@ def describe(session: Session, row: Any) -> str | None:
         return f"{_code(session, row.participant_id)} stage {row.stage_index + 1} {where}: {row.kind.replace('_', ' ')}"
     if isinstance(row, TrialStatusChange):
         code, trial = _trial(session, row.trial_id)
-        if row.status == "running":
+        if row.status == TrialStatus.RUNNING:
             return f"{code} {trial} started"
         return f"{code} {trial} {row.status}" + (f" ({row.reason})" if row.reason else "")
     return None

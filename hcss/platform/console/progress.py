@@ -15,9 +15,9 @@ from typing import Any
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
-from hcss.platform.console.pauses import paused_intervals
 from hcss.platform.console.presence import CONNECTED_WITHIN_S, presence_by_participant
-from hcss.platform.console.sessions import available_actions, session_states
+from hcss.platform.console.sessions import available_actions
+from hcss.platform.live.clock import paused_intervals, trial_time_s
 from hcss.platform.models import (
     Participant,
     ParticipantPresence,
@@ -27,7 +27,9 @@ from hcss.platform.models import (
     TrialStatusChange,
     utcnow,
 )
+from hcss.platform.models.vocabularies import TrialStatus
 from hcss.platform.pilots import pilot_flags
+from hcss.platform.session_state import session_states
 from hcss.platform.study.enrolment import default_study_name
 from hcss.platform.study.flow import Flow, Position
 
@@ -56,9 +58,14 @@ class ProgressRow:
 
 def trial_clock_s(session: Session, trial: Trial, now: float) -> float:
     paused, open_since = paused_intervals(session, trial.id)
-    stopped = now if open_since is None else min(now, open_since)
-    running = max(0.0, stopped - trial.started_at.timestamp() - paused)
-    return min(trial.duration_s, running * trial.time_acceleration)
+    return trial_time_s(
+        trial.started_at.timestamp(),
+        paused,
+        open_since,
+        now,
+        acceleration=trial.time_acceleration,
+        duration_s=trial.duration_s,
+    )
 
 
 def _latest_trials(session: Session) -> dict[int, Trial]:
@@ -157,7 +164,7 @@ def progress_rows(session: Session, now: float) -> list[ProgressRow]:
         last = last_events.get(participant.id)
         clock = duration = None
         since = participant.created_at.timestamp() if last is None else last.at.timestamp()
-        if trial is not None and status is not None and status.status == "running":
+        if trial is not None and status is not None and status.status == TrialStatus.RUNNING:
             stage, since = f"{trial.kind} {trial.model}", trial.started_at.timestamp()
             clock, duration = trial_clock_s(session, trial, now), trial.duration_s
         elif position.status == "not_enrolled" and trial is not None:

@@ -3,58 +3,27 @@
 Every action is a new `ConsoleAction` row written before the live trial in
 memory changes, inside the trial's lock, so the runner, the participant's
 commands and the console never see a half-done pause. The session's state is
-the latest pause/resume/abort row: the study flow can ask `session_state` to
-hold a paused or aborted participant in place.
+the latest pause/resume/abort row (the rule and its query are in
+hcss.platform.session_state, which the study flow asks too).
 """
 
 from __future__ import annotations
 
-from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
-from hcss.platform.console.pauses import pause_clock, resume_clock
 from hcss.platform.db import Database
-from hcss.platform.live.recorder import end_trial
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.session import LiveTrial
 from hcss.platform.live.trials import current_trial, latest_status
 from hcss.platform.models import ConsoleAction, Experimenter, Participant
+from hcss.platform.models.vocabularies import TrialStatus
 from hcss.platform.pilots import is_pilot
-
-STATE_ACTIONS = ("pause", "resume", "abort")
+from hcss.platform.session_state import STATE_ACTIONS, session_state
+from hcss.platform.study.flow import current_position
 
 
 class ConsoleError(ValueError):
     """An action that does not fit the session's state; nothing was changed."""
-
-
-def session_state(session: Session, participant_id: int) -> str:
-    """``active``, ``paused`` or ``aborted``, from the latest pause/resume/abort row."""
-    latest = session.scalars(
-        select(ConsoleAction.action)
-        .where(
-            ConsoleAction.participant_id == participant_id,
-            ConsoleAction.action.in_(STATE_ACTIONS),
-        )
-        .order_by(ConsoleAction.id.desc())
-        .limit(1)
-    ).first()
-    return {"pause": "paused", "abort": "aborted"}.get(latest or "", "active")
-
-
-def session_states(session: Session) -> dict[int, str]:
-    """`session_state` of every participant with a pause/resume/abort row, in one query."""
-    newest = (
-        select(func.max(ConsoleAction.id))
-        .where(ConsoleAction.action.in_(STATE_ACTIONS))
-        .group_by(ConsoleAction.participant_id)
-    )
-    rows = session.execute(
-        select(ConsoleAction.participant_id, ConsoleAction.action).where(
-            ConsoleAction.id.in_(newest)
-        )
-    )
-    return {pid: {"pause": "paused", "abort": "aborted"}.get(a, "active") for pid, a in rows}
 
 
 #: Statuses of a participant the study is over for: nothing left to pause or abort.
@@ -79,14 +48,12 @@ def available_actions(state: str, status: str, is_pilot: bool) -> list[str]:
 
 def study_status(session: Session, participant: Participant) -> str:
     """The study engine's status of the participant (see `available_actions`)."""
-    from hcss.platform.study.flow import current_position  # the study engine imports this module
-
     return current_position(session, participant).status
 
 
 def _live_trial(session: Session, runner: Runner, participant: Participant) -> LiveTrial | None:
     trial = current_trial(session, participant)
-    if trial is None or latest_status(session, trial.id) != "running":
+    if trial is None or latest_status(session, trial.id) != TrialStatus.RUNNING:
         return None
     return runner.get(trial.id)
 
@@ -145,9 +112,8 @@ def change_session(
     if live is None:
         _record(database, participant, experimenter, action, now)
         return
-    with live.lock:
-        if action != "resume":
-            runner.advance(live, now)  # the clock stops (or the trial ends) at this instant
+    # Advanced to `now` first: the clock stops (or the trial ends) at this instant.
+    with runner.holding(live, now, advance=action != "resume"):
         if live.ended:  # reached its time limit just now
             _record(database, participant, experimenter, action, now)
             return
@@ -163,13 +129,11 @@ def change_session(
                 )
             )
             if action == "abort":
-                end_trial(live, session, "aborted", now)
+                runner.end(live, session, "aborted", now)
         if action == "pause":
-            pause_clock(live, now)
+            runner.pause(live, now)
         elif action == "resume":
-            resume_clock(live, now)
-        else:
-            live.touch()
+            runner.resume(live, now)
 
 
 def set_pilot(

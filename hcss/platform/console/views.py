@@ -46,7 +46,6 @@ from hcss.platform.console.sessions import (
     ConsoleError,
     available_actions,
     change_session,
-    session_state,
     set_pilot,
     study_status,
 )
@@ -54,6 +53,7 @@ from hcss.platform.console.withdrawal import WithdrawalError, withdraw
 from hcss.platform.db import database, get_session
 from hcss.platform.models import AuditRecord, ConsoleAction, Experimenter, Participant
 from hcss.platform.pilots import is_pilot
+from hcss.platform.session_state import session_state
 from hcss.platform.study.enrolment import current_enrolment
 
 bp = Blueprint("console", __name__, url_prefix="/console", static_folder="static")

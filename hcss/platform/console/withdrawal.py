@@ -78,23 +78,8 @@ def withdraw(
         trial_ids = list(
             session.scalars(select(Trial.id).where(Trial.participant_id == participant_id))
         )
-    live_trials = [runner.trials[t] for t in trial_ids if t in runner.trials]
-    for live in live_trials:
-        live.lock.acquire()
-    try:
-        counts = _delete_all(database, participant_id, participant_code, experimenter)
-        for live in live_trials:
-            live.ended = True
-            live.end_reason = "withdrawn"
-            live.touch()
-        for trial_id in trial_ids:  # also one the runner loaded meanwhile
-            stale = runner.trials.pop(trial_id, None)
-            if stale is not None:
-                stale.ended = True
-    finally:
-        for live in live_trials:
-            live.lock.release()
-    return counts
+    with runner.withdrawing(trial_ids, "withdrawn"):
+        return _delete_all(database, participant_id, participant_code, experimenter)
 
 
 def _delete_all(

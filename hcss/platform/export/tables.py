@@ -7,7 +7,7 @@ types choose the Parquet schema; CSV writes every type as text.
 
 from __future__ import annotations
 
-from hcss.simulation import DECISION_COLUMNS
+from hcss.simulation import DECISION_COLUMNS, MODELS
 
 #: Column types of the decisions table; the columns themselves are DECISION_COLUMNS.
 _DECISION_TYPES = {
@@ -41,7 +41,6 @@ _TRIAL_KEYS = (
 )
 
 DEMOGRAPHICS = ("age_band", "gender", "education", "colour_vision", "video_games", "robots")
-MODELS = ("M1", "M2", "M3")
 
 TABLES: dict[str, tuple[tuple[str, str], ...]] = {
     "decisions": tuple((name, _DECISION_TYPES.get(name, "str")) for name in DECISION_COLUMNS),

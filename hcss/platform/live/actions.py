@@ -20,6 +20,7 @@ from hcss.platform.models import (
     ProbeEvent,
     RequestStatusChange,
 )
+from hcss.platform.models.vocabularies import RequestStatus
 
 INTERVENTION_SUPPORT = 0.10
 
@@ -90,12 +91,12 @@ def submit_request(database: Database, live: LiveTrial, request: RequestInput) -
                     RequestStatusChange(
                         trial_id=live.trial_id,
                         request_id=int(outcome.request_id),
-                        status="in_progress",
+                        status=RequestStatus.IN_PROGRESS,
                         step=sim.step_count,
                         sim_time=float(sim.time),
                     )
                 )
-                live.request_status[int(outcome.request_id)] = "in_progress"
+                live.request_status[int(outcome.request_id)] = RequestStatus.IN_PROGRESS
         if accepted:
             live.add_message(sim.time, "accepted", accepted_text(command, outcome.request_id))
         else:

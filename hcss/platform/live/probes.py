@@ -9,6 +9,7 @@ never the simulation's, so probes do not perturb the deterministic replay.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -24,7 +25,15 @@ from hcss.questionnaires.probes import (
 )
 from hcss.simulation import ROMAN
 
-__all__ = ["POSTPONE_S", "PROBE_TIMEOUT_S", "ROMAN", "FilledProbe", "fill_probe", "probe_plan"]
+__all__ = [
+    "POSTPONE_S",
+    "PROBE_TIMEOUT_S",
+    "ROMAN",
+    "FilledProbe",
+    "fill_probe",
+    "probe_plan",
+    "stored_counts",
+]
 
 POSTPONE_S = 10.0  # no sensible subject yet: look again this much later
 STUDY_TRIAL_S = 1200.0  # DEFAULT_COUNTS are per 20-minute trial
@@ -38,21 +47,31 @@ class FilledProbe:
     truth: str | None  # None for level 3: scored when the next decision happens
 
 
-def level_counts(duration_s: float) -> dict[ProbeLevel, int]:
-    """The study's 4/5/3 split scaled to the trial length (at least one probe)."""
-    per_trial = sum(DEFAULT_COUNTS.values())
+def level_counts(
+    duration_s: float, per_20_minutes: Mapping[ProbeLevel, int] | None = None
+) -> dict[ProbeLevel, int]:
+    """The study's split (`[probes]`, default 4/5/3) scaled to the trial length.
+
+    At least one probe, unless the study asks for none at all.
+    """
+    wanted = DEFAULT_COUNTS if per_20_minutes is None else per_20_minutes
+    per_trial = sum(wanted.values())
+    if per_trial == 0:
+        return dict.fromkeys(ProbeLevel, 0)
     total = max(1, round(per_trial * duration_s / STUDY_TRIAL_S))
-    counts = {level: round(total * n / per_trial) for level, n in DEFAULT_COUNTS.items()}
+    counts = {level: round(total * wanted.get(level, 0) / per_trial) for level in ProbeLevel}
     counts[ProbeLevel.COMPREHENSION] = max(
         0, total - counts[ProbeLevel.PERCEPTION] - counts[ProbeLevel.PROJECTION]
     )
     return counts
 
 
-def probe_plan(seed: int, duration_s: float) -> list[ScheduledProbe]:
+def probe_plan(
+    seed: int, duration_s: float, per_20_minutes: Mapping[ProbeLevel, int] | None = None
+) -> list[ScheduledProbe]:
     """The trial's probes; fewer when the trial is too short to keep them a time-out apart."""
     rng = np.random.default_rng([seed, 0x5A])  # a stream apart from the simulation's
-    counts = level_counts(duration_s)
+    counts = level_counts(duration_s, per_20_minutes)
     while sum(counts.values()) > 0:
         try:
             return list(draw_schedule(rng, duration_s, counts))
@@ -93,3 +112,15 @@ def fill_probe(level: int, view: dict[str, Any], best_target, rng: np.random.Gen
         choices = list(template.answer_choices(names, in_range))
         return FilledProbe(level, template.fill(ROMAN[collective]), choices, str(best))
     return FilledProbe(level, template.fill(), names, None)
+
+
+def stored_counts(counts: Mapping[int, int] | None) -> dict[str, int] | None:
+    """The study's `[probes]` as the trial row stores them (JSON keys are strings)."""
+    return None if counts is None else {str(int(level)): int(n) for level, n in counts.items()}
+
+
+def counts_of(stored: Mapping[str, Any] | None) -> dict[ProbeLevel, int] | None:
+    """The trial row's probe counts back as levels; None: the original protocol's."""
+    if stored is None:
+        return None
+    return {ProbeLevel(int(level)): int(n) for level, n in stored.items()}

@@ -1,7 +1,8 @@
 """Bring a trial into memory: a fresh start, or a rebuild after a restart.
 
 Deterministic replay makes the rebuild exact: restore the latest snapshot,
-apply each logged command at the step it was applied live, and step on to the
+apply each logged command at the step it was applied live (the simulation's own
+`replay`, the one the analysis and the tests use too), and step on to the
 step the wall clock says is due, not counting the outage itself
 (hcss.platform.live.outages: the trial clock stands still while the server is down). A trial that had been running in some server
 before (it has a snapshot) gets an `Interruption` row with the rebuilt
@@ -10,17 +11,19 @@ state's digest.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
-from hcss.platform.console.pauses import restore_pauses
+from hcss.platform.live.clock import restore_pauses
 from hcss.platform.live.outages import (
     earlier_outages_s,
     last_reached_step,
     last_seen,
     stop_clock_for_outage,
 )
-from hcss.platform.live.probes import probe_plan
+from hcss.platform.live.probes import counts_of, probe_plan
 from hcss.platform.live.recorder import record_progress, write_snapshot
 from hcss.platform.live.session import CurrentProbe, LiveTrial
 from hcss.platform.models import (
@@ -36,7 +39,11 @@ from hcss.platform.models import (
     Trial,
     TrialProblem,
 )
+from hcss.platform.models.vocabularies import RequestStatus
 from hcss.platform.naming import Uninterpretable, collective_name
+
+if TYPE_CHECKING:
+    from hcss.simulation.requests import RequestOutcome
 
 
 def load_trial(session: Session, trial: Trial, now: float) -> LiveTrial:
@@ -67,7 +74,7 @@ def load_trial(session: Session, trial: Trial, now: float) -> LiveTrial:
         acceleration=trial.time_acceleration,
         duration_s=trial.duration_s,
         dt=float(sim.params.dt_s),
-        probe_plan=probe_plan(trial.seed, trial.duration_s),
+        probe_plan=probe_plan(trial.seed, trial.duration_s, counts_of(trial.probe_counts)),
     )
     live.last_command_id = None if snapshot is None else snapshot.last_command_id
     seen = last_seen(session, trial.id)  # before this rebuild writes anything
@@ -100,30 +107,37 @@ def load_trial(session: Session, trial: Trial, now: float) -> LiveTrial:
 
 
 def _replay_commands(session: Session, live: LiveTrial) -> int:
-    """Apply the commands logged after the snapshot at their recorded steps."""
-    query = select(Command).where(Command.trial_id == live.trial_id).order_by(Command.id)
-    if live.last_command_id is not None:
-        query = query.where(Command.id > live.last_command_id)
-    commands = list(session.scalars(query))
-    decided = set(
+    """Apply the commands the snapshot does not contain, through the simulation's `replay`.
+
+    The log is the trial's whole command log in order; the snapshot knows how
+    many of them it holds (`commands_applied`). An outcome the server logged no
+    row for (it died in between) is written now. Returns the commands replayed.
+    """
+    from hcss.simulation.replay import replay
+
+    commands = list(
         session.scalars(
-            select(CommandOutcome.command_id).where(
-                CommandOutcome.command_id.in_([c.id for c in commands])
-            )
+            select(Command).where(Command.trial_id == live.trial_id).order_by(Command.id)
         )
     )
     sim = live.sim
-    for command in commands:
-        if command.step_applied < sim.step_count:
-            raise RuntimeError(
-                f"trial {live.trial_id}: command {command.id} was applied at step "
-                f"{command.step_applied}, before the snapshot's step {sim.step_count}"
+    if sim.commands_applied > len(commands):
+        raise RuntimeError(
+            f"trial {live.trial_id}: the snapshot holds {sim.commands_applied} commands, "
+            f"the log only {len(commands)}"
+        )
+    pending = commands[sim.commands_applied :]
+    decided = set(
+        session.scalars(
+            select(CommandOutcome.command_id).where(
+                CommandOutcome.command_id.in_([c.id for c in pending])
             )
-        if command.step_applied > sim.step_count:
-            sim.step(command.step_applied - sim.step_count)
-        outcome = sim.apply(command.as_sim_command())
+        )
+    )
+
+    def record(i: int, outcome: RequestOutcome) -> None:
+        command = commands[i]
         if command.id not in decided:
-            # The server died between logging the command and its outcome.
             session.add(
                 CommandOutcome(
                     command_id=command.id,
@@ -133,7 +147,20 @@ def _replay_commands(session: Session, live: LiveTrial) -> int:
                 )
             )
         live.last_command_id = command.id
-    return len(commands)
+
+    last_step = max([c.step_applied for c in pending], default=sim.step_count)
+    try:
+        replay(
+            sim.scenario,
+            sim.model,
+            [(c.step_applied, c.as_sim_command()) for c in commands],
+            max(last_step, sim.step_count),
+            start=sim,
+            on_outcome=record,
+        )
+    except ValueError as error:  # a command logged before the snapshot's step
+        raise RuntimeError(f"trial {live.trial_id}: {error}") from error
+    return len(pending)
 
 
 def _restore_bookkeeping(session: Session, live: LiveTrial) -> None:
@@ -150,7 +177,7 @@ def _restore_bookkeeping(session: Session, live: LiveTrial) -> None:
         .where(RequestStatusChange.trial_id == tid)
         .order_by(RequestStatusChange.id)
     ):
-        if change.status == "removed":
+        if change.status == RequestStatus.REMOVED:
             live.request_status.pop(change.request_id, None)
         else:
             live.request_status[change.request_id] = change.status

@@ -21,6 +21,10 @@ from hcss.platform.models import (
     Snapshot,
     TrialStatusChange,
 )
+from hcss.platform.models.vocabularies import RequestStatus, TrialStatus
+
+#: Decision-table columns the export fills from the trial and participant, not stored per row.
+EXPORT_IDENTITY = ("source", "participant", "trial_id", "run")
 
 
 def record_progress(live: LiveTrial, session: Session) -> None:
@@ -57,9 +61,8 @@ def _record_events(live: LiveTrial, session: Session) -> None:
 def _record_decisions(live: LiveTrial, session: Session) -> None:
     records = live.sim.decisions
     for record in records[live.decisions_recorded :]:
-        row = record.as_row(
-            source="study", participant=live.participant_code, trial_id=str(live.trial_id), run=0
-        )
+        # The record itself; who and where (source, participant, trial, run) the export adds.
+        row = {k: v for k, v in record.as_row().items() if k not in EXPORT_IDENTITY}
         session.add(
             DecisionRow(
                 trial_id=live.trial_id,
@@ -101,7 +104,7 @@ def _record_request_statuses(live: LiveTrial, session: Session) -> None:
         if live.request_status.get(request_id) != status:
             _add_status(live, session, request_id, status)
     for request_id in [r for r in live.request_status if r not in now]:
-        _add_status(live, session, request_id, "removed")
+        _add_status(live, session, request_id, RequestStatus.REMOVED)
         del live.request_status[request_id]
 
 
@@ -200,7 +203,10 @@ def end_trial(live: LiveTrial, session: Session, reason: str, now: float) -> Non
     write_snapshot(live, session, now)
     session.add(
         TrialStatusChange(
-            trial_id=live.trial_id, status="ended", reason=reason, step=live.sim.step_count
+            trial_id=live.trial_id,
+            status=TrialStatus.ENDED,
+            reason=reason,
+            step=live.sim.step_count,
         )
     )
     live.ended = True

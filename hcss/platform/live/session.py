@@ -13,6 +13,8 @@ import threading
 from dataclasses import dataclass, field
 from typing import Any
 
+from hcss.platform.live.clock import running_wall_s, trial_time_s
+from hcss.platform.models.vocabularies import TrialStatus
 from hcss.questionnaires.probes import ScheduledProbe
 
 
@@ -101,7 +103,7 @@ class LiveTrial:
     current_probe: CurrentProbe | None = None
     # Level-3 probes waiting for the next decision: (probe id, shown time, answer or None).
     pending_projection: list[tuple[int, float, str | None]] = field(default_factory=list)
-    # Experimenter pauses (hcss.platform.console.sessions): wall seconds the
+    # Experimenter pauses (hcss.platform.live.clock): wall seconds the
     # trial clock stood still, and the start of the pause under way, if any.
     paused_s: float = 0.0
     paused_since: float | None = None
@@ -120,15 +122,21 @@ class LiveTrial:
         return min(self.total_steps, int(math.floor(elapsed / self.dt + 1e-9)))
 
     def running_wall_s(self, now: float) -> float:
-        """Wall seconds the trial clock has run: pauses do not count."""
-        stopped = now if self.paused_since is None else min(now, self.paused_since)
-        return max(0.0, stopped - self.started_epoch - self.paused_s)
+        """Wall seconds the trial clock has run: pauses do not count (live/clock.py)."""
+        return running_wall_s(self.started_epoch, self.paused_s, self.paused_since, now)
 
     def clock(self, now: float) -> float:
         """Trial time by the wall clock, for the page's timer (runs between steps)."""
         if self.ended:
             return self.duration_s
-        return min(self.duration_s, self.running_wall_s(now) * self.acceleration)
+        return trial_time_s(
+            self.started_epoch,
+            self.paused_s,
+            self.paused_since,
+            now,
+            acceleration=self.acceleration,
+            duration_s=self.duration_s,
+        )
 
     def touch(self) -> None:
         """Mark the state as changed and wake every stream; call with `lock` held."""
@@ -168,9 +176,10 @@ class LiveTrial:
             "trial": {
                 "id": self.trial_id,
                 "kind": self.kind,
-                "status": "ended"
+                # The page's status: the trial's, or "paused" while the experimenter holds it.
+                "status": TrialStatus.ENDED
                 if self.ended
-                else ("paused" if self.paused_since is not None else "running"),
+                else ("paused" if self.paused_since is not None else TrialStatus.RUNNING),
                 "clock_s": round(self.clock(now), 2),
                 "duration_s": self.duration_s,
                 "step": self.sim.step_count,

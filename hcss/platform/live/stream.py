@@ -13,6 +13,7 @@ from collections.abc import Callable, Iterator
 
 from hcss.platform.live.session import LiveTrial
 from hcss.platform.live.streams import takeover_frame
+from hcss.platform.models.vocabularies import TrialStatus
 
 MIN_GAP_S = 0.05  # at most 20 frames a second per stream, even under acceleration
 
@@ -55,5 +56,5 @@ def event_stream(
 
 def ended_stream(trial_id: int, duration_s: float) -> Iterator[str]:
     """For a trial no longer live: one frame saying so, then close."""
-    frame = {"trial": {"id": trial_id, "status": "ended", "clock_s": duration_s}}
+    frame = {"trial": {"id": trial_id, "status": TrialStatus.ENDED, "clock_s": duration_s}}
     yield f"retry: 5000\ndata: {json.dumps(frame)}\n\n"

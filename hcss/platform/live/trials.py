@@ -7,14 +7,19 @@ the runner finds every trial whose latest status is ``running`` and steps it.
 from __future__ import annotations
 
 import secrets
+from collections.abc import Mapping
 from datetime import datetime, timedelta
 
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
+from hcss.platform.live.probes import stored_counts
 from hcss.platform.models import Participant, Trial, TrialStatusChange, utcnow
+from hcss.platform.models.vocabularies import TrialKind, TrialStatus
+from hcss.simulation.params import MODELS
 
-TRIAL_DURATION_S = {"trial": 20 * 60.0, "training": 5 * 60.0}
+#: Kinds of live trial. Their lengths come from the study file (`[timing]`), never from here.
+TRIAL_KINDS = tuple(TrialKind)
 
 
 def start_trial(
@@ -24,12 +29,17 @@ def start_trial(
     kind: str = "trial",
     model: str = "M1",
     seed: int | None = None,
+    duration_s: float,
     first_section: str = "easy",
-    duration_s: float | None = None,
     time_acceleration: float = 1.0,
     started_at: datetime | None = None,
+    probe_counts: Mapping[int, int] | None = None,
 ) -> Trial:
     """Write a new trial whose clock starts now; the runner picks it up.
+
+    `probe_counts` is the study's `[probes]` (per 20-minute trial, by level;
+    None: the original protocol's). `duration_s` is the study's `timing.trial_s` or `timing.training_s` (or a
+    demo's chosen length): the caller reads it from the study file.
 
     The deadline is absolute, so the trial ends on time even if no page is
     open or the server was down in between. `started_at` (default: now) lets
@@ -37,10 +47,10 @@ def start_trial(
     """
     from hcss.simulation import Params, Scenario
 
-    if kind not in TRIAL_DURATION_S:
-        raise ValueError(f"trial kind must be one of {sorted(TRIAL_DURATION_S)}, not {kind!r}")
-    if model not in ("M1", "M2", "M3"):
-        raise ValueError(f"model must be M1, M2 or M3, not {model!r}")
+    if kind not in TRIAL_KINDS:
+        raise ValueError(f"trial kind must be one of {TRIAL_KINDS}, not {kind!r}")
+    if model not in MODELS:
+        raise ValueError(f"model must be one of {MODELS}, not {model!r}")
     if time_acceleration <= 0:
         raise ValueError("time_acceleration must be positive")
     if seed is None:
@@ -50,7 +60,7 @@ def start_trial(
     else:
         scenario = Scenario.generate(seed, first_section=first_section)
     scenario_dict = scenario.to_dict()
-    duration = TRIAL_DURATION_S[kind] if duration_s is None else float(duration_s)
+    duration = float(duration_s)
     if duration <= 0:
         raise ValueError("duration_s must be positive")
     started_at = started_at or utcnow()
@@ -64,6 +74,7 @@ def start_trial(
         first_section=None if kind == "training" else first_section,
         # A live trial has no per-decision cap, only its own time limit (spec §2).
         params=Params().with_changes(decision_timeout_s=None).to_dict(),
+        probe_counts=stored_counts(probe_counts),
         time_acceleration=time_acceleration,
         duration_s=duration,
         started_at=started_at,
@@ -71,7 +82,9 @@ def start_trial(
     )
     session.add(trial)
     session.flush()
-    session.add(TrialStatusChange(trial_id=trial.id, status="running", reason="started", step=0))
+    session.add(
+        TrialStatusChange(trial_id=trial.id, status=TrialStatus.RUNNING, reason="started", step=0)
+    )
     session.flush()
     return trial
 
@@ -96,7 +109,7 @@ def running_trial_ids(session: Session) -> list[int]:
     rows = session.execute(
         select(TrialStatusChange.trial_id)
         .join(latest, TrialStatusChange.id == latest.c.last_id)
-        .where(TrialStatusChange.status == "running")
+        .where(TrialStatusChange.status == TrialStatus.RUNNING)
         .order_by(TrialStatusChange.trial_id)
     )
     return [trial_id for (trial_id,) in rows]

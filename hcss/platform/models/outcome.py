@@ -21,7 +21,9 @@ class DecisionRow(CreatedAt, Base):
     decision_index: Mapped[int]
     step: Mapped[int]  # step at which the record appeared
     correct: Mapped[bool | None]
-    record: Mapped[dict[str, Any]]  # the data-dictionary decisions columns
+    # The simulation's decision record as decisions-table columns, without the export's
+    # source/participant/trial_id/run (rows written before issue 10 still carry them).
+    record: Mapped[dict[str, Any]]
 
 
 class SimEvent(CreatedAt, Base):

@@ -14,6 +14,7 @@ from sqlalchemy import ForeignKey, String
 from sqlalchemy.orm import Mapped, mapped_column
 
 from hcss.platform.models.base import Base, CreatedAt
+from hcss.platform.models.vocabularies import RequestStatus, check_in
 
 COMMAND_KINDS = ("investigate", "abandon", "decide", "cancel")
 
@@ -62,6 +63,7 @@ class RequestStatusChange(CreatedAt, Base):
     """
 
     __tablename__ = "request_status_change"
+    __table_args__ = (check_in("status", RequestStatus, "status"),)
 
     id: Mapped[int] = mapped_column(primary_key=True)
     trial_id: Mapped[int] = mapped_column(ForeignKey("trial.id"), index=True)

@@ -15,13 +15,15 @@ from sqlalchemy.orm import Mapped, mapped_column, relationship
 
 from hcss.platform.models.base import Base, CreatedAt
 from hcss.platform.models.participant import Participant
+from hcss.platform.models.vocabularies import TrialKind, TrialStatus, check_in
 
-TRIAL_KINDS = ("training", "trial")
-TRIAL_STATUSES = ("running", "ended")
+TRIAL_KINDS = tuple(TrialKind)
+TRIAL_STATUSES = tuple(TrialStatus)
 
 
 class Trial(CreatedAt, Base):
     __tablename__ = "trial"
+    __table_args__ = (check_in("kind", TrialKind, "kind"),)
 
     id: Mapped[int] = mapped_column(primary_key=True)
     participant_id: Mapped[int] = mapped_column(ForeignKey("participant.id"), index=True)
@@ -32,6 +34,9 @@ class Trial(CreatedAt, Base):
     seed: Mapped[int]
     first_section: Mapped[str | None] = mapped_column(String(16))
     params: Mapped[dict[str, Any] | None]  # None: the model's default parameters
+    # SA probes per 20-minute trial by level ({"1": 4, ...}) from the study's [probes];
+    # None: the original protocol's counts (trials started before 0005_a10_vocabularies).
+    probe_counts: Mapped[dict[str, Any] | None]
     # Trial seconds per wall-clock second (1.0 in the study).
     time_acceleration: Mapped[float] = mapped_column(default=1.0)
     duration_s: Mapped[float]  # trial time
@@ -45,6 +50,7 @@ class TrialStatusChange(CreatedAt, Base):
     """The trial's status history; the latest row is its status now."""
 
     __tablename__ = "trial_status_change"
+    __table_args__ = (check_in("status", TrialStatus, "status"),)
 
     id: Mapped[int] = mapped_column(primary_key=True)
     trial_id: Mapped[int] = mapped_column(ForeignKey("trial.id"), index=True)

@@ -22,6 +22,7 @@ from sqlalchemy.orm import Session
 from hcss.platform.live.session import participant_view
 from hcss.platform.live.trials import latest_status
 from hcss.platform.models import Command, Snapshot, Trial, TrialStatusChange
+from hcss.platform.models.vocabularies import TrialStatus
 from hcss.simulation import Params, Scenario, Simulation
 from hcss.simulation.replay import TimedCommand, replay
 
@@ -87,10 +88,13 @@ def recording_of(session: Session, trial: Trial) -> Recording:
         .limit(1)
     ).first()
     digest = None if snapshot is None else Simulation.restore(snapshot.blob).state_digest()
-    if latest_status(session, trial.id) == "ended":
+    if latest_status(session, trial.id) == TrialStatus.ENDED:
         end = session.scalars(
             select(TrialStatusChange)
-            .where(TrialStatusChange.trial_id == trial.id, TrialStatusChange.status == "ended")
+            .where(
+                TrialStatusChange.trial_id == trial.id,
+                TrialStatusChange.status == TrialStatus.ENDED,
+            )
             .order_by(TrialStatusChange.id.desc())
             .limit(1)
         ).one()

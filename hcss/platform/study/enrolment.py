@@ -19,12 +19,12 @@ from sqlalchemy.orm import Session, object_session
 
 from hcss.platform.models import (
     ConsentRecord,
-    ConsoleAction,
     Participant,
     StageEvent,
     StudyEnrolment,
 )
 from hcss.platform.pilots import is_pilot
+from hcss.platform.session_state import aborted_participants
 from hcss.platform.study.studyfile import Study, load_study
 
 POOLS = ("real", "pilot", "bot", "demo")
@@ -69,28 +69,13 @@ def current_enrolment(session: Session, participant_id: int) -> StudyEnrolment |
 
 
 def _not_counted(session: Session) -> set[int]:
-    """Participants who declined consent or whose session the experimenter aborted.
-
-    Aborted is the console's rule (hcss.platform.console.sessions): the
-    latest pause/resume/abort row of the participant is an abort.
-    """
+    """Participants who declined consent or whose session the experimenter aborted."""
     declined = set(
         session.scalars(
             select(ConsentRecord.participant_id).where(ConsentRecord.decision == "decline")
         )
     )
-    latest = (
-        select(ConsoleAction.participant_id, func.max(ConsoleAction.id).label("last"))
-        .where(ConsoleAction.action.in_(("pause", "resume", "abort")))
-        .group_by(ConsoleAction.participant_id)
-        .subquery()
-    )
-    aborted = session.scalars(
-        select(ConsoleAction.participant_id)
-        .join(latest, ConsoleAction.id == latest.c.last)
-        .where(ConsoleAction.action == "abort")
-    )
-    return declined | set(aborted)
+    return declined | aborted_participants(session)
 
 
 def cell_counts(session: Session, study: Study, pool: str) -> Counter[int]:

@@ -31,7 +31,7 @@ from hcss.platform.study.mrt_stage import MentalRotation
 from hcss.platform.study.screen_check import ScreenCheck
 from hcss.platform.study.stage import Refused, Slot, Stage
 from hcss.platform.study.texts import fill
-from hcss.platform.study.trial_stage import Training, Trial
+from hcss.platform.study.trial_stage import TrainingStage, TrialStage
 from hcss.questionnaires import consent, demographics, pages, post_trial, ranking, sart, tlx
 from hcss.questionnaires.definitions import Questionnaire, ValidationErrors
 
@@ -294,8 +294,8 @@ for _stage in (
     MentalRotation,
     Introduction,
     ScreenCheck,
-    Training,
-    Trial,
+    TrainingStage,
+    TrialStage,
     PostTrial,
     NasaTlx,
     Sart,

@@ -21,10 +21,13 @@ from hcss.platform.config import PROJECT_ROOT
 from hcss.platform.study.online import OnlineSettings, parse_online
 from hcss.questionnaires.consent import consent_versions
 from hcss.questionnaires.mrt import item_bank, practice_items
-from hcss.questionnaires.probes import DEFAULT_COUNTS, ProbeLevel
+from hcss.questionnaires.probes import ProbeLevel
+from hcss.simulation.params import MODELS
+
+#: Probes per level and 20-minute trial a study may ask for (each needs a time-out apart).
+MAX_PROBES_PER_LEVEL = 20
 
 STUDIES_DIR = PROJECT_ROOT / "studies"
-MODELS = ("M1", "M2", "M3")
 SECTIONS = ("easy", "difficult")
 
 
@@ -148,12 +151,10 @@ def parse_study(doc: dict[str, Any], *, source: str, digest: str = "") -> Study:
         int(level): int(_get(doc, f"probes.{level.name.lower()}", int, source))
         for level in ProbeLevel
     }
-    if probe_counts != {int(level): n for level, n in DEFAULT_COUNTS.items()}:
-        # The live runner draws DEFAULT_COUNTS (scaled to the trial length); a
-        # study that asks for others would silently not get them.
+    if any(n < 0 or n > MAX_PROBES_PER_LEVEL for n in probe_counts.values()):
+        # The live runner draws these per 20-minute trial (scaled to the trial's length).
         raise StudyFileError(
-            f"{source}: [probes] must be the runner's per-20-minute counts "
-            f"{dict(DEFAULT_COUNTS)}; other counts are not supported by the live runner"
+            f"{source}: [probes] counts must be 0 to {MAX_PROBES_PER_LEVEL} per level"
         )
     return Study(
         name=_get(doc, "name", str, source),

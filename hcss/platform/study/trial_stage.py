@@ -19,6 +19,7 @@ from flask_wtf import FlaskForm
 from hcss.platform.live.trials import latest_status, start_trial
 from hcss.platform.models import StageEvent
 from hcss.platform.models import Trial as TrialRow
+from hcss.platform.models.vocabularies import TrialStatus
 from hcss.platform.study.flow import Flow
 from hcss.platform.study.stage import Refused, Slot, Stage
 from hcss.platform.study.texts import duration
@@ -54,6 +55,7 @@ class LiveTrialStage(Stage):
             duration_s=self.duration_s(flow),
             time_acceleration=flow.enrolment.time_acceleration,
             started_at=flow.now,
+            probe_counts=flow.study.probe_counts,
         )
         flow.record(slot, step, "submitted")
         flow.record(slot, "run", "entered", deadline=trial.deadline, detail={"trial_id": trial.id})
@@ -72,33 +74,33 @@ class LiveTrialStage(Stage):
             return None
         trial = flow.session.get(TrialRow, int((entered.detail or {})["trial_id"]))
         assert trial is not None
-        if latest_status(flow.session, trial.id) == "running" and flow.now >= trial.deadline:
+        if (
+            latest_status(flow.session, trial.id) == TrialStatus.RUNNING
+            and flow.now >= trial.deadline
+        ):
             # The runner writes in its own unit of work; on SQLite it would wait
             # for this request's write lock, so what is settled so far is kept now.
             flow.session.commit()
             self._finish_overdue(trial.id)
             flow.session.expire_all()
-        if latest_status(flow.session, trial.id) != "ended":
+        if latest_status(flow.session, trial.id) != TrialStatus.ENDED:
             return None
         return ("submitted", min(flow.now, trial.deadline))
 
     def _finish_overdue(self, trial_id: int) -> None:
         """Let the runner step an overdue trial to its end, recording everything on the way."""
-        runner = current_app.extensions["hcss_runner"]
-        live = runner.get(trial_id)
-        if live is not None:
-            runner.advance(live, runner.clock())
-            if live.ended:
-                runner.trials.pop(trial_id, None)
+        current_app.extensions["hcss_runner"].finish_overdue(trial_id)
 
 
-class Training(LiveTrialStage):
+class TrainingStage(LiveTrialStage):
     name = "training"
     title = "Training"
     kind = "training"
 
 
-class Trial(LiveTrialStage):
+class TrialStage(LiveTrialStage):
+    """The study's trial stage (the ORM row is `models.Trial`, the run in memory `LiveTrial`)."""
+
     name = "trial"
     title = "Trial"
     kind = "trial"

@@ -18,9 +18,9 @@ from sqlalchemy.exc import IntegrityError, SQLAlchemyError
 from werkzeug.exceptions import NotFound
 from werkzeug.wrappers import Response
 
-from hcss.platform.console.sessions import session_state
 from hcss.platform.db import get_session
 from hcss.platform.models import Participant
+from hcss.platform.session_state import session_state
 from hcss.platform.study.enrolment import current_enrolment, first_enrolment
 from hcss.platform.study.flow import Flow, Position, study_now
 from hcss.platform.study.markdown import render_markdown

@@ -1,19 +1,48 @@
-"""The trial clock under an experimenter's pause.
+"""The trial clock: wall time since the start, experimenter pauses excluded, times the acceleration.
 
-A pause stops the live trial's clock where it stands: the runner advances a
-trial only to the step the *running* wall time allows, so nothing happens in
-the simulation, no probe times out and the deadline moves on by the pause's
-length. The pause and resume instants are `ConsoleAction` rows, so a trial
-rebuilt after a restart stands still (or has caught up) exactly as before.
+One definition, used by the live run (which step is due, the page's timer) and
+by the console's progress table (a trial not loaded in this process).
+
+A pause stops the clock where it stands: the runner advances a trial only to
+the step the *running* wall time allows, so nothing happens in the simulation,
+no probe times out and the deadline moves on by the pause's length. The pause
+and resume instants are `ConsoleAction` rows, so a trial rebuilt after a
+restart stands still (or has caught up) exactly as before.
 """
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
-from hcss.platform.live.session import LiveTrial
 from hcss.platform.models import ConsoleAction
+
+if TYPE_CHECKING:
+    from hcss.platform.live.session import LiveTrial
+
+
+def running_wall_s(
+    started_epoch: float, paused_s: float, paused_since: float | None, now: float
+) -> float:
+    """Wall seconds the trial clock has run by `now`: pauses do not count."""
+    stopped = now if paused_since is None else min(now, paused_since)
+    return max(0.0, stopped - started_epoch - paused_s)
+
+
+def trial_time_s(
+    started_epoch: float,
+    paused_s: float,
+    paused_since: float | None,
+    now: float,
+    *,
+    acceleration: float,
+    duration_s: float,
+) -> float:
+    """Trial seconds by `now`, capped at the trial's duration."""
+    running = running_wall_s(started_epoch, paused_s, paused_since, now)
+    return min(duration_s, running * acceleration)
 
 
 def paused_intervals(session: Session, trial_id: int) -> tuple[float, float | None]:

@@ -1,0 +1,19 @@
+"""Target ids: 0-based indices inside the arrays, 1-based ids in every public output.
+
+Events, the view, request records, refusal texts, decision records and the
+platform's exports all name a target by its id (what the participant sees on
+the map); the engine's arrays are indexed from 0. These two functions are the
+only place the one becomes the other.
+"""
+
+from __future__ import annotations
+
+
+def target_id(index: int) -> int:
+    """The public id of the target at array index `index`."""
+    return int(index) + 1
+
+
+def target_index(target: int) -> int:
+    """The array index of the target with public id `target`."""
+    return int(target) - 1
