@@ -15,10 +15,16 @@ class Uninterpretable(ValueError):
     """A stored value that cannot be turned into what the reader shows."""
 
 
-def collective_name(index: int | None) -> str | None:
-    """``I`` for collective 0; None for no collective; Uninterpretable for an impossible one."""
+def collective_name(index: int | None, n_collectives: int | None = None) -> str | None:
+    """``I`` for collective 0; None for no collective; Uninterpretable for an impossible one.
+
+    `n_collectives` is the trial's own count (the simulation names up to 64, a
+    study trial has 4): a row naming collective 16 of a four-collective trial is
+    as uninterpretable as one naming collective 100.
+    """
     if index is None:
         return None
-    if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < len(ROMAN):
+    limit = len(ROMAN) if n_collectives is None else min(n_collectives, len(ROMAN))
+    if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < limit:
         raise Uninterpretable(f"collective {index!r} is not a collective any trial has")
     return ROMAN[index]

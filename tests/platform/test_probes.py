@@ -94,10 +94,14 @@ def test_comprehension_truth_is_the_best_target(make_trial) -> None:
     probe, _state, _second = _until_probe(trial, 0, level=ProbeLevel.COMPREHENSION)
     row = _probe_row(trial.app, probe["id"])
     collective = ROMAN.index(row.question.rsplit(" ", 1)[1].rstrip("?"))
-    # Independently of Simulation.best_target: of the targets offered (those in range),
-    # the highest true value, the nearer one on a tie.
-    world = trial.live().sim.world
+    # Independently of Simulation.best_target: of the targets offered (those in range)
+    # that the collective may choose (under the default reading foreign_targets="own_only",
+    # those placed around its own start hub), the highest true value, the nearer on a tie.
+    sim = trial.live().sim
+    world = sim.world
     offered = [int(choice) for choice in row.choices]
+    if sim.params.foreign_targets == "own_only":
+        offered = [t for t in offered if world.target_around[t - 1] == collective]
     best = min(
         offered,
         key=lambda t: (-world.target_value[t - 1], world.hub_distance[collective, t - 1]),

@@ -11,15 +11,6 @@ from hcss.platform.models import CommandOutcome, Interruption, Snapshot
 from tests.platform.replaying import replay_trial
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason=(
-        "platform defect exposed by the compiled engine's stream (seed 5): when a simulation "
-        "event ('Collective IV is moving to target 16') and a refused command fall in the same "
-        "step, the rebuilt trial lists the messages in another order; the simulation states are "
-        "identical (the digests match). For the platform owner to fix."
-    ),
-)
 def test_rebuild_after_a_crash_equals_an_uninterrupted_run(app, make_trial, database_url) -> None:
     """The outage stops the trial clock (hcss.platform.live.outages): the rebuilt trial
     resumes at the step the dead server reached, exactly as that server had it."""

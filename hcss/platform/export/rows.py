@@ -40,9 +40,10 @@ def iso(moment: datetime | None) -> str | None:
     return moment.isoformat(timespec="milliseconds").replace("+00:00", "Z")
 
 
-def roman(collective: int | None) -> str | None:
-    """The collective's numeral; Uninterpretable for an index no trial has."""
-    return collective_name(collective)
+def roman(collective: int | None, trial: Trial) -> str | None:
+    """The collective's numeral; Uninterpretable for an index the trial does not have."""
+    hubs = trial.scenario.get("hubs") if isinstance(trial.scenario, dict) else None
+    return collective_name(collective, len(hubs) if isinstance(hubs, list) else None)
 
 
 def _keys(trial: Trial, code: str, sim_time: float, wall: datetime) -> Row:
@@ -90,7 +91,7 @@ def _request_row(trial: Trial, code: str, command: Command, outcome: CommandOutc
         **_keys(trial, code, command.sim_time, command.created_at),
         "request_id": None if outcome is None else outcome.request_id,
         "kind": command.kind,
-        "collective": roman(command.collective),
+        "collective": roman(command.collective, trial),
         "target": command.target,
         "accepted": None if outcome is None else outcome.accepted,
         "reason": None if outcome is None or outcome.accepted else outcome.reason,
@@ -111,7 +112,7 @@ def observation_rows(session: Session, trial: Trial, code: str, problems: Proble
                 {
                     **_keys(trial, code, click.sim_time, click.created_at),
                     "kind": click.kind,
-                    "collective": roman(click.collective),
+                    "collective": roman(click.collective, trial),
                     "target": click.target,
                     "button": click.button,
                 }

@@ -98,9 +98,15 @@ def submit_request(database: Database, live: LiveTrial, request: RequestInput) -
                 )
                 live.request_status[int(outcome.request_id)] = RequestStatus.IN_PROGRESS
         if accepted:
-            live.add_message(sim.time, "accepted", accepted_text(command, outcome.request_id))
+            live.add_message(
+                sim.time,
+                "accepted",
+                accepted_text(command, outcome.request_id, sim.scenario.n_collectives),
+            )
         else:
-            live.add_message(sim.time, "refusal", refusal_text(command, reason))
+            live.add_message(
+                sim.time, "refusal", refusal_text(command, reason, sim.scenario.n_collectives)
+            )
         live.touch()
         return {
             "command_id": command.id,

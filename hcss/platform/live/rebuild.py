@@ -186,6 +186,7 @@ def _restore_bookkeeping(session: Session, live: LiveTrial) -> None:
 
 
 def _restore_messages(session: Session, live: LiveTrial) -> None:
+    n = live.sim.scenario.n_collectives
     events = [
         (e.sim_time, e.id, e.kind, e.text)
         for e in session.scalars(select(SimEvent).where(SimEvent.trial_id == live.trial_id))
@@ -202,14 +203,14 @@ def _restore_messages(session: Session, live: LiveTrial) -> None:
                     command.sim_time,
                     command.id,
                     "accepted",
-                    accepted_text(command, outcome.request_id),
+                    accepted_text(command, outcome.request_id, n),
                 )
                 if outcome.accepted
                 else (
                     command.sim_time,
                     command.id,
                     "refusal",
-                    refusal_text(command, outcome.reason),
+                    refusal_text(command, outcome.reason, n),
                 )
             )
         except Uninterpretable as error:
@@ -254,21 +255,23 @@ def _restore_probes(session: Session, live: LiveTrial) -> None:
             )
 
 
-def _subject(command: Command) -> str:
-    """What a command was about; Uninterpretable for a collective no trial has."""
+def _subject(command: Command, n_collectives: int | None) -> str:
+    """What a command was about; Uninterpretable for a collective the trial does not have."""
     if command.kind == "cancel":
         return f"cancel of assignment {command.cancel_request_id}"
-    collective = collective_name(command.collective) or "?"
+    collective = collective_name(command.collective, n_collectives) or "?"
     return f"{command.kind} by collective {collective} on target {command.target}"
 
 
-def refusal_text(command: Command, reason: str) -> str:
+def refusal_text(command: Command, reason: str, n_collectives: int | None = None) -> str:
     """The System Message of a refused command."""
-    return f"Request refused ({_subject(command)}): {reason}"
+    return f"Request refused ({_subject(command, n_collectives)}): {reason}"
 
 
-def accepted_text(command: Command, request_id: int | None) -> str:
+def accepted_text(
+    command: Command, request_id: int | None, n_collectives: int | None = None
+) -> str:
     """System Messages log accepted requests as well as refusals (issue 8)."""
     if command.kind == "cancel":
-        return f"Request accepted ({_subject(command)})"
-    return f"Request {request_id} accepted ({_subject(command)})"
+        return f"Request accepted ({_subject(command, n_collectives)})"
+    return f"Request {request_id} accepted ({_subject(command, n_collectives)})"
