@@ -16,7 +16,17 @@ HCSS = Path(__file__).resolve().parents[1] / "hcss"
 
 LEAVES = {"simulation", "questionnaires", "analysis"}
 #: Platform modules every platform package may use: the schema, the database, settings.
-CORE = {"models", "db", "config", "naming", "pilots", "session_state", "errors", "serving"}
+CORE = {
+    "models",
+    "db",
+    "config",
+    "naming",
+    "pilots",
+    "session_state",
+    "errors",
+    "serving",
+    "hardening",
+}
 #: What each platform package may import besides the core and the leaf packages.
 PACKAGES: dict[str, set[str]] = {
     "live": set(),
