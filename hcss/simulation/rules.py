@@ -145,25 +145,34 @@ def discovery_kernel(w: Arrays, k: Constants):
             if w.active[t] and w.hub_distance[c, t] <= k.exploration_range_m:
                 candidates[c, count[c]] = t
                 count[c] += 1
+    # Reading "per_agent": what an explorer can find depends on its collective only, and
+    # a discovery changes none of it, so the sites, their summed rate and the per-step
+    # probability are worked out once per collective, not once per explorer.
+    discoverable = np.zeros((n_c, n_t), dtype=np.bool_)
+    total = np.zeros(n_c)
+    probability = np.zeros(n_c)
+    if k.discovery_per_agent:
+        for c in range(n_c):
+            for j in range(count[c]):
+                t = candidates[c, j]
+                if discoverable_one(w, k, c, t):
+                    discoverable[c, j] = True
+                    total[c] += w.site_rate[c, t]
+            if total[c] > 0.0:
+                probability[c] = per_step_probability(total[c], k.dt_s)
     for i in range(w.state.size):
         if w.leg[i] != S.EXPLORING or w.state[i] != S.U_L:
             continue
         c = w.collective[i]
         best = -1
         if k.discovery_per_agent:
-            total = 0.0
-            for j in range(count[c]):
-                t = candidates[c, j]
-                if discoverable_one(w, k, c, t):
-                    total += w.site_rate[c, t]
-            if total <= 0.0 or stream.uniform(w.stream) >= per_step_probability(total, k.dt_s):
+            if total[c] <= 0.0 or stream.uniform(w.stream) >= probability[c]:
                 continue
-            pick = stream.uniform(w.stream) * total
+            pick = stream.uniform(w.stream) * total[c]
             for j in range(count[c]):
-                t = candidates[c, j]
-                if discoverable_one(w, k, c, t):
-                    best = t
-                    pick -= w.site_rate[c, t]
+                if discoverable[c, j]:
+                    best = candidates[c, j]
+                    pick -= w.site_rate[c, best]
                     if pick < 0.0:
                         break
         else:
