@@ -30,6 +30,36 @@ def simulate() -> None:
     """Run the simulation: a live demo or the simulation-only experiment."""
 
 
+def _batch_options(command: click.Command) -> click.Command:
+    """--workers, --dask and --seed: where batch runs go and which scenarios they use."""
+    for option in reversed(
+        (
+            click.option(
+                "--workers",
+                type=click.IntRange(min=1),
+                default=2,
+                show_default=True,
+                help="Local processes.",
+            ),
+            click.option(
+                "--dask",
+                "dask_address",
+                default=None,
+                help="Dask scheduler address, or 'local' for a LocalCluster.",
+            ),
+            click.option(
+                "--seed",
+                type=int,
+                default=20_150_000,
+                show_default=True,
+                help="Seed of the first scenario.",
+            ),
+        )
+    ):
+        command = option(command)
+    return command
+
+
 @simulate.command()
 @click.option("--model", type=click.Choice(MODELS), default="M1", show_default=True)
 @click.option("--seed", type=int, default=1, show_default=True, help="Scenario seed.")
@@ -92,18 +122,7 @@ def demo(model: str, seed: int, first_section: str, speed: float, minutes: float
     default=None,
     help="Comma-separated models [default: M1,M2; M1,M2,M3 with --operator].",
 )
-@click.option(
-    "--workers", type=click.IntRange(min=1), default=2, show_default=True, help="Local processes."
-)
-@click.option(
-    "--dask",
-    "dask_address",
-    default=None,
-    help="Dask scheduler address, or 'local' for a LocalCluster.",
-)
-@click.option(
-    "--seed", type=int, default=20_150_000, show_default=True, help="Seed of the first scenario."
-)
+@_batch_options
 @click.option(
     "--out",
     type=click.Path(file_okay=False, path_type=Path),
@@ -369,18 +388,7 @@ def meanfield(runs: int, **readings: object) -> None:
     help="Runs per scenario and model.",
 )
 @click.option("--models", default="M1,M2", show_default=True, help="Comma-separated models.")
-@click.option(
-    "--workers", type=click.IntRange(min=1), default=2, show_default=True, help="Local processes."
-)
-@click.option(
-    "--dask",
-    "dask_address",
-    default=None,
-    help="Dask scheduler address, or 'local' for a LocalCluster.",
-)
-@click.option(
-    "--seed", type=int, default=20_150_000, show_default=True, help="Seed of the first scenario."
-)
+@_batch_options
 @click.option(
     "--out",
     type=click.Path(file_okay=False, path_type=Path),

@@ -10,8 +10,10 @@ from __future__ import annotations
 import csv
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from hcss.simulation.decisions import DECISION_COLUMNS
 from hcss.simulation.engine import Simulation
@@ -121,12 +123,11 @@ def _execute(
                 yield futures[future], future.result()
 
 
-def _execute_dask(
-    jobs: list[Job], workers: int, address: str, params: Params | None = None
-) -> Iterator[tuple[int, list[dict]]]:
-    """Run the jobs on a Dask scheduler, or on a LocalCluster when the address is "local"."""
+@contextmanager
+def dask_client(address: str, workers: int) -> Iterator[Any]:
+    """A Dask client on the scheduler at `address`, or on a LocalCluster of `workers` processes
+    when the address is "local"; closed (with its cluster) when the block ends."""
     from dask.distributed import Client, LocalCluster
-    from dask.distributed import as_completed as dask_completed
 
     cluster = None
     if address == "local":
@@ -137,14 +138,28 @@ def _execute_dask(
     else:
         client = Client(address)
     try:
-        futures = client.map(run_job, jobs, params=params, pure=False)
-        index_of = {future.key: i for i, future in enumerate(futures)}
-        for future in dask_completed(futures):
-            yield index_of[future.key], future.result()
+        yield client
     finally:
         client.close()
         if cluster is not None:
             cluster.close()
+
+
+def completed_in_order_of(futures: list[Any]) -> Iterator[tuple[int, Any]]:
+    """(index in `futures`, result) as each Dask future completes."""
+    from dask.distributed import as_completed as dask_completed
+
+    index_of = {future.key: i for i, future in enumerate(futures)}
+    for future in dask_completed(futures):
+        yield index_of[future.key], future.result()
+
+
+def _execute_dask(
+    jobs: list[Job], workers: int, address: str, params: Params | None = None
+) -> Iterator[tuple[int, list[dict]]]:
+    """Run the jobs on a Dask scheduler, or on a LocalCluster when the address is "local"."""
+    with dask_client(address, workers) as client:
+        yield from completed_in_order_of(client.map(run_job, jobs, params=params, pure=False))
 
 
 # ----------------------------------------------------------------- summaries

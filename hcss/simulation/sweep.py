@@ -223,28 +223,11 @@ def _execute_dask(
     tasks: list[tuple[exp.Job, dict]], workers: int, address: str
 ) -> Iterator[tuple[int, list[dict]]]:
     """On a Dask scheduler, or on a LocalCluster of `workers` processes when address is "local"."""
-    from dask.distributed import Client, LocalCluster
-    from dask.distributed import as_completed as dask_completed
-
-    cluster = None
-    if address == "local":
-        cluster = LocalCluster(
-            n_workers=max(1, workers), threads_per_worker=1, processes=True, dashboard_address=None
-        )
-        client = Client(cluster)
-    else:
-        client = Client(address)
-    try:
+    with exp.dask_client(address, workers) as client:
         futures = client.map(
             _run_task, [job for job, _ in tasks], [cell for _, cell in tasks], pure=False
         )
-        index_of = {future.key: i for i, future in enumerate(futures)}
-        for future in dask_completed(futures):
-            yield index_of[future.key], future.result()
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+        yield from exp.completed_in_order_of(futures)
 
 
 def _write_cell(out: Path, sweep: Sweep, cell: dict[str, object], rows: list[dict]) -> None:
