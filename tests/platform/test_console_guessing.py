@@ -13,8 +13,7 @@ from hcss.platform.bots import ManualClock
 from hcss.platform.console.lockout import ACCOUNT_FAILURES, ADDRESS_FAILURES, LOCKOUT_S
 from hcss.platform.models import AuditRecord
 from tests.platform import console_support
-from tests.platform.conftest import csrf_token_of
-from tests.platform.console_support import PASSWORD, USERNAME
+from tests.platform.console_support import PASSWORD, USERNAME, sign_in
 
 console, experimenter = console_support.console, console_support.experimenter
 
@@ -22,15 +21,7 @@ console, experimenter = console_support.console, console_support.experimenter
 def _attempt(app, username: str, password: str, address: str = "10.0.0.1"):  # type: ignore[no-untyped-def]
     client = app.test_client()
     client.environ_base["REMOTE_ADDR"] = address
-    page = client.get("/console/login")
-    return client.post(
-        "/console/login",
-        data={
-            "csrf_token": csrf_token_of(page.get_data(as_text=True)),
-            "username": username,
-            "password": password,
-        },
-    )
+    return sign_in(client, username, password)
 
 
 def _audits(app) -> list[AuditRecord]:  # type: ignore[no-untyped-def]
