@@ -14,7 +14,14 @@ from datetime import UTC, datetime
 from sqlalchemy import select
 
 from hcss.platform.bots import ParticipantBot
-from hcss.platform.models import Base, CreatedAt, StageEvent, Trial, TrialStatusChange
+from hcss.platform.models import (
+    Base,
+    CreatedAt,
+    SimEvent,
+    StageEvent,
+    Trial,
+    TrialStatusChange,
+)
 from hcss.platform.study import load_study
 from tests.platform.study_fixtures import make_app, new_participant
 
@@ -66,6 +73,11 @@ def test_a_participant_s_rows_are_all_stamped_by_the_app_clock(database_url) -> 
                 select(TrialStatusChange).where(TrialStatusChange.reason == "started")
             ).all()
             by_trial = {t.id: t for t in trials}
+            # A simulation event is written once the runner, on that clock, reached its step.
+            for event in session.scalars(select(SimEvent)):
+                trial = by_trial[event.trial_id]
+                due = trial.started_at.timestamp() + event.sim_time / trial.time_acceleration
+                assert event.created_at.timestamp() >= due - 1e-3, (event.kind, event.sim_time)
             assert started and all(s.created_at == by_trial[s.trial_id].started_at for s in started)
     finally:
         app.extensions["hcss_db"].engine.dispose()
