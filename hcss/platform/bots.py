@@ -38,7 +38,12 @@ class BotError(AssertionError):
 
 
 class ManualClock:
-    """Wall-clock seconds since the epoch that move only when told to."""
+    """Wall-clock seconds since the epoch that move only when told to.
+
+    The one fake clock of the project (public testing API, docs/architecture.md):
+    put on an app's database (`runner.clock = ManualClock()`), it times the
+    trials, the study's deadlines and every row's stamp alike.
+    """
 
     def __init__(self, now: float | None = None) -> None:
         self.now = time.time() if now is None else now

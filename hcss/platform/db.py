@@ -4,18 +4,27 @@ Every HTTP request gets one SQLAlchemy session, committed when the request
 succeeds and rolled back when it fails or answers with an error status, so a
 refused request changes nothing. Code outside a request (the live runner, the
 CLI) uses `session_scope()`, which has the same all-or-nothing contract.
+
+The database also owns the clock that stamps rows (`Database.clock`, epoch
+seconds): every `created_at` is set from it when the row is flushed, and the
+live runner and the study flow read the same clock, so a trial's rows, its
+stage events and its simulation events share one timeline. In a server that
+is the wall clock; tests and bots put a `ManualClock` there.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+import time
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+from datetime import UTC, datetime
+from typing import Any
 
 from flask import Flask, current_app, g
 from sqlalchemy import Engine, create_engine, event
 from sqlalchemy.orm import Session, sessionmaker
 
-from hcss.platform.models import Base
+from hcss.platform.models import Base, CreatedAt
 
 
 def make_engine(url: str) -> Engine:
@@ -42,12 +51,27 @@ def make_engine(url: str) -> Engine:
 
 
 class Database:
-    """The engine and session factory of one app (no module-level globals)."""
+    """The engine, session factory and row clock of one app (no module-level globals)."""
 
-    def __init__(self, url: str) -> None:
+    def __init__(self, url: str, *, clock: Callable[[], float] = time.time) -> None:
         self.url = url
         self.engine = make_engine(url)
-        self.sessions = sessionmaker(self.engine, expire_on_commit=False)
+        #: Epoch seconds; replaced by a `ManualClock` in tests (the runner reads it too).
+        self.clock = clock
+        self.sessions = sessionmaker(self.engine, expire_on_commit=False, info={"database": self})
+        event.listen(self.sessions, "before_flush", self._stamp_new_rows)
+
+    def now(self) -> datetime:
+        """The clock's instant as an aware UTC datetime, for the rows' time columns."""
+        return datetime.fromtimestamp(self.clock(), UTC)
+
+    def _stamp_new_rows(self, session: Session, _context: Any, _instances: Any) -> None:
+        """Stamp `created_at` of the rows this flush inserts (one instant per flush)."""
+        new = [row for row in session.new if isinstance(row, CreatedAt) and row.created_at is None]
+        if new:
+            now = self.now()
+            for row in new:
+                row.created_at = now
 
     @contextmanager
     def session_scope(self) -> Iterator[Session]:
@@ -123,6 +147,11 @@ def init_app(app: Flask) -> Database:
 
 def database() -> Database:
     return current_app.extensions["hcss_db"]
+
+
+def session_now(session: Session) -> datetime:
+    """The clock of the `Database` whose session this is (see the module docstring)."""
+    return session.info["database"].now()
 
 
 def get_session() -> Session:

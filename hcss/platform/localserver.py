@@ -3,6 +3,9 @@
 The restart test kills it with SIGKILL, the browser test drives it with
 Chromium, and the benchmark loads it with many trials: all need a server in
 its own process, started with its own database and clock settings.
+
+Part of the public testing API (docs/architecture.md): `make bench` and the
+tests use it, so keep its interface stable.
 """
 
 from __future__ import annotations

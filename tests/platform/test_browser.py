@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import re
-from pathlib import Path
 
 import pytest
 from sqlalchemy import select
@@ -16,10 +15,10 @@ from hcss.platform.localserver import LocalServer
 from hcss.platform.models import Observation, ProbeEvent
 from hcss.simulation import ROMAN
 from tests.platform.conftest import STUDY_TRIAL_S
+from tests.platform.screenshots import screenshot
 
 pytestmark = pytest.mark.browser
 
-ARTIFACTS = Path(__file__).resolve().parents[2] / "test-artifacts"
 ACCELERATION = 6.0
 
 
@@ -47,7 +46,6 @@ def test_participant_runs_a_trial_in_the_browser(browser, live_trial) -> None:
     from playwright.sync_api import expect
 
     server, token, database = live_trial
-    ARTIFACTS.mkdir(exist_ok=True)
     page = browser.new_page(viewport={"width": 1440, "height": 900})
     page.goto(f"{server.url}/live/{token}")
 
@@ -87,7 +85,7 @@ def test_participant_runs_a_trial_in_the_browser(browser, live_trial) -> None:
     expect(assignment.locator(".dot")).to_have_class(re.compile("in_progress|completed"))
     expect(page.locator("#request-note")).to_contain_text("accepted")
     expect(page.locator("#request-kind")).to_have_value("")  # the form resets after a commit
-    page.screenshot(path=str(ARTIFACTS / "trial-assignment.png"))
+    screenshot(page, "trial-assignment.png")
 
     # Right-click a target: its support flag; logged as an observation action.
     page.locator(f'g.target[data-target="{target["id"]}"]').click(button="right")
@@ -106,14 +104,14 @@ def test_participant_runs_a_trial_in_the_browser(browser, live_trial) -> None:
 
     # An SA probe: press ready, read the question, answer it.
     page.wait_for_selector("#probe:not([hidden])", timeout=90_000)
-    page.screenshot(path=str(ARTIFACTS / "trial-probe.png"))
+    screenshot(page, "trial-probe.png")
     page.click("#probe-ready")
     page.wait_for_selector("#probe-choices button", timeout=10_000)
     question = page.locator("#probe-text").inner_text()
     assert question.startswith("Which ")
     page.locator("#probe-choices button").first.click()
     expect(page.locator("#probe")).to_be_hidden()
-    page.screenshot(path=str(ARTIFACTS / "trial-mid.png"))
+    screenshot(page, "trial-mid.png")
 
     with database.session_scope() as session:
         kinds = [e.kind for e in session.scalars(select(ProbeEvent).order_by(ProbeEvent.id))]

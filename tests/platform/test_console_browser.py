@@ -6,18 +6,15 @@ goes to a bot, which walks the whole study through the same app while the
 table is watched moving through the stages to "completed"; another is opened
 in a second tab, whose heartbeats make its row "connected"; that participant
 is paused and resumed from the table. The table's screenshot goes to
-test-artifacts/, and to docs/ only when HCSS_UPDATE_DOCS_SCREENSHOTS=1.
+test-artifacts/, and to docs/ only when HCSS_UPDATE_SCREENSHOTS=1.
 """
 
 from __future__ import annotations
 
 import csv
-import os
 import re
-import shutil
 import threading
 import time
-from pathlib import Path
 
 import pytest
 from sqlalchemy import select
@@ -28,12 +25,10 @@ from hcss.platform.cli import upgrade_database
 from hcss.platform.console.accounts import create_experimenter
 from hcss.platform.models import ConsoleAction, Participant, StudyEnrolment
 from hcss.platform.study.studyfile import load_study
+from tests.platform.screenshots import screenshot
 
 pytestmark = pytest.mark.browser
 
-ROOT = Path(__file__).resolve().parents[2]
-ARTIFACTS = ROOT / "test-artifacts"
-DOCS_SCREENSHOT = ROOT / "docs" / "screenshot-console.png"
 USERNAME, PASSWORD = "lab", "a long enough password"
 
 
@@ -65,7 +60,6 @@ def test_console_batch_links_live_table_and_pause_resume(browser, console_app) -
 
     app, base = console_app
     database = app.extensions["hcss_db"]
-    ARTIFACTS.mkdir(exist_ok=True)
     context = browser.new_context(viewport={"width": 1500, "height": 800}, accept_downloads=True)
     context.grant_permissions(["clipboard-read", "clipboard-write"], origin=base)
     page = context.new_page()
@@ -184,9 +178,7 @@ def test_console_batch_links_live_table_and_pause_resume(browser, console_app) -
     assert actions == ["create", "pause", "resume"] and enrolled == {"demo"}
 
     page.wait_for_timeout(500)  # one more poll, so the screenshot shows the table as served
-    page.locator("#progress").screenshot(path=str(ARTIFACTS / "console-table.png"))
-    if os.environ.get("HCSS_UPDATE_DOCS_SCREENSHOTS") == "1":
-        shutil.copyfile(ARTIFACTS / "console-table.png", DOCS_SCREENSHOT)
+    screenshot(page.locator("#progress"), "console-table.png", docs_name="screenshot-console.png")
 
     # The participant's own console page copies their link too.
     visitor_row.locator("a").click()

@@ -8,17 +8,14 @@
 2. An experimenter signs in, opens a finished trial's replay from the
    participant's page, plays it at 20x and checks the end state's digest.
 
-Screenshots go to test-artifacts/; with HCSS_DOCS_SCREENSHOTS=1 the replay's
-also goes to docs/ for the README.
+Screenshots go to test-artifacts/; with HCSS_UPDATE_SCREENSHOTS=1 the replay's
+also goes to docs/ for the README (tests/platform/screenshots.py).
 """
 
 from __future__ import annotations
 
 import csv
-import os
-import shutil
 import time
-from pathlib import Path
 from urllib.parse import urlencode
 
 import pytest
@@ -33,13 +30,11 @@ from tests.platform import console_support
 from tests.platform.console_support import PASSWORD, USERNAME, code_of
 from tests.platform.inprocess import serving
 from tests.platform.replay_support import operate
+from tests.platform.screenshots import screenshot
 
 pytestmark = pytest.mark.browser
 experimenter = console_support.experimenter
 
-ROOT = Path(__file__).resolve().parents[2]
-ARTIFACTS = ROOT / "test-artifacts"
-DOCS_SCREENSHOTS = os.environ.get("HCSS_DOCS_SCREENSHOTS") == "1"
 PROLIFIC = {
     "PROLIFIC_PID": "60b7c9d2e4f1a2b3c4d5e6f7",
     "STUDY_ID": "6655aa01",
@@ -54,13 +49,6 @@ def demo_app(database_url: str):  # type: ignore[no-untyped-def]
     app.extensions["hcss_db"].create_all()
     yield app
     app.extensions["hcss_db"].engine.dispose()
-
-
-def _screenshot(page, name: str, *, docs: bool = False) -> None:  # type: ignore[no-untyped-def]
-    ARTIFACTS.mkdir(exist_ok=True)
-    page.screenshot(path=str(ARTIFACTS / name))
-    if docs and DOCS_SCREENSHOTS:
-        shutil.copyfile(ARTIFACTS / name, ROOT / "docs" / name)
 
 
 @pytest.mark.slow
@@ -88,7 +76,7 @@ def test_a_prolific_visitor_walks_the_demo_to_its_completion_code(
         page.goto(f"{url}/join/demo?{urlencode(PROLIFIC | {'SESSION_ID': 's-02'})}")
         expect(page.locator("main.study")).to_have_attribute("data-stage", "debrief")
         expect(page.locator("#completion-code")).to_have_text("DEMO2026")
-        _screenshot(page, "online-debrief.png")
+        screenshot(page, "online-debrief.png")
         # The link back to Prolific (answered here, so no request leaves the machine).
         page.route(
             "https://app.prolific.com/**",
@@ -153,10 +141,10 @@ def test_a_finished_trial_replays_at_20x_to_the_recorded_digest(
         page.locator("#replay-play").click()
         expect(replay).to_have_attribute("data-state", "paused")
         expect(page.locator("#messages li").first).to_be_visible()
-        _screenshot(page, "screenshot-replay.png", docs=True)
+        screenshot(page, "replay.png", docs_name="screenshot-replay.png")
         page.locator("#replay-play").click()
         expect(replay).to_have_attribute("data-state", "ended", timeout=30_000)
         assert replay.get_attribute("data-end-digest") == recorded
         assert replay.get_attribute("data-step") == "120"
         expect(page.locator("#replay-verdict")).to_contain_text("identical to the recording")
-        _screenshot(page, "screenshot-replay-end.png")
+        screenshot(page, "replay-end.png")

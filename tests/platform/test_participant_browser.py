@@ -6,11 +6,8 @@ Each test clicks as a participant does, against waitress in this process
 
 from __future__ import annotations
 
-import os
 import re
-import shutil
 from collections.abc import Iterator
-from pathlib import Path
 
 import pytest
 from sqlalchemy import func, select
@@ -20,12 +17,11 @@ from hcss.questionnaires import mrt, ranking
 from hcss.questionnaires.demographics import ITEM_KEYS
 from tests.platform.conftest import STUDY_TRIAL_S
 from tests.platform.inprocess_server import StudyServer, study_server
+from tests.platform.screenshots import screenshot
 
 pytestmark = pytest.mark.browser
 
 VIEWPORT = {"width": 1280, "height": 900}
-ROOT = Path(__file__).resolve().parents[2]
-ARTIFACTS = ROOT / "test-artifacts"  # git-ignored; docs/ only with HCSS_UPDATE_SCREENSHOTS=1
 
 
 @pytest.fixture
@@ -248,12 +244,7 @@ def supervise_first_trial(page, server: StudyServer, token: str) -> dict[str, in
     expect(page.locator("#messages li.accepted").first).to_contain_text(
         f"investigate by collective I on target {target['id']}"
     )
-    ARTIFACTS.mkdir(exist_ok=True)
-    page.screenshot(path=str(ARTIFACTS / "participant-trial.png"))
-    if os.environ.get("HCSS_UPDATE_SCREENSHOTS") == "1":
-        shutil.copyfile(
-            ARTIFACTS / "participant-trial.png", ROOT / "docs" / "screenshot-participant-trial.png"
-        )
+    screenshot(page, "participant-trial.png", docs_name="screenshot-participant-trial.png")
 
     # The experimenter pauses: an overlay says so and the clock stands still.
     with server.app.app_context(), server.database.session_scope() as session:

@@ -62,9 +62,15 @@ def test_probe_flow_records_latencies_and_scores_against_the_simulation(make_tri
     assert probe["phase"] == "ready" and probe["question"] is None and probe["choices"] is None
     row = _probe_row(trial.app, probe["id"])
     target_id = int(row.question.rsplit(" ", 1)[1].rstrip("?"))
-    target = next(t for t in state["view"]["targets"] if t["id"] == target_id)
-    # Truth at the moment of asking: the collective with the highest support.
-    assert row.truth == ROMAN[int(np.argmax(target["support"]))]
+    assert any(t["id"] == target_id for t in state["view"]["targets"])
+    # Truth at the moment of asking (nothing has stepped since): the collective with the
+    # most agents favouring the target, counted from the agents themselves, not from the
+    # view's support the probe is filled from.
+    world = trial.live().sim.world
+    favouring = world.favouring() & (world.target == target_id - 1)
+    agents = [int(np.sum(favouring & (world.collective == c))) for c in range(world.n_collectives)]
+    assert max(agents) > 0
+    assert row.truth == ROMAN[agents.index(max(agents))]
     assert "truth" not in probe
 
     # Answering before "ready" is refused; "ready" reveals the question.

@@ -58,3 +58,44 @@ def test_rebuild_after_a_crash_equals_an_uninterrupted_run(app, make_trial, data
         assert [m["text"] for m in rebuilt.messages][: len(before)] == before
     finally:
         restarted.extensions["hcss_db"].engine.dispose()
+
+
+def test_a_rebuilt_trial_shows_the_system_messages_in_the_live_order(
+    app, make_trial, database_url
+) -> None:
+    """Messages of one step: the step's events first (the runner records them when it
+    reaches the step), then the commands applied at that step, as the live page had them.
+
+    Before the fix the rebuild ordered same-time messages by row id, comparing
+    `SimEvent` ids with `Command` ids, so a command sent right after a discovery
+    came back above it.
+    """
+    trial = make_trial(seed=5)
+    live = trial.live()
+    shared = 0  # steps at which a command landed after that step's own events
+    for second in range(1, 120):
+        trial.run_to(second)
+        if live.messages and live.messages[-1]["time"] == second:  # the step had events
+            targets = [t["id"] for t in trial.state()["view"]["targets"]]
+            trial.post("/requests", {"kind": "investigate", "collective": 0, "target": targets[0]})
+            trial.post("/requests", {"kind": "cancel", "request_id": 1})  # not an abandon
+            shared += 1
+        if shared == 3:
+            break
+    assert shared == 3
+    kinds = [m["kind"] for m in live.messages]
+    assert "accepted" in kinds and "refusal" in kinds and "discovery" in kinds
+    before = [(m["time"], m["kind"], m["text"]) for m in live.messages]
+
+    # The process dies; a new server rebuilds the trial at the very instant it died.
+    restarted = create_app(
+        {"DATABASE_URL": database_url, "SECRET_KEY": "test-secret", "LIVE_RUNNER": False}
+    )
+    restarted.extensions["hcss_runner"].clock = ManualClock(trial.runner.clock())
+    try:
+        rebuilt = restarted.extensions["hcss_runner"].get(trial.trial_id)
+        assert rebuilt is not live and rebuilt.sim.step_count == live.sim.step_count
+        assert [(m["time"], m["kind"], m["text"]) for m in rebuilt.messages] == before
+        assert [m["seq"] for m in rebuilt.messages] == [m["seq"] for m in live.messages]
+    finally:
+        restarted.extensions["hcss_db"].engine.dispose()

@@ -2,15 +2,12 @@
 
 From the personal link through consent and demographics to the first MRT
 item, clicking as a participant does; the MRT item's screenshot goes to
-test-artifacts/ and docs/screenshot-mrt.png.
+test-artifacts/, and to docs/screenshot-mrt.png with HCSS_UPDATE_SCREENSHOTS=1.
 """
 
 from __future__ import annotations
 
-import os
 import re
-import shutil
-from pathlib import Path
 
 import pytest
 from sqlalchemy import select
@@ -21,11 +18,9 @@ from hcss.platform.localserver import LocalServer
 from hcss.platform.models import ConsentRecord, Participant, QuestionnaireItem
 from hcss.platform.study import assign_cell
 from hcss.questionnaires.demographics import ITEM_KEYS
+from tests.platform.screenshots import screenshot
 
 pytestmark = pytest.mark.browser
-
-ROOT = Path(__file__).resolve().parents[2]
-ARTIFACTS = ROOT / "test-artifacts"
 
 
 @pytest.fixture
@@ -70,16 +65,13 @@ def test_consent_to_the_first_mrt_item_in_the_browser(browser, study_server) -> 
     expect(page.locator("main.study")).to_have_attribute("data-step", "practice_1")
     expect(page.locator(".mrt-alternative svg")).to_have_count(4)
     expect(page.locator(".mrt-target svg")).to_have_count(1)
-    ARTIFACTS.mkdir(exist_ok=True)
-    page.screenshot(path=str(ARTIFACTS / "study-mrt-item.png"), full_page=True)
-    if os.environ.get("HCSS_UPDATE_SCREENSHOTS") == "1":
-        shutil.copyfile(ARTIFACTS / "study-mrt-item.png", ROOT / "docs" / "screenshot-mrt.png")
+    screenshot(page, "study-mrt-item.png", docs_name="screenshot-mrt.png", full_page=True)
 
     page.locator('input[name="chosen"][value="0"]').check()
     page.locator('input[name="chosen"][value="1"]').check()
     page.get_by_role("button", name="Check").click()
     expect(page.locator(".feedback")).to_contain_text(re.compile("^(Correct|Not quite)"))
-    page.screenshot(path=str(ARTIFACTS / "study-mrt-feedback.png"), full_page=True)
+    screenshot(page, "study-mrt-feedback.png", full_page=True)
     page.close()
 
     with database.session_scope() as session:

@@ -7,7 +7,7 @@ from collections import Counter
 import pytest
 from sqlalchemy import select
 
-from hcss.platform.models import ConsentRecord, Participant, StudyEnrolment, utcnow
+from hcss.platform.models import ConsentRecord, Participant, StudyEnrolment
 from hcss.platform.study import StudyFileError, assign_cell, load_study
 from hcss.platform.study.enrolment import cell_counts
 from hcss.platform.study.studyfile import parse_study
@@ -61,7 +61,7 @@ def test_declined_participants_free_their_cell(study_app) -> None:  # noqa: F811
                 participant_id=first[0].participant_id,
                 version="v1",
                 decision="decline",
-                at=utcnow(),
+                at=database.now(),
             )
         )
         session.flush()

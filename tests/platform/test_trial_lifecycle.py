@@ -80,7 +80,8 @@ def test_stream_sends_state_at_least_twice_a_second_and_resumes_messages(make_tr
     # a tight one races.
     assert time.monotonic() - started < 10.0
     assert first["view"]["collectives"] and first["trial"]["status"] == "running"
-    assert all("true_value" not in t for t in first["view"]["targets"])
+    targets = first["view"]["targets"]
+    assert targets and all("true_value" not in t for t in targets)
     assert first["messages"] and first["id"] == first["messages"][-1]["seq"]
     assert second["messages"] == []  # each message is sent once
     seen = first["id"]

@@ -17,6 +17,7 @@ from sqlalchemy.orm import Session
 
 from hcss.platform.console.presence import CONNECTED_WITHIN_S, presence_by_participant
 from hcss.platform.console.sessions import available_actions
+from hcss.platform.db import session_now
 from hcss.platform.live.clock import paused_intervals, trial_time_s
 from hcss.platform.models import (
     Participant,
@@ -25,7 +26,6 @@ from hcss.platform.models import (
     StudyEnrolment,
     Trial,
     TrialStatusChange,
-    utcnow,
 )
 from hcss.platform.models.vocabularies import TrialStatus
 from hcss.platform.pilots import pilot_flags
@@ -124,7 +124,7 @@ def _place(session: Session, participant: Participant, enrolment: StudyEnrolment
     if enrolment is None:
         study = participant.study or default_study_name()
         return _Place(Position(None, status="not_enrolled"), study, None, None, None, None)
-    flow = Flow(session, participant, enrolment, utcnow())
+    flow = Flow(session, participant, enrolment, session_now(session))
     position = flow.locate()
     count = len(flow.slots)
     number = count if position.slot is None else position.slot.index + 1

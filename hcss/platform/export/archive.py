@@ -9,12 +9,12 @@ from pathlib import Path
 
 from hcss.platform.db import Database
 from hcss.platform.export.writer import write_export
-from hcss.platform.models import AuditRecord, utcnow
+from hcss.platform.models import AuditRecord
 
 
 def export_archive(database: Database, experimenter: str) -> tuple[io.BytesIO, str]:
     """(zip bytes, file name); the zip holds the same files `hcss export` writes."""
-    stamp = utcnow().strftime("%Y%m%dT%H%M%SZ")
+    stamp = database.now().strftime("%Y%m%dT%H%M%SZ")
     name = f"hcss-export-{stamp}"
     buffer = io.BytesIO()
     with tempfile.TemporaryDirectory() as scratch:

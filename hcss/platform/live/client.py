@@ -3,6 +3,9 @@
 Used by the restart test and the benchmark (and usable by participant bots):
 it keeps the session cookie, reads the CSRF token from the page like the
 page's script does, posts JSON commands and reads the SSE stream.
+
+Part of the public testing API (docs/architecture.md): `make bench` and the
+tests use it, so keep its interface stable.
 """
 
 from __future__ import annotations

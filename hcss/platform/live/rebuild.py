@@ -185,10 +185,21 @@ def _restore_bookkeeping(session: Session, live: LiveTrial) -> None:
     _restore_probes(session, live)
 
 
+#: Where a message falls among those of the same step (`_restore_messages`).
+_STEP_EVENTS, _COMMANDS = 0, 1
+
+
 def _restore_messages(session: Session, live: LiveTrial) -> None:
+    """The System Messages in the order the live page had them.
+
+    Live, the runner records a step's events as soon as it reaches the step,
+    under the trial's lock; a command lands between two steps, so at the time
+    of a step its events come first, then the commands applied there, each
+    kind in the order of its rows. Ids of two tables are never compared.
+    """
     n = live.sim.scenario.n_collectives
     events = [
-        (e.sim_time, e.id, e.kind, e.text)
+        (e.sim_time, _STEP_EVENTS, e.id, e.kind, e.text)
         for e in session.scalars(select(SimEvent).where(SimEvent.trial_id == live.trial_id))
     ]
     outcomes = session.execute(
@@ -201,6 +212,7 @@ def _restore_messages(session: Session, live: LiveTrial) -> None:
             events.append(
                 (
                     command.sim_time,
+                    _COMMANDS,
                     command.id,
                     "accepted",
                     accepted_text(command, outcome.request_id, n),
@@ -208,6 +220,7 @@ def _restore_messages(session: Session, live: LiveTrial) -> None:
                 if outcome.accepted
                 else (
                     command.sim_time,
+                    _COMMANDS,
                     command.id,
                     "refusal",
                     refusal_text(command, outcome.reason, n),
@@ -222,7 +235,7 @@ def _restore_messages(session: Session, live: LiveTrial) -> None:
                     problem=f"not shown in System Messages: {error}"[:300],
                 )
             )
-    for time, _id, kind, text in sorted(events):
+    for time, _rank, _id, kind, text in sorted(events):
         live.add_message(time, kind, text)
 
 

@@ -44,17 +44,24 @@ class Runner:
         database: Database,
         *,
         snapshot_interval_s: float = 5.0,
-        clock: Callable[[], float] = wallclock.time,
     ) -> None:
         self.database = database
         self.snapshot_interval_s = snapshot_interval_s
-        self.clock = clock
         self._trials: dict[int, LiveTrial] = {}
         self._registry_lock = threading.RLock()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._last_sync = -float("inf")
         self._told_unmigrated = False
+
+    @property
+    def clock(self) -> Callable[[], float]:
+        """The database's clock (epoch seconds): trials step by the clock that stamps their rows."""
+        return self.database.clock
+
+    @clock.setter
+    def clock(self, clock: Callable[[], float]) -> None:
+        self.database.clock = clock
 
     # --- finding trials -------------------------------------------------------
 

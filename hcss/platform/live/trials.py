@@ -13,8 +13,9 @@ from datetime import datetime, timedelta
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
+from hcss.platform.db import session_now
 from hcss.platform.live.probes import stored_counts
-from hcss.platform.models import Participant, Trial, TrialStatusChange, utcnow
+from hcss.platform.models import Participant, Trial, TrialStatusChange
 from hcss.platform.models.vocabularies import TrialKind, TrialStatus
 from hcss.simulation.params import MODELS
 
@@ -42,8 +43,9 @@ def start_trial(
     demo's chosen length): the caller reads it from the study file.
 
     The deadline is absolute, so the trial ends on time even if no page is
-    open or the server was down in between. `started_at` (default: now) lets
-    the study flow start it on the runner's clock, which tests and bots move.
+    open or the server was down in between. `started_at` defaults to now by
+    the database's clock (the runner's; tests and bots move it); the study flow
+    passes the instant its trial stage was entered.
     """
     from hcss.simulation import Params, Scenario
 
@@ -63,7 +65,7 @@ def start_trial(
     duration = float(duration_s)
     if duration <= 0:
         raise ValueError("duration_s must be positive")
-    started_at = started_at or utcnow()
+    started_at = started_at or session_now(session)
     trial = Trial(
         participant_id=participant.id,
         kind=kind,

@@ -1,7 +1,7 @@
 """Every table of the platform; importing this package registers them all on `Base`."""
 
 from hcss.platform.models.append_only import APPEND_ONLY_TABLES, DeletionPermit
-from hcss.platform.models.base import Base, CreatedAt, UTCDateTime, utcnow
+from hcss.platform.models.base import Base, CreatedAt, UTCDateTime
 from hcss.platform.models.console import AuditRecord, ConsoleAction, Experimenter
 from hcss.platform.models.idempotency import CommandKey
 from hcss.platform.models.observation import Observation
@@ -65,5 +65,4 @@ __all__ = [
     "UTCDateTime",
     "new_code",
     "new_token",
-    "utcnow",
 ]

@@ -23,10 +23,6 @@ NAMING_CONVENTION = {
 }
 
 
-def utcnow() -> datetime:
-    return datetime.now(UTC)
-
-
 class UTCDateTime(TypeDecorator[datetime]):
     """A timestamp stored as naive UTC and read back as aware UTC."""
 
@@ -38,7 +34,7 @@ class UTCDateTime(TypeDecorator[datetime]):
             return None
         if value.tzinfo is None:
             raise ValueError(
-                "naive datetime given to a UTC column; use hcss.platform.models.utcnow()"
+                "naive datetime given to a UTC column; use an aware one (Database.now())"
             )
         return value.astimezone(UTC).replace(tzinfo=None)
 
@@ -52,6 +48,11 @@ class Base(DeclarativeBase):
 
 
 class CreatedAt:
-    """Mixin: the server's UTC time when the row was written (rows are never updated)."""
+    """Mixin: when the row was written (rows are never updated), by the database's clock.
 
-    created_at: Mapped[datetime] = mapped_column(default=utcnow)
+    `hcss.platform.db.Database` stamps it at the flush from its one clock, the
+    clock the live runner and the study flow use too; there is no default
+    here, so a row written past that clock fails instead of taking another time.
+    """
+
+    created_at: Mapped[datetime] = mapped_column()

@@ -12,13 +12,13 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from datetime import UTC, datetime, timedelta
+from datetime import datetime, timedelta
 from typing import Any
 
-from flask import current_app
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
+from hcss.platform.db import database, session_now
 from hcss.platform.models import (
     ConsentRecord,
     Participant,
@@ -33,13 +33,12 @@ from hcss.questionnaires.definitions import ScoreRow, ordinal_labels
 
 
 def study_now() -> datetime:
-    """The study clock: the live runner's clock, so trials and deadlines share one time.
+    """The study clock: the database's, which the live runner and every row stamp use too.
 
-    In a server that is the wall clock; tests and bots give the runner a
-    clock they move themselves, which accelerates stage deadlines and trials
-    alike.
+    In a server that is the wall clock; tests and bots give the app a clock
+    they move themselves, which accelerates stage deadlines and trials alike.
     """
-    return datetime.fromtimestamp(current_app.extensions["hcss_runner"].clock(), UTC)
+    return database().now()
 
 
 @dataclass(frozen=True)
@@ -229,10 +228,9 @@ def current_position(session: Session, participant: Participant) -> Position:
     next request records those. A participant not yet enrolled is before the
     first stage.
     """
-    from hcss.platform.models import utcnow
     from hcss.platform.study.enrolment import current_enrolment
 
     enrolment = current_enrolment(session, participant.id)
     if enrolment is None:
         return Position(None, status="not_enrolled")
-    return Flow(session, participant, enrolment, utcnow()).locate()
+    return Flow(session, participant, enrolment, session_now(session)).locate()
