@@ -199,6 +199,12 @@ class ParticipantBot:
             if page.stage == "debrief" and position == len(plan) - 1:
                 report.pages += 1
                 return report
+            if page.stage == "mental_rotation" and page.step.startswith("time_up_"):
+                # Shown only when a part's time ran out (over HTTP, under load or
+                # across a restart), so it is not in the plan: press its Continue.
+                html = self.post_form(page, {})
+                report.pages += 1
+                continue
             if position >= len(plan) or (page.stage, page.step) != plan[position]:
                 wanted = plan[position] if position < len(plan) else "the end"
                 raise BotError(f"expected {wanted}, reached {page.stage}/{page.step}")
