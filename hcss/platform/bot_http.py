@@ -23,6 +23,7 @@ import time
 import urllib.error
 import urllib.parse
 import urllib.request
+import uuid
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
@@ -31,6 +32,7 @@ from typing import Any
 
 from hcss.platform.bots import BotReport, ParticipantBot
 from hcss.platform.db import Database
+from hcss.platform.live.idempotency import KEY_HEADER
 from hcss.platform.models import Participant
 from hcss.platform.study.studyfile import load_study
 
@@ -73,8 +75,8 @@ def percentile(values: list[float], q: float) -> float:
     return ordered[min(len(ordered) - 1, max(0, round(q / 100 * (len(ordered) - 1))))]
 
 
-#: While a server restarts: up to 60 s of retries, 0.25 s apart.
-RECONNECT_TRIES = 240
+#: While a server restarts: retries 0.25 s apart, for up to 60 s from the first try.
+RECONNECT_FOR_S = 60.0
 RECONNECT_WAIT_S = 0.25
 
 
@@ -104,7 +106,7 @@ class HttpClient:
         )
 
     def get(self, url: str, follow_redirects: bool = True, **_: Any) -> _Response:
-        return self._send(urllib.request.Request(self.base_url + url, method="GET"))
+        return self._send(urllib.request.Request(self.base_url + url, method="GET"))[0]
 
     def post(
         self,
@@ -118,17 +120,34 @@ class HttpClient:
         if json is not None:
             body = _json_bytes(json)
             headers["Content-Type"] = "application/json"
+            # As the Collective Interface does: the server carries a key out once,
+            # so this command can be sent again when its answer is lost.
+            headers.setdefault(KEY_HEADER, uuid.uuid4().hex)
         else:
             body = urllib.parse.urlencode(data or {}, doseq=True).encode()
             headers["Content-Type"] = "application/x-www-form-urlencoded"
         request = urllib.request.Request(
             self.base_url + url, data=body, headers=headers, method="POST"
         )
-        return self._send(request)
+        response, repeated = self._send(request)
+        if repeated and response.status_code == 409 and KEY_HEADER not in headers:
+            # The lost form had been taken ("already submitted"): its address leads on
+            # to the current page, as a participant reloading it would find.
+            return self.get(url)
+        return response
 
-    def _send(self, request: urllib.request.Request) -> _Response:
+    def _send(self, request: urllib.request.Request) -> tuple[_Response, bool]:
+        """The answer, and whether the request had to be sent more than once.
+
+        A browser retries while the server restarts, and so does this client.
+        A GET is safe to repeat. So is a POST: a command carries its
+        Idempotency-Key (the server answers a repeat with the first outcome),
+        and a stage form is taken once (a repeat is refused with 409).
+        """
         started = time.perf_counter()
-        for attempt in range(RECONNECT_TRIES):
+        tries = 0
+        while True:
+            tries += 1
             try:
                 with self.opener.open(request, timeout=60) as answer:
                     status, body, final = answer.status, answer.read(), answer.geturl()
@@ -136,16 +155,19 @@ class HttpClient:
             except urllib.error.HTTPError as error:
                 status, body, final = error.code, error.read(), error.geturl()
                 break
-            except (urllib.error.URLError, ConnectionError, http.client.HTTPException) as error:
-                # A browser retries while the server restarts. A GET is safe to repeat; a
-                # POST only when it never reached the server (connection refused).
-                refused = isinstance(getattr(error, "reason", error), ConnectionRefusedError)
-                if attempt == RECONNECT_TRIES - 1 or (request.method == "POST" and not refused):
+            except (
+                urllib.error.URLError,
+                ConnectionError,
+                http.client.HTTPException,
+                TimeoutError,
+            ):
+                if time.perf_counter() - started >= RECONNECT_FOR_S:
                     raise
                 time.sleep(RECONNECT_WAIT_S)
         self.figures.record(request.full_url, status, time.perf_counter() - started)
         path = urllib.parse.urlsplit(final).path
-        return _Response(status_code=status, body=body, request=SimpleNamespace(path=path))
+        response = _Response(status_code=status, body=body, request=SimpleNamespace(path=path))
+        return response, tries > 1
 
 
 def _json_bytes(value: Any) -> bytes:

@@ -204,6 +204,19 @@ class ParticipantBot:
             if page.stage == "debrief" and position == len(plan) - 1:
                 report.pages += 1
                 return report
+            if page.stage == "mental_rotation" and page.step.startswith("time_up_"):
+                # Shown only when a part's time ran out (over HTTP, under load or
+                # across a restart), so it is not in the plan: press its Continue. A
+                # part that ran out while the server was down was never seen at all.
+                part = ("mental_rotation", page.step.replace("time_up_", "part_"))
+                if position < len(plan) and plan[position] == part:
+                    position += 1
+                html = self.post_form(page, {})
+                report.pages += 1
+                continue
+            if self._ran_out_unseen(plan, position, page):
+                position += 1
+                continue
             if position >= len(plan) or (page.stage, page.step) != plan[position]:
                 wanted = plan[position] if position < len(plan) else "the end"
                 raise BotError(f"expected {wanted}, reached {page.stage}/{page.step}")
@@ -211,6 +224,21 @@ class ParticipantBot:
             if finished:
                 position += 1
                 report.pages += 1
+
+    def _ran_out_unseen(self, plan: list[tuple[str, str]], position: int, page: PageParser) -> bool:
+        """Over HTTP: the trial of `plan[position]` ended before its page reached the bot.
+
+        When the answer to Ready is lost in a server restart, the trial runs out
+        while the bot waits for the server to come back (training lasts seconds
+        at the load tool's accelerations); the next page is then the stage
+        after it, as a participant reloading would find.
+        """
+        return (
+            self.runner is None
+            and position + 1 < len(plan)
+            and plan[position][1] == "run"
+            and (page.stage, page.step) == plan[position + 1]
+        )
 
     def act(self, page: PageParser, report: BotReport) -> tuple[str, bool]:
         """Answer the page; True when that ends the step (MRT parts take many answers)."""

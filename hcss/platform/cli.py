@@ -11,6 +11,8 @@ from hcss.simulation.params import MODELS
 
 MIGRATIONS = PROJECT_ROOT / "migrations"
 DEFAULT_PORT = 5000
+#: Waitress threads `hcss serve` starts with: 200 concurrent trials' streams and a reserve for pages.
+DEFAULT_THREADS = 256
 
 
 def alembic_config(database_url: str | None = None):  # type: ignore[no-untyped-def]
@@ -64,7 +66,7 @@ def _redacted(url: str) -> str:
 )
 @click.option(
     "--threads",
-    default=256,
+    default=DEFAULT_THREADS,
     show_default=True,
     type=int,
     help="Waitress worker threads; each open trial page holds one for its stream, "

@@ -34,7 +34,11 @@ def make_engine(url: str) -> Engine:
             url,
             connect_args={"check_same_thread": False, "timeout": 30},
             pool_size=20,
-            max_overflow=40,
+            # No ceiling: a request may hold two connections (its own session and
+            # a unit of work), and with a bounded pool 60 such requests waited for
+            # each other's second connection until the pool timed out (30 s).
+            # Waitress' threads bound the count; an SQLite connection is a file handle.
+            max_overflow=-1,
         )
 
         @event.listens_for(engine, "connect")

@@ -8,6 +8,8 @@ page and API call is a real HTTP request, and the server enrols them itself.
 
 from __future__ import annotations
 
+import time
+
 import pytest
 from click.testing import CliRunner
 from sqlalchemy import func, select
@@ -60,3 +62,36 @@ def test_two_bots_walk_the_demo_study_over_http_at_once(tmp_path) -> None:
             assert len(ended) == 12 and set(ended) == {"time_limit"}  # 2 bots x 3 x 2
     finally:
         database.engine.dispose()
+
+
+@pytest.mark.slow
+def test_a_bot_whose_mental_rotation_part_times_out_goes_on(tmp_path, monkeypatch) -> None:
+    """Under load (or across a restart) the test's part can run out of time over HTTP.
+
+    The server then shows "time is up" (mental_rotation/time_up_1), a page a
+    participant reaches only that way; the bot stopped there ("expected
+    introduction/page_1"), in every kill -9 round. It now presses Continue.
+    """
+    from hcss.platform.bot_http import run_http_bots
+    from hcss.platform.bots import ParticipantBot
+    from hcss.questionnaires import mrt
+
+    acceleration = 30.0
+    real_choice = ParticipantBot.mrt_choice
+    slept: list[float] = []
+
+    practice = {item.key for item in mrt.practice_items()}
+
+    def slow_choice(self, key):  # type: ignore[no-untyped-def]
+        if not slept and key not in practice:  # the part's first answer, after its 60 s
+            slept.append(60.0 / acceleration + 0.5)
+            time.sleep(slept[0])
+        return real_choice(self, key)
+
+    monkeypatch.setattr(ParticipantBot, "mrt_choice", slow_choice)
+    url = f"sqlite:///{tmp_path / 'slow.sqlite3'}"
+    upgrade_database(url)
+    env = {"HCSS_STUDY": "demo", "HCSS_TIME_ACCELERATION": str(acceleration)}
+    with LocalServer(url, tmp_path / "instance", threads=32, extra_env=env) as server:
+        figures = run_http_bots(server.url, url, "demo", 1, concurrency=1)
+    assert slept and figures.errors == [] and len(figures.reports) == 1

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from sqlalchemy import select
 
+from hcss.platform.app import create_app
 from hcss.platform.bots import ManualClock
 from hcss.platform.console.lockout import ACCOUNT_FAILURES, ADDRESS_FAILURES, LOCKOUT_S
 from hcss.platform.models import AuditRecord
@@ -37,7 +38,7 @@ def test_repeated_wrong_passwords_lock_the_account_and_the_lockout_is_audited(
     from hcss.platform.console.lockout import LoginThrottle
 
     clock = ManualClock(1000.0)
-    app.extensions["hcss_login_throttle"] = LoginThrottle(clock)
+    app.extensions["hcss_login_throttle"] = LoginThrottle(app.extensions["hcss_db"], clock)
     statuses = [_attempt(app, USERNAME, "wrong").status_code for _ in range(ACCOUNT_FAILURES)]
     assert statuses == [401] * ACCOUNT_FAILURES
 
@@ -63,6 +64,47 @@ def test_one_address_guessing_many_accounts_is_locked_out(app, experimenter) -> 
     assert _attempt(app, USERNAME, PASSWORD, address="10.6.6.6").status_code == 429
     assert _attempt(app, USERNAME, PASSWORD, address="10.7.7.7").status_code == 302
     assert [a.row_counts["scope"] for a in _audits(app)] == ["address"]
+
+
+def _restarted(app):  # type: ignore[no-untyped-def]
+    """A new server process on the same database: nothing carried over in memory."""
+    return create_app(
+        {
+            "DATABASE_URL": app.config["DATABASE_URL"],
+            "SECRET_KEY": "test-secret",
+            "TESTING": True,
+            "LIVE_RUNNER": False,
+        }
+    )
+
+
+def test_a_restart_keeps_the_failure_counts_and_the_lockout(app, experimenter) -> None:
+    """Before: the counts lived in the process, so a restart gave a guesser 5 more tries."""
+    before = ACCOUNT_FAILURES - 2
+    assert [_attempt(app, USERNAME, "wrong").status_code for _ in range(before)] == [401] * before
+
+    restarted = _restarted(app)
+    statuses = [_attempt(restarted, USERNAME, "wrong").status_code for _ in range(2)]
+    assert statuses == [401, 401]  # the fifth failure, counted across the restart, locks
+    assert _attempt(restarted, USERNAME, PASSWORD, address="10.9.9.9").status_code == 429
+
+    again = _restarted(app)
+    locked = _attempt(again, USERNAME, PASSWORD, address="10.9.9.9")
+    assert locked.status_code == 429 and 0 < int(locked.headers["Retry-After"]) <= LOCKOUT_S
+    assert [a.row_counts["scope"] for a in _audits(app)] == ["account"]
+    for other in (restarted, again):
+        other.extensions["hcss_db"].engine.dispose()
+
+
+def test_a_correct_password_clears_the_account_count_in_the_database(app, experimenter) -> None:
+    for _ in range(ACCOUNT_FAILURES - 1):
+        assert _attempt(app, USERNAME, "wrong").status_code == 401
+    assert _attempt(app, USERNAME, PASSWORD).status_code == 302
+    restarted = _restarted(app)
+    statuses = [_attempt(restarted, USERNAME, "wrong").status_code for _ in range(2)]
+    assert statuses == [401, 401]  # counting starts again: no lockout yet
+    assert _attempt(restarted, USERNAME, PASSWORD).status_code == 302
+    restarted.extensions["hcss_db"].engine.dispose()
 
 
 def test_sign_out_ends_the_session_on_the_server(app, console) -> None:

@@ -79,7 +79,7 @@ def _throttle() -> LoginThrottle | None:
     """The app's sign-in throttle; None when LOGIN_RATE_LIMIT is off (the fuzz test)."""
     if not current_app.config.get("LOGIN_RATE_LIMIT", True):
         return None
-    return current_app.extensions.setdefault("hcss_login_throttle", LoginThrottle())
+    return current_app.extensions.setdefault("hcss_login_throttle", LoginThrottle(database()))
 
 
 def _runner():  # type: ignore[no-untyped-def]

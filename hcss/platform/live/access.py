@@ -20,11 +20,19 @@ def participant_for(token: str) -> Participant:
 
 
 def trial_for(token: str, trial_id: int) -> Trial:
-    """The trial, only if it belongs to the token's participant (else 404, revealing nothing)."""
+    """The trial, only if it belongs to the token's participant (else 404, revealing nothing).
+
+    The check only reads, and its connection goes back to the pool here: the
+    caller then waits for the runner's or the trial's lock, whose holder may
+    need a connection itself. Holding one while waiting deadlocked 200 streams
+    opened at once (each held a connection, the loader of their trials waited
+    for one) until the pool timed out.
+    """
     participant = participant_for(token)
     trial = get_session().get(Trial, trial_id)
     if trial is None or trial.participant_id != participant.id:
         abort(404)
+    get_session().commit()  # hand the connection back before waiting on any trial lock
     return trial
 
 

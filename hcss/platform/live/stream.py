@@ -36,14 +36,19 @@ def event_stream(
     stop_at = wallclock.monotonic() + max_s
     sent_version = -1
     last_sent = 0.0
+    due = wallclock.monotonic()  # when the next frame is due even if nothing changed
     while True:
         with live.changed:
             if live.version == sent_version and not live.ended:
-                live.changed.wait(timeout=interval_s)
+                live.changed.wait(timeout=max(0.0, due - wallclock.monotonic()))
             if superseded():
                 break
             text, after_seq = live.frame(clock(), after_seq)
             sent_version, ended = live.version, live.ended
+        # Due one interval after the last frame was: a send that takes time (200
+        # streams under load) must not stretch the period beyond the interval.
+        made = wallclock.monotonic()
+        due = due + interval_s if made - interval_s < due <= made else made + interval_s
         yield f"id: {after_seq}\ndata: {text}\n\n"
         if ended or wallclock.monotonic() >= stop_at:
             return

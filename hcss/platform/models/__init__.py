@@ -2,7 +2,7 @@
 
 from hcss.platform.models.append_only import APPEND_ONLY_TABLES, DeletionPermit
 from hcss.platform.models.base import Base, CreatedAt, UTCDateTime
-from hcss.platform.models.console import AuditRecord, ConsoleAction, Experimenter
+from hcss.platform.models.console import AuditRecord, ConsoleAction, Experimenter, LoginFailure
 from hcss.platform.models.idempotency import CommandKey
 from hcss.platform.models.observation import Observation
 from hcss.platform.models.outcome import DecisionRow, SimEvent
@@ -46,6 +46,7 @@ __all__ = [
     "CreatedAt",
     "DecisionRow",
     "Interruption",
+    "LoginFailure",
     "Observation",
     "Participant",
     "ParticipantPresence",

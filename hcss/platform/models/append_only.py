@@ -8,7 +8,9 @@ transaction holds a `DeletionPermit` row, which only the console's audited
 withdrawal writes (and removes before it commits). Other transactions never
 see an uncommitted permit, on SQLite (one writer at a time) or PostgreSQL.
 
-`experimenter` is not append-only (accounts change), nor is `deletion_permit`.
+`experimenter` is not append-only (accounts change), nor are `deletion_permit`
+and `login_failure` (sign-in counters, cleared by a correct password and pruned;
+each lockout is also an `audit_record` row).
 The triggers are created by migration 0004_h13_hardening and by
 `Database.create_all` (tests).
 """

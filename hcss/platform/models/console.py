@@ -13,7 +13,7 @@ from __future__ import annotations
 from typing import Any
 
 from flask_login import UserMixin
-from sqlalchemy import ForeignKey, String
+from sqlalchemy import Double, ForeignKey, Index, String
 from sqlalchemy.orm import Mapped, mapped_column
 
 from hcss.platform.models.base import Base, CreatedAt
@@ -84,3 +84,25 @@ class AuditRecord(CreatedAt, Base):
     experimenter: Mapped[str] = mapped_column(String(64))  # username, or "cli"
     participant_code: Mapped[str | None] = mapped_column(String(32))
     row_counts: Mapped[dict[str, Any]]
+
+
+class LoginFailure(CreatedAt, Base):
+    """A failed console sign-in, counted against one username or one address.
+
+    Each failure writes two rows, ``scope`` "account" (the username) and
+    "address" (the remote address). The failure that reaches the limit carries
+    ``locked_until``: while it lies ahead, that username or address may not
+    sign in (hcss.platform.console.lockout). The rows are in the database, not
+    in a process, so a restart or a second server process keeps the count and
+    the lockout. Not append-only: a correct password deletes its account's
+    rows, and rows past the window and any lockout are pruned.
+    """
+
+    __tablename__ = "login_failure"
+    __table_args__ = (Index("ix_login_failure_scope_key_at", "scope", "key", "at_epoch"),)
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    scope: Mapped[str] = mapped_column(String(8))  # "account" or "address"
+    key: Mapped[str] = mapped_column(String(64))  # the username (lower case) or the address
+    at_epoch: Mapped[float] = mapped_column(Double)  # the throttle's clock, seconds since 1970
+    locked_until: Mapped[float | None] = mapped_column(Double)

@@ -457,12 +457,51 @@
   }
 
   let stream = null;
+  let lastEventId = "";  // the newest System Message shown; a new stream resumes after it
+  function streamUrl() {
+    const url = new URL(root.dataset.streamUrl, window.location.href);
+    if (lastEventId) url.searchParams.set("after", lastEventId);
+    return url.toString();
+  }
   function connect() {
-    stream = new EventSource(root.dataset.streamUrl);
+    stream = new EventSource(streamUrl());
     stream.onopen = () => { $("connection").textContent = "live"; $("connection").className = "connection ok"; };
-    stream.onerror = () => { if (!state.ended) { $("connection").textContent = "reconnecting…"; $("connection").className = "connection"; } };
-    stream.onmessage = (event) => onFrame(JSON.parse(event.data));
+    stream.onerror = () => {
+      if (state.ended) return;
+      $("connection").textContent = "reconnecting…";
+      $("connection").className = "connection";
+      if (stream.readyState === EventSource.CLOSED) retryLater(stream);
+    };
+    stream.onmessage = (event) => {
+      if (event.lastEventId) lastEventId = event.lastEventId;
+      onFrame(JSON.parse(event.data));
+    };
     stream.addEventListener("takeover", takenOver);
+  }
+  // EventSource retries by itself only when the connection drops. An answer
+  // other than 200 (a 503 when the server holds as many streams as it can)
+  // closes it for good, and it cannot read the answer's headers. So ask again
+  // with HEAD, which the server answers like the stream without opening one,
+  // wait as long as its Retry-After says (plus up to half again, so refused
+  // pages do not all come back at once), and open a new stream.
+  const RETRY_DEFAULT_S = 5, RETRY_MAX_S = 60;
+  function retryAfterS(response) {
+    const seconds = Number(response.headers.get("Retry-After"));
+    return Number.isFinite(seconds) && seconds > 0 ? Math.min(seconds, RETRY_MAX_S) : RETRY_DEFAULT_S;
+  }
+  async function retryLater(closed) {
+    let waitS = RETRY_DEFAULT_S;
+    try {
+      const response = await fetch(streamUrl(), { method: "HEAD", cache: "no-store", credentials: "same-origin" });
+      if (response.ok) waitS = 0;
+      else if (response.status === 503 || response.status === 429) waitS = retryAfterS(response);
+      else if (response.status < 500) {  // the link or the trial is gone: a reload says why
+        $("connection").textContent = "disconnected: reload the page";
+        return;
+      }
+    } catch (error) { /* the server is away: try again after the default wait */ }
+    const delayMs = waitS * 1000 * (1 + (waitS ? Math.random() / 2 : 0));
+    setTimeout(() => { if (!state.ended && stream === closed) connect(); }, delayMs);
   }
 
   document.addEventListener("keydown", (e) => {
