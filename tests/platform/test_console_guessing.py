@@ -67,8 +67,11 @@ def test_one_address_guessing_many_accounts_is_locked_out(app, experimenter) -> 
 
 
 def _restarted(app):  # type: ignore[no-untyped-def]
-    """A new server process on the same database: nothing carried over in memory."""
-    return create_app(
+    """A new server process on the same database: nothing carried over in memory.
+
+    Only the clock is shared, as two real processes share the wall clock.
+    """
+    restarted = create_app(
         {
             "DATABASE_URL": app.config["DATABASE_URL"],
             "SECRET_KEY": "test-secret",
@@ -76,6 +79,8 @@ def _restarted(app):  # type: ignore[no-untyped-def]
             "LIVE_RUNNER": False,
         }
     )
+    restarted.extensions["hcss_db"].clock = app.extensions["hcss_db"].clock
+    return restarted
 
 
 def test_a_restart_keeps_the_failure_counts_and_the_lockout(app, experimenter) -> None:
