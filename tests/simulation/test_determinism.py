@@ -50,7 +50,7 @@ def test_replaying_a_timed_request_log_reproduces_an_operated_trial():
     operated = OperatedRun(Simulation(scenario, "M3"), InvestigateThenDecide(), interval_s=15)
     operated.run(until_s=900)
     assert len(operated.log) > 5 and any(
-        kind == "decide" for kind in (c["kind"] for _, c in operated.log)
+        kind == "decide" for kind in (c.kind for _, c in operated.log)
     )
     replayed = replay(scenario, "M3", operated.log, until_step=operated.sim.step_count)
     _assert_same_world(operated.sim, replayed)
