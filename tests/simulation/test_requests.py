@@ -153,6 +153,20 @@ def test_the_outcome_carries_the_context_the_command_was_applied_in():
     assert nobody.support is None and nobody.decision_index is None
 
 
+def test_the_decision_index_is_the_decision_under_way_after_a_discarded_one():
+    """A section that completes discards the decisions still under way; their index is spent.
+
+    So "1 + decisions recorded" (the platform's old count) is not the decision under way.
+    """
+    sim = make_sim("M1", seed=3)
+    while sim.world.section == 0:
+        sim.step()
+    recorded = sum(1 for d in sim.decisions if d.collective == 0)
+    assert sim.open[0].index == recorded + 2  # collective I's first decision was discarded
+    outcome = sim.investigate(0, 1)
+    assert outcome.decision_index == sim.open[0].index == 2  # the index its record will carry
+
+
 def test_a_cancel_names_the_abandon_it_lifts():
     sim, t = _favoured_by(5)
     abandon = sim.abandon(0, t + 1)
