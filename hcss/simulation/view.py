@@ -23,7 +23,7 @@ import numpy as np
 
 from hcss.simulation import decisions as dec
 from hcss.simulation import states as S
-from hcss.simulation.ids import target_id, target_ids
+from hcss.simulation.ids import target_id, target_ids, target_index
 from hcss.simulation.params import ROMAN
 from hcss.simulation.requests import RequestState
 
@@ -31,7 +31,7 @@ if TYPE_CHECKING:
     from hcss.simulation.engine import Simulation
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # arrays: compare fields, or the JSON
 class Display:
     """The interface at one moment. C collectives; V visible targets, in id order.
 
@@ -186,11 +186,11 @@ class Display:
         )
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class Truth:
     """What the operator cannot see, to score answers against (`Simulation.truth()`).
 
-    `values` (T,) every target's true value, by array index (`ids.target_index`);
+    `values` (T,) every target's true value in id order (`value_of(id)`);
     `best_target` (C,) the id of each collective's best available target, 0 for none.
     """
 
@@ -201,12 +201,18 @@ class Truth:
         self.values.setflags(write=False)
         self.best_target.setflags(write=False)
 
+    def value_of(self, target: int) -> float:
+        """The true value of the target with this id."""
+        return float(self.values[target_index(target)])
+
     def best_for(self, collective: int) -> int | None:
+        """The id of the collective's best available target; None when none is left."""
         best = int(self.best_target[collective])
         return best or None
 
 
 def display_of(sim: Simulation) -> Display:
+    """The simulation's display now (`Simulation.display`)."""
     w, p = sim.world, sim.params
     n_c = w.n_collectives
     quadrant_counts = np.zeros((n_c, len(S.QUADRANTS)), dtype=np.int64)
@@ -251,6 +257,7 @@ def display_of(sim: Simulation) -> Display:
 
 
 def truth_of(sim: Simulation) -> Truth:
+    """The simulation's truth now (`Simulation.truth`)."""
     w = sim.world
     best = [dec.best_available(w, c, sim.params) for c in range(w.n_collectives)]
     return Truth(

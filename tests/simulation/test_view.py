@@ -62,6 +62,7 @@ def test_the_view_carries_no_truth_and_the_truth_has_its_own_accessor(running):
     assert not any(set(t) - SHOWN_TARGET_KEYS for t in view["targets"])
     truth = running.truth()
     assert np.array_equal(truth.values, running.world.target_value)
+    assert truth.value_of(1) == running.world.target_value[0]  # ids are 1-based
     assert [truth.best_for(c) for c in range(4)] == [running.best_target(c) for c in range(4)]
 
 
