@@ -52,22 +52,42 @@ def test_the_intervention_flag_follows_the_simulations_parameter(make_trial) -> 
     assert live.sim.open[0].requests["interventions"] == int(outcome.intervention)
 
 
-def test_the_status_history_is_the_simulations_step_for_step(make_trial) -> None:
-    """Each status row carries the step it happened at, as an uninterrupted replay has it."""
-    trial = make_trial(seed=4)
-    operate(trial, 300.0)
+def _stored_and_replayed_statuses(trial):  # type: ignore[no-untyped-def]
+    """The stored status rows and those of an uninterrupted replay of the stored commands."""
     live = trial.live()
     step, digest = live.sim.step_count, live.sim.state_digest()
     stored = [(r.request_id, r.status, r.step) for r in _rows(trial.app, RequestStatusChange)]
     with trial.app.extensions["hcss_db"].session_scope() as session:
         oracle = replay_trial(session, trial.trial_id, step)
-    expected = [(c.request_id, c.status, c.step) for c in oracle.drain_status_changes()]
     assert oracle.state_digest() == digest  # the stored commands replay the live trial
-    assert stored == expected
-    statuses = {status for _, status, _ in stored}
-    assert statuses == {"in_progress", "completed", "removed"}
+    return stored, [(c.request_id, c.status, c.step) for c in oracle.drain_status_changes()]
+
+
+def test_the_status_history_is_the_simulations_step_for_step(make_trial) -> None:
+    """Each status row carries the step it happened at, as an uninterrupted replay has it."""
+    trial = make_trial(seed=4)
+    operate(trial, 300.0)
+    stored, replayed = _stored_and_replayed_statuses(trial)
+    assert stored == replayed
+    assert {status for _, status, _ in stored} == {"in_progress", "completed", "removed"}
     # The runner steps four seconds at a time here; the rows are not stamped at its looks.
     assert any(s % 4 for _, _, s in stored)
+
+
+def test_a_rebuild_writes_each_status_once(make_trial) -> None:
+    """After a restart the replay queues statuses already written; none is written twice."""
+    trial = make_trial(seed=4)
+    operate(trial, 60.0)
+    trial.runner.snapshot_interval_s = 1e9  # the newest snapshot stays at 60 s
+    operate(trial, 150.0, from_s=60.0)
+    written = len(_rows(trial.app, RequestStatusChange))
+    trial.runner.forget(trial.trial_id)  # the next look rebuilds from the snapshot and the log
+    trial.runner.snapshot_interval_s = 5.0
+    operate(trial, 300.0, from_s=150.0)
+    stored, replayed = _stored_and_replayed_statuses(trial)
+    assert written > 2 and len(stored) > written  # some before the restart, some after
+    assert len(set(stored)) == len(stored)
+    assert sorted(stored) == sorted(replayed)
 
 
 def test_a_command_that_cannot_be_written_leaves_the_trial_as_it_was(
