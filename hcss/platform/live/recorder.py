@@ -21,7 +21,7 @@ from hcss.platform.models import (
     Snapshot,
     TrialStatusChange,
 )
-from hcss.platform.models.vocabularies import TrialStatus
+from hcss.platform.models.vocabularies import RequestStatus, TrialStatus
 
 #: Decision-table columns the export fills from the trial and participant, not stored per row.
 EXPORT_IDENTITY = ("source", "participant", "trial_id", "run")
@@ -112,7 +112,7 @@ def record_request_statuses(live: RunningTrial, session: Session) -> None:
             RequestStatusChange(
                 trial_id=live.trial_id,
                 request_id=change.request_id,
-                status=change.status,
+                status=RequestStatus(change.status),
                 step=change.step,
                 sim_time=float(change.time),
             )
