@@ -30,6 +30,7 @@ from hcss.platform.models import Participant
 from hcss.platform.study.enrolment import assign_cell
 from hcss.platform.study.studyfile import Study, load_study
 from hcss.questionnaires import mrt, pages, ranking
+from hcss.simulation import Display
 from hcss.simulation.operators import InvestigateThenDecide
 
 
@@ -321,9 +322,9 @@ class ParticipantBot:
                 report.probes_answered += 1
             if clock >= next_policy:
                 next_policy = clock + self.policy_every_s
-                for command in policy.commands(frame["view"])[:3]:
+                for command in policy.commands(Display.from_json(frame["view"]))[:3]:
                     outcome = self._ok(
-                        self.client.post(f"{api}/requests", json=command, headers=headers)
+                        self.client.post(f"{api}/requests", json=command.to_json(), headers=headers)
                     )
                     report.requests += 1
                     report.accepted += bool(outcome.get("accepted"))

@@ -8,18 +8,24 @@ from hcss.simulation import jit  # noqa: F401 - sets the kernels' cache before t
 from hcss.simulation.decisions import DECISION_COLUMNS, DecisionRecord
 from hcss.simulation.engine import Simulation, SimulationError
 from hcss.simulation.params import MODELS, ROMAN, Params
-from hcss.simulation.requests import RequestOutcome
+from hcss.simulation.requests import OperatorCommand, RequestOutcome, RequestState, StatusChange
 from hcss.simulation.scenario import Scenario, ScenarioError
+from hcss.simulation.view import Display, Truth
 
 __all__ = [
     "DECISION_COLUMNS",
     "MODELS",
     "ROMAN",
     "DecisionRecord",
+    "Display",
+    "OperatorCommand",
     "Params",
     "RequestOutcome",
+    "RequestState",
     "Scenario",
     "ScenarioError",
     "Simulation",
     "SimulationError",
+    "StatusChange",
+    "Truth",
 ]

@@ -23,6 +23,7 @@ from hcss.simulation.params import (
     Params,
 )
 from hcss.simulation.scenario import Scenario
+from hcss.simulation.view import Display
 
 
 @click.group()
@@ -96,7 +97,7 @@ def demo(model: str, seed: int, first_section: str, speed: float, minutes: float
                 sim.step()
             for event in sim.drain_events():
                 bar.write(f"[{_clock(event['time'])}] {event['text']}")
-            bar.set_postfix_str(_status(sim.view()), refresh=False)
+            bar.set_postfix_str(_status(sim.display()), refresh=False)
             bar.update(int(sim.time) - bar.n)
             time.sleep(0.05)
     except KeyboardInterrupt:
@@ -192,15 +193,13 @@ def _clock(seconds: float) -> str:
     return f"{int(seconds) // 60:02d}:{int(seconds) % 60:02d}"
 
 
-def _status(view: dict) -> str:
+def _status(display: Display) -> str:
     parts = []
-    for c in view["collectives"]:
-        f = c["fractions"]
-        move = f"→{c['move']['target']}" if c["move"] else ""
-        parts.append(
-            f"{ROMAN[c['index']]} U{f['U']:.0%} F{f['F']:.0%} C{f['C']:.0%} X{f['X']:.0%}{move}"
-        )
-    return f"section {view['section']} | " + " | ".join(parts)
+    for c in range(display.n_collectives):
+        u, f, com, x = display.state_counts[c] / display.n_agents  # states.QUADRANTS
+        move = f"→{display.move_target[c]}" if display.move_target[c] else ""
+        parts.append(f"{ROMAN[c]} U{u:.0%} F{f:.0%} C{com:.0%} X{x:.0%}{move}")
+    return f"section {display.section} | " + " | ".join(parts)
 
 
 def _reading_options(command: click.Command) -> click.Command:

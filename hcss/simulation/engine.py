@@ -16,6 +16,7 @@ from __future__ import annotations
 import hashlib
 import math
 import pickle
+from dataclasses import asdict
 from types import SimpleNamespace
 
 import numpy as np
@@ -26,10 +27,20 @@ from hcss.simulation import states as S
 from hcss.simulation.constants import constants_for
 from hcss.simulation.ids import target_id, target_index
 from hcss.simulation.params import MODELS, ROMAN, Params
-from hcss.simulation.requests import Request, RequestOutcome, recruit_for, refusal
+from hcss.simulation.requests import (
+    COMPLETED,
+    IN_PROGRESS,
+    REMOVED,
+    OperatorCommand,
+    Request,
+    RequestOutcome,
+    StatusChange,
+    recruit_for,
+    refusal,
+)
 from hcss.simulation.scenario import Scenario
 from hcss.simulation.step import advance_agents, exchange_and_report, quiet_steps
-from hcss.simulation.view import render_view
+from hcss.simulation.view import Display, Truth, display_of, truth_of
 from hcss.simulation.world import World
 
 SNAPSHOT_VERSION = 2  # 2: the compiled engine (World.stream and the M2 geometry arrays)
@@ -66,6 +77,7 @@ class Simulation:
             0  # every command, accepted or refused: a replay's position in its log
         )
         self.events: list[dict] = []
+        self.status_changes: list[StatusChange] = []  # drained by drain_status_changes
         self._start_section(0)
 
     def _prepare(self) -> None:
@@ -167,6 +179,8 @@ class Simulation:
         w, scratch = self.world, self._scratch
         w.step_count += 1
         w.time = w.step_count * self.params.dt_s
+        if self.requests:
+            self._note_completed()
         for t in scratch.visible[:n_visible].tolist():
             self._event("discovery", None, t, f"Target {target_id(t)} discovered.")
         if scratch.counts[S.C]:
@@ -185,53 +199,63 @@ class Simulation:
         self._time_out_decisions()
 
     # -------------------------------------------------------------- requests
-    def apply(self, command: dict) -> RequestOutcome:
+    def apply(self, command: OperatorCommand) -> RequestOutcome:
         """Apply one operator command: investigate, abandon, decide or cancel.
 
         Every command is counted, refused or not, so that a replay from a
         snapshot knows how much of the command log the snapshot contains.
+        Anything but an `OperatorCommand` of a known kind is refused.
         """
         self.commands_applied += 1
-        kind = command.get("kind") if isinstance(command, dict) else None
-        if kind == "cancel":
-            return self._cancel(command.get("request_id"))
-        if kind not in ("investigate", "abandon", "decide"):
-            return RequestOutcome(False, None, f"Unknown request type {kind!r}.")
-        return self._request(kind, command.get("collective"), command.get("target"))
+        if not isinstance(command, OperatorCommand):
+            return RequestOutcome(False, reason="A command must be an OperatorCommand.")
+        if command.kind == "cancel":
+            return self._cancel(command.request_id)
+        if command.kind not in ("investigate", "abandon", "decide"):
+            return RequestOutcome(False, reason=f"Unknown request type {command.kind!r}.")
+        return self._request(command.kind, command.collective, command.target)
 
     def investigate(self, collective: int, target: int) -> RequestOutcome:
-        return self.apply({"kind": "investigate", "collective": collective, "target": target})
+        return self.apply(OperatorCommand("investigate", collective, target))
 
     def abandon(self, collective: int, target: int) -> RequestOutcome:
-        return self.apply({"kind": "abandon", "collective": collective, "target": target})
+        return self.apply(OperatorCommand("abandon", collective, target))
 
     def decide(self, collective: int, target: int) -> RequestOutcome:
-        return self.apply({"kind": "decide", "collective": collective, "target": target})
+        return self.apply(OperatorCommand("decide", collective, target))
 
     def cancel_abandon(self, request_id: int) -> RequestOutcome:
-        return self.apply({"kind": "cancel", "request_id": request_id})
+        return self.apply(OperatorCommand.cancel(request_id))
 
     def _cancel(self, request_id: object) -> RequestOutcome:
         """Lift a standing abandon order; only an abandon can be cancelled."""
         for request in self.requests:
             if request.id == _as_int(request_id) and request.kind == "abandon" and request.active:
+                c, t = request.collective, request.target
+                context = self._context(c, t)
                 request.active = False
-                self.world.abandon_order[request.collective, request.target] = False
-                self.requests.remove(request)
-                self._count_request("cancel", request.collective, False)
-                return RequestOutcome(True, request.id, "")
-        return RequestOutcome(False, None, f"There is no active abandon assignment {request_id}.")
+                self.world.abandon_order[c, t] = False
+                self._remove_request(request)
+                self._count_request("cancel", c, False)
+                return RequestOutcome(True, request.id, "", c, target_id(t), *context)
+        return RequestOutcome(False, reason=f"There is no active abandon assignment {request_id}.")
 
-    def _request(self, kind: str, collective: object, target_id: object) -> RequestOutcome:
-        c, t_id = _as_int(collective), _as_int(target_id)
+    def _request(self, kind: str, collective: object, target: object) -> RequestOutcome:
+        c, t_id = _as_int(collective), _as_int(target)
         if c is None or t_id is None:
-            return RequestOutcome(False, None, "A request needs a collective and a target.")
+            return RequestOutcome(
+                False,
+                reason="A request needs a collective and a target.",
+                collective=c,
+                target=t_id,
+            )
         w, p = self.world, self.params
         t = target_index(t_id)
+        support, decision_index = self._context(c, t)
         reason = refusal(w, p, kind, c, t)
         if reason:
-            return RequestOutcome(False, None, reason)
-        support = float(np.sum((w.collective == c) & w.favouring() & (w.target == t))) / p.n_agents
+            return RequestOutcome(False, None, reason, c, t_id, support, decision_index)
+        assert support is not None  # a request is refused unless the operator sees the target
         needed = {"investigate": p.investigate_agents, "decide": p.decide_agents}.get(kind, 0)
         request = Request(self.next_request_id, kind, c, t, needed, support=support)
         self.next_request_id += 1
@@ -239,9 +263,26 @@ class Simulation:
         if kind == "abandon":
             w.abandon_order[c, t] = True
             rules.enforce_orders(w)
+        self._note_status(request, IN_PROGRESS)
         recruit_for(w, request, self.rng)
-        self._count_request(kind, c, kind == "abandon" and support >= p.intervention_support)
-        return RequestOutcome(True, request.id, "")
+        self._note_completed()
+        intervention = kind == "abandon" and support >= p.intervention_support
+        self._count_request(kind, c, intervention)
+        return RequestOutcome(True, request.id, "", c, t_id, support, decision_index, intervention)
+
+    def _context(self, c: int, t: int) -> tuple[float | None, int | None]:
+        """(support, decision index) of collective `c` and target index `t` before a command.
+
+        Support only for a target the operator can see (as the interface shows it).
+        """
+        w, p = self.world, self.params
+        if not 0 <= c < w.n_collectives:
+            return None, None
+        decision = self.open[c]
+        index = None if decision is None else decision.index
+        if not (0 <= t < w.active.size and w.active[t] and w.report_count[t] >= p.visible_reports):
+            return None, index
+        return float(w.support()[c, t]), index
 
     def _count_request(self, kind: str, collective: int, intervention: bool) -> None:
         decision = self.open[collective]
@@ -249,20 +290,53 @@ class Simulation:
             decision.requests[kind] += 1
             decision.requests["interventions"] += int(intervention)
 
+    def _note_status(self, request: Request, status: str) -> None:
+        """Queue a request's new status for `drain_status_changes`."""
+        request.noted = status
+        self.status_changes.append(
+            StatusChange(request.id, status, self.world.step_count, self.world.time)
+        )
+
+    def _note_completed(self) -> None:
+        """Queue the requests that have just got all the agents they needed."""
+        for request in self.requests:
+            if request.status == COMPLETED and request.noted != COMPLETED:
+                self._note_status(request, COMPLETED)
+
+    def _remove_request(self, request: Request) -> None:
+        """The request leaves the Collective Assignments list."""
+        self.requests.remove(request)
+        self._note_status(request, REMOVED)
+
     # ------------------------------------------------------------ observing
+    def display(self) -> Display:
+        """What the Collective Interface shows (spec §9), as read-only arrays; never the truth."""
+        return display_of(self)
+
     def view(self) -> dict:
-        """What the Collective Interface shows (spec §9), as JSON-able values."""
-        return render_view(self)
+        """The display as JSON-able values, for the browser (`Display.to_json`)."""
+        return self.display().to_json()
+
+    def truth(self) -> Truth:
+        """What the operator cannot see: true target values, each collective's best target.
+
+        The only source of truth for scoring answers (the platform's probes).
+        """
+        return truth_of(self)
 
     def drain_events(self) -> list[dict]:
         """System messages since the last call: discoveries, commitments, moves, arrivals."""
         events, self.events = self.events, []
         return events
 
+    def drain_status_changes(self) -> list[StatusChange]:
+        """Each request's status changes since the last call, oldest first."""
+        changes, self.status_changes = self.status_changes, []
+        return changes
+
     def best_target(self, collective: int) -> int | None:
         """The best available target id for a collective: the truth for level-2 probes."""
-        best = dec.best_available(self.world, collective, self.params)
-        return None if best < 0 else target_id(best)
+        return self.truth().best_for(collective)
 
     def _event(self, kind: str, collective: int | None, index: int | None, text: str) -> None:
         """Queue a system message; `index` is the target's array index, stored as its public id."""
@@ -297,7 +371,8 @@ class Simulation:
         w.silence[:] = 0.0
         w.reported_quadrant[:] = 0
         movement.scatter_in_hub(w, everyone, self._k)
-        self.requests.clear()
+        for request in list(self.requests):
+            self._remove_request(request)
         for c in range(w.n_collectives):
             self._open_decision(c)
 
@@ -404,7 +479,7 @@ class Simulation:
         w.abandon_order[c, :] = False
         for request in [r for r in self.requests if r.collective == c]:
             request.active = False
-            self.requests.remove(request)
+            self._remove_request(request)
 
     def _after_decision(self, c: int) -> None:
         w = self.world
@@ -487,6 +562,7 @@ class Simulation:
         sim.rng = np.random.default_rng()
         sim.rng.bit_generator.state = state.pop("rng")
         state.pop("version")
+        state.setdefault("status_changes", [])  # snapshots from before the status queue
         vars(sim).update(state)
         sim._prepare()
         return sim
@@ -503,7 +579,7 @@ class Simulation:
             repr((w.step_count, w.time, w.section, w.decisions_in_section, w.finished)).encode()
         )
         h.update(repr(self.rng.bit_generator.state).encode())
-        h.update(repr([r.to_view() for r in self.requests]).encode())
+        h.update(repr([asdict(r.state()) for r in self.requests]).encode())
         h.update(repr([d.as_row() for d in self.decisions]).encode())
         return h.hexdigest()
 

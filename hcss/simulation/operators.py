@@ -1,22 +1,30 @@
 """Operator policies: simple scripted operators for tests and batch runs.
 
-A policy looks at what the interface shows (`sim.view()`) every so often and
-issues requests, as a participant would. Each command is logged with the step
-at which it was applied, so a run with an operator can be replayed exactly.
+A policy looks at what the interface shows (`Simulation.display()`, or
+`Display.from_json` of a stream frame for a bot) every so often and issues
+`OperatorCommand`s, as a participant would. Each command is logged with the
+step at which it was applied, so a run with an operator can be replayed exactly.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
 
+import numpy as np
+
 from hcss.simulation.engine import Simulation
 from hcss.simulation.replay import TimedCommand
+from hcss.simulation.requests import IN_PROGRESS, OperatorCommand
+from hcss.simulation.view import Display
 
 
 class OperatorPolicy(Protocol):
-    def commands(self, view: dict) -> list[dict]:
-        """The requests to make now, given what the interface shows."""
+    def commands(
+        self, display: Display, collectives: Sequence[int] | None = None
+    ) -> list[OperatorCommand]:
+        """The requests to make now about `collectives` (all if None), given what is shown."""
         ...
 
 
@@ -24,7 +32,9 @@ class OperatorPolicy(Protocol):
 class Passive:
     """Makes no requests: the simulation-only condition."""
 
-    def commands(self, view: dict) -> list[dict]:
+    def commands(
+        self, display: Display, collectives: Sequence[int] | None = None
+    ) -> list[OperatorCommand]:
         return []
 
 
@@ -33,42 +43,47 @@ class InvestigateThenDecide:
     """Investigate the best-looking visible target in range; decide once support allows.
 
     `decide_support` is the support at which it decides (the simulation
-    refuses below 30%).
+    refuses below 30%). With `abandon_below` it abandons targets whose shown
+    value is that far below the best, when at least `abandon_supporters`
+    agents favour them (the simulation refuses fewer: `Params.abandon_min_supporters`).
     """
 
     decide_support: float = 0.30
-    abandon_below: float | None = (
-        None  # abandon targets whose shown value is this far below the best
-    )
+    abandon_below: float | None = None
+    abandon_supporters: int = 2
 
-    def commands(self, view: dict) -> list[dict]:
-        requests = view["requests"]
-        issued: list[dict] = []
-        for collective in view["collectives"]:
-            c = collective["index"]
-            if collective["executing"]:
+    def commands(
+        self, display: Display, collectives: Sequence[int] | None = None
+    ) -> list[OperatorCommand]:
+        d = display
+        issued: list[OperatorCommand] = []
+        for c in range(d.n_collectives) if collectives is None else collectives:
+            if d.executing[c]:
                 continue
-            in_range = [t for t in view["targets"] if c in t["in_range_of"] and t["drawn"]]
-            if not in_range:
+            in_range = np.flatnonzero(d.in_range[c] & d.drawn)
+            if not in_range.size:
                 continue
-            best = max(in_range, key=lambda t: t["value"])
-            if best["support"][c] >= self.decide_support:
-                issued.append({"kind": "decide", "collective": c, "target": best["id"]})
+            best = int(in_range[np.argmax(d.value[in_range])])
+            best_id = int(d.target_ids[best])
+            if d.support[c, best] >= self.decide_support:
+                issued.append(OperatorCommand("decide", c, best_id))
                 continue
             busy = any(
-                r["collective"] == c and r["kind"] == "investigate" and r["status"] == "in_progress"
-                for r in requests
+                r.collective == c and r.kind == "investigate" and r.status == IN_PROGRESS
+                for r in d.requests
             )
             if not busy:
-                issued.append({"kind": "investigate", "collective": c, "target": best["id"]})
+                issued.append(OperatorCommand("investigate", c, best_id))
             if self.abandon_below is not None:
                 abandoning = {
-                    r["target"] for r in requests if r["collective"] == c and r["kind"] == "abandon"
+                    r.target for r in d.requests if r.collective == c and r.kind == "abandon"
                 }
-                for t in in_range:
-                    weak = t["value"] < best["value"] - self.abandon_below
-                    if weak and t["support"][c] * 200 >= 2 and t["id"] not in abandoning:
-                        issued.append({"kind": "abandon", "collective": c, "target": t["id"]})
+                for v in in_range.tolist():
+                    weak = d.value[v] < d.value[best] - self.abandon_below
+                    supporters = d.support[c, v] * d.n_agents
+                    target = int(d.target_ids[v])
+                    if weak and supporters >= self.abandon_supporters and target not in abandoning:
+                        issued.append(OperatorCommand("abandon", c, target))
         return issued
 
 
@@ -114,8 +129,8 @@ class OperatedRun:
     interval_s: float = 10.0
     pace: HumanPace | None = None
     log: list[TimedCommand] = field(default_factory=list)
-    refusals: list[tuple[int, dict, str]] = field(default_factory=list)
-    _queue: list[tuple[float, dict]] = field(default_factory=list)
+    refusals: list[tuple[int, OperatorCommand, str]] = field(default_factory=list)
+    _queue: list[tuple[float, OperatorCommand]] = field(default_factory=list)
     _focus: int = 0
     _tokens: float = 0.0
 
@@ -138,15 +153,15 @@ class OperatedRun:
         return self.sim
 
     def _glance(self) -> None:
-        view = self.sim.view()
-        if self.pace and self.pace.one_collective_at_a_time and view["collectives"]:
-            n = len(view["collectives"])
-            view = dict(view, collectives=[view["collectives"][self._focus % n]])
+        display = self.sim.display()
+        focus = None
+        if self.pace and self.pace.one_collective_at_a_time and display.n_collectives:
+            focus = [self._focus % display.n_collectives]
             self._focus += 1
         delay = self.pace.reaction_time_s if self.pace else 0.0
-        pending = {_command_key(c) for _, c in self._queue}
-        for command in self.policy.commands(view):
-            if _command_key(command) not in pending:  # a human does not click twice
+        pending = {c.key() for _, c in self._queue}
+        for command in self.policy.commands(display, focus):
+            if command.key() not in pending:  # a human does not click twice
                 self._queue.append((self.sim.time + delay, command))
 
     def _send_due(self) -> None:
@@ -160,10 +175,6 @@ class OperatedRun:
             self.log.append((self.sim.step_count, command))
             if not outcome.accepted:
                 self.refusals.append((self.sim.step_count, command, outcome.reason))
-
-
-def _command_key(command: dict) -> tuple:
-    return (command.get("kind"), command.get("collective"), command.get("target"))
 
 
 def operator_named(name: str) -> tuple[OperatorPolicy, float, HumanPace | None]:

@@ -1,6 +1,7 @@
 """Deterministic replay: a scenario, a run number and a timed command log.
 
-A live trial logs each command with the step count at which it was applied.
+A live trial logs each command (an `OperatorCommand`) with the step count at
+which it was applied.
 Replaying the same log from the same scenario and run reproduces the trial bit
 for bit, which is how a live trial survives a server restart and how a trial
 is replayed for analysis.
@@ -12,10 +13,10 @@ from collections.abc import Callable, Iterable
 
 from hcss.simulation.engine import Simulation
 from hcss.simulation.params import Params
-from hcss.simulation.requests import RequestOutcome
+from hcss.simulation.requests import OperatorCommand, RequestOutcome
 from hcss.simulation.scenario import Scenario
 
-TimedCommand = tuple[int, dict]
+TimedCommand = tuple[int, OperatorCommand]
 
 
 def replay(

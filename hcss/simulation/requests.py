@@ -1,9 +1,15 @@
 """Operator requests (spec §8): investigate, abandon, cancel and decide.
 
-Validation happens before anything changes, so a refusal leaves the
-simulation exactly as it was. Accepted requests act only on agents in the
-collective's hub area; those that need several agents (investigate, decide)
-stay in progress and pick agents up as they arrive in the hub.
+One value crosses the API each way: an `OperatorCommand` in (the platform
+builds it once from the participant's JSON, stores its fields and builds it
+again from the stored row for a replay; the scripted operators build it from
+what they see), a `RequestOutcome` out. Validation happens before anything
+changes, so a refusal leaves the simulation exactly as it was. Accepted
+requests act only on agents in the collective's hub area; those that need
+several agents (investigate, decide) stay in progress and pick agents up as
+they arrive in the hub. Each status a request passes through (in progress,
+completed, removed) is queued as a `StatusChange` for the platform to drain,
+as it drains events.
 """
 
 from __future__ import annotations
@@ -18,18 +24,83 @@ from hcss.simulation.params import ROMAN, Params
 from hcss.simulation.world import World
 
 KINDS = ("investigate", "abandon", "decide", "cancel")
+IN_PROGRESS, COMPLETED, REMOVED = "in_progress", "completed", "removed"
+
+
+@dataclass(frozen=True)
+class OperatorCommand:
+    """One operator command, as `Simulation.apply` takes it.
+
+    `collective` is 0-based, `target` the public (1-based) id, `request_id`
+    the assignment a cancel lifts. The fields are not checked here: the
+    simulation refuses what does not fit the trial, with a reason.
+    """
+
+    kind: str
+    collective: int | None = None
+    target: int | None = None
+    request_id: int | None = None
+
+    @classmethod
+    def cancel(cls, request_id: int) -> OperatorCommand:
+        return cls("cancel", request_id=request_id)
+
+    def to_json(self) -> dict:
+        """The command as the platform's request endpoint takes it (a bot's POST body)."""
+        if self.kind == "cancel":
+            return {"kind": "cancel", "request_id": self.request_id}
+        return {"kind": self.kind, "collective": self.collective, "target": self.target}
+
+    def key(self) -> tuple:
+        """What makes two commands the same click (the request id only for a cancel)."""
+        return (self.kind, self.collective, self.target, self.request_id)
 
 
 @dataclass(frozen=True)
 class RequestOutcome:
-    """What the simulation answers to a request."""
+    """What the simulation answers to a command, and the context it was applied in.
+
+    - `request_id`: the new request's id; for a cancel, the lifted one's.
+    - `collective`, `target` (public id): what the command was about; for a
+      cancel, the lifted abandon's. None when the command names none.
+    - `support`: the fraction of the collective favouring the target just
+      before the command, for a target the operator can see; else None.
+    - `decision_index`: the collective's decision under way (1-based), None
+      when it has none (the trial is over) or the collective does not exist.
+    - `intervention`: an accepted abandon of a target at or above
+      `Params.intervention_support`.
+    """
 
     accepted: bool
     request_id: int | None = None
     reason: str = ""
+    collective: int | None = None
+    target: int | None = None
+    support: float | None = None
+    decision_index: int | None = None
+    intervention: bool = False
 
-    def to_dict(self) -> dict:
-        return {"accepted": self.accepted, "request_id": self.request_id, "reason": self.reason}
+
+@dataclass(frozen=True)
+class RequestState:
+    """A request as the Collective Assignments list shows it."""
+
+    id: int
+    kind: str
+    collective: int
+    target: int  # public id
+    status: str  # IN_PROGRESS or COMPLETED
+    acknowledged: int
+
+
+@dataclass(frozen=True)
+class StatusChange:
+    """A request entered `status` (IN_PROGRESS, COMPLETED or REMOVED) at this step and time."""
+
+    request_id: int
+    status: str
+    step: int
+    time: float
 
 
 @dataclass
@@ -45,21 +116,23 @@ class Request:
     active: bool = True  # False once cancelled or when the collective's decision ends
     support: float = 0.0  # fraction favouring the target when requested
 
+    noted: str = ""  # the newest status queued as a StatusChange
+
     @property
     def status(self) -> str:
         if self.kind == "abandon":
-            return "in_progress" if self.active else "completed"
-        return "completed" if self.needed == 0 else "in_progress"
+            return IN_PROGRESS if self.active else COMPLETED
+        return COMPLETED if self.needed == 0 else IN_PROGRESS
 
-    def to_view(self) -> dict:
-        return {
-            "id": self.id,
-            "kind": self.kind,
-            "collective": self.collective,
-            "target": target_id(self.target),
-            "status": self.status,
-            "acknowledged": self.acknowledged,
-        }
+    def state(self) -> RequestState:
+        return RequestState(
+            self.id,
+            self.kind,
+            self.collective,
+            target_id(self.target),
+            self.status,
+            self.acknowledged,
+        )
 
 
 def executing(world: World, collective: int) -> bool:

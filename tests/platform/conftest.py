@@ -6,7 +6,7 @@ fresh SQLite file, and again on PostgreSQL when HCSS_TEST_DATABASE_URL is set
 test gets its own schema, dropped afterwards, so parallel test sessions and
 other engineers' databases never collide.
 
-Live trials run on a fake clock: `LiveTrialHandle.run_to(seconds)` moves the
+Live trials run on a fake clock: `TrialHandle.run_to(seconds)` moves the
 wall clock and lets the runner step, so a 20-minute trial takes a second.
 """
 
@@ -86,7 +86,7 @@ def csrf_token_of(html: str) -> str:
 
 
 @dataclass
-class LiveTrialHandle:
+class TrialHandle:
     """A participant with a live trial, and a browser-like client for it."""
 
     app: Flask
@@ -132,7 +132,7 @@ class LiveTrialHandle:
 def make_trial(app: Flask):  # type: ignore[no-untyped-def]
     """Start a trial for a new participant: make_trial(seed=2, model="M1", kind="trial")."""
 
-    def make(**options: Any) -> LiveTrialHandle:
+    def make(**options: Any) -> TrialHandle:
         options.setdefault("seed", 2)
         training = options.get("kind") == "training"
         options.setdefault("duration_s", STUDY.training_s if training else STUDY.trial_s)
@@ -142,7 +142,7 @@ def make_trial(app: Flask):  # type: ignore[no-untyped-def]
             session.add(participant)
             session.flush()
             trial = start_trial(session, participant, **options)
-            handle = LiveTrialHandle(
+            handle = TrialHandle(
                 app=app,
                 client=app.test_client(),
                 token=participant.token,

@@ -132,7 +132,7 @@ def cells_containing(session, needle: str, skip: tuple[str, ...] = ()) -> list[s
 CODE_PATTERN = re.compile(r"P[0-9A-F]{8}")
 
 
-def play_trial(trial: Any, until_s: float) -> None:  # LiveTrialHandle
+def play_trial(trial: Any, until_s: float) -> None:  # TrialHandle
     """A scripted operator: requests (accepted and refused), clicks and probe answers.
 
     Runs the trial second by second so probes appear, get answered or time

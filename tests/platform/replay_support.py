@@ -4,11 +4,12 @@ from __future__ import annotations
 
 from typing import Any
 
+from hcss.simulation import Display
 from hcss.simulation.operators import InvestigateThenDecide
 
 
 def operate(trial: Any, until_s: float, *, from_s: float = 0.0, every_s: float = 4.0) -> int:
-    """Drive a `LiveTrialHandle` from `from_s` to `until_s` as a participant would; returns commands sent.
+    """Drive a `TrialHandle` from `from_s` to `until_s` as a participant would; returns commands sent.
 
     Every few trial seconds: answer the probe on screen, send the policy's
     requests and one that the simulation must refuse (an unknown target).
@@ -30,7 +31,7 @@ def operate(trial: Any, until_s: float, *, from_s: float = 0.0, every_s: float =
             trial.post(f"/probes/{probe['id']}/ready", {})
             choices = trial.state()["probe"]["choices"]
             trial.post(f"/probes/{probe['id']}/answer", {"answer": choices[0]})
-        commands = policy.commands(frame["view"])[:3]
+        commands = [c.to_json() for c in policy.commands(Display.from_json(frame["view"]))[:3]]
         if int(second) % 20 == 0:
             commands.append(_undiscovered(frame["view"]))  # in range, refused by the simulation
         for command in commands:

@@ -19,7 +19,7 @@ def replay_trial(session: Session, trial_id: int, until_step: int) -> Simulation
     trial = session.get(Trial, trial_id)
     assert trial is not None
     commands = [
-        (c.step_applied, c.as_sim_command())
+        (c.step_applied, c.operator_command())
         for c in session.scalars(
             select(Command).where(Command.trial_id == trial_id).order_by(Command.id)
         )

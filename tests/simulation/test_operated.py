@@ -49,7 +49,7 @@ def test_attention_to_one_collective_at_a_time() -> None:
     run = _operated(pace, until_s=600.0)
     by_step: dict[int, set[int]] = {}
     for step, command in run.log:
-        by_step.setdefault(step, set()).add(command["collective"])
+        by_step.setdefault(step, set()).add(command.collective)
     assert by_step
     assert all(len(collectives) == 1 for collectives in by_step.values())
     # Round robin: every collective gets the operator's attention.
@@ -62,7 +62,7 @@ def test_without_a_pace_the_policy_acts_on_every_collective_at_once() -> None:
     # glance first does depends on the random stream, so any glance may show it).
     by_step: dict[int, set[int]] = {}
     for step, command in run.log:
-        by_step.setdefault(step, set()).add(command["collective"])
+        by_step.setdefault(step, set()).add(command.collective)
     assert max(len(collectives) for collectives in by_step.values()) > 1
 
 

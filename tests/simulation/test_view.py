@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from hcss.simulation import Scenario, Simulation
+from hcss.simulation import Display, Scenario, Simulation
 
 
 @pytest.fixture(scope="module")
@@ -52,3 +52,42 @@ def test_a_move_under_way_reports_target_and_progress():
     assert 0.0 <= moving["move"]["progress"] <= 1.0 and moving["executing"]
     target = next(t for t in sim.view()["targets"] if t["id"] == moving["move"]["target"])
     assert target["outline_executing"]
+
+
+def test_the_view_carries_no_truth_and_the_truth_has_its_own_accessor(running):
+    """The interface never gets a true value; `truth()` is the one place it is read."""
+    view = running.view()
+    text = json.dumps(view)
+    assert "true_value" not in text and "best" not in text
+    assert not any(set(t) - SHOWN_TARGET_KEYS for t in view["targets"])
+    truth = running.truth()
+    assert np.array_equal(truth.values, running.world.target_value)
+    assert truth.value_of(1) == running.world.target_value[0]  # ids are 1-based
+    assert [truth.best_for(c) for c in range(4)] == [running.best_target(c) for c in range(4)]
+
+
+SHOWN_TARGET_KEYS = {
+    "id",
+    "position",
+    "value",
+    "reports",
+    "drawn",
+    "support",
+    "max_support",
+    "outline_support",
+    "outline_executing",
+    "in_range_of",
+}
+
+
+def test_the_display_is_read_only_arrays_and_the_view_is_its_json(running):
+    display = running.display()
+    assert display.to_json() == running.view()
+    assert Display.from_json(running.view()).to_json() == running.view()
+    assert display.n_agents == 200 and display.support.shape == (4, display.target_ids.size)
+    with pytest.raises(ValueError):
+        display.support[0, 0] = 1.0  # a display is a reading, not a handle on the state
+    for v, target in enumerate(running.view()["targets"]):
+        assert display.target_ids[v] == target["id"]
+        assert display.support[:, v].tolist() == target["support"]
+        assert np.flatnonzero(display.in_range[:, v]).tolist() == target["in_range_of"]

@@ -13,7 +13,7 @@ from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
 from hcss.platform.live.runner import Runner
-from hcss.platform.live.session import LiveTrial
+from hcss.platform.live.session import RunningTrial
 from hcss.platform.live.trials import current_trial, latest_status
 from hcss.platform.models import ConsoleAction, Experimenter, Participant
 from hcss.platform.models.vocabularies import TrialStatus
@@ -51,7 +51,7 @@ def study_status(session: Session, participant: Participant) -> str:
     return current_position(session, participant).status
 
 
-def _live_trial(session: Session, runner: Runner, participant: Participant) -> LiveTrial | None:
+def _live_trial(session: Session, runner: Runner, participant: Participant) -> RunningTrial | None:
     trial = current_trial(session, participant)
     if trial is None or latest_status(session, trial.id) != TrialStatus.RUNNING:
         return None

@@ -1,28 +1,30 @@
 """What the participant does in a trial: requests, clicks and probe answers.
 
 Each action takes the trial's lock, so it lands between two steps. A request
-is logged and committed before it reaches the simulation (the log is what a
-rebuild replays); its outcome follows as a second row.
+(an `OperatorCommand`, checked by `validation.parse_request`) is applied to
+the simulation, and the command, its outcome and the request statuses it
+caused are written in one transaction: everything the rows say (support,
+decision index, intervention) is the simulation's `RequestOutcome`. Should
+that transaction fail, the simulation is put back as it was before the
+command, so the log (what a rebuild replays) and the trial in memory never
+disagree.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 from hcss.platform.db import Database
 from hcss.platform.live.rebuild import accepted_text, refusal_text
-from hcss.platform.live.session import LiveTrial
+from hcss.platform.live.recorder import record_request_statuses
+from hcss.platform.live.session import RunningTrial
 from hcss.platform.models import (
     Command,
     CommandOutcome,
     Observation,
     ProbeEvent,
-    RequestStatusChange,
 )
-from hcss.platform.models.vocabularies import RequestStatus
-
-INTERVENTION_SUPPORT = 0.10
+from hcss.simulation import OperatorCommand, Simulation
 
 
 class ActionError(Exception):
@@ -35,91 +37,56 @@ class ActionError(Exception):
         self.code = code
 
 
-@dataclass(frozen=True)
-class RequestInput:
-    kind: str
-    collective: int | None = None
-    target: int | None = None
-    request_id: int | None = None  # for cancel
-    selections: tuple[int, ...] = ()
-
-
-def submit_request(database: Database, live: LiveTrial, request: RequestInput) -> dict[str, Any]:
+def submit_request(
+    database: Database,
+    live: RunningTrial,
+    command: OperatorCommand,
+    selections: tuple[int, ...] = (),
+) -> dict[str, Any]:
+    """Apply `command` and log it with its outcome; the answer the participant's page gets."""
     with live.lock:
         _require_running(live)
         sim = live.sim
-        view = live.view()
-        collective, target = request.collective, request.target
-        if request.kind == "cancel":
-            cancelled = next((r for r in view["requests"] if r["id"] == request.request_id), None)
-            if cancelled is not None:
-                collective, target = cancelled["collective"], cancelled["target"]
-        support = _support(view, collective, target)
-        command = Command(
-            trial_id=live.trial_id,
-            kind=request.kind,
-            collective=collective,
-            target=target,
-            cancel_request_id=request.request_id if request.kind == "cancel" else None,
-            step_applied=sim.step_count,
-            sim_time=float(sim.time),
-            support=support,
-            decision_index=_decision_index(live, collective),
-            selections=list(request.selections),
-        )
-        with database.session_scope() as session:
-            session.add(command)
-        outcome = sim.apply(command.as_sim_command())
-        live.last_command_id = command.id
-        accepted = bool(outcome.accepted)
-        reason = "" if accepted else str(outcome.reason)
-        intervention = (
-            accepted and request.kind == "abandon" and (support or 0.0) >= INTERVENTION_SUPPORT
-        )
-        with database.session_scope() as session:
-            session.add(
-                CommandOutcome(
-                    command_id=command.id,
-                    accepted=accepted,
-                    request_id=outcome.request_id if accepted else None,
-                    reason=reason,
-                    intervention=intervention,
+        step, sim_time = sim.step_count, float(sim.time)
+        before, statuses_written = sim.snapshot(), set(live.request_statuses_written)
+        outcome = sim.apply(command)
+        try:
+            with database.session_scope() as session:
+                row = Command.applied(
+                    live.trial_id,
+                    command,
+                    outcome,
+                    step=step,
+                    sim_time=sim_time,
+                    selections=selections,
                 )
-            )
-            if accepted and request.kind != "cancel":
-                session.add(
-                    RequestStatusChange(
-                        trial_id=live.trial_id,
-                        request_id=int(outcome.request_id),
-                        status=RequestStatus.IN_PROGRESS,
-                        step=sim.step_count,
-                        sim_time=float(sim.time),
-                    )
-                )
-                live.request_status[int(outcome.request_id)] = RequestStatus.IN_PROGRESS
-        if accepted:
-            live.add_message(
-                sim.time,
-                "accepted",
-                accepted_text(command, outcome.request_id, sim.scenario.n_collectives),
-            )
+                session.add(row)
+                session.flush()
+                session.add(CommandOutcome.of(row.id, outcome))
+                record_request_statuses(live, session)
+        except BaseException:
+            live.sim = Simulation.restore(before)
+            live.request_statuses_written = statuses_written
+            raise
+        live.last_command_id = row.id
+        n = sim.scenario.n_collectives
+        if outcome.accepted:
+            live.add_message(sim_time, "accepted", accepted_text(row, outcome.request_id, n))
         else:
-            live.add_message(
-                sim.time, "refusal", refusal_text(command, reason, sim.scenario.n_collectives)
-            )
+            live.add_message(sim_time, "refusal", refusal_text(row, outcome.reason, n))
         live.touch()
         return {
-            "command_id": command.id,
-            "accepted": accepted,
-            "request_id": outcome.request_id if accepted else None,
-            "reason": reason,
-            "step": command.step_applied,
+            "command_id": row.id,
+            "accepted": outcome.accepted,
+            "request_id": outcome.request_id if outcome.accepted else None,
+            "reason": outcome.reason,
+            "step": step,
         }
 
 
 def record_observation(
     database: Database,
-    live: LiveTrial,
+    live: RunningTrial,
     *,
     kind: str,
     collective: int | None,
@@ -128,11 +95,11 @@ def record_observation(
 ) -> int:
     with live.lock:
         _require_running(live)
-        view = live.view()
+        display = live.display()
         if kind == "collective":
-            if collective is None or not 0 <= collective < len(view["collectives"]):
+            if collective is None or not 0 <= collective < display.n_collectives:
                 raise ActionError("a collective observation needs a collective on the map")
-        elif target is None or all(t["id"] != target for t in view["targets"]):
+        elif target is None or display.column(target) is None:
             raise ActionError("a target observation needs a visible target")
         row = Observation(
             trial_id=live.trial_id,
@@ -149,7 +116,7 @@ def record_observation(
 
 
 def probe_ready(
-    database: Database, live: LiveTrial, probe_id: int, now: float | None = None
+    database: Database, live: RunningTrial, probe_id: int, now: float | None = None
 ) -> None:
     """The Ready press; `now` (the runner's wall clock) times it from the prompt's delivery."""
     with live.lock:
@@ -166,7 +133,7 @@ def probe_ready(
 
 
 def probe_answer(
-    database: Database, live: LiveTrial, probe_id: int, answer: str, now: float | None = None
+    database: Database, live: RunningTrial, probe_id: int, answer: str, now: float | None = None
 ) -> None:
     """The answer; timed from the question's delivery (or the Ready press, if never sent)."""
     with live.lock:
@@ -197,7 +164,7 @@ def probe_answer(
         live.touch()
 
 
-def _probe_event(live: LiveTrial, probe_id: int, kind: str, answer: str | None = None):  # type: ignore[no-untyped-def]
+def _probe_event(live: RunningTrial, probe_id: int, kind: str, answer: str | None = None):  # type: ignore[no-untyped-def]
     return ProbeEvent(
         probe_id=probe_id,
         kind=kind,
@@ -213,7 +180,7 @@ def _latency_ms(since_s: float | None, now_s: float | None) -> float | None:
     return round(max(0.0, now_s - since_s) * 1000.0, 1)
 
 
-def _current_probe(live: LiveTrial, probe_id: int):  # type: ignore[no-untyped-def]
+def _current_probe(live: RunningTrial, probe_id: int):  # type: ignore[no-untyped-def]
     _require_running(live)
     probe = live.current_probe
     if probe is None or probe.id != probe_id:
@@ -221,24 +188,8 @@ def _current_probe(live: LiveTrial, probe_id: int):  # type: ignore[no-untyped-d
     return probe
 
 
-def _require_running(live: LiveTrial) -> None:
+def _require_running(live: RunningTrial) -> None:
     if live.ended:
         raise ActionError("the trial has ended", 409, "ended")
     if live.paused_since is not None:
         raise ActionError("the experimenter has paused the trial", 409, "paused")
-
-
-def _support(view: dict[str, Any], collective: int | None, target: int | None) -> float | None:
-    if collective is None or target is None:
-        return None
-    for candidate in view["targets"]:
-        if candidate["id"] == target:
-            support = candidate["support"]
-            return float(support[collective]) if collective < len(support) else None
-    return None
-
-
-def _decision_index(live: LiveTrial, collective: int | None) -> int | None:
-    if collective is None or not 0 <= collective < len(live.sim.view()["collectives"]):
-        return None
-    return 1 + sum(1 for record in live.sim.decisions if record.collective == collective)

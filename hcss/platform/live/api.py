@@ -17,7 +17,7 @@ from hcss.platform.db import database, get_session
 from hcss.platform.live import actions, validation
 from hcss.platform.live.access import runner, trial_for
 from hcss.platform.live.idempotency import idempotent
-from hcss.platform.live.session import LiveTrial
+from hcss.platform.live.session import RunningTrial
 from hcss.platform.live.stream import ended_stream, event_stream
 from hcss.platform.live.streams import RETRY_AFTER_S, StreamSlots
 
@@ -46,7 +46,7 @@ def stream_slots() -> StreamSlots:
     return slots
 
 
-def _live(token: str, trial_id: int) -> LiveTrial:
+def _live(token: str, trial_id: int) -> RunningTrial:
     trial = trial_for(token, trial_id)
     live = runner().get(trial.id)
     if live is None:
@@ -116,10 +116,10 @@ def state(token: str, trial_id: int) -> Response:
 @idempotent
 def submit_request(token: str, trial_id: int):  # type: ignore[no-untyped-def]
     live = _live(token, trial_id)
-    request_input = validation.parse_request(
+    command, selections = validation.parse_request(
         request.get_json(silent=True), live, get_session(), trial_id
     )
-    outcome = actions.submit_request(database(), live, request_input)
+    outcome = actions.submit_request(database(), live, command, selections)
     return jsonify(outcome), 200
 
 

@@ -20,7 +20,7 @@ from sqlalchemy.orm import Session
 from hcss.platform.models import ConsoleAction
 
 if TYPE_CHECKING:
-    from hcss.platform.live.session import LiveTrial
+    from hcss.platform.live.session import RunningTrial
 
 
 def running_wall_s(
@@ -65,19 +65,19 @@ def paused_intervals(session: Session, trial_id: int) -> tuple[float, float | No
     return total, open_since
 
 
-def restore_pauses(session: Session, live: LiveTrial) -> None:
+def restore_pauses(session: Session, live: RunningTrial) -> None:
     """Give a trial loaded from the database the pauses it had; call before stepping it."""
     live.paused_s, live.paused_since = paused_intervals(session, live.trial_id)
 
 
-def pause_clock(live: LiveTrial, now: float) -> None:
+def pause_clock(live: RunningTrial, now: float) -> None:
     """Stop the clock at `now`; call with the trial's lock held, after advancing it to `now`."""
     if live.paused_since is None:
         live.paused_since = now
         live.touch()
 
 
-def resume_clock(live: LiveTrial, now: float) -> None:
+def resume_clock(live: RunningTrial, now: float) -> None:
     """Restart the clock; the paused wall time never counts towards the trial."""
     if live.paused_since is not None:
         live.paused_s += max(0.0, now - live.paused_since)

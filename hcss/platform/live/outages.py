@@ -23,7 +23,7 @@ from datetime import datetime
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
-from hcss.platform.live.session import LiveTrial
+from hcss.platform.live.session import RunningTrial
 from hcss.platform.models import (
     Command,
     DecisionRow,
@@ -79,7 +79,7 @@ def earlier_outages_s(session: Session, trial_id: int) -> float:
     return float(total or 0.0)
 
 
-def stop_clock_for_outage(live: LiveTrial, reached_step: int, now: float) -> float:
+def stop_clock_for_outage(live: RunningTrial, reached_step: int, now: float) -> float:
     """Pause the trial clock for the outage since `reached_step`; returns its wall seconds."""
     reached_wall_s = reached_step * live.dt / live.acceleration
     outage_s = max(0.0, live.running_wall_s(now) - reached_wall_s)

@@ -2,8 +2,9 @@
 
 `hcss.questionnaires.probes` words the questions and draws when each level is
 asked; this module scales the study's 4/5/3 split to the trial length and,
-at the moment a probe is due, picks a subject that makes sense then and
-takes the truth from the simulation. The schedule uses its own generator,
+at the moment a probe is due, picks a subject that makes sense then from
+what the participant sees (`Simulation.display()`) and takes the truth from
+the simulation's separate accessor (`Simulation.truth()`). The schedule uses its own generator,
 never the simulation's, so probes do not perturb the deterministic replay.
 """
 
@@ -23,7 +24,7 @@ from hcss.questionnaires.probes import (
     ScheduledProbe,
     draw_schedule,
 )
-from hcss.simulation import ROMAN
+from hcss.simulation import ROMAN, Display, Truth
 
 __all__ = [
     "POSTPONE_S",
@@ -81,31 +82,32 @@ def probe_plan(
     return []
 
 
-def fill_probe(level: int, view: dict[str, Any], best_target, rng: np.random.Generator):  # type: ignore[no-untyped-def]
+def fill_probe(level: int, display: Display, truth: Truth, rng: np.random.Generator):  # type: ignore[no-untyped-def]
     """The probe for this moment, or None when no subject makes sense yet.
 
-    `best_target(c)` is `Simulation.best_target`, the truth for level 2.
+    Subjects come from what the participant sees (`display`); the level-2
+    answer is scored against `truth` (`Simulation.truth()`), never shown.
     """
     template = TEMPLATES[ProbeLevel(level)]
-    collectives = view["collectives"]
-    names = [ROMAN[c["index"]] for c in collectives]
-    drawn = [t for t in view["targets"] if t["drawn"]]
+    names = [ROMAN[c] for c in range(display.n_collectives)]
+    drawn = np.flatnonzero(display.drawn)
     if level == ProbeLevel.PERCEPTION:
-        supported = [t for t in drawn if t["max_support"] > 0]
-        if not supported:
+        supported = drawn[display.support[:, drawn].max(axis=0, initial=0.0) > 0]
+        if not supported.size:
             return None
-        target = supported[int(rng.integers(len(supported)))]
-        leader = int(np.argmax(target["support"]))
-        return FilledProbe(level, template.fill(target["id"]), names, ROMAN[leader])
+        column = int(supported[int(rng.integers(supported.size))])
+        leader = int(np.argmax(display.support[:, column]))
+        target = int(display.target_ids[column])
+        return FilledProbe(level, template.fill(target), names, ROMAN[leader])
     if level == ProbeLevel.COMPREHENSION:
         candidates = []
-        for c in collectives:
-            if c["executing"]:
+        for c in range(display.n_collectives):
+            if display.executing[c]:
                 continue
-            best = best_target(c["index"])
-            in_range = [t["id"] for t in drawn if c["index"] in t["in_range_of"]]
+            best = truth.best_for(c)
+            in_range = display.target_ids[drawn[display.in_range[c, drawn]]].tolist()
             if best is not None and best in in_range and len(in_range) >= 2:
-                candidates.append((c["index"], int(best), in_range))
+                candidates.append((c, best, in_range))
         if not candidates:
             return None
         collective, best, in_range = candidates[int(rng.integers(len(candidates)))]

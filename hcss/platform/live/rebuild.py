@@ -25,7 +25,7 @@ from hcss.platform.live.outages import (
 )
 from hcss.platform.live.probes import counts_of, probe_plan
 from hcss.platform.live.recorder import record_progress, write_snapshot
-from hcss.platform.live.session import CurrentProbe, LiveTrial
+from hcss.platform.live.session import CurrentProbe, RunningTrial
 from hcss.platform.models import (
     Command,
     CommandOutcome,
@@ -39,14 +39,13 @@ from hcss.platform.models import (
     Trial,
     TrialProblem,
 )
-from hcss.platform.models.vocabularies import RequestStatus
 from hcss.platform.naming import Uninterpretable, collective_name
 
 if TYPE_CHECKING:
     from hcss.simulation.requests import RequestOutcome
 
 
-def load_trial(session: Session, trial: Trial, now: float) -> LiveTrial:
+def load_trial(session: Session, trial: Trial, now: float) -> RunningTrial:
     from hcss.simulation import Params, Scenario, Simulation
 
     snapshot = session.scalars(
@@ -60,7 +59,7 @@ def load_trial(session: Session, trial: Trial, now: float) -> LiveTrial:
     else:
         params = Params.from_dict(trial.params) if trial.params else None
         sim = Simulation(Scenario.from_dict(trial.scenario), model=trial.model, params=params)
-    live = LiveTrial(
+    live = RunningTrial(
         trial_id=trial.id,
         participant_id=trial.participant_id,
         participant_code=trial.participant.code,
@@ -106,7 +105,7 @@ def load_trial(session: Session, trial: Trial, now: float) -> LiveTrial:
     return live
 
 
-def _replay_commands(session: Session, live: LiveTrial) -> int:
+def _replay_commands(session: Session, live: RunningTrial) -> int:
     """Apply the commands the snapshot does not contain, through the simulation's `replay`.
 
     The log is the trial's whole command log in order; the snapshot knows how
@@ -138,14 +137,7 @@ def _replay_commands(session: Session, live: LiveTrial) -> int:
     def record(i: int, outcome: RequestOutcome) -> None:
         command = commands[i]
         if command.id not in decided:
-            session.add(
-                CommandOutcome(
-                    command_id=command.id,
-                    accepted=bool(outcome.accepted),
-                    request_id=outcome.request_id if outcome.accepted else None,
-                    reason=outcome.reason or "",
-                )
-            )
+            session.add(CommandOutcome.of(command.id, outcome))
         live.last_command_id = command.id
 
     last_step = max([c.step_applied for c in pending], default=sim.step_count)
@@ -153,7 +145,7 @@ def _replay_commands(session: Session, live: LiveTrial) -> int:
         replay(
             sim.scenario,
             sim.model,
-            [(c.step_applied, c.as_sim_command()) for c in commands],
+            [(c.step_applied, c.operator_command()) for c in commands],
             max(last_step, sim.step_count),
             start=sim,
             on_outcome=record,
@@ -163,7 +155,7 @@ def _replay_commands(session: Session, live: LiveTrial) -> int:
     return len(pending)
 
 
-def _restore_bookkeeping(session: Session, live: LiveTrial) -> None:
+def _restore_bookkeeping(session: Session, live: RunningTrial) -> None:
     """What was already written, so the recorder writes only what is new."""
     tid = live.trial_id
     live.last_event_time = session.scalar(
@@ -172,15 +164,12 @@ def _restore_bookkeeping(session: Session, live: LiveTrial) -> None:
     live.decisions_recorded = session.scalar(
         select(func.count()).select_from(DecisionRow).where(DecisionRow.trial_id == tid)
     )
-    for change in session.scalars(
-        select(RequestStatusChange)
-        .where(RequestStatusChange.trial_id == tid)
-        .order_by(RequestStatusChange.id)
-    ):
-        if change.status == RequestStatus.REMOVED:
-            live.request_status.pop(change.request_id, None)
-        else:
-            live.request_status[change.request_id] = change.status
+    written = session.execute(
+        select(RequestStatusChange.request_id, RequestStatusChange.status).where(
+            RequestStatusChange.trial_id == tid
+        )
+    )
+    live.request_statuses_written = {(request_id, status) for request_id, status in written}
     _restore_messages(session, live)
     _restore_probes(session, live)
 
@@ -189,7 +178,7 @@ def _restore_bookkeeping(session: Session, live: LiveTrial) -> None:
 _STEP_EVENTS, _COMMANDS = 0, 1
 
 
-def _restore_messages(session: Session, live: LiveTrial) -> None:
+def _restore_messages(session: Session, live: RunningTrial) -> None:
     """The System Messages in the order the live page had them.
 
     Live, the runner records a step's events as soon as it reaches the step,
@@ -239,7 +228,7 @@ def _restore_messages(session: Session, live: LiveTrial) -> None:
         live.add_message(time, kind, text)
 
 
-def _restore_probes(session: Session, live: LiveTrial) -> None:
+def _restore_probes(session: Session, live: RunningTrial) -> None:
     probes = list(
         session.scalars(select(Probe).where(Probe.trial_id == live.trial_id).order_by(Probe.id))
     )

@@ -11,7 +11,7 @@ import numpy as np
 from sqlalchemy.orm import Session
 
 from hcss.platform.live.probes import POSTPONE_S, PROBE_TIMEOUT_S, fill_probe
-from hcss.platform.live.session import CurrentProbe, LiveTrial
+from hcss.platform.live.session import CurrentProbe, RunningTrial
 from hcss.platform.models import (
     DecisionRow,
     Probe,
@@ -27,17 +27,17 @@ from hcss.platform.models.vocabularies import RequestStatus, TrialStatus
 EXPORT_IDENTITY = ("source", "participant", "trial_id", "run")
 
 
-def record_progress(live: LiveTrial, session: Session) -> None:
+def record_progress(live: RunningTrial, session: Session) -> None:
     """Events, decisions, request statuses and probes up to the simulation's now."""
     sim = live.sim
     _record_events(live, session)
     _record_decisions(live, session)
-    _record_request_statuses(live, session)
+    record_request_statuses(live, session)
     _expire_probe(live, session, sim.time)
     _show_probe(live, session, sim.time)
 
 
-def _record_events(live: LiveTrial, session: Session) -> None:
+def _record_events(live: RunningTrial, session: Session) -> None:
     for event in live.sim.drain_events():
         time = float(event["time"])
         if time <= live.last_event_time:
@@ -58,7 +58,7 @@ def _record_events(live: LiveTrial, session: Session) -> None:
     live.last_event_time = max(live.last_event_time, float(live.sim.time) - 1e-9)
 
 
-def _record_decisions(live: LiveTrial, session: Session) -> None:
+def _record_decisions(live: RunningTrial, session: Session) -> None:
     records = live.sim.decisions
     for record in records[live.decisions_recorded :]:
         # The record itself; who and where (source, participant, trial, run) the export adds.
@@ -77,7 +77,7 @@ def _record_decisions(live: LiveTrial, session: Session) -> None:
     live.decisions_recorded = len(records)
 
 
-def _score_projections(live: LiveTrial, session: Session, collective: str, end_s: float) -> None:
+def _score_projections(live: RunningTrial, session: Session, collective: str, end_s: float) -> None:
     """Level-3 probes asked before this decision ended are scored by it."""
     still_pending = []
     for probe_id, shown_at, answer in live.pending_projection:
@@ -98,30 +98,29 @@ def _score_projections(live: LiveTrial, session: Session, collective: str, end_s
     live.pending_projection = still_pending
 
 
-def _record_request_statuses(live: LiveTrial, session: Session) -> None:
-    now = {int(r["id"]): str(r["status"]) for r in live.view()["requests"]}
-    for request_id, status in now.items():
-        if live.request_status.get(request_id) != status:
-            _add_status(live, session, request_id, status)
-    for request_id in [r for r in live.request_status if r not in now]:
-        _add_status(live, session, request_id, RequestStatus.REMOVED)
-        del live.request_status[request_id]
+def record_request_statuses(live: RunningTrial, session: Session) -> None:
+    """Each request status change the simulation queued, written once with its own step.
 
-
-def _add_status(live: LiveTrial, session: Session, request_id: int, status: str) -> None:
-    session.add(
-        RequestStatusChange(
-            trial_id=live.trial_id,
-            request_id=request_id,
-            status=status,
-            step=live.sim.step_count,
-            sim_time=float(live.sim.time),
+    A rebuild replays changes that were written before the interruption;
+    `request_statuses_written` (restored from the rows) skips those.
+    """
+    for change in live.sim.drain_status_changes():
+        key = (change.request_id, change.status)
+        if key in live.request_statuses_written:
+            continue
+        session.add(
+            RequestStatusChange(
+                trial_id=live.trial_id,
+                request_id=change.request_id,
+                status=RequestStatus(change.status),
+                step=change.step,
+                sim_time=float(change.time),
+            )
         )
-    )
-    live.request_status[request_id] = status
+        live.request_statuses_written.add(key)
 
 
-def _expire_probe(live: LiveTrial, session: Session, time: float) -> None:
+def _expire_probe(live: RunningTrial, session: Session, time: float) -> None:
     probe = live.current_probe
     if probe is None or time < probe.timeout_sim_time:
         return
@@ -136,7 +135,7 @@ def _expire_probe(live: LiveTrial, session: Session, time: float) -> None:
     live.current_probe = None
 
 
-def _show_probe(live: LiveTrial, session: Session, time: float) -> None:
+def _show_probe(live: RunningTrial, session: Session, time: float) -> None:
     if live.current_probe is not None or live.probes_shown >= len(live.probe_plan):
         return
     planned = live.probe_plan[live.probes_shown]
@@ -144,7 +143,7 @@ def _show_probe(live: LiveTrial, session: Session, time: float) -> None:
         return
     probe_index = live.probes_shown + 1
     rng = np.random.default_rng([live.seed, 0x5B, probe_index])
-    filled = fill_probe(planned.level, live.view(), live.sim.best_target, rng)
+    filled = fill_probe(planned.level, live.display(), live.sim.truth(), rng)
     if filled is None:
         live.postponed_until = time + POSTPONE_S
         return
@@ -176,7 +175,7 @@ def _show_probe(live: LiveTrial, session: Session, time: float) -> None:
         live.pending_projection.append((row.id, row.shown_sim_time, None))
 
 
-def write_snapshot(live: LiveTrial, session: Session, now: float) -> None:
+def write_snapshot(live: RunningTrial, session: Session, now: float) -> None:
     sim = live.sim
     session.add(
         Snapshot(
@@ -190,7 +189,7 @@ def write_snapshot(live: LiveTrial, session: Session, now: float) -> None:
     live.last_snapshot_epoch = now
 
 
-def end_trial(live: LiveTrial, session: Session, reason: str, now: float) -> None:
+def end_trial(live: RunningTrial, session: Session, reason: str, now: float) -> None:
     """The time limit is reached: close the open probe, snapshot, and mark it ended."""
     probe = live.current_probe
     if probe is not None:

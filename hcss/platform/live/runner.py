@@ -27,7 +27,7 @@ from hcss.platform.db import Database
 from hcss.platform.live.clock import pause_clock, resume_clock
 from hcss.platform.live.rebuild import load_trial
 from hcss.platform.live.recorder import end_trial, record_progress, write_snapshot
-from hcss.platform.live.session import LiveTrial
+from hcss.platform.live.session import RunningTrial
 from hcss.platform.live.trials import latest_status, running_trial_ids
 from hcss.platform.models import Trial, TrialProblem, TrialStatusChange
 from hcss.platform.models.vocabularies import TrialStatus
@@ -47,7 +47,7 @@ class Runner:
     ) -> None:
         self.database = database
         self.snapshot_interval_s = snapshot_interval_s
-        self._trials: dict[int, LiveTrial] = {}
+        self._trials: dict[int, RunningTrial] = {}
         self._registry_lock = threading.RLock()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
@@ -65,7 +65,7 @@ class Runner:
 
     # --- finding trials -------------------------------------------------------
 
-    def get(self, trial_id: int) -> LiveTrial | None:
+    def get(self, trial_id: int) -> RunningTrial | None:
         """The live trial, loading it first if the database says it is running."""
         live = self._trials.get(trial_id)
         if live is not None:
@@ -89,7 +89,7 @@ class Runner:
             self._trials[trial_id] = live
             return live
 
-    def loaded(self, trial_id: int) -> LiveTrial | None:
+    def loaded(self, trial_id: int) -> RunningTrial | None:
         """The live trial if this process holds it in memory; never loads it."""
         with self._registry_lock:
             return self._trials.get(trial_id)
@@ -99,7 +99,7 @@ class Runner:
         with self._registry_lock:
             return set(self._trials)
 
-    def forget(self, trial_id: int) -> LiveTrial | None:
+    def forget(self, trial_id: int) -> RunningTrial | None:
         """Drop a trial from memory; the next `get` rebuilds it from the database if running."""
         with self._registry_lock:
             return self._trials.pop(trial_id, None)
@@ -107,22 +107,24 @@ class Runner:
     # --- controlling one trial --------------------------------------------------
 
     @contextmanager
-    def holding(self, live: LiveTrial, now: float, *, advance: bool = True) -> Iterator[LiveTrial]:
+    def holding(
+        self, live: RunningTrial, now: float, *, advance: bool = True
+    ) -> Iterator[RunningTrial]:
         """Hold the trial's lock; first advance it to `now`, so its clock stops at this instant."""
         with live.lock:
             if advance:
                 self.advance(live, now)
             yield live
 
-    def pause(self, live: LiveTrial, now: float) -> None:
+    def pause(self, live: RunningTrial, now: float) -> None:
         """Stop the trial clock at `now` (call inside `holding`)."""
         pause_clock(live, now)
 
-    def resume(self, live: LiveTrial, now: float) -> None:
+    def resume(self, live: RunningTrial, now: float) -> None:
         """Restart the trial clock; the paused wall time never counts (call inside `holding`)."""
         resume_clock(live, now)
 
-    def end(self, live: LiveTrial, session: Session, reason: str, now: float) -> None:
+    def end(self, live: RunningTrial, session: Session, reason: str, now: float) -> None:
         """End the trial with `reason`, written in `session` (call inside `holding`)."""
         end_trial(live, session, reason, now)
         live.touch()
@@ -211,7 +213,7 @@ class Runner:
             if live.ended:
                 self.forget(live.trial_id)
 
-    def advance(self, live: LiveTrial, now: float) -> None:
+    def advance(self, live: RunningTrial, now: float) -> None:
         """Step the trial to the step due at `now`, record it, end it at its time limit."""
         with live.lock:
             if live.ended:

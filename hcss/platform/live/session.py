@@ -1,4 +1,4 @@
-"""One live trial in memory: its simulation, lock, clock and what the page sees.
+"""A `RunningTrial`: one trial in memory, its simulation, lock, clock and what the page sees.
 
 Everything that touches the simulation holds `lock`: the runner's steps, the
 commands between them, and the stream reading a frame. `changed` wakes the
@@ -16,18 +16,7 @@ from typing import Any
 from hcss.platform.live.clock import running_wall_s, trial_time_s
 from hcss.platform.models.vocabularies import TrialStatus
 from hcss.questionnaires.probes import ScheduledProbe
-
-
-def participant_view(sim: Any) -> dict[str, Any]:
-    """What the Collective Interface draws: `sim.view()` without the true values.
-
-    The live stream and the console's replay both draw this, so a replay
-    shows exactly what the participant could see.
-    """
-    view = sim.view()
-    for target in view.get("targets", []):
-        target.pop("true_value", None)  # for analysis only, never shown
-    return view
+from hcss.simulation import Display
 
 
 @dataclass
@@ -43,7 +32,7 @@ class CurrentProbe:
     shown_sim_time: float
     timeout_sim_time: float
     ready: bool = False
-    # Running wall seconds (LiveTrial.running_wall_s) when the prompt, then the
+    # Running wall seconds (RunningTrial.running_wall_s) when the prompt, then the
     # question, was first sent to the page, and when Ready was pressed: the
     # latencies are measured from these. Lost in a restart: the first frame
     # after it delivers again.
@@ -72,7 +61,9 @@ class CurrentProbe:
 
 
 @dataclass
-class LiveTrial:
+class RunningTrial:
+    """A trial being run in this server (the database row is `models.Trial`)."""
+
     trial_id: int
     participant_id: int
     participant_code: str
@@ -92,7 +83,8 @@ class LiveTrial:
     end_reason: str = ""
     # System Messages so far, oldest first: {"seq", "time", "kind", "text"}.
     messages: list[dict[str, Any]] = field(default_factory=list)
-    request_status: dict[int, str] = field(default_factory=dict)
+    # (request id, status) pairs already written as RequestStatusChange rows.
+    request_statuses_written: set[tuple[int, str]] = field(default_factory=set)
     decisions_recorded: int = 0
     last_event_time: float = -math.inf
     last_command_id: int | None = None
@@ -107,7 +99,7 @@ class LiveTrial:
     # trial clock stood still, and the start of the pause under way, if any.
     paused_s: float = 0.0
     paused_since: float | None = None
-    _view_cache: tuple[int, dict[str, Any], str] | None = None
+    _view_cache: tuple[int, Display, dict[str, Any], str] | None = None
 
     def __post_init__(self) -> None:
         self.changed = threading.Condition(self.lock)
@@ -149,22 +141,28 @@ class LiveTrial:
             {"seq": seq, "time": round(float(time), 1), "kind": kind, "text": text}
         )
 
-    def view(self) -> dict[str, Any]:
-        """`sim.view()` without true values, computed once per state version.
-
-        The runner, the probes and every stream of this trial share it; treat
-        it as read-only.
-        """
+    def display(self) -> Display:
+        """`sim.display()`, read once per state version (probes and actions share it)."""
         return self._cached_view()[0]
 
-    def view_json(self) -> str:
+    def view(self) -> dict[str, Any]:
+        """`sim.view()`, the display's JSON, once per state version; treat it as read-only."""
         return self._cached_view()[1]
 
-    def _cached_view(self) -> tuple[dict[str, Any], str]:
+    def view_json(self) -> str:
+        return self._cached_view()[2]
+
+    def _cached_view(self) -> tuple[Display, dict[str, Any], str]:
         if self._view_cache is None or self._view_cache[0] != self.version:
-            view = participant_view(self.sim)
-            self._view_cache = (self.version, view, json.dumps(view, separators=(",", ":")))
-        return self._view_cache[1], self._view_cache[2]
+            display = self.sim.display()
+            view = display.to_json()
+            self._view_cache = (
+                self.version,
+                display,
+                view,
+                json.dumps(view, separators=(",", ":")),
+            )
+        return self._view_cache[1:]
 
     def frame(self, now: float, after_seq: int) -> tuple[str, int]:
         """One stream frame (JSON text) and the newest message seq it carries."""

@@ -11,7 +11,7 @@ import json
 import time as wallclock
 from collections.abc import Callable, Iterator
 
-from hcss.platform.live.session import LiveTrial
+from hcss.platform.live.session import RunningTrial
 from hcss.platform.live.streams import takeover_frame
 from hcss.platform.models.vocabularies import TrialStatus
 
@@ -19,7 +19,7 @@ MIN_GAP_S = 0.05  # at most 20 frames a second per stream, even under accelerati
 
 
 def event_stream(
-    live: LiveTrial,
+    live: RunningTrial,
     *,
     after_seq: int,
     interval_s: float,

@@ -20,9 +20,10 @@ from typing import Any
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
-from hcss.platform.live.actions import ActionError, RequestInput
-from hcss.platform.live.session import LiveTrial
+from hcss.platform.live.actions import ActionError
+from hcss.platform.live.session import RunningTrial
 from hcss.platform.models import COMMAND_KINDS, Observation
+from hcss.simulation import OperatorCommand
 
 #: Ids are 32-bit on PostgreSQL (INTEGER); nothing larger can name a row.
 MAX_ID = 2**31 - 1
@@ -39,7 +40,7 @@ def bounded_int(value: Any, name: str, low: int, high: int) -> int:
     return value
 
 
-def trial_ranges(live: LiveTrial) -> tuple[int, int, int]:
+def trial_ranges(live: RunningTrial) -> tuple[int, int, int]:
     """(collectives, target ids, request ids issued so far) of this trial.
 
     The first two are fixed for the trial's life; the third only grows, so
@@ -51,8 +52,14 @@ def trial_ranges(live: LiveTrial) -> tuple[int, int, int]:
     return int(world.n_collectives), int(world.active.size), int(sim.next_request_id) - 1
 
 
-def parse_request(body: Any, live: LiveTrial, session: Session, trial_id: int) -> RequestInput:
-    """The command in a POST body, every field checked; ActionError (400) otherwise."""
+def parse_request(
+    body: Any, live: RunningTrial, session: Session, trial_id: int
+) -> tuple[OperatorCommand, tuple[int, ...]]:
+    """The command in a POST body and the clicks that filled its form, every field checked.
+
+    ActionError (400) otherwise. The `OperatorCommand` made here is the one
+    applied, stored and (rebuilt from its row) replayed.
+    """
     if not isinstance(body, dict):
         raise ActionError("send a JSON object (Content-Type: application/json)")
     kind = body.get("kind")
@@ -62,15 +69,15 @@ def parse_request(body: Any, live: LiveTrial, session: Session, trial_id: int) -
     if kind == "cancel":
         if issued < 1:
             raise ActionError("'request_id' names no assignment: none has been made in this trial")
-        return RequestInput(
-            kind, request_id=bounded_int(body.get("request_id"), "request_id", 1, issued)
-        )
-    return RequestInput(
+        return OperatorCommand.cancel(
+            bounded_int(body.get("request_id"), "request_id", 1, issued)
+        ), ()
+    command = OperatorCommand(
         kind,
         collective=bounded_int(body.get("collective"), "collective", 0, collectives - 1),
         target=bounded_int(body.get("target"), "target", 1, targets),
-        selections=parse_selections(body.get("selections", []), session, trial_id),
     )
+    return command, parse_selections(body.get("selections", []), session, trial_id)
 
 
 def parse_selections(ids: Any, session: Session, trial_id: int) -> tuple[int, ...]:

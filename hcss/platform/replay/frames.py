@@ -19,7 +19,6 @@ from dataclasses import dataclass, field
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
-from hcss.platform.live.session import participant_view
 from hcss.platform.live.trials import latest_status
 from hcss.platform.models import Command, Snapshot, Trial, TrialStatusChange
 from hcss.platform.models.vocabularies import TrialStatus
@@ -62,7 +61,7 @@ class ReplayRun:
                 self.scenario, self.model, commands, step, params=self.params, start=self.sim
             )
             # A simulation that has finished stays as it is; its view is repeated.
-            self.frames.append(json.dumps(participant_view(self.sim), separators=(",", ":")))
+            self.frames.append(json.dumps(self.sim.view(), separators=(",", ":")))
 
 
 def command_log(session: Session, trial_id: int, last_id: int | None) -> list[TimedCommand]:
@@ -70,7 +69,7 @@ def command_log(session: Session, trial_id: int, last_id: int | None) -> list[Ti
     query = select(Command).where(Command.trial_id == trial_id).order_by(Command.id)
     if last_id is not None:
         query = query.where(Command.id <= last_id)
-    return [(c.step_applied, c.as_sim_command()) for c in session.scalars(query)]
+    return [(c.step_applied, c.operator_command()) for c in session.scalars(query)]
 
 
 def recording_of(session: Session, trial: Trial) -> Recording:

@@ -25,7 +25,9 @@ from hcss.platform.study.stage import Refused, Slot, Stage
 from hcss.platform.study.texts import duration
 
 
-class LiveTrialStage(Stage):
+class LiveStage(Stage):
+    """A stage that runs a trial on the live interface: the training or the trial."""
+
     per_model = True
     template = "study/trial_start.html"
     kind: str
@@ -92,14 +94,15 @@ class LiveTrialStage(Stage):
         current_app.extensions["hcss_runner"].finish_overdue(trial_id)
 
 
-class TrainingStage(LiveTrialStage):
+class TrainingStage(LiveStage):
     name = "training"
     title = "Training"
     kind = "training"
 
 
-class TrialStage(LiveTrialStage):
-    """The study's trial stage (the ORM row is `models.Trial`, the run in memory `LiveTrial`)."""
+class TrialStage(LiveStage):
+    """The study's trial stage (the database row is `models.Trial`, the run in memory
+    `live.session.RunningTrial`)."""
 
     name = "trial"
     title = "Trial"
