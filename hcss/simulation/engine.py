@@ -32,7 +32,9 @@ from hcss.simulation.step import advance_agents, exchange_and_report, quiet_step
 from hcss.simulation.view import render_view
 from hcss.simulation.world import World
 
-SNAPSHOT_VERSION = 2  # 2: the compiled engine (World.stream and the M2 geometry arrays)
+SNAPSHOT_VERSION = (
+    3  # 2: the compiled engine (World.stream, M2 geometry); 3: headings as unit vectors
+)
 DERIVED = ("rng", "scenario", "params", "_k", "_scratch")  # not pickled as such
 
 

@@ -36,27 +36,35 @@ def move_kernel(w: Arrays, k: Constants, at_target, at_hub):
 
     Fills `at_target` and `at_hub` with the agents that reached their target or
     their hub area this step and returns how many of each; the rules decide
-    what they do there.
+    what they do there. Headings are unit vectors, so a reflection or an
+    arrival sets one without trigonometry.
     """
+    # The arrays in locals: the loop then reads them without going through `w`.
+    state, leg, target, collective = w.state, w.leg, w.target, w.collective
+    pos, heading, hub, target_pos = w.pos, w.heading, w.hub, w.target_pos
     step = k.speed_mps * k.dt_s
     n_target = 0
     n_hub = 0
     n_walkers = 0
-    for i in range(w.state.size):
-        n_walkers += w.leg[i] <= S.EXPLORING
+    for i in range(state.size):
+        n_walkers += leg[i] <= S.EXPLORING
     turns = np.empty(n_walkers)  # every walker's turning deviate, drawn in one tight loop
     stream.fill_normals(w.stream, turns)
     n_walkers = 0
-    for i in range(w.state.size):
-        hx, hy = home(w, i)
-        leg = w.leg[i]
-        if leg <= S.EXPLORING:  # correlated random walk in the hub area or the exploration disc
-            heading = w.heading[i] + k.turn_sd_rad * turns[n_walkers]
+    for i in range(state.size):
+        if state[i] >= S.X:  # home: the collective's hub, or the new site for X and D
+            hx, hy = target_pos[target[i], 0], target_pos[target[i], 1]
+        else:
+            hx, hy = hub[collective[i], 0], hub[collective[i], 1]
+        px, py = pos[i, 0], pos[i, 1]
+        if leg[i] <= S.EXPLORING:  # correlated random walk in the hub area or exploration disc
+            turn = k.turn_sd_rad * turns[n_walkers]
             n_walkers += 1
-            dx, dy = math.cos(heading), math.sin(heading)
-            x = w.pos[i, 0] + step * dx
-            y = w.pos[i, 1] + step * dy
-            radius = k.hub_radius_m if leg == S.AT_HUB else k.exploration_range_m
+            cos_turn, sin_turn = math.cos(turn), math.sin(turn)
+            ux, uy = heading[i, 0], heading[i, 1]
+            dx, dy = ux * cos_turn - uy * sin_turn, ux * sin_turn + uy * cos_turn
+            x, y = px + step * dx, py + step * dy
+            radius = k.hub_radius_m if leg[i] == S.AT_HUB else k.exploration_range_m
             ox, oy = x - hx, y - hy
             distance2 = ox * ox + oy * oy
             if distance2 > radius * radius:  # mirror the overshoot and the radial heading
@@ -65,31 +73,32 @@ def move_kernel(w: Arrays, k: Constants, at_target, at_hub):
                 dot = dx * nx + dy * ny
                 back = min(max(2.0 * radius - distance, 0.0), radius)
                 x, y = hx + nx * back, hy + ny * back
-                heading = math.atan2(dy - 2.0 * dot * ny, dx - 2.0 * dot * nx)
-            w.pos[i, 0], w.pos[i, 1], w.heading[i] = x, y, heading
-        else:  # straight flight towards the target or the hub
-            to_target = leg == S.TO_TARGET
-            if to_target:
-                gx = w.target_pos[w.target[i], 0] - w.pos[i, 0]
-                gy = w.target_pos[w.target[i], 1] - w.pos[i, 1]
-            else:
-                gx, gy = hx - w.pos[i, 0], hy - w.pos[i, 1]
-            distance = math.sqrt(gx * gx + gy * gy)
-            advance = min(step, distance)
-            if distance > 0.0:
-                w.pos[i, 0] += gx * advance / distance
-                w.pos[i, 1] += gy * advance / distance
-            remaining = distance - advance
-            if to_target and remaining <= 1e-9:
-                at_target[n_target] = i
-                n_target += 1
-            elif not to_target and remaining <= k.hub_radius_m:
-                at_hub[n_hub] = i
-                n_hub += 1
-            else:
-                continue
-            # Arriving agents keep their flight direction as the heading of their next walk.
-            w.heading[i] = math.atan2(gy, gx)
+                dx, dy = dx - 2.0 * dot * nx, dy - 2.0 * dot * ny
+            pos[i, 0], pos[i, 1] = x, y
+            heading[i, 0], heading[i, 1] = dx, dy
+            continue
+        # straight flight towards the target or the hub
+        to_target = leg[i] == S.TO_TARGET
+        if to_target:
+            gx, gy = target_pos[target[i], 0] - px, target_pos[target[i], 1] - py
+        else:
+            gx, gy = hx - px, hy - py
+        distance = math.sqrt(gx * gx + gy * gy)
+        advance = min(step, distance)
+        if distance > 0.0:
+            pos[i, 0] = px + gx * advance / distance
+            pos[i, 1] = py + gy * advance / distance
+        remaining = distance - advance
+        if to_target and remaining <= 1e-9:
+            at_target[n_target] = i
+            n_target += 1
+        elif not to_target and remaining <= k.hub_radius_m:
+            at_hub[n_hub] = i
+            n_hub += 1
+        else:
+            continue
+        if distance > 0.0:  # arriving agents keep their flight direction for their next walk
+            heading[i, 0], heading[i, 1] = gx / distance, gy / distance
     return n_target, n_hub
 
 
@@ -102,7 +111,8 @@ def scatter_kernel(w: Arrays, k: Constants, agents):
         hx, hy = home(w, i)
         w.pos[i, 0] = hx + radius * math.cos(angle)
         w.pos[i, 1] = hy + radius * math.sin(angle)
-        w.heading[i] = 2.0 * math.pi * stream.uniform(w.stream)
+        heading = 2.0 * math.pi * stream.uniform(w.stream)
+        w.heading[i, 0], w.heading[i, 1] = math.cos(heading), math.sin(heading)
 
 
 def scatter_in_hub(world: World, agents: np.ndarray, k: Constants) -> None:

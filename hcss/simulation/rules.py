@@ -95,22 +95,26 @@ def refresh_geometry(world: World, params: Params) -> None:
 
 
 # -------------------------------------------------------------------- rules
-@njit(cache=True, inline="always")
-def discoverable_one(w: Arrays, k: Constants, c, t):
-    """Whether collective c's explorers can adopt target t.
+@njit(cache=True)
+def discoverable_sites(w: Arrays, k: Constants, ok):
+    """(C, T) into `ok`: whether collective c's explorers can adopt target t.
 
     Active, in range of the hub, not reserved by another collective, not under
     a standing abandon order, and (reading `foreign_targets="own_only"`)
     placed around the collective's own start hub.
     """
-    owner = w.reserved_by[t]
-    return (
-        w.active[t]
-        and w.hub_distance[c, t] <= k.exploration_range_m
-        and (owner < 0 or owner == c)
-        and not w.abandon_order[c, t]
-        and (not k.own_targets_only or w.target_around[t] == c)
-    )
+    active, reserved_by, around = w.active, w.reserved_by, w.target_around
+    hub_distance, abandon_order = w.hub_distance, w.abandon_order
+    for c in range(ok.shape[0]):
+        for t in range(ok.shape[1]):
+            owner = reserved_by[t]
+            ok[c, t] = (
+                active[t]
+                and hub_distance[c, t] <= k.exploration_range_m
+                and (owner < 0 or owner == c)
+                and not abandon_order[c, t]
+                and (not k.own_targets_only or around[t] == c)
+            )
 
 
 @njit(cache=True, inline="always")
@@ -135,56 +139,49 @@ def discovery_kernel(w: Arrays, k: Constants):
     g(d_i), some site within a step with probability 1 − exp(−Σ g(d_i)·dt),
     which one in proportion to the rates; its flights stay spatial.
     """
-    radius2 = k.sensing_radius_m * k.sensing_radius_m
-    # Per collective, the active targets within R of its hub: only they can be discovered.
+    # What an explorer can find depends on its collective only, and a discovery changes
+    # none of it: per collective, the discoverable sites and (reading "per_agent") their
+    # summed rate and the per-step probability of finding one, once per step.
     n_c, n_t = w.hub_distance.shape
+    ok = np.empty((n_c, n_t), dtype=np.bool_)
+    discoverable_sites(w, k, ok)
     count = np.zeros(n_c, dtype=np.int64)
-    candidates = np.empty((n_c, n_t), dtype=np.int64)
-    for c in range(n_c):
-        for t in range(n_t):
-            if w.active[t] and w.hub_distance[c, t] <= k.exploration_range_m:
-                candidates[c, count[c]] = t
-                count[c] += 1
-    # Reading "per_agent": what an explorer can find depends on its collective only, and
-    # a discovery changes none of it, so the sites, their summed rate and the per-step
-    # probability are worked out once per collective, not once per explorer.
-    discoverable = np.zeros((n_c, n_t), dtype=np.bool_)
+    sites = np.empty((n_c, n_t), dtype=np.int64)
     total = np.zeros(n_c)
     probability = np.zeros(n_c)
-    if k.discovery_per_agent:
-        for c in range(n_c):
-            for j in range(count[c]):
-                t = candidates[c, j]
-                if discoverable_one(w, k, c, t):
-                    discoverable[c, j] = True
-                    total[c] += w.site_rate[c, t]
-            if total[c] > 0.0:
-                probability[c] = per_step_probability(total[c], k.dt_s)
-    for i in range(w.state.size):
-        if w.leg[i] != S.EXPLORING or w.state[i] != S.U_L:
+    for c in range(n_c):
+        for t in range(n_t):
+            if ok[c, t]:
+                sites[c, count[c]] = t
+                count[c] += 1
+                total[c] += w.site_rate[c, t]
+        if total[c] > 0.0:
+            probability[c] = per_step_probability(total[c], k.dt_s)
+    radius2 = k.sensing_radius_m * k.sensing_radius_m
+    leg, state, collective, pos, target_pos = w.leg, w.state, w.collective, w.pos, w.target_pos
+    site_rate = w.site_rate
+    for i in range(state.size):
+        if leg[i] != S.EXPLORING or state[i] != S.U_L:
             continue
-        c = w.collective[i]
+        c = collective[i]
         best = -1
         if k.discovery_per_agent:
             if total[c] <= 0.0 or stream.uniform(w.stream) >= probability[c]:
                 continue
             pick = stream.uniform(w.stream) * total[c]
             for j in range(count[c]):
-                if discoverable[c, j]:
-                    best = candidates[c, j]
-                    pick -= w.site_rate[c, best]
-                    if pick < 0.0:
-                        break
+                best = sites[c, j]
+                pick -= site_rate[c, best]
+                if pick < 0.0:
+                    break
         else:
             best_d2 = radius2
             for j in range(count[c]):
-                t = candidates[c, j]
-                dx = w.pos[i, 0] - w.target_pos[t, 0]
-                dy = w.pos[i, 1] - w.target_pos[t, 1]
+                t = sites[c, j]
+                dx = pos[i, 0] - target_pos[t, 0]
+                dy = pos[i, 1] - target_pos[t, 1]
                 d2 = dx * dx + dy * dy
-                if d2 > best_d2 or (best >= 0 and d2 == best_d2):
-                    continue
-                if discoverable_one(w, k, c, t):
+                if d2 < best_d2 or (best < 0 and d2 == best_d2):
                     best, best_d2 = t, d2
         if best >= 0:
             adopt_on_discovery(w, k, i, best)
@@ -325,17 +322,10 @@ def reach_hub(world: World, agents: np.ndarray) -> np.ndarray:
 
 
 def discoverable(world: World, params: Params) -> np.ndarray:
-    """(C, T): targets each collective's explorers can adopt (`discoverable_one`)."""
+    """(C, T): targets each collective's explorers can adopt (`discoverable_sites`)."""
     ok = np.zeros(world.abandon_order.shape, dtype=np.bool_)
-    _discoverable_kernel(world.kernel_arrays(), constants_for(params, "M1"), ok)
+    discoverable_sites(world.kernel_arrays(), constants_for(params, "M1"), ok)
     return ok
-
-
-@njit(cache=True)
-def _discoverable_kernel(w, k, ok):
-    for c in range(ok.shape[0]):
-        for t in range(ok.shape[1]):
-            ok[c, t] = discoverable_one(w, k, c, t)
 
 
 def discovery(world: World, params: Params, model: str) -> None:
