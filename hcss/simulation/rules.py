@@ -31,6 +31,21 @@ def per_step_probability(rate, dt):
     return -math.expm1(-rate * dt)
 
 
+@njit(cache=True, inline="always")
+def within_step(u, rate, dt):
+    """Whether a uniform draw u falls below `per_step_probability(rate, dt)`.
+
+    Exact, and cheap for the common draw: 1 - e^(-x) lies between x·(1 - x)
+    and x, so the exponential is computed only for a draw between the two.
+    """
+    x = rate * dt
+    if u >= x:
+        return False
+    if u < x * (1.0 - x):
+        return True
+    return u < per_step_probability(rate, dt)
+
+
 @njit(cache=True)
 def leave_rate_one(estimate, gap):
     """v̂ / gap, with the guard of spec §5: infinite (leave at once) where gap ≤ 0."""
@@ -160,15 +175,20 @@ def discovery_kernel(w: Arrays, k: Constants):
     radius2 = k.sensing_radius_m * k.sensing_radius_m
     leg, state, collective, pos, target_pos = w.leg, w.state, w.collective, w.pos, w.target_pos
     site_rate = w.site_rate
+    r = stream.load(w.stream)
     for i in range(state.size):
         if leg[i] != S.EXPLORING or state[i] != S.U_L:
             continue
         c = collective[i]
         best = -1
         if k.discovery_per_agent:
-            if total[c] <= 0.0 or stream.uniform(w.stream) >= probability[c]:
+            if total[c] <= 0.0:
                 continue
-            pick = stream.uniform(w.stream) * total[c]
+            u, r = stream.unit(r)
+            if u >= probability[c]:
+                continue
+            u, r = stream.unit(r)
+            pick = u * total[c]
             for j in range(count[c]):
                 best = sites[c, j]
                 pick -= site_rate[c, best]
@@ -184,7 +204,10 @@ def discovery_kernel(w: Arrays, k: Constants):
                 if d2 < best_d2 or (best < 0 and d2 == best_d2):
                     best, best_d2 = t, d2
         if best >= 0:
+            stream.store(w.stream, r)
             adopt_on_discovery(w, k, i, best)
+            r = stream.load(w.stream)
+    stream.store(w.stream, r)
 
 
 @njit(cache=True)
@@ -249,29 +272,38 @@ def rate_transitions_kernel(w: Arrays, k: Constants):
     target's discovery-plus-delay and round-trip-plus-delay times match those
     of a target at d_max. Where d_i ≥ d_max the state is left at once.
     """
-    for i in range(w.state.size):
-        state, leg = w.state[i], w.leg[i]
-        if leg == S.EXPLORING:
-            if state == S.U_L and stream.uniform(w.stream) < k.stop_probability:
-                w.leg[i] = S.TO_HUB
-                w.arrival_state[i] = S.U_I
-        elif leg == S.AT_HUB:
-            if state == S.U_I:
-                if stream.uniform(w.stream) < k.leave_probability:
-                    set_state_one(w.state, w.target, w.streak, i, S.U_L, -1)
-                    w.leg[i] = S.EXPLORING
-            elif state == S.F_I:
-                if stream.uniform(w.stream) < k.leave_probability:
-                    set_state_one(w.state, w.target, w.streak, i, S.F_L, w.target[i])
-                    w.leg[i] = S.TO_TARGET
-            elif state == S.F_D or state == S.F_R:  # only M2 (with its delays) has them
-                c, t = w.collective[i], w.target[i]
-                gap = w.discovery_gap[c, t] if state == S.F_D else w.round_trip_gap[c, t]
-                rate = leave_rate_one(w.estimate[i], gap)
-                if rate == math.inf or stream.uniform(w.stream) < per_step_probability(
-                    rate, k.dt_s
-                ):
-                    set_state_one(w.state, w.target, w.streak, i, S.F_I, t)
+    state, leg, target, streak = w.state, w.leg, w.target, w.streak
+    arrival_state, estimate, collective = w.arrival_state, w.estimate, w.collective
+    r = stream.load(w.stream)
+    for i in range(state.size):
+        if leg[i] == S.EXPLORING:
+            if state[i] == S.U_L:
+                u, r = stream.unit(r)
+                if u < k.stop_probability:
+                    leg[i] = S.TO_HUB
+                    arrival_state[i] = S.U_I
+        elif leg[i] == S.AT_HUB:
+            if state[i] == S.U_I:
+                u, r = stream.unit(r)
+                if u < k.leave_probability:
+                    set_state_one(state, target, streak, i, S.U_L, -1)
+                    leg[i] = S.EXPLORING
+            elif state[i] == S.F_I:
+                u, r = stream.unit(r)
+                if u < k.leave_probability:
+                    set_state_one(state, target, streak, i, S.F_L, target[i])
+                    leg[i] = S.TO_TARGET
+            elif state[i] == S.F_D or state[i] == S.F_R:  # only M2 (with its delays) has them
+                c, t = collective[i], target[i]
+                gap = w.discovery_gap[c, t] if state[i] == S.F_D else w.round_trip_gap[c, t]
+                rate = leave_rate_one(estimate[i], gap)
+                leave = rate == math.inf
+                if not leave:
+                    u, r = stream.unit(r)
+                    leave = within_step(u, rate, k.dt_s)
+                if leave:
+                    set_state_one(state, target, streak, i, S.F_I, t)
+    stream.store(w.stream, r)
 
 
 @njit(cache=True)
@@ -282,18 +314,20 @@ def enforce_orders_kernel(w: Arrays):
     A target reserved by another collective (or taken) is dropped the same
     way, and committed or initiating agents for it return to deliberation.
     """
-    for i in range(w.state.size):
-        t = w.target[i]
+    state, target, leg, collective = w.state, w.target, w.leg, w.collective
+    reserved_by, active, abandon_order = w.reserved_by, w.active, w.abandon_order
+    for i in range(state.size):
+        t = target[i]
         if t < 0:
             continue
-        c, state = w.collective[i], w.state[i]
-        favouring_here = w.leg[i] == S.AT_HUB and S.FAVOURING_IN_HUB[state]
-        owner = w.reserved_by[t]
-        taken = (owner >= 0 and owner != c) or not w.active[t]
-        if (favouring_here and w.abandon_order[c, t]) or (
-            taken and (favouring_here or state == S.C or state == S.I)
+        c = collective[i]
+        favouring_here = leg[i] == S.AT_HUB and S.FAVOURING_IN_HUB[state[i]]
+        owner = reserved_by[t]
+        taken = (owner >= 0 and owner != c) or not active[t]
+        if (favouring_here and abandon_order[c, t]) or (
+            taken and (favouring_here or state[i] == S.C or state[i] == S.I)
         ):
-            set_state_one(w.state, w.target, w.streak, i, S.U_I, -1)
+            set_state_one(state, target, w.streak, i, S.U_I, -1)
 
 
 # ------------------------------------------------------- Python entry points

@@ -82,23 +82,73 @@ def _advance(s0, s1, s2, s3):
     return result, s0, s1, s2, s3
 
 
+# A hot loop keeps the state in registers: `r = load(s)`, then `u, r = unit(r)` for
+# each draw, then `store(s, r)`. The functions on `s` itself advance the array in place.
 @njit(cache=True, inline="always")
-def next_u64(s):
-    """The next 64 random bits; advances the state in place."""
-    result, s[0], s[1], s[2], s[3] = _advance(s[0], s[1], s[2], s[3])
-    return result
+def load(s):
+    """The state as a tuple of four words, for a loop that draws many numbers."""
+    return (s[0], s[1], s[2], s[3])
+
+
+@njit(cache=True, inline="always")
+def store(s, r):
+    s[0], s[1], s[2], s[3] = r[0], r[1], r[2], r[3]
+
+
+@njit(cache=True, inline="always")
+def unit(r):
+    """(a double uniform in [0, 1), the advanced state)."""
+    result, s0, s1, s2, s3 = _advance(r[0], r[1], r[2], r[3])
+    return float(np.int64(result >> _U64(11))) * _TO_UNIT, (s0, s1, s2, s3)  # via int64: cheaper
+
+
+@njit(cache=True, inline="always")
+def index_below(r, n):
+    """(an integer uniform in [0, n), the advanced state); n > 0, the bias of 53-bit
+    scaling is < 2^-40 here."""
+    u, r = unit(r)
+    return int(u * n), r
+
+
+@njit(cache=True, inline="always")
+def poisson_count(r, limit):
+    """(a Poisson count of mean λ given limit = exp(-λ), the advanced state): Knuth's product."""
+    total = 0
+    product, r = unit(r)
+    while product > limit:
+        total += 1
+        u, r = unit(r)
+        product *= u
+    return total, r
+
+
+@njit(cache=True, inline="always")
+def poisson_count_of(r, lam):
+    """(a Poisson count of mean λ, the advanced state), in chunks of mean <= 20 so that
+    exp(-λ) cannot underflow."""
+    total = 0
+    while lam > 0.0:
+        chunk = min(lam, 20.0)
+        lam -= chunk
+        count, r = poisson_count(r, math.exp(-chunk))
+        total += count
+    return total, r
 
 
 @njit(cache=True, inline="always")
 def uniform(s):
-    """A double uniform in [0, 1)."""
-    return float(np.int64(next_u64(s) >> _U64(11))) * _TO_UNIT  # via int64: a cheaper conversion
+    """A double uniform in [0, 1); advances `s` in place."""
+    u, r = unit(load(s))
+    store(s, r)
+    return u
 
 
 @njit(cache=True, inline="always")
 def below(s, n):
-    """An integer uniform in [0, n) (n > 0); the bias of 53-bit scaling is < 2^-40 here."""
-    return int(uniform(s) * n)
+    """An integer uniform in [0, n) (n > 0); advances `s` in place."""
+    j, r = index_below(load(s), n)
+    store(s, r)
+    return j
 
 
 @njit(cache=True)
@@ -142,25 +192,3 @@ def _normal_edge(s, layer, x):
     if (_ZIG_F[layer - 1] - _ZIG_F[layer]) * uniform(s) + _ZIG_F[layer] < math.exp(-0.5 * x * x):
         return x
     return math.nan
-
-
-@njit(cache=True, inline="always")
-def poisson_below(s, limit):
-    """A Poisson count of mean λ given limit = exp(-λ), by multiplication (Knuth)."""
-    total = 0
-    product = uniform(s)
-    while product > limit:
-        total += 1
-        product *= uniform(s)
-    return total
-
-
-@njit(cache=True, inline="always")
-def poisson(s, lam):
-    """A Poisson count, in chunks of mean <= 20 so that exp(-λ) cannot underflow."""
-    total = 0
-    while lam > 0.0:
-        chunk = min(lam, 20.0)
-        lam -= chunk
-        total += poisson_below(s, math.exp(-chunk))
-    return total
