@@ -187,8 +187,11 @@ def _restore_bookkeeping(session: Session, live: LiveTrial) -> None:
 
 def _restore_messages(session: Session, live: LiveTrial) -> None:
     n = live.sim.scenario.n_collectives
+    # Live, a step's events are shown when the step is taken and a command when it is
+    # applied, after the step that reached its time: at equal times events come first.
+    # (Ids order rows of one table only: an event's id says nothing about a command's.)
     events = [
-        (e.sim_time, e.id, e.kind, e.text)
+        (e.sim_time, 0, e.id, e.kind, e.text)
         for e in session.scalars(select(SimEvent).where(SimEvent.trial_id == live.trial_id))
     ]
     outcomes = session.execute(
@@ -201,6 +204,7 @@ def _restore_messages(session: Session, live: LiveTrial) -> None:
             events.append(
                 (
                     command.sim_time,
+                    1,
                     command.id,
                     "accepted",
                     accepted_text(command, outcome.request_id, n),
@@ -208,6 +212,7 @@ def _restore_messages(session: Session, live: LiveTrial) -> None:
                 if outcome.accepted
                 else (
                     command.sim_time,
+                    1,
                     command.id,
                     "refusal",
                     refusal_text(command, outcome.reason, n),
@@ -222,7 +227,7 @@ def _restore_messages(session: Session, live: LiveTrial) -> None:
                     problem=f"not shown in System Messages: {error}"[:300],
                 )
             )
-    for time, _id, kind, text in sorted(events):
+    for time, _source, _id, kind, text in sorted(events):
         live.add_message(time, kind, text)
 
 
