@@ -240,7 +240,7 @@ class Simulation:
         self.requests.append(request)
         if kind == "abandon":
             w.abandon_order[c, t] = True
-            rules.enforce_orders(w)
+            rules.enforce_orders(w, p)
         recruit_for(w, request, self.rng)
         self._count_request(kind, c, kind == "abandon" and support >= p.intervention_support)
         return RequestOutcome(True, request.id, "")
@@ -350,7 +350,7 @@ class Simulation:
             w.reserved_by[t] = c
             rival = mine_all & S.COMMITTED_OR_LATER[w.state] & (w.target != t)
             self._send_home(np.flatnonzero(rival))
-            rules.enforce_orders(w)  # other collectives drop the target at once
+            rules.enforce_orders(w, p)  # other collectives drop the target at once
             self._event(
                 "move", int(c), t, f"Collective {ROMAN[c]} is moving to target {target_id(t)}."
             )

@@ -145,18 +145,14 @@ def adopt_on_discovery(w: Arrays, k: Constants, i, t):
 
 
 @njit(cache=True)
-def discovery_kernel(w: Arrays, k: Constants):
-    """U_L → F_L(i): an explorer discovers a target and adopts it with probability v̂.
+def discovery_plan(w: Arrays, k: Constants):
+    """What an explorer can find this step: it depends on its collective only, and a
+    discovery changes none of it, so it is worked out once per step.
 
-    Reading "spatial": the explorer encounters target i within the sensing
-    radius (of two sensed at once, the nearer). Reading "per_agent" (the
-    paper's P_γ = v·g(d) per agent): it finds each discoverable site at rate
-    g(d_i), some site within a step with probability 1 − exp(−Σ g(d_i)·dt),
-    which one in proportion to the rates; its flights stay spatial.
+    Per collective: how many sites are discoverable, which (`discoverable_sites`),
+    and for reading "per_agent" their summed rate g and the per-step probability
+    of finding one.
     """
-    # What an explorer can find depends on its collective only, and a discovery changes
-    # none of it: per collective, the discoverable sites and (reading "per_agent") their
-    # summed rate and the per-step probability of finding one, once per step.
     n_c, n_t = w.hub_distance.shape
     ok = np.empty((n_c, n_t), dtype=np.bool_)
     discoverable_sites(w, k, ok)
@@ -172,42 +168,7 @@ def discovery_kernel(w: Arrays, k: Constants):
                 total[c] += w.site_rate[c, t]
         if total[c] > 0.0:
             probability[c] = per_step_probability(total[c], k.dt_s)
-    radius2 = k.sensing_radius_m * k.sensing_radius_m
-    leg, state, collective, pos, target_pos = w.leg, w.state, w.collective, w.pos, w.target_pos
-    site_rate = w.site_rate
-    r = stream.load(w.stream)
-    for i in range(state.size):
-        if leg[i] != S.EXPLORING or state[i] != S.U_L:
-            continue
-        c = collective[i]
-        best = -1
-        if k.discovery_per_agent:
-            if total[c] <= 0.0:
-                continue
-            u, r = stream.unit(r)
-            if u >= probability[c]:
-                continue
-            u, r = stream.unit(r)
-            pick = u * total[c]
-            for j in range(count[c]):
-                best = sites[c, j]
-                pick -= site_rate[c, best]
-                if pick < 0.0:
-                    break
-        else:
-            best_d2 = radius2
-            for j in range(count[c]):
-                t = sites[c, j]
-                dx = pos[i, 0] - target_pos[t, 0]
-                dy = pos[i, 1] - target_pos[t, 1]
-                d2 = dx * dx + dy * dy
-                if d2 < best_d2 or (best < 0 and d2 == best_d2):
-                    best, best_d2 = t, d2
-        if best >= 0:
-            stream.store(w.stream, r)
-            adopt_on_discovery(w, k, i, best)
-            r = stream.load(w.stream)
-    stream.store(w.stream, r)
+    return count, sites, total, probability
 
 
 @njit(cache=True)
@@ -264,18 +225,83 @@ def reach_hub_kernel(w: Arrays, agents, n, newly_visible):
 
 
 @njit(cache=True)
-def rate_transitions_kernel(w: Arrays, k: Constants):
-    """Stop exploring (U_L → home), resume exploring (U_I → U_L), reassess (F_I → F_L), M2 delays.
+def agent_rules_kernel(w: Arrays, k: Constants, orders, discovery, transitions):
+    """Standing orders, discovery and the rate transitions, agent by agent in one pass.
 
-    M2: F_D → F_I at P_D(i) = v̂/(1/g(d_max) − 1/g(d_i)) and F_R → F_I at
-    P_R(i) = v̂/(τ_max − τ_i): near targets wait longer, so that every
-    target's discovery-plus-delay and round-trip-plus-delay times match those
-    of a target at d_max. Where d_i ≥ d_max the state is left at once.
+    Each rule reads only its agent and target-level state that none of them
+    changes, so applying them agent by agent, in this order, is applying them
+    rule by rule; one pass over the agents costs less than three. The flags
+    select rules, for a caller (a test, a request, the calibration) that needs
+    only some.
+
+    Standing orders (spec §8): an abandon order makes c's agents favouring t
+    uncommitted when in the hub. A target reserved by another collective (or
+    taken) is dropped the same way, and committed or initiating agents for it
+    return to deliberation.
+
+    Discovery, U_L → F_L(i): an explorer discovers a target and adopts it with
+    probability v̂. Reading "spatial": it encounters target i within the
+    sensing radius (of two sensed at once, the nearer). Reading "per_agent"
+    (the paper's P_γ = v·g(d) per agent): it finds each discoverable site at
+    rate g(d_i), some site within a step with probability 1 − exp(−Σ g(d_i)·dt),
+    which one in proportion to the rates; its flights stay spatial.
+
+    Rate transitions: stop exploring (U_L → home), resume exploring (U_I →
+    U_L), reassess (F_I → F_L), and M2's delays: F_D → F_I at P_D(i) =
+    v̂/(1/g(d_max) − 1/g(d_i)) and F_R → F_I at P_R(i) = v̂/(τ_max − τ_i), so
+    that every target's discovery-plus-delay and round-trip-plus-delay times
+    match those of a target at d_max. Where d_i ≥ d_max the state is left at once.
     """
-    state, leg, target, streak = w.state, w.leg, w.target, w.streak
-    arrival_state, estimate, collective = w.arrival_state, w.estimate, w.collective
+    state, leg, target, streak, collective = w.state, w.leg, w.target, w.streak, w.collective
+    reserved_by, active, abandon_order = w.reserved_by, w.active, w.abandon_order
+    arrival_state, estimate, pos, target_pos = w.arrival_state, w.estimate, w.pos, w.target_pos
+    site_rate = w.site_rate
+    count, sites, total, probability = discovery_plan(w, k)
+    radius2 = k.sensing_radius_m * k.sensing_radius_m
     r = stream.load(w.stream)
     for i in range(state.size):
+        # -- standing orders and reservations, for agents in their hub
+        t = target[i]
+        if orders and t >= 0:
+            c = collective[i]
+            favouring_here = leg[i] == S.AT_HUB and S.FAVOURING_IN_HUB[state[i]]
+            owner = reserved_by[t]
+            taken = (owner >= 0 and owner != c) or not active[t]
+            if (favouring_here and abandon_order[c, t]) or (
+                taken and (favouring_here or state[i] == S.C or state[i] == S.I)
+            ):
+                set_state_one(state, target, streak, i, S.U_I, -1)
+        # -- discovery by an explorer
+        if discovery and leg[i] == S.EXPLORING and state[i] == S.U_L:
+            c = collective[i]
+            best = -1
+            if k.discovery_per_agent:
+                if total[c] > 0.0:
+                    u, r = stream.unit(r)
+                    if u < probability[c]:
+                        u, r = stream.unit(r)
+                        pick = u * total[c]
+                        for j in range(count[c]):
+                            best = sites[c, j]
+                            pick -= site_rate[c, best]
+                            if pick < 0.0:
+                                break
+            else:
+                best_d2 = radius2
+                for j in range(count[c]):
+                    t = sites[c, j]
+                    dx = pos[i, 0] - target_pos[t, 0]
+                    dy = pos[i, 1] - target_pos[t, 1]
+                    d2 = dx * dx + dy * dy
+                    if d2 < best_d2 or (best < 0 and d2 == best_d2):
+                        best, best_d2 = t, d2
+            if best >= 0:
+                stream.store(w.stream, r)
+                adopt_on_discovery(w, k, i, best)
+                r = stream.load(w.stream)
+        if not transitions:
+            continue
+        # -- rate transitions
         if leg[i] == S.EXPLORING:
             if state[i] == S.U_L:
                 u, r = stream.unit(r)
@@ -304,30 +330,6 @@ def rate_transitions_kernel(w: Arrays, k: Constants):
                 if leave:
                     set_state_one(state, target, streak, i, S.F_I, t)
     stream.store(w.stream, r)
-
-
-@njit(cache=True)
-def enforce_orders_kernel(w: Arrays):
-    """Standing abandon orders and reservations, applied to agents in their hub.
-
-    An abandon order makes c's agents favouring t uncommitted when in the hub.
-    A target reserved by another collective (or taken) is dropped the same
-    way, and committed or initiating agents for it return to deliberation.
-    """
-    state, target, leg, collective = w.state, w.target, w.leg, w.collective
-    reserved_by, active, abandon_order = w.reserved_by, w.active, w.abandon_order
-    for i in range(state.size):
-        t = target[i]
-        if t < 0:
-            continue
-        c = collective[i]
-        favouring_here = leg[i] == S.AT_HUB and S.FAVOURING_IN_HUB[state[i]]
-        owner = reserved_by[t]
-        taken = (owner >= 0 and owner != c) or not active[t]
-        if (favouring_here and abandon_order[c, t]) or (
-            taken and (favouring_here or state[i] == S.C or state[i] == S.I)
-        ):
-            set_state_one(state, target, w.streak, i, S.U_I, -1)
 
 
 # ------------------------------------------------------- Python entry points
@@ -363,12 +365,12 @@ def discoverable(world: World, params: Params) -> np.ndarray:
 
 
 def discovery(world: World, params: Params, model: str) -> None:
-    discovery_kernel(world.kernel_arrays(), constants_for(params, model))
+    agent_rules_kernel(world.kernel_arrays(), constants_for(params, model), False, True, False)
 
 
 def rate_transitions(world: World, params: Params, model: str) -> None:
-    rate_transitions_kernel(world.kernel_arrays(), constants_for(params, model))
+    agent_rules_kernel(world.kernel_arrays(), constants_for(params, model), False, False, True)
 
 
-def enforce_orders(world: World) -> None:
-    enforce_orders_kernel(world.kernel_arrays())
+def enforce_orders(world: World, params: Params) -> None:
+    agent_rules_kernel(world.kernel_arrays(), constants_for(params, "M1"), True, False, False)
