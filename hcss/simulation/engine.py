@@ -398,9 +398,9 @@ class Simulation:
     def _reset_collective(self, c: int) -> None:
         w = self.world
         mine = np.flatnonzero(w.collective == c)
-        at_new_site = mine[(w.state[mine] == S.D) & (w.leg[mine] == S.AT_HUB)]
-        w.set_state(at_new_site, S.U_I)
-        self._send_home(np.setdiff1d(mine, at_new_site, assume_unique=True))
+        arrived = (w.state[mine] == S.D) & (w.leg[mine] == S.AT_HUB)  # at the new site
+        w.set_state(mine[arrived], S.U_I)
+        self._send_home(mine[~arrived])
         w.executing[c] = -1
         w.commit_announced[c] = -1
         w.abandon_order[c, :] = False
