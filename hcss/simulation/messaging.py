@@ -58,27 +58,21 @@ def compose_kernel(w: Arrays, k: Constants):
     n_agents = state.size
     n_collectives = w.hub.shape[0]
     n_areas = 2 * n_collectives
-    # Members of each hub area (its collective's hub, or for D agents the new site).
-    area = np.empty(n_agents, dtype=np.int64)
-    start = np.zeros(n_areas + 1, dtype=np.int64)  # start[a] .. start[a + 1]: area a's members
+    # Members of each hub area (its collective's hub, or for D agents the new site), in
+    # one pass: an area holds agents of one collective only, so it gets a slot per agent
+    # of a collective and area a's members are members[a * per + 0 .. a * per + size[a]].
+    per = n_agents // n_collectives
+    members = np.empty(n_areas * per, dtype=np.int64)
+    size = np.zeros(n_areas, dtype=np.int64)
     listeners = np.zeros(n_areas, dtype=np.int64)  # members a U_I sender can affect
     for i in range(n_agents):
-        a = -1
         if leg[i] == S.AT_HUB:
             a = collective[i] + n_collectives * (state[i] == S.D)
-            start[a + 1] += 1
+            members[a * per + size[a]] = i
+            size[a] += 1
             listeners[a] += state[i] != S.U_I
-        area[i] = a
-    for a in range(n_areas):
-        start[a + 1] += start[a]
-    fill = start[:-1].copy()
-    members = np.empty(start[-1], dtype=np.int64)
-    for i in range(n_agents):
-        if area[i] >= 0:
-            members[fill[area[i]]] = i
-            fill[area[i]] += 1
 
-    capacity = 64 + 4 * start[-1]
+    capacity = 64 + 4 * size.sum()
     sender = np.empty(capacity, dtype=np.int64)
     receiver = np.empty(capacity, dtype=np.int64)
     n = 0
@@ -86,42 +80,41 @@ def compose_kernel(w: Arrays, k: Constants):
     base_mean = k.message_rate * k.dt_s
     base_limit = math.exp(-base_mean)  # most senders share the base rate
     r = stream.load(w.stream)
-    for m in range(members.size):  # senders, area by area
-        i = members[m]
-        a = area[i]
-        if not S.SENDING[state[i]]:
-            continue
-        if state[i] == S.U_I and listeners[a] == 0:
-            continue  # every message it could send would be dropped below
-        if k.modulation and state[i] == S.F_I:
-            mean = base_mean * w.send_factor[collective[i], w.target[i]]
-            count, r = stream.poisson_count_of(r, mean)
-        elif base_mean <= 20.0:
-            count, r = stream.poisson_count(r, base_limit)
-        else:
-            count, r = stream.poisson_count_of(r, base_mean)
-        first, n_members = start[a], start[a + 1] - start[a]
-        for _ in range(count):
-            found = -1
-            for _draw in range(k.neighbour_draws):
-                pick, r = stream.index_below(r, n_members)
-                j = members[first + pick]
-                dx = pos[j, 0] - pos[i, 0]
-                dy = pos[j, 1] - pos[i, 1]
-                if j != i and dx * dx + dy * dy <= range2:
-                    found = j
-                    break
-            # A message between two uncommitted agents changes nothing: an
-            # uncommitted agent's streak is never used (any change of decision
-            # state clears it) and only initiating agents count silence.
-            if found < 0 or (state[i] == S.U_I and state[found] == S.U_I):
+    for a in range(n_areas):  # senders, area by area
+        first, n_members = a * per, size[a]
+        for i in members[first : first + n_members]:
+            if not S.SENDING[state[i]]:
                 continue
-            if n == sender.size:
-                sender = np.concatenate((sender, np.empty(n, dtype=np.int64)))
-                receiver = np.concatenate((receiver, np.empty(n, dtype=np.int64)))
-            sender[n] = i
-            receiver[n] = found
-            n += 1
+            if state[i] == S.U_I and listeners[a] == 0:
+                continue  # every message it could send would be dropped below
+            if k.modulation and state[i] == S.F_I:
+                mean = base_mean * w.send_factor[collective[i], w.target[i]]
+                count, r = stream.poisson_count_of(r, mean)
+            elif base_mean <= 20.0:
+                count, r = stream.poisson_count(r, base_limit)
+            else:
+                count, r = stream.poisson_count_of(r, base_mean)
+            for _ in range(count):
+                found = -1
+                for _draw in range(k.neighbour_draws):
+                    pick, r = stream.index_below(r, n_members)
+                    j = members[first + pick]
+                    dx = pos[j, 0] - pos[i, 0]
+                    dy = pos[j, 1] - pos[i, 1]
+                    if j != i and dx * dx + dy * dy <= range2:
+                        found = j
+                        break
+                # A message between two uncommitted agents changes nothing: an
+                # uncommitted agent's streak is never used (any change of decision
+                # state clears it) and only initiating agents count silence.
+                if found < 0 or (state[i] == S.U_I and state[found] == S.U_I):
+                    continue
+                if n == sender.size:
+                    sender = np.concatenate((sender, np.empty(n, dtype=np.int64)))
+                    receiver = np.concatenate((receiver, np.empty(n, dtype=np.int64)))
+                sender[n] = i
+                receiver[n] = found
+                n += 1
     stream.store(w.stream, r)
     return sender[:n], receiver[:n]
 
