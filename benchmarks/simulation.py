@@ -4,7 +4,8 @@ sweep throughput and the full-size equivalence check.
 Figures are printed, never asserted: performance is measured here, not in the
 unit tests. Timings take the best of several repeats (the machine is shared);
 the load average at the start is printed with them. BEFORE holds the figures
-of the numpy engine this one replaced, for comparison.
+of the numpy engine this one replaced, PREVIOUS those of the compiled engine
+before its kernels were made faster, for comparison.
 """
 
 from __future__ import annotations
@@ -36,6 +37,14 @@ BEFORE = {
     "experiment_min": 26.8,
     "experiment_mib": 150.0,
     "issue": "issue 11: M1 2,041x, M2 1,909x; 528 us/step (4), 807 us/step (16); experiment 2.6 min",
+}
+# The compiled engine at the start of the session that made the kernels faster
+# (commit 7b73b03), on the same machine at a quiet moment: "previous" below.
+PREVIOUS = {
+    "when": "2026-11-26 21:10 UTC, compiled engine of commit 7b73b03, quiet machine",
+    "rtf_m1": 10_589.0,
+    "rtf_m2": 10_833.0,
+    "step_us": {1: 17.0, 4: 72.0, 16: 346.0, 64: 1877.0},
 }
 TARGET_RTF = 20_000.0
 TARGET_EXPERIMENT_S = 30.0
@@ -69,8 +78,8 @@ def real_time_factor(repeats: int = 3) -> dict[str, float]:
             f"(1) real-time factor, one 4x200 trial, one core, {model}: "
             f"{statistics.median(wall):,.0f}x per wall second ({1e6 / statistics.median(wall):.0f} us/step), "
             f"{statistics.median(cpu):,.0f}x per CPU second ({1e6 / statistics.median(cpu):.0f} us/step); "
-            f"median of 3 scenarios, best of {repeats}   before {BEFORE['rtf_' + model.lower()]:,.0f}x "
-            f"[target >= {TARGET_RTF:,.0f}x]"
+            f"median of 3 scenarios, best of {repeats}   before {BEFORE['rtf_' + model.lower()]:,.0f}x, "
+            f"previous {PREVIOUS['rtf_' + model.lower()]:,.0f}x [target >= {TARGET_RTF:,.0f}x]"
         )
     return result
 
@@ -95,6 +104,7 @@ def step_cost(steps: int = 200, repeats: int = 3) -> None:
             f"{n:>2} collectives ({n * 200:>5} agents): {best * 1e6:6.0f} us/step wall, "
             f"{best_cpu * 1e6:6.0f} CPU   "
             + (f"before {before:6.0f} us/step" if before else "before n/a (at most 16)")
+            + f", previous {PREVIOUS['step_us'][n]:5.0f} us/step"
         )
     print("(3) cost per step:\n      " + "\n      ".join(parts))
 
@@ -232,6 +242,7 @@ def run() -> None:
     load = ", ".join(f"{x:.1f}" for x in os.getloadavg())
     print(f"python {sys.version.split()[0]}, {os.cpu_count()} cores, load average {load}")
     print(f"before: {BEFORE['when']}; {BEFORE['issue']}")
+    print(f"previous: {PREVIOUS['when']}")
     compile_time()
     real_time_factor()
     step_cost()

@@ -7,8 +7,8 @@ and adopts it with probability v̂ (`params.discovery == "per_agent"`). The
 agent's flights stay spatial: it keeps walking while it explores and, on
 adopting a site, flies home from where it is.
 
-The rule itself is the compiled `rules.discovery_kernel` (both readings); the
-other reading ("spatial", the default) leaves discovery to the encounter
+The rule itself is the discovery part of the compiled `rules.agent_rules_kernel`
+(both readings); the other reading ("spatial", the default) leaves discovery to the encounter
 within the sensing radius, whose radius `hcss simulate calibrate` fits so that
 the collective's first explorer finds a site after 1/g(d).
 """

@@ -43,7 +43,9 @@ from hcss.simulation.step import advance_agents, exchange_and_report, quiet_step
 from hcss.simulation.view import Display, Truth, display_of, truth_of
 from hcss.simulation.world import World
 
-SNAPSHOT_VERSION = 2  # 2: the compiled engine (World.stream and the M2 geometry arrays)
+SNAPSHOT_VERSION = (
+    3  # 2: the compiled engine (World.stream, M2 geometry); 3: headings as unit vectors
+)
 DERIVED = ("rng", "scenario", "params", "_k", "_scratch")  # not pickled as such
 
 
@@ -262,7 +264,7 @@ class Simulation:
         self.requests.append(request)
         if kind == "abandon":
             w.abandon_order[c, t] = True
-            rules.enforce_orders(w)
+            rules.enforce_orders(w, p)
         self._note_status(request, IN_PROGRESS)
         recruit_for(w, request, self.rng)
         self._note_completed()
@@ -423,7 +425,7 @@ class Simulation:
             w.reserved_by[t] = c
             rival = mine_all & S.COMMITTED_OR_LATER[w.state] & (w.target != t)
             self._send_home(np.flatnonzero(rival))
-            rules.enforce_orders(w)  # other collectives drop the target at once
+            rules.enforce_orders(w, p)  # other collectives drop the target at once
             self._event(
                 "move", int(c), t, f"Collective {ROMAN[c]} is moving to target {target_id(t)}."
             )
@@ -471,9 +473,9 @@ class Simulation:
     def _reset_collective(self, c: int) -> None:
         w = self.world
         mine = np.flatnonzero(w.collective == c)
-        at_new_site = mine[(w.state[mine] == S.D) & (w.leg[mine] == S.AT_HUB)]
-        w.set_state(at_new_site, S.U_I)
-        self._send_home(np.setdiff1d(mine, at_new_site, assume_unique=True))
+        arrived = (w.state[mine] == S.D) & (w.leg[mine] == S.AT_HUB)  # at the new site
+        w.set_state(mine[arrived], S.U_I)
+        self._send_home(mine[~arrived])
         w.executing[c] = -1
         w.commit_announced[c] = -1
         w.abandon_order[c, :] = False

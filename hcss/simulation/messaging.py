@@ -54,66 +54,68 @@ def decision_key(state, target):
 @njit(cache=True)
 def compose_kernel(w: Arrays, k: Constants):
     """Who sends how many messages to whom this step: (sender, receiver) arrays."""
-    n_agents = w.state.size
-    n_areas = 2 * w.hub.shape[0]
-    # Members of each hub area (its collective's hub, or for D agents the new site).
-    area = np.empty(n_agents, dtype=np.int64)
-    size = np.zeros(n_areas + 1, dtype=np.int64)
+    state, leg, collective, pos = w.state, w.leg, w.collective, w.pos
+    n_agents = state.size
+    n_collectives = w.hub.shape[0]
+    n_areas = 2 * n_collectives
+    # Members of each hub area (its collective's hub, or for D agents the new site), in
+    # one pass: an area holds agents of one collective only, so it gets a slot per agent
+    # of a collective and area a's members are members[a * per + 0 .. a * per + size[a]].
+    per = n_agents // n_collectives
+    members = np.empty(n_areas * per, dtype=np.int64)
+    size = np.zeros(n_areas, dtype=np.int64)
     listeners = np.zeros(n_areas, dtype=np.int64)  # members a U_I sender can affect
     for i in range(n_agents):
-        if w.leg[i] == S.AT_HUB:
-            area[i] = w.collective[i] + (n_areas // 2) * (w.state[i] == S.D)
-            size[area[i] + 1] += 1
-            listeners[area[i]] += w.state[i] != S.U_I
-        else:
-            area[i] = -1
-    start = np.cumsum(size)  # start[a] .. start[a + 1] are area a's members
-    fill = start[:-1].copy()
-    members = np.empty(start[-1], dtype=np.int64)
-    for i in range(n_agents):
-        if area[i] >= 0:
-            members[fill[area[i]]] = i
-            fill[area[i]] += 1
+        if leg[i] == S.AT_HUB:
+            a = collective[i] + n_collectives * (state[i] == S.D)
+            members[a * per + size[a]] = i
+            size[a] += 1
+            listeners[a] += state[i] != S.U_I
 
-    capacity = 64 + 4 * start[-1]
+    capacity = 64 + 4 * size.sum()
     sender = np.empty(capacity, dtype=np.int64)
     receiver = np.empty(capacity, dtype=np.int64)
     n = 0
     range2 = k.comm_range_m * k.comm_range_m
-    base_limit = math.exp(-k.message_rate * k.dt_s)  # most senders share the base rate
-    for i in range(n_agents):
-        if area[i] < 0 or not S.SENDING[w.state[i]]:
-            continue
-        if w.state[i] == S.U_I and listeners[area[i]] == 0:
-            continue  # every message it could send would be dropped below
-        if k.modulation and w.state[i] == S.F_I:
-            rate = k.message_rate * w.send_factor[w.collective[i], w.target[i]]
-            count = stream.poisson(w.stream, rate * k.dt_s)
-        elif k.message_rate * k.dt_s <= 20.0:
-            count = stream.poisson_below(w.stream, base_limit)
-        else:
-            count = stream.poisson(w.stream, k.message_rate * k.dt_s)
-        first, n_members = start[area[i]], start[area[i] + 1] - start[area[i]]
-        for _ in range(count):
-            found = -1
-            for _draw in range(k.neighbour_draws):
-                j = members[first + stream.below(w.stream, n_members)]
-                dx = w.pos[j, 0] - w.pos[i, 0]
-                dy = w.pos[j, 1] - w.pos[i, 1]
-                if j != i and dx * dx + dy * dy <= range2:
-                    found = j
-                    break
-            # A message between two uncommitted agents changes nothing: an
-            # uncommitted agent's streak is never used (any change of decision
-            # state clears it) and only initiating agents count silence.
-            if found < 0 or (w.state[i] == S.U_I and w.state[found] == S.U_I):
+    base_mean = k.message_rate * k.dt_s
+    base_limit = math.exp(-base_mean)  # most senders share the base rate
+    r = stream.load(w.stream)
+    for a in range(n_areas):  # senders, area by area
+        first, n_members = a * per, size[a]
+        for i in members[first : first + n_members]:
+            if not S.SENDING[state[i]]:
                 continue
-            if n == sender.size:
-                sender = np.concatenate((sender, np.empty(n, dtype=np.int64)))
-                receiver = np.concatenate((receiver, np.empty(n, dtype=np.int64)))
-            sender[n] = i
-            receiver[n] = found
-            n += 1
+            if state[i] == S.U_I and listeners[a] == 0:
+                continue  # every message it could send would be dropped below
+            if k.modulation and state[i] == S.F_I:
+                mean = base_mean * w.send_factor[collective[i], w.target[i]]
+                count, r = stream.poisson_count_of(r, mean)
+            elif base_mean <= 20.0:
+                count, r = stream.poisson_count(r, base_limit)
+            else:
+                count, r = stream.poisson_count_of(r, base_mean)
+            for _ in range(count):
+                found = -1
+                for _draw in range(k.neighbour_draws):
+                    pick, r = stream.index_below(r, n_members)
+                    j = members[first + pick]
+                    dx = pos[j, 0] - pos[i, 0]
+                    dy = pos[j, 1] - pos[i, 1]
+                    if j != i and dx * dx + dy * dy <= range2:
+                        found = j
+                        break
+                # A message between two uncommitted agents changes nothing: an
+                # uncommitted agent's streak is never used (any change of decision
+                # state clears it) and only initiating agents count silence.
+                if found < 0 or (state[i] == S.U_I and state[found] == S.U_I):
+                    continue
+                if n == sender.size:
+                    sender = np.concatenate((sender, np.empty(n, dtype=np.int64)))
+                    receiver = np.concatenate((receiver, np.empty(n, dtype=np.int64)))
+                sender[n] = i
+                receiver[n] = found
+                n += 1
+    stream.store(w.stream, r)
     return sender[:n], receiver[:n]
 
 
@@ -174,23 +176,27 @@ def exchange_kernel(w: Arrays, k: Constants, finished):
 
     Marks in `finished` the collectives in which a D(i) quorum was reached.
     """
-    for i in range(w.silence.size):
-        w.silence[i] += k.dt_s
+    silence = w.silence
+    for i in range(silence.size):
+        silence[i] += k.dt_s
     sender, receiver = compose_kernel(w, k)
     n = sender.size
+    r = stream.load(w.stream)
     for m in range(n - 1, 0, -1):  # Fisher-Yates shuffle: a random order of arrival
-        j = stream.below(w.stream, m + 1)
+        j, r = stream.index_below(r, m + 1)
         sender[m], sender[j] = sender[j], sender[m]
         receiver[m], receiver[j] = receiver[j], receiver[m]
     s_state = np.empty(n, dtype=np.int8)
     s_target = np.empty(n, dtype=np.int32)
     s_estimate = np.empty(n, dtype=np.float64)
     draw = np.empty(n, dtype=np.float64)
+    state, target, estimate = w.state, w.target, w.estimate
     for m in range(n):  # senders speak from their state at composition
-        s_state[m] = w.state[sender[m]]
-        s_target[m] = w.target[sender[m]]
-        s_estimate[m] = w.estimate[sender[m]]
-        draw[m] = stream.uniform(w.stream)
+        s_state[m] = state[sender[m]]
+        s_target[m] = target[sender[m]]
+        s_estimate[m] = estimate[sender[m]]
+        draw[m], r = stream.unit(r)
+    stream.store(w.stream, r)
     deliver_messages(w, k, receiver, s_state, s_target, s_estimate, draw, finished)
 
 

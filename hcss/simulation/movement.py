@@ -30,33 +30,87 @@ def home(w, i):
     return w.hub[c, 0], w.hub[c, 1]
 
 
+# fdlibm's kernels of sin and cos on [-π/4, π/4] (musl's __sin.c, __cos.c) and its
+# two-part π/2 for the reduction: within an ulp of libm for the angles reduced here.
+_S1, _S2, _S3 = -1.66666666666666324348e-01, 8.33333333332248946124e-03, -1.98412698298579493134e-04
+_S4, _S5, _S6 = 2.75573137070700676789e-06, -2.50507602534068634195e-08, 1.58969099521155010221e-10
+_C1, _C2, _C3 = 4.16666666666666019037e-02, -1.38888888888741095749e-03, 2.48015872894767294178e-05
+_C4, _C5, _C6 = -2.75573143513906633035e-07, 2.08757232129817482790e-09, -1.13596475577881948265e-11
+_PIO2_HI, _PIO2_LO, _TWO_OVER_PI = (
+    1.57079632673412561417,
+    6.07710050650619224932e-11,
+    0.63661977236758134,
+)
+_REDUCED_EXACTLY = 2.0**19 * 1.5707963267948966  # n·π/2 exact in two parts up to n = 2^19
+
+
+@njit(cache=True)
+def fill_cos_sin(angles, cos_out, sin_out):
+    """cos and sin of every angle, in a loop without calls that the compiler vectorises.
+
+    Three to four times faster than a libm call per angle (every walker turns
+    every step): reduce by π/2, evaluate fdlibm's polynomials, then pick and
+    sign by quadrant. Angles too large to reduce this way go to libm.
+    """
+    for i in range(angles.size):
+        a = angles[i]
+        n = np.rint(a * _TWO_OVER_PI)
+        x = (a - n * _PIO2_HI) - n * _PIO2_LO
+        z = x * x
+        w = z * z
+        sine = x + z * x * (_S1 + z * (_S2 + z * (_S3 + z * _S4) + z * w * (_S5 + z * _S6)))
+        r = z * (_C1 + z * (_C2 + z * _C3)) + w * w * (_C4 + z * (_C5 + z * _C6))
+        half = 0.5 * z
+        one_less = 1.0 - half
+        cosine = one_less + (((1.0 - one_less) - half) + z * r)
+        quadrant = np.int64(n) & 3  # 0: (c, s), 1: (-s, c), 2: (-c, -s), 3: (s, -c)
+        swap = (quadrant & 1) == 1
+        cos_out[i] = (1.0 - 2.0 * (((quadrant + 1) >> 1) & 1)) * (sine if swap else cosine)
+        sin_out[i] = (1.0 - 2.0 * ((quadrant >> 1) & 1)) * (cosine if swap else sine)
+    for i in range(angles.size):
+        if not abs(angles[i]) < _REDUCED_EXACTLY:
+            cos_out[i], sin_out[i] = math.cos(angles[i]), math.sin(angles[i])
+
+
 @njit(cache=True)
 def move_kernel(w: Arrays, k: Constants, at_target, at_hub):
     """Advance every agent one step.
 
     Fills `at_target` and `at_hub` with the agents that reached their target or
     their hub area this step and returns how many of each; the rules decide
-    what they do there.
+    what they do there. Headings are unit vectors, so a reflection or an
+    arrival sets one without trigonometry.
     """
+    # The arrays in locals: the loop then reads them without going through `w`.
+    state, leg, target, collective = w.state, w.leg, w.target, w.collective
+    pos, heading, hub, target_pos = w.pos, w.heading, w.hub, w.target_pos
     step = k.speed_mps * k.dt_s
     n_target = 0
     n_hub = 0
     n_walkers = 0
-    for i in range(w.state.size):
-        n_walkers += w.leg[i] <= S.EXPLORING
-    turns = np.empty(n_walkers)  # every walker's turning deviate, drawn in one tight loop
+    for i in range(state.size):
+        n_walkers += leg[i] <= S.EXPLORING
+    # Every walker's turn, drawn and turned into a rotation in tight loops before the pass.
+    turns = np.empty(n_walkers)
     stream.fill_normals(w.stream, turns)
+    for j in range(n_walkers):
+        turns[j] *= k.turn_sd_rad
+    cos_turns, sin_turns = np.empty(n_walkers), np.empty(n_walkers)
+    fill_cos_sin(turns, cos_turns, sin_turns)
     n_walkers = 0
-    for i in range(w.state.size):
-        hx, hy = home(w, i)
-        leg = w.leg[i]
-        if leg <= S.EXPLORING:  # correlated random walk in the hub area or the exploration disc
-            heading = w.heading[i] + k.turn_sd_rad * turns[n_walkers]
+    for i in range(state.size):
+        if state[i] >= S.X:  # home: the collective's hub, or the new site for X and D
+            hx, hy = target_pos[target[i], 0], target_pos[target[i], 1]
+        else:
+            hx, hy = hub[collective[i], 0], hub[collective[i], 1]
+        px, py = pos[i, 0], pos[i, 1]
+        if leg[i] <= S.EXPLORING:  # correlated random walk in the hub area or exploration disc
+            cos_turn, sin_turn = cos_turns[n_walkers], sin_turns[n_walkers]
             n_walkers += 1
-            dx, dy = math.cos(heading), math.sin(heading)
-            x = w.pos[i, 0] + step * dx
-            y = w.pos[i, 1] + step * dy
-            radius = k.hub_radius_m if leg == S.AT_HUB else k.exploration_range_m
+            ux, uy = heading[i, 0], heading[i, 1]
+            dx, dy = ux * cos_turn - uy * sin_turn, ux * sin_turn + uy * cos_turn
+            x, y = px + step * dx, py + step * dy
+            radius = k.hub_radius_m if leg[i] == S.AT_HUB else k.exploration_range_m
             ox, oy = x - hx, y - hy
             distance2 = ox * ox + oy * oy
             if distance2 > radius * radius:  # mirror the overshoot and the radial heading
@@ -65,31 +119,32 @@ def move_kernel(w: Arrays, k: Constants, at_target, at_hub):
                 dot = dx * nx + dy * ny
                 back = min(max(2.0 * radius - distance, 0.0), radius)
                 x, y = hx + nx * back, hy + ny * back
-                heading = math.atan2(dy - 2.0 * dot * ny, dx - 2.0 * dot * nx)
-            w.pos[i, 0], w.pos[i, 1], w.heading[i] = x, y, heading
-        else:  # straight flight towards the target or the hub
-            to_target = leg == S.TO_TARGET
-            if to_target:
-                gx = w.target_pos[w.target[i], 0] - w.pos[i, 0]
-                gy = w.target_pos[w.target[i], 1] - w.pos[i, 1]
-            else:
-                gx, gy = hx - w.pos[i, 0], hy - w.pos[i, 1]
-            distance = math.sqrt(gx * gx + gy * gy)
-            advance = min(step, distance)
-            if distance > 0.0:
-                w.pos[i, 0] += gx * advance / distance
-                w.pos[i, 1] += gy * advance / distance
-            remaining = distance - advance
-            if to_target and remaining <= 1e-9:
-                at_target[n_target] = i
-                n_target += 1
-            elif not to_target and remaining <= k.hub_radius_m:
-                at_hub[n_hub] = i
-                n_hub += 1
-            else:
-                continue
-            # Arriving agents keep their flight direction as the heading of their next walk.
-            w.heading[i] = math.atan2(gy, gx)
+                dx, dy = dx - 2.0 * dot * nx, dy - 2.0 * dot * ny
+            pos[i, 0], pos[i, 1] = x, y
+            heading[i, 0], heading[i, 1] = dx, dy
+            continue
+        # straight flight towards the target or the hub
+        to_target = leg[i] == S.TO_TARGET
+        if to_target:
+            gx, gy = target_pos[target[i], 0] - px, target_pos[target[i], 1] - py
+        else:
+            gx, gy = hx - px, hy - py
+        distance = math.sqrt(gx * gx + gy * gy)
+        advance = min(step, distance)
+        if distance > 0.0:
+            pos[i, 0] = px + gx * advance / distance
+            pos[i, 1] = py + gy * advance / distance
+        remaining = distance - advance
+        if to_target and remaining <= 1e-9:
+            at_target[n_target] = i
+            n_target += 1
+        elif not to_target and remaining <= k.hub_radius_m:
+            at_hub[n_hub] = i
+            n_hub += 1
+        else:
+            continue
+        if distance > 0.0:  # arriving agents keep their flight direction for their next walk
+            heading[i, 0], heading[i, 1] = gx / distance, gy / distance
     return n_target, n_hub
 
 
@@ -102,7 +157,8 @@ def scatter_kernel(w: Arrays, k: Constants, agents):
         hx, hy = home(w, i)
         w.pos[i, 0] = hx + radius * math.cos(angle)
         w.pos[i, 1] = hy + radius * math.sin(angle)
-        w.heading[i] = 2.0 * math.pi * stream.uniform(w.stream)
+        heading = 2.0 * math.pi * stream.uniform(w.stream)
+        w.heading[i, 0], w.heading[i, 1] = math.cos(heading), math.sin(heading)
 
 
 def scatter_in_hub(world: World, agents: np.ndarray, k: Constants) -> None:

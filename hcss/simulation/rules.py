@@ -31,6 +31,21 @@ def per_step_probability(rate, dt):
     return -math.expm1(-rate * dt)
 
 
+@njit(cache=True, inline="always")
+def within_step(u, rate, dt):
+    """Whether a uniform draw u falls below `per_step_probability(rate, dt)`.
+
+    Exact, and cheap for the common draw: 1 - e^(-x) lies between x·(1 - x)
+    and x, so the exponential is computed only for a draw between the two.
+    """
+    x = rate * dt
+    if u >= x:
+        return False
+    if u < x * (1.0 - x):
+        return True
+    return u < per_step_probability(rate, dt)
+
+
 @njit(cache=True)
 def leave_rate_one(estimate, gap):
     """v̂ / gap, with the guard of spec §5: infinite (leave at once) where gap ≤ 0."""
@@ -95,22 +110,26 @@ def refresh_geometry(world: World, params: Params) -> None:
 
 
 # -------------------------------------------------------------------- rules
-@njit(cache=True, inline="always")
-def discoverable_one(w: Arrays, k: Constants, c, t):
-    """Whether collective c's explorers can adopt target t.
+@njit(cache=True)
+def discoverable_sites(w: Arrays, k: Constants, ok):
+    """(C, T) into `ok`: whether collective c's explorers can adopt target t.
 
     Active, in range of the hub, not reserved by another collective, not under
     a standing abandon order, and (reading `foreign_targets="own_only"`)
     placed around the collective's own start hub.
     """
-    owner = w.reserved_by[t]
-    return (
-        w.active[t]
-        and w.hub_distance[c, t] <= k.exploration_range_m
-        and (owner < 0 or owner == c)
-        and not w.abandon_order[c, t]
-        and (not k.own_targets_only or w.target_around[t] == c)
-    )
+    active, reserved_by, around = w.active, w.reserved_by, w.target_around
+    hub_distance, abandon_order = w.hub_distance, w.abandon_order
+    for c in range(ok.shape[0]):
+        for t in range(ok.shape[1]):
+            owner = reserved_by[t]
+            ok[c, t] = (
+                active[t]
+                and hub_distance[c, t] <= k.exploration_range_m
+                and (owner < 0 or owner == c)
+                and not abandon_order[c, t]
+                and (not k.own_targets_only or around[t] == c)
+            )
 
 
 @njit(cache=True, inline="always")
@@ -126,68 +145,30 @@ def adopt_on_discovery(w: Arrays, k: Constants, i, t):
 
 
 @njit(cache=True)
-def discovery_kernel(w: Arrays, k: Constants):
-    """U_L → F_L(i): an explorer discovers a target and adopts it with probability v̂.
+def discovery_plan(w: Arrays, k: Constants):
+    """What an explorer can find this step: it depends on its collective only, and a
+    discovery changes none of it, so it is worked out once per step.
 
-    Reading "spatial": the explorer encounters target i within the sensing
-    radius (of two sensed at once, the nearer). Reading "per_agent" (the
-    paper's P_γ = v·g(d) per agent): it finds each discoverable site at rate
-    g(d_i), some site within a step with probability 1 − exp(−Σ g(d_i)·dt),
-    which one in proportion to the rates; its flights stay spatial.
+    Per collective: how many sites are discoverable, which (`discoverable_sites`),
+    and for reading "per_agent" their summed rate g and the per-step probability
+    of finding one.
     """
-    radius2 = k.sensing_radius_m * k.sensing_radius_m
-    # Per collective, the active targets within R of its hub: only they can be discovered.
     n_c, n_t = w.hub_distance.shape
+    ok = np.empty((n_c, n_t), dtype=np.bool_)
+    discoverable_sites(w, k, ok)
     count = np.zeros(n_c, dtype=np.int64)
-    candidates = np.empty((n_c, n_t), dtype=np.int64)
-    for c in range(n_c):
-        for t in range(n_t):
-            if w.active[t] and w.hub_distance[c, t] <= k.exploration_range_m:
-                candidates[c, count[c]] = t
-                count[c] += 1
-    # Reading "per_agent": what an explorer can find depends on its collective only, and
-    # a discovery changes none of it, so the sites, their summed rate and the per-step
-    # probability are worked out once per collective, not once per explorer.
-    discoverable = np.zeros((n_c, n_t), dtype=np.bool_)
+    sites = np.empty((n_c, n_t), dtype=np.int64)
     total = np.zeros(n_c)
     probability = np.zeros(n_c)
-    if k.discovery_per_agent:
-        for c in range(n_c):
-            for j in range(count[c]):
-                t = candidates[c, j]
-                if discoverable_one(w, k, c, t):
-                    discoverable[c, j] = True
-                    total[c] += w.site_rate[c, t]
-            if total[c] > 0.0:
-                probability[c] = per_step_probability(total[c], k.dt_s)
-    for i in range(w.state.size):
-        if w.leg[i] != S.EXPLORING or w.state[i] != S.U_L:
-            continue
-        c = w.collective[i]
-        best = -1
-        if k.discovery_per_agent:
-            if total[c] <= 0.0 or stream.uniform(w.stream) >= probability[c]:
-                continue
-            pick = stream.uniform(w.stream) * total[c]
-            for j in range(count[c]):
-                if discoverable[c, j]:
-                    best = candidates[c, j]
-                    pick -= w.site_rate[c, best]
-                    if pick < 0.0:
-                        break
-        else:
-            best_d2 = radius2
-            for j in range(count[c]):
-                t = candidates[c, j]
-                dx = w.pos[i, 0] - w.target_pos[t, 0]
-                dy = w.pos[i, 1] - w.target_pos[t, 1]
-                d2 = dx * dx + dy * dy
-                if d2 > best_d2 or (best >= 0 and d2 == best_d2):
-                    continue
-                if discoverable_one(w, k, c, t):
-                    best, best_d2 = t, d2
-        if best >= 0:
-            adopt_on_discovery(w, k, i, best)
+    for c in range(n_c):
+        for t in range(n_t):
+            if ok[c, t]:
+                sites[c, count[c]] = t
+                count[c] += 1
+                total[c] += w.site_rate[c, t]
+        if total[c] > 0.0:
+            probability[c] = per_step_probability(total[c], k.dt_s)
+    return count, sites, total, probability
 
 
 @njit(cache=True)
@@ -244,59 +225,111 @@ def reach_hub_kernel(w: Arrays, agents, n, newly_visible):
 
 
 @njit(cache=True)
-def rate_transitions_kernel(w: Arrays, k: Constants):
-    """Stop exploring (U_L → home), resume exploring (U_I → U_L), reassess (F_I → F_L), M2 delays.
+def agent_rules_kernel(w: Arrays, k: Constants, orders, discovery, transitions):
+    """Standing orders, discovery and the rate transitions, agent by agent in one pass.
 
-    M2: F_D → F_I at P_D(i) = v̂/(1/g(d_max) − 1/g(d_i)) and F_R → F_I at
-    P_R(i) = v̂/(τ_max − τ_i): near targets wait longer, so that every
-    target's discovery-plus-delay and round-trip-plus-delay times match those
-    of a target at d_max. Where d_i ≥ d_max the state is left at once.
+    Each rule reads only its agent and target-level state that none of them
+    changes, so applying them agent by agent, in this order, is applying them
+    rule by rule; one pass over the agents costs less than three. The flags
+    select rules, for a caller (a test, a request, the calibration) that needs
+    only some.
+
+    Standing orders (spec §8): an abandon order makes c's agents favouring t
+    uncommitted when in the hub. A target reserved by another collective (or
+    taken) is dropped the same way, and committed or initiating agents for it
+    return to deliberation.
+
+    Discovery, U_L → F_L(i): an explorer discovers a target and adopts it with
+    probability v̂. Reading "spatial": it encounters target i within the
+    sensing radius (of two sensed at once, the nearer). Reading "per_agent"
+    (the paper's P_γ = v·g(d) per agent): it finds each discoverable site at
+    rate g(d_i), some site within a step with probability 1 − exp(−Σ g(d_i)·dt),
+    which one in proportion to the rates; its flights stay spatial.
+
+    Rate transitions: stop exploring (U_L → home), resume exploring (U_I →
+    U_L), reassess (F_I → F_L), and M2's delays: F_D → F_I at P_D(i) =
+    v̂/(1/g(d_max) − 1/g(d_i)) and F_R → F_I at P_R(i) = v̂/(τ_max − τ_i), so
+    that every target's discovery-plus-delay and round-trip-plus-delay times
+    match those of a target at d_max. Where d_i ≥ d_max the state is left at once.
     """
-    for i in range(w.state.size):
-        state, leg = w.state[i], w.leg[i]
-        if leg == S.EXPLORING:
-            if state == S.U_L and stream.uniform(w.stream) < k.stop_probability:
-                w.leg[i] = S.TO_HUB
-                w.arrival_state[i] = S.U_I
-        elif leg == S.AT_HUB:
-            if state == S.U_I:
-                if stream.uniform(w.stream) < k.leave_probability:
-                    set_state_one(w.state, w.target, w.streak, i, S.U_L, -1)
-                    w.leg[i] = S.EXPLORING
-            elif state == S.F_I:
-                if stream.uniform(w.stream) < k.leave_probability:
-                    set_state_one(w.state, w.target, w.streak, i, S.F_L, w.target[i])
-                    w.leg[i] = S.TO_TARGET
-            elif state == S.F_D or state == S.F_R:  # only M2 (with its delays) has them
-                c, t = w.collective[i], w.target[i]
-                gap = w.discovery_gap[c, t] if state == S.F_D else w.round_trip_gap[c, t]
-                rate = leave_rate_one(w.estimate[i], gap)
-                if rate == math.inf or stream.uniform(w.stream) < per_step_probability(
-                    rate, k.dt_s
-                ):
-                    set_state_one(w.state, w.target, w.streak, i, S.F_I, t)
-
-
-@njit(cache=True)
-def enforce_orders_kernel(w: Arrays):
-    """Standing abandon orders and reservations, applied to agents in their hub.
-
-    An abandon order makes c's agents favouring t uncommitted when in the hub.
-    A target reserved by another collective (or taken) is dropped the same
-    way, and committed or initiating agents for it return to deliberation.
-    """
-    for i in range(w.state.size):
-        t = w.target[i]
-        if t < 0:
+    state, leg, target, streak, collective = w.state, w.leg, w.target, w.streak, w.collective
+    reserved_by, active, abandon_order = w.reserved_by, w.active, w.abandon_order
+    arrival_state, estimate, pos, target_pos = w.arrival_state, w.estimate, w.pos, w.target_pos
+    site_rate = w.site_rate
+    count, sites, total, probability = discovery_plan(w, k)
+    radius2 = k.sensing_radius_m * k.sensing_radius_m
+    r = stream.load(w.stream)
+    for i in range(state.size):
+        # -- standing orders and reservations, for agents in their hub
+        t = target[i]
+        if orders and t >= 0:
+            c = collective[i]
+            favouring_here = leg[i] == S.AT_HUB and S.FAVOURING_IN_HUB[state[i]]
+            owner = reserved_by[t]
+            taken = (owner >= 0 and owner != c) or not active[t]
+            if (favouring_here and abandon_order[c, t]) or (
+                taken and (favouring_here or state[i] == S.C or state[i] == S.I)
+            ):
+                set_state_one(state, target, streak, i, S.U_I, -1)
+        # -- discovery by an explorer
+        if discovery and leg[i] == S.EXPLORING and state[i] == S.U_L:
+            c = collective[i]
+            best = -1
+            if k.discovery_per_agent:
+                if total[c] > 0.0:
+                    u, r = stream.unit(r)
+                    if u < probability[c]:
+                        u, r = stream.unit(r)
+                        pick = u * total[c]
+                        for j in range(count[c]):
+                            best = sites[c, j]
+                            pick -= site_rate[c, best]
+                            if pick < 0.0:
+                                break
+            else:
+                best_d2 = radius2
+                for j in range(count[c]):
+                    t = sites[c, j]
+                    dx = pos[i, 0] - target_pos[t, 0]
+                    dy = pos[i, 1] - target_pos[t, 1]
+                    d2 = dx * dx + dy * dy
+                    if d2 < best_d2 or (best < 0 and d2 == best_d2):
+                        best, best_d2 = t, d2
+            if best >= 0:
+                stream.store(w.stream, r)
+                adopt_on_discovery(w, k, i, best)
+                r = stream.load(w.stream)
+        if not transitions:
             continue
-        c, state = w.collective[i], w.state[i]
-        favouring_here = w.leg[i] == S.AT_HUB and S.FAVOURING_IN_HUB[state]
-        owner = w.reserved_by[t]
-        taken = (owner >= 0 and owner != c) or not w.active[t]
-        if (favouring_here and w.abandon_order[c, t]) or (
-            taken and (favouring_here or state == S.C or state == S.I)
-        ):
-            set_state_one(w.state, w.target, w.streak, i, S.U_I, -1)
+        # -- rate transitions
+        if leg[i] == S.EXPLORING:
+            if state[i] == S.U_L:
+                u, r = stream.unit(r)
+                if u < k.stop_probability:
+                    leg[i] = S.TO_HUB
+                    arrival_state[i] = S.U_I
+        elif leg[i] == S.AT_HUB:
+            if state[i] == S.U_I:
+                u, r = stream.unit(r)
+                if u < k.leave_probability:
+                    set_state_one(state, target, streak, i, S.U_L, -1)
+                    leg[i] = S.EXPLORING
+            elif state[i] == S.F_I:
+                u, r = stream.unit(r)
+                if u < k.leave_probability:
+                    set_state_one(state, target, streak, i, S.F_L, target[i])
+                    leg[i] = S.TO_TARGET
+            elif state[i] == S.F_D or state[i] == S.F_R:  # only M2 (with its delays) has them
+                c, t = collective[i], target[i]
+                gap = w.discovery_gap[c, t] if state[i] == S.F_D else w.round_trip_gap[c, t]
+                rate = leave_rate_one(estimate[i], gap)
+                leave = rate == math.inf
+                if not leave:
+                    u, r = stream.unit(r)
+                    leave = within_step(u, rate, k.dt_s)
+                if leave:
+                    set_state_one(state, target, streak, i, S.F_I, t)
+    stream.store(w.stream, r)
 
 
 # ------------------------------------------------------- Python entry points
@@ -325,26 +358,19 @@ def reach_hub(world: World, agents: np.ndarray) -> np.ndarray:
 
 
 def discoverable(world: World, params: Params) -> np.ndarray:
-    """(C, T): targets each collective's explorers can adopt (`discoverable_one`)."""
+    """(C, T): targets each collective's explorers can adopt (`discoverable_sites`)."""
     ok = np.zeros(world.abandon_order.shape, dtype=np.bool_)
-    _discoverable_kernel(world.kernel_arrays(), constants_for(params, "M1"), ok)
+    discoverable_sites(world.kernel_arrays(), constants_for(params, "M1"), ok)
     return ok
 
 
-@njit(cache=True)
-def _discoverable_kernel(w, k, ok):
-    for c in range(ok.shape[0]):
-        for t in range(ok.shape[1]):
-            ok[c, t] = discoverable_one(w, k, c, t)
-
-
 def discovery(world: World, params: Params, model: str) -> None:
-    discovery_kernel(world.kernel_arrays(), constants_for(params, model))
+    agent_rules_kernel(world.kernel_arrays(), constants_for(params, model), False, True, False)
 
 
 def rate_transitions(world: World, params: Params, model: str) -> None:
-    rate_transitions_kernel(world.kernel_arrays(), constants_for(params, model))
+    agent_rules_kernel(world.kernel_arrays(), constants_for(params, model), False, False, True)
 
 
-def enforce_orders(world: World) -> None:
-    enforce_orders_kernel(world.kernel_arrays())
+def enforce_orders(world: World, params: Params) -> None:
+    agent_rules_kernel(world.kernel_arrays(), constants_for(params, "M1"), True, False, False)

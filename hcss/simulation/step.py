@@ -1,7 +1,8 @@
 """One step of the agent rules, fused into two compiled passes.
 
 `advance_agents` runs, in the spec's order, movement, arrival at targets and
-hubs, standing orders, discovery and the rate transitions; the engine then
+hubs, then standing orders, discovery and the rate transitions (one pass,
+`rules.agent_rules_kernel`); the engine then
 serves operator requests (Python, rare) and `exchange_and_report` runs the
 message round, the initiating agents' silence rule and the hub reports. Each
 rule is the single compiled function of its own module; this module only
@@ -17,13 +18,7 @@ from numba import njit
 from hcss.simulation import states as S
 from hcss.simulation.messaging import exchange_kernel, initiating_silence_kernel
 from hcss.simulation.movement import move_kernel
-from hcss.simulation.rules import (
-    discovery_kernel,
-    enforce_orders_kernel,
-    rate_transitions_kernel,
-    reach_hub_kernel,
-    reach_target_kernel,
-)
+from hcss.simulation.rules import agent_rules_kernel, reach_hub_kernel, reach_target_kernel
 
 
 @njit(cache=True)
@@ -32,9 +27,7 @@ def advance_agents(w, k, at_target, at_hub, newly_visible):
     n_target, n_hub = move_kernel(w, k, at_target, at_hub)
     reach_target_kernel(w, k, at_target, n_target)
     n_visible = reach_hub_kernel(w, at_hub, n_hub, newly_visible)
-    enforce_orders_kernel(w)
-    discovery_kernel(w, k)
-    rate_transitions_kernel(w, k)
+    agent_rules_kernel(w, k, True, True, True)
     return n_visible
 
 

@@ -63,7 +63,7 @@ class World:
     target: np.ndarray  # int32, target index, or -1 exactly when uncommitted
     leg: np.ndarray  # int8, AT_HUB / EXPLORING / TO_TARGET / TO_HUB
     pos: np.ndarray  # float64 (A, 2)
-    heading: np.ndarray  # float64 radians
+    heading: np.ndarray  # float64 (A, 2), unit vector of the walk's direction
     estimate: np.ndarray  # float64, latest v̂ of the agent's own target
     arrival_state: np.ndarray  # int8, state entered on reaching the hub
     report_target: np.ndarray  # int32, target whose estimate the agent brings home, or -1
@@ -120,7 +120,7 @@ class World:
             target=np.full(a, -1, dtype=np.int32),
             leg=np.full(a, S.AT_HUB, dtype=np.int8),
             pos=np.zeros((a, 2)),
-            heading=np.zeros(a),
+            heading=np.tile([1.0, 0.0], (a, 1)),
             estimate=np.zeros(a),
             arrival_state=np.full(a, S.U_I, dtype=np.int8),
             report_target=np.full(a, -1, dtype=np.int32),

@@ -68,10 +68,14 @@ def test_the_agent_model_agrees_with_the_mean_field_chain_on_simple_layouts() ->
 
     Stated tolerances (5 runs each): the agent model's modal site is the ODEs'
     winner, its best-site share is within 0.4 of the chain's, and its mean
-    decision time within a factor of 3 of the chain's. The factor is wide
+    decision time within a factor of 4 of the chain's. The factor is wide
     because the chain has no hub space: on the difficult layout M1's two 150 m
     sites split the well-mixed chain's support for longer (measured with 20
-    runs: chain 314 ± 39 s, agent 115 ± 8 s; docs/simulation-notes.md).
+    runs: chain 314 ± 39 s, agent 115 ± 8 s; docs/simulation-notes.md), so the
+    expected ratio is about 0.37, and five-run means of the chain (sd ~110-175 s
+    per run) move it by a third either way: a factor of 3 failed by chance
+    (0.33) when the engine's random stream changed; 4 keeps the structural gap
+    and still fails for a real change of the agent model's speed.
     """
     from hcss.simulation.crosscheck import agent_decision
 
@@ -89,4 +93,4 @@ def test_the_agent_model_agrees_with_the_mean_field_chain_on_simple_layouts() ->
         assert abs(chain_best - agent_best) <= 0.4, (layout, model, chain_best, agent_best)
         chain_time = np.mean([c.time_s for c in chain])
         agent_time = np.mean([t for _, t in agent])
-        assert 1 / 3 <= agent_time / chain_time <= 3, (layout, model, chain_time, agent_time)
+        assert 1 / 4 <= agent_time / chain_time <= 4, (layout, model, chain_time, agent_time)
