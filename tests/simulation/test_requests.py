@@ -158,13 +158,19 @@ def test_the_decision_index_is_the_decision_under_way_after_a_discarded_one():
 
     So "1 + decisions recorded" (the platform's old count) is not the decision under way.
     """
-    sim = make_sim("M1", seed=3)
-    while sim.world.section == 0:
-        sim.step()
-    recorded = sum(1 for d in sim.decisions if d.collective == 0)
-    assert sim.open[0].index == recorded + 2  # collective I's first decision was discarded
+    for seed in range(40):  # a scenario where collective I had a decision discarded
+        sim = make_sim("M1", seed=seed)
+        while sim.world.section == 0:
+            sim.step()
+        recorded = sum(1 for d in sim.decisions if d.collective == 0)
+        if sim.open[0].index > recorded + 1:
+            break
+    else:
+        pytest.fail("no seed in 0..39 discards a decision of collective I in the first section")
     outcome = sim.investigate(0, 1)
-    assert outcome.decision_index == sim.open[0].index == 2  # the index its record will carry
+    assert (
+        outcome.decision_index == sim.open[0].index != recorded + 1
+    )  # the index its record will carry
 
 
 def test_a_cancel_names_the_abandon_it_lifts():
