@@ -212,3 +212,77 @@ def test_the_migration_creates_the_key_table_as_modelled_and_removes_it(database
         assert "command_key" not in inspect(create_engine(database_url)).get_table_names()
     finally:
         engine.dispose()
+
+
+class _LostKey(Exception):
+    """The write of a key failed (or the server died) after the command was carried out."""
+
+
+def _lose_the_next_key(app):  # type: ignore[no-untyped-def]
+    """Make the next transaction that holds a `CommandKey` fail, as a kill -9 would."""
+    from sqlalchemy import event
+
+    sessions = app.extensions["hcss_db"].sessions
+    lost = []
+
+    def fail(session, _flush_context, _instances) -> None:  # type: ignore[no-untyped-def]
+        if not lost and any(isinstance(row, CommandKey) for row in session.new):
+            lost.append(True)
+            raise _LostKey("the key's write failed")
+
+    event.listen(sessions, "before_flush", fail)
+    return lambda: event.remove(sessions, "before_flush", fail)
+
+
+def _post_losing_the_key(trial, path: str, body, key: str) -> None:  # type: ignore[no-untyped-def]
+    restore = _lose_the_next_key(trial.app)
+    try:
+        response = _keyed(trial, path, body, key)
+        assert response.status_code >= 500  # a client retries this with the same key
+    except _LostKey:  # the test app propagates the server's exception
+        pass
+    finally:
+        restore()
+
+
+def test_a_command_whose_key_was_lost_is_not_carried_out_again(make_trial) -> None:
+    """Command and key are committed together: a retry after a failed write gives one request."""
+    trial = make_trial()
+    body, key = _investigate(trial), str(uuid.uuid4())
+
+    _post_losing_the_key(trial, "/requests", body, key)
+    assert _count(trial.app, Command) == _count(trial.app, CommandKey)  # both or neither
+    retry = _keyed(trial, "/requests", body, key)
+    again = _keyed(trial, "/requests", body, key)
+
+    assert retry.status_code == again.status_code == 200
+    assert retry.get_json()["accepted"] is True and again.get_json() == retry.get_json()
+    assert (_count(trial.app, Command), _count(trial.app, CommandOutcome)) == (1, 1)
+    assert _count(trial.app, CommandKey) == 1
+    assert len(trial.state()["view"]["requests"]) == 1
+    accepted = [m for m in trial.live().messages if m["kind"] == "accepted"]
+    assert len(accepted) == 1  # System Messages say it once
+
+
+def test_clicks_and_probe_answers_whose_key_was_lost_are_recorded_once(make_trial) -> None:
+    trial = make_trial(seed=4)
+    click = {"kind": "collective", "collective": 1, "button": "right"}
+    _post_losing_the_key(trial, "/observations", click, "click-key-lost")
+    assert _count(trial.app, Observation) == _count(trial.app, CommandKey)
+    retry = _keyed(trial, "/observations", click, "click-key-lost")
+    assert retry.status_code == 201 and _count(trial.app, Observation) == 1
+
+    probe, _, _ = _until_probe(trial, 0)
+    ready, answer = f"/probes/{probe['id']}/ready", f"/probes/{probe['id']}/answer"
+    _post_losing_the_key(trial, ready, {}, "ready-key-lost")
+    assert _keyed(trial, ready, {}, "ready-key-lost").status_code == 200  # not 409
+    choice = trial.state()["probe"]["choices"][0]
+    _post_losing_the_key(trial, answer, {"answer": choice}, "answer-key-lost")
+    retried = _keyed(trial, answer, {"answer": choice}, "answer-key-lost")
+    assert retried.status_code == 200  # not 409 "closed"
+    with trial.app.extensions["hcss_db"].session_scope() as session:
+        kinds = list(
+            session.scalars(select(ProbeEvent.kind).where(ProbeEvent.probe_id == probe["id"]))
+        )
+    assert kinds.count("ready") == 1 and kinds.count("answer") == 1
+    assert _count(trial.app, CommandKey) == 3

@@ -8,11 +8,19 @@ decision index, intervention) is the simulation's `RequestOutcome`. Should
 that transaction fail, the simulation is put back as it was before the
 command, so the log (what a rebuild replays) and the trial in memory never
 disagree.
+
+An action sent with an idempotency key gets the key as an unsaved
+`CommandKey` (from `idempotency.pending_key`) and stores it, with the answer
+it gives, in the same transaction as what it records: the command and its key
+are committed together or not at all, so a retry after a crash or a failed
+write can never carry the command out twice.
 """
 
 from __future__ import annotations
 
 from typing import Any
+
+from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
 from hcss.platform.live.rebuild import accepted_text, refusal_text
@@ -20,6 +28,7 @@ from hcss.platform.live.recorder import record_request_statuses
 from hcss.platform.live.session import RunningTrial
 from hcss.platform.models import (
     Command,
+    CommandKey,
     CommandOutcome,
     Observation,
     ProbeEvent,
@@ -42,6 +51,7 @@ def submit_request(
     live: RunningTrial,
     command: OperatorCommand,
     selections: tuple[int, ...] = (),
+    key: CommandKey | None = None,
 ) -> dict[str, Any]:
     """Apply `command` and log it with its outcome; the answer the participant's page gets."""
     with live.lock:
@@ -64,6 +74,17 @@ def submit_request(
                 session.flush()
                 session.add(CommandOutcome.of(row.id, outcome))
                 record_request_statuses(live, session)
+                answer = _answered(
+                    session,
+                    key,
+                    {
+                        "command_id": row.id,
+                        "accepted": outcome.accepted,
+                        "request_id": outcome.request_id if outcome.accepted else None,
+                        "reason": outcome.reason,
+                        "step": step,
+                    },
+                )
         except BaseException:
             live.sim = Simulation.restore(before)
             live.request_statuses_written = statuses_written
@@ -75,13 +96,7 @@ def submit_request(
         else:
             live.add_message(sim_time, "refusal", refusal_text(row, outcome.reason, n))
         live.touch()
-        return {
-            "command_id": row.id,
-            "accepted": outcome.accepted,
-            "request_id": outcome.request_id if outcome.accepted else None,
-            "reason": outcome.reason,
-            "step": step,
-        }
+        return answer
 
 
 def record_observation(
@@ -92,7 +107,9 @@ def record_observation(
     collective: int | None,
     target: int | None,
     button: str,
-) -> int:
+    key: CommandKey | None = None,
+) -> dict[str, Any]:
+    """A click on the map; the answer is the observation's id (201 Created)."""
     with live.lock:
         _require_running(live)
         display = live.display()
@@ -112,12 +129,17 @@ def record_observation(
         )
         with database.session_scope() as session:
             session.add(row)
-        return row.id
+            session.flush()
+            return _answered(session, key, {"observation_id": row.id}, status=201)
 
 
 def probe_ready(
-    database: Database, live: RunningTrial, probe_id: int, now: float | None = None
-) -> None:
+    database: Database,
+    live: RunningTrial,
+    probe_id: int,
+    now: float | None = None,
+    key: CommandKey | None = None,
+) -> dict[str, Any]:
     """The Ready press; `now` (the runner's wall clock) times it from the prompt's delivery."""
     with live.lock:
         probe = _current_probe(live, probe_id)
@@ -128,13 +150,20 @@ def probe_ready(
         event.latency_ms = _latency_ms(probe.delivered_s, running_s)
         with database.session_scope() as session:
             session.add(event)
+            answer = _answered(session, key, {"ok": True})
         probe.ready, probe.ready_s = True, running_s
         live.touch()
+        return answer
 
 
 def probe_answer(
-    database: Database, live: RunningTrial, probe_id: int, answer: str, now: float | None = None
-) -> None:
+    database: Database,
+    live: RunningTrial,
+    probe_id: int,
+    answer: str,
+    now: float | None = None,
+    key: CommandKey | None = None,
+) -> dict[str, Any]:
     """The answer; timed from the question's delivery (or the Ready press, if never sent)."""
     with live.lock:
         probe = _current_probe(live, probe_id)
@@ -155,6 +184,7 @@ def probe_answer(
                 event = _probe_event(live, probe_id, "scored", answer=answer)
                 event.truth, event.correct = probe.truth, correct
                 session.add(event)
+            reply = _answered(session, key, {"ok": True})
         if probe.level == 3:
             live.pending_projection = [
                 (pid, shown, answer if pid == probe_id else previous)
@@ -162,6 +192,17 @@ def probe_answer(
             ]
         live.current_probe = None
         live.touch()
+        return reply
+
+
+def _answered(
+    session: Session, key: CommandKey | None, answer: dict[str, Any], status: int = 200
+) -> dict[str, Any]:
+    """`answer`, stored with the command's idempotency key (if sent) in the command's transaction."""
+    if key is not None:
+        key.status, key.response = status, answer
+        session.add(key)
+    return answer
 
 
 def _probe_event(live: RunningTrial, probe_id: int, kind: str, answer: str | None = None):  # type: ignore[no-untyped-def]

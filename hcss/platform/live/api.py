@@ -16,7 +16,7 @@ from flask import Blueprint, Response, current_app, jsonify, request
 from hcss.platform.db import database, get_session
 from hcss.platform.live import actions, validation
 from hcss.platform.live.access import runner, trial_for
-from hcss.platform.live.idempotency import idempotent
+from hcss.platform.live.idempotency import idempotent, pending_key
 from hcss.platform.live.session import RunningTrial
 from hcss.platform.live.stream import ended_stream, event_stream
 from hcss.platform.live.streams import RETRY_AFTER_S, StreamSlots
@@ -119,8 +119,8 @@ def submit_request(token: str, trial_id: int):  # type: ignore[no-untyped-def]
     command, selections = validation.parse_request(
         request.get_json(silent=True), live, get_session(), trial_id
     )
-    outcome = actions.submit_request(database(), live, command, selections)
-    return jsonify(outcome), 200
+    answer = actions.submit_request(database(), live, command, selections, key=pending_key())
+    return jsonify(answer), 200
 
 
 @bp.post("/observations")
@@ -134,15 +134,16 @@ def observe(token: str, trial_id: int):  # type: ignore[no-untyped-def]
         raise actions.ActionError("'kind' must be 'collective' or 'target'")
     if button not in ("left", "right"):
         raise actions.ActionError("'button' must be 'left' or 'right'")
-    observation_id = actions.record_observation(
+    answer = actions.record_observation(
         database(),
         live,
         kind=kind,
         collective=_clicked(body, "collective", kind, collectives - 1, low=0),
         target=_clicked(body, "target", kind, targets, low=1),
         button=button,
+        key=pending_key(),
     )
-    return jsonify(observation_id=observation_id), 201
+    return jsonify(answer), 201
 
 
 def _clicked(body: dict[str, Any], name: str, kind: str, high: int, *, low: int) -> int | None:
@@ -157,8 +158,10 @@ def _clicked(body: dict[str, Any], name: str, kind: str, high: int, *, low: int)
 @idempotent
 def probe_ready(token: str, trial_id: int, probe_id: int):  # type: ignore[no-untyped-def]
     live = _live(token, trial_id)
-    actions.probe_ready(database(), live, probe_id, now=runner().clock())
-    return jsonify(ok=True)
+    answer = actions.probe_ready(
+        database(), live, probe_id, now=runner().clock(), key=pending_key()
+    )
+    return jsonify(answer)
 
 
 @bp.post("/probes/<int:probe_id>/answer")
@@ -168,5 +171,7 @@ def probe_answer(token: str, trial_id: int, probe_id: int):  # type: ignore[no-u
     answer = _body().get("answer")
     if not isinstance(answer, str):
         raise actions.ActionError("'answer' must be one of the choices, as a string")
-    actions.probe_answer(database(), live, probe_id, answer, now=runner().clock())
-    return jsonify(ok=True)
+    reply = actions.probe_answer(
+        database(), live, probe_id, answer, now=runner().clock(), key=pending_key()
+    )
+    return jsonify(reply)

@@ -8,6 +8,20 @@ the first or races it, waits for that lock and is answered from the stored
 row without touching the trial again. A key sent with a different command
 (another route, probe or body) is refused with 422.
 
+The key of a command that records something is written by the action itself
+(`pending_key`, passed to `hcss.platform.live.actions`), in the transaction
+that records the command: both are committed or neither is. Were the key
+written afterwards, a server killed (or a write failing) between the two
+commits would leave the command without its key, and the client's retry
+with the same key would record it a second time.
+
+An answer that recorded nothing (a refusal at validation: bad JSON, a closed
+probe, a paused trial) is stored with its key in a transaction of its own,
+so a repeat gets the same refusal even after the trial has moved on; if that
+write is lost, the retry is merely validated afresh, which records nothing
+twice. A 5xx answer, or one that is not JSON, is not stored: the client may
+try again with the same key.
+
 A POST without the header is carried out as before, without protection
 against repeats: scripts and bots that predate keys keep working. A header
 that is present but malformed gets a 400 and changes nothing.
@@ -22,8 +36,8 @@ from contextlib import nullcontext
 from functools import wraps
 from typing import Any
 
-from flask import Response, current_app, jsonify, request
-from sqlalchemy import select
+from flask import Response, current_app, g, jsonify, request
+from sqlalchemy import inspect, select
 from sqlalchemy.exc import IntegrityError
 
 from hcss.platform.db import database
@@ -83,6 +97,14 @@ def _replay(row: CommandKey, fingerprint: str) -> Response:
     return response
 
 
+def pending_key() -> CommandKey | None:
+    """The request's key, not yet stored, for the action to store with what it records.
+
+    None when the POST carries no key (or the route is not `idempotent`).
+    """
+    return g.get("pending_command_key")
+
+
 def idempotent(view: Callable[..., Any]) -> Callable[..., Any]:
     """Route decorator: carry out a keyed command once and answer repeats from the store."""
 
@@ -101,32 +123,45 @@ def idempotent(view: Callable[..., Any]) -> Callable[..., Any]:
             row = _stored(trial_id, key)
             if row is not None:
                 return _replay(row, fingerprint)
+            pending = CommandKey(
+                trial_id=trial_id, key=key, endpoint=str(request.endpoint), fingerprint=fingerprint
+            )
+            g.pending_command_key = pending
             try:
-                response = current_app.make_response(view(token, trial_id, **kwargs))
-            except ActionError as error:
-                response = jsonify(error=error.code, message=error.message)
-                response.status_code = error.status
-            if response.status_code >= 500 or not response.is_json:
-                return response  # not an outcome: the client may try again with the key
-            try:
-                with database().session_scope() as session:
-                    session.add(
-                        CommandKey(
-                            trial_id=trial_id,
-                            key=key,
-                            endpoint=str(request.endpoint),
-                            fingerprint=fingerprint,
-                            status=response.status_code,
-                            response=response.get_json(),
-                        )
-                    )
+                response = _carry_out(view, token, trial_id, kwargs, pending)
             except IntegrityError:
                 # Only reachable if two processes served one trial (one server never
-                # does: the lock above serialises its repeats); the stored answer wins.
+                # does: the lock above serialises its repeats); the stored answer wins,
+                # and the action's transaction, command and key, was rolled back.
                 row = _stored(trial_id, key)
                 if row is None:
                     raise
                 return _replay(row, fingerprint)
+            finally:
+                g.pop("pending_command_key", None)
             return response
 
     return wrapper
+
+
+def _carry_out(
+    view: Callable[..., Any], token: str, trial_id: int, kwargs: dict[str, Any], key: CommandKey
+) -> Response:
+    """The view's answer; `key` stored with it, by the action or (nothing recorded) here."""
+    try:
+        response = current_app.make_response(view(token, trial_id, **kwargs))
+    except ActionError as error:
+        response = jsonify(error=error.code, message=error.message)
+        response.status_code = error.status
+    if inspect(key).has_identity:  # the action committed it with the command
+        if (key.status, key.response) != (response.status_code, response.get_json()):
+            raise RuntimeError(f"{request.endpoint} answered otherwise than it stored")
+        return response
+    if response.status_code >= 500 or not response.is_json:
+        return response  # not an outcome: the client may try again with the key
+    if response.status_code < 400:
+        raise RuntimeError(f"{request.endpoint} recorded a command without its key")
+    key.status, key.response = response.status_code, response.get_json()
+    with database().session_scope() as session:
+        session.add(key)  # a refusal: nothing else was written
+    return response
