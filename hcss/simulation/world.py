@@ -187,7 +187,7 @@ class World:
     def refresh_hub_distance(self) -> None:
         """Recompute hub-to-target distances; called when a hub moves."""
         delta = self.hub[:, None, :] - self.target_pos[None, :, :]
-        self.hub_distance = np.hypot(delta[..., 0], delta[..., 1])
+        np.hypot(delta[..., 0], delta[..., 1], out=self.hub_distance)
 
     def home(self) -> np.ndarray:
         """Centre of each agent's hub area: its collective's hub, or the new site for X and D."""
