@@ -413,7 +413,7 @@ class Simulation:
             t = int(moving[c].argmax())
             mine_all = w.collective == c
             if w.reserved_by[t] >= 0 and w.reserved_by[t] != c:
-                self._send_home(
+                w.send_home(
                     np.flatnonzero(mine_all & (w.target == t) & S.COMMITTED_OR_LATER[w.state])
                 )
                 continue
@@ -424,20 +424,11 @@ class Simulation:
             w.executing[c] = t
             w.reserved_by[t] = c
             rival = mine_all & S.COMMITTED_OR_LATER[w.state] & (w.target != t)
-            self._send_home(np.flatnonzero(rival))
+            w.send_home(np.flatnonzero(rival))
             rules.enforce_orders(w, p)  # other collectives drop the target at once
             self._event(
                 "move", int(c), t, f"Collective {ROMAN[c]} is moving to target {target_id(t)}."
             )
-
-    def _send_home(self, agents: np.ndarray) -> None:
-        """Reset agents to uncommitted; those away from the hub fly back to it."""
-        w = self.world
-        away = agents[w.leg[agents] != S.AT_HUB]
-        w.set_state(agents, S.U_I)
-        w.set_state(away, S.U_L)
-        w.leg[away] = S.TO_HUB
-        w.arrival_state[away] = S.U_I
 
     def _end_decision(self, c: int) -> None:
         """The first D(i) quorum: the hub moves to target i and the next decision begins."""
@@ -472,10 +463,7 @@ class Simulation:
 
     def _reset_collective(self, c: int) -> None:
         w = self.world
-        mine = np.flatnonzero(w.collective == c)
-        arrived = (w.state[mine] == S.D) & (w.leg[mine] == S.AT_HUB)  # at the new site
-        w.set_state(mine[arrived], S.U_I)
-        self._send_home(mine[~arrived])
+        w.reset_agents_of(c)
         w.executing[c] = -1
         w.commit_announced[c] = -1
         w.abandon_order[c, :] = False
