@@ -391,9 +391,8 @@ class Simulation:
     def _announce_commitments(self) -> None:
         """Announce each collective's commitment: the target most of its C agents hold."""
         w = self.world
-        committed = self._scratch.committed  # (C, T) agents in C per target, from the kernel
-        for c in np.flatnonzero(committed.any(axis=1)).tolist():
-            t = int(committed[c].argmax())
+        # (C, T) agents in C per target, from the kernel
+        for c, t in _leading_targets(self._scratch.committed):
             if w.commit_announced[c] != t:
                 w.commit_announced[c] = t
                 self._event(
@@ -406,11 +405,10 @@ class Simulation:
     def _begin_moves(self) -> None:
         """The first X agent of a collective begins its move: reserve the target, judge correctness."""
         w, p = self.world, self.params
-        moving = self._scratch.moving  # (C, T) agents in X per target, from the kernel
-        for c in np.flatnonzero(moving.any(axis=1)).tolist():
+        # (C, T) agents in X per target, from the kernel
+        for c, t in _leading_targets(self._scratch.moving):
             if w.executing[c] >= 0 or self.open[c] is None:
                 continue
-            t = int(moving[c].argmax())
             mine_all = w.collective == c
             if w.reserved_by[t] >= 0 and w.reserved_by[t] != c:
                 w.send_home(
@@ -572,6 +570,14 @@ class Simulation:
         h.update(repr([asdict(r.state()) for r in self.requests]).encode())
         h.update(repr([d.as_row() for d in self.decisions]).encode())
         return h.hexdigest()
+
+
+def _leading_targets(counts: np.ndarray) -> list[tuple[int, int]]:
+    """(collective, target) with the most agents (the first on ties), for each collective with any.
+
+    Plain Python over the (C, T) counts: numpy's per-call cost dominates on arrays this small.
+    """
+    return [(c, row.index(max(row))) for c, row in enumerate(counts.tolist()) if any(row)]
 
 
 def _as_int(value: object) -> int | None:
