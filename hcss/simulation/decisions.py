@@ -11,8 +11,6 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, field
 
-import numpy as np
-
 from hcss.simulation.params import ROMAN, Params
 from hcss.simulation.world import World
 
@@ -119,32 +117,41 @@ class DecisionRecord:
         return {column: row[column] for column in DECISION_COLUMNS}
 
 
-def in_range_targets(world: World, collective: int, params: Params) -> np.ndarray:
+def in_range_targets(world: World, collective: int, params: Params) -> list[int]:
     """Active targets within R of the hub and not reserved by another collective.
 
     Under the reading `foreign_targets="own_only"`, only the targets placed
-    around the collective's own start hub.
+    around the collective's own start hub. Plain Python over the few targets:
+    numpy's per-call cost dominates on arrays this small, and the engine asks
+    at every move and every new decision.
     """
-    owner = world.reserved_by
-    ok = (
-        world.active
-        & (world.hub_distance[collective] <= params.exploration_range_m)
-        & ((owner < 0) | (owner == collective))
-    )
-    if params.foreign_targets == "own_only":
-        ok &= world.target_around == collective
-    return np.flatnonzero(ok)
+    own_only = params.foreign_targets == "own_only"
+    limit = params.exploration_range_m
+    return [
+        t
+        for t, (active, distance, owner, around) in enumerate(
+            zip(
+                world.active.tolist(),
+                world.hub_distance[collective].tolist(),
+                world.reserved_by.tolist(),
+                world.target_around.tolist(),
+                strict=True,
+            )
+        )
+        if active
+        and distance <= limit
+        and (owner < 0 or owner == collective)
+        and (not own_only or around == collective)
+    ]
 
 
 def best_available(world: World, collective: int, params: Params) -> int:
     """The highest-valued available target (nearest on ties), or -1 when there is none."""
     candidates = in_range_targets(world, collective, params)
-    if candidates.size == 0:
+    if not candidates:
         return -1
-    order = np.lexsort(
-        (world.hub_distance[collective, candidates], -world.target_value[candidates])
-    )
-    return int(candidates[order[0]])
+    value, distance = world.target_value.tolist(), world.hub_distance[collective].tolist()
+    return min(candidates, key=lambda t: (-value[t], distance[t]))
 
 
 NEARER_TOLERANCE_M = 0.01  # target coordinates are stored to the millimetre
@@ -159,9 +166,9 @@ def difficulty(world: World, collective: int, params: Params) -> str:
     best = best_available(world, collective, params)
     if best < 0:
         return "easy"
-    candidates = in_range_targets(world, collective, params)
-    distance = world.hub_distance[collective]
-    lower_nearer = (world.target_value[candidates] < world.target_value[best]) & (
-        distance[candidates] < distance[best] - NEARER_TOLERANCE_M
+    value, distance = world.target_value.tolist(), world.hub_distance[collective].tolist()
+    lower_nearer = any(
+        value[t] < value[best] and distance[t] < distance[best] - NEARER_TOLERANCE_M
+        for t in in_range_targets(world, collective, params)
     )
-    return "difficult" if lower_nearer.any() else "easy"
+    return "difficult" if lower_nearer else "easy"

@@ -391,9 +391,8 @@ class Simulation:
     def _announce_commitments(self) -> None:
         """Announce each collective's commitment: the target most of its C agents hold."""
         w = self.world
-        committed = self._scratch.committed  # (C, T) agents in C per target, from the kernel
-        for c in np.flatnonzero(committed.any(axis=1)).tolist():
-            t = int(committed[c].argmax())
+        # (C, T) agents in C per target, from the kernel
+        for c, t in _leading_targets(self._scratch.committed):
             if w.commit_announced[c] != t:
                 w.commit_announced[c] = t
                 self._event(
@@ -406,14 +405,13 @@ class Simulation:
     def _begin_moves(self) -> None:
         """The first X agent of a collective begins its move: reserve the target, judge correctness."""
         w, p = self.world, self.params
-        moving = self._scratch.moving  # (C, T) agents in X per target, from the kernel
-        for c in np.flatnonzero(moving.any(axis=1)).tolist():
+        # (C, T) agents in X per target, from the kernel
+        for c, t in _leading_targets(self._scratch.moving):
             if w.executing[c] >= 0 or self.open[c] is None:
                 continue
-            t = int(moving[c].argmax())
             mine_all = w.collective == c
             if w.reserved_by[t] >= 0 and w.reserved_by[t] != c:
-                self._send_home(
+                w.send_home(
                     np.flatnonzero(mine_all & (w.target == t) & S.COMMITTED_OR_LATER[w.state])
                 )
                 continue
@@ -424,20 +422,11 @@ class Simulation:
             w.executing[c] = t
             w.reserved_by[t] = c
             rival = mine_all & S.COMMITTED_OR_LATER[w.state] & (w.target != t)
-            self._send_home(np.flatnonzero(rival))
+            w.send_home(np.flatnonzero(rival))
             rules.enforce_orders(w, p)  # other collectives drop the target at once
             self._event(
                 "move", int(c), t, f"Collective {ROMAN[c]} is moving to target {target_id(t)}."
             )
-
-    def _send_home(self, agents: np.ndarray) -> None:
-        """Reset agents to uncommitted; those away from the hub fly back to it."""
-        w = self.world
-        away = agents[w.leg[agents] != S.AT_HUB]
-        w.set_state(agents, S.U_I)
-        w.set_state(away, S.U_L)
-        w.leg[away] = S.TO_HUB
-        w.arrival_state[away] = S.U_I
 
     def _end_decision(self, c: int) -> None:
         """The first D(i) quorum: the hub moves to target i and the next decision begins."""
@@ -472,10 +461,7 @@ class Simulation:
 
     def _reset_collective(self, c: int) -> None:
         w = self.world
-        mine = np.flatnonzero(w.collective == c)
-        arrived = (w.state[mine] == S.D) & (w.leg[mine] == S.AT_HUB)  # at the new site
-        w.set_state(mine[arrived], S.U_I)
-        self._send_home(mine[~arrived])
+        w.reset_agents_of(c)
         w.executing[c] = -1
         w.commit_announced[c] = -1
         w.abandon_order[c, :] = False
@@ -584,6 +570,14 @@ class Simulation:
         h.update(repr([asdict(r.state()) for r in self.requests]).encode())
         h.update(repr([d.as_row() for d in self.decisions]).encode())
         return h.hexdigest()
+
+
+def _leading_targets(counts: np.ndarray) -> list[tuple[int, int]]:
+    """(collective, target) with the most agents (the first on ties), for each collective with any.
+
+    Plain Python over the (C, T) counts: numpy's per-call cost dominates on arrays this small.
+    """
+    return [(c, row.index(max(row))) for c, row in enumerate(counts.tolist()) if any(row)]
 
 
 def _as_int(value: object) -> int | None:

@@ -72,13 +72,19 @@ def discovery_gap(distance_m: np.ndarray, params: Params) -> np.ndarray:
     d_max and the treatment of sites beyond it follow the chosen reading
     (`params.m2_distance_bounds`, `params.m2_beyond_dmax`).
     """
-    d = params.m2_distance(distance_m)
+    return _discovery_gap(params.m2_distance(distance_m), params)
+
+
+def _discovery_gap(d: np.ndarray, params: Params) -> np.ndarray:
     return 1.0 / params.discovery_rate(params.m2_d_max_m) - 1.0 / params.discovery_rate(d)
 
 
 def round_trip_gap(distance_m: np.ndarray, params: Params) -> np.ndarray:
     """τ_max − τ_i: the extra wait that equalises round-trip times."""
-    d = params.m2_distance(distance_m)
+    return _round_trip_gap(params.m2_distance(distance_m), params)
+
+
+def _round_trip_gap(d: np.ndarray, params: Params) -> np.ndarray:
     return params.round_trip_s(params.m2_d_max_m) - params.round_trip_s(d)
 
 
@@ -87,7 +93,11 @@ def frequency_modulation(distance_m: np.ndarray, params: Params) -> np.ndarray:
 
     d_min and the treatment of sites beyond d_max follow the chosen reading.
     """
-    return params.m2_distance(distance_m) / params.m2_d_min_m
+    return _frequency_modulation(params.m2_distance(distance_m), params)
+
+
+def _frequency_modulation(d: np.ndarray, params: Params) -> np.ndarray:
+    return d / params.m2_d_min_m
 
 
 def site_rate(distance_m: np.ndarray, params: Params) -> np.ndarray:
@@ -100,13 +110,18 @@ def site_rate(distance_m: np.ndarray, params: Params) -> np.ndarray:
 
 
 def refresh_geometry(world: World, params: Params) -> None:
-    """Hub-to-target distances and what derives from them; called when a hub moves."""
+    """Hub-to-target distances and what derives from them; called when a hub moves.
+
+    Written in place (the kernels' argument tuple holds these arrays), with
+    M2's distance reading computed once for its three quantities.
+    """
     world.refresh_hub_distance()
+    d = params.m2_distance(world.hub_distance)
     with np.errstate(divide="ignore", invalid="ignore"):
-        world.discovery_gap = discovery_gap(world.hub_distance, params)
-    world.round_trip_gap = round_trip_gap(world.hub_distance, params)
-    world.send_factor = frequency_modulation(world.hub_distance, params)
-    world.site_rate = site_rate(world.hub_distance, params)
+        world.discovery_gap[:] = _discovery_gap(d, params)
+    world.round_trip_gap[:] = _round_trip_gap(d, params)
+    world.send_factor[:] = _frequency_modulation(d, params)
+    world.site_rate[:] = site_rate(world.hub_distance, params)
 
 
 # -------------------------------------------------------------------- rules

@@ -58,14 +58,6 @@ def exchange_and_report(w, k, finished, state_counts, committed, moving):
 
 
 @njit(cache=True)
-def step_agents(w, k, at_target, at_hub, newly_visible, finished, state_counts, committed, moving):
-    """A whole step of the agent rules when no operator request is waiting for agents."""
-    n_visible = advance_agents(w, k, at_target, at_hub, newly_visible)
-    exchange_and_report(w, k, finished, state_counts, committed, moving)
-    return n_visible
-
-
-@njit(cache=True)
 def quiet_steps(
     w,
     k,
@@ -88,9 +80,8 @@ def quiet_steps(
     quorum was reached. Returns (steps taken, targets made visible in the last).
     """
     for done in range(1, max_steps + 1):
-        n_visible = step_agents(
-            w, k, at_target, at_hub, newly_visible, finished, state_counts, committed, moving
-        )
+        n_visible = advance_agents(w, k, at_target, at_hub, newly_visible)
+        exchange_and_report(w, k, finished, state_counts, committed, moving)
         if n_visible > 0 or finished.any():
             return done, n_visible
         for c in range(committed.shape[0]):

@@ -187,7 +187,7 @@ class World:
     def refresh_hub_distance(self) -> None:
         """Recompute hub-to-target distances; called when a hub moves."""
         delta = self.hub[:, None, :] - self.target_pos[None, :, :]
-        self.hub_distance = np.hypot(delta[..., 0], delta[..., 1])
+        np.hypot(delta[..., 0], delta[..., 1], out=self.hub_distance)
 
     def home(self) -> np.ndarray:
         """Centre of each agent's hub area: its collective's hub, or the new site for X and D."""
@@ -234,6 +234,29 @@ class World:
             agents.astype(np.int64),
             np.full(agents.size, new_state, dtype=np.int8),
             np.ascontiguousarray(targets, dtype=np.int32),
+        )
+
+    def send_home(self, agents: np.ndarray) -> None:
+        """Reset agents to uncommitted; those away from the hub fly back to it."""
+        send_home_kernel(
+            self.state,
+            self.target,
+            self.streak,
+            self.leg,
+            self.arrival_state,
+            np.asarray(agents, dtype=np.int64),
+        )
+
+    def reset_agents_of(self, collective: int) -> None:
+        """After a decision: a collective's agents at the new site rest there, the rest go home."""
+        reset_collective_kernel(
+            self.state,
+            self.target,
+            self.streak,
+            self.leg,
+            self.arrival_state,
+            self.collective,
+            collective,
         )
 
     # -- persistence ------------------------------------------------------
@@ -283,3 +306,30 @@ def set_state_one(state, target, streak, agent, new_state, new_target):
 def set_states_kernel(state, target, streak, agents, new_states, new_targets):
     for i in range(agents.size):
         set_state_one(state, target, streak, agents[i], new_states[i], new_targets[i])
+
+
+@njit(cache=True, inline="always")
+def send_home_one(state, target, streak, leg, arrival_state, agent):
+    """The one rule for sending an agent home: uncommitted, flying back if away from the hub."""
+    set_state_one(state, target, streak, agent, S.U_I, -1)
+    if leg[agent] != S.AT_HUB:
+        set_state_one(state, target, streak, agent, S.U_L, -1)
+        leg[agent] = S.TO_HUB
+        arrival_state[agent] = S.U_I
+
+
+@njit(cache=True)
+def send_home_kernel(state, target, streak, leg, arrival_state, agents):
+    for i in range(agents.size):
+        send_home_one(state, target, streak, leg, arrival_state, agents[i])
+
+
+@njit(cache=True)
+def reset_collective_kernel(state, target, streak, leg, arrival_state, collective, c):
+    for i in range(state.size):
+        if collective[i] != c:
+            continue
+        if state[i] == S.D and leg[i] == S.AT_HUB:  # arrived at the new site
+            set_state_one(state, target, streak, i, S.U_I, -1)
+        else:
+            send_home_one(state, target, streak, leg, arrival_state, i)
