@@ -31,17 +31,41 @@ def simulate() -> None:
     """Run the simulation: a live demo or the simulation-only experiment."""
 
 
+_WORKERS = click.option(
+    "--workers",
+    type=click.IntRange(min=1, max=64),
+    default=2,
+    show_default=True,
+    help="Local processes.",
+)
+
+
+def _size_options(runs: int, runs_help: str, min_scenarios: int = 1):  # type: ignore[no-untyped-def]
+    """--scenarios and --runs: how big a batch is (one definition for every batch command)."""
+
+    def decorate(command: click.Command) -> click.Command:
+        command = click.option(
+            "--runs",
+            type=click.IntRange(min=1, max=10_000),
+            default=runs,
+            show_default=True,
+            help=runs_help,
+        )(command)
+        return click.option(
+            "--scenarios",
+            type=click.IntRange(min=min_scenarios, max=10_000),
+            default=28,
+            show_default=True,
+        )(command)
+
+    return decorate
+
+
 def _batch_options(command: click.Command) -> click.Command:
     """--workers, --dask and --seed: where batch runs go and which scenarios they use."""
     for option in reversed(
         (
-            click.option(
-                "--workers",
-                type=click.IntRange(min=1),
-                default=2,
-                show_default=True,
-                help="Local processes.",
-            ),
+            _WORKERS,
             click.option(
                 "--dask",
                 "dask_address",
@@ -110,14 +134,7 @@ def demo(model: str, seed: int, first_section: str, speed: float, minutes: float
 
 
 @simulate.command()
-@click.option("--scenarios", type=click.IntRange(min=1), default=28, show_default=True)
-@click.option(
-    "--runs",
-    type=click.IntRange(min=1),
-    default=10,
-    show_default=True,
-    help="Runs per scenario and model.",
-)
+@_size_options(runs=10, runs_help="Runs per scenario and model.")
 @click.option(
     "--models",
     default=None,
@@ -235,16 +252,9 @@ def _params_with(**readings: object) -> Params:
     show_default=True,
     help="Walks per fit of the sensing radius.",
 )
-@click.option("--scenarios", type=click.IntRange(min=2, max=10_000), default=28, show_default=True)
-@click.option(
-    "--runs",
-    type=click.IntRange(min=1, max=1000),
-    default=2,
-    show_default=True,
-    help="Runs per scenario for each r_msg tried.",
-)
+@_size_options(runs=2, runs_help="Runs per scenario for each r_msg tried.", min_scenarios=2)
 @click.option("--iterations", type=click.IntRange(min=2, max=20), default=4, show_default=True)
-@click.option("--workers", type=click.IntRange(min=1, max=64), default=2, show_default=True)
+@_WORKERS
 def calibrate(
     radius_runs: int, scenarios: int, runs: int, iterations: int, workers: int, **readings: object
 ) -> None:
@@ -296,15 +306,8 @@ def calibrate(
 
 @simulate.command()
 @_reading_options
-@click.option("--scenarios", type=click.IntRange(min=2, max=10_000), default=28, show_default=True)
-@click.option(
-    "--runs",
-    type=click.IntRange(min=1, max=1000),
-    default=2,
-    show_default=True,
-    help="Runs per scenario and variant.",
-)
-@click.option("--workers", type=click.IntRange(min=1, max=64), default=2, show_default=True)
+@_size_options(runs=2, runs_help="Runs per scenario and variant.", min_scenarios=2)
+@_WORKERS
 @click.option(
     "--ablations/--no-ablations",
     default=True,
@@ -378,14 +381,7 @@ def meanfield(runs: int, **readings: object) -> None:
     metavar="NAME=V1,V2,...",
     help="A parameter of Params and its values; repeat for a grid.",
 )
-@click.option("--scenarios", type=click.IntRange(min=1, max=10_000), default=28, show_default=True)
-@click.option(
-    "--runs",
-    type=click.IntRange(min=1, max=10_000),
-    default=10,
-    show_default=True,
-    help="Runs per scenario and model.",
-)
+@_size_options(runs=10, runs_help="Runs per scenario and model.")
 @click.option("--models", default="M1,M2", show_default=True, help="Comma-separated models.")
 @_batch_options
 @click.option(
