@@ -29,7 +29,7 @@ from hcss.simulation import experiment as exp
 from hcss.simulation import movement, rules
 from hcss.simulation import states as S
 from hcss.simulation.params import Params
-from hcss.simulation.scenario import PlacedTarget, Scenario, Section
+from hcss.simulation.scenario import one_collective
 
 STUDY_M1_DECISION_MIN = 2.46  # the study's published mean decision time of M1, minutes
 RADIUS_GRID_M = np.round(np.arange(1.0, 30.01, 0.25), 2)
@@ -47,24 +47,6 @@ class RadiusFit:
     runs: int
 
 
-def single_collective_scenario(
-    distances_m: tuple[float, ...], params: Params, seed: int = 0, value: float = 1.0
-) -> Scenario:
-    """One collective at the origin with one site at each distance, spread in bearing."""
-    bearings = 2.0 * np.pi * np.arange(len(distances_m)) / len(distances_m) + 0.3
-    targets = tuple(
-        PlacedTarget(i + 1, round(d * math.cos(b), 3), round(d * math.sin(b), 3), value, 0)
-        for i, (d, b) in enumerate(zip(distances_m, bearings, strict=True))
-    )
-    return Scenario(
-        scenario_id=f"calibration-{seed}",
-        seed=seed,
-        first_section="easy",
-        hubs=((0.0, 0.0),),
-        sections=(Section(kinds=("easy",), targets=targets),),
-    )
-
-
 def first_encounters(
     params: Params,
     distances_m: tuple[float, ...],
@@ -79,7 +61,8 @@ def first_encounters(
     """
     from hcss.simulation.engine import Simulation
 
-    sim = Simulation(single_collective_scenario(distances_m, params, seed), "M1", params)
+    layout = one_collective([(d, 1.0) for d in distances_m], seed, f"calibration-{seed}", 0.3)
+    sim = Simulation(layout, "M1", params)
     w = sim.world
     first = np.full((radii_m.size, len(distances_m)), limit_s)
     pending = np.ones_like(first, dtype=bool)

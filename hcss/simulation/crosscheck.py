@@ -16,7 +16,7 @@ import numpy as np
 from hcss.simulation.meanfield import Site, solve_meanfield
 from hcss.simulation.meanfield_chain import run_chain
 from hcss.simulation.params import Params
-from hcss.simulation.scenario import PlacedTarget, Scenario, Section
+from hcss.simulation.scenario import Scenario, one_collective
 
 # The study's layouts: the best site near (easy) or farthest (difficult).
 LAYOUTS: dict[str, list[Site]] = {
@@ -27,24 +27,8 @@ LAYOUTS: dict[str, list[Site]] = {
 
 def layout_scenario(sites: list[Site], seed: int) -> Scenario:
     """One collective at the origin, its sites at the given distances, spread in bearing."""
-    bearings = 2.0 * np.pi * np.arange(len(sites)) / len(sites) + 0.4
-    targets = tuple(
-        PlacedTarget(
-            i + 1,
-            round(s.distance_m * math.cos(b), 3),
-            round(s.distance_m * math.sin(b), 3),
-            s.value,
-            0,
-        )
-        for i, (s, b) in enumerate(zip(sites, bearings, strict=True))
-    )
-    return Scenario(
-        scenario_id=f"layout-{seed}",
-        seed=seed,
-        first_section="easy",
-        hubs=((0.0, 0.0),),
-        sections=(Section(kinds=("easy",), targets=targets),),
-    )
+    sites_ = [(s.distance_m, s.value) for s in sites]
+    return one_collective(sites_, seed, f"layout-{seed}", bearing_offset_rad=0.4)
 
 
 def agent_decision(sites: list[Site], model: str, params: Params, seed: int) -> tuple[int, float]:

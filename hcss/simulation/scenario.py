@@ -8,6 +8,7 @@ stream that drives the agents, so replicates of one scenario share a layout.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -148,6 +149,28 @@ class Scenario:
             )
         except (KeyError, TypeError, ValueError) as error:
             raise ScenarioError(f"not a scenario: {error}") from error
+
+
+def one_collective(
+    sites: list[tuple[float, float]], seed: int, scenario_id: str, bearing_offset_rad: float
+) -> Scenario:
+    """One collective at the origin, a site per (distance m, value), spread evenly in bearing.
+
+    The simple layouts of the calibration and of the mean-field cross-check;
+    each keeps its own bearing offset so that its walks stay as they were.
+    """
+    bearings = 2.0 * np.pi * np.arange(len(sites)) / len(sites) + bearing_offset_rad
+    targets = tuple(
+        PlacedTarget(i + 1, round(d * math.cos(b), 3), round(d * math.sin(b), 3), value, 0)
+        for i, ((d, value), b) in enumerate(zip(sites, bearings, strict=True))
+    )
+    return Scenario(
+        scenario_id=scenario_id,
+        seed=seed,
+        first_section="easy",
+        hubs=((0.0, 0.0),),
+        sections=(Section(kinds=("easy",), targets=targets),),
+    )
 
 
 def start_hubs(n_collectives: int, params: Params) -> tuple[tuple[float, float], ...]:
