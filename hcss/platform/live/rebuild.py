@@ -24,6 +24,7 @@ from hcss.platform.live.outages import (
     stop_clock_for_outage,
 )
 from hcss.platform.live.probes import counts_of, probe_plan
+from hcss.platform.live.queries import newest_snapshot
 from hcss.platform.live.recorder import record_progress, write_snapshot
 from hcss.platform.live.session import CurrentProbe, RunningTrial
 from hcss.platform.models import (
@@ -35,7 +36,6 @@ from hcss.platform.models import (
     ProbeEvent,
     RequestStatusChange,
     SimEvent,
-    Snapshot,
     Trial,
     TrialProblem,
 )
@@ -48,12 +48,7 @@ if TYPE_CHECKING:
 def load_trial(session: Session, trial: Trial, now: float) -> RunningTrial:
     from hcss.simulation import Params, Scenario, Simulation
 
-    snapshot = session.scalars(
-        select(Snapshot)
-        .where(Snapshot.trial_id == trial.id)
-        .order_by(Snapshot.step.desc(), Snapshot.id.desc())
-        .limit(1)
-    ).first()
+    snapshot = newest_snapshot(session, trial.id)
     if snapshot is not None:
         sim = Simulation.restore(snapshot.blob)
     else:

@@ -19,8 +19,9 @@ from dataclasses import dataclass, field
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
+from hcss.platform.live.queries import newest_snapshot
 from hcss.platform.live.trials import latest_status
-from hcss.platform.models import Command, Snapshot, Trial, TrialStatusChange
+from hcss.platform.models import Command, Trial, TrialStatusChange
 from hcss.platform.models.vocabularies import TrialStatus
 from hcss.simulation import Params, Scenario, Simulation
 from hcss.simulation.replay import TimedCommand, replay
@@ -80,12 +81,7 @@ def recording_of(session: Session, trial: Trial) -> Recording:
     a command applied at that very step after the snapshot is left for the
     next step, as the live simulation applied it.
     """
-    snapshot = session.scalars(
-        select(Snapshot)
-        .where(Snapshot.trial_id == trial.id)
-        .order_by(Snapshot.step.desc(), Snapshot.id.desc())
-        .limit(1)
-    ).first()
+    snapshot = newest_snapshot(session, trial.id)
     digest = None if snapshot is None else Simulation.restore(snapshot.blob).state_digest()
     if latest_status(session, trial.id) == TrialStatus.ENDED:
         end = session.scalars(
