@@ -34,10 +34,15 @@ from hcss.platform.study.studyfile import load_study
 
 STUDY = load_study("original")  # the trial length the benchmark's trials run for
 TRIAL_COUNTS = (20, 80, 120, 200)
-#: The figures before issue 13's fix (commit 7b73b03), printed beside the new ones.
+#: The figures of commit 7b73b03 (before issue 13's fix and issue 11's faster
+#: kernels), printed beside the new ones. Measured on this machine on 2026-11-27
+#: 00:08 UTC, load average 1.9; on the slower machine of earlier sessions the
+#: 200-trial point failed (streams and commands timed out after 10 s).
 BEFORE = {
-    80: "2.40 Hz min, p95 20 ms",
-    200: "failed: streams and commands timed out (10 s)",
+    20: "2.57 Hz min, p95 14 ms",
+    80: "2.45 Hz min, p95 65 ms",
+    120: "2.28 Hz min, p95 68 ms",
+    200: "2.37 Hz min, p95 60 ms",
 }
 MEASURE_S = 20.0
 COMMAND_EVERY_S = 2.0
