@@ -122,3 +122,48 @@ def test_the_stream_keeps_its_rate_when_each_frame_takes_time_to_send(app, make_
     elapsed = time.monotonic() - started
 
     assert sent >= 0.95 * elapsed / interval_s, (sent, elapsed)
+
+
+def test_a_command_holds_one_connection_while_it_holds_its_trials_lock(make_trial) -> None:
+    """A command's record is written on one connection; the request's own is handed back first.
+
+    A request with selections read them on the request's session, kept that
+    connection, then took the trial's lock and a second connection for its
+    unit of work. With the PostgreSQL pool bounded (20 + 40), 60 commands on
+    60 trials at once each held one connection and waited for a second, so
+    none moved until the pool timed out (30 s).
+    """
+    from sqlalchemy import event
+
+    trial = make_trial()
+    trial.run_to(60)
+    database = trial.app.extensions["hcss_db"]
+    target = next(t for t in trial.state()["view"]["targets"] if 0 in t["in_range_of"])["id"]
+    clicks = [
+        trial.post("/observations", {"kind": "collective", "collective": 0, "button": "left"}),
+        trial.post("/observations", {"kind": "target", "target": target, "button": "left"}),
+    ]
+    selections = [click.get_json()["observation_id"] for click in clicks]
+    held: list[int] = []
+
+    def note_connections(_session, _context, _instances) -> None:  # type: ignore[no-untyped-def]
+        held.append(database.engine.pool.checkedout())
+
+    event.listen(database.sessions, "before_flush", note_connections)
+    try:
+        for key in ({}, {"Idempotency-Key": "k-one-connection-1"}):
+            answer = trial.client.post(
+                f"{trial.api}/requests",
+                json={
+                    "kind": "investigate",
+                    "collective": 0,
+                    "target": target,
+                    "selections": selections,
+                },
+                headers={"X-CSRFToken": trial.csrf, **key},
+            )
+            assert answer.status_code == 200, answer.get_json()
+    finally:
+        event.remove(database.sessions, "before_flush", note_connections)
+
+    assert held and max(held) == 1, held

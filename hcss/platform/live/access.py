@@ -5,7 +5,7 @@ from __future__ import annotations
 from flask import abort, current_app
 from sqlalchemy import select
 
-from hcss.platform.db import get_session
+from hcss.platform.db import get_session, hand_back_connection
 from hcss.platform.live.runner import Runner
 from hcss.platform.models import Participant, Trial
 
@@ -32,7 +32,7 @@ def trial_for(token: str, trial_id: int) -> Trial:
     trial = get_session().get(Trial, trial_id)
     if trial is None or trial.participant_id != participant.id:
         abort(404)
-    get_session().commit()  # hand the connection back before waiting on any trial lock
+    hand_back_connection()
     return trial
 
 

@@ -13,7 +13,7 @@ from typing import Any
 
 from flask import Blueprint, Response, current_app, jsonify, request
 
-from hcss.platform.db import database, get_session
+from hcss.platform.db import database, get_session, hand_back_connection
 from hcss.platform.live import actions, validation
 from hcss.platform.live.access import runner, trial_for
 from hcss.platform.live.idempotency import idempotent, pending_key
@@ -119,6 +119,7 @@ def submit_request(token: str, trial_id: int):  # type: ignore[no-untyped-def]
     command, selections = validation.parse_request(
         request.get_json(silent=True), live, get_session(), trial_id
     )
+    hand_back_connection()  # the command's unit of work takes its own connection
     answer = actions.submit_request(database(), live, command, selections, key=pending_key())
     return jsonify(answer), 200
 
