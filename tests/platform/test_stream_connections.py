@@ -144,26 +144,33 @@ def test_a_command_holds_one_connection_while_it_holds_its_trials_lock(make_tria
         trial.post("/observations", {"kind": "target", "target": target, "button": "left"}),
     ]
     selections = [click.get_json()["observation_id"] for click in clicks]
+    pool = database.engine.pool
     held: list[int] = []
 
-    def note_connections(_session, _context, _instances) -> None:  # type: ignore[no-untyped-def]
-        held.append(database.engine.pool.checkedout())
+    def note_connections(*_args) -> None:  # type: ignore[no-untyped-def]
+        held.append(pool.checkedout())  # this checkout included
 
-    event.listen(database.sessions, "before_flush", note_connections)
+    event.listen(pool, "checkout", note_connections)
+    sent = [
+        (selections, {}, 200),
+        (selections, {"Idempotency-Key": "k-one-connection-1"}, 200),
+        # a refusal after the selections were read: its key is stored on its own
+        (selections + [10**6], {"Idempotency-Key": "k-one-connection-2"}, 400),
+    ]
     try:
-        for key in ({}, {"Idempotency-Key": "k-one-connection-1"}):
+        for chosen, key, status in sent:
             answer = trial.client.post(
                 f"{trial.api}/requests",
                 json={
                     "kind": "investigate",
                     "collective": 0,
                     "target": target,
-                    "selections": selections,
+                    "selections": chosen,
                 },
                 headers={"X-CSRFToken": trial.csrf, **key},
             )
-            assert answer.status_code == 200, answer.get_json()
+            assert answer.status_code == status, answer.get_json()
     finally:
-        event.remove(database.sessions, "before_flush", note_connections)
+        event.remove(pool, "checkout", note_connections)
 
     assert held and max(held) == 1, held
