@@ -47,7 +47,10 @@ def database_url(request: pytest.FixtureRequest, tmp_path) -> Iterator[str]:  # 
     admin = create_engine(base, isolation_level="AUTOCOMMIT")
     with admin.connect() as connection:
         connection.execute(text(f'CREATE SCHEMA "{schema}"'))
-    url = make_url(base).update_query_dict({"options": f"-csearch_path={schema}"})
+    # Commits need not wait for the disk in a test database: about 4x faster on
+    # PostgreSQL's write-heavy tests, with the same visibility and isolation.
+    options = f"-csearch_path={schema} -csynchronous_commit=off"
+    url = make_url(base).update_query_dict({"options": options})
     try:
         yield url.render_as_string(hide_password=False)
     finally:
