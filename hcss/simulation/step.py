@@ -21,7 +21,7 @@ from hcss.simulation.movement import move_kernel
 from hcss.simulation.rules import agent_rules_kernel, reach_hub_kernel, reach_target_kernel
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def advance_agents(w, k, at_target, at_hub, newly_visible):
     """Move, arrive, enforce orders, discover, rate transitions. Returns the newly visible count."""
     n_target, n_hub = move_kernel(w, k, at_target, at_hub)
@@ -31,7 +31,7 @@ def advance_agents(w, k, at_target, at_hub, newly_visible):
     return n_visible
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def exchange_and_report(w, k, finished, state_counts, committed, moving):
     """Messages, the silence rule, and each agent in its hub reporting its state (spec §9).
 
@@ -57,8 +57,13 @@ def exchange_and_report(w, k, finished, state_counts, committed, moving):
             w.reported_quadrant[i] = S.QUADRANT_OF_STATE[state]
 
 
+# What `steps` runs: whole steps, or one half of a step (the engine serves
+# operator requests between the two halves).
+WHOLE, ADVANCE, EXCHANGE = 0, 1, 2
+
+
 @njit(cache=True)
-def quiet_steps(
+def steps(
     w,
     k,
     at_target,
@@ -71,18 +76,26 @@ def quiet_steps(
     commit_announced,
     executing,
     max_steps,
+    part,
 ):
-    """Up to `max_steps` steps, stopping after the first one that needs the engine.
+    """Up to `max_steps` whole steps, stopping after the first one that needs the engine;
+    or, for `part` ADVANCE or EXCHANGE, that half of one step.
 
     A step needs the engine (Python) when a target became visible, a
     collective's committed agents favour a target not yet announced, a
     collective without a move under way has executing agents, or a D(i)
-    quorum was reached. Returns (steps taken, targets made visible in the last).
+    quorum was reached. Returns (steps taken, targets made visible in the
+    last). The one compiled entry point of a step: each rule is compiled once.
     """
-    for done in range(1, max_steps + 1):
-        n_visible = advance_agents(w, k, at_target, at_hub, newly_visible)
-        exchange_and_report(w, k, finished, state_counts, committed, moving)
-        if n_visible > 0 or finished.any():
+    done = 0
+    n_visible = 0
+    while done < max_steps:
+        done += 1
+        if part != EXCHANGE:
+            n_visible = advance_agents(w, k, at_target, at_hub, newly_visible)
+        if part != ADVANCE:
+            exchange_and_report(w, k, finished, state_counts, committed, moving)
+        if part != WHOLE or n_visible > 0 or finished.any():
             return done, n_visible
         for c in range(committed.shape[0]):
             announce = state_counts[S.C] and committed[c].max() > 0
@@ -90,4 +103,4 @@ def quiet_steps(
                 return done, n_visible
             if state_counts[S.X] and executing[c] < 0 and moving[c].max() > 0:
                 return done, n_visible
-    return max_steps, 0
+    return done, n_visible
