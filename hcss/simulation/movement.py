@@ -16,6 +16,7 @@ from numba import njit
 from hcss.simulation import states as S
 from hcss.simulation import stream
 from hcss.simulation.constants import Constants, constants_for
+from hcss.simulation.jit import internal
 from hcss.simulation.params import Params
 from hcss.simulation.world import Arrays, World
 
@@ -72,7 +73,7 @@ def fill_cos_sin(angles, cos_out, sin_out):
             cos_out[i], sin_out[i] = math.cos(angles[i]), math.sin(angles[i])
 
 
-@njit(cache=True)
+@internal
 def move_kernel(w: Arrays, k: Constants, at_target, at_hub):
     """Advance every agent one step.
 
@@ -169,7 +170,11 @@ def move(world: World, params: Params) -> tuple[np.ndarray, np.ndarray]:
     """Advance every agent one step; the agents that reached their target and their hub."""
     at_target = np.empty(world.state.size, dtype=np.int64)
     at_hub = np.empty(world.state.size, dtype=np.int64)
-    n_target, n_hub = move_kernel(
-        world.kernel_arrays(), constants_for(params, "M1"), at_target, at_hub
-    )
+    n_target, n_hub = _move(world.kernel_arrays(), constants_for(params, "M1"), at_target, at_hub)
     return at_target[:n_target], at_hub[:n_hub]
+
+
+# The kernel's entry from Python (the kernel itself has none: jit.internal).
+@njit(cache=True)
+def _move(w, k, at_target, at_hub):
+    return move_kernel(w, k, at_target, at_hub)
