@@ -12,10 +12,10 @@ array operations.
 
 from __future__ import annotations
 
-import numpy as np
 from numba import njit
 
 from hcss.simulation import states as S
+from hcss.simulation.jit import internal
 from hcss.simulation.messaging import exchange_kernel, initiating_silence_kernel
 from hcss.simulation.movement import move_kernel
 from hcss.simulation.rules import agent_rules_kernel, reach_hub_kernel, reach_target_kernel
@@ -95,12 +95,28 @@ def steps(
             n_visible = advance_agents(w, k, at_target, at_hub, newly_visible)
         if part != ADVANCE:
             exchange_and_report(w, k, finished, state_counts, committed, moving)
-        if part != WHOLE or n_visible > 0 or finished.any():
+        if part != WHOLE or n_visible > 0:
             return done, n_visible
         for c in range(committed.shape[0]):
-            announce = state_counts[S.C] and committed[c].max() > 0
-            if announce and np.argmax(committed[c]) != commit_announced[c]:
+            if finished[c]:
                 return done, n_visible
-            if state_counts[S.X] and executing[c] < 0 and moving[c].max() > 0:
+            lead = leading(committed[c]) if state_counts[S.C] else -1
+            if lead >= 0 and lead != commit_announced[c]:
+                return done, n_visible
+            if state_counts[S.X] and executing[c] < 0 and leading(moving[c]) >= 0:
                 return done, n_visible
     return done, n_visible
+
+
+@internal
+def leading(counts):
+    """The first index of the largest count, or -1 if all are zero (counts are >= 0).
+
+    A loop rather than numpy's max and argmax: each of those is a further
+    function to compile on the first call, for rows of a few targets.
+    """
+    best = -1
+    for t in range(counts.size):
+        if counts[t] > 0 and (best < 0 or counts[t] > counts[best]):
+            best = t
+    return best
