@@ -66,14 +66,16 @@ def compose_kernel(w: Arrays, k: Constants):
     members = np.empty(n_areas * per, dtype=np.int64)
     size = np.zeros(n_areas, dtype=np.int64)
     listeners = np.zeros(n_areas, dtype=np.int64)  # members a U_I sender can affect
+    in_hubs = 0
     for i in range(n_agents):
         if leg[i] == S.AT_HUB:
             a = collective[i] + n_collectives * (state[i] == S.D)
             members[a * per + size[a]] = i
             size[a] += 1
             listeners[a] += state[i] != S.U_I
+            in_hubs += 1
 
-    capacity = 64 + 4 * size.sum()
+    capacity = 64 + 4 * in_hubs
     sender = np.empty(capacity, dtype=np.int64)
     receiver = np.empty(capacity, dtype=np.int64)
     n = 0
