@@ -27,7 +27,10 @@ def advance_agents(w, k, at_target, at_hub, newly_visible):
     n_target, n_hub = move_kernel(w, k, at_target, at_hub)
     reach_target_kernel(w, k, at_target, n_target)
     n_visible = reach_hub_kernel(w, at_hub, n_hub, newly_visible)
-    agent_rules_kernel(w, k, True, True, True)
+    # Plain booleans, as the rules' Python entry points pass them: a literal True
+    # is a type of its own, for which the kernel would be compiled a second time.
+    every = bool(True)  # noqa: UP018 - bool() makes it a plain bool for numba
+    agent_rules_kernel(w, k, every, every, every)
     return n_visible
 
 
