@@ -2,7 +2,7 @@
 
 Each rule is one compiled (numba) function over the agents, named as in the
 spec; the engine runs them fused in `step.advance_agents`, and the thin
-Python wrappers below let a test or a request call one rule on its own. Rates
+Python entry points below let a test or a request call one rule on its own. Rates
 become per-step probabilities 1 - exp(-rate·dt).
 
 Quantities that depend only on hub-to-target distances (M2's delay

@@ -1,4 +1,4 @@
-"""One step of the agent rules, fused into two compiled passes.
+"""One step of the agent rules, fused into one compiled entry point (`steps`).
 
 `advance_agents` runs, in the spec's order, movement, arrival at targets and
 hubs, then standing orders, discovery and the rate transitions (one pass,
@@ -6,8 +6,10 @@ hubs, then standing orders, discovery and the rate transitions (one pass,
 serves operator requests (Python, rare) and `exchange_and_report` runs the
 message round, the initiating agents' silence rule and the hub reports. Each
 rule is the single compiled function of its own module; this module only
-chains them so that a step costs two calls from Python instead of dozens of
-array operations.
+chains them so that a step costs one call from Python instead of dozens of
+array operations. The two halves are inlined into `steps`, which Python calls
+for whole steps or for either half: compiled once, not once per entry point
+(numba compiles and links a function again into each compiled caller).
 """
 
 from __future__ import annotations
