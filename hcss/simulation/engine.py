@@ -39,7 +39,7 @@ from hcss.simulation.requests import (
     refusal,
 )
 from hcss.simulation.scenario import Scenario
-from hcss.simulation.step import advance_agents, exchange_and_report, quiet_steps
+from hcss.simulation.step import ADVANCE, EXCHANGE, WHOLE, steps
 from hcss.simulation.view import Display, Truth, display_of, truth_of
 from hcss.simulation.world import World
 
@@ -124,26 +124,13 @@ class Simulation:
         request waiting for agents) run inside one compiled call, exactly as
         they would one by one.
         """
-        w, scratch = self.world, self._scratch
+        w = self.world
         while not w.finished and w.step_count < until_step:
             if any(r.needed and r.active for r in self.requests):
                 self._step_once()
                 continue
             budget = min(until_step, self._timeout_step()) - w.step_count
-            done, n_visible = quiet_steps(
-                w.kernel_arrays(),
-                self._k,
-                scratch.at_target,
-                scratch.at_hub,
-                scratch.visible,
-                scratch.finished,
-                scratch.counts,
-                scratch.committed,
-                scratch.moving,
-                w.commit_announced,
-                w.executing,
-                max(1, budget),
-            )
+            done, n_visible = self._steps(max(1, budget), WHOLE)
             w.step_count += done - 1  # the last step's bookkeeping follows
             self._after_step(n_visible)
 
@@ -163,17 +150,31 @@ class Simulation:
                 first = min(first, step)
         return first
 
-    def _step_once(self) -> None:
+    def _steps(self, max_steps: int, part: int) -> tuple[int, int]:
+        """The compiled step (`step.steps`) on this trial's arrays and scratch buffers."""
         w, scratch = self.world, self._scratch
-        arrays = w.kernel_arrays()
-        n_visible = advance_agents(
-            arrays, self._k, scratch.at_target, scratch.at_hub, scratch.visible
+        return steps(
+            w.kernel_arrays(),
+            self._k,
+            scratch.at_target,
+            scratch.at_hub,
+            scratch.visible,
+            scratch.finished,
+            scratch.counts,
+            scratch.committed,
+            scratch.moving,
+            w.commit_announced,
+            w.executing,
+            max_steps,
+            part,
         )
+
+    def _step_once(self) -> None:
+        """One step in two halves, serving the requests that wait for agents in between."""
+        _, n_visible = self._steps(1, ADVANCE)
         for request in self.requests:
-            recruit_for(w, request, self.rng)
-        exchange_and_report(
-            arrays, self._k, scratch.finished, scratch.counts, scratch.committed, scratch.moving
-        )
+            recruit_for(self.world, request, self.rng)
+        self._steps(1, EXCHANGE)
         self._after_step(n_visible)
 
     def _after_step(self, n_visible: int) -> None:

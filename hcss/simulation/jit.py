@@ -1,4 +1,5 @@
-"""Where the compiled kernels are cached, so each process compiles them at most once.
+"""Where the compiled kernels are cached, so each process compiles them at most once;
+and `internal`, the decorator of kernels that only other kernels call.
 
 Numba's `cache=True` checks only the source file of the function it caches,
 not the files of the functions it calls: after an edit to `messaging.py`, the
@@ -19,6 +20,7 @@ import tempfile
 from pathlib import Path
 
 import numba
+from numba.core.registry import CPUDispatcher
 
 
 def cache_dir() -> Path:
@@ -46,3 +48,33 @@ def cache_dir() -> Path:
 
 
 numba.config.CACHE_DIR = str(cache_dir())
+
+
+class _CompiledCallersOnly(CPUDispatcher):
+    """A dispatcher compiled without the wrappers that let Python call it."""
+
+    def __call__(self, *args, **kwargs):
+        # Without its Python wrapper a call from Python would crash the process.
+        raise TypeError(
+            f"{self.py_func.__qualname__} is called only from compiled code; "
+            "call its module's Python entry point instead"
+        )
+
+
+def internal(func):
+    """`njit(cache=True)` for a kernel that only other compiled functions call.
+
+    numba compiles every function with two entry wrappers, one for calls from
+    Python and one for C. For a kernel that takes the world's 27 arrays
+    (`world.Arrays`) the Python one, which unboxes each array, is about as
+    much code as the kernel; without them the first call with an empty cache
+    takes about 2 s less. Calling such a kernel from Python raises TypeError,
+    so a module gives its Python callers a small `@njit` function that calls it.
+    """
+    dispatcher = _CompiledCallersOnly(
+        func,
+        locals={},
+        targetoptions={"nopython": True, "no_cpython_wrapper": True, "no_cfunc_wrapper": True},
+    )
+    dispatcher.enable_caching()
+    return dispatcher

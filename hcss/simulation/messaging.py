@@ -27,6 +27,7 @@ from numba import njit
 from hcss.simulation import states as S
 from hcss.simulation import stream
 from hcss.simulation.constants import Constants, constants_for
+from hcss.simulation.jit import internal
 from hcss.simulation.params import Params
 from hcss.simulation.rules import frequency_modulation  # noqa: F401 - part of this rule's API
 from hcss.simulation.world import Arrays, World, decision_changed, set_state_one, target_in
@@ -51,7 +52,7 @@ def decision_key(state, target):
     return S.PHASE_OF_STATE[state] * 4096 + target + 1
 
 
-@njit(cache=True)
+@internal
 def compose_kernel(w: Arrays, k: Constants):
     """Who sends how many messages to whom this step: (sender, receiver) arrays."""
     state, leg, collective, pos = w.state, w.leg, w.collective, w.pos
@@ -65,14 +66,16 @@ def compose_kernel(w: Arrays, k: Constants):
     members = np.empty(n_areas * per, dtype=np.int64)
     size = np.zeros(n_areas, dtype=np.int64)
     listeners = np.zeros(n_areas, dtype=np.int64)  # members a U_I sender can affect
+    in_hubs = 0
     for i in range(n_agents):
         if leg[i] == S.AT_HUB:
             a = collective[i] + n_collectives * (state[i] == S.D)
             members[a * per + size[a]] = i
             size[a] += 1
             listeners[a] += state[i] != S.U_I
+            in_hubs += 1
 
-    capacity = 64 + 4 * size.sum()
+    capacity = 64 + 4 * in_hubs
     sender = np.empty(capacity, dtype=np.int64)
     receiver = np.empty(capacity, dtype=np.int64)
     n = 0
@@ -119,7 +122,7 @@ def compose_kernel(w: Arrays, k: Constants):
     return sender[:n], receiver[:n]
 
 
-@njit(cache=True)
+@internal
 def deliver_messages(
     w: Arrays, k: Constants, receiver, s_state, s_target, s_estimate, draw, finished
 ):
@@ -170,7 +173,7 @@ def deliver_messages(
         streak[r] = 0 if decision_changed(old_state, old_target, new_state, new_target) else run
 
 
-@njit(cache=True)
+@internal
 def exchange_kernel(w: Arrays, k: Constants, finished):
     """Send, deliver and apply one step of messages, in a random order.
 
@@ -200,7 +203,7 @@ def exchange_kernel(w: Arrays, k: Constants, finished):
     deliver_messages(w, k, receiver, s_state, s_target, s_estimate, draw, finished)
 
 
-@njit(cache=True)
+@internal
 def initiating_silence_kernel(w: Arrays, k: Constants):
     """I(i) → X(i) after k/r_msg seconds without receiving any message."""
     for i in range(w.state.size):
@@ -212,7 +215,7 @@ def initiating_silence_kernel(w: Arrays, k: Constants):
 # ------------------------------------------------------- Python entry points
 def compose(world: World, params: Params, model: str) -> Inbox:
     """The messages one step would send (advances the world's stream)."""
-    sender, receiver = compose_kernel(world.kernel_arrays(), constants_for(params, model))
+    sender, receiver = _compose(world.kernel_arrays(), constants_for(params, model))
     return Inbox(
         sender=sender,
         receiver=receiver,
@@ -230,7 +233,7 @@ def deliver(
     Returns the collectives in which a D(i) quorum was reached.
     """
     finished = np.zeros(world.n_collectives, dtype=np.bool_)
-    deliver_messages(
+    _deliver(
         world.kernel_arrays(),
         constants_for(params, model),
         inbox.receiver[messages].astype(np.int64),
@@ -241,3 +244,14 @@ def deliver(
         finished,
     )
     return finished
+
+
+# The kernels' entries from Python (the kernels themselves have none: jit.internal).
+@njit(cache=True)
+def _compose(w, k):
+    return compose_kernel(w, k)
+
+
+@njit(cache=True)
+def _deliver(w, k, receiver, s_state, s_target, s_estimate, draw, finished):
+    deliver_messages(w, k, receiver, s_state, s_target, s_estimate, draw, finished)

@@ -16,6 +16,7 @@ from numba import njit
 from hcss.simulation import states as S
 from hcss.simulation import stream
 from hcss.simulation.constants import Constants, constants_for
+from hcss.simulation.jit import internal
 from hcss.simulation.params import Params
 from hcss.simulation.world import Arrays, World
 
@@ -72,7 +73,7 @@ def fill_cos_sin(angles, cos_out, sin_out):
             cos_out[i], sin_out[i] = math.cos(angles[i]), math.sin(angles[i])
 
 
-@njit(cache=True)
+@internal
 def move_kernel(w: Arrays, k: Constants, at_target, at_hub):
     """Advance every agent one step.
 
@@ -149,27 +150,43 @@ def move_kernel(w: Arrays, k: Constants, at_target, at_hub):
 
 
 @njit(cache=True)
-def scatter_kernel(w: Arrays, k: Constants, agents):
-    """Place agents uniformly in their hub disc with random headings."""
+def scatter_kernel(pos, heading, s, home_x, home_y, hub_radius_m, agents):
+    """Place agents uniformly in the disc around their home with random headings.
+
+    Takes only the arrays it needs, not the world's `Arrays`: Python calls it,
+    and unboxing 27 arrays is as much code to compile as the rule itself.
+    """
     for i in agents:
-        radius = k.hub_radius_m * math.sqrt(stream.uniform(w.stream))
-        angle = 2.0 * math.pi * stream.uniform(w.stream)
-        hx, hy = home(w, i)
-        w.pos[i, 0] = hx + radius * math.cos(angle)
-        w.pos[i, 1] = hy + radius * math.sin(angle)
-        heading = 2.0 * math.pi * stream.uniform(w.stream)
-        w.heading[i, 0], w.heading[i, 1] = math.cos(heading), math.sin(heading)
+        radius = hub_radius_m * math.sqrt(stream.uniform(s))
+        angle = 2.0 * math.pi * stream.uniform(s)
+        pos[i, 0] = home_x[i] + radius * math.cos(angle)
+        pos[i, 1] = home_y[i] + radius * math.sin(angle)
+        direction = 2.0 * math.pi * stream.uniform(s)
+        heading[i, 0], heading[i, 1] = math.cos(direction), math.sin(direction)
 
 
 def scatter_in_hub(world: World, agents: np.ndarray, k: Constants) -> None:
-    scatter_kernel(world.kernel_arrays(), k, np.asarray(agents, dtype=np.int64))
+    home_x, home_y = world.home_xy()
+    scatter_kernel(
+        world.pos,
+        world.heading,
+        world.stream,
+        home_x,
+        home_y,
+        k.hub_radius_m,
+        np.asarray(agents, dtype=np.int64),
+    )
 
 
 def move(world: World, params: Params) -> tuple[np.ndarray, np.ndarray]:
     """Advance every agent one step; the agents that reached their target and their hub."""
     at_target = np.empty(world.state.size, dtype=np.int64)
     at_hub = np.empty(world.state.size, dtype=np.int64)
-    n_target, n_hub = move_kernel(
-        world.kernel_arrays(), constants_for(params, "M1"), at_target, at_hub
-    )
+    n_target, n_hub = _move(world.kernel_arrays(), constants_for(params, "M1"), at_target, at_hub)
     return at_target[:n_target], at_hub[:n_hub]
+
+
+# The kernel's entry from Python (the kernel itself has none: jit.internal).
+@njit(cache=True)
+def _move(w, k, at_target, at_hub):
+    return move_kernel(w, k, at_target, at_hub)

@@ -2,7 +2,7 @@
 
 Each rule is one compiled (numba) function over the agents, named as in the
 spec; the engine runs them fused in `step.advance_agents`, and the thin
-Python wrappers below let a test or a request call one rule on its own. Rates
+Python entry points below let a test or a request call one rule on its own. Rates
 become per-step probabilities 1 - exp(-rate·dt).
 
 Quantities that depend only on hub-to-target distances (M2's delay
@@ -20,6 +20,7 @@ from numba import njit
 from hcss.simulation import states as S
 from hcss.simulation import stream
 from hcss.simulation.constants import Constants, constants_for
+from hcss.simulation.jit import internal
 from hcss.simulation.params import Params
 from hcss.simulation.world import Arrays, World, set_state_one
 
@@ -125,7 +126,7 @@ def refresh_geometry(world: World, params: Params) -> None:
 
 
 # -------------------------------------------------------------------- rules
-@njit(cache=True)
+@internal
 def discoverable_sites(w: Arrays, k: Constants, ok):
     """(C, T) into `ok`: whether collective c's explorers can adopt target t.
 
@@ -159,7 +160,7 @@ def adopt_on_discovery(w: Arrays, k: Constants, i, t):
         w.arrival_state[i] = S.F_D if k.discovery_delay else S.F_I
 
 
-@njit(cache=True)
+@internal
 def discovery_plan(w: Arrays, k: Constants):
     """What an explorer can find this step: it depends on its collective only, and a
     discovery changes none of it, so it is worked out once per step.
@@ -186,7 +187,7 @@ def discovery_plan(w: Arrays, k: Constants):
     return count, sites, total, probability
 
 
-@njit(cache=True)
+@internal
 def reach_target_kernel(w: Arrays, k: Constants, agents, n):
     """Agents arriving at a target: executing agents enter D; assessing agents re-estimate it.
 
@@ -216,7 +217,7 @@ def reach_target_kernel(w: Arrays, k: Constants, agents, n):
                 w.arrival_state[i] = S.F_R if k.reassessment_delay else S.F_I
 
 
-@njit(cache=True)
+@internal
 def reach_hub_kernel(w: Arrays, agents, n, newly_visible):
     """Agents arriving home enter their arrival state and report their estimate.
 
@@ -239,7 +240,7 @@ def reach_hub_kernel(w: Arrays, agents, n, newly_visible):
     return n_visible
 
 
-@njit(cache=True)
+@internal
 def agent_rules_kernel(w: Arrays, k: Constants, orders, discovery, transitions):
     """Standing orders, discovery and the rate transitions, agent by agent in one pass.
 
@@ -368,24 +369,40 @@ def reach_hub(world: World, agents: np.ndarray) -> np.ndarray:
     """Agents arriving home enter their arrival state and report; the newly visible targets."""
     agents = np.asarray(agents, dtype=np.int64)
     visible = np.empty(world.active.size, dtype=np.int64)
-    n = reach_hub_kernel(world.kernel_arrays(), agents, agents.size, visible)
+    n = _reach_hub(world.kernel_arrays(), agents, agents.size, visible)
     return visible[:n]
 
 
 def discoverable(world: World, params: Params) -> np.ndarray:
     """(C, T): targets each collective's explorers can adopt (`discoverable_sites`)."""
     ok = np.zeros(world.abandon_order.shape, dtype=np.bool_)
-    discoverable_sites(world.kernel_arrays(), constants_for(params, "M1"), ok)
+    _discoverable_sites(world.kernel_arrays(), constants_for(params, "M1"), ok)
     return ok
 
 
 def discovery(world: World, params: Params, model: str) -> None:
-    agent_rules_kernel(world.kernel_arrays(), constants_for(params, model), False, True, False)
+    _agent_rules(world.kernel_arrays(), constants_for(params, model), False, True, False)
 
 
 def rate_transitions(world: World, params: Params, model: str) -> None:
-    agent_rules_kernel(world.kernel_arrays(), constants_for(params, model), False, False, True)
+    _agent_rules(world.kernel_arrays(), constants_for(params, model), False, False, True)
 
 
 def enforce_orders(world: World, params: Params) -> None:
-    agent_rules_kernel(world.kernel_arrays(), constants_for(params, "M1"), True, False, False)
+    _agent_rules(world.kernel_arrays(), constants_for(params, "M1"), True, False, False)
+
+
+# The kernels' entries from Python (the kernels themselves have none: jit.internal).
+@njit(cache=True)
+def _reach_hub(w, agents, n, newly_visible):
+    return reach_hub_kernel(w, agents, n, newly_visible)
+
+
+@njit(cache=True)
+def _discoverable_sites(w, k, ok):
+    discoverable_sites(w, k, ok)
+
+
+@njit(cache=True)
+def _agent_rules(w, k, orders, discovery, transitions):
+    agent_rules_kernel(w, k, orders, discovery, transitions)

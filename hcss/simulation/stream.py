@@ -21,6 +21,8 @@ import math
 import numpy as np
 from numba import njit
 
+from hcss.simulation.jit import internal
+
 _U64 = np.uint64
 _TO_UNIT = 1.0 / 9007199254740992.0  # 2^-53
 
@@ -179,7 +181,7 @@ def fill_normals(s, out):
     s[0], s[1], s[2], s[3] = s0, s1, s2, s3
 
 
-@njit(cache=True)
+@internal
 def _normal_edge(s, layer, x):
     """The rare draws outside a layer's rectangle: |deviate| from the tail (layer 0) or
     the wedge, NaN if the wedge rejects it (draw again)."""

@@ -279,13 +279,15 @@ class World:
         return World(**values)
 
 
-@njit(cache=True)
+# Integer arguments of any width are widened to these signatures' int64, so
+# these functions are compiled once each, not once per combination of types.
+@njit("int64(int64, int64)", cache=True)
 def target_in(new_state, new_target):
     """Uncommitted agents have no target (-1): the invariant decision keys rely on."""
     return -1 if S.PHASE_OF_STATE[new_state] == 0 else new_target
 
 
-@njit(cache=True)
+@njit("boolean(int64, int64, int64, int64)", cache=True)
 def decision_changed(old_state, old_target, new_state, new_target):
     """Whether the decision state (phase and target) changes: the quorum window is then cleared."""
     return S.PHASE_OF_STATE[old_state] != S.PHASE_OF_STATE[new_state] or old_target != new_target
