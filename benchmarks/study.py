@@ -33,6 +33,8 @@ def run() -> None:
                 figures = run_http_bots(server.url, url, "demo", count, concurrency=count)
             ok = not figures.errors and percentile(figures.page_ms, 95) < TARGET_PAGE_P95_MS
             print(f"    {figures.summary()}  {'ok' if ok else 'below target'}")
+            for line in figures.slowest_routes():
+                print(f"      slow: {line}")
             for error in figures.errors[:5]:
                 print(f"      failed: {error}")
     print(
