@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from flask import abort, current_app
+from flask import abort, current_app, g
 from sqlalchemy import select
 
 from hcss.platform.db import get_session
@@ -22,17 +22,28 @@ def participant_for(token: str) -> Participant:
 def trial_for(token: str, trial_id: int) -> Trial:
     """The trial, only if it belongs to the token's participant (else 404, revealing nothing).
 
+    One query, once per request: a keyed command asks in the idempotency
+    wrapper and again in its view, and under load every repeated lookup
+    delayed every answer (benchmarks/study.py).
+
     The check only reads, and its connection goes back to the pool here: the
     caller then waits for the runner's or the trial's lock, whose holder may
     need a connection itself. Holding one while waiting deadlocked 200 streams
     opened at once (each held a connection, the loader of their trials waited
     for one) until the pool timed out.
     """
-    participant = participant_for(token)
-    trial = get_session().get(Trial, trial_id)
-    if trial is None or trial.participant_id != participant.id:
-        abort(404)
-    get_session().commit()  # hand the connection back before waiting on any trial lock
+    checked: dict[tuple[str, int], Trial] = g.setdefault("checked_trials", {})
+    trial = checked.get((token, trial_id))
+    if trial is None:
+        trial = get_session().scalar(
+            select(Trial)
+            .join(Participant, Trial.participant_id == Participant.id)
+            .where(Trial.id == trial_id, Participant.token == token)
+        )
+        if trial is None:
+            abort(404)
+        get_session().commit()  # hand the connection back before waiting on any trial lock
+        checked[(token, trial_id)] = trial
     return trial
 
 

@@ -115,9 +115,6 @@ def idempotent(view: Callable[..., Any]) -> Callable[..., Any]:
             return view(token, trial_id, **kwargs)
         trial_id = trial_for(token, trial_id).id  # 404 for another participant's trial
         fingerprint = _fingerprint()
-        row = _stored(trial_id, key)
-        if row is not None:
-            return _replay(row, fingerprint)
         live = runner().get(trial_id)
         with live.lock if live is not None else nullcontext():  # repeats wait here
             row = _stored(trial_id, key)
