@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import hmac
+
 from flask import abort, current_app, g
 from sqlalchemy import select
 
 from hcss.platform.db import get_session
 from hcss.platform.live.runner import Runner
+from hcss.platform.live.session import RunningTrial
 from hcss.platform.models import Participant, Trial
 
 
@@ -45,6 +48,21 @@ def trial_for(token: str, trial_id: int) -> Trial:
         get_session().commit()  # hand the connection back before waiting on any trial lock
         checked[(token, trial_id)] = trial
     return trial
+
+
+def held_trial(token: str, trial_id: int) -> RunningTrial | None:
+    """The trial this process holds in memory, if it is the token's; None: ask `trial_for`.
+
+    The live API's looks and commands come several times a second per trial;
+    checking a held trial's owner in memory spares each of them a query and a
+    transaction (under the study load benchmark these were a third of the
+    live API's CPU). A trial not held, or held for another token, goes the
+    database's way, so every answer (404, 409) stays as it was.
+    """
+    live = runner().loaded(trial_id)
+    if live is None or not hmac.compare_digest(live.participant_token.encode(), token.encode()):
+        return None
+    return live
 
 
 def runner() -> Runner:
