@@ -3,12 +3,15 @@
 One waitress server in its own process (SQLite, WAL) runs the demo study at
 time acceleration 20; `hcss.platform.bot_http` walks N bots through every
 page, questionnaire, MRT part and live trial concurrently, as browsers
-would. Figures: bots completed and failed, answers >= 500, and the page and
-live-API latency percentiles. Loopback only; bounded in count and time.
+would. Figures: bots completed and failed, answers >= 500, the page and
+live-API latency percentiles, the routes that make up the slow tail, and the
+CPU the server and the bots used (they share the machine). Loopback only;
+bounded in count and time.
 """
 
 from __future__ import annotations
 
+import resource
 from pathlib import Path
 from tempfile import TemporaryDirectory
 
@@ -21,18 +24,34 @@ ACCELERATION = 20.0
 TARGET_PAGE_P95_MS = 500.0
 
 
+def _cpu_s(who: int) -> float:
+    usage = resource.getrusage(who)
+    return usage.ru_utime + usage.ru_stime
+
+
 def run() -> None:
     with TemporaryDirectory() as tmp:
         for count in BOT_COUNTS:
             url = f"sqlite:///{Path(tmp) / f'study-{count}.sqlite3'}"
             upgrade_database(url)
             env = {"HCSS_STUDY": "demo", "HCSS_TIME_ACCELERATION": str(ACCELERATION)}
+            server_before = _cpu_s(resource.RUSAGE_CHILDREN)
             with LocalServer(
                 url, Path(tmp) / f"instance-{count}", threads=64, extra_env=env
             ) as server:
+                bots_before = _cpu_s(resource.RUSAGE_SELF)
                 figures = run_http_bots(server.url, url, "demo", count, concurrency=count)
+                bots_s = _cpu_s(resource.RUSAGE_SELF) - bots_before
+            # A child's CPU is counted once it has exited: the server's, start included.
+            server_s = _cpu_s(resource.RUSAGE_CHILDREN) - server_before
             ok = not figures.errors and percentile(figures.page_ms, 95) < TARGET_PAGE_P95_MS
             print(f"    {figures.summary()}  {'ok' if ok else 'below target'}")
+            print(
+                f"      CPU: server {server_s:.1f} s (with its start), bots {bots_s:.1f} s, "
+                f"over {figures.wall_s:.1f} s of walking (2 cores: {2 * figures.wall_s:.0f} s)"
+            )
+            for line in figures.slowest_routes():
+                print(f"      slow: {line}")
             for error in figures.errors[:5]:
                 print(f"      failed: {error}")
     print(

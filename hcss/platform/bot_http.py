@@ -18,6 +18,7 @@ from __future__ import annotations
 import http.client
 import http.cookiejar
 import json
+import re
 import threading
 import time
 import urllib.error
@@ -49,12 +50,36 @@ class LoadFigures:
     page_ms: list[float] = field(default_factory=list)
     api_ms: list[float] = field(default_factory=list)
     statuses: dict[int, int] = field(default_factory=dict)
+    #: Latencies by route ("POST /p/<token>/stage/<n>/part_<n>"), to find the slow tail.
+    route_ms: dict[str, list[float]] = field(default_factory=dict)
     lock: threading.Lock = field(default_factory=threading.Lock)
 
-    def record(self, url: str, status: int, elapsed_s: float) -> None:
+    def record(self, url: str, status: int, elapsed_s: float, method: str = "GET") -> None:
+        milliseconds = elapsed_s * 1000.0
         with self.lock:
-            (self.api_ms if "/api/" in url else self.page_ms).append(elapsed_s * 1000.0)
+            (self.api_ms if "/api/" in url else self.page_ms).append(milliseconds)
             self.statuses[status] = self.statuses.get(status, 0) + 1
+            self.route_ms.setdefault(route_of(method, url), []).append(milliseconds)
+
+    def slowest_routes(self, count: int = 6) -> list[str]:
+        """The routes with the most time in answers over 500 ms, the tail's makers, one line each.
+
+        A page's time includes the redirect it leads to (a form's POST, then
+        the GET of the next stage), as a participant waits for both.
+        """
+        slow = {
+            route: sum(ms for ms in times if ms > SLOW_MS) for route, times in self.route_ms.items()
+        }
+        ranked = sorted(self.route_ms, key=lambda route: slow[route], reverse=True)[:count]
+        return [
+            f"{route}: {len(self.route_ms[route])} answers, "
+            f"p50 {percentile(self.route_ms[route], 50):.0f} ms, "
+            f"p95 {percentile(self.route_ms[route], 95):.0f} ms, "
+            f"max {max(self.route_ms[route]):.0f} ms, "
+            f"{sum(ms > SLOW_MS for ms in self.route_ms[route])} over {SLOW_MS:.0f} ms"
+            for route in ranked
+            if slow[route] > 0
+        ]
 
     def summary(self) -> str:
         server_errors = sum(n for status, n in self.statuses.items() if status >= 500)
@@ -66,6 +91,17 @@ class LoadFigures:
             f"p95 {percentile(self.page_ms, 95):.0f} ms; "
             f"live API p95 {percentile(self.api_ms, 95):.0f} ms"
         )
+
+
+#: An answer slower than this counts towards the slow tail in `LoadFigures.slowest_routes`.
+SLOW_MS = 500.0
+
+
+def route_of(method: str, url: str) -> str:
+    """`url` as its route: the participant token and the numbers replaced by placeholders."""
+    path = urllib.parse.urlsplit(url).path
+    path = re.sub(r"^/(p|live|api/live)/[^/]+", r"/\1/<token>", path)
+    return f"{method} {re.sub(r'[0-9]+', '<n>', path)}"
 
 
 def percentile(values: list[float], q: float) -> float:
@@ -164,7 +200,9 @@ class HttpClient:
                 if time.perf_counter() - started >= RECONNECT_FOR_S:
                     raise
                 time.sleep(RECONNECT_WAIT_S)
-        self.figures.record(request.full_url, status, time.perf_counter() - started)
+        self.figures.record(
+            request.full_url, status, time.perf_counter() - started, request.get_method()
+        )
         path = urllib.parse.urlsplit(final).path
         response = _Response(status_code=status, body=body, request=SimpleNamespace(path=path))
         return response, tries > 1

@@ -99,9 +99,11 @@ def serve(
     if study is not None:
         config["STUDY"] = _study_file(study).name
     app = create_app(config)
-    from hcss.questionnaires.mrt import item_bank
+    from hcss.questionnaires.mrt import item_bank, practice_items
 
-    item_bank()  # build the MRT figures now, not in the first participants' requests
+    # Build the MRT figures and draw them now, not in the first participants' requests.
+    for item in (*practice_items(), *item_bank()):
+        item.target_svg()
     ensure_first_login(app)  # prints a console login once, on a server with no experimenter
     url = f"http://{host}:{port}/"
     log_events_to_stderr()

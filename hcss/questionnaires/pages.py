@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from functools import cache
 from importlib import resources
 from importlib.abc import Traversable
 
@@ -45,8 +46,13 @@ def page_title(markdown: str) -> str:
     raise ValueError("a page needs a '# ' heading for its title")
 
 
+@cache
 def introduction_pages() -> tuple[TextPage, ...]:
-    """The interface walk-through, page by page in file-name order."""
+    """The interface walk-through, page by page in file-name order.
+
+    Read once per process, like the study files (texts change only on deploy):
+    the study flow asks for the pages' count on every page load.
+    """
     folder = text_root().joinpath("introduction")
     names = sorted(entry.name for entry in folder.iterdir() if entry.name.endswith(".md"))
     pages = []

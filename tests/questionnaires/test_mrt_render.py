@@ -126,3 +126,22 @@ def test_label_is_escaped_into_the_title() -> None:
     item = item_bank()[0]
     svg = figure_svg(item.target.cube_array(), item.target.view_matrix(), label="a < b & c")
     assert ElementTree.fromstring(svg).find(f"{SVG}title").text == "a < b & c"
+
+
+def test_an_item_is_drawn_once_however_often_its_page_is_shown(monkeypatch) -> None:
+    """Each MRT page shows an item's five drawings; drawing them on every page load
+    made the MRT pages the slowest of the study under load (benchmarks/study.py)."""
+    from hcss.questionnaires.mrt import items
+
+    drawn = []
+
+    def counting_figure_svg(*args, **kwargs):
+        drawn.append(kwargs.get("label"))
+        return figure_svg(*args, **kwargs)
+
+    monkeypatch.setattr(items, "figure_svg", counting_figure_svg)
+    item = build_bank()[1][0]
+    first = (item.target_svg(), item.alternative_svgs())
+    for _ in range(3):
+        assert (item.target_svg(), item.alternative_svgs()) == first
+    assert len(drawn) == 1 + len(item.alternatives)

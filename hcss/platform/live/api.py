@@ -15,7 +15,7 @@ from flask import Blueprint, Response, current_app, jsonify, request
 
 from hcss.platform.db import database, get_session, hand_back_connection
 from hcss.platform.live import actions, validation
-from hcss.platform.live.access import runner, trial_for
+from hcss.platform.live.access import held_trial, runner, trial_for
 from hcss.platform.live.idempotency import idempotent, pending_key
 from hcss.platform.live.session import RunningTrial
 from hcss.platform.live.stream import ended_stream, event_stream
@@ -47,8 +47,7 @@ def stream_slots() -> StreamSlots:
 
 
 def _live(token: str, trial_id: int) -> RunningTrial:
-    trial = trial_for(token, trial_id)
-    live = runner().get(trial.id)
+    live = held_trial(token, trial_id) or runner().get(trial_for(token, trial_id).id)
     if live is None:
         raise actions.ActionError("the trial has ended", 409, "ended")
     return live

@@ -41,7 +41,7 @@ from sqlalchemy import inspect, select
 from sqlalchemy.exc import IntegrityError
 
 from hcss.platform.db import database, hand_back_connection
-from hcss.platform.live.access import runner, trial_for
+from hcss.platform.live.access import held_trial, runner, trial_for
 from hcss.platform.live.actions import ActionError
 from hcss.platform.models import CommandKey
 
@@ -113,11 +113,9 @@ def idempotent(view: Callable[..., Any]) -> Callable[..., Any]:
         key = command_key()
         if key is None:
             return view(token, trial_id, **kwargs)
-        trial_id = trial_for(token, trial_id).id  # 404 for another participant's trial
+        if held_trial(token, trial_id) is None:
+            trial_for(token, trial_id)  # 404 for another participant's trial
         fingerprint = _fingerprint()
-        row = _stored(trial_id, key)
-        if row is not None:
-            return _replay(row, fingerprint)
         live = runner().get(trial_id)
         with live.lock if live is not None else nullcontext():  # repeats wait here
             row = _stored(trial_id, key)

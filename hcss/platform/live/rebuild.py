@@ -58,6 +58,7 @@ def load_trial(session: Session, trial: Trial, now: float) -> RunningTrial:
         trial_id=trial.id,
         participant_id=trial.participant_id,
         participant_code=trial.participant.code,
+        participant_token=trial.participant.token,
         kind=trial.kind,
         model=trial.model,
         seed=trial.seed,

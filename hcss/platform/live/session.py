@@ -67,6 +67,7 @@ class RunningTrial:
     trial_id: int
     participant_id: int
     participant_code: str
+    participant_token: str  # the link's secret: commands for a held trial are checked against it
     kind: str
     model: str
     seed: int

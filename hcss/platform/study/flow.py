@@ -74,35 +74,43 @@ class Flow:
         self.study = load_study(enrolment.study)
         self.now = now
         self.slots = sequence(self.study, enrolment)
-        self.events = list(
-            session.scalars(
-                select(StageEvent)
-                .where(StageEvent.participant_id == participant.id)
-                .order_by(StageEvent.id)
-            )
-        )
+        self.events: list[StageEvent] = []
+        # (stage index, step, kind) -> the first such event: `locate` asks for every
+        # step of every stage, and a scan of the list each time made a page load's
+        # work grow with the square of the participant's progress.
+        self._first_event: dict[tuple[int, str, str], StageEvent] = {}
+        for event in session.scalars(
+            select(StageEvent)
+            .where(StageEvent.participant_id == participant.id)
+            .order_by(StageEvent.id)
+        ):
+            self._remember(event)
+        self._consent: list[ConsentRecord | None] = []  # read on first use, kept up to date
+
+    def _remember(self, event: StageEvent) -> None:
+        self.events.append(event)
+        self._first_event.setdefault((event.stage_index, event.step, event.kind), event)
 
     # --- reading ------------------------------------------------------------------
 
     def event(self, index: int, step: str, kind: str) -> StageEvent | None:
-        for event in self.events:
-            if (event.stage_index, event.step, event.kind) == (index, step, kind):
-                return event
-        return None
+        return self._first_event.get((index, step, kind))
 
     def finished(self, index: int, step: str) -> bool:
-        return any(
-            e.stage_index == index and e.step == step and e.kind in ("submitted", "timed_out")
-            for e in self.events
-        )
+        return any((index, step, kind) in self._first_event for kind in ("submitted", "timed_out"))
 
     def consent(self) -> ConsentRecord | None:
-        return self.session.scalars(
-            select(ConsentRecord)
-            .where(ConsentRecord.participant_id == self.participant.id)
-            .order_by(ConsentRecord.id.desc())
-            .limit(1)
-        ).first()
+        """The newest consent record, read once per flow (`record_consent` adds one)."""
+        if not self._consent:
+            self._consent.append(
+                self.session.scalars(
+                    select(ConsentRecord)
+                    .where(ConsentRecord.participant_id == self.participant.id)
+                    .order_by(ConsentRecord.id.desc())
+                    .limit(1)
+                ).first()
+            )
+        return self._consent[0]
 
     def locate(self) -> Position:
         """Which stage and step now: the first step not yet submitted or timed out."""
@@ -157,8 +165,16 @@ class Flow:
         )
         self.session.add(event)
         self.session.flush()  # the unique constraint refuses a racing duplicate here
-        self.events.append(event)
+        self._remember(event)
         return event
+
+    def record_consent(self, version: str, decision: str) -> ConsentRecord:
+        record = ConsentRecord(
+            participant_id=self.participant.id, version=version, decision=decision, at=self.now
+        )
+        self.session.add(record)
+        self._consent[:] = [record]
+        return record
 
     def enter(self, position: Position) -> StageEvent:
         """Record that the current step is shown, once; later calls return the same event."""

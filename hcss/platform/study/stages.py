@@ -15,7 +15,6 @@ import numpy as np
 from flask_wtf import FlaskForm
 from wtforms import HiddenField, RadioField
 
-from hcss.platform.models import ConsentRecord
 from hcss.platform.study.flow import Flow
 from hcss.platform.study.forms import (
     answers_of,
@@ -72,14 +71,7 @@ class Consent(Stage):
             form["confirm_decline"].data = "yes"
             attach_errors(form, {"": [DECLINE_QUESTION]})
             return False
-        flow.session.add(
-            ConsentRecord(
-                participant_id=flow.participant.id,
-                version=answers["version"],
-                decision=answers["decision"],
-                at=flow.now,
-            )
-        )
+        flow.record_consent(answers["version"], answers["decision"])
         return True
 
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from flask import Blueprint, Flask, redirect, render_template, request, url_for
+from flask import Blueprint, Flask, g, redirect, render_template, request, url_for
 from sqlalchemy import select
 from sqlalchemy.exc import IntegrityError, SQLAlchemyError
 from werkzeug.exceptions import NotFound
@@ -45,6 +45,9 @@ def _participant_code() -> dict[str, Any]:
     token = (request.view_args or {}).get("token")
     if not isinstance(token, str):
         return {}
+    participant = g.get("study_participant")
+    if participant is not None and participant.token == token:
+        return {"participant_code": participant.code}  # the view read it: no second query
     try:
         code = get_session().scalar(select(Participant.code).where(Participant.token == token))
     except SQLAlchemyError:  # an error page for a failed database still renders
@@ -60,6 +63,7 @@ def _participant(token: str) -> Participant:
         raise NotFound(
             "There is no participant with this link. Please check the link you were given."
         )
+    g.study_participant = participant
     return participant
 
 

@@ -1,0 +1,89 @@
+"""What one request reads: the per-request work the study load benchmark found repeated.
+
+Under load (benchmarks/study.py, 24 bots) the server is one process bound to
+one core, so a query or a session repeated in every command or page load
+makes every answer wait longer. These tests count the SQL statements a
+request sends, by table, so a lookup done twice shows up here first.
+"""
+
+from __future__ import annotations
+
+import re
+import uuid
+from collections import Counter
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+from sqlalchemy import event
+
+from tests.platform.study_fixtures import demo_app, new_participant  # noqa: F401
+from tests.platform.test_idempotency import _investigate
+
+CLICK = {"kind": "collective", "collective": 0, "button": "left"}
+
+
+@contextmanager
+def tables_read(app) -> Iterator[Counter[str]]:  # type: ignore[no-untyped-def]
+    """How many SELECT statements name each table (FROM or JOIN) while the block runs."""
+    counts: Counter[str] = Counter()
+
+    def count(_conn, _cursor, statement: str, *_args) -> None:  # type: ignore[no-untyped-def]
+        if statement.lstrip().upper().startswith("SELECT"):
+            counts.update(set(re.findall(r"(?:FROM|JOIN) \"?(\w+)", statement)))
+
+    engine = app.extensions["hcss_db"].engine
+    event.listen(engine, "before_cursor_execute", count)
+    try:
+        yield counts
+    finally:
+        event.remove(engine, "before_cursor_execute", count)
+
+
+def test_a_keyed_command_to_a_held_trial_reads_its_key_once_and_no_owner_row(make_trial) -> None:
+    trial = make_trial()
+    body = _investigate(trial)
+    with tables_read(trial.app) as counts:
+        answer = trial.client.post(
+            trial.api + "/requests",
+            json=body,
+            headers={"X-CSRFToken": trial.csrf, "Idempotency-Key": str(uuid.uuid4())},
+        )
+    assert answer.status_code == 200 and answer.get_json()["accepted"] is True
+    # The trial is held in memory, its owner's token with it: no participant or trial row.
+    assert (counts["participant"], counts["trial"], counts["command_key"]) == (0, 0, 1)
+
+
+def test_a_state_look_at_a_held_trial_reads_no_participant_or_trial(make_trial) -> None:
+    trial = make_trial()
+    assert trial.app.extensions["hcss_runner"].loaded(trial.trial_id) is not None
+    with tables_read(trial.app) as counts:
+        trial.state()
+    assert (counts["participant"], counts["trial"]) == (0, 0)
+
+
+def test_a_trial_not_held_is_checked_in_the_database_and_loaded(make_trial) -> None:
+    trial = make_trial()
+    runner = trial.app.extensions["hcss_runner"]
+    runner.forget(trial.trial_id)
+    assert trial.state()["trial"]["id"] == trial.trial_id
+    assert runner.loaded(trial.trial_id) is not None
+
+
+def test_a_held_trial_answers_only_its_own_token(make_trial) -> None:
+    mine, theirs = make_trial(), make_trial()
+    api = f"/api/live/{mine.token}/trials/{theirs.trial_id}"
+    assert mine.client.get(api + "/state").status_code == 404
+    keyed = {"X-CSRFToken": mine.csrf, "Idempotency-Key": str(uuid.uuid4())}
+    for headers in (keyed, {"X-CSRFToken": mine.csrf}):
+        answer = mine.client.post(api + "/observations", json=CLICK, headers=headers)
+        assert answer.status_code == 404
+
+
+def test_a_stage_page_reads_the_participant_and_the_consent_once(demo_app) -> None:  # noqa: F811
+    token = new_participant(demo_app)
+    client = demo_app.test_client()
+    assert client.get(f"/p/{token}/stage").status_code == 200  # consent: entered, shown
+    with tables_read(demo_app) as counts:
+        page = client.get(f"/p/{token}/stage")  # a reload
+    assert page.status_code == 200 and 'data-stage="consent"' in page.get_data(as_text=True)
+    assert (counts["participant"], counts["consent_record"], counts["stage_event"]) == (1, 1, 1)
