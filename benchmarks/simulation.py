@@ -51,6 +51,8 @@ PREVIOUS = {
     "step_us": {1: 14.0, 4: 58.0, 16: 222.0, 64: 1270.0},
     "compile_s": 15.8,
     "cached_s": 0.7,
+    "experiment_s": 28.3,
+    "experiment_mib": 495.0,
 }
 TARGET_RTF = 20_000.0
 TARGET_EXPERIMENT_S = 30.0
@@ -168,7 +170,8 @@ def full_experiment(workers: int = 2) -> list[dict]:
         f"(2) full simulation-only experiment ({len(jobs)} runs, {len(rows)} decisions, "
         f"{workers} workers): {elapsed:.1f} s wall, peak memory {sampler.peak_mib:,.0f} MiB "
         f"(all processes)   before {BEFORE['experiment_min']:.1f} min (earlier machine), "
-        f"{BEFORE['experiment_mib']:.0f} MiB   [targets < {TARGET_EXPERIMENT_S:.0f} s, < 1 GB]; "
+        f"{BEFORE['experiment_mib']:.0f} MiB, previous {PREVIOUS['experiment_s']:.1f} s, "
+        f"{PREVIOUS['experiment_mib']:.0f} MiB   [targets < {TARGET_EXPERIMENT_S:.0f} s, < 1 GB]; "
         f"decisions in {out}/decisions.csv"
     )
     print(table)
