@@ -27,9 +27,8 @@ from tempfile import TemporaryDirectory
 from hcss.platform.cli import DEFAULT_THREADS, upgrade_database
 from hcss.platform.db import Database
 from hcss.platform.live.client import TrialClient
-from hcss.platform.live.trials import start_trial
+from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.localserver import LocalServer
-from hcss.platform.models import Participant
 from hcss.platform.study.studyfile import load_study
 
 STUDY = load_study("original")  # the trial length the benchmark's trials run for
@@ -97,10 +96,7 @@ def measure(n_trials: int, workdir: Path) -> dict[str, float]:
     tokens = []
     with database.session_scope() as session:
         for i in range(n_trials):
-            participant = Participant(is_bot=True)
-            session.add(participant)
-            session.flush()
-            start_trial(session, participant, seed=1000 + i, duration_s=STUDY.trial_s)
+            participant, _ = start_bot_trial(session, seed=1000 + i, duration_s=STUDY.trial_s)
             tokens.append(participant.token)
     database.engine.dispose()
     stop = threading.Event()

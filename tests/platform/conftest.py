@@ -28,8 +28,7 @@ from sqlalchemy.engine import make_url
 from hcss.platform.app import create_app
 from hcss.platform.bots import ManualClock
 from hcss.platform.live.runner import Runner
-from hcss.platform.live.trials import start_trial
-from hcss.platform.models import Participant
+from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.study.studyfile import load_study
 
 PG_ENV = "HCSS_TEST_DATABASE_URL"
@@ -141,10 +140,7 @@ def make_trial(app: Flask):  # type: ignore[no-untyped-def]
         options.setdefault("duration_s", STUDY.training_s if training else STUDY.trial_s)
         database = app.extensions["hcss_db"]
         with database.session_scope() as session:
-            participant = Participant(is_bot=True)
-            session.add(participant)
-            session.flush()
-            trial = start_trial(session, participant, **options)
+            participant, trial = start_bot_trial(session, **options)
             handle = TrialHandle(
                 app=app,
                 client=app.test_client(),

@@ -10,7 +10,7 @@ from sqlalchemy import select
 from hcss.platform.cli import upgrade_database
 from hcss.platform.db import Database
 from hcss.platform.live.client import TrialClient
-from hcss.platform.live.trials import start_trial
+from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.localserver import LocalServer
 from hcss.platform.models import Observation, ProbeEvent
 from hcss.simulation import ROMAN
@@ -28,13 +28,8 @@ def live_trial(tmp_path):  # type: ignore[no-untyped-def]
     upgrade_database(url)
     database = Database(url)
     with database.session_scope() as session:
-        from hcss.platform.models import Participant
-
-        participant = Participant(is_bot=True)
-        session.add(participant)
-        session.flush()
-        start_trial(
-            session, participant, seed=2, duration_s=STUDY_TRIAL_S, time_acceleration=ACCELERATION
+        participant, _ = start_bot_trial(
+            session, seed=2, duration_s=STUDY_TRIAL_S, time_acceleration=ACCELERATION
         )
         token = participant.token
     with LocalServer(url, tmp_path / "instance") as server:

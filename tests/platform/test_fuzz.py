@@ -30,8 +30,7 @@ from hypothesis import strategies as st
 from hcss.platform.app import create_app
 from hcss.platform.bots import ManualClock
 from hcss.platform.console.accounts import create_experimenter
-from hcss.platform.live.trials import start_trial
-from hcss.platform.models import Participant
+from hcss.platform.live.trials import start_bot_trial
 from tests.platform.conftest import STUDY_TRIAL_S
 from tests.platform.console_support import sign_in
 
@@ -120,11 +119,8 @@ def target(database_url: str) -> Iterator[Target]:
     app.extensions["hcss_runner"].clock = ManualClock(0.0)
     with app.extensions["hcss_db"].session_scope() as session:
         create_experimenter(session, "alice", "correct horse battery")
-        participant = Participant(is_bot=True)
-        session.add(participant)
-        session.flush()
-        trial = start_trial(
-            session, participant, seed=2, duration_s=STUDY_TRIAL_S, time_acceleration=10.0
+        participant, trial = start_bot_trial(
+            session, seed=2, duration_s=STUDY_TRIAL_S, time_acceleration=10.0
         )
         token, code, trial_id = participant.token, participant.code, trial.id
         app.extensions["hcss_runner"].clock.now = trial.started_at.timestamp() + 5.0

@@ -10,14 +10,13 @@ from sqlalchemy import select
 from hcss.platform.cli import upgrade_database
 from hcss.platform.db import Database
 from hcss.platform.live.client import TrialClient
-from hcss.platform.live.trials import start_trial
+from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.localserver import LocalServer
 from hcss.platform.models import (
     Command,
     CommandOutcome,
     DecisionRow,
     Interruption,
-    Participant,
     Probe,
     ProbeEvent,
 )
@@ -62,11 +61,8 @@ def test_kill_9_and_restart_loses_nothing_and_rebuilds_exactly(database_url, tmp
     upgrade_database(database_url)
     database = Database(database_url)
     with database.session_scope() as session:
-        participant = Participant(is_bot=True)
-        session.add(participant)
-        session.flush()
-        trial = start_trial(
-            session, participant, seed=2, duration_s=STUDY_TRIAL_S, time_acceleration=ACCELERATION
+        participant, trial = start_bot_trial(
+            session, seed=2, duration_s=STUDY_TRIAL_S, time_acceleration=ACCELERATION
         )
         token, trial_id = participant.token, trial.id
 

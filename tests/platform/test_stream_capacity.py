@@ -19,9 +19,8 @@ import pytest
 from hcss.platform.cli import upgrade_database
 from hcss.platform.db import Database
 from hcss.platform.live.streams import StreamSlots
-from hcss.platform.live.trials import start_trial
+from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.localserver import LocalServer
-from hcss.platform.models import Participant
 
 
 def _stream(trial):  # type: ignore[no-untyped-def]
@@ -118,10 +117,7 @@ def test_seventy_streams_of_one_link_leave_the_console_answering(tmp_path) -> No
     upgrade_database(url)
     database = Database(url)
     with database.session_scope() as session:
-        participant = Participant(is_bot=True)
-        session.add(participant)
-        session.flush()
-        trial = start_trial(session, participant, seed=2, duration_s=600.0)
+        participant, trial = start_bot_trial(session, seed=2, duration_s=600.0)
         path = f"/api/live/{participant.token}/trials/{trial.id}/stream"
     database.engine.dispose()
 

@@ -17,9 +17,8 @@ import pytest
 from hcss.platform.cli import upgrade_database
 from hcss.platform.db import Database
 from hcss.platform.live.streams import RETRY_AFTER_S
-from hcss.platform.live.trials import start_trial
+from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.localserver import LocalServer
-from hcss.platform.models import Participant
 from tests.platform.conftest import STUDY_TRIAL_S
 
 pytestmark = pytest.mark.browser
@@ -30,10 +29,7 @@ def _participants_with_trials(url: str, n: int) -> list[tuple[str, int]]:
     links = []
     with database.session_scope() as session:
         for seed in range(n):
-            participant = Participant(is_bot=True)
-            session.add(participant)
-            session.flush()
-            trial = start_trial(session, participant, seed=seed + 2, duration_s=STUDY_TRIAL_S)
+            participant, trial = start_bot_trial(session, seed=seed + 2, duration_s=STUDY_TRIAL_S)
             links.append((participant.token, trial.id))
     database.engine.dispose()
     return links

@@ -9,6 +9,7 @@ from __future__ import annotations
 import secrets
 from collections.abc import Mapping
 from datetime import datetime, timedelta
+from typing import Any
 
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
@@ -89,6 +90,18 @@ def start_trial(
     )
     session.flush()
     return trial
+
+
+def start_bot_trial(session: Session, **options: Any) -> tuple[Participant, Trial]:
+    """A new bot participant and a live trial for it (`start_trial`'s options).
+
+    For tests, benchmarks and load tools that need a running trial without
+    walking the study up to it.
+    """
+    participant = Participant(is_bot=True)
+    session.add(participant)
+    session.flush()
+    return participant, start_trial(session, participant, **options)
 
 
 def latest_status(session: Session, trial_id: int) -> str | None:
