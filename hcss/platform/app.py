@@ -13,10 +13,12 @@ from typing import Any
 from flask import Flask, jsonify, request
 from flask_wtf.csrf import CSRFError, CSRFProtect
 from werkzeug.exceptions import HTTPException
+from werkzeug.middleware.proxy_fix import ProxyFix
 
 from hcss.platform import config as platform_config
 from hcss.platform import db, hardening
 from hcss.platform.errors import error_page, http_error_page
+from hcss.platform.hardening import SchemeSecureSessions
 
 # (module, attribute) of each blueprint; each part of the platform adds its line.
 BLUEPRINTS: list[tuple[str, str]] = [
@@ -41,6 +43,12 @@ def create_app(config: Mapping[str, Any] | None = None) -> Flask:
     if not app.config.get("SECRET_KEY"):
         app.config["SECRET_KEY"] = platform_config.secret_key()
 
+    hops = int(app.config.get("PROXY_HOPS") or 0)
+    if hops:
+        app.wsgi_app = ProxyFix(  # type: ignore[method-assign]
+            app.wsgi_app, x_for=hops, x_proto=hops, x_host=hops, x_port=hops
+        )
+    app.session_interface = SchemeSecureSessions()
     hardening.install(app)
     db.init_app(app)
     csrf.init_app(app)

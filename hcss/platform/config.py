@@ -79,14 +79,26 @@ def defaults() -> dict[str, object]:
         "MAX_STREAMS": None,
         # Streams per participant link; the newest takes over ("takeover" event).
         "STREAMS_PER_TOKEN": 1,
-        # Session cookies: not sent on cross-site subrequests; Secure when served over
-        # HTTPS (set HCSS_SECURE_COOKIES=1 behind TLS, so they never travel in clear).
+        # Session cookies: not sent on cross-site subrequests; Secure whenever the request
+        # came over HTTPS (directly, or as the trusted proxy says), and always with
+        # HCSS_SECURE_COOKIES=1.
         "SESSION_COOKIE_SAMESITE": "Lax",
         "SESSION_COOKIE_HTTPONLY": True,
         "SESSION_COOKIE_SECURE": os.environ.get("HCSS_SECURE_COOKIES", "") == "1",
         "REMEMBER_COOKIE_SAMESITE": "Lax",
         "REMEMBER_COOKIE_HTTPONLY": True,
         "REMEMBER_COOKIE_SECURE": os.environ.get("HCSS_SECURE_COOKIES", "") == "1",
+        # Reverse proxies in front of the server that set X-Forwarded-For/-Proto/-Host
+        # (werkzeug's ProxyFix trusts that many hops); 0: the headers are ignored, so a
+        # visitor cannot forge their address. Behind the README's nginx set HCSS_PROXY_HOPS=1.
+        "PROXY_HOPS": int(os.environ.get("HCSS_PROXY_HOPS", "0") or 0),
+        # Networks (CIDR, comma-separated in HCSS_CONSOLE_ALLOW) whose console sign-ins are
+        # never throttled: the lab's own way in while a guesser is locked out.
+        "CONSOLE_ALLOW": [
+            network.strip()
+            for network in os.environ.get("HCSS_CONSOLE_ALLOW", "").split(",")
+            if network.strip()
+        ],
         # Bytes of request body (Flask answers 413 past it; `hcss serve` tells waitress too).
         # The largest legitimate body, a questionnaire page, is a few kB.
         "MAX_CONTENT_LENGTH": 256 * 1024,

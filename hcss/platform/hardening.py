@@ -21,6 +21,7 @@ from typing import Any
 
 from flask import Flask, Response, abort, current_app, request
 from flask.json.provider import DefaultJSONProvider
+from flask.sessions import SecureCookieSessionInterface
 from werkzeug.routing import IntegerConverter
 
 #: The largest id PostgreSQL's INTEGER (and so every id column) can hold.
@@ -43,6 +44,20 @@ class BoundedJSONProvider(DefaultJSONProvider):
             return super().loads(s, **kwargs)
         except RecursionError as error:
             raise ValueError("JSON nested too deeply") from error
+
+
+class SchemeSecureSessions(SecureCookieSessionInterface):
+    """The session cookie is Secure whenever the request came over HTTPS.
+
+    Behind the reverse proxy the scheme is the one the proxy reports (ProxyFix,
+    ``PROXY_HOPS``), so a TLS deployment gets Secure cookies without a setting;
+    ``SESSION_COOKIE_SECURE`` still forces them on a plain-HTTP hop.
+    """
+
+    def get_cookie_secure(self, app: Flask) -> bool:
+        return bool(app.config["SESSION_COOKIE_SECURE"]) or (
+            bool(request) and request.scheme == "https"
+        )
 
 
 def takes_json(view: Any) -> Any:

@@ -1,4 +1,4 @@
-"""`hcss admin create`: console accounts from the command line."""
+"""`hcss admin create` and `unlock`: console accounts from the command line."""
 
 from __future__ import annotations
 
@@ -33,3 +33,21 @@ def admin_create(username: str, password: str) -> None:
     except AccountError as error:
         raise click.ClickException(str(error)) from error
     click.echo(f"experimenter {username.strip()!r} created; sign in at /console/")
+
+
+@admin_group.command("unlock")
+@click.argument("username")
+def admin_unlock(username: str) -> None:
+    """Lift the sign-in lockouts of USERNAME from every address, at once.
+
+    For an experimenter locked out while someone guesses from their address;
+    the guesser's next failures count afresh.
+    """
+    from hcss.platform.config import database_url
+    from hcss.platform.console.lockout import LoginThrottle
+    from hcss.platform.db import Database
+
+    database = Database(database_url())
+    with database.command_scope():
+        cleared = LoginThrottle(database).unlock(username)
+    click.echo(f"{username.strip()!r} unlocked ({cleared} failed sign-ins cleared)")

@@ -1,40 +1,79 @@
-"""Failed console sign-ins: a limit per account and per address, then a lockout, audited.
+"""Failed console sign-ins: a limit per (account, client), then a short back-off, audited.
 
-400 wrong passwords used to get 400 plain 401s at 4-5 a second. Now, within
-`WINDOW_S`, `ACCOUNT_FAILURES` failures for one username or
-`ADDRESS_FAILURES` from one address lock that username or address for
-`LOCKOUT_S`: every sign-in from it answers 429 with Retry-After, without
-checking the password (so guessing gains nothing and costs no argon2 time).
-Each lockout writes an `AuditRecord` (action ``login_lockout``).
+A sign-in is counted as a failure *before* its password is checked, in one
+serialised unit of work: guesses sent at once queue on that count, so a burst
+of any size gets at most `CLIENT_FAILURES` password checks per window; the
+rest answer 429 with Retry-After and cost no argon2 time. A correct password
+then deletes its (account, client) rows, so it was never a failure.
 
-The failures and lockouts are rows of `login_failure` (`LoginFailure`), not
-process memory: a restart used to forget them, so a guesser who could make
-the server restart (or who met a second server process) started afresh.
-Each failure and each check is its own unit of work, apart from the sign-in
-request, whose 401 rolls back.
+The key is the account *and* the client's address, never one of them alone:
+a guesser who types an experimenter's name locks out only their own address,
+and one address guessing many names locks none of the real accounts there.
+The address is the proxy-corrected one (``PROXY_HOPS``, werkzeug's ProxyFix),
+so behind the reverse proxy every visitor is still their own client.
+
+Recovery that does not wait for the guesser to stop: the back-off is short
+(`LOCKOUT_S`), another client signs in as usual, addresses in
+``CONSOLE_ALLOW`` are never throttled, and ``hcss admin unlock`` clears an
+account's rows. The rows live in the database, so a restart or a second
+server process keeps the counts.
 """
 
 from __future__ import annotations
 
+import hashlib
+import ipaddress
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 
-from sqlalchemy import ColumnElement, and_, delete, func, or_, select
+from sqlalchemy import ColumnElement, and_, delete, func, or_, select, text
+from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
-from hcss.platform.models import LoginFailure
+from hcss.platform.models import AuditRecord, LoginFailure
 
 WINDOW_S = 15 * 60.0
-LOCKOUT_S = 15 * 60.0
-ACCOUNT_FAILURES = 5
-# Higher: several experimenters may share a lab's address.
-ADDRESS_FAILURES = 20
-
-Key = tuple[str, str]  # ("account", username) or ("address", remote address)
+LOCKOUT_S = 5 * 60.0
+CLIENT_FAILURES = 5
+SCOPE = "client"
+_NAME_CHARS = 47  # key = 16 hex digits of the address's hash, ":", the name: 64 at most
 
 
-def _of(key: Key) -> ColumnElement[bool]:
-    return and_(LoginFailure.scope == key[0], LoginFailure.key == key[1])
+def client_key(username: str, address: str | None) -> str:
+    """The (account, client) key: the address hashed (no address at rest), the name kept
+    so `unlock` can find every client's rows of one account."""
+    digest = hashlib.sha256((address or "?").encode()).hexdigest()[:16]
+    return f"{digest}:{_name(username)}"
+
+
+def _name(username: str) -> str:
+    return username.strip().lower()[:_NAME_CHARS]
+
+
+def _of(key: str) -> ColumnElement[bool]:
+    return and_(LoginFailure.scope == SCOPE, LoginFailure.key == key)
+
+
+def allowed(address: str | None, networks: Iterable[str]) -> bool:
+    """Whether the address lies in one of the allow-listed networks (CIDR strings)."""
+    if not address:
+        return False
+    try:
+        ip = ipaddress.ip_address(address)
+    except ValueError:
+        return False
+    return any(ip in ipaddress.ip_network(network, strict=False) for network in networks)
+
+
+@dataclass(frozen=True)
+class Attempt:
+    """One sign-in, already counted as a failure; `wait_s` > 0 when it was refused."""
+
+    key: str
+    wait_s: float = 0.0
+    failures: int = 0
+    locks: bool = False
 
 
 class LoginThrottle:
@@ -48,88 +87,97 @@ class LoginThrottle:
     def __init__(self, database: Database, clock: Callable[[], float] | None = None) -> None:
         self.database = database
         self._clock = clock
-        self._lock = threading.Lock()  # one process counts and locks a key at a time
+        self._lock = threading.Lock()  # this process's half of the serialisation
 
     def clock(self) -> float:
         return (self._clock or self.database.clock)()
 
-    @staticmethod
-    def keys(username: str, address: str | None) -> tuple[Key, Key]:
-        return ("account", username.strip().lower()[:64]), ("address", (address or "?")[:64])
+    def begin(self, username: str, address: str | None) -> Attempt:
+        """Count this sign-in as a failure now, or refuse it while its key is locked.
 
-    def retry_after(self, keys: tuple[Key, ...]) -> float:
-        """Seconds until every key may sign in again; 0 when none is locked."""
-        now = self.clock()
-        with self.database.session_scope() as session:
-            until = session.scalar(
-                select(func.max(LoginFailure.locked_until)).where(or_(*(_of(k) for k in keys)))
-            )
-        return max(0.0, (until or 0.0) - now)
-
-    def failed(self, keys: tuple[Key, ...]) -> list[tuple[Key, int]]:
-        """Count a failure; returns the keys this failure locked, with their failure counts.
-
-        A key's count starts again after each lockout: only failures within
-        the window and after the key's last lockout count.
+        The failure that reaches `CLIENT_FAILURES` within the window carries
+        the lockout. A key's count starts again after each lockout.
         """
-        now = self.clock()
-        locked = []
+        key, now = client_key(username, address), self.clock()
         with self._lock, self.database.session_scope() as session:
-            for key in keys:
-                session.execute(  # what no count or lockout needs any more
-                    delete(LoginFailure).where(
-                        _of(key),
-                        LoginFailure.at_epoch < now - WINDOW_S,
-                        or_(LoginFailure.locked_until.is_(None), LoginFailure.locked_until < now),
-                    )
+            _one_count_at_a_time(session, key)
+            session.execute(  # rows that no count or lockout needs any more, any key
+                delete(LoginFailure).where(
+                    LoginFailure.at_epoch < now - WINDOW_S,
+                    or_(LoginFailure.locked_until.is_(None), LoginFailure.locked_until < now),
                 )
-                last_lock = session.execute(
-                    select(func.max(LoginFailure.id), func.max(LoginFailure.locked_until)).where(
-                        _of(key), LoginFailure.locked_until.is_not(None)
-                    )
-                ).one()
-                failure = LoginFailure(scope=key[0], key=key[1], at_epoch=now)
-                session.add(failure)
-                session.flush()
-                recent = session.scalar(
-                    select(func.count()).where(
-                        _of(key),
-                        LoginFailure.at_epoch >= now - WINDOW_S,
-                        LoginFailure.id > (last_lock[0] or 0),
-                    )
+            )
+            last_id, locked_until = session.execute(
+                select(func.max(LoginFailure.id), func.max(LoginFailure.locked_until)).where(
+                    _of(key), LoginFailure.locked_until.is_not(None)
                 )
-                limit = ACCOUNT_FAILURES if key[0] == "account" else ADDRESS_FAILURES
-                if recent >= limit and (last_lock[1] or 0.0) <= now:
-                    failure.locked_until = now + LOCKOUT_S
-                    locked.append((key, int(recent)))
-        return locked
+            ).one()
+            if (locked_until or 0.0) > now:
+                return Attempt(key, wait_s=locked_until - now)
+            recent = session.scalar(
+                select(func.count()).where(
+                    _of(key),
+                    LoginFailure.at_epoch >= now - WINDOW_S,
+                    LoginFailure.id > (last_id or 0),
+                )
+            )
+            failures = int(recent or 0) + 1
+            locks = failures >= CLIENT_FAILURES
+            session.add(
+                LoginFailure(
+                    scope=SCOPE,
+                    key=key,
+                    at_epoch=now,
+                    locked_until=now + LOCKOUT_S if locks else None,
+                )
+            )
+        return Attempt(key, failures=failures, locks=locks)
 
-    def succeeded(self, keys: tuple[Key, ...]) -> None:
-        """A correct password clears the account's failures (not the address's)."""
-        with self.database.session_scope() as session:
-            for key in keys:
-                if key[0] == "account":
-                    session.execute(delete(LoginFailure).where(_of(key)))
+    def succeeded(self, attempt: Attempt) -> None:
+        """The right password: this (account, client) never failed."""
+        with self._lock, self.database.session_scope() as session:
+            session.execute(delete(LoginFailure).where(_of(attempt.key)))
+
+    def unlock(self, username: str) -> int:
+        """Clear an account's failures and lockouts from every client; returns the rows."""
+        with self._lock, self.database.session_scope() as session:
+            result = session.execute(
+                delete(LoginFailure).where(
+                    LoginFailure.scope == SCOPE,
+                    LoginFailure.key.endswith(":" + _name(username), autoescape=True),
+                )
+            )
+            return int(result.rowcount or 0)  # type: ignore[attr-defined]
 
 
-def audit_lockouts(database, locked: list[tuple[Key, int]], username: str) -> None:  # type: ignore[no-untyped-def]
-    """One audit row per lockout, written in its own unit of work (the 401 rolls back)."""
-    from hcss.platform.models import AuditRecord
+def _one_count_at_a_time(session: Session, key: str) -> None:
+    """Server processes sharing the database count one key's attempts in turn.
 
-    if not locked:
+    PostgreSQL: a transaction-scoped advisory lock on the key. SQLite: a write
+    that changes nothing takes the database's write lock before the count is read.
+    """
+    dialect = session.get_bind().dialect.name
+    if dialect == "postgresql":
+        lock = int.from_bytes(hashlib.sha256(key.encode()).digest()[:8], "big", signed=True)
+        session.execute(text("SELECT pg_advisory_xact_lock(:key)"), {"key": lock})
+    elif dialect == "sqlite":
+        session.execute(text("UPDATE login_failure SET key = key WHERE 0 = 1"))
+
+
+def audit_lockout(database: Database, attempt: Attempt, username: str) -> None:
+    """An audit row for a failure that locked its key (its own unit of work: the 401 rolls back).
+
+    The counts are numbers, as every audit row's are; who was locked is the
+    row's experimenter field (the name typed).
+    """
+    if not attempt.locks:
         return
     with database.session_scope() as session:
-        for (scope, value), failures in locked:
-            session.add(
-                AuditRecord(
-                    action="login_lockout",
-                    experimenter=username.strip()[:64] or "?",
-                    participant_code=None,
-                    row_counts={
-                        "scope": scope,
-                        "key": value,
-                        "failures": failures,
-                        "locked_s": LOCKOUT_S,
-                    },
-                )
+        session.add(
+            AuditRecord(
+                action="login_lockout",
+                experimenter=username.strip()[:64] or "?",
+                participant_code=None,
+                row_counts={"failures": attempt.failures, "locked_s": int(LOCKOUT_S)},
             )
+        )

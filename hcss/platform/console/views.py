@@ -31,7 +31,8 @@ from sqlalchemy import select
 
 from hcss.platform.console import eventlog, forms
 from hcss.platform.console.accounts import authenticate
-from hcss.platform.console.lockout import LoginThrottle, audit_lockouts
+from hcss.platform.console.audit import audit_entries
+from hcss.platform.console.lockout import LoginThrottle, allowed, audit_lockout
 from hcss.platform.console.login_sessions import end_sessions, experimenter_for_cookie
 from hcss.platform.console.participants import (
     create_participants,
@@ -76,8 +77,11 @@ def _load_experimenter(user_id: str) -> Experimenter | None:
 
 
 def _throttle() -> LoginThrottle | None:
-    """The app's sign-in throttle; None when LOGIN_RATE_LIMIT is off (the fuzz test)."""
+    """The app's sign-in throttle; None when LOGIN_RATE_LIMIT is off (the fuzz test) or
+    for an address in CONSOLE_ALLOW (the lab's own network: a way in during a lockout)."""
     if not current_app.config.get("LOGIN_RATE_LIMIT", True):
+        return None
+    if allowed(request.remote_addr, current_app.config.get("CONSOLE_ALLOW") or ()):
         return None
     return current_app.extensions.setdefault("hcss_login_throttle", LoginThrottle(database()))
 
@@ -104,21 +108,21 @@ def _safe_next(target: str | None) -> str:
 def login():  # type: ignore[no-untyped-def]
     form = forms.LoginForm()
     if form.validate_on_submit():
-        throttle, keys = _throttle(), LoginThrottle.keys(form.username.data, request.remote_addr)
-        wait_s = throttle.retry_after(keys) if throttle else 0.0
-        if wait_s > 0:
-            flash(f"Too many failed sign-ins; try again in {ceil(wait_s / 60)} minute(s).")
+        throttle = _throttle()
+        attempt = throttle.begin(form.username.data, request.remote_addr) if throttle else None
+        if attempt is not None and attempt.wait_s > 0:
+            flash(f"Too many failed sign-ins; try again in {ceil(attempt.wait_s / 60)} minute(s).")
             page = render_template("console/login.html", form=form)
-            return page, 429, {"Retry-After": str(ceil(wait_s))}
+            return page, 429, {"Retry-After": str(ceil(attempt.wait_s))}
         account = authenticate(get_session(), form.username.data, form.password.data)
         if account is not None:
-            if throttle:
-                throttle.succeeded(keys)
+            if throttle and attempt:
+                throttle.succeeded(attempt)
             cookie_session.clear()  # no session fixation across the sign-in
             login_user(account)
             return redirect(_safe_next(request.args.get("next")))
-        if throttle:
-            audit_lockouts(database(), throttle.failed(keys), form.username.data)
+        if attempt is not None:
+            audit_lockout(database(), attempt, form.username.data)
         flash("Wrong username or password.")
         return render_template("console/login.html", form=form), 401
     return render_template("console/login.html", form=form)
@@ -145,7 +149,7 @@ def index() -> str:
         rows=progress_rows(session, _runner().clock()),
         create_form=forms.CreateParticipantsForm(),
         action_form=forms.ActionForm(),
-        audits=audits,
+        audits=audit_entries(audits),
         action_labels=ACTION_LABELS,
         connected_within_s=CONNECTED_WITHIN_S,
         poll_s=float(current_app.config.get("CONSOLE_POLL_S", 2.0)),

@@ -87,22 +87,22 @@ class AuditRecord(CreatedAt, Base):
 
 
 class LoginFailure(CreatedAt, Base):
-    """A failed console sign-in, counted against one username or one address.
+    """A console sign-in counted as failed, against one (username, client) pair.
 
-    Each failure writes two rows, ``scope`` "account" (the username) and
-    "address" (the remote address). The failure that reaches the limit carries
-    ``locked_until``: while it lies ahead, that username or address may not
-    sign in (hcss.platform.console.lockout). The rows are in the database, not
-    in a process, so a restart or a second server process keeps the count and
-    the lockout. Not append-only: a correct password deletes its account's
-    rows, and rows past the window and any lockout are pruned.
+    ``scope`` is "client" and ``key`` the pair (the address hashed, then the
+    name; hcss.platform.console.lockout). The failure that reaches the limit
+    carries ``locked_until``: while it lies ahead, that name may not sign in
+    from that client. The rows are in the database, not in a process, so a
+    restart or a second server process keeps the count and the lockout. Not
+    append-only: a correct password deletes its pair's rows, ``hcss admin
+    unlock`` an account's, and rows past the window and any lockout are pruned.
     """
 
     __tablename__ = "login_failure"
     __table_args__ = (Index("ix_login_failure_scope_key_at", "scope", "key", "at_epoch"),)
 
     id: Mapped[int] = mapped_column(primary_key=True)
-    scope: Mapped[str] = mapped_column(String(8))  # "account" or "address"
-    key: Mapped[str] = mapped_column(String(64))  # the username (lower case) or the address
+    scope: Mapped[str] = mapped_column(String(8))  # "client"
+    key: Mapped[str] = mapped_column(String(64))  # address hash ":" username (lower case)
     at_epoch: Mapped[float] = mapped_column(Double)  # the throttle's clock, seconds since 1970
     locked_until: Mapped[float | None] = mapped_column(Double)
