@@ -7,6 +7,7 @@ registers them here, so this module stays a short table of contents.
 from __future__ import annotations
 
 import importlib
+import os
 
 import click
 
@@ -25,8 +26,18 @@ COMMANDS: list[tuple[str, str]] = [
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="hcss")
-def main() -> None:
+@click.option(
+    "--studies",
+    envvar="HCSS_STUDIES",
+    type=click.Path(exists=True, file_okay=False),
+    help="Directory of your own study files (NAME.toml), searched before the bundled "
+    "ones [env: HCSS_STUDIES].",
+)
+def main(studies: str | None) -> None:
     """Run, serve and analyse the human-collective site-selection study."""
+    if studies:
+        # The environment, not a global: `hcss serve` and the bots' servers inherit it.
+        os.environ["HCSS_STUDIES"] = os.path.abspath(studies)
 
 
 for module_name, attribute in COMMANDS:

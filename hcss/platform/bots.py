@@ -399,7 +399,9 @@ def run_bots(app: Flask, n: int, *, seed: int = 0, progress: Any = None) -> list
 
 @click.command("bots")
 @click.option("--n", "count", default=8, show_default=True, type=click.IntRange(min=1))
-@click.option("--study", default="original", show_default=True, help="Study file in studies/.")
+@click.option(
+    "--study", default="original", show_default=True, help="Study name (see hcss --studies)."
+)
 @click.option("--seed", default=0, show_default=True, type=int, help="First bot's seed.")
 @click.option("--database-url", default=None, help="Default: DATABASE_URL, else instance/.")
 @click.option(

@@ -62,7 +62,7 @@ def _redacted(url: str) -> str:
     "--study",
     default=None,
     envvar="HCSS_STUDY",
-    help="Study file (studies/NAME.toml) for new participants; default: original.",
+    help="Study (NAME.toml in --studies DIR or bundled) for new participants; default: original.",
 )
 @click.option(
     "--threads",

@@ -127,9 +127,9 @@ def test_a_study_that_wants_ids_refuses_anonymous_visits(app) -> None:  # type: 
 def _study_doc(**online: object) -> dict:
     import tomllib
 
-    from hcss.platform.study.studyfile import study_path
+    from hcss.platform.study.files import study_text
 
-    doc = tomllib.loads(study_path("demo").read_text())
+    doc = tomllib.loads(study_text("demo")[1].decode())
     doc["online"] = online
     return doc
 

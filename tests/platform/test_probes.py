@@ -213,9 +213,10 @@ def test_the_study_files_probe_counts_reach_the_runner_and_survive_a_rebuild(
 def test_a_study_file_with_other_probe_counts_is_accepted_and_bad_ones_refused() -> None:
     import tomllib
 
-    from hcss.platform.study.studyfile import STUDIES_DIR, StudyFileError, parse_study
+    from hcss.platform.study.files import study_text
+    from hcss.platform.study.studyfile import StudyFileError, parse_study
 
-    doc = tomllib.loads((STUDIES_DIR / "original.toml").read_text())
+    doc = tomllib.loads(study_text("original")[1].decode())
     doc["probes"] = {"perception": 2, "comprehension": 0, "projection": 1}
     assert parse_study(doc, source="t").probe_counts == {1: 2, 2: 0, 3: 1}
     for bad in (-1, 10**6):

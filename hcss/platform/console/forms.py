@@ -9,14 +9,14 @@ from wtforms import BooleanField, IntegerField, PasswordField, SelectField, Stri
 from wtforms.validators import DataRequired, InputRequired, Length, NumberRange, Optional
 
 from hcss.platform.study.enrolment import default_study_name
-from hcss.platform.study.studyfile import STUDIES_DIR
+from hcss.platform.study.files import study_names
 
 MAX_NEW_PARTICIPANTS = 50
 
 
 def available_studies() -> list[str]:
-    """The study files in `studies/`, by name; read on each request so a new file shows at once."""
-    return sorted(path.stem for path in STUDIES_DIR.glob("*.toml"))
+    """The study files, by name; read on each request so a new file shows at once."""
+    return study_names()
 
 
 class LoginForm(FlaskForm):

@@ -1,6 +1,6 @@
 """The participant's study flow: stages in the style of oTree's page sequence.
 
-A study file (`studies/<name>.toml`, `studyfile`) lists the stages; the stage
+A study file (`<name>.toml`: `files` finds it, `studyfile` checks it) lists the stages; the stage
 classes (`stages`, `mrt_stage`, `trial_stage`) declare their forms, templates,
 time limits and hooks; `flow.Flow` answers "which stage now?" from the
 participant's append-only stage events; `enrolment.assign_cell` does the

@@ -8,12 +8,11 @@ part is recorded as timed out and its unanswered items score nothing.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from flask_wtf import FlaskForm
 from markupsafe import Markup
 
-from hcss.platform.study.flow import Flow
 from hcss.platform.study.forms import mrt_form
 from hcss.platform.study.markdown import render_markdown
 from hcss.platform.study.stage import Refused, Slot, Stage
@@ -22,6 +21,9 @@ from hcss.questionnaires import mrt
 from hcss.questionnaires.definitions import ScoreRow
 from hcss.questionnaires.mrt.items import MrtItem
 from hcss.questionnaires.mrt.protocol import INSTRUCTIONS, INSTRUMENT
+
+if TYPE_CHECKING:
+    from hcss.platform.study.flow import Flow
 
 
 def _parts(flow: Flow) -> tuple[tuple[MrtItem, ...], ...]:

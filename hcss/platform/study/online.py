@@ -12,9 +12,10 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
-from typing import Any
 from urllib.parse import urlsplit
 
+from pydantic import ConfigDict, StrictBool, StrictStr, ValidationInfo, field_validator
+from pydantic.dataclasses import dataclass as pydantic_dataclass
 from werkzeug.datastructures import MultiDict
 
 #: Longest accepted recruitment parameter value (Prolific ids are 24 characters).
@@ -65,48 +66,40 @@ class Recruit:
     recruiter_session_id: str | None = None
 
 
-@dataclass(frozen=True)
+@pydantic_dataclass(frozen=True, config=ConfigDict(extra="forbid"))
 class OnlineSettings:
-    """The study file's `[online]` table; without it the study has no public link."""
+    """The study file's `[online]` table; without it the study has no public link.
 
-    link: bool = False
-    anonymous: bool = False
-    completion_code: str = ""
-    completion_url: str = ""
-    redirect: bool = False
+    Checked when built (a study file is read through it), because the code and
+    URL are shown to every participant who finishes.
+    """
 
+    link: StrictBool = False
+    anonymous: StrictBool = False
+    completion_code: StrictStr = ""
+    completion_url: StrictStr = ""
+    redirect: StrictBool = False
 
-def parse_online(doc: dict[str, Any], source: str) -> OnlineSettings:
-    """`[online]` of a study file, checked like the rest of it (StudyFileError names the key)."""
-    from hcss.platform.study.studyfile import StudyFileError
+    @field_validator("completion_code")
+    @classmethod
+    def _printable_code(cls, code: str) -> str:
+        if code and not (code.isascii() and code.isprintable() and len(code) <= 64):
+            raise ValueError("is up to 64 printable ASCII characters")
+        return code
 
-    table = doc.get("online", {})
-    if not isinstance(table, dict):
-        raise StudyFileError(f"{source}: `online` must be a table")
-    known = {
-        "link": bool,
-        "anonymous": bool,
-        "completion_code": str,
-        "completion_url": str,
-        "redirect": bool,
-    }
-    for key, value in table.items():
-        if key not in known:
-            raise StudyFileError(
-                f"{source}: unknown setting `online.{key}`; known: {sorted(known)}"
-            )
-        if not isinstance(value, known[key]):
-            raise StudyFileError(f"{source}: `online.{key}` must be a {known[key].__name__}")
-    settings = OnlineSettings(**table)
-    code = settings.completion_code
-    if code and not (code.isascii() and code.isprintable() and len(code) <= 64):
-        raise StudyFileError(f"{source}: `online.completion_code` is up to 64 printable ASCII")
-    url = settings.completion_url
-    if url and (urlsplit(url).scheme not in ("https", "http") or not urlsplit(url).netloc):
-        raise StudyFileError(f"{source}: `online.completion_url` must be an http(s) URL")
-    if settings.redirect and not url:
-        raise StudyFileError(f"{source}: `online.redirect` needs `online.completion_url`")
-    return settings
+    @field_validator("completion_url")
+    @classmethod
+    def _web_address(cls, url: str) -> str:
+        if url and (urlsplit(url).scheme not in ("https", "http") or not urlsplit(url).netloc):
+            raise ValueError("must be an http(s) URL")
+        return url
+
+    @field_validator("redirect")
+    @classmethod
+    def _redirect_has_a_target(cls, redirect: bool, info: ValidationInfo) -> bool:
+        if redirect and not info.data.get("completion_url"):
+            raise ValueError("needs `online.completion_url`")
+        return redirect
 
 
 def _value(args: MultiDict[str, str], name: str) -> str | None:

@@ -10,15 +10,17 @@ cannot skip the check.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from flask_wtf import FlaskForm
 from wtforms import IntegerField
 from wtforms.validators import InputRequired, NumberRange
 
-from hcss.platform.study.flow import Flow
 from hcss.platform.study.forms import attach_errors, form_of
 from hcss.platform.study.stage import Slot, Stage
+
+if TYPE_CHECKING:
+    from hcss.platform.study.flow import Flow
 
 MIN_WIDTH, MIN_HEIGHT = 1024, 700
 MAX_PIXELS = 100_000  # larger than any screen: anything above is not a measurement

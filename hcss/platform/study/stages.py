@@ -9,13 +9,12 @@ their own modules.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from flask_wtf import FlaskForm
 from wtforms import HiddenField, RadioField
 
-from hcss.platform.study.flow import Flow
 from hcss.platform.study.forms import (
     answers_of,
     attach_errors,
@@ -33,6 +32,9 @@ from hcss.platform.study.texts import fill
 from hcss.platform.study.trial_stage import TrainingStage, TrialStage
 from hcss.questionnaires import consent, demographics, pages, post_trial, ranking, sart, tlx
 from hcss.questionnaires.definitions import Questionnaire, ValidationErrors
+
+if TYPE_CHECKING:
+    from hcss.platform.study.flow import Flow
 
 DECLINE_QUESTION = (
     "You chose not to take part. If that is right, press Confirm: the study ends here and "

@@ -1,24 +1,40 @@
-"""Study files: the protocol as data (`studies/<name>.toml`), read with tomllib.
+"""Study files: the protocol as data (`<name>.toml`), read with tomllib, checked by pydantic.
 
 A study file names the stages in order, the models, every timing and the
 counterbalancing design, so a shorter demo or another design is a new file,
-not new code. Everything is checked when the file is loaded, with a message
-that names the file and the setting, so a typo fails at start-up rather than
-in the middle of a participant's session.
+not new code. Everything is checked when the file is loaded, and every error
+names the file, the line and the setting, so a typo fails at start-up rather
+than in the middle of a participant's session.
+
+The schema (`StudyFileSchema`) mirrors the file's tables; `Study` is what the
+platform runs, with the counterbalancing design expanded into its cells.
 """
 
 from __future__ import annotations
 
 import hashlib
 import itertools
+import os
 import tomllib
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cache
-from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
-from hcss.platform.config import PROJECT_ROOT
-from hcss.platform.study.online import OnlineSettings, parse_online
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    StrictStr,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+)
+
+from hcss.platform.study.files import STUDIES_ENV, StudyFileError, study_text
+from hcss.platform.study.online import OnlineSettings
+from hcss.platform.study.stages import STAGES
+from hcss.platform.study.toml_lines import line_of
 from hcss.questionnaires.consent import consent_versions
 from hcss.questionnaires.mrt import item_bank, practice_items
 from hcss.questionnaires.probes import ProbeLevel
@@ -27,12 +43,9 @@ from hcss.simulation.params import MODELS
 #: Probes per level and 20-minute trial a study may ask for (each needs a time-out apart).
 MAX_PROBES_PER_LEVEL = 20
 
-STUDIES_DIR = PROJECT_ROOT / "studies"
 SECTIONS = ("easy", "difficult")
 
-
-class StudyFileError(ValueError):
-    """A study file that cannot be run; the message names the file and the setting."""
+__all__ = ["Cell", "MrtSettings", "Study", "StudyFileError", "load_study", "parse_study"]
 
 
 @dataclass(frozen=True)
@@ -80,149 +93,281 @@ class Study:
         )
 
 
-def study_path(name: str) -> Path:
-    if not name or not name.replace("-", "").replace("_", "").isalnum():
-        raise StudyFileError(f"a study name is letters, digits, - and _; got {name!r}")
-    return STUDIES_DIR / f"{name}.toml"
+# --- the file's schema ----------------------------------------------------------------
+
+Positive = Annotated[float, Field(gt=0)]
+
+
+class _Table(BaseModel):
+    """A table of a study file: every key known, every value of its own TOML type."""
+
+    model_config = ConfigDict(extra="forbid", strict=True, frozen=True)
+
+
+class SequenceTable(_Table):
+    before: list[str]
+    per_model: list[str]
+    after: list[str]
+
+    @field_validator("before", "per_model", "after")
+    @classmethod
+    def _known_stages_in_their_part(cls, names: list[str], info: ValidationInfo) -> list[str]:
+        part = info.field_name
+        for stage in names:
+            if stage not in STAGES:
+                raise ValueError(f"unknown stage {stage!r}; known: {sorted(STAGES)}")
+            if STAGES[stage].per_model != (part == "per_model"):
+                where = "per_model" if STAGES[stage].per_model else "before/after"
+                raise ValueError(f"stage {stage!r} belongs in sequence.{where}")
+        return names
+
+
+class TimingTable(_Table):
+    training_s: Positive
+    trial_s: Positive
+    max_time_acceleration: Positive
+
+
+class MrtTable(_Table):
+    practice_items: int
+    part_items: Annotated[list[Annotated[int, Field(gt=0)]], Field(min_length=1)]
+    part_time_limit_s: Positive
+    break_s: Positive
+
+    @field_validator("practice_items")
+    @classmethod
+    def _within_the_practice_bank(cls, count: int) -> int:
+        if not 0 <= count <= len(practice_items()):
+            raise ValueError(f"must be 0 to {len(practice_items())} (the practice items there are)")
+        return count
+
+    @field_validator("part_items")
+    @classmethod
+    def _within_the_item_bank(cls, parts: list[int]) -> list[int]:
+        if sum(parts) > len(item_bank()):
+            raise ValueError(f"asks for {sum(parts)} items; the MRT bank has {len(item_bank())}")
+        return parts
+
+
+class ProbesTable(_Table):
+    """Probes per level (`ProbeLevel`, by name) and 20-minute trial."""
+
+    perception: int
+    comprehension: int
+    projection: int
+
+    @field_validator("perception", "comprehension", "projection")
+    @classmethod
+    def _drawable(cls, count: int) -> int:
+        # The live runner draws these per 20-minute trial (scaled to the trial's length).
+        if not 0 <= count <= MAX_PROBES_PER_LEVEL:
+            raise ValueError(
+                f"must be 0 to {MAX_PROBES_PER_LEVEL}: the [probes] counts are per level"
+            )
+        return count
+
+
+class CounterbalancingTable(_Table):
+    factors: dict[str, Annotated[list[Any], Field(min_length=1)]]
+    constants: dict[str, Any] = {}
+    exclude: list[dict[str, Any]] = []
+
+
+class StudyFileSchema(BaseModel):
+    """The whole file, table by table.
+
+    Lax only so that `[online]` becomes its `OnlineSettings`; every value here
+    and in the tables is still held to its own type.
+    """
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    name: StrictStr
+    title: StrictStr
+    consent_version: StrictStr
+    models: list[StrictStr]
+    sequence: SequenceTable
+    timing: TimingTable
+    mrt: MrtTable
+    probes: ProbesTable
+    counterbalancing: CounterbalancingTable
+    online: OnlineSettings = OnlineSettings()
+
+    @field_validator("models")
+    @classmethod
+    def _distinct_known_models(cls, models: list[str]) -> list[str]:
+        if not models or any(m not in MODELS for m in models) or len(set(models)) != len(models):
+            raise ValueError(f"must name distinct models of {MODELS}")
+        return models
+
+    @field_validator("consent_version")
+    @classmethod
+    def _consent_text_exists(cls, version: str) -> str:
+        if version not in consent_versions():
+            raise ValueError(f"names no consent text; have {consent_versions()}")
+        return version
+
+
+# --- errors that name the setting and its line ---------------------------------------
+
+#: How a TOML type is named to the person editing the file.
+_KINDS = {
+    "bool_type": "a bool",
+    "string_type": "a string",
+    "int_type": "an integer",
+    "float_type": "a number",
+    "list_type": "a list",
+    "dict_type": "a table",
+    "model_type": "a table",
+    "dataclass_type": "a table",
+}
+
+
+def _dotted(location: Sequence[int | str]) -> str:
+    """('mrt', 'part_items', 0) -> 'mrt.part_items[0]'."""
+    text = ""
+    for part in location:
+        text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else part)
+    return text
+
+
+def _known_keys(location: Sequence[int | str]) -> list[str]:
+    """The settings the schema allows in the table at `location` (for 'unknown setting')."""
+    table: Any = StudyFileSchema
+    for part in location:
+        fields = getattr(table, "__pydantic_fields__", None)
+        if fields is None or part not in fields:
+            return []
+        table = fields[part].annotation
+    return sorted(getattr(table, "__pydantic_fields__", {}))
+
+
+def _phrase(error: Any) -> str:
+    """One pydantic error in the words of a study file."""
+    location = list(error["loc"])
+    key = _dotted(location)
+    kind = error["type"]
+    if kind == "missing":
+        return f"missing setting `{key}`"
+    if kind in ("extra_forbidden", "unexpected_keyword_argument"):
+        return f"unknown setting `{key}`; known: {_known_keys(location[:-1])}"
+    if kind in _KINDS:
+        return f"`{key}` must be {_KINDS[kind]}, not {type(error['input']).__name__}"
+    message = str(error["msg"]).removeprefix("Value error, ").replace("Input should be", "must be")
+    return f"`{key}` {message}" if key else message
+
+
+def _located(source: str, text: str | None, key: str, phrase: str) -> str:
+    line = line_of(text, key) if text is not None else None
+    return f"{source}:{line}: {phrase}" if line else f"{source}: {phrase}"
+
+
+def _schema_errors(error: ValidationError, source: str, text: str | None) -> StudyFileError:
+    lines = []
+    for detail in error.errors():
+        key = _dotted([part for part in detail["loc"] if not isinstance(part, int)])
+        lines.append(_located(source, text, key, _phrase(detail)))
+    return StudyFileError("\n".join(lines))
+
+
+# --- loading ---------------------------------------------------------------------------
+
+
+def load_study(name: str) -> Study:
+    """The study `<name>.toml`, the user's directory searched before the bundled studies."""
+    return _load_study(name, os.environ.get(STUDIES_ENV, ""))
 
 
 @cache
-def load_study(name: str) -> Study:
-    """The study `studies/<name>.toml`, checked; cached because files change only on deploy."""
-    path = study_path(name)
-    if not path.exists():
-        available = sorted(p.stem for p in STUDIES_DIR.glob("*.toml"))
-        raise StudyFileError(f"no study file {path.name}; available: {available}")
-    raw = path.read_bytes()
+def _load_study(name: str, user_directory: str) -> Study:
+    """Cached per directory because study files change only on deploy."""
+    source, raw = study_text(name)
     try:
-        doc = tomllib.loads(raw.decode("utf-8"))
-    except tomllib.TOMLDecodeError as error:
-        raise StudyFileError(f"{path.name}: {error}") from error
-    return parse_study(doc, source=path.name, digest=hashlib.sha256(raw).hexdigest())
+        text = raw.decode("utf-8")
+        doc = tomllib.loads(text)
+    except (UnicodeDecodeError, tomllib.TOMLDecodeError) as error:
+        raise StudyFileError(f"{source}: {error}") from error
+    return parse_study(doc, source=source, digest=hashlib.sha256(raw).hexdigest(), text=text)
 
 
-def _get(doc: dict[str, Any], dotted: str, kind: type | tuple[type, ...], source: str) -> Any:
-    node: Any = doc
-    for part in dotted.split("."):
-        if not isinstance(node, dict) or part not in node:
-            raise StudyFileError(f"{source}: missing setting `{dotted}`")
-        node = node[part]
-    if isinstance(node, bool) or not isinstance(node, kind):
-        raise StudyFileError(f"{source}: `{dotted}` has the wrong type ({type(node).__name__})")
-    return node
-
-
-def _positive(doc: dict[str, Any], dotted: str, source: str) -> float:
-    value = _get(doc, dotted, (int, float), source)
-    if value <= 0:
-        raise StudyFileError(f"{source}: `{dotted}` must be positive, got {value}")
-    return float(value)
-
-
-def parse_study(doc: dict[str, Any], *, source: str, digest: str = "") -> Study:
-    from hcss.platform.study.stages import STAGES
-
-    models = tuple(_get(doc, "models", list, source))
-    if not models or any(m not in MODELS for m in models) or len(set(models)) != len(models):
-        raise StudyFileError(f"{source}: `models` must name distinct models of {MODELS}")
-    sequence = {
-        part: tuple(_get(doc, f"sequence.{part}", list, source))
-        for part in ("before", "per_model", "after")
-    }
-    for part, names in sequence.items():
-        for stage in names:
-            if stage not in STAGES:
-                raise StudyFileError(
-                    f"{source}: unknown stage {stage!r} in sequence.{part}; known: {sorted(STAGES)}"
-                )
-            if STAGES[stage].per_model != (part == "per_model"):
-                where = "per_model" if STAGES[stage].per_model else "before/after"
-                raise StudyFileError(f"{source}: stage {stage!r} belongs in sequence.{where}")
-    all_stages = sequence["before"] + sequence["per_model"] + sequence["after"]
-    if not all_stages or all_stages[0] != "consent":
-        raise StudyFileError(f"{source}: the first stage must be consent")
-    consent_version = _get(doc, "consent_version", str, source)
-    if consent_version not in consent_versions():
+def parse_study(
+    doc: dict[str, Any], *, source: str, digest: str = "", text: str | None = None
+) -> Study:
+    """A study from a parsed file; `text`, when given, lets each error name its line."""
+    try:
+        schema = StudyFileSchema.model_validate(doc)
+    except ValidationError as error:
+        raise _schema_errors(error, source, text) from None
+    sequence = schema.sequence
+    if not (sequence.before or sequence.per_model or sequence.after) or (
+        (sequence.before or sequence.per_model or sequence.after)[0] != "consent"
+    ):
         raise StudyFileError(
-            f"{source}: no consent text {consent_version!r}; have {consent_versions()}"
+            _located(source, text, "sequence", "the first stage of `sequence` must be consent")
         )
-    mrt = _mrt_settings(doc, source)
-    probe_counts = {
-        int(level): int(_get(doc, f"probes.{level.name.lower()}", int, source))
-        for level in ProbeLevel
-    }
-    if any(n < 0 or n > MAX_PROBES_PER_LEVEL for n in probe_counts.values()):
-        # The live runner draws these per 20-minute trial (scaled to the trial's length).
-        raise StudyFileError(
-            f"{source}: [probes] counts must be 0 to {MAX_PROBES_PER_LEVEL} per level"
-        )
+    models = tuple(schema.models)
     return Study(
-        name=_get(doc, "name", str, source),
-        title=_get(doc, "title", str, source),
-        consent_version=consent_version,
+        name=schema.name,
+        title=schema.title,
+        consent_version=schema.consent_version,
         models=models,
-        before=sequence["before"],
-        per_model=sequence["per_model"],
-        after=sequence["after"],
-        training_s=_positive(doc, "timing.training_s", source),
-        trial_s=_positive(doc, "timing.trial_s", source),
-        max_time_acceleration=_positive(doc, "timing.max_time_acceleration", source),
-        mrt=mrt,
-        probe_counts=probe_counts,
-        cells=_cells(doc, models, source),
+        before=tuple(sequence.before),
+        per_model=tuple(sequence.per_model),
+        after=tuple(sequence.after),
+        training_s=schema.timing.training_s,
+        trial_s=schema.timing.trial_s,
+        max_time_acceleration=schema.timing.max_time_acceleration,
+        mrt=MrtSettings(
+            practice_items=schema.mrt.practice_items,
+            part_items=tuple(schema.mrt.part_items),
+            part_time_limit_s=schema.mrt.part_time_limit_s,
+            break_s=schema.mrt.break_s,
+        ),
+        probe_counts={
+            int(level): getattr(schema.probes, level.name.lower()) for level in ProbeLevel
+        },
+        cells=_cells(schema.counterbalancing, models, source, text),
         digest=digest,
-        online=parse_online(doc, source),
+        online=schema.online,
     )
 
 
-def _mrt_settings(doc: dict[str, Any], source: str) -> MrtSettings:
-    parts = tuple(_get(doc, "mrt.part_items", list, source))
-    if not parts or any(not isinstance(n, int) or n <= 0 for n in parts):
-        raise StudyFileError(f"{source}: `mrt.part_items` is a list of positive item counts")
-    if sum(parts) > len(item_bank()):
-        raise StudyFileError(f"{source}: the MRT bank has {len(item_bank())} items")
-    practice = _get(doc, "mrt.practice_items", int, source)
-    if not 0 <= practice <= len(practice_items()):
-        raise StudyFileError(f"{source}: at most {len(practice_items())} practice items")
-    return MrtSettings(
-        practice_items=practice,
-        part_items=parts,
-        part_time_limit_s=_positive(doc, "mrt.part_time_limit_s", source),
-        break_s=_positive(doc, "mrt.break_s", source),
-    )
-
-
-def _cells(doc: dict[str, Any], models: tuple[str, ...], source: str) -> tuple[Cell, ...]:
-    factors: dict[str, list[Any]] = _get(doc, "counterbalancing.factors", dict, source)
-    constants: dict[str, Any] = doc.get("counterbalancing", {}).get("constants", {})
-    excludes: list[dict[str, Any]] = doc.get("counterbalancing", {}).get("exclude", [])
-    for name, levels in factors.items():
-        if not isinstance(levels, list) or not levels:
-            raise StudyFileError(f"{source}: factor `{name}` needs a list of levels")
-    names = list(factors)
+def _cells(
+    design: CounterbalancingTable, models: tuple[str, ...], source: str, text: str | None
+) -> tuple[Cell, ...]:
+    names = list(design.factors)
     cells = []
-    for combination in itertools.product(*(factors[name] for name in names)):
-        levels = dict(zip(names, combination, strict=True)) | dict(constants)
-        if any(all(levels.get(k) == v for k, v in rule.items()) for rule in excludes):
+    for combination in itertools.product(*(design.factors[name] for name in names)):
+        levels = dict(zip(names, combination, strict=True)) | dict(design.constants)
+        if any(all(levels.get(k) == v for k, v in rule.items()) for rule in design.exclude):
             continue
-        cells.append(_cell(len(cells) + 1, levels, models, source))
+        problem = _cell_problem(levels, models)
+        if problem is not None:
+            setting, message = problem
+            table = "factors" if setting in design.factors else "constants"
+            key = f"counterbalancing.{table}.{setting}"
+            raise StudyFileError(_located(source, text, key, f"cell {len(cells) + 1}: {message}"))
+        cells.append(
+            Cell(
+                len(cells) + 1,
+                tuple(levels["model_order"]),
+                {model: levels[f"first_section_{model}"] for model in models},
+                levels,
+            )
+        )
     if not cells:
-        raise StudyFileError(f"{source}: the counterbalancing design leaves no cell")
+        raise StudyFileError(
+            _located(source, text, "counterbalancing", "the counterbalancing design leaves no cell")
+        )
     return tuple(cells)
 
 
-def _cell(number: int, levels: dict[str, Any], models: tuple[str, ...], source: str) -> Cell:
+def _cell_problem(levels: dict[str, Any], models: tuple[str, ...]) -> tuple[str, str] | None:
+    """The setting a cell's levels get wrong and what is wrong with it, or None."""
     order = levels.get("model_order")
     if not isinstance(order, list) or sorted(order) != sorted(models):
-        raise StudyFileError(
-            f"{source}: cell {number}: `model_order` must list each of {models} once, got {order}"
-        )
-    sections = {}
+        return "model_order", f"`model_order` must list each of {models} once, got {order}"
     for model in models:
-        section = levels.get(f"first_section_{model}")
-        if section not in SECTIONS:
-            raise StudyFileError(
-                f"{source}: cell {number}: `first_section_{model}` must be one of {SECTIONS}"
-            )
-        sections[model] = section
-    return Cell(number, tuple(order), sections, levels)
+        if levels.get(f"first_section_{model}") not in SECTIONS:
+            return f"first_section_{model}", f"`first_section_{model}` must be one of {SECTIONS}"
+    return None

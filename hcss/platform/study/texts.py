@@ -13,8 +13,10 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Iterable
+from typing import TYPE_CHECKING
 
-from hcss.platform.study.studyfile import Study
+if TYPE_CHECKING:
+    from hcss.platform.study.studyfile import Study
 
 PLACEHOLDER = re.compile(r"\{\{\s*([a-z_]+)\s*\}\}")
 NUMBER_WORDS = ("no", "one", "two", "three", "four", "five", "six")

@@ -11,7 +11,7 @@ brought to its end here first, by the runner itself, so nothing is skipped.
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from flask import current_app, url_for
 from flask_wtf import FlaskForm
@@ -20,9 +20,11 @@ from hcss.platform.live.trials import latest_status, start_trial
 from hcss.platform.models import StageEvent
 from hcss.platform.models import Trial as TrialRow
 from hcss.platform.models.vocabularies import TrialStatus
-from hcss.platform.study.flow import Flow
 from hcss.platform.study.stage import Refused, Slot, Stage
 from hcss.platform.study.texts import duration
+
+if TYPE_CHECKING:
+    from hcss.platform.study.flow import Flow
 
 
 class LiveStage(Stage):

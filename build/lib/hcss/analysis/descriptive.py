@@ -1,0 +1,57 @@
+"""Descriptive statistics per measure, group and split.
+
+The study reports each measure as mean (SD) and median (min–max) per model;
+the SD is the sample SD (n − 1), as R's ``sd`` and SPSS report it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+
+import numpy as np
+import pandas as pd
+
+
+@dataclass(frozen=True)
+class Summary:
+    """Mean, sample SD, median and range of one set of unit values."""
+
+    n: int
+    mean: float
+    sd: float
+    median: float
+    minimum: float
+    maximum: float
+
+
+def summarise(values: Sequence[float] | np.ndarray) -> Summary:
+    """Summary of the non-missing values; SD is NaN for a single value."""
+    array = np.asarray(values, dtype=float)
+    array = array[~np.isnan(array)]
+    if not len(array):
+        nan = float("nan")
+        return Summary(0, nan, nan, nan, nan, nan)
+    sd = float(np.std(array, ddof=1)) if len(array) > 1 else float("nan")
+    return Summary(
+        len(array),
+        float(array.mean()),
+        sd,
+        float(np.median(array)),
+        float(array.min()),
+        float(array.max()),
+    )
+
+
+def descriptive_frame(measures: pd.DataFrame) -> pd.DataFrame:
+    """One row per (measure, group, split) with n, mean, sd, median, minimum, maximum."""
+    rows = []
+    for (measure, group, split), subset in measures.groupby(
+        ["measure", "group", "split"], sort=False
+    ):
+        rows.append(
+            {"measure": measure, "group": group, "split": split}
+            | asdict(summarise(subset["value"]))
+        )
+    columns = ["measure", "group", "split", "n", "mean", "sd", "median", "minimum", "maximum"]
+    return pd.DataFrame(rows, columns=columns)

@@ -1,0 +1,131 @@
+"""Tables of the tests that respect the repeated-measures design."""
+
+from __future__ import annotations
+
+import pandas as pd
+
+from hcss.analysis.builders import SPLIT_LABELS
+from hcss.analysis.clustered import ClusteredModel
+from hcss.analysis.measures import measure_label
+from hcss.analysis.paired import RepeatedComparison
+from hcss.analysis.tables import Table, format_number, format_p
+
+
+def friedman_table(comparisons: list[RepeatedComparison]) -> Table:
+    """Friedman χ²(df, N = participants), p and Kendall's W per measure and split."""
+    rows, records = [], []
+    for comparison in comparisons:
+        result = comparison.friedman
+        if result is None:
+            continue
+        statistic = (
+            f"χ²({result.df:g}, N = {result.n}) = {format_number(result.statistic)}"
+            if result.statistic == result.statistic
+            else "–"
+        )
+        rows.append(
+            (
+                measure_label(comparison.measure),
+                SPLIT_LABELS[comparison.split],
+                statistic,
+                format_p(result.p),
+                format_number(result.effect_size),
+                comparison.note,
+            )
+        )
+        records.append(
+            {
+                "measure": comparison.measure,
+                "split": comparison.split,
+                "n": result.n,
+                "chi2": result.statistic,
+                "df": result.df,
+                "p": result.p,
+                "kendall_w": result.effect_size,
+                "note": comparison.note,
+            }
+        )
+    return Table(
+        "friedman",
+        "Friedman tests across M1, M2, M3 (participants with all three), with Kendall's W",
+        ("Measure", "Split", "χ²(df, N)", "p", "W", "Note"),
+        tuple(rows),
+        pd.DataFrame(records),
+    )
+
+
+def paired_wilcoxon_table(comparisons: list[RepeatedComparison]) -> Table:
+    """Pairwise signed-rank tests: V, n, p, Holm p and r per pair."""
+    rows, records = [], []
+    for comparison in comparisons:
+        for pair in comparison.pairs:
+            result = pair.result
+            rows.append(
+                (
+                    measure_label(comparison.measure),
+                    SPLIT_LABELS[comparison.split],
+                    f"{pair.group_a} − {pair.group_b}",
+                    str(result.n),
+                    format_number(result.statistic, 1),
+                    format_p(result.p),
+                    format_p(pair.p_holm),
+                    format_number(result.effect_size),
+                    result.method or result.note,
+                )
+            )
+            records.append(
+                {
+                    "measure": comparison.measure,
+                    "split": comparison.split,
+                    "group_a": pair.group_a,
+                    "group_b": pair.group_b,
+                    "n": result.n,
+                    "V": result.statistic,
+                    "p": result.p,
+                    "p_holm": pair.p_holm,
+                    "r": result.effect_size,
+                    "method": result.method,
+                    "note": result.note,
+                }
+            )
+    return Table(
+        "wilcoxon_paired",
+        "Paired Wilcoxon signed-rank tests, Holm-adjusted within measure and split",
+        ("Measure", "Split", "Pair", "n", "V", "p", "p (Holm)", "r", "Method"),
+        tuple(rows),
+        pd.DataFrame(records),
+    )
+
+
+def model_table(name: str, model: ClusteredModel) -> Table:
+    """Ratios exp(β) with 95% intervals; the method and cluster counts in the caption."""
+    rows = tuple(
+        (
+            term.term,
+            format_number(term.ratio, 3),
+            f"[{format_number(term.lower, 3)}, {format_number(term.upper, 3)}]",
+            format_p(term.p),
+        )
+        for term in model.terms
+    )
+    if not rows:
+        rows = (("not fitted", "–", "–", model.note or "–"),)
+    caption = (
+        f"{model.outcome.capitalize()} by model × difficulty: {model.method}; "
+        f"{model.n_decisions} decisions of {model.n_participants} participants"
+        + (f" ({model.note})" if model.note and model.terms else "")
+    )
+    frame = pd.DataFrame(
+        [
+            {"term": t.term, model.ratio_name.replace(" ", "_"): t.ratio, "lower": t.lower}
+            | {"upper": t.upper, "p": t.p}
+            for t in model.terms
+        ]
+    )
+    return Table(
+        name,
+        caption,
+        ("Term (vs M1, easy)", model.ratio_name.capitalize(), "95% CI", "p"),
+        rows,
+        frame,
+    )

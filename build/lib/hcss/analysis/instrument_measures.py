@@ -1,0 +1,128 @@
+"""Measures from SA probes and questionnaires, one value per participant.
+
+Probes are scored per trial:
+
+- ``sa_overall`` (SA0) = 100 * correct probes / scored probes, over all
+  levels; ``sa_level1`` … ``sa_level3`` the same within a level.
+- A probe that timed out counts as incorrect: the operator could not answer
+  in time, which is a failure of awareness, not a missing value.
+- A probe not yet scored (``correct`` empty and not timed out, e.g. a
+  level-3 projection whose outcome never happened before the trial ended) is
+  left out, since it has no truth to compare with.
+
+Questionnaires come from the export's ``scores`` table (the instruments'
+own scoring: TLX weighting, SART's SU − (DAR − SAR), MRT's item rule), so the
+analysis never re-implements scoring. An instrument with no scores falls
+back to its raw numeric ``questionnaire_items`` (e.g. the 1–7 post-trial
+Likert answers, or ranks), one measure per item. The export never
+overwrites, so a corrected answer is a later row: the last row wins.
+"""
+
+from __future__ import annotations
+
+import pandas as pd
+
+from hcss.analysis.decision_measures import MEASURE_COLUMNS
+from hcss.analysis.load import STUDY
+from hcss.questionnaires.tlx import SUBSCALE_KEYS
+
+#: Per-model instruments, in report order.
+MODEL_INSTRUMENTS = ("nasa_tlx", "sart", "post_trial", "ranking")
+
+#: Group label for per-participant measures (not tied to a model).
+ALL_PARTICIPANTS = "All"
+
+
+def probe_measures(probes: pd.DataFrame) -> pd.DataFrame:
+    """SA probe percent correct per trial: overall (SA0) and per level."""
+    if probes.empty:
+        return pd.DataFrame(columns=MEASURE_COLUMNS)
+    correct = probes["correct"].astype("boolean")
+    timed_out = probes["timed_out"].astype("boolean").fillna(False).astype(bool)
+    scored = probes.assign(
+        hit=correct.fillna(False).astype(bool), scored=correct.notna().to_numpy() | timed_out
+    )
+    scored = scored[scored["scored"]]
+    rows = []
+    for (participant, _trial, model), trial_probes in scored.groupby(
+        ["participant", "trial_id", "model"], sort=True
+    ):
+        subsets = [("sa_overall", trial_probes)] + [
+            (f"sa_level{int(level)}", level_probes)
+            for level, level_probes in trial_probes.groupby("level")
+        ]
+        for measure, subset in subsets:
+            value = 100.0 * subset["hit"].mean()
+            rows.append((measure, "overall", str(model), STUDY, participant, participant, value))
+    frame = pd.DataFrame(rows, columns=MEASURE_COLUMNS)
+    return frame.groupby(MEASURE_COLUMNS[:-1], as_index=False)["value"].mean()[MEASURE_COLUMNS]
+
+
+def _latest(frame: pd.DataFrame, key: list[str]) -> pd.DataFrame:
+    return frame.drop_duplicates(subset=key, keep="last")
+
+
+def _item_rows(
+    items: pd.DataFrame, instrument: str, name_column: str, value_column: str
+) -> pd.DataFrame:
+    """Rows of one instrument as measures named ``instrument.scale``."""
+    chosen = items[items["instrument"] == instrument].copy()
+    chosen["value"] = pd.to_numeric(chosen[value_column], errors="coerce")
+    chosen = chosen.dropna(subset=["value"])
+    model = chosen["model"].astype("string").fillna("")
+    chosen["group"] = model.where(model != "", ALL_PARTICIPANTS)
+    chosen["measure"] = instrument + "." + chosen[name_column].astype(str)
+    chosen["split"] = "overall"
+    chosen["source"] = STUDY
+    chosen["unit"] = chosen["participant"].astype(str)
+    chosen["participant"] = chosen["unit"]
+    return chosen[MEASURE_COLUMNS]
+
+
+def _tlx_ratings(items: pd.DataFrame) -> pd.DataFrame:
+    """The six raw NASA-TLX ratings (0–100) as ``nasa_tlx.<subscale>_rating``.
+
+    The scores table holds the weighted components and both totals; the raw
+    ratings are answers, so they come from the items, beside the weighted
+    ones in the paper's TLX table.
+    """
+    ratings = items[(items["instrument"] == "nasa_tlx") & items["item"].isin(SUBSCALE_KEYS)]
+    ratings = ratings.assign(item=ratings["item"].astype(str) + "_rating")
+    return _item_rows(ratings, "nasa_tlx", "item", "value")
+
+
+def questionnaire_measures(scores: pd.DataFrame, items: pd.DataFrame) -> pd.DataFrame:
+    """NASA-TLX, SART, post-trial, ranking and MRT, from scores or raw items."""
+    scores = _latest(scores, ["participant", "instrument", "model", "scale"])
+    items = _latest(items, ["participant", "instrument", "model", "item"])
+    frames = []
+    for instrument in (*MODEL_INSTRUMENTS, "mrt"):
+        if (scores["instrument"] == instrument).any():
+            frames.append(_item_rows(scores, instrument, "scale", "score"))
+            if instrument == "nasa_tlx":
+                frames.append(_tlx_ratings(items))
+        elif instrument != "mrt" and (items["instrument"] == instrument).any():
+            frames.append(_item_rows(items, instrument, "item", "value"))
+    frames = [frame for frame in frames if not frame.empty]
+    if not frames:
+        return pd.DataFrame(columns=MEASURE_COLUMNS)
+    return pd.concat(frames, ignore_index=True)
+
+
+def mrt_scores(scores: pd.DataFrame, participants: pd.DataFrame) -> pd.Series:
+    """Each participant's MRT score (0–24), indexed by participant code.
+
+    The ``scores`` table is preferred (scale ``overall``, or its only scale);
+    the participants table's ``mrt_score`` is the fallback, since both come
+    from the same scoring.
+    """
+    mrt = scores[scores["instrument"] == "mrt"]
+    if not mrt.empty:
+        if (mrt["scale"] == "overall").any():
+            mrt = mrt[mrt["scale"] == "overall"]
+        mrt = _latest(mrt, ["participant"])
+        return pd.to_numeric(mrt.set_index("participant")["score"], errors="coerce").dropna()
+    if "mrt_score" in participants.columns and len(participants):
+        table = participants.set_index("participant")["mrt_score"]
+        return pd.to_numeric(table, errors="coerce").dropna()
+    return pd.Series(dtype=float)

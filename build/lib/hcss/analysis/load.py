@@ -1,0 +1,292 @@
+"""Read exports and simulation decision tables into one tagged set of frames.
+
+The decisions table has identical columns for the simulation-only experiment
+and the study export (docs/data-dictionary.md), so both are read by the same
+code; each row is tagged with its comparison *group*: ``M1SIM``/``M2SIM`` for
+simulation-only runs and ``M1``/``M2``/``M3`` for human-collective teams. All
+later steps group by that label and never need to know where a row came from.
+
+Input problems raise :class:`AnalysisInputError`, whose message is written for
+the person running ``hcss analyze``; the command turns it into a click error.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pandas as pd
+
+from hcss.analysis.sources import SourceError, read_tables
+
+SIMULATION = "simulation"
+STUDY = "study"
+
+#: Group labels in display order: simulation-only models first, then teams.
+GROUP_ORDER = ("M1SIM", "M2SIM", "M1", "M2", "M3")
+
+#: Columns of the decisions table the analysis reads (a subset of the contract).
+DECISION_COLUMNS = (
+    "source",
+    "model",
+    "participant",
+    "trial_id",
+    "scenario_id",
+    "run",
+    "collective",
+    "decision_index",
+    "difficulty",
+    "decision_time_s",
+    "timed_out",
+    "correct",
+    "n_requests",
+    "n_investigate",
+    "n_abandon",
+    "n_decide",
+    "n_interventions",
+)
+
+#: Export tables beside decisions.csv, with the columns the analysis reads.
+STUDY_TABLES: dict[str, tuple[str, ...]] = {
+    "participants": ("participant", "is_pilot", "is_bot", "is_demo"),
+    "requests": ("participant", "trial_id", "model", "kind", "accepted", "intervention"),
+    "observations": ("participant", "trial_id", "model", "kind"),
+    "probes": ("participant", "trial_id", "model", "level", "correct", "timed_out"),
+    "questionnaire_items": ("participant", "instrument", "model", "item", "value"),
+    "scores": ("participant", "instrument", "model", "scale", "score"),
+    "stage_timings": ("participant", "stage", "entered_at", "submitted_at"),
+}
+
+BOOLEAN_COLUMNS = frozenset(
+    {"timed_out", "correct", "accepted", "intervention", "is_pilot", "is_bot", "is_demo"}
+)
+TEXT_COLUMNS = frozenset(
+    {"source", "model", "participant", "trial_id", "scenario_id", "collective", "difficulty"}
+)
+
+
+class AnalysisInputError(ValueError):
+    """An input the analysis cannot use, explained for the command line."""
+
+
+@dataclass(frozen=True)
+class InputSummary:
+    """One INPUT and how many rows of each table it gave after exclusions."""
+
+    path: str
+    table_rows: tuple[tuple[str, int], ...]
+
+    @property
+    def rows(self) -> int:
+        return sum(count for _, count in self.table_rows)
+
+
+@dataclass(frozen=True)
+class StudyTables:
+    """Every table the analysis reads, already filtered and tagged.
+
+    Every table exists; a table no INPUT held is an empty frame with its
+    columns, so measures that need it simply produce no rows (an export whose
+    trials have no decisions still gives its questionnaires and probes).
+    ``all_participants`` is the participants table before exclusions (the
+    report's sample and attrition count the excluded too); every table has an
+    ``input`` column naming the INPUT a row came from.
+    """
+
+    decisions: pd.DataFrame
+    requests: pd.DataFrame
+    observations: pd.DataFrame
+    probes: pd.DataFrame
+    questionnaire_items: pd.DataFrame
+    scores: pd.DataFrame
+    participants: pd.DataFrame
+    stage_timings: pd.DataFrame
+    all_participants: pd.DataFrame = field(default_factory=pd.DataFrame)
+    inputs: tuple[InputSummary, ...] = ()
+    warnings: tuple[str, ...] = ()
+
+    @property
+    def groups(self) -> list[str]:
+        """Groups present in the decisions, in display order."""
+        present = set(self.decisions["group"])
+        return [group for group in GROUP_ORDER if group in present]
+
+
+def group_label(source: str, model: str) -> str:
+    """The comparison group of a decision: simulation models get a SIM suffix."""
+    return f"{model}SIM" if source == SIMULATION else model
+
+
+def parse_bool(column: pd.Series) -> pd.Series:
+    """Read the dictionary's `true`/`false` cells; empty stays missing.
+
+    pandas only infers booleans for columns without gaps, and `probes.correct`
+    has gaps until a probe is scored, so the mapping is explicit.
+    """
+    text = column.astype("string").str.strip().str.lower()
+    mapped = text.map({"true": True, "false": False, "1": True, "0": False}, na_action="ignore")
+    unknown = text.notna() & mapped.isna()
+    if unknown.any():
+        raise AnalysisInputError(
+            f"column {column.name!r} holds {text[unknown].iloc[0]!r}, expected true or false"
+        )
+    return mapped.astype("boolean")
+
+
+def _checked(frame: pd.DataFrame, where: str, table: str, required: Sequence[str]) -> pd.DataFrame:
+    """The raw table with its required columns present and booleans parsed."""
+    missing = [name for name in required if name not in frame.columns]
+    if missing:
+        raise AnalysisInputError(f"{where}: the {table} table lacks column(s) {', '.join(missing)}")
+    for name in BOOLEAN_COLUMNS.intersection(frame.columns):
+        try:
+            frame[name] = parse_bool(frame[name])
+        except AnalysisInputError as error:
+            raise AnalysisInputError(f"{where}: {error}") from error
+    return frame
+
+
+def _decisions(frame: pd.DataFrame, where: str) -> pd.DataFrame:
+    decisions = _checked(frame, where, "decisions", DECISION_COLUMNS)
+    sources = set(decisions["source"].dropna())
+    unknown = sources - {SIMULATION, STUDY}
+    if unknown or decisions["source"].isna().any():
+        raise AnalysisInputError(
+            f"{where}: source must be 'simulation' or 'study', found {sorted(unknown) or 'empty'}"
+        )
+    difficulties = set(decisions["difficulty"].dropna()) - {"easy", "difficult"}
+    if difficulties:
+        raise AnalysisInputError(
+            f"{where}: difficulty must be 'easy' or 'difficult', found {sorted(difficulties)}"
+        )
+    decisions["participant"] = decisions["participant"].fillna("")
+    decisions["group"] = pd.Series(
+        [
+            group_label(source, model)
+            for source, model in zip(decisions["source"], decisions["model"], strict=True)
+        ],
+        index=decisions.index,
+        dtype="object",
+    )
+    unknown_groups = set(decisions["group"]) - set(GROUP_ORDER)
+    if unknown_groups:
+        raise AnalysisInputError(f"{where}: unknown model(s) {sorted(unknown_groups)}")
+    return decisions
+
+
+def _empty(table: str) -> pd.DataFrame:
+    columns = DECISION_COLUMNS + ("group",) if table == "decisions" else STUDY_TABLES[table]
+    return pd.DataFrame({name: pd.Series(dtype="object") for name in (*columns, "input")})
+
+
+def _read_input(path: Path) -> dict[str, pd.DataFrame]:
+    """One INPUT's tables, checked and tagged with the INPUT they came from."""
+    try:
+        raw = read_tables(path, ("decisions", *STUDY_TABLES), TEXT_COLUMNS)
+    except SourceError as error:
+        raise AnalysisInputError(str(error)) from error
+    if not raw:
+        raise AnalysisInputError(
+            f"{path}: no export tables here (decisions.csv, participants.csv, ...)"
+        )
+    tables = {}
+    for table, (where, frame) in raw.items():
+        if table == "decisions":
+            frame = _decisions(frame, where)
+        else:
+            frame = _checked(frame, where, table, STUDY_TABLES[table])
+        tables[table] = frame.assign(input=str(path))
+    return tables
+
+
+def _excluded_participants(participants: pd.DataFrame) -> set[str]:
+    """Codes of bot, pilot and demo participants: never part of a real analysis."""
+    flags = participants[["is_pilot", "is_bot", "is_demo"]].fillna(False).astype(bool)
+    return set(participants.loc[flags.any(axis=1), "participant"].astype(str))
+
+
+def _has_study_rows(combined: dict[str, pd.DataFrame]) -> bool:
+    if (combined["decisions"]["source"] == STUDY).any():
+        return True
+    return any(len(combined[table]) for table in STUDY_TABLES if table != "participants")
+
+
+def _exclude(combined: dict[str, pd.DataFrame]) -> None:
+    """Drop bot, pilot and demo participants from every table, in place."""
+    excluded = _excluded_participants(combined["participants"])
+    for table, frame in combined.items():
+        if "participant" in frame.columns and len(frame):
+            combined[table] = frame[~frame["participant"].astype(str).isin(excluded)]
+
+
+def _contributions(
+    paths: list[Path], combined: dict[str, pd.DataFrame]
+) -> tuple[InputSummary, ...]:
+    summaries = []
+    for path in paths:
+        rows = {
+            table: int((frame["input"] == str(path)).sum())
+            for table, frame in combined.items()
+            if "input" in frame.columns
+        }
+        summaries.append(InputSummary(str(path), tuple(sorted(rows.items()))))
+    return tuple(summaries)
+
+
+def load_inputs(paths: Iterable[str | Path], include_pilot: bool = False) -> StudyTables:
+    """Read and combine every INPUT, tag groups and drop flagged participants.
+
+    Study data without a participants table are refused unless
+    ``include_pilot`` is set: without it there is no way to tell bots and
+    pilots from real participants, and silently analysing them would be worse
+    than stopping. An INPUT left with no rows after the exclusions is named
+    in ``warnings`` (it does not vanish silently); when no INPUT is left with
+    any row the analysis stops with that explanation.
+    """
+    inputs = [Path(path) for path in paths]
+    if not inputs:
+        raise AnalysisInputError("no INPUT given")
+    collected: dict[str, list[pd.DataFrame]] = {}
+    for path in inputs:
+        for table, frame in _read_input(path).items():
+            collected.setdefault(table, []).append(frame)
+    combined = {
+        table: pd.concat(collected[table], ignore_index=True)
+        if collected.get(table)
+        else _empty(table)
+        for table in ("decisions", *STUDY_TABLES)
+    }
+    all_participants = combined["participants"].reset_index(drop=True)
+    before = {summary.path: summary.rows for summary in _contributions(inputs, combined)}
+    if _has_study_rows(combined) and not include_pilot:
+        if not collected.get("participants"):
+            raise AnalysisInputError(
+                "study data were given without participants.csv, so bot, pilot and demo "
+                "participants cannot be excluded; add the export's participants.csv or pass "
+                "--include-pilot"
+            )
+        _exclude(combined)
+    summaries = _contributions(inputs, combined)
+    warnings = tuple(
+        f"{summary.path} contributes nothing: "
+        + (
+            "every row belongs to a bot, pilot or demo participant (pass --include-pilot "
+            "to analyse them)"
+            if before[summary.path]
+            else "its tables have no rows"
+        )
+        for summary in summaries
+        if summary.rows == 0
+    )
+    if len(warnings) == len(inputs):
+        raise AnalysisInputError("no data to analyse: " + "; ".join(warnings))
+    for table in STUDY_TABLES:
+        frame = combined[table]
+        if "model" in frame.columns:
+            frame = frame.assign(model=frame["model"].astype("string"))
+        combined[table] = frame.reset_index(drop=True)
+    combined["decisions"] = combined["decisions"].reset_index(drop=True)
+    return StudyTables(
+        **combined, all_participants=all_participants, inputs=summaries, warnings=warnings
+    )

@@ -1,0 +1,178 @@
+"""Run the whole analysis and write every table, figure and report.html.
+
+This is the one place that knows the order of the steps; each step is a
+function from the modules beside it, so the command and the tests share one
+code path and the report can never disagree with the tables.
+"""
+
+from __future__ import annotations
+
+import html
+from dataclasses import dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+
+from tqdm import tqdm
+
+from hcss.analysis.figures import write_figure
+from hcss.analysis.load import AnalysisInputError, StudyTables, load_inputs
+from hcss.analysis.measures import all_measures
+from hcss.analysis.sections import Section, build_sections
+from hcss.analysis.stats import MannWhitneyMethod
+from hcss.analysis.tables import Table, to_html, write_table
+
+STYLE = """
+body { font-family: sans-serif; margin: 2em; max-width: 80em; color: #222; }
+table { border-collapse: collapse; margin: 1em 0; font-size: 0.88em; }
+caption { text-align: left; font-weight: bold; padding: 0.3em 0; }
+th, td { border-bottom: 1px solid #ccc; padding: 0.2em 0.6em; text-align: right; }
+th:first-child, td:first-child { text-align: left; }
+figure { display: inline-block; margin: 0.5em; }
+img { max-width: 46em; }
+.files { font-size: 0.8em; }
+.warning { background: #fff3cd; border-left: 4px solid #e0a800; padding: 0.4em 0.8em; }
+nav ol { columns: 2; }
+"""
+
+
+@dataclass(frozen=True)
+class Report:
+    """What was written: the tables, figure stems and the report page."""
+
+    directory: Path
+    tables: tuple[Table, ...]
+    figures: tuple[str, ...]
+    html_path: Path
+    sections: tuple[str, ...] = ()
+    warnings: tuple[str, ...] = ()
+
+
+def _inputs_html(tables: StudyTables) -> str:
+    """The inputs actually read, with their rows per table after exclusions."""
+    items = []
+    for summary in tables.inputs:
+        counts = ", ".join(f"{table} {rows}" for table, rows in summary.table_rows if rows)
+        items.append(
+            f"<li><code>{html.escape(summary.path)}</code>: {html.escape(counts or 'no rows')}</li>"
+        )
+    warnings = "".join(
+        f"<p class='warning'>Warning: {html.escape(text)}</p>" for text in tables.warnings
+    )
+    groups = tables.decisions.groupby("group").size()
+    decided = ", ".join(f"{group}: {groups[group]} decisions" for group in tables.groups)
+    return (
+        f"<ul>{''.join(items)}</ul>{warnings}"
+        f"<p>{html.escape(decided or 'No completed decisions in the inputs.')}</p>"
+    )
+
+
+def _table_html(table: Table) -> str:
+    return (
+        f"{to_html(table)}<p class='files'><a href='tables/{table.name}.csv'>CSV</a> · "
+        f"<a href='tables/{table.name}.tex'>LaTeX</a> · "
+        f"<a href='tables/{table.name}.md'>Markdown</a></p>"
+    )
+
+
+def _section_html(section: Section, figures: list[str]) -> str:
+    parts = [f"<section id='{section.key}'><h2>{html.escape(section.title)}</h2>"]
+    if section.intro:
+        parts.append(f"<p>{html.escape(section.intro)}</p>")
+    for name in figures:
+        parts.append(
+            f'<figure><img src="figures/{name}.svg" alt="{html.escape(name)}">'
+            f"<figcaption>{html.escape(name)} (<a href='figures/{name}.svg'>SVG</a> · "
+            f"<a href='figures/{name}.png'>PNG</a>)</figcaption></figure>"
+        )
+    parts += [_table_html(table) for table in section.tables]
+    if section.details:
+        parts.append(
+            f"<details><summary>Per-scale tables ({len(section.details)}): mean (SD) and "
+            "median (min–max)</summary>"
+            + "".join(_table_html(table) for table in section.details)
+            + "</details>"
+        )
+    parts.append("</section>")
+    return "".join(parts)
+
+
+def write_html(
+    directory: Path,
+    sections: list[Section],
+    figures: dict[str, list[str]],
+    tables: StudyTables,
+    include_pilot: bool,
+) -> Path:
+    """One page: contents, inputs, then every section with its figures and tables."""
+    stamp = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
+    pilot = (
+        "Bot, pilot and demo participants are <strong>included</strong>."
+        if include_pilot
+        else "Bot, pilot and demo participants are excluded."
+    )
+    contents = "".join(
+        f"<li><a href='#{section.key}'>{html.escape(section.title)}</a></li>"
+        for section in sections
+    )
+    body = "".join(_section_html(section, figures.get(section.key, [])) for section in sections)
+    page = f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>hcss analysis report</title>
+<style>{STYLE}</style></head><body>
+<h1>hcss analysis report</h1>
+<p>Generated {stamp}. {pilot}</p>
+<nav id="contents"><h2>Contents</h2><ol><li><a href="#inputs">Inputs read</a></li>{contents}</ol></nav>
+<section id="inputs"><h2>Inputs read</h2>{_inputs_html(tables)}</section>
+{body}
+</body></html>
+"""
+    path = directory / "report.html"
+    path.write_text(page, encoding="utf-8")
+    return path
+
+
+def run_analysis(
+    inputs: list[str | Path],
+    out: str | Path,
+    include_pilot: bool = False,
+    progress: bool = True,
+    mann_whitney_method: MannWhitneyMethod = "auto",
+    continuity: bool = True,
+) -> Report:
+    """Load INPUTs, compute measures and tests, write tables, figures and report.html."""
+    directory = Path(out)
+    steps = tqdm(total=5, desc="hcss analyze", unit="step", disable=not progress)
+    steps.set_postfix_str("loading")
+    tables = load_inputs(inputs, include_pilot=include_pilot)
+    steps.update()
+    steps.set_postfix_str("measures")
+    measures = all_measures(tables)
+    if measures.empty and tables.all_participants.empty:
+        raise AnalysisInputError("the inputs hold no decisions, answers or participants to analyse")
+    directory.mkdir(parents=True, exist_ok=True)
+    measures.to_csv(directory / "measures.csv", index=False)
+    steps.update()
+    steps.set_postfix_str("tests")
+    sections = build_sections(tables, measures, include_pilot, mann_whitney_method, continuity)
+    built = [table for section in sections for table in (*section.tables, *section.details)]
+    steps.update()
+    steps.set_postfix_str("writing tables")
+    for table in built:
+        write_table(table, directory / "tables")
+    steps.update()
+    steps.set_postfix_str("figures")
+    figures: dict[str, list[str]] = {}
+    for section in sections:
+        for name, draw in section.figures:
+            write_figure(draw(), directory / "figures", name)
+            figures.setdefault(section.key, []).append(name)
+    html_path = write_html(directory, sections, figures, tables, include_pilot)
+    steps.update()
+    steps.close()
+    return Report(
+        directory,
+        tuple(built),
+        tuple(name for names in figures.values() for name in names),
+        html_path,
+        tuple(section.key for section in sections),
+        tables.warnings,
+    )

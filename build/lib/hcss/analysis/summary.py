@@ -1,0 +1,74 @@
+"""The simulation-only experiment's summary, computed by the analysis itself.
+
+``hcss simulate experiment`` used to summarise with its own code (success
+over runs, time over decisions), so its summary could disagree with
+``hcss analyze`` on the same decisions file. It now calls this: the same
+loading, the same unit of analysis (a scenario, its runs averaged), the same
+descriptive statistics and the same table writer.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pandas as pd
+
+from hcss.analysis.decision_measures import SPLITS, decision_measures
+from hcss.analysis.descriptive import descriptive_frame
+from hcss.analysis.load import load_inputs
+from hcss.analysis.tables import Table, format_number, write_table
+
+SUMMARY_MEASURES = ("success_rate", "decision_time_min")
+
+
+def simulation_summary(decisions_path: Path) -> Table:
+    """Per model and split: scenarios, success rate and decision time, mean (SD), median (range)."""
+    decisions = load_inputs([decisions_path], include_pilot=True).decisions
+    summary = descriptive_frame(decision_measures(decisions))
+    summary = summary[summary["measure"].isin(SUMMARY_MEASURES)]
+    rows, records = [], []
+    for group in sorted(summary["group"].unique()):
+        for split in SPLITS:
+            cells = summary[(summary["group"] == group) & (summary["split"] == split)]
+            if cells.empty:
+                continue
+            by_measure = cells.set_index("measure")
+            row = [group.removesuffix("SIM"), split, str(int(cells["n"].max()))]
+            for measure, digits in zip(SUMMARY_MEASURES, (3, 2), strict=True):
+                cell = by_measure.loc[measure]
+                row += [
+                    f"{format_number(cell['mean'], digits)} ({format_number(cell['sd'], digits)})",
+                    f"{format_number(cell['median'], digits)} "
+                    f"({format_number(cell['minimum'], digits)}–"
+                    f"{format_number(cell['maximum'], digits)})",
+                ]
+                records.append(
+                    {"model": row[0], "split": split, "measure": measure}
+                    | {
+                        key: cell[key]
+                        for key in ("n", "mean", "sd", "median", "minimum", "maximum")
+                    }
+                )
+            rows.append(tuple(row))
+    return Table(
+        "summary",
+        "Simulation-only experiment: per scenario (runs averaged), mean (SD) and median (min–max)",
+        (
+            "model",
+            "split",
+            "scenarios",
+            "success mean (SD)",
+            "success median (range)",
+            "time (min) mean (SD)",
+            "time median (range)",
+        ),
+        tuple(rows),
+        pd.DataFrame(records),
+    )
+
+
+def write_simulation_summary(decisions_path: Path, directory: Path) -> Table:
+    """Write summary.md, summary.tex and summary.csv beside the decisions table."""
+    table = simulation_summary(decisions_path)
+    write_table(table, directory)
+    return table

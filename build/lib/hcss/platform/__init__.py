@@ -1,0 +1,1 @@
+"""hcss.platform."""

@@ -1,0 +1,473 @@
+"""Participant bots: walk the whole web study over HTTP, as a participant would.
+
+A bot uses Flask's test client on an app whose live runner is driven by a
+`ManualClock`: the bot moves the clock and lets the runner step, so a
+20-minute trial takes a few seconds (time acceleration without waiting).
+From the study file alone, independently of the study engine, it works out
+which page must come next and asserts each page it reaches is that page;
+then it fills the page's form, answers MRT items, supervises trials with a
+scripted operator policy (hcss.simulation.operators) through the live JSON
+API, answers SA probes and fills every questionnaire. Bot participants are
+flagged `is_bot`, so their data are always set apart.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import time
+from collections import defaultdict
+from dataclasses import dataclass, field
+from html.parser import HTMLParser
+from typing import Any
+
+import click
+import numpy as np
+from flask import Flask
+from sqlalchemy import select
+
+from hcss.platform.models import Participant
+from hcss.platform.study.enrolment import assign_cell
+from hcss.platform.study.studyfile import Study, load_study
+from hcss.questionnaires import mrt, pages, ranking
+from hcss.simulation import Display
+from hcss.simulation.operators import InvestigateThenDecide
+
+
+class BotError(AssertionError):
+    """The bot reached a page it did not expect, or the platform refused it."""
+
+
+class ManualClock:
+    """Wall-clock seconds since the epoch that move only when told to.
+
+    The one fake clock of the project (public testing API, docs/architecture.md):
+    put on an app's database (`runner.clock = ManualClock()`), it times the
+    trials, the study's deadlines and every row's stamp alike.
+    """
+
+    def __init__(self, now: float | None = None) -> None:
+        self.now = time.time() if now is None else now
+
+    def __call__(self) -> float:
+        return self.now
+
+
+class PageParser(HTMLParser):
+    """What a bot reads from a page: the stage marker, the form and its inputs."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.stage = self.step = ""
+        self.action = ""
+        self.hidden: dict[str, str] = {}
+        self.radios: dict[str, list[str]] = defaultdict(list)
+        self.checkboxes: list[str] = []
+        self.mrt_item = ""
+        self.interface: dict[str, str] = {}
+        self.csrf = ""
+
+    def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+        a = {k: v or "" for k, v in attrs}
+        if tag == "main" and "data-stage" in a:
+            self.stage, self.step = a["data-stage"], a.get("data-step", "")
+        elif tag == "meta" and a.get("name") == "csrf-token":
+            self.csrf = a.get("content", "")
+        elif tag == "form" and a.get("id") == "stage-form":
+            self.action = a.get("action", "")
+        elif tag == "div" and a.get("id") == "interface":
+            self.interface = a
+        elif tag == "div" and "data-item" in a:
+            self.mrt_item = a["data-item"]
+        elif tag == "input":
+            kind, name = a.get("type"), a.get("name", "")
+            if kind == "hidden":
+                self.hidden[name] = a.get("value", "")
+            elif kind == "radio":
+                self.radios[name].append(a.get("value", ""))
+            elif kind == "checkbox" and "disabled" not in a:
+                self.checkboxes.append(a.get("value", ""))
+
+
+def parse_page(html: str) -> PageParser:
+    parser = PageParser()
+    parser.feed(html)
+    return parser
+
+
+def expected_pages(study: Study) -> list[tuple[str, str]]:
+    """Every (stage, step) a participant passes through, from the study file alone."""
+    intro = [f"page_{page.number}" for page in pages.introduction_pages()]
+    settings = study.mrt
+    mrt_steps = ["instructions"] + [f"practice_{n}" for n in range(1, settings.practice_items + 1)]
+    for number in range(1, len(settings.part_items) + 1):
+        mrt_steps += [f"break_{number - 1}" if number > 1 else "begin_1", f"part_{number}"]
+    steps = {
+        "mental_rotation": mrt_steps,
+        "introduction": intro,
+        "training": ["ready", "run"],
+        "trial": ["ready", "run"],
+        "nasa_tlx": ["ratings", "comparisons"],
+    }
+    names = list(study.before) + list(study.per_model) * len(study.models) + list(study.after)
+    return [(name, step) for name in names for step in steps.get(name, ["form"])]
+
+
+@dataclass
+class BotReport:
+    code: str
+    pages: int = 0
+    mrt_answers: int = 0
+    requests: int = 0
+    accepted: int = 0
+    probes_answered: int = 0
+    trials: list[int] = field(default_factory=list)
+
+
+class ParticipantBot:
+    """One bot participant walking the study from its personal link to the debrief."""
+
+    def __init__(
+        self,
+        app: Flask | None,
+        token: str,
+        *,
+        seed: int = 0,
+        tick_s: float = 2.0,
+        policy_every_s: float = 6.0,
+        mrt_accuracy: float = 0.6,
+        client: Any = None,
+        code: str | None = None,
+        look_every_wall_s: float = 0.2,
+    ) -> None:
+        """In-process (`app`, a test client, the bot moves the clock), or over HTTP
+        (`client` from hcss.platform.bot_http, the server's own clock, `code` known)."""
+        self.app = app
+        self.token = token
+        self.code = code
+        self.rng = np.random.default_rng(seed)
+        self.tick_s = tick_s  # trial seconds per look at the interface (in-process)
+        self.look_every_wall_s = look_every_wall_s  # wall seconds per look (over HTTP)
+        self.policy_every_s = policy_every_s
+        self.mrt_accuracy = mrt_accuracy
+        self.runner = None
+        if client is not None:
+            self.client = client
+            return
+        assert app is not None
+        self.client = app.test_client()
+        self.runner = app.extensions["hcss_runner"]
+        if not isinstance(self.runner.clock, ManualClock):
+            raise BotError("bots need the app's runner on a ManualClock (use bot_app)")
+
+    # --- HTTP ------------------------------------------------------------------------
+
+    def get(self, url: str) -> tuple[str, str]:
+        """GET, following redirects; returns (final path, html)."""
+        response = self.client.get(url, follow_redirects=True)
+        if response.status_code != 200:
+            raise BotError(f"GET {url} answered {response.status_code}")
+        return response.request.path, response.get_data(as_text=True)
+
+    def post_form(self, page: PageParser, fields: dict[str, Any]) -> str:
+        body = dict(page.hidden) | fields
+        response = self.client.post(page.action, data=body, follow_redirects=True)
+        if response.status_code != 200:
+            raise BotError(f"POST {page.action} answered {response.status_code}")
+        return response.get_data(as_text=True)
+
+    # --- the walk --------------------------------------------------------------------
+
+    def run(self, study: Study) -> BotReport:
+        code = self.code
+        if code is None and self.app is not None:
+            with self.app.app_context():
+                from hcss.platform.db import database
+
+                with database().session_scope() as session:
+                    code = session.scalar(
+                        select(Participant.code).where(Participant.token == self.token)
+                    )
+        report = BotReport(code=code or "?")
+        plan = expected_pages(study)
+        _, html = self.get(f"/p/{self.token}")
+        position = 0
+        while True:
+            page = parse_page(html)
+            if page.interface:
+                stage, step = plan[position]
+                if step != "run":
+                    raise BotError(f"expected {stage}/{step}, reached the Collective Interface")
+                html = self.supervise(page, stage, report)
+                position += 1
+                report.pages += 1
+                continue
+            if page.stage == "debrief" and position == len(plan) - 1:
+                report.pages += 1
+                return report
+            if page.stage == "mental_rotation" and page.step.startswith("time_up_"):
+                # Shown only when a part's time ran out (over HTTP, under load or
+                # across a restart), so it is not in the plan: press its Continue. A
+                # part that ran out while the server was down was never seen at all.
+                part = ("mental_rotation", page.step.replace("time_up_", "part_"))
+                if position < len(plan) and plan[position] == part:
+                    position += 1
+                html = self.post_form(page, {})
+                report.pages += 1
+                continue
+            if self._ran_out_unseen(plan, position, page):
+                position += 1
+                continue
+            if position >= len(plan) or (page.stage, page.step) != plan[position]:
+                wanted = plan[position] if position < len(plan) else "the end"
+                raise BotError(f"expected {wanted}, reached {page.stage}/{page.step}")
+            html, finished = self.act(page, report)
+            if finished:
+                position += 1
+                report.pages += 1
+
+    def _ran_out_unseen(self, plan: list[tuple[str, str]], position: int, page: PageParser) -> bool:
+        """Over HTTP: the trial of `plan[position]` ended before its page reached the bot.
+
+        When the answer to Ready is lost in a server restart, the trial runs out
+        while the bot waits for the server to come back (training lasts seconds
+        at the load tool's accelerations); the next page is then the stage
+        after it, as a participant reloading would find.
+        """
+        return (
+            self.runner is None
+            and position + 1 < len(plan)
+            and plan[position][1] == "run"
+            and (page.stage, page.step) == plan[position + 1]
+        )
+
+    def act(self, page: PageParser, report: BotReport) -> tuple[str, bool]:
+        """Answer the page; True when that ends the step (MRT parts take many answers)."""
+        stage, step = page.stage, page.step
+        if stage == "consent":
+            return self.post_form(page, {"decision": "agree"}), True
+        if stage == "screen_check":  # a bot's "window": comfortably large enough
+            return self.post_form(page, {"width": "1280", "height": "800"}), True
+        if stage == "ranking":
+            fields = {}
+            for dimension in ranking.DIMENSIONS:
+                ranks = self.rng.permutation(ranking.MODEL_COUNT) + 1
+                for label, rank in zip(ranking.ORDER_LABELS, ranks, strict=True):
+                    fields[ranking.item_key(dimension.key, label)] = str(rank)
+            return self.post_form(page, fields), True
+        if stage == "mental_rotation" and page.mrt_item:
+            try:
+                html = self.post_form(page, {"chosen": self.mrt_choice(page.mrt_item)})
+            except BotError as refusal:
+                # Over HTTP the part's time can run out under load (409, as for a slow
+                # participant); the server has moved on, and so does the bot.
+                if self.runner is not None or "answered 409" not in str(refusal):
+                    raise
+                html = self.get(f"/p/{self.token}/stage")[1]
+            report.mrt_answers += page.hidden.get("action") == "answer"
+            after = parse_page(html)
+            done = (after.stage, after.step) != (stage, step)
+            return html, done
+        if stage == "mental_rotation" and step.startswith("practice_"):
+            return self.post_form(page, {}), True  # the feedback's Continue
+        fields = {name: str(self.rng.choice(values)) for name, values in page.radios.items()}
+        return self.post_form(page, fields), True
+
+    def mrt_choice(self, key: str) -> list[str]:
+        item = next(i for i in (*mrt.item_bank(), *mrt.practice_items()) if i.key == key)
+        if self.rng.random() < self.mrt_accuracy:
+            return [str(i) for i in sorted(item.correct)]
+        return [str(i) for i in sorted(self.rng.choice(4, size=2, replace=False))]
+
+    # --- a live trial ------------------------------------------------------------------
+
+    def supervise(self, page: PageParser, stage: str, report: BotReport) -> str:
+        """Run the trial to its end: look, request, answer probes; then press Continue."""
+        trial_id = int(re.search(r"/trials/(\d+)/", page.interface["data-stream-url"]).group(1))  # type: ignore[union-attr]
+        api = f"/api/live/{self.token}/trials/{trial_id}"
+        headers = {"X-CSRFToken": page.csrf}
+        report.trials.append(trial_id)
+        policy = InvestigateThenDecide(abandon_below=0.3)
+        next_policy = 0.0
+        overdue_looks = 0
+        while True:
+            state = self.client.get(api + "/state")
+            if state.status_code == 409:  # the runner has let go of an ended trial
+                break
+            frame = json.loads(state.get_data(as_text=True))
+            if frame["trial"]["kind"] != stage:
+                raise BotError(
+                    f"expected a {stage}, the interface shows a {frame['trial']['kind']}"
+                )
+            if frame["trial"]["status"] == "ended":
+                break
+            clock = frame["trial"]["clock_s"]
+            overdue_looks += clock >= frame["trial"]["duration_s"]
+            if overdue_looks > 50:  # past its time limit and still running: never ends
+                raise BotError(f"trial {trial_id} is still running after its time limit")
+            probe = frame.get("probe")
+            if probe and probe["phase"] == "ready":
+                self._ok(
+                    self.client.post(f"{api}/probes/{probe['id']}/ready", json={}, headers=headers)
+                )
+            elif probe:
+                answer = str(self.rng.choice(probe["choices"]))
+                self._ok(
+                    self.client.post(
+                        f"{api}/probes/{probe['id']}/answer",
+                        json={"answer": answer},
+                        headers=headers,
+                    )
+                )
+                report.probes_answered += 1
+            if clock >= next_policy:
+                next_policy = clock + self.policy_every_s
+                for command in policy.commands(Display.from_json(frame["view"]))[:3]:
+                    outcome = self._ok(
+                        self.client.post(f"{api}/requests", json=command.to_json(), headers=headers)
+                    )
+                    report.requests += 1
+                    report.accepted += bool(outcome.get("accepted"))
+                if frame["view"]["collectives"]:
+                    hub = int(self.rng.integers(len(frame["view"]["collectives"])))
+                    click = {"kind": "collective", "collective": hub, "button": "right"}
+                    self._ok(self.client.post(f"{api}/observations", json=click, headers=headers))
+            self._next_look(frame)
+        continue_url = page.interface.get("data-continue-url")
+        if not continue_url:
+            raise BotError("the trial page offers no way on to the next stage")
+        return self.get(continue_url)[1]
+
+    def _next_look(self, frame: dict[str, Any]) -> None:
+        """In-process: move the clock and let the runner step. Over HTTP: wait."""
+        if self.runner is None:
+            time.sleep(self.look_every_wall_s)
+            return
+        self.runner.clock.now += self.tick_s / self._acceleration(frame)
+        self.runner.tick()
+
+    def _acceleration(self, frame: dict[str, Any]) -> float:
+        assert self.runner is not None
+        live = self.runner.loaded(frame["trial"]["id"])
+        return live.acceleration if live is not None else 1.0
+
+    @staticmethod
+    def _ok(response: Any) -> dict[str, Any]:
+        if response.status_code >= 400 and response.status_code != 409:
+            raise BotError(
+                f"live API answered {response.status_code}: {response.get_data(as_text=True)}"
+            )
+        return response.get_json(silent=True) or {}
+
+
+def bot_app(database_url: str, study: str, **config: Any) -> Flask:
+    """An app for bots: the named study, no runner thread, a clock the bots move."""
+    from hcss.platform.app import create_app
+
+    study_file = load_study(study)
+    app = create_app(
+        {
+            "DATABASE_URL": database_url,
+            "STUDY": study,
+            "LIVE_RUNNER": False,
+            "TIME_ACCELERATION": study_file.max_time_acceleration,
+            **config,
+        }
+    )
+    app.extensions["hcss_runner"].clock = ManualClock()
+    return app
+
+
+def run_bots(app: Flask, n: int, *, seed: int = 0, progress: Any = None) -> list[BotReport]:
+    """Create `n` bot participants, enrol each, and walk each through the whole study."""
+    from hcss.platform.db import database
+
+    study = load_study(app.config["STUDY"])
+    reports = []
+    for number in range(n):
+        with app.app_context(), database().session_scope() as session:
+            participant = Participant(is_bot=True)
+            session.add(participant)
+            session.flush()
+            assign_cell(session, participant)
+            token = participant.token
+        reports.append(ParticipantBot(app, token, seed=seed + number).run(study))
+        if progress is not None:
+            progress(reports[-1])
+    return reports
+
+
+@click.command("bots")
+@click.option("--n", "count", default=8, show_default=True, type=click.IntRange(min=1))
+@click.option(
+    "--study", default="original", show_default=True, help="Study name (see hcss --studies)."
+)
+@click.option("--seed", default=0, show_default=True, type=int, help="First bot's seed.")
+@click.option("--database-url", default=None, help="Default: DATABASE_URL, else instance/.")
+@click.option(
+    "--base-url",
+    default=None,
+    help="Drive this running server over HTTP (e.g. http://127.0.0.1:5000) instead of "
+    "an in-process app. Start it with the same study and a time acceleration: "
+    "HCSS_STUDY=demo hcss serve --time-acceleration 20.",
+)
+@click.option(
+    "--concurrency",
+    default=1,
+    show_default=True,
+    type=click.IntRange(min=1, max=256),
+    help="Bots walking at once (with --base-url).",
+)
+def bots_command(
+    count: int,
+    study: str,
+    seed: int,
+    database_url: str | None,
+    base_url: str | None,
+    concurrency: int,
+) -> None:
+    """Walk N participant bots through the whole study, filling a pilot database.
+
+    Bots are flagged is_bot and balanced apart from real participants. In
+    process, their trials run on a clock the bots move, so a full protocol
+    takes seconds; with --base-url they drive a real server over HTTP,
+    CONCURRENCY at a time, and the command reports errors and page latencies
+    (the load tool; `make bench` uses it).
+    """
+    from tqdm import tqdm
+
+    from hcss.platform.cli import upgrade_database
+    from hcss.platform.config import database_url as default_url
+    from hcss.platform.study.studyfile import StudyFileError
+
+    url = database_url or default_url()
+    try:
+        load_study(study)
+    except StudyFileError as error:
+        raise click.BadParameter(str(error), param_hint="--study") from error
+    upgrade_database(url)
+    if base_url is not None:
+        from hcss.platform.bot_http import run_http_bots
+
+        with tqdm(total=count, unit="bot") as bar:
+            figures = run_http_bots(
+                base_url, url, study, count, concurrency=concurrency, seed=seed, progress=bar.update
+            )
+        for error in figures.errors:
+            click.echo(f"failed: {error}", err=True)
+        click.echo(figures.summary())
+        if figures.errors:
+            raise SystemExit(1)
+        return
+    app = bot_app(url, study)
+    try:
+        with tqdm(total=count, unit="bot") as bar:
+            reports = run_bots(app, count, seed=seed, progress=lambda _report: bar.update())
+    finally:
+        app.extensions["hcss_db"].engine.dispose()
+    for report in reports:
+        click.echo(
+            f"{report.code}: {report.pages} pages, {len(report.trials)} trials, "
+            f"{report.accepted}/{report.requests} requests accepted, "
+            f"{report.probes_answered} probes answered"
+        )

@@ -1,0 +1,208 @@
+"""`hcss serve`, `hcss db upgrade` and `hcss demo-trial`."""
+
+from __future__ import annotations
+
+import os
+
+import click
+
+from hcss.platform.config import PROJECT_ROOT
+from hcss.simulation.params import MODELS
+
+MIGRATIONS = PROJECT_ROOT / "migrations"
+DEFAULT_PORT = 5000
+#: Waitress threads `hcss serve` starts with: 200 concurrent trials' streams and a reserve for pages.
+DEFAULT_THREADS = 256
+
+
+def alembic_config(database_url: str | None = None):  # type: ignore[no-untyped-def]
+    """The Alembic configuration for this project's `migrations/` folder."""
+    from alembic.config import Config
+
+    from hcss.platform.config import database_url as default_url
+
+    config = Config()
+    config.set_main_option("script_location", str(MIGRATIONS))
+    # '%' is interpolation syntax in Alembic's config parser.
+    config.set_main_option("sqlalchemy.url", (database_url or default_url()).replace("%", "%%"))
+    return config
+
+
+def upgrade_database(database_url: str | None = None, revision: str = "head") -> None:
+    from alembic import command
+
+    command.upgrade(alembic_config(database_url), revision)
+
+
+@click.group("db")
+def db_group() -> None:
+    """Create or migrate the database (SQLite in instance/, or DATABASE_URL)."""
+
+
+@db_group.command("upgrade")
+@click.option("--revision", default="head", show_default=True)
+def db_upgrade(revision: str) -> None:
+    """Apply every Alembic migration up to REVISION."""
+    from hcss.platform.config import database_url
+
+    upgrade_database(revision=revision)
+    click.echo(f"database at {_redacted(database_url())} is at revision {revision}")
+
+
+def _redacted(url: str) -> str:
+    from sqlalchemy.engine import make_url
+
+    return make_url(url).render_as_string(hide_password=True)
+
+
+@click.command("serve")
+@click.option("--host", default="127.0.0.1", show_default=True)
+@click.option("--port", default=DEFAULT_PORT, show_default=True, type=click.IntRange(1, 65535))
+@click.option(
+    "--study",
+    default=None,
+    envvar="HCSS_STUDY",
+    help="Study (NAME.toml in --studies DIR or bundled) for new participants; default: original.",
+)
+@click.option(
+    "--threads",
+    default=DEFAULT_THREADS,
+    show_default=True,
+    type=int,
+    help="Waitress worker threads; each open trial page holds one for its stream, "
+    "and an eighth (at least 16) are kept for page loads and the console.",
+)
+@click.option(
+    "--time-acceleration",
+    type=float,
+    default=None,
+    help="Trial seconds per wall second for trials started by this server (tests, bots).",
+)
+def serve(
+    host: str, port: int, study: str | None, threads: int, time_acceleration: float | None
+) -> None:
+    """Serve the study platform with waitress; one line per participant event on stderr."""
+    from waitress import serve as waitress_serve
+
+    from hcss.platform.app import create_app
+    from hcss.platform.console.accounts import ensure_first_login
+    from hcss.platform.live.streams import reserve_for_pages
+    from hcss.platform.serving import log_events_to_stderr, write_serving_file
+
+    # Streams hold a thread each; the reserve keeps page loads and the console answering.
+    config: dict[str, object] = {
+        "MAX_STREAMS": threads - reserve_for_pages(threads),
+        "LIVE_RUNNER": True,  # only a serving process keeps trials on time
+    }
+    if time_acceleration is not None:
+        config["TIME_ACCELERATION"] = time_acceleration
+    if study is not None:
+        config["STUDY"] = _study_file(study).name
+    app = create_app(config)
+    from hcss.questionnaires.mrt import item_bank, practice_items
+
+    # Build the MRT figures and draw them now, not in the first participants' requests.
+    for item in (*practice_items(), *item_bank()):
+        item.target_svg()
+    ensure_first_login(app)  # prints a console login once, on a server with no experimenter
+    url = f"http://{host}:{port}/"
+    log_events_to_stderr()
+    # A server on every interface is reached from this machine at 127.0.0.1.
+    local = host if host not in ("0.0.0.0", "::", "") else "127.0.0.1"
+    write_serving_file(f"http://{local}:{port}", study or "original")
+    click.echo(
+        f"hcss serving on {url}  (Ctrl-C stops); new participants: study {study or 'original'}"
+    )
+    click.echo(f"console: {url}console/   a demo trial:  hcss demo-trial --port {port}")
+    waitress_serve(
+        app,
+        host=host,
+        port=port,
+        threads=threads,
+        channel_timeout=3600,
+        ident="hcss",
+        max_request_body_size=int(app.config["MAX_CONTENT_LENGTH"]),
+        # Waitress accepts 100 connections by default: past ~90 open streams the
+        # rest were reset. Every thread's stream plus as many short requests.
+        connection_limit=2 * threads,
+    )
+
+
+@click.command("demo-trial")
+@click.option(
+    "--port",
+    type=click.IntRange(1, 65535),
+    default=None,
+    help="The server's port; default: the port `hcss serve` (make run) last started on.",
+)
+@click.option("--base-url", default=None, help="The server's address (overrides --port).")
+@click.option(
+    "--study",
+    default=None,
+    envvar="HCSS_STUDY",
+    help="The study whose trial length is used; default: the running server's study.",
+)
+@click.option("--model", type=click.Choice(MODELS), default="M1", show_default=True)
+@click.option("--training", is_flag=True, help="A training trial (two collectives).")
+@click.option("--seed", type=int, default=None, help="Scenario seed (random when omitted).")
+@click.option("--minutes", type=float, default=None, help="Trial length (default: the study's).")
+def demo_trial(
+    port: int | None,
+    base_url: str | None,
+    study: str | None,
+    model: str,
+    training: bool,
+    seed: int | None,
+    minutes: float | None,
+) -> None:
+    """Create a demo participant with a live, recorded trial and print its link.
+
+    The trial's clock starts now and runs on the server (`hcss serve`), whether
+    or not the page is open. Its data are flagged demo. The link points at the
+    server `make run` started (its port and study), unless told otherwise.
+    """
+    from hcss.platform.config import database_url
+    from hcss.platform.db import Database
+    from hcss.platform.live.trials import start_trial
+    from hcss.platform.models import Participant
+    from hcss.platform.serving import read_serving_file
+
+    serving = read_serving_file()
+    if base_url is None:
+        base_url = (
+            f"http://127.0.0.1:{port}"
+            if port is not None
+            else serving.get("url", f"http://127.0.0.1:{DEFAULT_PORT}")
+        )
+    study_file = _study_file(study or serving.get("study") or "original")
+    length_s = study_file.training_s if training else study_file.trial_s
+    database = Database(database_url())
+    with database.command_scope() as session:
+        participant = Participant(is_demo=True, study=study_file.name)
+        session.add(participant)
+        session.flush()
+        trial = start_trial(
+            session,
+            participant,
+            kind="training" if training else "trial",
+            model=model,
+            seed=seed,
+            duration_s=length_s if minutes is None else minutes * 60.0,
+            time_acceleration=float(os.environ.get("HCSS_TIME_ACCELERATION", "1.0")),
+            probe_counts=study_file.probe_counts,
+        )
+        link = f"{base_url.rstrip('/')}/live/{participant.token}"
+        click.echo(
+            f"demo participant {participant.code}, {trial.kind} {trial.id} ({model}, "
+            f"{trial.duration_s / 60:g} min, study {study_file.name})"
+        )
+    click.echo(link)
+
+
+def _study_file(name: str):  # type: ignore[no-untyped-def]
+    from hcss.platform.study.studyfile import StudyFileError, load_study
+
+    try:
+        return load_study(name)
+    except StudyFileError as error:
+        raise click.BadParameter(str(error), param_hint="--study / STUDY") from error

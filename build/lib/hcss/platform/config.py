@@ -1,0 +1,93 @@
+"""Where the platform finds its database and how fast live trials run.
+
+Settings come from three layers, later ones winning: the defaults below, the
+environment (``DATABASE_URL``, ``HCSS_INSTANCE_PATH``, ``HCSS_SECRET_KEY``,
+``HCSS_TIME_ACCELERATION``), and the ``config`` mapping given to
+``create_app``. Tests and bots use the mapping; deployments use the
+environment.
+"""
+
+from __future__ import annotations
+
+import os
+import secrets
+from pathlib import Path
+
+PROJECT_ROOT = Path(__file__).resolve().parents[2]
+
+
+def instance_path() -> Path:
+    """The folder for the embedded database and the generated secret key.
+
+    An absolute path under the project root by default, so the database is the
+    same file whichever directory `hcss` is started from.
+    """
+    configured = os.environ.get("HCSS_INSTANCE_PATH")
+    path = Path(configured).resolve() if configured else PROJECT_ROOT / "instance"
+    path.mkdir(parents=True, exist_ok=True)
+    return path
+
+
+def database_url() -> str:
+    """``DATABASE_URL`` when set (PostgreSQL: ``postgresql+psycopg://...``), else SQLite."""
+    url = os.environ.get("DATABASE_URL")
+    if url:
+        if url.startswith("postgres://"):
+            # Heroku-style URLs name no driver; SQLAlchemy 2 needs one.
+            url = "postgresql+psycopg://" + url[len("postgres://") :]
+        elif url.startswith("postgresql://"):
+            url = "postgresql+psycopg://" + url[len("postgresql://") :]
+        return url
+    return f"sqlite:///{instance_path() / 'hcss.sqlite3'}"
+
+
+def secret_key() -> str:
+    """A stable secret so sessions and CSRF tokens survive a server restart.
+
+    Generated once into the instance folder unless ``HCSS_SECRET_KEY`` is set.
+    """
+    configured = os.environ.get("HCSS_SECRET_KEY")
+    if configured:
+        return configured
+    key_file = instance_path() / "secret_key"
+    if not key_file.exists():
+        key_file.write_text(secrets.token_hex(32))
+        key_file.chmod(0o600)
+    return key_file.read_text().strip()
+
+
+def defaults() -> dict[str, object]:
+    """The settings `create_app` starts from."""
+    return {
+        "DATABASE_URL": database_url(),
+        "SECRET_KEY": None,  # filled lazily so tests never touch the instance folder
+        "WTF_CSRF_TIME_LIMIT": None,  # a 20-minute trial page must still be able to POST
+        # Trial time per wall-clock second. 1.0 in the study; tests and bots go faster.
+        "TIME_ACCELERATION": float(os.environ.get("HCSS_TIME_ACCELERATION", "1.0")),
+        # Start the background runner thread: only where trials are served (`hcss serve`
+        # sets it). An app built for a script or a check has no thread; tests tick it.
+        "LIVE_RUNNER": False,
+        # Seconds of wall time between simulation snapshots of each live trial.
+        "SNAPSHOT_INTERVAL_S": float(os.environ.get("HCSS_SNAPSHOT_INTERVAL_S", "5.0")),
+        # Seconds between two stream frames when nothing changed (2 Hz floor).
+        "STREAM_INTERVAL_S": 0.5,
+        # Close a stream after this many wall seconds; EventSource reconnects by itself,
+        # so this only bounds how long one waitress thread is held.
+        "STREAM_MAX_S": 300.0,
+        # Open live streams the server allows (each holds a thread); None: no ceiling.
+        # `hcss serve` sets it to its thread count less a reserve for pages and the console.
+        "MAX_STREAMS": None,
+        # Streams per participant link; the newest takes over ("takeover" event).
+        "STREAMS_PER_TOKEN": 1,
+        # Session cookies: not sent on cross-site subrequests; Secure when served over
+        # HTTPS (set HCSS_SECURE_COOKIES=1 behind TLS, so they never travel in clear).
+        "SESSION_COOKIE_SAMESITE": "Lax",
+        "SESSION_COOKIE_HTTPONLY": True,
+        "SESSION_COOKIE_SECURE": os.environ.get("HCSS_SECURE_COOKIES", "") == "1",
+        "REMEMBER_COOKIE_SAMESITE": "Lax",
+        "REMEMBER_COOKIE_HTTPONLY": True,
+        "REMEMBER_COOKIE_SECURE": os.environ.get("HCSS_SECURE_COOKIES", "") == "1",
+        # Bytes of request body (Flask answers 413 past it; `hcss serve` tells waitress too).
+        # The largest legitimate body, a questionnaire page, is a few kB.
+        "MAX_CONTENT_LENGTH": 256 * 1024,
+    }

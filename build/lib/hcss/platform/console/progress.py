@@ -1,0 +1,206 @@
+"""The live table: every participant's study, cell, stage, clocks, presence and actions.
+
+Read straight from the database on each poll (a few hundred participants at
+most), so the table is right whichever server process runs the trials. The
+trial clock is computed the way the runner computes it: running wall time,
+pauses excluded, times the trial's acceleration. Presence comes from the
+heartbeats of the participant's page (hcss.platform.console.presence).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Any
+
+from sqlalchemy import func, select
+from sqlalchemy.orm import Session
+
+from hcss.platform.console.presence import CONNECTED_WITHIN_S, presence_by_participant
+from hcss.platform.console.sessions import available_actions
+from hcss.platform.db import session_now
+from hcss.platform.live.clock import paused_intervals, trial_time_s
+from hcss.platform.models import (
+    Participant,
+    ParticipantPresence,
+    StageEvent,
+    StudyEnrolment,
+    Trial,
+    TrialStatusChange,
+)
+from hcss.platform.models.vocabularies import TrialStatus
+from hcss.platform.pilots import pilot_flags
+from hcss.platform.session_state import session_states
+from hcss.platform.study.enrolment import default_study_name
+from hcss.platform.study.flow import Flow, Position
+
+
+@dataclass(frozen=True)
+class ProgressRow:
+    code: str
+    state: str  # active, paused, aborted (the experimenter's hold)
+    status: str  # not_enrolled, in_progress, completed, declined (the study engine's)
+    study: str
+    cell: int | None  # None until the participant's first visit (or a cell override)
+    stage: str
+    stage_number: int | None  # 1-based; None before enrolment
+    stage_count: int | None
+    time_in_stage_s: float
+    trial_clock_s: float | None  # None outside a running trial
+    trial_duration_s: float | None
+    last_seen_s: float | None  # seconds since the page's last heartbeat; None: never
+    connected: bool
+    page_hidden: bool  # the page is open in a background tab
+    is_pilot: bool
+    is_bot: bool
+    is_demo: bool
+    actions: list[str]  # what the console offers for this row now
+
+
+def trial_clock_s(session: Session, trial: Trial, now: float) -> float:
+    paused, open_since = paused_intervals(session, trial.id)
+    return trial_time_s(
+        trial.started_at.timestamp(),
+        paused,
+        open_since,
+        now,
+        acceleration=trial.time_acceleration,
+        duration_s=trial.duration_s,
+    )
+
+
+def _latest_trials(session: Session) -> dict[int, Trial]:
+    newest = select(func.max(Trial.id)).group_by(Trial.participant_id)
+    return {t.participant_id: t for t in session.scalars(select(Trial).where(Trial.id.in_(newest)))}
+
+
+def _trial_status(session: Session, trial_id: int) -> TrialStatusChange | None:
+    return session.scalars(
+        select(TrialStatusChange)
+        .where(TrialStatusChange.trial_id == trial_id)
+        .order_by(TrialStatusChange.id.desc())
+        .limit(1)
+    ).first()
+
+
+def _latest_stage_events(session: Session) -> dict[int, StageEvent]:
+    newest = select(func.max(StageEvent.id)).group_by(StageEvent.participant_id)
+    return {
+        e.participant_id: e
+        for e in session.scalars(select(StageEvent).where(StageEvent.id.in_(newest)))
+    }
+
+
+def _stage_label(position: Position) -> str:
+    """``mental_rotation part_1``, ``post_trial M2``; the status once the study is over."""
+    if position.slot is None:
+        return "not started" if position.status == "not_enrolled" else position.status
+    parts = (position.slot.name, position.slot.model, position.step)
+    return " ".join(part for part in parts if part and part != "form")
+
+
+@dataclass(frozen=True)
+class _Place:
+    """Where a participant is in their study, as the study engine says."""
+
+    position: Position
+    study: str
+    cell: int | None
+    stage_number: int | None
+    stage_count: int | None
+    entered: StageEvent | None  # when the current step was entered, if it was
+
+
+def _latest_enrolments(session: Session) -> dict[int, StudyEnrolment]:
+    """Each participant's enrolment (the newest row, as `current_enrolment`), in one query."""
+    newest = select(func.max(StudyEnrolment.id)).group_by(StudyEnrolment.participant_id)
+    return {
+        e.participant_id: e
+        for e in session.scalars(select(StudyEnrolment).where(StudyEnrolment.id.in_(newest)))
+    }
+
+
+def _place(session: Session, participant: Participant, enrolment: StudyEnrolment | None) -> _Place:
+    """The study engine's own answer to "which stage now?" (read only, like `current_position`)."""
+    if enrolment is None:
+        study = participant.study or default_study_name()
+        return _Place(Position(None, status="not_enrolled"), study, None, None, None, None)
+    flow = Flow(session, participant, enrolment, session_now(session))
+    position = flow.locate()
+    count = len(flow.slots)
+    number = count if position.slot is None else position.slot.index + 1
+    entered = None if position.slot is None else flow.event(number - 1, position.step, "entered")
+    return _Place(position, enrolment.study, enrolment.cell, number, count, entered)
+
+
+def _presence(row: ParticipantPresence | None, now: float) -> tuple[float | None, bool, bool]:
+    if row is None:
+        return None, False, False
+    ago = max(0.0, now - row.last_seen_epoch)
+    return ago, ago <= CONNECTED_WITHIN_S, bool(row.hidden)
+
+
+def progress_rows(session: Session, now: float) -> list[ProgressRow]:
+    """One row per participant, newest first.
+
+    The stage is the study engine's own answer, so the console never
+    disagrees with what the participant sees; a running trial adds its
+    clock. Time in stage counts from the step's entry, or from the last thing
+    that happened when the participant has not opened the next step yet.
+    """
+    trials = _latest_trials(session)
+    last_events = _latest_stage_events(session)
+    presence = presence_by_participant(session)
+    states = session_states(session)
+    enrolments = _latest_enrolments(session)
+    participants = list(session.scalars(select(Participant).order_by(Participant.id.desc())))
+    pilots = pilot_flags(session, participants)
+    rows = []
+    for participant in participants:
+        state = states.get(participant.id, "active")
+        trial = trials.get(participant.id)
+        status = None if trial is None else _trial_status(session, trial.id)
+        place = _place(session, participant, enrolments.get(participant.id))
+        position = place.position
+        last = last_events.get(participant.id)
+        clock = duration = None
+        since = participant.created_at.timestamp() if last is None else last.at.timestamp()
+        if trial is not None and status is not None and status.status == TrialStatus.RUNNING:
+            stage, since = f"{trial.kind} {trial.model}", trial.started_at.timestamp()
+            clock, duration = trial_clock_s(session, trial, now), trial.duration_s
+        elif position.status == "not_enrolled" and trial is not None:
+            # A participant outside the study flow (`hcss demo-trial`).
+            reason = "" if status is None else f" ({status.reason})"
+            stage = f"{trial.kind} {trial.model} ended{reason}"
+            since = (trial.started_at if status is None else status.created_at).timestamp()
+        else:
+            stage = _stage_label(position)
+            if place.entered is not None:
+                since = place.entered.at.timestamp()
+        last_seen, connected, hidden = _presence(presence.get(participant.id), now)
+        rows.append(
+            ProgressRow(
+                code=participant.code,
+                state=state,
+                status=position.status,
+                study=place.study,
+                cell=place.cell,
+                stage=stage,
+                stage_number=place.stage_number,
+                stage_count=place.stage_count,
+                time_in_stage_s=max(0.0, now - since),
+                trial_clock_s=clock,
+                trial_duration_s=duration,
+                last_seen_s=last_seen,
+                connected=connected,
+                page_hidden=hidden,
+                is_pilot=pilots[participant.id],
+                is_bot=participant.is_bot,
+                is_demo=participant.is_demo,
+                actions=available_actions(state, position.status, pilots[participant.id]),
+            )
+        )
+    return rows
+
+
+def progress_json(session: Session, now: float) -> list[dict[str, Any]]:
+    return [asdict(row) for row in progress_rows(session, now)]

@@ -1,0 +1,160 @@
+"""Pause, resume and abort a participant's session; mark or unmark a pilot.
+
+Every action is a new `ConsoleAction` row written before the live trial in
+memory changes, inside the trial's lock, so the runner, the participant's
+commands and the console never see a half-done pause. The session's state is
+the latest pause/resume/abort row (the rule and its query are in
+hcss.platform.session_state, which the study flow asks too).
+"""
+
+from __future__ import annotations
+
+from sqlalchemy.orm import Session
+
+from hcss.platform.db import Database
+from hcss.platform.live.runner import Runner
+from hcss.platform.live.session import RunningTrial
+from hcss.platform.live.trials import current_trial, latest_status
+from hcss.platform.models import ConsoleAction, Experimenter, Participant
+from hcss.platform.models.vocabularies import TrialStatus
+from hcss.platform.pilots import is_pilot
+from hcss.platform.session_state import STATE_ACTIONS, session_state
+from hcss.platform.study.flow import current_position
+
+
+class ConsoleError(ValueError):
+    """An action that does not fit the session's state; nothing was changed."""
+
+
+#: Statuses of a participant the study is over for: nothing left to pause or abort.
+FINISHED = ("completed", "declined")
+
+
+def available_actions(state: str, status: str, is_pilot: bool) -> list[str]:
+    """The actions that apply now, in the order the console offers them.
+
+    `state` is `session_state`; `status` the study engine's (``in_progress``,
+    ``not_enrolled``, ``completed``, ``declined``). A finished or aborted
+    session can only have its pilot flag changed; a paused one can be resumed
+    or aborted, an active one paused or aborted.
+    """
+    actions: list[str] = []
+    if state != "aborted" and status not in FINISHED:
+        actions += ["resume"] if state == "paused" else ["pause"]
+        actions.append("abort")
+    actions.append("unmark_pilot" if is_pilot else "mark_pilot")
+    return actions
+
+
+def study_status(session: Session, participant: Participant) -> str:
+    """The study engine's status of the participant (see `available_actions`)."""
+    return current_position(session, participant).status
+
+
+def _live_trial(session: Session, runner: Runner, participant: Participant) -> RunningTrial | None:
+    trial = current_trial(session, participant)
+    if trial is None or latest_status(session, trial.id) != TrialStatus.RUNNING:
+        return None
+    return runner.get(trial.id)
+
+
+def _record(
+    database: Database,
+    participant: Participant,
+    experimenter: Experimenter | None,
+    action: str,
+    at_epoch: float,
+    trial_id: int | None = None,
+    detail: str = "",
+) -> None:
+    with database.session_scope() as session:
+        session.add(
+            ConsoleAction(
+                participant_id=participant.id,
+                experimenter_id=None if experimenter is None else experimenter.id,
+                action=action,
+                trial_id=trial_id,
+                at_epoch=at_epoch,
+                detail=detail,
+            )
+        )
+
+
+def change_session(
+    database: Database,
+    runner: Runner,
+    participant: Participant,
+    experimenter: Experimenter | None,
+    action: str,
+) -> None:
+    """Pause, resume or abort; refuses an action the session's state does not allow."""
+    if action not in STATE_ACTIONS:
+        raise ConsoleError(f"unknown session action {action!r}")
+    with database.session_scope() as session:
+        state = session_state(session, participant.id)
+        live = _live_trial(session, runner, participant)
+    if state == "aborted":
+        raise ConsoleError(f"{participant.code}'s session was aborted; it cannot change now")
+    if action == "pause" and state == "paused":
+        raise ConsoleError(f"{participant.code}'s session is already paused")
+    if action == "resume" and state != "paused":
+        raise ConsoleError(f"{participant.code}'s session is not paused")
+    with database.session_scope() as session:
+        row = session.get(Participant, participant.id)
+        if row is None:
+            raise ConsoleError("no such participant")
+        status = study_status(session, row)
+    if status in FINISHED:
+        raise ConsoleError(
+            f"{participant.code} has {status} the study; there is nothing to {action}"
+        )
+    now = runner.clock()
+    if live is None:
+        _record(database, participant, experimenter, action, now)
+        return
+    # Advanced to `now` first: the clock stops (or the trial ends) at this instant.
+    with runner.holding(live, now, advance=action != "resume"):
+        if live.ended:  # reached its time limit just now
+            _record(database, participant, experimenter, action, now)
+            return
+        with database.session_scope() as session:
+            session.add(
+                ConsoleAction(
+                    participant_id=participant.id,
+                    experimenter_id=None if experimenter is None else experimenter.id,
+                    action=action,
+                    trial_id=live.trial_id,
+                    at_epoch=now,
+                    detail=f"trial clock {live.clock(now):.1f} s",
+                )
+            )
+            if action == "abort":
+                runner.end(live, session, "aborted", now)
+        if action == "pause":
+            runner.pause(live, now)
+        elif action == "resume":
+            runner.resume(live, now)
+
+
+def set_pilot(
+    database: Database,
+    runner: Runner,
+    participant: Participant,
+    experimenter: Experimenter | None,
+    pilot: bool,
+) -> None:
+    """Flag (or unflag) a pilot: an action row, the flag's history (hcss.platform.pilots)."""
+    with database.session_scope() as session:
+        row = session.get(Participant, participant.id)
+        if row is None:
+            raise ConsoleError("no such participant")
+        if is_pilot(session, row) == pilot:
+            raise ConsoleError(f"{row.code} is {'already' if pilot else 'not'} a pilot")
+        session.add(
+            ConsoleAction(
+                participant_id=row.id,
+                experimenter_id=None if experimenter is None else experimenter.id,
+                action="mark_pilot" if pilot else "unmark_pilot",
+                at_epoch=runner.clock(),
+            )
+        )

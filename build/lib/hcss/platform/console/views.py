@@ -1,0 +1,314 @@
+"""The console's pages. Every route but the login page requires a signed-in experimenter.
+
+Participants reach the console through nothing: their token is not a login,
+and console URLs name participants by code, never by token.
+"""
+
+from __future__ import annotations
+
+import re
+from math import ceil
+from urllib.parse import urlsplit
+
+from flask import (
+    Blueprint,
+    Response,
+    abort,
+    current_app,
+    flash,
+    jsonify,
+    redirect,
+    render_template,
+    request,
+    send_file,
+    url_for,
+)
+from flask import (
+    session as cookie_session,
+)
+from flask_login import LoginManager, current_user, login_required, login_user, logout_user
+from sqlalchemy import select
+
+from hcss.platform.console import eventlog, forms
+from hcss.platform.console.accounts import authenticate
+from hcss.platform.console.lockout import LoginThrottle, audit_lockouts
+from hcss.platform.console.login_sessions import end_sessions, experimenter_for_cookie
+from hcss.platform.console.participants import (
+    create_participants,
+    link_rows,
+    links_csv,
+    participant_link,
+    participants_by_code,
+)
+from hcss.platform.console.presence import CONNECTED_WITHIN_S
+from hcss.platform.console.progress import progress_json, progress_rows
+from hcss.platform.console.sessions import (
+    ConsoleError,
+    available_actions,
+    change_session,
+    set_pilot,
+    study_status,
+)
+from hcss.platform.console.withdrawal import WithdrawalError, withdraw
+from hcss.platform.db import database, get_session
+from hcss.platform.models import AuditRecord, ConsoleAction, Experimenter, Participant
+from hcss.platform.pilots import is_pilot
+from hcss.platform.session_state import session_state
+from hcss.platform.study.enrolment import current_enrolment
+
+bp = Blueprint("console", __name__, url_prefix="/console", static_folder="static")
+login_manager = LoginManager()
+login_manager.login_view = "console.login"
+login_manager.login_message = "Sign in to use the console."
+login_manager.session_protection = "strong"
+CODE = re.compile(r"[A-Z0-9]{1,32}")
+
+
+@bp.record_once
+def _init_login(state) -> None:  # type: ignore[no-untyped-def]
+    login_manager.init_app(state.app)
+    eventlog.install(state.app)
+
+
+@login_manager.user_loader
+def _load_experimenter(user_id: str) -> Experimenter | None:
+    return experimenter_for_cookie(get_session(), user_id)
+
+
+def _throttle() -> LoginThrottle | None:
+    """The app's sign-in throttle; None when LOGIN_RATE_LIMIT is off (the fuzz test)."""
+    if not current_app.config.get("LOGIN_RATE_LIMIT", True):
+        return None
+    return current_app.extensions.setdefault("hcss_login_throttle", LoginThrottle(database()))
+
+
+def _runner():  # type: ignore[no-untyped-def]
+    return current_app.extensions["hcss_runner"]
+
+
+def _participant(code: str) -> Participant:
+    found = get_session().scalars(select(Participant).where(Participant.code == code)).first()
+    if found is None:
+        abort(404)
+    return found
+
+
+def _safe_next(target: str | None) -> str:
+    """Only a console path: a login link must not redirect anywhere else."""
+    if target and target.startswith("/console/") and not urlsplit(target).netloc:
+        return target
+    return url_for("console.index")
+
+
+@bp.route("/login", methods=["GET", "POST"])
+def login():  # type: ignore[no-untyped-def]
+    form = forms.LoginForm()
+    if form.validate_on_submit():
+        throttle, keys = _throttle(), LoginThrottle.keys(form.username.data, request.remote_addr)
+        wait_s = throttle.retry_after(keys) if throttle else 0.0
+        if wait_s > 0:
+            flash(f"Too many failed sign-ins; try again in {ceil(wait_s / 60)} minute(s).")
+            page = render_template("console/login.html", form=form)
+            return page, 429, {"Retry-After": str(ceil(wait_s))}
+        account = authenticate(get_session(), form.username.data, form.password.data)
+        if account is not None:
+            if throttle:
+                throttle.succeeded(keys)
+            cookie_session.clear()  # no session fixation across the sign-in
+            login_user(account)
+            return redirect(_safe_next(request.args.get("next")))
+        if throttle:
+            audit_lockouts(database(), throttle.failed(keys), form.username.data)
+        flash("Wrong username or password.")
+        return render_template("console/login.html", form=form), 401
+    return render_template("console/login.html", form=form)
+
+
+@bp.post("/logout")
+@login_required
+def logout():  # type: ignore[no-untyped-def]
+    if not forms.ActionForm().validate_on_submit():
+        abort(400)
+    end_sessions(get_session(), current_user.id)  # every cookie issued so far stops working
+    logout_user()
+    cookie_session.clear()
+    return redirect(url_for("console.login"))
+
+
+@bp.get("/")
+@login_required
+def index() -> str:
+    session = get_session()
+    audits = session.scalars(select(AuditRecord).order_by(AuditRecord.id.desc()).limit(20)).all()
+    return render_template(
+        "console/index.html",
+        rows=progress_rows(session, _runner().clock()),
+        create_form=forms.CreateParticipantsForm(),
+        action_form=forms.ActionForm(),
+        audits=audits,
+        action_labels=ACTION_LABELS,
+        connected_within_s=CONNECTED_WITHIN_S,
+        poll_s=float(current_app.config.get("CONSOLE_POLL_S", 2.0)),
+    )
+
+
+@bp.get("/progress.json")
+@login_required
+def progress() -> Response:
+    return jsonify(participants=progress_json(get_session(), _runner().clock()))
+
+
+@bp.post("/participants")
+@login_required
+def create():  # type: ignore[no-untyped-def]
+    form = forms.CreateParticipantsForm()
+    if not form.validate_on_submit():
+        for field, errors in form.errors.items():
+            flash(f"{field}: {'; '.join(errors)}")
+        return redirect(url_for("console.index")), 303
+    try:
+        made = create_participants(
+            get_session(),
+            count=form.count.data,
+            pilot=form.pilot.data,
+            cell=form.cell.data,
+            experimenter=current_user,
+            now=_runner().clock(),
+            study=form.study.data,
+        )
+    except ConsoleError as error:
+        get_session().rollback()
+        flash(str(error))
+        return redirect(url_for("console.index")), 303
+    get_session().commit()
+    if len(made) == 1:
+        flash(f"created {made[0].code}")
+        return redirect(url_for("console.participant", code=made[0].code)), 303
+    flash(f"created {len(made)} participants in study {form.study.data}")
+    return redirect(url_for("console.links", codes=",".join(p.code for p in made))), 303
+
+
+MAX_LINKS = 500
+
+
+def _named_participants() -> list[Participant]:
+    """The participants in ``?codes=P1,P2``: a batch just created, or any selection."""
+    raw = request.args.get("codes", "")
+    codes = [code.strip() for code in raw.split(",") if code.strip()]
+    if not codes or len(codes) > MAX_LINKS or any(not CODE.fullmatch(c) for c in codes):
+        abort(400, f"codes= lists 1 to {MAX_LINKS} participant codes, comma-separated")
+    try:
+        return participants_by_code(get_session(), codes)
+    except ConsoleError as error:
+        abort(404, str(error))
+
+
+@bp.get("/links")
+@login_required
+def links() -> str:
+    """Every link of a batch, each with a copy button, and the same list as CSV."""
+    rows = link_rows(get_session(), _named_participants())
+    return render_template(
+        "console/links.html",
+        rows=rows,
+        csv_url=url_for("console.links_csv_download", codes=request.args.get("codes", "")),
+    )
+
+
+@bp.get("/links.csv")
+@login_required
+def links_csv_download() -> Response:
+    rows = link_rows(get_session(), _named_participants())
+    return Response(
+        links_csv(rows),
+        mimetype="text/csv",
+        headers={"Content-Disposition": "attachment; filename=participant-links.csv"},
+    )
+
+
+@bp.get("/participants/<code>")
+@login_required
+def participant(code: str) -> str:
+    found = _participant(code)
+    session = get_session()
+    state, status = session_state(session, found.id), study_status(session, found)
+    pilot = is_pilot(session, found)
+    actions = session.scalars(
+        select(ConsoleAction)
+        .where(ConsoleAction.participant_id == found.id)
+        .order_by(ConsoleAction.id)
+    ).all()
+    return render_template(
+        "console/participant.html",
+        participant=found,
+        pilot=pilot,
+        link=participant_link(found),
+        state=state,
+        status=status,
+        enrolment=current_enrolment(session, found.id),
+        offered=available_actions(state, status, pilot),
+        action_labels=ACTION_LABELS,
+        actions=actions,
+        action_form=forms.ActionForm(),
+        withdraw_form=forms.WithdrawForm(),
+    )
+
+
+SESSION_ACTIONS = {"pause", "resume", "abort", "mark_pilot", "unmark_pilot"}
+ACTION_LABELS = {
+    "pause": "Pause",
+    "resume": "Resume",
+    "abort": "Abort",
+    "mark_pilot": "Mark pilot",
+    "unmark_pilot": "Unmark pilot",
+}
+
+
+@bp.post("/participants/<code>/<action>")
+@login_required
+def act(code: str, action: str):  # type: ignore[no-untyped-def]
+    if action not in SESSION_ACTIONS:
+        abort(404)
+    if not forms.ActionForm().validate_on_submit():
+        abort(400)
+    found = _participant(code)
+    # The live table's buttons come back to the table; the participant page's to itself.
+    back = request.form.get("next")
+    back = _safe_next(back) if back else url_for("console.participant", code=code)
+    try:
+        if action in ("mark_pilot", "unmark_pilot"):
+            set_pilot(database(), _runner(), found, current_user, action == "mark_pilot")
+        else:
+            change_session(database(), _runner(), found, current_user, action)
+    except ConsoleError as error:
+        flash(str(error))
+        return redirect(back), 303
+    flash(f"{code}: {action.replace('_', ' ')} done")
+    return redirect(back), 303
+
+
+@bp.post("/participants/<code>/withdraw")
+@login_required
+def withdraw_participant(code: str):  # type: ignore[no-untyped-def]
+    form = forms.WithdrawForm()
+    if not form.validate_on_submit():
+        abort(400)
+    if form.confirm_code.data.strip() != code:
+        flash("The code typed does not match; nothing was deleted.")
+        return redirect(url_for("console.participant", code=code)), 303
+    try:
+        counts = withdraw(database(), _runner(), code, current_user.username)
+    except WithdrawalError as error:
+        flash(str(error))
+        return redirect(url_for("console.index")), 303
+    flash(f"{code} withdrawn: {sum(counts.values())} rows deleted, audit recorded")
+    return redirect(url_for("console.index")), 303
+
+
+@bp.get("/export.zip")
+@login_required
+def export_zip() -> Response:
+    from hcss.platform.export.archive import export_archive
+
+    archive, name = export_archive(database(), current_user.username)
+    return send_file(archive, mimetype="application/zip", as_attachment=True, download_name=name)

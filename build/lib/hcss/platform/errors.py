@@ -1,0 +1,79 @@
+"""Error pages for people, in the study's look, each saying what to do next.
+
+API routes keep their JSON errors (hcss.platform.app). A page under a
+participant's link (``/p/<token>``, ``/live/<token>``) offers the way back to
+their current page; a 500 says their answers so far are kept, which is true:
+every answer is committed when its page is submitted.
+"""
+
+from __future__ import annotations
+
+from flask import render_template, request, url_for
+from sqlalchemy import select
+from werkzeug.exceptions import HTTPException
+
+ADVICE = {
+    400: (
+        "This page could not be sent",
+        "The page was probably open for a long time, or your browser blocked cookies. "
+        "Nothing was changed. Go to your current page and try again.",
+    ),
+    404: (
+        "Page not found",
+        "This address does not lead to a page of the study. If you typed or copied your "
+        "link, check that it is complete; otherwise ask the experimenter for your link.",
+    ),
+    405: (
+        "This page cannot be opened like that",
+        "Nothing was changed. Go to your current page to carry on.",
+    ),
+    500: (
+        "Something went wrong on our side",
+        "Your answers so far are saved. Please wait a moment and go to your current page; "
+        "if this happens again, tell the experimenter.",
+    ),
+}
+
+
+def participant_token() -> str | None:
+    """The token in the address, when it is a real participant's link (else None)."""
+    token = (request.view_args or {}).get("token")
+    if not isinstance(token, str):
+        parts = request.path.split("/")
+        token = parts[2] if len(parts) >= 3 and parts[1] in ("p", "live") else None
+    if not token or len(token) > 128:
+        return None
+    try:
+        from hcss.platform.db import get_session
+        from hcss.platform.models import Participant
+
+        session = get_session()
+        session.rollback()  # the request may have failed mid-transaction
+        found = session.scalar(select(Participant.id).where(Participant.token == token))
+    except Exception:  # the database itself may be what failed: offer no link
+        return None
+    return token if found is not None else None
+
+
+def error_page(code: int, description: str | None = None) -> tuple[str, int]:
+    title, advice = ADVICE.get(code, ADVICE[500] if code >= 500 else ADVICE[400])
+    token = participant_token()
+    return (
+        render_template(
+            "error.html",
+            code=code,
+            heading=title,
+            detail=description,
+            advice=advice,
+            current_url=url_for("study.enter", token=token) if token else None,
+        ),
+        code,
+    )
+
+
+def http_error_page(error: HTTPException) -> tuple[str, int]:
+    """An HTTP error as a page; a custom description (e.g. a bad link) is shown too."""
+    code = error.code or 500
+    default = type(error).description
+    custom = error.description if error.description and error.description != default else None
+    return error_page(code, custom)

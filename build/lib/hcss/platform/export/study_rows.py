@@ -1,0 +1,177 @@
+"""Per-participant rows: the wide participants table and the study-flow tables.
+
+The study flow's enrolment, answers, scores and stage events live in the
+study engine's models (`hcss.platform.models.study`). Answers and scores are
+append-only there and a correction is a newer row, so the export carries the
+newest row of each item or scale. A participant's status is the study
+engine's own answer (`participant_status`), so the console, the
+counterbalancing and the export never disagree about who completed.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from typing import Any
+
+from sqlalchemy import select
+from sqlalchemy.orm import Session
+
+from hcss.platform.export.rows import iso
+from hcss.platform.export.tables import DEMOGRAPHICS, MODELS, columns
+from hcss.platform.models import (
+    Participant,
+    QuestionnaireItem,
+    Score,
+    StageEvent,
+    StudyEnrolment,
+    Trial,
+)
+from hcss.platform.pilots import is_pilot
+from hcss.platform.study.enrolment import participant_status
+
+Row = dict[str, Any]
+
+
+def _newest(rows: list[Any], key) -> list[Any]:  # type: ignore[no-untyped-def]
+    """The newest row (highest id) of each key, in the order the keys first appeared."""
+    newest: dict[Any, Any] = {}
+    for row in sorted(rows, key=lambda r: r.id):
+        newest[key(row)] = row
+    return sorted(newest.values(), key=lambda r: r.id)
+
+
+def model_order(session: Session, participant: Participant) -> str:
+    """Models in the order the participant met them in trials, e.g. ``M2,M1,M3``."""
+    met: list[str] = []
+    for model in session.scalars(
+        select(Trial.model)
+        .where(Trial.participant_id == participant.id, Trial.kind == "trial")
+        .order_by(Trial.id)
+    ):
+        if model not in met:
+            met.append(model)
+    return ",".join(met)
+
+
+def _by_participant(session: Session, model: Any) -> dict[int, list[Any]]:
+    grouped: dict[int, list[Any]] = defaultdict(list)
+    for row in session.scalars(select(model).order_by(model.id)):
+        grouped[row.participant_id].append(row)
+    return grouped
+
+
+def participant_rows(session: Session, participants: list[Participant]) -> list[Row]:
+    study = _study_records(session)
+    rows = []
+    for participant in participants:
+        row: Row = dict.fromkeys(columns("participants"))
+        row.update(
+            participant=participant.code,
+            model_order=model_order(session, participant) or None,
+            is_pilot=is_pilot(session, participant),
+            is_bot=participant.is_bot,
+            is_demo=participant.is_demo,
+        )
+        records = {name: table.get(participant.id, []) for name, table in study.items()}
+        row["status"] = participant_status(session, participant)
+        _fill_study_columns(row, records)
+        rows.append(row)
+    return rows
+
+
+def _study_records(session: Session) -> dict[str, dict[int, list[Any]]]:
+    return {
+        "enrolment": _by_participant(session, StudyEnrolment),
+        "stages": _by_participant(session, StageEvent),
+        "items": _by_participant(session, QuestionnaireItem),
+        "scores": _by_participant(session, Score),
+    }
+
+
+def _fill_study_columns(row: Row, records: dict[str, list[Any]]) -> None:
+    if records["enrolment"]:
+        enrolment = records["enrolment"][-1]
+        row.update(study=enrolment.study, cell=enrolment.cell, model_order=enrolment.model_order)
+    answers = {
+        item.item: item.value
+        for item in _newest(records["items"], lambda i: (i.instrument, i.model, i.item))
+        if item.instrument == "demographics"
+    }
+    row.update({key: answers.get(key) for key in DEMOGRAPHICS})
+    scores = {
+        (s.instrument, s.model, s.scale): s.score
+        for s in _newest(records["scores"], lambda s: (s.instrument, s.model, s.scale))
+    }
+    total = scores.get(("mrt", "", "total"))
+    row["mrt_score"] = None if total is None else int(total)
+    for model in MODELS:
+        row[f"tlx_overall_{model}"] = scores.get(("nasa_tlx", model, "overall"))
+        row[f"sart_{model}"] = scores.get(("sart", model, "overall"))
+
+
+def study_flow_rows(session: Session, participants: list[Participant]) -> dict[str, list[Row]]:
+    """questionnaire_items, scores and stage_timings rows."""
+    tables: dict[str, list[Row]] = {"questionnaire_items": [], "scores": [], "stage_timings": []}
+    study = _study_records(session)
+    for participant in participants:
+        code = participant.code
+        for item in _newest(
+            study["items"].get(participant.id, []), lambda i: (i.instrument, i.model, i.item)
+        ):
+            tables["questionnaire_items"].append(
+                {
+                    "participant": code,
+                    "wall_time": iso(item.created_at),
+                    "instrument": item.instrument,
+                    "model": item.model or None,
+                    "item": item.item,
+                    "value": item.value,
+                }
+            )
+        for score in _newest(
+            study["scores"].get(participant.id, []), lambda s: (s.instrument, s.model, s.scale)
+        ):
+            tables["scores"].append(
+                {
+                    "participant": code,
+                    "instrument": score.instrument,
+                    "model": score.model or None,
+                    "scale": score.scale,
+                    "score": score.score,
+                }
+            )
+        tables["stage_timings"].extend(
+            stage_timing_rows(code, study["stages"].get(participant.id, []))
+        )
+    return tables
+
+
+def stage_timing_rows(code: str, events: list[Any]) -> list[Row]:
+    """One row per stage: first entry, and the last submission once a later stage began.
+
+    A stage has several steps (MRT parts, introduction pages); it counts as
+    submitted when the participant has moved on to a later stage, or, for the
+    last stage reached, when its newest event is a submission.
+    """
+    stages: dict[int, list[Any]] = defaultdict(list)
+    for event in sorted(events, key=lambda e: e.id):
+        stages[event.stage_index].append(event)
+    last_index = max(stages, default=-1)
+    rows = []
+    for index in sorted(stages):
+        stage_events = stages[index]
+        entered = [e.at for e in stage_events if e.kind == "entered"]
+        ends = [e for e in stage_events if e.kind in ("submitted", "timed_out")]
+        finished = bool(ends) and (index < last_index or stage_events[-1].kind != "entered")
+        rows.append(
+            {
+                "participant": code,
+                "stage_index": index,
+                "stage": stage_events[0].stage,
+                "model": stage_events[0].model or None,
+                "entered_at": iso(min(entered)) if entered else None,
+                "submitted_at": iso(max(e.at for e in ends)) if finished else None,
+                "timed_out": any(e.kind == "timed_out" for e in stage_events),
+            }
+        )
+    return rows

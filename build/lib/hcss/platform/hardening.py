@@ -1,0 +1,105 @@
+"""What every request passes through before any view sees it: bounds on what a client can send.
+
+A fuzzer found 500s that no view could prevent on its own: ids too large for
+the database's integer columns, NUL bytes PostgreSQL refuses in text, JSON
+nested deeper than Python's recursion limit, and bodies of any size. Each is
+answered here with a 4xx and no database work:
+
+- ``<int:...>`` URL parts accept only what an INTEGER column can hold (else 404);
+- a NUL byte in the path, the query or a form field is a 400;
+- JSON nested too deeply is bad JSON (``get_json(silent=True)`` gives None);
+- a body over ``MAX_CONTENT_LENGTH`` is a 413 before it is read;
+- a JSON body to a page (not ``/api/``, nor a view marked `takes_json`) is a 415:
+  pages take forms.
+
+Every answer also carries the security headers (CSP, frame-ancestors, nosniff).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from flask import Flask, Response, abort, current_app, request
+from flask.json.provider import DefaultJSONProvider
+from werkzeug.routing import IntegerConverter
+
+#: The largest id PostgreSQL's INTEGER (and so every id column) can hold.
+MAX_ID = 2**31 - 1
+
+
+class IdConverter(IntegerConverter):
+    """``<int:...>`` that matches only 0..2**31-1, so a huge id is a 404, never an OverflowError."""
+
+    def __init__(self, map: Any, *args: Any, **kwargs: Any) -> None:  # noqa: A002 - werkzeug's name
+        kwargs.setdefault("max", MAX_ID)
+        super().__init__(map, *args, **kwargs)
+
+
+class BoundedJSONProvider(DefaultJSONProvider):
+    """JSON nested past Python's recursion limit is invalid JSON, not a RecursionError."""
+
+    def loads(self, s: str | bytes, **kwargs: Any) -> Any:
+        try:
+            return super().loads(s, **kwargs)
+        except RecursionError as error:
+            raise ValueError("JSON nested too deeply") from error
+
+
+def takes_json(view: Any) -> Any:
+    """Mark a view outside ``/api/`` that reads a JSON body itself (the page heartbeat)."""
+    view.takes_json = True
+    return view
+
+
+def _refuse_json_to_pages() -> None:
+    """Pages take forms; Flask-WTF would read a JSON body as the form and fail on non-objects."""
+    if request.method != "POST" or not request.is_json or request.path.startswith("/api/"):
+        return
+    if request.routing_exception is not None:
+        return  # no such page: its 404 or 405 says more than a 415
+    view = current_app.view_functions.get(request.endpoint or "")
+    if not getattr(view, "takes_json", False):
+        abort(415, description="This page takes a form, not JSON.")
+
+
+def _refuse_nul_bytes() -> None:
+    """PostgreSQL cannot store or even compare text with NUL; no real input has one."""
+    if "\x00" in request.path:
+        abort(404)
+    for values in (request.args, request.form if request.method == "POST" else None):
+        if values is None:
+            continue
+        for key, value in values.items(multi=True):
+            if "\x00" in key or "\x00" in value:
+                abort(400, description="A field contains a NUL byte.")
+
+
+#: Everything from this origin only: no inline script or style (the pages have none),
+#: no framing (clickjacking), no plugins, forms post only here.
+CONTENT_SECURITY_POLICY = (
+    "default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data:; "
+    "connect-src 'self'; form-action 'self'; frame-ancestors 'none'; base-uri 'none'; "
+    "object-src 'none'"
+)
+SECURITY_HEADERS = {
+    "Content-Security-Policy": CONTENT_SECURITY_POLICY,
+    "X-Content-Type-Options": "nosniff",
+    "X-Frame-Options": "DENY",  # frame-ancestors for browsers without CSP 2
+    # Participant links carry their token in the path: never send it to another site.
+    "Referrer-Policy": "no-referrer",
+}
+
+
+def _security_headers(response: Response) -> Response:
+    for name, value in SECURITY_HEADERS.items():
+        response.headers.setdefault(name, value)
+    return response
+
+
+def install(app: Flask) -> None:
+    """Bound ids, bodies, JSON and text for every route; call before registering blueprints."""
+    app.url_map.converters["int"] = IdConverter
+    app.json = BoundedJSONProvider(app)
+    app.before_request(_refuse_json_to_pages)
+    app.before_request(_refuse_nul_bytes)
+    app.after_request(_security_headers)

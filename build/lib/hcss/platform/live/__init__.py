@@ -1,0 +1,1 @@
+"""Live trials: the runner that steps them, their stream, commands and probes."""

@@ -1,0 +1,236 @@
+"""What the participant does in a trial: requests, clicks and probe answers.
+
+Each action takes the trial's lock, so it lands between two steps. A request
+(an `OperatorCommand`, checked by `validation.parse_request`) is applied to
+the simulation, and the command, its outcome and the request statuses it
+caused are written in one transaction: everything the rows say (support,
+decision index, intervention) is the simulation's `RequestOutcome`. Should
+that transaction fail, the simulation is put back as it was before the
+command, so the log (what a rebuild replays) and the trial in memory never
+disagree.
+
+An action sent with an idempotency key gets the key as an unsaved
+`CommandKey` (from `idempotency.pending_key`) and stores it, with the answer
+it gives, in the same transaction as what it records: the command and its key
+are committed together or not at all, so a retry after a crash or a failed
+write can never carry the command out twice.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from sqlalchemy.orm import Session
+
+from hcss.platform.db import Database
+from hcss.platform.live.rebuild import accepted_text, refusal_text
+from hcss.platform.live.recorder import record_request_statuses
+from hcss.platform.live.session import RunningTrial
+from hcss.platform.models import (
+    Command,
+    CommandKey,
+    CommandOutcome,
+    Observation,
+    ProbeEvent,
+)
+from hcss.simulation import OperatorCommand, Simulation
+
+
+class ActionError(Exception):
+    """A participant action that cannot be taken; becomes a 4xx JSON answer."""
+
+    def __init__(self, message: str, status: int = 400, code: str = "invalid") -> None:
+        super().__init__(message)
+        self.message = message
+        self.status = status
+        self.code = code
+
+
+def submit_request(
+    database: Database,
+    live: RunningTrial,
+    command: OperatorCommand,
+    selections: tuple[int, ...] = (),
+    key: CommandKey | None = None,
+) -> dict[str, Any]:
+    """Apply `command` and log it with its outcome; the answer the participant's page gets."""
+    with live.lock:
+        _require_running(live)
+        sim = live.sim
+        step, sim_time = sim.step_count, float(sim.time)
+        before, statuses_written = sim.snapshot(), set(live.request_statuses_written)
+        outcome = sim.apply(command)
+        try:
+            with database.session_scope() as session:
+                row = Command.applied(
+                    live.trial_id,
+                    command,
+                    outcome,
+                    step=step,
+                    sim_time=sim_time,
+                    selections=selections,
+                )
+                session.add(row)
+                session.flush()
+                session.add(CommandOutcome.of(row.id, outcome))
+                record_request_statuses(live, session)
+                answer = _answered(
+                    session,
+                    key,
+                    {
+                        "command_id": row.id,
+                        "accepted": outcome.accepted,
+                        "request_id": outcome.request_id if outcome.accepted else None,
+                        "reason": outcome.reason,
+                        "step": step,
+                    },
+                )
+        except BaseException:
+            live.sim = Simulation.restore(before)
+            live.request_statuses_written = statuses_written
+            raise
+        live.last_command_id = row.id
+        n = sim.scenario.n_collectives
+        if outcome.accepted:
+            live.add_message(sim_time, "accepted", accepted_text(row, outcome.request_id, n))
+        else:
+            live.add_message(sim_time, "refusal", refusal_text(row, outcome.reason, n))
+        live.touch()
+        return answer
+
+
+def record_observation(
+    database: Database,
+    live: RunningTrial,
+    *,
+    kind: str,
+    collective: int | None,
+    target: int | None,
+    button: str,
+    key: CommandKey | None = None,
+) -> dict[str, Any]:
+    """A click on the map; the answer is the observation's id (201 Created)."""
+    with live.lock:
+        _require_running(live)
+        display = live.display()
+        if kind == "collective":
+            if collective is None or not 0 <= collective < display.n_collectives:
+                raise ActionError("a collective observation needs a collective on the map")
+        elif target is None or display.column(target) is None:
+            raise ActionError("a target observation needs a visible target")
+        row = Observation(
+            trial_id=live.trial_id,
+            kind=kind,
+            collective=collective,
+            target=target,
+            button=button,
+            step=live.sim.step_count,
+            sim_time=float(live.sim.time),
+        )
+        with database.session_scope() as session:
+            session.add(row)
+            session.flush()
+            return _answered(session, key, {"observation_id": row.id}, status=201)
+
+
+def probe_ready(
+    database: Database,
+    live: RunningTrial,
+    probe_id: int,
+    now: float | None = None,
+    key: CommandKey | None = None,
+) -> dict[str, Any]:
+    """The Ready press; `now` (the runner's wall clock) times it from the prompt's delivery."""
+    with live.lock:
+        probe = _current_probe(live, probe_id)
+        if probe.ready:
+            raise ActionError("this probe's question is already shown", 409, "already_ready")
+        running_s = None if now is None else live.running_wall_s(now)
+        event = _probe_event(live, probe_id, "ready")
+        event.latency_ms = _latency_ms(probe.delivered_s, running_s)
+        with database.session_scope() as session:
+            session.add(event)
+            answer = _answered(session, key, {"ok": True})
+        probe.ready, probe.ready_s = True, running_s
+        live.touch()
+        return answer
+
+
+def probe_answer(
+    database: Database,
+    live: RunningTrial,
+    probe_id: int,
+    answer: str,
+    now: float | None = None,
+    key: CommandKey | None = None,
+) -> dict[str, Any]:
+    """The answer; timed from the question's delivery (or the Ready press, if never sent)."""
+    with live.lock:
+        probe = _current_probe(live, probe_id)
+        if not probe.ready:
+            raise ActionError("press ready before answering", 409, "not_ready")
+        if answer not in probe.choices:
+            raise ActionError(f"{answer!r} is not one of the choices {probe.choices}")
+        correct = None if probe.truth is None else answer == probe.truth
+        running_s = None if now is None else live.running_wall_s(now)
+        asked_s = (
+            probe.question_delivered_s if probe.question_delivered_s is not None else probe.ready_s
+        )
+        answered = _probe_event(live, probe_id, "answer", answer=answer)
+        answered.latency_ms = _latency_ms(asked_s, running_s)
+        with database.session_scope() as session:
+            session.add(answered)
+            if probe.truth is not None:
+                event = _probe_event(live, probe_id, "scored", answer=answer)
+                event.truth, event.correct = probe.truth, correct
+                session.add(event)
+            reply = _answered(session, key, {"ok": True})
+        if probe.level == 3:
+            live.pending_projection = [
+                (pid, shown, answer if pid == probe_id else previous)
+                for pid, shown, previous in live.pending_projection
+            ]
+        live.current_probe = None
+        live.touch()
+        return reply
+
+
+def _answered(
+    session: Session, key: CommandKey | None, answer: dict[str, Any], status: int = 200
+) -> dict[str, Any]:
+    """`answer`, stored with the command's idempotency key (if sent) in the command's transaction."""
+    if key is not None:
+        key.status, key.response = status, answer
+        session.add(key)
+    return answer
+
+
+def _probe_event(live: RunningTrial, probe_id: int, kind: str, answer: str | None = None):  # type: ignore[no-untyped-def]
+    return ProbeEvent(
+        probe_id=probe_id,
+        kind=kind,
+        answer=answer,
+        step=live.sim.step_count,
+        sim_time=float(live.sim.time),
+    )
+
+
+def _latency_ms(since_s: float | None, now_s: float | None) -> float | None:
+    if since_s is None or now_s is None:
+        return None
+    return round(max(0.0, now_s - since_s) * 1000.0, 1)
+
+
+def _current_probe(live: RunningTrial, probe_id: int):  # type: ignore[no-untyped-def]
+    _require_running(live)
+    probe = live.current_probe
+    if probe is None or probe.id != probe_id:
+        raise ActionError("this probe is no longer open (answered or timed out)", 409, "closed")
+    return probe
+
+
+def _require_running(live: RunningTrial) -> None:
+    if live.ended:
+        raise ActionError("the trial has ended", 409, "ended")
+    if live.paused_since is not None:
+        raise ActionError("the experimenter has paused the trial", 409, "paused")

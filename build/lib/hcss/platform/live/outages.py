@@ -1,0 +1,87 @@
+"""A server outage stops the trial clock, as an experimenter's pause does.
+
+While the server is down nobody can see or command the trial, so it must not
+run on: a training trial used to advance 38 steps during an 8.8 s outage,
+with the participant looking at a dead page. On a rebuild the trial resumes
+at the last step the dead server is known to have reached (the newest step
+in its rows), and the wall time since then is added to the trial's paused
+time, so the simulation, the probes and the deadline all move on by the
+outage's length (the stage flow already waits for a paused trial to end).
+
+Each `Interruption` row keeps the outage (`outage_s`, wall seconds) and when
+the server was last seen (`last_seen_at`, the newest row written before the
+crash, read before the rebuild writes anything), so a later rebuild restores
+every earlier outage and the export shows which trials were interrupted and
+for how long. At most one snapshot interval of steps the dead server had
+computed but not written is replayed again after the restart.
+"""
+
+from __future__ import annotations
+
+from datetime import datetime
+
+from sqlalchemy import func, select
+from sqlalchemy.orm import Session
+
+from hcss.platform.live.session import RunningTrial
+from hcss.platform.models import (
+    Command,
+    DecisionRow,
+    Interruption,
+    Observation,
+    Probe,
+    ProbeEvent,
+    RequestStatusChange,
+    SimEvent,
+    Snapshot,
+    TrialStatusChange,
+)
+
+
+def last_seen(session: Session, trial_id: int) -> datetime | None:
+    """When the newest row of the trial was written; call before the rebuild writes any."""
+    times = [
+        session.scalar(select(func.max(model.created_at)).where(model.trial_id == trial_id))
+        for model in (Snapshot, Command, SimEvent, Observation, DecisionRow, RequestStatusChange)
+    ]
+    present = [t for t in times if t is not None]
+    return max(present) if present else None
+
+
+def last_reached_step(session: Session, trial_id: int) -> int:
+    """The newest step any row of the trial records: the dead server got at least this far."""
+    steps = [
+        session.scalar(select(func.max(column)).where(model.trial_id == trial_id))
+        for model, column in (
+            (Snapshot, Snapshot.step),
+            (Command, Command.step_applied),
+            (Observation, Observation.step),
+            (DecisionRow, DecisionRow.step),
+            (RequestStatusChange, RequestStatusChange.step),
+            (TrialStatusChange, TrialStatusChange.step),
+        )
+    ]
+    steps.append(
+        session.scalar(
+            select(func.max(ProbeEvent.step)).join(Probe).where(Probe.trial_id == trial_id)
+        )
+    )
+    return max((s for s in steps if s is not None), default=0)
+
+
+def earlier_outages_s(session: Session, trial_id: int) -> float:
+    """Wall seconds of every earlier outage of the trial, each already a pause of its clock."""
+    total = session.scalar(
+        select(func.coalesce(func.sum(Interruption.outage_s), 0.0)).where(
+            Interruption.trial_id == trial_id
+        )
+    )
+    return float(total or 0.0)
+
+
+def stop_clock_for_outage(live: RunningTrial, reached_step: int, now: float) -> float:
+    """Pause the trial clock for the outage since `reached_step`; returns its wall seconds."""
+    reached_wall_s = reached_step * live.dt / live.acceleration
+    outage_s = max(0.0, live.running_wall_s(now) - reached_wall_s)
+    live.paused_s += outage_s
+    return outage_s

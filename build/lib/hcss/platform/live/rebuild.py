@@ -1,0 +1,275 @@
+"""Bring a trial into memory: a fresh start, or a rebuild after a restart.
+
+Deterministic replay makes the rebuild exact: restore the latest snapshot,
+apply each logged command at the step it was applied live (the simulation's own
+`replay`, the one the analysis and the tests use too), and step on to the
+step the wall clock says is due, not counting the outage itself
+(hcss.platform.live.outages: the trial clock stands still while the server is down). A trial that had been running in some server
+before (it has a snapshot) gets an `Interruption` row with the rebuilt
+state's digest.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from sqlalchemy import func, select
+from sqlalchemy.orm import Session
+
+from hcss.platform.live.clock import restore_pauses
+from hcss.platform.live.outages import (
+    earlier_outages_s,
+    last_reached_step,
+    last_seen,
+    stop_clock_for_outage,
+)
+from hcss.platform.live.probes import counts_of, probe_plan
+from hcss.platform.live.queries import newest_snapshot
+from hcss.platform.live.recorder import record_progress, write_snapshot
+from hcss.platform.live.session import CurrentProbe, RunningTrial
+from hcss.platform.models import (
+    Command,
+    CommandOutcome,
+    DecisionRow,
+    Interruption,
+    Probe,
+    ProbeEvent,
+    RequestStatusChange,
+    SimEvent,
+    Trial,
+    TrialProblem,
+)
+from hcss.platform.naming import Uninterpretable, collective_name
+
+if TYPE_CHECKING:
+    from hcss.simulation.requests import RequestOutcome
+
+
+def load_trial(session: Session, trial: Trial, now: float) -> RunningTrial:
+    from hcss.simulation import Params, Scenario, Simulation
+
+    snapshot = newest_snapshot(session, trial.id)
+    if snapshot is not None:
+        sim = Simulation.restore(snapshot.blob)
+    else:
+        params = Params.from_dict(trial.params) if trial.params else None
+        sim = Simulation(Scenario.from_dict(trial.scenario), model=trial.model, params=params)
+    live = RunningTrial(
+        trial_id=trial.id,
+        participant_id=trial.participant_id,
+        participant_code=trial.participant.code,
+        participant_token=trial.participant.token,
+        kind=trial.kind,
+        model=trial.model,
+        seed=trial.seed,
+        scenario_id=trial.scenario_id,
+        first_section=trial.first_section,
+        sim=sim,
+        started_epoch=trial.started_at.timestamp(),
+        acceleration=trial.time_acceleration,
+        duration_s=trial.duration_s,
+        dt=float(sim.params.dt_s),
+        probe_plan=probe_plan(trial.seed, trial.duration_s, counts_of(trial.probe_counts)),
+    )
+    live.last_command_id = None if snapshot is None else snapshot.last_command_id
+    seen = last_seen(session, trial.id)  # before this rebuild writes anything
+    restore_pauses(session, live)  # the experimenter's pauses stop the trial clock
+    live.paused_s += earlier_outages_s(session, trial.id)  # and so did earlier outages
+    replayed = _replay_commands(session, live)
+    outage_s = 0.0
+    if snapshot is not None:  # it ran in a server that died: the outage stops its clock
+        reached = max(last_reached_step(session, trial.id), sim.step_count)
+        outage_s = stop_clock_for_outage(live, reached, now)
+    due = live.due_step(now)
+    if sim.step_count < due:
+        sim.step(due - sim.step_count)
+    _restore_bookkeeping(session, live)
+    record_progress(live, session)
+    if snapshot is not None:
+        session.add(
+            Interruption(
+                trial_id=trial.id,
+                snapshot_step=snapshot.step,
+                resumed_step=sim.step_count,
+                replayed_commands=replayed,
+                state_digest=sim.state_digest(),
+                last_seen_at=seen,
+                outage_s=outage_s,
+            )
+        )
+    write_snapshot(live, session, now)
+    return live
+
+
+def _replay_commands(session: Session, live: RunningTrial) -> int:
+    """Apply the commands the snapshot does not contain, through the simulation's `replay`.
+
+    The log is the trial's whole command log in order; the snapshot knows how
+    many of them it holds (`commands_applied`). An outcome the server logged no
+    row for (it died in between) is written now. Returns the commands replayed.
+    """
+    from hcss.simulation.replay import replay
+
+    commands = list(
+        session.scalars(
+            select(Command).where(Command.trial_id == live.trial_id).order_by(Command.id)
+        )
+    )
+    sim = live.sim
+    if sim.commands_applied > len(commands):
+        raise RuntimeError(
+            f"trial {live.trial_id}: the snapshot holds {sim.commands_applied} commands, "
+            f"the log only {len(commands)}"
+        )
+    pending = commands[sim.commands_applied :]
+    decided = set(
+        session.scalars(
+            select(CommandOutcome.command_id).where(
+                CommandOutcome.command_id.in_([c.id for c in pending])
+            )
+        )
+    )
+
+    def record(i: int, outcome: RequestOutcome) -> None:
+        command = commands[i]
+        if command.id not in decided:
+            session.add(CommandOutcome.of(command.id, outcome))
+        live.last_command_id = command.id
+
+    last_step = max([c.step_applied for c in pending], default=sim.step_count)
+    try:
+        replay(
+            sim.scenario,
+            sim.model,
+            [(c.step_applied, c.operator_command()) for c in commands],
+            max(last_step, sim.step_count),
+            start=sim,
+            on_outcome=record,
+        )
+    except ValueError as error:  # a command logged before the snapshot's step
+        raise RuntimeError(f"trial {live.trial_id}: {error}") from error
+    return len(pending)
+
+
+def _restore_bookkeeping(session: Session, live: RunningTrial) -> None:
+    """What was already written, so the recorder writes only what is new."""
+    tid = live.trial_id
+    live.last_event_time = session.scalar(
+        select(func.coalesce(func.max(SimEvent.sim_time), -1.0)).where(SimEvent.trial_id == tid)
+    )
+    live.decisions_recorded = session.scalar(
+        select(func.count()).select_from(DecisionRow).where(DecisionRow.trial_id == tid)
+    )
+    written = session.execute(
+        select(RequestStatusChange.request_id, RequestStatusChange.status).where(
+            RequestStatusChange.trial_id == tid
+        )
+    )
+    live.request_statuses_written = {(request_id, status) for request_id, status in written}
+    _restore_messages(session, live)
+    _restore_probes(session, live)
+
+
+#: Where a message falls among those of the same step (`_restore_messages`).
+_STEP_EVENTS, _COMMANDS = 0, 1
+
+
+def _restore_messages(session: Session, live: RunningTrial) -> None:
+    """The System Messages in the order the live page had them.
+
+    Live, the runner records a step's events as soon as it reaches the step,
+    under the trial's lock; a command lands between two steps, so at the time
+    of a step its events come first, then the commands applied there, each
+    kind in the order of its rows. Ids of two tables are never compared.
+    """
+    n = live.sim.scenario.n_collectives
+    events = [
+        (e.sim_time, _STEP_EVENTS, e.id, e.kind, e.text)
+        for e in session.scalars(select(SimEvent).where(SimEvent.trial_id == live.trial_id))
+    ]
+    outcomes = session.execute(
+        select(Command, CommandOutcome)
+        .join(CommandOutcome, CommandOutcome.command_id == Command.id)
+        .where(Command.trial_id == live.trial_id)
+    )
+    for command, outcome in outcomes:
+        try:
+            events.append(
+                (
+                    command.sim_time,
+                    _COMMANDS,
+                    command.id,
+                    "accepted",
+                    accepted_text(command, outcome.request_id, n),
+                )
+                if outcome.accepted
+                else (
+                    command.sim_time,
+                    _COMMANDS,
+                    command.id,
+                    "refusal",
+                    refusal_text(command, outcome.reason, n),
+                )
+            )
+        except Uninterpretable as error:
+            session.add(
+                TrialProblem(
+                    trial_id=live.trial_id,
+                    source="rebuild",
+                    record=f"command {command.id}",
+                    problem=f"not shown in System Messages: {error}"[:300],
+                )
+            )
+    for time, _rank, _id, kind, text in sorted(events):
+        live.add_message(time, kind, text)
+
+
+def _restore_probes(session: Session, live: RunningTrial) -> None:
+    probes = list(
+        session.scalars(select(Probe).where(Probe.trial_id == live.trial_id).order_by(Probe.id))
+    )
+    live.probes_shown = len(probes)
+    events: dict[int, list[ProbeEvent]] = {p.id: [] for p in probes}
+    for event in session.scalars(
+        select(ProbeEvent).where(ProbeEvent.probe_id.in_(list(events))).order_by(ProbeEvent.id)
+    ):
+        events[event.probe_id].append(event)
+    for probe in probes:
+        kinds = {e.kind: e for e in events[probe.id]}
+        if probe.level == 3 and "scored" not in kinds:
+            answer = kinds["answer"].answer if "answer" in kinds else None
+            live.pending_projection.append((probe.id, probe.shown_sim_time, answer))
+        if "answer" not in kinds and "timeout" not in kinds:
+            live.current_probe = CurrentProbe(
+                id=probe.id,
+                probe_index=probe.probe_index,
+                level=probe.level,
+                question=probe.question,
+                choices=list(probe.choices),
+                truth=probe.truth,
+                shown_sim_time=probe.shown_sim_time,
+                timeout_sim_time=probe.timeout_sim_time,
+                ready="ready" in kinds,
+            )
+
+
+def _subject(command: Command, n_collectives: int | None) -> str:
+    """What a command was about; Uninterpretable for a collective the trial does not have."""
+    if command.kind == "cancel":
+        return f"cancel of assignment {command.cancel_request_id}"
+    collective = collective_name(command.collective, n_collectives) or "?"
+    return f"{command.kind} by collective {collective} on target {command.target}"
+
+
+def refusal_text(command: Command, reason: str, n_collectives: int | None = None) -> str:
+    """The System Message of a refused command."""
+    return f"Request refused ({_subject(command, n_collectives)}): {reason}"
+
+
+def accepted_text(
+    command: Command, request_id: int | None, n_collectives: int | None = None
+) -> str:
+    """System Messages log accepted requests as well as refusals (issue 8)."""
+    if command.kind == "cancel":
+        return f"Request accepted ({_subject(command, n_collectives)})"
+    return f"Request {request_id} accepted ({_subject(command, n_collectives)})"

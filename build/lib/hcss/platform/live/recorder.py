@@ -1,0 +1,216 @@
+"""Turn what the simulation did since the last look into rows and messages.
+
+Called by the runner after each batch of steps, and once after a rebuild, with
+the trial's lock held. Everything is derived from the simulation's state, so a
+rebuild that replays the same steps writes only what had not been written.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from sqlalchemy.orm import Session
+
+from hcss.platform.live.probes import POSTPONE_S, PROBE_TIMEOUT_S, fill_probe
+from hcss.platform.live.session import CurrentProbe, RunningTrial
+from hcss.platform.models import (
+    DecisionRow,
+    Probe,
+    ProbeEvent,
+    RequestStatusChange,
+    SimEvent,
+    Snapshot,
+    TrialStatusChange,
+)
+from hcss.platform.models.vocabularies import RequestStatus, TrialStatus
+
+#: Decision-table columns the export fills from the trial and participant, not stored per row.
+EXPORT_IDENTITY = ("source", "participant", "trial_id", "run")
+
+
+def record_progress(live: RunningTrial, session: Session) -> None:
+    """Events, decisions, request statuses and probes up to the simulation's now."""
+    sim = live.sim
+    _record_events(live, session)
+    _record_decisions(live, session)
+    record_request_statuses(live, session)
+    _expire_probe(live, session, sim.time)
+    _show_probe(live, session, sim.time)
+
+
+def _record_events(live: RunningTrial, session: Session) -> None:
+    for event in live.sim.drain_events():
+        time = float(event["time"])
+        if time <= live.last_event_time:
+            continue  # written before an interruption; the replay produced it again
+        session.add(
+            SimEvent(
+                trial_id=live.trial_id,
+                kind=str(event["kind"]),
+                collective=_int_or_none(event.get("collective")),
+                target=_int_or_none(event.get("target")),
+                text=str(event["text"])[:300],
+                sim_time=time,
+            )
+        )
+        live.add_message(time, str(event["kind"]), str(event["text"]))
+    # Events of one step share its time and are written together, so the
+    # newest time marks everything written.
+    live.last_event_time = max(live.last_event_time, float(live.sim.time) - 1e-9)
+
+
+def _record_decisions(live: RunningTrial, session: Session) -> None:
+    records = live.sim.decisions
+    for record in records[live.decisions_recorded :]:
+        # The record itself; who and where (source, participant, trial, run) the export adds.
+        row = {k: v for k, v in record.as_row().items() if k not in EXPORT_IDENTITY}
+        session.add(
+            DecisionRow(
+                trial_id=live.trial_id,
+                collective=int(record.collective),
+                decision_index=int(row["decision_index"]),
+                step=live.sim.step_count,
+                correct=None if row.get("correct") is None else bool(row["correct"]),
+                record=row,
+            )
+        )
+        _score_projections(live, session, row["collective"], float(row["end_s"]))
+    live.decisions_recorded = len(records)
+
+
+def _score_projections(live: RunningTrial, session: Session, collective: str, end_s: float) -> None:
+    """Level-3 probes asked before this decision ended are scored by it."""
+    still_pending = []
+    for probe_id, shown_at, answer in live.pending_projection:
+        if shown_at >= end_s:
+            still_pending.append((probe_id, shown_at, answer))
+            continue
+        session.add(
+            ProbeEvent(
+                probe_id=probe_id,
+                kind="scored",
+                answer=answer,
+                truth=collective,
+                correct=None if answer is None else answer == collective,
+                step=live.sim.step_count,
+                sim_time=float(live.sim.time),
+            )
+        )
+    live.pending_projection = still_pending
+
+
+def record_request_statuses(live: RunningTrial, session: Session) -> None:
+    """Each request status change the simulation queued, written once with its own step.
+
+    A rebuild replays changes that were written before the interruption;
+    `request_statuses_written` (restored from the rows) skips those.
+    """
+    for change in live.sim.drain_status_changes():
+        key = (change.request_id, change.status)
+        if key in live.request_statuses_written:
+            continue
+        session.add(
+            RequestStatusChange(
+                trial_id=live.trial_id,
+                request_id=change.request_id,
+                status=RequestStatus(change.status),
+                step=change.step,
+                sim_time=float(change.time),
+            )
+        )
+        live.request_statuses_written.add(key)
+
+
+def _expire_probe(live: RunningTrial, session: Session, time: float) -> None:
+    probe = live.current_probe
+    if probe is None or time < probe.timeout_sim_time:
+        return
+    session.add(
+        ProbeEvent(
+            probe_id=probe.id,
+            kind="timeout",
+            step=live.sim.step_count,
+            sim_time=float(time),
+        )
+    )
+    live.current_probe = None
+
+
+def _show_probe(live: RunningTrial, session: Session, time: float) -> None:
+    if live.current_probe is not None or live.probes_shown >= len(live.probe_plan):
+        return
+    planned = live.probe_plan[live.probes_shown]
+    if time < planned.at_s or time < live.postponed_until:
+        return
+    probe_index = live.probes_shown + 1
+    rng = np.random.default_rng([live.seed, 0x5B, probe_index])
+    filled = fill_probe(planned.level, live.display(), live.sim.truth(), rng)
+    if filled is None:
+        live.postponed_until = time + POSTPONE_S
+        return
+    row = Probe(
+        trial_id=live.trial_id,
+        probe_index=probe_index,
+        level=filled.level,
+        question=filled.question,
+        choices=filled.choices,
+        truth=filled.truth,
+        shown_step=live.sim.step_count,
+        shown_sim_time=float(time),
+        timeout_sim_time=float(time) + PROBE_TIMEOUT_S,
+    )
+    session.add(row)
+    session.flush()
+    live.probes_shown = probe_index
+    live.current_probe = CurrentProbe(
+        id=row.id,
+        probe_index=probe_index,
+        level=filled.level,
+        question=filled.question,
+        choices=filled.choices,
+        truth=filled.truth,
+        shown_sim_time=row.shown_sim_time,
+        timeout_sim_time=row.timeout_sim_time,
+    )
+    if filled.level == 3:
+        live.pending_projection.append((row.id, row.shown_sim_time, None))
+
+
+def write_snapshot(live: RunningTrial, session: Session, now: float) -> None:
+    sim = live.sim
+    session.add(
+        Snapshot(
+            trial_id=live.trial_id,
+            step=sim.step_count,
+            sim_time=float(sim.time),
+            last_command_id=live.last_command_id,
+            blob=sim.snapshot(),
+        )
+    )
+    live.last_snapshot_epoch = now
+
+
+def end_trial(live: RunningTrial, session: Session, reason: str, now: float) -> None:
+    """The time limit is reached: close the open probe, snapshot, and mark it ended."""
+    probe = live.current_probe
+    if probe is not None:
+        session.add(
+            ProbeEvent(
+                probe_id=probe.id, kind="timeout", step=live.sim.step_count, sim_time=live.sim.time
+            )
+        )
+        live.current_probe = None
+    write_snapshot(live, session, now)
+    session.add(
+        TrialStatusChange(
+            trial_id=live.trial_id,
+            status=TrialStatus.ENDED,
+            reason=reason,
+            step=live.sim.step_count,
+        )
+    )
+    live.ended = True
+    live.end_reason = reason
+
+
+def _int_or_none(value: object) -> int | None:
+    return None if value is None else int(value)  # type: ignore[call-overload]

@@ -1,0 +1,284 @@
+"""The runner: the registry of live trials, and the thread that keeps them on time.
+
+Each tick it finds trials the database says are running (started here, by the
+CLI, or before a restart), advances each to the step the wall clock says is
+due, records what happened and wakes the streams. Commands do not wait for a
+tick: they take the trial's lock and apply between two steps.
+
+Blueprints use only the public methods below (get, loaded, holding, pause,
+resume, end, finish_overdue, forget, withdrawing); the registry and its lock are
+private. The thread is started only where trials are served (`hcss serve`, the
+test server); an app built for a script or a check has a runner without one.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time as wallclock
+from collections.abc import Callable, Iterator
+from contextlib import ExitStack, contextmanager
+
+from flask import Flask
+from sqlalchemy.exc import DBAPIError, OperationalError, ProgrammingError
+from sqlalchemy.orm import Session
+
+from hcss.platform.db import Database
+from hcss.platform.live.clock import pause_clock, resume_clock
+from hcss.platform.live.rebuild import load_trial
+from hcss.platform.live.recorder import end_trial, record_progress, write_snapshot
+from hcss.platform.live.session import RunningTrial
+from hcss.platform.live.trials import latest_status, running_trial_ids
+from hcss.platform.models import Trial, TrialProblem, TrialStatusChange
+from hcss.platform.models.vocabularies import TrialStatus
+
+log = logging.getLogger(__name__)
+
+TICK_S = 0.05
+SYNC_EVERY_S = 1.0
+
+
+class Runner:
+    def __init__(
+        self,
+        database: Database,
+        *,
+        snapshot_interval_s: float = 5.0,
+    ) -> None:
+        self.database = database
+        self.snapshot_interval_s = snapshot_interval_s
+        self._trials: dict[int, RunningTrial] = {}
+        self._registry_lock = threading.RLock()
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._last_sync = -float("inf")
+        self._told_unmigrated = False
+
+    @property
+    def clock(self) -> Callable[[], float]:
+        """The database's clock (epoch seconds): trials step by the clock that stamps their rows."""
+        return self.database.clock
+
+    @clock.setter
+    def clock(self, clock: Callable[[], float]) -> None:
+        self.database.clock = clock
+
+    # --- finding trials -------------------------------------------------------
+
+    def get(self, trial_id: int) -> RunningTrial | None:
+        """The live trial, loading it first if the database says it is running."""
+        live = self._trials.get(trial_id)
+        if live is not None:
+            return live
+        with self._registry_lock:
+            live = self._trials.get(trial_id)
+            if live is not None:
+                return live
+            try:
+                with self.database.session_scope() as session:
+                    if latest_status(session, trial_id) != TrialStatus.RUNNING:
+                        return None
+                    trial = session.get(Trial, trial_id)
+                    live = load_trial(session, trial, self.clock())
+            except DBAPIError:
+                raise  # the database is away: try again later, the trial is not at fault
+            except Exception as error:
+                log.exception("live trial %s cannot be rebuilt; ending it", trial_id)
+                self._give_up(trial_id, error)
+                return None
+            self._trials[trial_id] = live
+            return live
+
+    def loaded(self, trial_id: int) -> RunningTrial | None:
+        """The live trial if this process holds it in memory; never loads it."""
+        with self._registry_lock:
+            return self._trials.get(trial_id)
+
+    def loaded_ids(self) -> set[int]:
+        """Ids of the trials held in memory (for tests and the console)."""
+        with self._registry_lock:
+            return set(self._trials)
+
+    def forget(self, trial_id: int) -> RunningTrial | None:
+        """Drop a trial from memory; the next `get` rebuilds it from the database if running."""
+        with self._registry_lock:
+            return self._trials.pop(trial_id, None)
+
+    # --- controlling one trial --------------------------------------------------
+
+    @contextmanager
+    def holding(
+        self, live: RunningTrial, now: float, *, advance: bool = True
+    ) -> Iterator[RunningTrial]:
+        """Hold the trial's lock; first advance it to `now`, so its clock stops at this instant."""
+        with live.lock:
+            if advance:
+                self.advance(live, now)
+            yield live
+
+    def pause(self, live: RunningTrial, now: float) -> None:
+        """Stop the trial clock at `now` (call inside `holding`)."""
+        pause_clock(live, now)
+
+    def resume(self, live: RunningTrial, now: float) -> None:
+        """Restart the trial clock; the paused wall time never counts (call inside `holding`)."""
+        resume_clock(live, now)
+
+    def end(self, live: RunningTrial, session: Session, reason: str, now: float) -> None:
+        """End the trial with `reason`, written in `session` (call inside `holding`)."""
+        end_trial(live, session, reason, now)
+        live.touch()
+
+    def finish_overdue(self, trial_id: int) -> None:
+        """Step a trial past its deadline to its end, recording everything on the way."""
+        live = self.get(trial_id)
+        if live is None:
+            return
+        self.advance(live, self.clock())
+        if live.ended:
+            self.forget(trial_id)
+
+    @contextmanager
+    def withdrawing(self, trial_ids: list[int], reason: str) -> Iterator[None]:
+        """Hold the locks of these trials while their rows are deleted; then end and forget them.
+
+        No runner step or command can write a row for the trials meanwhile; a
+        trial loaded by another thread during the deletion is dropped too.
+        """
+        with self._registry_lock:
+            held = [self._trials[t] for t in trial_ids if t in self._trials]
+        with ExitStack() as stack:
+            for live in held:
+                stack.enter_context(live.lock)
+            yield
+            for live in held:
+                live.ended = True
+                live.end_reason = reason
+                live.touch()
+            for trial_id in trial_ids:
+                stale = self.forget(trial_id)
+                if stale is not None:
+                    stale.ended = True
+
+    def _give_up(self, trial_id: int, error: Exception) -> None:
+        """End a trial whose records cannot be rebuilt, saying why, instead of failing forever.
+
+        Without this, every tick would retry and log a traceback, and the
+        participant's stream, state and stage page would fail until someone
+        edited the database. The ended status lets the study move on; the
+        `TrialProblem` row tells the analyst the trial stopped here and why.
+        """
+        with self.database.session_scope() as session:
+            session.add(
+                TrialProblem(
+                    trial_id=trial_id,
+                    source="rebuild",
+                    record=f"trial {trial_id}",
+                    problem=f"cannot be rebuilt: {type(error).__name__}: {error}"[:300],
+                )
+            )
+            session.add(
+                TrialStatusChange(
+                    trial_id=trial_id, status=TrialStatus.ENDED, reason="rebuild_failed"
+                )
+            )
+
+    def sync(self) -> None:
+        """Load every running trial not yet in memory (after a restart, or from the CLI)."""
+        with self.database.session_scope() as session:
+            running = running_trial_ids(session)
+        self._told_unmigrated = False  # the tables are there (again)
+        for trial_id in running:
+            if trial_id not in self._trials:
+                try:
+                    self.get(trial_id)
+                except Exception:
+                    log.exception("could not load live trial %s", trial_id)
+
+    # --- advancing --------------------------------------------------------------
+
+    def tick(self) -> None:
+        """Bring every live trial up to the wall clock; the thread calls this in a loop."""
+        now = self.clock()
+        if now - self._last_sync >= SYNC_EVERY_S:
+            self._last_sync = now
+            self.sync()
+        with self._registry_lock:
+            live_trials = list(self._trials.values())
+        for live in live_trials:
+            try:
+                self.advance(live, now)
+            except Exception:
+                log.exception("live trial %s failed to advance", live.trial_id)
+            if live.ended:
+                self.forget(live.trial_id)
+
+    def advance(self, live: RunningTrial, now: float) -> None:
+        """Step the trial to the step due at `now`, record it, end it at its time limit."""
+        with live.lock:
+            if live.ended:
+                return
+            due = live.due_step(now)
+            if due <= live.sim.step_count and due < live.total_steps:
+                return
+            # The end is judged by `due`, not by the simulation's step: a simulation
+            # whose decisions are all made stops stepping early, and a trial rebuilt
+            # after its deadline (load_trial steps it to `due`) has nothing left to step.
+            live.sim.step(due - live.sim.step_count)
+            live.touch()
+            with self.database.session_scope() as session:
+                record_progress(live, session)
+                if due >= live.total_steps:
+                    end_trial(live, session, "time_limit", now)
+                elif now - live.last_snapshot_epoch >= self.snapshot_interval_s:
+                    write_snapshot(live, session, now)
+            live.touch()
+
+    # --- the thread --------------------------------------------------------------
+
+    def start(self) -> None:
+        if self._thread is not None:
+            return
+        self._thread = threading.Thread(target=self._run, name="hcss-live-runner", daemon=True)
+        self._thread.start()
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=5)
+            self._thread = None
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            started = wallclock.monotonic()
+            try:
+                self.tick()
+            except (OperationalError, ProgrammingError) as error:
+                if not _missing_table(error):
+                    log.exception("runner tick failed")
+                elif not self._told_unmigrated:  # one clear line, not a traceback every tick
+                    self._told_unmigrated = True
+                    log.error(
+                        "the database has no platform tables (run `hcss db upgrade`); "
+                        "the live runner waits for them"
+                    )
+            except Exception:
+                log.exception("runner tick failed")
+            self._stop.wait(max(0.0, TICK_S - (wallclock.monotonic() - started)))
+
+
+def _missing_table(error: DBAPIError) -> bool:
+    """SQLite says "no such table", PostgreSQL "relation ... does not exist"."""
+    text = str(error.orig).lower()
+    return "no such table" in text or ("relation" in text and "does not exist" in text)
+
+
+def init_runner(app: Flask) -> Runner:
+    """Attach a runner to the app; its thread starts only if LIVE_RUNNER (`hcss serve`) asks."""
+    runner = Runner(
+        app.extensions["hcss_db"], snapshot_interval_s=float(app.config["SNAPSHOT_INTERVAL_S"])
+    )
+    app.extensions["hcss_runner"] = runner
+    if app.config["LIVE_RUNNER"]:
+        runner.start()
+    return runner

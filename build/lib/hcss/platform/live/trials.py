@@ -1,0 +1,140 @@
+"""Starting trials and asking which are live.
+
+The study flow and `hcss demo-trial` both start trials through `start_trial`;
+the runner finds every trial whose latest status is ``running`` and steps it.
+"""
+
+from __future__ import annotations
+
+import secrets
+from collections.abc import Mapping
+from datetime import datetime, timedelta
+from typing import Any
+
+from sqlalchemy import func, select
+from sqlalchemy.orm import Session
+
+from hcss.platform.db import session_now
+from hcss.platform.live.probes import stored_counts
+from hcss.platform.models import Participant, Trial, TrialStatusChange
+from hcss.platform.models.vocabularies import TrialKind, TrialStatus
+from hcss.simulation.params import MODELS
+
+#: Kinds of live trial. Their lengths come from the study file (`[timing]`), never from here.
+TRIAL_KINDS = tuple(TrialKind)
+
+
+def start_trial(
+    session: Session,
+    participant: Participant,
+    *,
+    kind: str = "trial",
+    model: str = "M1",
+    seed: int | None = None,
+    duration_s: float,
+    first_section: str = "easy",
+    time_acceleration: float = 1.0,
+    started_at: datetime | None = None,
+    probe_counts: Mapping[int, int] | None = None,
+) -> Trial:
+    """Write a new trial whose clock starts now; the runner picks it up.
+
+    `probe_counts` is the study's `[probes]` (per 20-minute trial, by level;
+    None: the original protocol's). `duration_s` is the study's `timing.trial_s` or `timing.training_s` (or a
+    demo's chosen length): the caller reads it from the study file.
+
+    The deadline is absolute, so the trial ends on time even if no page is
+    open or the server was down in between. `started_at` defaults to now by
+    the database's clock (the runner's; tests and bots move it); the study flow
+    passes the instant its trial stage was entered.
+    """
+    from hcss.simulation import Params, Scenario
+
+    if kind not in TRIAL_KINDS:
+        raise ValueError(f"trial kind must be one of {TRIAL_KINDS}, not {kind!r}")
+    if model not in MODELS:
+        raise ValueError(f"model must be one of {MODELS}, not {model!r}")
+    if time_acceleration <= 0:
+        raise ValueError("time_acceleration must be positive")
+    if seed is None:
+        seed = secrets.randbelow(2**31)
+    if kind == "training":
+        scenario = Scenario.training(seed)
+    else:
+        scenario = Scenario.generate(seed, first_section=first_section)
+    scenario_dict = scenario.to_dict()
+    duration = float(duration_s)
+    if duration <= 0:
+        raise ValueError("duration_s must be positive")
+    started_at = started_at or session_now(session)
+    trial = Trial(
+        participant_id=participant.id,
+        kind=kind,
+        model=model,
+        scenario=scenario_dict,
+        scenario_id=str(getattr(scenario, "scenario_id", None) or f"seed-{seed}"),
+        seed=int(seed),
+        first_section=None if kind == "training" else first_section,
+        # A live trial has no per-decision cap, only its own time limit (spec §2).
+        params=Params().with_changes(decision_timeout_s=None).to_dict(),
+        probe_counts=stored_counts(probe_counts),
+        time_acceleration=time_acceleration,
+        duration_s=duration,
+        started_at=started_at,
+        deadline=started_at + timedelta(seconds=duration / time_acceleration),
+    )
+    session.add(trial)
+    session.flush()
+    session.add(
+        TrialStatusChange(trial_id=trial.id, status=TrialStatus.RUNNING, reason="started", step=0)
+    )
+    session.flush()
+    return trial
+
+
+def start_bot_trial(session: Session, **options: Any) -> tuple[Participant, Trial]:
+    """A new bot participant and a live trial for it (`start_trial`'s options).
+
+    For tests, benchmarks and load tools that need a running trial without
+    walking the study up to it.
+    """
+    participant = Participant(is_bot=True)
+    session.add(participant)
+    session.flush()
+    return participant, start_trial(session, participant, **options)
+
+
+def latest_status(session: Session, trial_id: int) -> str | None:
+    row = session.scalars(
+        select(TrialStatusChange)
+        .where(TrialStatusChange.trial_id == trial_id)
+        .order_by(TrialStatusChange.id.desc())
+        .limit(1)
+    ).first()
+    return None if row is None else row.status
+
+
+def running_trial_ids(session: Session) -> list[int]:
+    """Trials whose most recent status change is ``running``."""
+    latest = (
+        select(TrialStatusChange.trial_id, func.max(TrialStatusChange.id).label("last_id"))
+        .group_by(TrialStatusChange.trial_id)
+        .subquery()
+    )
+    rows = session.execute(
+        select(TrialStatusChange.trial_id)
+        .join(latest, TrialStatusChange.id == latest.c.last_id)
+        .where(TrialStatusChange.status == TrialStatus.RUNNING)
+        .order_by(TrialStatusChange.trial_id)
+    )
+    return [trial_id for (trial_id,) in rows]
+
+
+def current_trial(session: Session, participant: Participant) -> Trial | None:
+    """The participant's newest trial (running or ended), for the trial page."""
+    return session.scalars(
+        select(Trial)
+        .where(Trial.participant_id == participant.id)
+        .order_by(Trial.id.desc())
+        .limit(1)
+    ).first()

@@ -1,0 +1,69 @@
+"""Every table of the platform; importing this package registers them all on `Base`."""
+
+from hcss.platform.models.append_only import APPEND_ONLY_TABLES, DeletionPermit
+from hcss.platform.models.base import Base, CreatedAt, UTCDateTime
+from hcss.platform.models.console import AuditRecord, ConsoleAction, Experimenter, LoginFailure
+from hcss.platform.models.idempotency import CommandKey
+from hcss.platform.models.observation import Observation
+from hcss.platform.models.outcome import DecisionRow, SimEvent
+from hcss.platform.models.participant import Participant, new_code, new_token
+from hcss.platform.models.presence import ParticipantPresence
+from hcss.platform.models.probe import Probe, ProbeEvent
+from hcss.platform.models.recruitment import Recruitment
+from hcss.platform.models.requests import (
+    COMMAND_KINDS,
+    Command,
+    CommandOutcome,
+    RequestStatusChange,
+)
+from hcss.platform.models.study import (
+    ConsentRecord,
+    QuestionnaireItem,
+    Score,
+    StageEvent,
+    StudyEnrolment,
+)
+from hcss.platform.models.trial import (
+    Interruption,
+    Snapshot,
+    Trial,
+    TrialProblem,
+    TrialStatusChange,
+)
+
+__all__ = [
+    "APPEND_ONLY_TABLES",
+    "DeletionPermit",
+    "COMMAND_KINDS",
+    "AuditRecord",
+    "ConsoleAction",
+    "Experimenter",
+    "Base",
+    "Command",
+    "ConsentRecord",
+    "CommandOutcome",
+    "CommandKey",
+    "CreatedAt",
+    "DecisionRow",
+    "Interruption",
+    "LoginFailure",
+    "Observation",
+    "Participant",
+    "ParticipantPresence",
+    "Probe",
+    "ProbeEvent",
+    "QuestionnaireItem",
+    "Recruitment",
+    "RequestStatusChange",
+    "Score",
+    "SimEvent",
+    "Snapshot",
+    "StageEvent",
+    "StudyEnrolment",
+    "Trial",
+    "TrialProblem",
+    "TrialStatusChange",
+    "UTCDateTime",
+    "new_code",
+    "new_token",
+]

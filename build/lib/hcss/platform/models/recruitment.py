@@ -1,0 +1,31 @@
+"""How an online participant arrived: the recruitment site's ids, kept for payment and export.
+
+One row per participant enrolled through a study link, written in the same
+transaction as the participant and their enrolment. The unique constraint on
+(study, source, recruitment_id) is what makes a returning person resume
+instead of enrolling twice, even when two of their visits race each other.
+Anonymous visits have no recruitment id (NULLs never collide).
+"""
+
+from __future__ import annotations
+
+from sqlalchemy import ForeignKey, String, UniqueConstraint
+from sqlalchemy.orm import Mapped, mapped_column
+
+from hcss.platform.models.base import Base, CreatedAt
+
+
+class Recruitment(CreatedAt, Base):
+    __tablename__ = "recruitment"
+    __table_args__ = (
+        UniqueConstraint("study", "source", "recruitment_id", name="uq_recruitment_identity"),
+    )
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    participant_id: Mapped[int] = mapped_column(ForeignKey("participant.id"), unique=True)
+    study: Mapped[str] = mapped_column(String(64))  # the study file the link enrols in
+    source: Mapped[str] = mapped_column(String(16))  # prolific, sona, mturk or link
+    recruitment_id: Mapped[str | None] = mapped_column(String(128))  # e.g. PROLIFIC_PID
+    # The site's own study and session (Prolific STUDY_ID, SESSION_ID; MTurk hitId, assignmentId).
+    recruiter_study_id: Mapped[str | None] = mapped_column(String(128))
+    recruiter_session_id: Mapped[str | None] = mapped_column(String(128))

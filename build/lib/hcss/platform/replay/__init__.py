@@ -1,0 +1,1 @@
+"""Replay of a recorded trial in the Collective Interface, for the experimenter's console."""

@@ -1,0 +1,159 @@
+"""A recorded trial rebuilt step by step, for watching it again.
+
+The rebuild is the simulation's own deterministic replay
+(`hcss.simulation.replay.replay`) from the trial's scenario, model, parameters
+and command log; nothing is read from snapshots except, for comparison, the
+digest the live trial recorded at its end. Each step's participant view is
+kept as JSON, so a page that seeks back gets the same frames without
+recomputing. A few rebuilt trials are kept in memory (least recently used
+first out); a 20-minute trial is 1,200 steps of about 4 kB each.
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+from collections import OrderedDict
+from dataclasses import dataclass, field
+
+from sqlalchemy import select
+from sqlalchemy.orm import Session
+
+from hcss.platform.live.queries import newest_snapshot
+from hcss.platform.live.trials import latest_status
+from hcss.platform.models import Command, Trial, TrialStatusChange
+from hcss.platform.models.vocabularies import TrialStatus
+from hcss.simulation import Params, Scenario, Simulation
+from hcss.simulation.replay import TimedCommand, replay
+
+MAX_CHUNK = 300  # steps per frames request
+CACHED_TRIALS = 4
+
+
+@dataclass
+class Recording:
+    """How far the recording of a trial goes: its end, or its newest snapshot while live."""
+
+    horizon: int  # the last step there is a frame for
+    ended: bool
+    recorded_digest: str | None  # the live simulation's state digest at `horizon`
+    # Commands the replay may apply: all of them (None) for an ended trial; for a
+    # live one, those already in its newest snapshot (ids up to this one).
+    last_command_id: int | None
+
+
+@dataclass
+class ReplayRun:
+    """One trial being rebuilt: the simulation so far and every step's view."""
+
+    trial_id: int
+    scenario: Scenario
+    model: str
+    params: Params | None
+    sim: Simulation | None = None
+    frames: list[str] = field(default_factory=list)  # frames[k]: the view at step k
+    lock: threading.Lock = field(default_factory=threading.Lock)
+
+    def extend(self, commands: list[TimedCommand], until_step: int) -> None:
+        """Frames up to `until_step`; commands at a step are applied before it is drawn."""
+        while len(self.frames) <= until_step:
+            step = len(self.frames)
+            self.sim = replay(
+                self.scenario, self.model, commands, step, params=self.params, start=self.sim
+            )
+            # A simulation that has finished stays as it is; its view is repeated.
+            self.frames.append(json.dumps(self.sim.view(), separators=(",", ":")))
+
+
+def command_log(session: Session, trial_id: int, last_id: int | None) -> list[TimedCommand]:
+    """The trial's commands in the order they were applied, with their steps."""
+    query = select(Command).where(Command.trial_id == trial_id).order_by(Command.id)
+    if last_id is not None:
+        query = query.where(Command.id <= last_id)
+    return [(c.step_applied, c.operator_command()) for c in session.scalars(query)]
+
+
+def recording_of(session: Session, trial: Trial) -> Recording:
+    """An ended trial is replayed to its end; a live one to its newest snapshot.
+
+    A live trial's later commands all come at or after its newest snapshot's
+    step, so frames up to that step can never be changed by one still to come;
+    a command applied at that very step after the snapshot is left for the
+    next step, as the live simulation applied it.
+    """
+    snapshot = newest_snapshot(session, trial.id)
+    digest = None if snapshot is None else Simulation.restore(snapshot.blob).state_digest()
+    if latest_status(session, trial.id) == TrialStatus.ENDED:
+        end = session.scalars(
+            select(TrialStatusChange)
+            .where(
+                TrialStatusChange.trial_id == trial.id,
+                TrialStatusChange.status == TrialStatus.ENDED,
+            )
+            .order_by(TrialStatusChange.id.desc())
+            .limit(1)
+        ).one()
+        if snapshot is None or snapshot.step != end.step:
+            digest = None  # no snapshot was written at the end
+        return Recording(end.step, ended=True, recorded_digest=digest, last_command_id=None)
+    if snapshot is None:
+        return Recording(0, ended=False, recorded_digest=None, last_command_id=0)
+    return Recording(
+        snapshot.step,
+        ended=False,
+        recorded_digest=digest,
+        last_command_id=snapshot.last_command_id or 0,
+    )
+
+
+class ReplayCache:
+    """Rebuilt trials of this server process, shared by every replay page."""
+
+    def __init__(self, size: int = CACHED_TRIALS) -> None:
+        self.size = size
+        self._runs: OrderedDict[int, ReplayRun] = OrderedDict()
+        self._lock = threading.Lock()
+
+    def run_for(self, trial: Trial) -> ReplayRun:
+        with self._lock:
+            run = self._runs.pop(trial.id, None)
+            if run is None:
+                run = ReplayRun(
+                    trial_id=trial.id,
+                    scenario=Scenario.from_dict(trial.scenario),
+                    model=trial.model,
+                    params=Params.from_dict(trial.params) if trial.params else None,
+                )
+            self._runs[trial.id] = run
+            while len(self._runs) > self.size:
+                self._runs.popitem(last=False)
+            return run
+
+    def chunk(self, session: Session, trial: Trial, start: int, count: int) -> str:
+        """Frames `start` .. `start + count - 1` of the recording, as a JSON object.
+
+        When the chunk reaches the recording's last step it carries the
+        rebuilt state's digest there and the one the live trial recorded, so
+        the page can show that the replay is the trial it claims to be.
+        """
+        recording = recording_of(session, trial)
+        last = min(recording.horizon, start + max(1, min(count, MAX_CHUNK)) - 1)
+        run = self.run_for(trial)
+        replayed_digest = None
+        with run.lock:
+            frames: list[str] = []
+            if start <= recording.horizon:
+                run.extend(command_log(session, trial.id, recording.last_command_id), last)
+                frames = run.frames[start : last + 1]
+                if last == recording.horizon and run.sim is not None:
+                    replayed_digest = run.sim.state_digest()
+        head = {
+            "start": start,
+            "horizon": recording.horizon,
+            "ended": recording.ended,
+            "replayed_digest": replayed_digest,
+            "recorded_digest": recording.recorded_digest if replayed_digest else None,
+        }
+        return (
+            json.dumps(head, separators=(",", ":"))[:-1] + ',"frames":[' + ",".join(frames) + "]}"
+        )

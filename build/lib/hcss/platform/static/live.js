@@ -1,0 +1,542 @@
+// The Collective Interface: draws each streamed frame and sends the
+// participant's clicks, requests and probe answers. No framework, no build.
+(function () {
+  "use strict";
+  const SVG = "http://www.w3.org/2000/svg";
+  const ROMAN = ["I", "II", "III", "IV", "V", "VI"];
+  const HUB = 96, TARGET = 56;
+  const root = document.getElementById("interface");
+  // The console's replay page (status "replay") feeds recorded frames to onFrame; nothing is sent.
+  const replaying = root.dataset.status === "replay";
+  const apiUrl = root.dataset.apiUrl;
+  const csrf = document.querySelector('meta[name="csrf-token"]').content;
+  const $ = (id) => document.getElementById(id);
+  const state = {
+    view: null, probe: null, selectedHub: null, selectedTarget: null,
+    selectedAssignment: null, selections: { collective: null, target: null },
+    flag: null, ended: false, paused: false, committing: false, seenMessages: new Set(),
+  };
+
+  function el(name, attrs, parent) {
+    const node = document.createElementNS(SVG, name);
+    for (const [k, v] of Object.entries(attrs || {})) node.setAttribute(k, v);
+    if (parent) parent.appendChild(node);
+    return node;
+  }
+  function clock(seconds) {
+    const s = Math.max(0, Math.floor(seconds));
+    return Math.floor(s / 60) + ":" + String(s % 60).padStart(2, "0");
+  }
+  // Every command carries a fresh Idempotency-Key: the server carries out a
+  // key once and answers a repeat (a double click, a retry) with the first
+  // outcome. getRandomValues works on plain http too, unlike randomUUID.
+  function newKey() {
+    const bytes = crypto.getRandomValues(new Uint8Array(16));
+    return Array.from(bytes, (b) => b.toString(16).padStart(2, "0")).join("");
+  }
+  async function post(path, body) {
+    if (replaying) throw new Error("This is a replay: nothing is sent.");
+    const key = newKey();
+    let response;
+    for (let attempt = 0; ; attempt++) {
+      try {
+        response = await fetch(apiUrl + path, {
+          method: "POST", credentials: "same-origin",
+          headers: { "Content-Type": "application/json", "X-CSRFToken": csrf, "Idempotency-Key": key },
+          body: JSON.stringify(body || {}),
+        });
+        break;
+      } catch (e) {  // the connection dropped: the same key again is safe
+        if (attempt >= 2) throw new Error("No connection to the server; please try again.");
+        await new Promise((resolve) => setTimeout(resolve, 300 * (attempt + 1)));
+      }
+    }
+    let payload = {};
+    try { payload = await response.json(); } catch (e) { /* empty body */ }
+    if (!response.ok) throw new Error(payload.message || response.statusText);
+    return payload;
+  }
+  // A button that sends a command is disabled until its answer is in.
+  async function inFlight(buttons, action) {
+    if (buttons.some((b) => b.disabled)) return;
+    buttons.forEach((b) => { b.disabled = true; });
+    try { await action(); } catch (e) { note(e.message); }
+    finally { buttons.forEach((b) => { b.disabled = false; }); }
+  }
+  function note(text) { $("request-note").textContent = text || ""; }
+
+  // ---- map ---------------------------------------------------------------
+  // Glyphs are created once per collective or target and updated in place:
+  // replacing them at every frame would lose a click whose mousedown and
+  // mouseup land on two different copies.
+  const glyphs = { target: new Map(), collective: new Map(), move: new Map() };
+
+  function syncLayer(kind, items, key, create, update, layer) {
+    const seen = new Set();
+    for (const item of items) {
+      const id = key(item);
+      seen.add(id);
+      let glyph = glyphs[kind].get(id);
+      if (!glyph) { glyph = create(item, layer); glyphs[kind].set(id, glyph); }
+      update(glyph, item);
+    }
+    for (const [id, glyph] of glyphs[kind]) {
+      if (!seen.has(id)) { glyph.root.remove(); glyphs[kind].delete(id); }
+    }
+  }
+
+  function drawMap(view) {
+    const hub = state.selectedHub === null ? null : view.collectives[state.selectedHub];
+    const ranges = $("layer-ranges");
+    ranges.replaceChildren();
+    if (hub) el("circle", { cx: hub.hub[0], cy: -hub.hub[1], r: hub.range_m, class: "range" }, ranges);
+    syncLayer("target", view.targets, (t) => t.id, createTarget, (g, t) => updateTarget(g, t, hub), $("layer-targets"));
+    syncLayer("collective", view.collectives, (c) => c.index, createCollective, updateCollective, $("layer-collectives"));
+    syncLayer("move", view.collectives.filter((c) => c.move), (c) => c.index, createMove, (g, c) => updateMove(g, c, view), $("layer-moves"));
+    drawFlag();
+  }
+
+  // Hubs and targets are buttons for the keyboard too: Tab reaches them, Enter or
+  // Space is a left click, and "i", the context-menu key or Shift+F10 a right click.
+  function makeKeyboardButton(node, label, onClick) {
+    node.setAttribute("tabindex", "0");
+    node.setAttribute("role", "button");
+    node.setAttribute("aria-label", label);
+    node.addEventListener("keydown", (e) => {
+      if (e.key === "Enter" || e.key === " ") { e.preventDefault(); onClick("left"); }
+      else if (e.key === "i" || e.key === "ContextMenu" || (e.key === "F10" && e.shiftKey)) {
+        e.preventDefault(); onClick("right");
+      }
+    });
+  }
+
+  function createTarget(t, layer) {
+    const h = TARGET / 2;
+    const root = el("g", { "data-target": t.id }, layer);
+    const glyph = {
+      root,
+      hit: el("rect", { x: -h, y: -h, width: TARGET, height: TARGET, fill: "transparent" }, root),
+      green: el("rect", { x: -h, y: -h, width: TARGET, height: h, class: "target-green" }, root),
+      blue: el("rect", { x: -h, y: 0, width: TARGET, height: h, class: "target-blue" }, root),
+      frame: el("rect", { x: -h, y: -h, width: TARGET, height: TARGET, class: "target-frame" }, root),
+      mark: el("rect", { x: -h - 9, y: -h - 9, width: TARGET + 18, height: TARGET + 18, class: "range-mark" }, root),
+    };
+    el("text", { x: h + 18, y: -h + 4, class: "target-id" }, root).textContent = t.id;
+    root.addEventListener("click", () => clickTarget(t.id, "left"));
+    root.addEventListener("contextmenu", (e) => { e.preventDefault(); clickTarget(t.id, "right"); });
+    makeKeyboardButton(root, `Target ${t.id}`, (button) => clickTarget(t.id, button));
+    return glyph;
+  }
+
+  function updateTarget(glyph, t, hub) {
+    const classes = ["target"];
+    if (!t.drawn) classes.push("undrawn");
+    if (t.outline_executing) classes.push("executing");
+    else if (t.outline_support) classes.push("support");
+    if (state.selectedTarget === t.id) classes.push("selected");
+    glyph.root.setAttribute("class", classes.join(" "));
+    glyph.root.setAttribute("transform", `translate(${t.position[0]},${-t.position[1]})`);
+    const label = `Target ${t.id}` + (t.drawn ? `, highest support ${Math.round(t.max_support * 100)}%` : ", not yet reported")
+      + (state.selectedTarget === t.id ? ", selected" : "");
+    if (glyph.root.getAttribute("aria-label") !== label) glyph.root.setAttribute("aria-label", label);
+    // Transparent until two agents have reported it.
+    glyph.green.setAttribute("fill-opacity", t.drawn ? (t.value ?? 0) : 0);
+    glyph.blue.setAttribute("fill-opacity", t.drawn ? t.max_support : 0);
+    const inRange = hub && t.in_range_of.includes(hub.index);
+    glyph.mark.style.display = inRange ? "" : "none";
+    if (inRange) {
+      const supported = t.support[hub.index] > 0;
+      glyph.mark.setAttribute("class", "range-mark " + (supported ? "supported" : "unsupported"));
+    }
+  }
+
+  function createCollective(c, layer) {
+    const h = HUB / 2, q = HUB / 2;
+    const root = el("g", { "data-collective": c.index }, layer);
+    el("text", { x: 0, y: -h - 10, class: "hub-name" }, root).textContent = ROMAN[c.index];
+    el("rect", { x: -h, y: -h, width: HUB, height: HUB, class: "hub-box" }, root);
+    const quads = {};
+    for (const [name, qx, qy] of [["U", -h, -h], ["F", 0, -h], ["C", -h, 0], ["X", 0, 0]]) {
+      quads[name] = el("rect", { x: qx, y: qy, width: q, height: q, class: "quad" }, root);
+      el("text", { x: qx + q / 2, y: qy + q / 2, class: "quad-label" }, root).textContent = name;
+    }
+    root.addEventListener("click", () => clickHub(c.index, "left"));
+    root.addEventListener("contextmenu", (e) => { e.preventDefault(); clickHub(c.index, "right"); });
+    makeKeyboardButton(root, `Collective ${ROMAN[c.index]} hub`, (button) => clickHub(c.index, button));
+    return { root, quads };
+  }
+
+  function updateCollective(glyph, c) {
+    glyph.root.setAttribute("class", "collective" + (state.selectedHub === c.index ? " selected" : ""));
+    glyph.root.setAttribute("aria-pressed", state.selectedHub === c.index ? "true" : "false");
+    glyph.root.setAttribute("transform", `translate(${c.hub[0]},${-c.hub[1]})`);
+    for (const name of ["U", "F", "C", "X"]) glyph.quads[name].setAttribute("fill-opacity", c.fractions[name]);
+  }
+
+  function createMove(c, layer) {
+    const root = el("g", { class: "moving" }, layer);
+    const line = el("line", { class: "move-line" }, root);
+    const box = el("g", {}, root);
+    el("rect", { x: -30, y: -30, width: 60, height: 60, class: "move-box" }, box);
+    el("text", { x: 0, y: 0, class: "quad-label" }, box).textContent = ROMAN[c.index];
+    return { root, line, box };
+  }
+
+  function updateMove(glyph, c, view) {
+    const target = view.targets.find((t) => t.id === c.move.target);
+    const goal = target ? target.position : c.move.position;
+    for (const [k, v] of Object.entries({ x1: c.hub[0], y1: -c.hub[1], x2: goal[0], y2: -goal[1] })) glyph.line.setAttribute(k, v);
+    glyph.box.setAttribute("transform", `translate(${c.move.position[0]},${-c.move.position[1]})`);
+  }
+
+  function drawFlag() {
+    const layer = $("layer-flags");
+    const view = state.view;
+    if (!state.flag || !view) { layer.replaceChildren(); state.flagKey = null; return; }
+    let anchor, lines;
+    if (state.flag.kind === "target") {
+      const t = view.targets.find((x) => x.id === state.flag.id);
+      if (!t) { state.flag = null; layer.replaceChildren(); state.flagKey = null; return; }
+      anchor = t.position;
+      lines = [`Target ${t.id}: support`].concat(
+        t.support.map((s, i) => `${ROMAN[i]}: ${Math.round(s * 100)}%`));
+    } else {
+      const c = view.collectives[state.flag.id];
+      anchor = c.hub;
+      lines = [`Collective ${ROMAN[c.index]}`].concat(
+        ["U", "F", "C", "X"].map((k) => `${k}: ${c.counts[k]}`));
+    }
+    const key = JSON.stringify([anchor, lines]);
+    if (key === state.flagKey) return;
+    state.flagKey = key;
+    layer.replaceChildren();
+    // The box lets every click through to the map (pointer-events: none in live.css);
+    // only its close control takes clicks. Escape closes it too.
+    const g = el("g", { class: "flag", transform: `translate(${anchor[0] + 50},${-anchor[1] - 40})` }, layer);
+    el("rect", { x: 0, y: 0, width: 230, height: 26 * lines.length + 12, rx: 6 }, g);
+    lines.forEach((line, i) => { el("text", { x: 12, y: 28 + 26 * i }, g).textContent = line; });
+    const close = el("g", { class: "flag-close", transform: "translate(200,4)" }, g);
+    el("rect", { x: 0, y: 0, width: 26, height: 26, rx: 4 }, close);
+    el("text", { x: 13, y: 19 }, close).textContent = "×";
+    makeKeyboardButton(close, "Close the info box", () => closeFlag());
+    close.addEventListener("click", (e) => { e.stopPropagation(); closeFlag(); });
+    $("sr-status").textContent = lines.join(", ");
+  }
+  function closeFlag() {
+    state.flag = null;
+    drawFlag();
+    $("sr-status").textContent = "Info box closed";
+  }
+
+  // ---- clicks: selection and observation actions --------------------------
+  async function observe(body) {
+    try { return (await post("/observations", body)).observation_id; }
+    catch (e) { note(e.message); return null; }
+  }
+  async function clickHub(index, button) {
+    if (state.ended) return;
+    if (button === "left") {
+      state.selectedHub = index;
+      $("request-collective").value = String(index);
+    } else {
+      state.flag = { kind: "collective", id: index };
+    }
+    if (state.view) drawMap(state.view);
+    const id = await observe({ kind: "collective", collective: index, button });
+    if (button === "left") state.selections.collective = { id, value: String(index) };
+  }
+  async function clickTarget(targetId, button) {
+    if (state.ended) return;
+    if (button === "left") {
+      state.selectedTarget = targetId;
+      refreshTargetOptions();
+      $("request-target").value = String(targetId);
+    } else {
+      state.flag = { kind: "target", id: targetId };
+    }
+    if (state.view) drawMap(state.view);
+    const id = await observe({ kind: "target", target: targetId, button });
+    if (button === "left") state.selections.target = { id, value: String(targetId) };
+  }
+
+  // ---- Collective Requests -------------------------------------------------
+  function refreshCollectiveOptions(view) {
+    const select = $("request-collective");
+    if (select.options.length - 1 === view.collectives.length) return;
+    select.replaceChildren(new Option("–", ""));
+    for (const c of view.collectives) select.add(new Option(ROMAN[c.index], String(c.index)));
+  }
+  function refreshTargetOptions() {
+    const select = $("request-target"), keep = select.value;
+    const ids = (state.view ? state.view.targets : []).map((t) => t.id).sort((a, b) => a - b);
+    const current = Array.from(select.options).slice(1).map((o) => Number(o.value));
+    if (JSON.stringify(current) !== JSON.stringify(ids)) {
+      select.replaceChildren(new Option("–", ""));
+      for (const id of ids) select.add(new Option(String(id), String(id)));
+      select.value = ids.includes(Number(keep)) ? keep : "";
+    }
+  }
+  function resetForm() {
+    $("request-form").reset();
+    state.selectedHub = null; state.selectedTarget = null;
+    state.selections = { collective: null, target: null };
+    note("");
+    if (state.view) drawMap(state.view);
+  }
+  async function commit(event) {
+    event.preventDefault();
+    if (state.committing) return;
+    const kind = $("request-kind").value, collective = $("request-collective").value;
+    const target = $("request-target").value;
+    if (!kind || collective === "" || target === "") { note("Choose a type, a collective and a target."); return; }
+    // Clicks that filled the form are part of this request, not observations.
+    const selections = [];
+    for (const [slot, value] of [["collective", collective], ["target", target]]) {
+      const s = state.selections[slot];
+      if (s && s.id !== null && s.value === value) selections.push(s.id);
+    }
+    // One request per press: the button stays disabled until the answer is in.
+    state.committing = true;
+    $("commit").disabled = true;
+    note("Sending…");
+    try {
+      const outcome = await post("/requests", { kind, collective: Number(collective), target: Number(target), selections });
+      if (outcome.accepted) resetForm();
+      note(outcome.accepted ? `Request ${outcome.request_id} accepted.` : `Refused: ${outcome.reason}`);
+    } catch (e) { note(e.message); }
+    finally {
+      state.committing = false;
+      $("commit").disabled = state.ended || state.paused;
+    }
+  }
+
+  // ---- Collective Assignments ------------------------------------------------
+  function drawAssignments(view) {
+    const list = $("assignments");
+    if (!view.requests.some((r) => r.id === state.selectedAssignment)) state.selectedAssignment = null;
+    // Rebuild only on change, so a click on a row is never lost to a redraw.
+    const key = JSON.stringify([view.requests, state.selectedAssignment]);
+    if (key === state.assignmentsKey) return;
+    state.assignmentsKey = key;
+    const active = document.activeElement;
+    const focused = active && active.parentElement === list ? active.dataset.request : null;
+    list.replaceChildren();
+    for (const r of view.requests) {
+      const li = document.createElement("li");
+      li.dataset.request = r.id; li.dataset.kind = r.kind;
+      if (r.id === state.selectedAssignment) li.classList.add("selected");
+      const dot = document.createElement("span");
+      dot.className = "dot " + r.status; dot.title = r.status.replace("_", " ");
+      const label = document.createElement("span");
+      label.textContent = `${r.kind} · ${ROMAN[r.collective]} → target ${r.target}`;
+      li.append(dot, label);
+      li.tabIndex = 0;
+      li.setAttribute("role", "button");
+      li.setAttribute("aria-pressed", r.id === state.selectedAssignment ? "true" : "false");
+      li.setAttribute("aria-label", `${r.kind}, collective ${ROMAN[r.collective]}, target ${r.target}, ${r.status.replace("_", " ")}`);
+      const select = () => { state.selectedAssignment = r.id; drawAssignments(state.view || view); };
+      li.addEventListener("click", select);
+      li.addEventListener("keydown", (e) => { if (e.key === "Enter" || e.key === " ") { e.preventDefault(); select(); } });
+      list.appendChild(li);
+    }
+    // A rebuild must not throw the keyboard user's focus away.
+    if (focused !== null) {
+      const again = list.querySelector(`li[data-request="${focused}"]`);
+      if (again) again.focus();
+    }
+    const selected = view.requests.find((r) => r.id === state.selectedAssignment);
+    $("cancel-assignment").disabled = !(selected && selected.kind === "abandon");
+  }
+  function cancelAssignment() {
+    if (state.selectedAssignment === null) return;
+    const request_id = state.selectedAssignment;
+    return inFlight([$("cancel-assignment")], async () => {
+      const outcome = await post("/requests", { kind: "cancel", request_id });
+      note(outcome.accepted ? "Assignment cancelled." : `Refused: ${outcome.reason}`);
+    });
+  }
+
+  // ---- System Messages -----------------------------------------------------
+  function addMessages(messages) {
+    const list = $("messages");
+    for (const m of messages) {
+      if (state.seenMessages.has(m.seq)) continue;
+      state.seenMessages.add(m.seq);
+      const li = document.createElement("li");
+      li.className = m.kind;
+      const time = document.createElement("time");
+      time.textContent = clock(m.time);
+      li.append(time, document.createTextNode(m.text));
+      list.prepend(li);
+    }
+  }
+
+  // ---- SA probes --------------------------------------------------------------
+  function drawProbe(probe, clockS) {
+    const box = $("probe");
+    // The countdown moves with every frame; the rest only when the probe changes.
+    if (probe) $("probe-countdown").textContent = clock(probe.timeout_s - clockS);
+    const key = probe ? probe.id + ":" + probe.phase : null;
+    if (key === state.probeKey) return;
+    state.probeKey = key;
+    box.hidden = !probe;
+    if (!probe) return;
+    box.dataset.probe = probe.id;
+    box.querySelector(".probe-ready").hidden = probe.phase !== "ready";
+    box.querySelector(".probe-question").hidden = probe.phase !== "question";
+    if (probe.phase === "question") {
+      $("probe-text").textContent = probe.question;
+      const choices = $("probe-choices");
+      choices.replaceChildren();
+      for (const choice of probe.choices) {
+        const button = document.createElement("button");
+        button.type = "button"; button.textContent = choice; button.dataset.answer = choice;
+        button.addEventListener("click", () => answerProbe(probe.id, choice));
+        choices.appendChild(button);
+      }
+      const first = choices.querySelector("button");
+      if (first) first.focus();
+    } else {
+      $("probe-ready").focus();  // a question is waiting: Enter or Space answers "Ready"
+    }
+  }
+  function readyProbe() {
+    const id = Number($("probe").dataset.probe);
+    return inFlight([$("probe-ready")], () => post(`/probes/${id}/ready`));
+  }
+  function answerProbe(id, answer) {
+    const buttons = Array.from($("probe-choices").querySelectorAll("button"));
+    return inFlight(buttons, async () => { await post(`/probes/${id}/answer`, { answer }); $("probe").hidden = true; });
+  }
+
+  // ---- the stream ---------------------------------------------------------------
+  function showPause(paused) {
+    if (paused === state.paused) return;
+    state.paused = paused;
+    $("paused").hidden = !paused;
+    $("clock-box").classList.toggle("paused", paused);
+    $("clock-state").textContent = paused ? "paused" : "";
+    $("commit").disabled = paused || state.ended || state.committing;
+  }
+  function onFrame(frame) {
+    $("clock").textContent = clock(frame.trial.clock_s);
+    showPause(frame.trial.status === "paused");
+    if (frame.messages) addMessages(frame.messages);
+    if (frame.view) {
+      state.view = frame.view;
+      refreshCollectiveOptions(frame.view);
+      refreshTargetOptions();
+      drawMap(frame.view);
+      drawAssignments(frame.view);
+    }
+    drawProbe(frame.probe || null, frame.trial.clock_s);
+    if (frame.trial.status === "ended") endTrial();
+  }
+  function endTrial() {
+    state.ended = true;
+    if (stream) stream.close();
+    $("probe").hidden = true;
+    $("ended").hidden = false;
+    $("commit").disabled = true;
+    $("connection").textContent = "trial over";
+    const next = root.dataset.continueUrl;
+    if (next) { $("continue").href = next; $("continue").hidden = false; }
+  }
+
+  // Another tab or window opened the same trial: the server tells this one
+  // ("takeover" event) and ends its stream; it must not reconnect and run twice.
+  function takenOver() {
+    state.ended = true;
+    if (stream) stream.close();
+    $("probe").hidden = true;
+    $("paused").hidden = true;
+    $("taken-over").hidden = false;
+    $("commit").disabled = true;
+    $("connection").textContent = "opened elsewhere";
+    $("connection").className = "connection";
+  }
+
+  let stream = null;
+  let lastEventId = "";  // the newest System Message shown; a new stream resumes after it
+  function streamUrl() {
+    const url = new URL(root.dataset.streamUrl, window.location.href);
+    if (lastEventId) url.searchParams.set("after", lastEventId);
+    return url.toString();
+  }
+  function connect() {
+    stream = new EventSource(streamUrl());
+    stream.onopen = () => { $("connection").textContent = "live"; $("connection").className = "connection ok"; };
+    stream.onerror = () => {
+      if (state.ended) return;
+      $("connection").textContent = "reconnecting…";
+      $("connection").className = "connection";
+      if (stream.readyState === EventSource.CLOSED) retryLater(stream);
+    };
+    stream.onmessage = (event) => {
+      if (event.lastEventId) lastEventId = event.lastEventId;
+      onFrame(JSON.parse(event.data));
+    };
+    stream.addEventListener("takeover", takenOver);
+  }
+  // EventSource retries by itself only when the connection drops. An answer
+  // other than 200 (a 503 when the server holds as many streams as it can)
+  // closes it for good, and it cannot read the answer's headers. So ask again
+  // with HEAD, which the server answers like the stream without opening one,
+  // wait as long as its Retry-After says (plus up to half again, so refused
+  // pages do not all come back at once), and open a new stream.
+  const RETRY_DEFAULT_S = 5, RETRY_MAX_S = 60;
+  function retryAfterS(response) {
+    const seconds = Number(response.headers.get("Retry-After"));
+    return Number.isFinite(seconds) && seconds > 0 ? Math.min(seconds, RETRY_MAX_S) : RETRY_DEFAULT_S;
+  }
+  async function retryLater(closed) {
+    let waitS = RETRY_DEFAULT_S;
+    try {
+      const response = await fetch(streamUrl(), { method: "HEAD", cache: "no-store", credentials: "same-origin" });
+      if (response.ok) waitS = 0;
+      else if (response.status === 503 || response.status === 429) waitS = retryAfterS(response);
+      else if (response.status < 500) {  // the link or the trial is gone: a reload says why
+        $("connection").textContent = "disconnected: reload the page";
+        return;
+      }
+    } catch (error) { /* the server is away: try again after the default wait */ }
+    const delayMs = waitS * 1000 * (1 + (waitS ? Math.random() / 2 : 0));
+    setTimeout(() => { if (!state.ended && stream === closed) connect(); }, delayMs);
+  }
+
+  document.addEventListener("keydown", (e) => {
+    if (e.key === "Escape" && state.flag) { e.preventDefault(); closeFlag(); }
+  });
+  const fullscreen = $("fullscreen");
+  if (document.fullscreenEnabled) {
+    fullscreen.hidden = false;
+    fullscreen.addEventListener("click", () => {
+      if (document.fullscreenElement) document.exitFullscreen();
+      else document.documentElement.requestFullscreen().catch(() => note("Full screen is not available here."));
+    });
+    document.addEventListener("fullscreenchange", () => {
+      fullscreen.textContent = document.fullscreenElement ? "Leave full screen" : "Full screen";
+    });
+  }
+
+  $("request-form").addEventListener("submit", commit);
+  $("request-reset").addEventListener("click", resetForm);
+  $("cancel-assignment").addEventListener("click", cancelAssignment);
+  $("probe-ready").addEventListener("click", readyProbe);
+  $("map").addEventListener("contextmenu", (e) => e.preventDefault());
+  $("request-collective").addEventListener("change", (e) => {
+    state.selectedHub = e.target.value === "" ? null : Number(e.target.value);
+    if (state.view) drawMap(state.view);
+  });
+  $("request-target").addEventListener("change", (e) => {
+    state.selectedTarget = e.target.value === "" ? null : Number(e.target.value);
+    if (state.view) drawMap(state.view);
+  });
+  if (replaying) {
+    const clearMessages = () => { $("messages").replaceChildren(); state.seenMessages.clear(); };
+    window.hcssInterface = { onFrame, clearMessages };
+  } else {
+    if (root.dataset.status === "ended") endTrial();
+    connect();
+  }
+})();

@@ -1,0 +1,22 @@
+"""The participant's study flow: stages in the style of oTree's page sequence.
+
+A study file (`<name>.toml`: `files` finds it, `studyfile` checks it) lists the stages; the stage
+classes (`stages`, `mrt_stage`, `trial_stage`) declare their forms, templates,
+time limits and hooks; `flow.Flow` answers "which stage now?" from the
+participant's append-only stage events; `enrolment.assign_cell` does the
+counterbalancing; `views` serves `/p/<token>`.
+"""
+
+from hcss.platform.study.enrolment import assign_cell, participant_status
+from hcss.platform.study.flow import Position, current_position
+from hcss.platform.study.studyfile import Study, StudyFileError, load_study
+
+__all__ = [
+    "Position",
+    "Study",
+    "StudyFileError",
+    "assign_cell",
+    "current_position",
+    "load_study",
+    "participant_status",
+]

@@ -1,0 +1,252 @@
+"""One participant's position in the study, read from their stage events.
+
+`Flow.locate()` is the single answer to "which stage now?": the first step of
+the participant's stage sequence that has neither a ``submitted`` nor a
+``timed_out`` event. Nothing else stores a position, so a refresh, a closed
+tab or a server restart cannot lose or change it. `Flow.settle()` first
+applies whatever happened while nobody was looking (a deadline passed, a
+trial ended) and records it, with the time it took effect.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from datetime import datetime, timedelta
+from typing import Any
+
+from sqlalchemy import select
+from sqlalchemy.orm import Session
+
+from hcss.platform.db import database, session_now
+from hcss.platform.models import (
+    ConsentRecord,
+    Participant,
+    QuestionnaireItem,
+    Score,
+    StageEvent,
+    StudyEnrolment,
+)
+from hcss.platform.study.stage import Slot
+from hcss.platform.study.studyfile import Study, load_study
+from hcss.questionnaires.definitions import ScoreRow, ordinal_labels
+
+
+def study_now() -> datetime:
+    """The study clock: the database's, which the live runner and every row stamp use too.
+
+    In a server that is the wall clock; tests and bots give the app a clock
+    they move themselves, which accelerates stage deadlines and trials alike.
+    """
+    return database().now()
+
+
+@dataclass(frozen=True)
+class Position:
+    slot: Slot | None  # None: the study is over for this participant
+    step: str = ""
+    status: str = "in_progress"  # "in_progress", "completed" or "declined"
+
+
+def sequence(study: Study, enrolment: StudyEnrolment) -> tuple[Slot, ...]:
+    """The participant's stages: the study's list with per-model stages in their order."""
+    from hcss.platform.study.stages import STAGES
+
+    names: list[tuple[str, str, str]] = [(name, "", "") for name in study.before]
+    models = enrolment.models()
+    for model, label in zip(models, ordinal_labels(len(models)), strict=True):
+        names += [(name, model, label) for name in study.per_model]
+    names += [(name, "", "") for name in study.after]
+    return tuple(
+        Slot(index, STAGES[name], model, label) for index, (name, model, label) in enumerate(names)
+    )
+
+
+class Flow:
+    """The study as it stands for one participant, within one unit of work."""
+
+    def __init__(
+        self, session: Session, participant: Participant, enrolment: StudyEnrolment, now: datetime
+    ) -> None:
+        self.session = session
+        self.participant = participant
+        self.enrolment = enrolment
+        self.study = load_study(enrolment.study)
+        self.now = now
+        self.slots = sequence(self.study, enrolment)
+        self.events: list[StageEvent] = []
+        # (stage index, step, kind) -> the first such event: `locate` asks for every
+        # step of every stage, and a scan of the list each time made a page load's
+        # work grow with the square of the participant's progress.
+        self._first_event: dict[tuple[int, str, str], StageEvent] = {}
+        for event in session.scalars(
+            select(StageEvent)
+            .where(StageEvent.participant_id == participant.id)
+            .order_by(StageEvent.id)
+        ):
+            self._remember(event)
+        self._consent: list[ConsentRecord | None] = []  # read on first use, kept up to date
+
+    def _remember(self, event: StageEvent) -> None:
+        self.events.append(event)
+        self._first_event.setdefault((event.stage_index, event.step, event.kind), event)
+
+    # --- reading ------------------------------------------------------------------
+
+    def event(self, index: int, step: str, kind: str) -> StageEvent | None:
+        return self._first_event.get((index, step, kind))
+
+    def finished(self, index: int, step: str) -> bool:
+        return any((index, step, kind) in self._first_event for kind in ("submitted", "timed_out"))
+
+    def consent(self) -> ConsentRecord | None:
+        """The newest consent record, read once per flow (`record_consent` adds one)."""
+        if not self._consent:
+            self._consent.append(
+                self.session.scalars(
+                    select(ConsentRecord)
+                    .where(ConsentRecord.participant_id == self.participant.id)
+                    .order_by(ConsentRecord.id.desc())
+                    .limit(1)
+                ).first()
+            )
+        return self._consent[0]
+
+    def locate(self) -> Position:
+        """Which stage and step now: the first step not yet submitted or timed out."""
+        consent = self.consent()
+        if consent is not None and consent.decision == "decline":
+            return Position(None, status="declined")
+        for slot in self.slots:
+            for step in slot.stage.steps(self, slot):
+                if not self.finished(slot.index, step):
+                    return Position(slot, step)
+        return Position(None, status="completed")
+
+    def answers(self, index: int, instrument: str) -> dict[str, str]:
+        """The answers given at one stage, item -> value (the newest row wins)."""
+        rows = self.session.scalars(
+            select(QuestionnaireItem)
+            .where(
+                QuestionnaireItem.participant_id == self.participant.id,
+                QuestionnaireItem.stage_index == index,
+                QuestionnaireItem.instrument == instrument,
+            )
+            .order_by(QuestionnaireItem.id)
+        )
+        return {row.item: row.value for row in rows}
+
+    def deadline_of(self, slot: Slot, step: str) -> datetime | None:
+        entered = self.event(slot.index, step, "entered")
+        return None if entered is None else entered.deadline
+
+    # --- writing ------------------------------------------------------------------
+
+    def record(
+        self,
+        slot: Slot,
+        step: str,
+        kind: str,
+        *,
+        at: datetime | None = None,
+        deadline: datetime | None = None,
+        detail: dict[str, Any] | None = None,
+    ) -> StageEvent:
+        event = StageEvent(
+            participant_id=self.participant.id,
+            stage_index=slot.index,
+            stage=slot.name,
+            step=step,
+            model=slot.model,
+            kind=kind,
+            at=at or self.now,
+            deadline=deadline,
+            detail=detail,
+        )
+        self.session.add(event)
+        self.session.flush()  # the unique constraint refuses a racing duplicate here
+        self._remember(event)
+        return event
+
+    def record_consent(self, version: str, decision: str) -> ConsentRecord:
+        record = ConsentRecord(
+            participant_id=self.participant.id, version=version, decision=decision, at=self.now
+        )
+        self.session.add(record)
+        self._consent[:] = [record]
+        return record
+
+    def enter(self, position: Position) -> StageEvent:
+        """Record that the current step is shown, once; later calls return the same event."""
+        slot, step = position.slot, position.step
+        assert slot is not None
+        entered = self.event(slot.index, step, "entered")
+        if entered is not None:
+            return entered
+        limit = slot.stage.timeout_s(self, slot, step)
+        deadline = None
+        if limit is not None:
+            deadline = self.now + timedelta(seconds=limit / self.enrolment.time_acceleration)
+        detail = slot.stage.on_enter(self, slot, step)
+        return self.record(slot, step, "entered", deadline=deadline, detail=detail)
+
+    def record_answers(
+        self, slot: Slot, instrument: str, answers: Mapping[str, object], model: str = ""
+    ) -> None:
+        for item, value in answers.items():
+            self.session.add(
+                QuestionnaireItem(
+                    participant_id=self.participant.id,
+                    stage_index=slot.index,
+                    instrument=instrument,
+                    model=model,
+                    item=item,
+                    value="" if value is None else str(value),
+                    at=self.now,
+                )
+            )
+        self.session.flush()
+
+    def record_scores(self, rows: tuple[ScoreRow, ...]) -> None:
+        for row in rows:
+            self.session.add(
+                Score(
+                    participant_id=self.participant.id,
+                    instrument=row.instrument,
+                    model=row.model,
+                    scale=row.scale,
+                    score=float(row.score),
+                )
+            )
+        self.session.flush()
+
+    def settle(self) -> Position:
+        """Record what ended while nobody was looking (deadlines, trials), then locate."""
+        for _ in range(len(self.slots) * 64):
+            position = self.locate()
+            if position.slot is None:
+                return position
+            entered = self.event(position.slot.index, position.step, "entered")
+            if entered is None:
+                return position
+            ended = position.slot.stage.poll(self, position.slot, position.step, entered)
+            if ended is None:
+                return position
+            kind, at = ended
+            self.record(position.slot, position.step, kind, at=at)
+        raise RuntimeError(f"participant {self.participant.code}: the study flow does not settle")
+
+
+def current_position(session: Session, participant: Participant) -> Position:
+    """Which stage now, for anyone who asks (the console, the export): read only.
+
+    It does not settle deadlines that passed unobserved; the participant's
+    next request records those. A participant not yet enrolled is before the
+    first stage.
+    """
+    from hcss.platform.study.enrolment import current_enrolment
+
+    enrolment = current_enrolment(session, participant.id)
+    if enrolment is None:
+        return Position(None, status="not_enrolled")
+    return Flow(session, participant, enrolment, session_now(session)).locate()

@@ -1,0 +1,146 @@
+"""Online recruitment: the study file's `[online]` table and the recruiter's URL parameters.
+
+A recruitment site (Prolific, SONA, MTurk) sends each person to one study
+link and appends its own ids to the URL. Those ids are the only thing that
+tells a returning person from a new one, so they are read here once, checked
+hard (they are typed by strangers and by misconfigured sites alike), and
+turned into one `Recruit` that the enrolment stores. Nothing here touches the
+database.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from urllib.parse import urlsplit
+
+from pydantic import ConfigDict, StrictBool, StrictStr, ValidationInfo, field_validator
+from pydantic.dataclasses import dataclass as pydantic_dataclass
+from werkzeug.datastructures import MultiDict
+
+#: Longest accepted recruitment parameter value (Prolific ids are 24 characters).
+MAX_VALUE_LENGTH = 128
+#: What a recruitment id may hold. Prolific ids are hex, SONA codes digits, MTurk
+#: ids upper-case letters and digits; anything else (NUL, controls, spaces, a
+#: mangled percent-escape that Werkzeug leaves as "%FF") is refused, not stored.
+ID_CHARACTERS = re.compile(r"[A-Za-z0-9._:@+\-]+")
+
+
+class RecruitmentError(ValueError):
+    """A study link the platform refuses; the message is shown to the visitor (a 4xx)."""
+
+
+@dataclass(frozen=True)
+class Source:
+    """One recruitment site: the parameter naming the person, and its two context ids."""
+
+    name: str
+    id_parameter: str
+    study_parameter: str | None = None
+    session_parameter: str | None = None
+
+    def parameters(self) -> tuple[str, ...]:
+        names = (self.id_parameter, self.study_parameter, self.session_parameter)
+        return tuple(name for name in names if name)
+
+
+#: The sites whose parameters are recognised, in the order they are looked for.
+SOURCES = (
+    # Prolific's study URL: ?PROLIFIC_PID={{%PROLIFIC_PID%}}&STUDY_ID=...&SESSION_ID=...
+    Source("prolific", "PROLIFIC_PID", "STUDY_ID", "SESSION_ID"),
+    # SONA's "study URL" with %SURVEY_CODE% appended as ?id=%SURVEY_CODE%.
+    Source("sona", "id"),
+    # MTurk external question: ?workerId=...&assignmentId=...&hitId=...
+    Source("mturk", "workerId", "hitId", "assignmentId"),
+)
+ANONYMOUS = "link"  # a visit that brought no recruitment id
+
+
+@dataclass(frozen=True)
+class Recruit:
+    """Who came through the study link: the site, its id of the person, and its context."""
+
+    source: str
+    recruitment_id: str | None
+    recruiter_study_id: str | None = None
+    recruiter_session_id: str | None = None
+
+
+@pydantic_dataclass(frozen=True, config=ConfigDict(extra="forbid"))
+class OnlineSettings:
+    """The study file's `[online]` table; without it the study has no public link.
+
+    Checked when built (a study file is read through it), because the code and
+    URL are shown to every participant who finishes.
+    """
+
+    link: StrictBool = False
+    anonymous: StrictBool = False
+    completion_code: StrictStr = ""
+    completion_url: StrictStr = ""
+    redirect: StrictBool = False
+
+    @field_validator("completion_code")
+    @classmethod
+    def _printable_code(cls, code: str) -> str:
+        if code and not (code.isascii() and code.isprintable() and len(code) <= 64):
+            raise ValueError("is up to 64 printable ASCII characters")
+        return code
+
+    @field_validator("completion_url")
+    @classmethod
+    def _web_address(cls, url: str) -> str:
+        if url and (urlsplit(url).scheme not in ("https", "http") or not urlsplit(url).netloc):
+            raise ValueError("must be an http(s) URL")
+        return url
+
+    @field_validator("redirect")
+    @classmethod
+    def _redirect_has_a_target(cls, redirect: bool, info: ValidationInfo) -> bool:
+        if redirect and not info.data.get("completion_url"):
+            raise ValueError("needs `online.completion_url`")
+        return redirect
+
+
+def _value(args: MultiDict[str, str], name: str) -> str | None:
+    """One recruitment parameter, or None when absent; RecruitmentError when unusable."""
+    values = args.getlist(name)
+    if not values:
+        return None
+    if len(values) > 1:
+        raise RecruitmentError(f"The link gives {name} more than once.")
+    value = values[0]
+    if not value:
+        raise RecruitmentError(f"The link's {name} is empty.")
+    if len(value) > MAX_VALUE_LENGTH:
+        raise RecruitmentError(f"The link's {name} is longer than {MAX_VALUE_LENGTH} characters.")
+    if "{{%" in value or (value.startswith("%") and value.endswith("%")):
+        # The recruitment site sent its placeholder instead of filling it in.
+        raise RecruitmentError(
+            f"The link's {name} was not filled in by the recruitment site ({value})."
+        )
+    if not ID_CHARACTERS.fullmatch(value):
+        raise RecruitmentError(f"The link's {name} holds characters an id cannot have.")
+    return value
+
+
+def recruit_from(args: MultiDict[str, str]) -> Recruit:
+    """The recruiter's ids in a study link's query string (other parameters are ignored).
+
+    Every recognised parameter is checked, even those of a site not used, so a
+    hostile or mangled value is refused rather than silently dropped.
+    """
+    found = {
+        source.name: {name: _value(args, name) for name in source.parameters()}
+        for source in SOURCES
+    }
+    for source in SOURCES:
+        values = found[source.name]
+        if values[source.id_parameter] is not None:
+            return Recruit(
+                source=source.name,
+                recruitment_id=values[source.id_parameter],
+                recruiter_study_id=values.get(source.study_parameter or ""),
+                recruiter_session_id=values.get(source.session_parameter or ""),
+            )
+    return Recruit(source=ANONYMOUS, recruitment_id=None)

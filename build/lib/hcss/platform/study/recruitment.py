@@ -1,0 +1,138 @@
+"""The study link: `/join/<study>` enrols each new visitor, and resumes a returning one.
+
+oTree, JATOS and Gorilla all give one public link that a recruitment site
+sends everyone to. Here a visit with a recruitment id the study has already
+seen goes back to that participant's personal link; any other visit creates
+a participant, stores the recruiter's ids and enrols them through the study
+engine's own `assign_cell` (least-filled cell, the same lock), all in one
+transaction. The completion code and URL for the debrief come from the study
+file's `[online]` table.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from flask import Blueprint, redirect, render_template, request, url_for
+from sqlalchemy import select
+from sqlalchemy.exc import IntegrityError
+from sqlalchemy.orm import Session
+from werkzeug.wrappers import Response
+
+from hcss.platform.db import get_session
+from hcss.platform.models import Participant, Recruitment
+from hcss.platform.study.enrolment import assign_cell
+from hcss.platform.study.online import Recruit, RecruitmentError, recruit_from
+from hcss.platform.study.studyfile import Study, StudyFileError, load_study
+
+bp = Blueprint("join", __name__, url_prefix="/join")
+
+MAX_STUDY_NAME = 64
+
+
+class NoStudyLink(RecruitmentError):
+    """No study of that name offers a link (a 404, not a 400)."""
+
+
+@dataclass(frozen=True)
+class Completion:
+    """What the debrief gives an online participant to prove they finished."""
+
+    code: str
+    url: str
+    redirect: bool
+
+
+def linked_study(name: str) -> Study:
+    """The study whose `[online] link = true`; NoStudyLink for any other name."""
+    if len(name) > MAX_STUDY_NAME:
+        raise NoStudyLink("There is no study at this link.")
+    try:
+        study = load_study(name)
+    except StudyFileError as error:
+        raise NoStudyLink("There is no study at this link.") from error
+    if not study.online.link:
+        raise NoStudyLink("This study is not open to online recruitment.")
+    return study
+
+
+def returning_participant(session: Session, study: Study, recruit: Recruit) -> Participant | None:
+    if recruit.recruitment_id is None:
+        return None
+    return session.scalars(
+        select(Participant)
+        .join(Recruitment, Recruitment.participant_id == Participant.id)
+        .where(
+            Recruitment.study == study.name,
+            Recruitment.source == recruit.source,
+            Recruitment.recruitment_id == recruit.recruitment_id,
+        )
+    ).first()
+
+
+def enrol_or_resume(session: Session, study: Study, recruit: Recruit) -> Participant:
+    """The participant this visit belongs to, enrolled and committed.
+
+    Two first visits with one id racing each other both try to insert; the
+    unique (study, source, recruitment_id) constraint lets one win, and the
+    loser's whole transaction (participant, enrolment) is rolled back before
+    it resumes the winner.
+    """
+    found = returning_participant(session, study, recruit)
+    if found is not None:
+        return found
+    if recruit.recruitment_id is None and not study.online.anonymous:
+        raise RecruitmentError(
+            "This link needs the id your recruitment site adds to it. "
+            "Please open the study from the site's page."
+        )
+    try:
+        participant = Participant()
+        session.add(participant)
+        session.flush()
+        session.add(
+            Recruitment(
+                participant_id=participant.id,
+                study=study.name,
+                source=recruit.source,
+                recruitment_id=recruit.recruitment_id,
+                recruiter_study_id=recruit.recruiter_study_id,
+                recruiter_session_id=recruit.recruiter_session_id,
+            )
+        )
+        session.flush()
+        assign_cell(session, participant, study=study.name)
+        session.commit()
+    except IntegrityError:
+        session.rollback()
+        found = returning_participant(session, study, recruit)
+        if found is None:
+            raise
+        return found
+    return participant
+
+
+def completion_for(session: Session, participant: Participant, study: Study) -> Completion | None:
+    """The completion code and URL for a participant who came through the study link."""
+    online = study.online
+    if not (online.completion_code or online.completion_url):
+        return None
+    came_online = session.scalar(
+        select(Recruitment.id).where(Recruitment.participant_id == participant.id)
+    )
+    if came_online is None:
+        return None
+    return Completion(online.completion_code, online.completion_url, online.redirect)
+
+
+@bp.get("/<study_name>")
+def join(study_name: str) -> Response | tuple[str, int]:
+    try:
+        study = linked_study(study_name)
+        recruit = recruit_from(request.args)
+        participant = enrol_or_resume(get_session(), study, recruit)
+    except NoStudyLink as refusal:
+        return render_template("study/join_refused.html", message=str(refusal)), 404
+    except RecruitmentError as refusal:
+        return render_template("study/join_refused.html", message=str(refusal)), 400
+    return redirect(url_for("study.enter", token=participant.token))

@@ -1,0 +1,299 @@
+"""The study's questionnaire and text stages, and the registry of every stage by name.
+
+Each class is one page type of the study (oTree's page classes): it names
+its template and form, and its `submit` validates with the instrument's own
+rules before writing answers and scores. The MRT and the live trials have
+their own modules.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from flask_wtf import FlaskForm
+from wtforms import HiddenField, RadioField
+
+from hcss.platform.study.forms import (
+    answers_of,
+    attach_errors,
+    form_of,
+    item_field,
+    items_form,
+    pair_field,
+    rank_field,
+)
+from hcss.platform.study.markdown import render_markdown
+from hcss.platform.study.mrt_stage import MentalRotation
+from hcss.platform.study.screen_check import ScreenCheck
+from hcss.platform.study.stage import Refused, Slot, Stage
+from hcss.platform.study.texts import fill
+from hcss.platform.study.trial_stage import TrainingStage, TrialStage
+from hcss.questionnaires import consent, demographics, pages, post_trial, ranking, sart, tlx
+from hcss.questionnaires.definitions import Questionnaire, ValidationErrors
+
+if TYPE_CHECKING:
+    from hcss.platform.study.flow import Flow
+
+DECLINE_QUESTION = (
+    "You chose not to take part. If that is right, press Confirm: the study ends here and "
+    "nothing is kept except that you declined. To take part after all, choose I agree."
+)
+
+
+class Consent(Stage):
+    name = "consent"
+    template = "study/consent.html"
+    title = "Consent"
+
+    def form(self, flow: Flow, slot: Slot, step: str, formdata: Any = None) -> FlaskForm:
+        fields = {
+            "decision": item_field(consent.DECISION),
+            "version": HiddenField(default=flow.study.consent_version),
+            # "yes" once the participant has been asked to confirm a decline.
+            "confirm_decline": HiddenField(default=""),
+        }
+        return form_of(fields, formdata, "ConsentForm")
+
+    def context(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> dict[str, Any]:
+        text = consent.consent_text(flow.study.consent_version)
+        return {"text_html": render_markdown(fill(text.markdown, flow.study))}
+
+    def submit(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> bool:
+        answers = answers_of(form, ("decision", "version"))
+        errors = consent.validate(answers)
+        if not errors and answers["version"] != flow.study.consent_version:
+            errors["version"] = ["The consent text has changed; please read it again."]
+        if errors:
+            attach_errors(form, errors)
+            return False
+        if answers["decision"] == "decline" and form["confirm_decline"].data != "yes":
+            # Declining ends the study for good: ask once before recording it.
+            form["confirm_decline"].data = "yes"
+            attach_errors(form, {"": [DECLINE_QUESTION]})
+            return False
+        flow.record_consent(answers["version"], answers["decision"])
+        return True
+
+
+class QuestionnaireStage(Stage):
+    """One page of rated or chosen items, validated and scored by its instrument module."""
+
+    template = "study/questionnaire.html"
+    questionnaire: Questionnaire
+    validate: Callable[[Mapping[str, object]], ValidationErrors]
+    score: Callable[[Mapping[str, object]], Any] | None = None
+
+    def form(self, flow: Flow, slot: Slot, step: str, formdata: Any = None) -> FlaskForm:
+        return items_form(self.questionnaire.items, formdata)
+
+    def context(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> dict[str, Any]:
+        return {
+            "questionnaire": self.questionnaire,
+            "items": [(form[item.key], item) for item in self.questionnaire.items],
+        }
+
+    def submit(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> bool:
+        answers = answers_of(form, self.questionnaire.item_keys())
+        errors = type(self).validate(answers)
+        if errors:
+            attach_errors(form, errors)
+            return False
+        flow.record_answers(slot, self.questionnaire.instrument, answers, slot.model)
+        if self.score is not None:
+            rows = type(self).score(answers).rows()
+            flow.record_scores(tuple(row.for_model(slot.model) for row in rows))
+        return True
+
+
+class Demographics(QuestionnaireStage):
+    name = "demographics"
+    title = "About you"
+    questionnaire = demographics.DEMOGRAPHICS
+    validate = staticmethod(demographics.validate)
+
+
+class PostTrial(QuestionnaireStage):
+    name = "post_trial"
+    per_model = True
+    title = "About the collective type"
+    questionnaire = post_trial.POST_TRIAL
+    validate = staticmethod(post_trial.validate)
+    score = staticmethod(post_trial.score)
+
+
+class Sart(QuestionnaireStage):
+    name = "sart"
+    per_model = True
+    title = "Situation awareness"
+    questionnaire = sart.SART
+    validate = staticmethod(sart.validate)
+    score = staticmethod(sart.score)
+
+
+class NasaTlx(Stage):
+    """Six ratings, then the 15 comparisons in a random order kept from first display."""
+
+    name = "nasa_tlx"
+    per_model = True
+    title = "Workload"
+    template = "study/nasa_tlx.html"
+
+    def steps(self, flow: Flow, slot: Slot) -> tuple[str, ...]:
+        return ("ratings", "comparisons")
+
+    def on_enter(self, flow: Flow, slot: Slot, step: str) -> dict[str, Any] | None:
+        if step != "comparisons":
+            return None
+        order = tlx.comparison_order(np.random.default_rng())
+        return {"presentation": tlx.presentation_record(order)}
+
+    def _order(self, flow: Flow, slot: Slot) -> tuple[tlx.PresentedPair, ...]:
+        entered = flow.event(slot.index, "comparisons", "entered")
+        if entered is None or not entered.detail:
+            raise Refused("The comparisons have not been shown yet; please reload the page.")
+        return tlx.order_from_record(entered.detail["presentation"])
+
+    def form(self, flow: Flow, slot: Slot, step: str, formdata: Any = None) -> FlaskForm:
+        if step == "ratings":
+            return items_form(tlx.SUBSCALES, formdata)
+        fields = {
+            presented.pair.key: pair_field(
+                f"Comparison {presented.position}",
+                [(side, tlx.SUBSCALE_TITLES[side]) for side in (presented.left, presented.right)],
+            )
+            for presented in self._order(flow, slot)
+        }
+        return form_of(fields, formdata, "TlxPairsForm")
+
+    def context(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> dict[str, Any]:
+        if step == "ratings":
+            return {
+                "questionnaire": tlx.RATINGS,
+                "items": [(form[item.key], item) for item in tlx.SUBSCALES],
+            }
+        pairs = self._order(flow, slot)
+        return {
+            "instructions": tlx.COMPARISON_INSTRUCTIONS,
+            "pairs": [form[presented.pair.key] for presented in pairs],
+        }
+
+    def submit(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> bool:
+        if step == "ratings":
+            answers = answers_of(form, tlx.SUBSCALE_KEYS)
+            errors = {k: v for k, v in tlx.validate(answers).items() if k in tlx.SUBSCALE_KEYS}
+            if errors:
+                attach_errors(form, errors)
+                return False
+            flow.record_answers(slot, tlx.INSTRUMENT, answers, slot.model)
+            return True
+        choices = answers_of(form, tlx.PAIR_KEYS)
+        ratings = {
+            key: value
+            for key, value in flow.answers(slot.index, tlx.INSTRUMENT).items()
+            if key in tlx.SUBSCALE_KEYS
+        }
+        errors = tlx.validate(ratings | choices)
+        if errors:
+            attach_errors(form, errors)
+            return False
+        presentation = flow.event(slot.index, "comparisons", "entered").detail["presentation"]  # type: ignore[union-attr]
+        flow.record_answers(slot, tlx.INSTRUMENT, choices | presentation, slot.model)
+        rows = tlx.score(ratings | choices).rows()
+        flow.record_scores(tuple(row.for_model(slot.model) for row in rows))
+        return True
+
+
+class Ranking(Stage):
+    """The three models ranked on each dimension, named only by the order they were met."""
+
+    name = "ranking"
+    title = "Comparing the collective types"
+    template = "study/ranking.html"
+
+    def form(self, flow: Flow, slot: Slot, step: str, formdata: Any = None) -> FlaskForm:
+        fields: dict[str, RadioField] = {}
+        for dimension in ranking.DIMENSIONS:
+            for label in ranking.ORDER_LABELS:
+                fields[ranking.item_key(dimension.key, label)] = rank_field(
+                    ranking.display_name(label), ranking.MODEL_COUNT
+                )
+        return form_of(fields, formdata, "RankingForm")
+
+    def context(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> dict[str, Any]:
+        dimensions = [
+            (
+                dimension,
+                [form[ranking.item_key(dimension.key, label)] for label in ranking.ORDER_LABELS],
+                getattr(form, "dimension_errors", {}).get(dimension.key, []),
+            )
+            for dimension in ranking.DIMENSIONS
+        ]
+        return {"instructions": ranking.INSTRUCTIONS, "dimensions": dimensions}
+
+    def submit(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> bool:
+        answers = answers_of(form, ranking.ITEM_KEYS)
+        errors = ranking.validate(answers)
+        if errors:
+            form.dimension_errors = {  # type: ignore[attr-defined]
+                d.key: errors.pop(d.key) for d in ranking.DIMENSIONS if d.key in errors
+            }
+            attach_errors(form, errors)
+            return False
+        order = flow.enrolment.models()
+        for label in ranking.ORDER_LABELS:
+            model = ranking.model_for_label(label, order)
+            labelled = {k: v for k, v in answers.items() if k.endswith(f"_{label}")}
+            flow.record_answers(slot, ranking.INSTRUMENT, labelled, model)
+        flow.record_scores(ranking.score(answers, order).rows())
+        return True
+
+
+class Introduction(Stage):
+    """The interface walk-through, one page per step, untimed."""
+
+    name = "introduction"
+    title = "Introduction"
+    template = "study/text_page.html"
+
+    def steps(self, flow: Flow, slot: Slot) -> tuple[str, ...]:
+        return tuple(f"page_{page.number}" for page in pages.introduction_pages())
+
+    def context(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> dict[str, Any]:
+        all_pages = pages.introduction_pages()
+        page = all_pages[int(step.removeprefix("page_")) - 1]
+        return {
+            "text_html": render_markdown(fill(page.markdown, flow.study)),
+            "page_number": page.number,
+            "page_count": len(all_pages),
+        }
+
+
+class Debrief(Stage):
+    """The last page: reaching it completes the study, so it needs no submission."""
+
+    name = "debrief"
+    title = "Thank you"
+    template = "study/debrief.html"
+
+    def poll(self, flow: Flow, slot: Slot, step: str, entered: Any) -> tuple[str, Any] | None:
+        return ("submitted", entered.at)
+
+
+STAGES: dict[str, Stage] = {}
+for _stage in (
+    Consent,
+    Demographics,
+    MentalRotation,
+    Introduction,
+    ScreenCheck,
+    TrainingStage,
+    TrialStage,
+    PostTrial,
+    NasaTlx,
+    Sart,
+    Ranking,
+    Debrief,
+):
+    STAGES[_stage.name] = _stage()

@@ -1,0 +1,230 @@
+"""The participant's pages: `/p/<token>` and the current stage.
+
+Every page is reached through the participant's token and shows only the
+step `Flow.locate()` says is current. A POST names the stage and step it
+answers; one for any other step (a resubmission, a skipped or an old page)
+is refused with a message and changes nothing. Deadlines and ended trials
+are settled and committed before anything else, so they hold whatever the
+rest of the request does.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from flask import Blueprint, Flask, g, redirect, render_template, request, url_for
+from sqlalchemy import select
+from sqlalchemy.exc import IntegrityError, SQLAlchemyError
+from werkzeug.exceptions import NotFound
+from werkzeug.wrappers import Response
+
+from hcss.platform.db import get_session
+from hcss.platform.models import Participant
+from hcss.platform.session_state import session_state
+from hcss.platform.study.enrolment import current_enrolment, first_enrolment
+from hcss.platform.study.flow import Flow, Position, study_now
+from hcss.platform.study.markdown import render_markdown
+from hcss.platform.study.stage import Refused
+from hcss.platform.study.texts import fill
+from hcss.questionnaires import pages
+
+bp = Blueprint("study", __name__, url_prefix="/p")
+
+
+@bp.record_once
+def _continue_after_trials(state: Any) -> None:
+    """The live trial page's Continue link leads back into the study."""
+    app: Flask = state.app
+    app.config.setdefault("LIVE_CONTINUE_URL", "/p/{token}")
+
+
+@bp.context_processor
+def _participant_code() -> dict[str, Any]:
+    """Every study page shows the participant's code: consent and debrief say to
+    quote it to withdraw, so it must be on screen to be noted down."""
+    token = (request.view_args or {}).get("token")
+    if not isinstance(token, str):
+        return {}
+    participant = g.get("study_participant")
+    if participant is not None and participant.token == token:
+        return {"participant_code": participant.code}  # the view read it: no second query
+    try:
+        code = get_session().scalar(select(Participant.code).where(Participant.token == token))
+    except SQLAlchemyError:  # an error page for a failed database still renders
+        return {}
+    return {"participant_code": code} if code else {}
+
+
+def _participant(token: str) -> Participant:
+    participant = (
+        get_session().scalars(select(Participant).where(Participant.token == token)).first()
+    )
+    if participant is None:
+        raise NotFound(
+            "There is no participant with this link. Please check the link you were given."
+        )
+    g.study_participant = participant
+    return participant
+
+
+def _flow(token: str) -> Flow:
+    session = get_session()
+    participant = _participant(token)
+    enrolment = current_enrolment(session, participant.id)
+    if enrolment is None:
+        enrolment = first_enrolment(session, participant)
+    return Flow(session, participant, enrolment, study_now())
+
+
+def _settled(flow: Flow) -> Position:
+    position = flow.settle()
+    flow.session.commit()
+    return position
+
+
+@bp.get("/<token>")
+def enter(token: str) -> Response:
+    """The personal link: straight to wherever the participant is."""
+    _flow(token)
+    get_session().commit()
+    return redirect(url_for("study.stage", token=token))
+
+
+#: A page load that lost a race (another tab recorded the same step first) looks again.
+RACE_RETRIES = 3
+
+
+@bp.get("/<token>/stage")
+def stage(token: str) -> Response | str | tuple[str, int]:
+    """The current step; simultaneous loads (several tabs, a double click) see one step entered.
+
+    `StageEvent`'s unique constraint lets only one of them record the entry;
+    the others roll back and read the step it recorded, instead of a 500.
+    """
+    for _ in range(RACE_RETRIES):
+        try:
+            return _current_stage(token)
+        except IntegrityError:
+            get_session().rollback()
+    return _refused(token, "This page is being opened elsewhere; please reload it."), 409
+
+
+def _current_stage(token: str) -> Response | str:
+    flow = _flow(token)
+    held = _held(flow)
+    if held is not None:
+        return held
+    position = _settled(flow)
+    if position.slot is not None:
+        flow.enter(position)
+        position = _settled(flow)  # a step may end as it is entered (the debrief)
+    if position.slot is None:
+        return _finished(flow, position)
+    target = position.slot.stage.redirect(flow, position.slot, position.step)
+    if target is not None:
+        return redirect(target)
+    form = position.slot.stage.form(flow, position.slot, position.step, None)
+    return _render(flow, position, form)
+
+
+@bp.post("/<token>/stage/<int:index>/<step>")
+def submit(token: str, index: int, step: str) -> Response | tuple[str, int] | str:
+    flow = _flow(token)
+    held = _held(flow)
+    if held is not None:
+        return held, 409  # type: ignore[return-value]
+    position = _settled(flow)
+    try:
+        _check_current(flow, position, index, step)
+        assert position.slot is not None
+        stage_ = position.slot.stage
+        form = stage_.form(flow, position.slot, position.step, request.form)
+        if not form.validate():
+            return _render(flow, position, form)
+        done = stage_.submit(flow, position.slot, position.step, form)
+        if form.errors or form.form_errors or getattr(form, "dimension_errors", None):
+            flow.session.rollback()
+            return _render(flow, position, form)
+        if done:
+            flow.record(position.slot, position.step, "submitted")
+    except Refused as refusal:
+        return _refused(token, refusal.message), refusal.status
+    except IntegrityError:
+        flow.session.rollback()
+        return _refused(token, "This page has already been submitted."), 409
+    return redirect(url_for("study.stage", token=token))
+
+
+@bp.get("/<token>/stage/<int:index>/<step>")
+def submit_address(token: str, index: int, step: str) -> Response:
+    """A form's POST address opened as a page (a bookmark, a reload): go to the stage."""
+    _participant(token)
+    return redirect(url_for("study.stage", token=token))
+
+
+def _check_current(flow: Flow, position: Position, index: int, step: str) -> None:
+    if position.slot is not None and (position.slot.index, position.step) == (index, step):
+        if flow.event(index, step, "entered") is None:
+            raise Refused("This page has not been shown yet; please reload it.")
+        return
+    if flow.event(index, step, "timed_out") is not None:
+        raise Refused("The time for this part was up before your answer arrived.")
+    if flow.finished(index, step):
+        raise Refused("This page has already been submitted; it cannot be answered again.")
+    if position.slot is None:
+        raise Refused("The study is over; there is nothing more to submit.")
+    raise Refused("This is not the page you are on; the study's pages must be done in order.")
+
+
+def _held(flow: Flow) -> str | None:
+    """The page for a session the experimenter paused or ended, else None."""
+    state = session_state(flow.session, flow.participant.id)
+    if state == "active":
+        return None
+    return render_template("study/held.html", state=state, token=flow.participant.token)
+
+
+def _refused(token: str, message: str) -> str:
+    return render_template("study/refused.html", message=message, token=token)
+
+
+def _finished(flow: Flow, position: Position) -> str:
+    if position.status == "declined":
+        return render_template("study/declined.html")
+    from hcss.platform.study.recruitment import completion_for
+
+    return render_template(
+        "study/debrief.html",
+        text_html=render_markdown(fill(pages.debrief_text().markdown, flow.study)),
+        completion=completion_for(flow.session, flow.participant, flow.study),
+    )
+
+
+def _render(flow: Flow, position: Position, form: Any) -> str:
+    slot = position.slot
+    assert slot is not None
+    deadline = flow.deadline_of(slot, position.step)
+    remaining_wall = None
+    if deadline is not None:
+        remaining_wall = max(0.0, (deadline - flow.now).total_seconds())
+    return render_template(
+        slot.stage.template,
+        token=flow.participant.token,
+        slot=slot,
+        step=position.step,
+        form=form,
+        title=slot.stage.title,
+        action=url_for(
+            "study.submit", token=flow.participant.token, index=slot.index, step=position.step
+        ),
+        deadline=deadline,
+        # Study seconds left, from the stored deadline; the page counts down the
+        # wall seconds and reloads at zero, and the server decides what happens.
+        remaining_s=None
+        if remaining_wall is None
+        else remaining_wall * flow.enrolment.time_acceleration,
+        remaining_wall_s=remaining_wall,
+        study_per_wall=flow.enrolment.time_acceleration,
+        progress=(slot.index + 1, len(flow.slots)),
+        **slot.stage.context(flow, slot, position.step, form),
+    )

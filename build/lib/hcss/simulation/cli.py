@@ -1,0 +1,433 @@
+"""`hcss simulate`: a live demo and the simulation-only experiment."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import click
+from tqdm import tqdm
+
+from hcss.simulation import calibrate as cal
+from hcss.simulation import experiment as exp
+from hcss.simulation import fidelity as fid
+from hcss.simulation.engine import Simulation
+from hcss.simulation.operators import OPERATORS
+from hcss.simulation.params import (
+    DISCOVERY_READINGS,
+    FOREIGN_TARGETS,
+    M2_BEYOND_DMAX,
+    M2_DISTANCE_BOUNDS,
+    MODELS,
+    ROMAN,
+    Params,
+)
+from hcss.simulation.scenario import Scenario
+from hcss.simulation.view import Display
+
+
+@click.group()
+def simulate() -> None:
+    """Run the simulation: a live demo or the simulation-only experiment."""
+
+
+_WORKERS = click.option(
+    "--workers",
+    type=click.IntRange(min=1, max=64),
+    default=2,
+    show_default=True,
+    help="Local processes.",
+)
+
+
+def _size_options(runs: int, runs_help: str, min_scenarios: int = 1):  # type: ignore[no-untyped-def]
+    """--scenarios and --runs: how big a batch is (one definition for every batch command)."""
+
+    def decorate(command: click.Command) -> click.Command:
+        command = click.option(
+            "--runs",
+            type=click.IntRange(min=1, max=10_000),
+            default=runs,
+            show_default=True,
+            help=runs_help,
+        )(command)
+        return click.option(
+            "--scenarios",
+            type=click.IntRange(min=min_scenarios, max=10_000),
+            default=28,
+            show_default=True,
+        )(command)
+
+    return decorate
+
+
+def _batch_options(command: click.Command) -> click.Command:
+    """--workers, --dask and --seed: where batch runs go and which scenarios they use."""
+    for option in reversed(
+        (
+            _WORKERS,
+            click.option(
+                "--dask",
+                "dask_address",
+                default=None,
+                help="Dask scheduler address, or 'local' for a LocalCluster.",
+            ),
+            click.option(
+                "--seed",
+                type=int,
+                default=20_150_000,
+                show_default=True,
+                help="Seed of the first scenario.",
+            ),
+        )
+    ):
+        command = option(command)
+    return command
+
+
+@simulate.command()
+@click.option("--model", type=click.Choice(MODELS), default="M1", show_default=True)
+@click.option("--seed", type=int, default=1, show_default=True, help="Scenario seed.")
+@click.option(
+    "--first-section", type=click.Choice(["easy", "difficult"]), default="easy", show_default=True
+)
+@click.option(
+    "--speed",
+    type=click.FloatRange(min=0.1),
+    default=30.0,
+    show_default=True,
+    help="Simulated seconds per wall-clock second (1 = live pace).",
+)
+@click.option(
+    "--minutes",
+    type=click.FloatRange(min=0.1),
+    default=20.0,
+    show_default=True,
+    help="Trial length.",
+)
+def demo(model: str, seed: int, first_section: str, speed: float, minutes: float) -> None:
+    """A four-collective trial, paced against the wall clock, with a live text summary."""
+    sim = Simulation(Scenario.generate(seed, first_section=first_section), model, None)
+    limit = minutes * 60.0
+    click.echo(
+        f"{model} trial, seed {seed}, {first_section} section first, {speed:g}x real time. Ctrl-C stops."
+    )
+    started = time.monotonic()
+    bar = tqdm(total=int(limit), unit="sim s", desc="trial", dynamic_ncols=True)
+    try:
+        while not sim.finished and sim.time < limit:
+            due = (time.monotonic() - started) * speed
+            while sim.time < min(due, limit) and not sim.finished:
+                sim.step()
+            for event in sim.drain_events():
+                bar.write(f"[{_clock(event['time'])}] {event['text']}")
+            bar.set_postfix_str(_status(sim.display()), refresh=False)
+            bar.update(int(sim.time) - bar.n)
+            time.sleep(0.05)
+    except KeyboardInterrupt:
+        bar.write("stopped")
+    bar.close()
+    correct = sum(d.correct for d in sim.decisions)
+    click.echo(
+        f"{len(sim.decisions)} decisions, {correct} correct, in {_clock(sim.time)} of simulated time."
+    )
+
+
+@simulate.command()
+@_size_options(runs=10, runs_help="Runs per scenario and model.")
+@click.option(
+    "--models",
+    default=None,
+    help="Comma-separated models [default: M1,M2; M1,M2,M3 with --operator].",
+)
+@_batch_options
+@click.option(
+    "--out",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=Path("out/simulation"),
+    show_default=True,
+)
+@click.option(
+    "--operator",
+    type=click.Choice(OPERATORS),
+    default=None,
+    help="Run operated trials (human-team condition) with this scripted operator; "
+    "--models then defaults to M1,M2,M3.",
+)
+def experiment(
+    scenarios: int,
+    runs: int,
+    models: str | None,
+    workers: int,
+    dask_address: str | None,
+    seed: int,
+    out: Path,
+    operator: str | None,
+) -> None:
+    """The simulation-only experiment: scenarios × runs × models, no operator.
+
+    With --operator NAME, the same trials with a scripted operator whose
+    requests go through the request API: a pilot of the human-team
+    conditions. Analyse those with `hcss analyze OUT --include-pilot --out REPORT`
+    (simulated operators have no participants table).
+
+    Writes OUT/decisions.csv, OUT/summary.md (and summary.csv/.tex, by hcss.analysis),
+    and prints the summary.
+    """
+    if models is None:
+        models = "M1,M2" if operator is None else "M1,M2,M3"
+    chosen = [m.strip() for m in models.split(",") if m.strip()]
+    unknown = [m for m in chosen if m not in MODELS]
+    if unknown or not chosen:
+        raise click.BadParameter(
+            f"models must be among {', '.join(MODELS)}; got {models!r}", param_hint="--models"
+        )
+    jobs = exp.jobs_for(exp.experiment_scenarios(scenarios, seed), chosen, runs, operator)
+    where = f"Dask ({dask_address})" if dask_address else f"{workers} local process(es)"
+    click.echo(
+        f"{len(jobs)} runs ({scenarios} scenarios × {runs} runs × {', '.join(chosen)}) on {where}."
+    )
+    started = time.perf_counter()
+    with tqdm(total=len(jobs), unit="run", desc="experiment", dynamic_ncols=True) as bar:
+        rows = exp.run_jobs(jobs, workers, dask_address, on_done=bar.update)
+    elapsed = time.perf_counter() - started
+    out.mkdir(parents=True, exist_ok=True)
+    exp.write_decisions(rows, out / "decisions.csv")
+    table = exp.summary_table(out / "decisions.csv")
+    (out / "summary.md").write_text(
+        f"# {'Operated experiment: ' + operator if operator else 'Simulation-only experiment'}\n\n"
+        f"{len(jobs)} runs, {len(rows)} decisions, {elapsed:.0f} s.\n\n"
+        "Unit: the scenario (each run's success rate and mean decision time, averaged over "
+        "the scenario's runs), as `hcss analyze` computes it.\n\n"
+        f"{table}\n",
+        encoding="utf-8",
+    )
+    click.echo(table)
+    click.echo(f"{len(rows)} decisions written to {out / 'decisions.csv'} in {elapsed:.0f} s.")
+
+
+def _clock(seconds: float) -> str:
+    return f"{int(seconds) // 60:02d}:{int(seconds) % 60:02d}"
+
+
+def _status(display: Display) -> str:
+    parts = []
+    for c in range(display.n_collectives):
+        u, f, com, x = display.state_counts[c] / display.n_agents  # states.QUADRANTS
+        move = f"→{display.move_target[c]}" if display.move_target[c] else ""
+        parts.append(f"{ROMAN[c]} U{u:.0%} F{f:.0%} C{com:.0%} X{x:.0%}{move}")
+    return f"section {display.section} | " + " | ".join(parts)
+
+
+def _reading_options(command: click.Command) -> click.Command:
+    """Options that override the readings of the paper (params.py) for one command."""
+    for name, choices in reversed(
+        (
+            ("discovery", DISCOVERY_READINGS),
+            ("m2-distance-bounds", M2_DISTANCE_BOUNDS),
+            ("m2-beyond-dmax", M2_BEYOND_DMAX),
+            ("foreign-targets", FOREIGN_TARGETS),
+        )
+    ):
+        command = click.option(
+            f"--{name}",
+            type=click.Choice(choices),
+            default=None,
+            help="Override this reading (default: params.py).",
+        )(command)
+    return command
+
+
+def _params_with(**readings: object) -> Params:
+    changes = {k: v for k, v in readings.items() if v is not None}
+    return Params().with_changes(**changes) if changes else Params()
+
+
+@simulate.command()
+@_reading_options
+@click.option(
+    "--radius-runs",
+    type=click.IntRange(min=2, max=10_000),
+    default=60,
+    show_default=True,
+    help="Walks per fit of the sensing radius.",
+)
+@_size_options(runs=2, runs_help="Runs per scenario for each r_msg tried.", min_scenarios=2)
+@click.option("--iterations", type=click.IntRange(min=2, max=20), default=4, show_default=True)
+@_WORKERS
+def calibrate(
+    radius_runs: int, scenarios: int, runs: int, iterations: int, workers: int, **readings: object
+) -> None:
+    """Re-fit the shared calibrations from the engine and print the fit.
+
+    The sensing radius (discovery "spatial") so that a collective's first
+    explorer finds a site at d after the study's 1/g(d); then r_msg so that
+    M1's mean decision time in the simulation-only experiment is 2.46 min.
+    Copy the printed values into hcss/simulation/params.py.
+    """
+    params = _params_with(**readings)
+    click.echo(
+        f"Calibrating with dt = {params.dt_s:g} s, discovery = {params.discovery}, "
+        f"foreign_targets = {params.foreign_targets}."
+    )
+    if params.discovery == "spatial":
+        with tqdm(total=radius_runs, unit="walk", desc="sensing radius", leave=False) as bar:
+            radius = cal.fit_sensing_radius(params, runs=radius_runs, progress=bar.update)
+        click.echo(
+            f"\nSensing radius: {radius.radius_m:g} m "
+            f"(least squares in log time over {radius.runs} walks per distance)\n"
+        )
+        click.echo(cal.radius_table(radius))
+        params = params.with_changes(sensing_radius_m=radius.radius_m)
+    else:
+        click.echo("\nDiscovery per agent follows g(d) itself: no sensing radius to fit.")
+    click.echo(
+        f"\nMessage rate: M1, {scenarios} scenarios × {runs} runs per rate, "
+        f"target {cal.STUDY_M1_DECISION_MIN} min.\n"
+    )
+    fit = cal.fit_message_rate(
+        params,
+        scenarios=scenarios,
+        runs=runs,
+        workers=workers,
+        iterations=iterations,
+        report=lambda r, m, s: click.echo(f"  r_msg {r:.3f}/s: {m:.2f} ± {s:.2f} min", err=True),
+    )
+    click.echo(cal.rate_table(fit))
+    click.echo(
+        f"\nFit: message_rate = {fit.rate:g}"
+        + (
+            f", sensing_radius_m = {params.sensing_radius_m:g}"
+            if params.discovery == "spatial"
+            else ""
+        )
+    )
+
+
+@simulate.command()
+@_reading_options
+@_size_options(runs=2, runs_help="Runs per scenario and variant.", min_scenarios=2)
+@_WORKERS
+@click.option(
+    "--ablations/--no-ablations",
+    default=True,
+    show_default=True,
+    help="Also run M2 without F_D, without F_R and without M_i.",
+)
+def fidelity(scenarios: int, runs: int, workers: int, ablations: bool, **readings: object) -> None:
+    """The reduced experiment for M1, M2 and M2's ablations, as Markdown with standard errors.
+
+    Also prints which of the study's qualitative claims (spec §10) the rows meet.
+    """
+    params = _params_with(**readings)
+    click.echo(
+        f"Reduced experiment: {scenarios} scenarios × {runs} runs; discovery = {params.discovery}, "
+        f"m2_distance_bounds = {params.m2_distance_bounds}, m2_beyond_dmax = {params.m2_beyond_dmax}, "
+        f"foreign_targets = {params.foreign_targets}, r_msg = {params.message_rate:g}/s.\n"
+    )
+    started = time.perf_counter()
+    table = fid.run_fidelity(
+        params,
+        scenarios,
+        runs,
+        workers,
+        ablations,
+        on_variant=lambda label: click.echo(f"  running {label}", err=True),
+    )
+    click.echo(fid.fidelity_table(table))
+    click.echo("")
+    click.echo(fid.claims_table(table))
+    click.echo(f"\n{time.perf_counter() - started:.0f} s.")
+
+
+@simulate.command()
+@_reading_options
+@click.option(
+    "--runs",
+    type=click.IntRange(min=2, max=1000),
+    default=10,
+    show_default=True,
+    help="Chain and agent runs per layout and model.",
+)
+def meanfield(runs: int, **readings: object) -> None:
+    """The paper's equations beside the agent model on simple layouts (one collective).
+
+    ODEs (scipy), the stochastic N-agent chain and the agent model, each on
+    the easy and the difficult layout, for M1 and M2: best-site share and
+    decision time. The agent model uses the current params; the mean-field
+    model always discovers per agent (the paper's P_γ = v·g(d)).
+    """
+    from hcss.simulation import crosscheck
+
+    params = _params_with(**readings)
+    rows = [
+        crosscheck.compare(layout, model, params, runs)
+        for layout in crosscheck.LAYOUTS
+        for model in ("M1", "M2")
+    ]
+    click.echo(
+        f"discovery = {params.discovery}, m2_distance_bounds = {params.m2_distance_bounds}, "
+        f"r_msg = {params.message_rate:g}/s\n"
+    )
+    click.echo(crosscheck.comparison_table(rows))
+
+
+@simulate.command("sweep")
+@click.option(
+    "--param",
+    "param_specs",
+    multiple=True,
+    required=True,
+    metavar="NAME=V1,V2,...",
+    help="A parameter of Params and its values; repeat for a grid.",
+)
+@_size_options(runs=10, runs_help="Runs per scenario and model.")
+@click.option("--models", default="M1,M2", show_default=True, help="Comma-separated models.")
+@_batch_options
+@click.option(
+    "--out",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=Path("out/sweep"),
+    show_default=True,
+)
+def sweep_command(
+    param_specs: tuple[str, ...],
+    scenarios: int,
+    runs: int,
+    models: str,
+    workers: int,
+    dask_address: str | None,
+    seed: int,
+    out: Path,
+) -> None:
+    """The simulation-only experiment over every combination of the given parameter values.
+
+    Writes OUT/cells/<cell>.csv per finished cell (an interrupted sweep resumes,
+    skipping them) and OUT/decisions.csv, one row per decision with the cell's
+    parameter values as columns. `hcss analyze OUT --out REPORT` draws the heat maps.
+    """
+    from hcss.simulation import sweep as sw
+
+    chosen = tuple(m.strip() for m in models.split(",") if m.strip())
+    if not chosen or any(m not in MODELS for m in chosen) or len(set(chosen)) != len(chosen):
+        raise click.BadParameter(
+            f"models must be among {', '.join(MODELS)}; got {models!r}", param_hint="--models"
+        )
+    try:
+        axes = tuple(sw.parse_axis(spec) for spec in param_specs)
+        plan = sw.Sweep(axes, scenarios, runs, chosen, seed)
+        n_cells = len(plan.cells)
+        pending = sw.prepare(plan, out)
+    except sw.SweepError as error:
+        raise click.BadParameter(str(error), param_hint="--param/--out") from None
+    n_jobs = len(plan.jobs())
+    where = f"Dask ({dask_address})" if dask_address else f"{workers} local process(es)"
+    click.echo(
+        f"{n_cells} cells × {n_jobs} runs ({scenarios} scenarios × {runs} runs × "
+        f"{', '.join(chosen)}) on {where}; {n_cells - len(pending)} cell(s) already written."
+    )
+    started = time.perf_counter()
+    with tqdm(total=n_cells * n_jobs, unit="run", desc="sweep", dynamic_ncols=True) as bar:
+        ran = sw.run_sweep(plan, out, workers, dask_address, on_done=bar.update)
+    elapsed = time.perf_counter() - started
+    click.echo(f"{ran} cell(s) run in {elapsed:.0f} s; all decisions in {out / 'decisions.csv'}.")

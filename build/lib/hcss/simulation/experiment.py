@@ -1,0 +1,195 @@
+"""The simulation-only experiment: scenarios × runs × models, no operator.
+
+The study ran 28 trial scenarios (half starting easy, half difficult) 10 times
+each with M1 and with M2. Jobs are independent, so they run on a local process
+pool or, for sweeps that outgrow one machine, on Dask distributed.
+"""
+
+from __future__ import annotations
+
+import csv
+from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from hcss.simulation.decisions import DECISION_COLUMNS
+from hcss.simulation.engine import Simulation
+from hcss.simulation.params import Params
+from hcss.simulation.scenario import Scenario
+
+SPLITS = ("overall", "easy", "difficult")
+
+
+@dataclass(frozen=True)
+class Job:
+    """One simulation run: a scenario, a model and a replicate number."""
+
+    scenario: dict  # Scenario.to_dict(): plain values travel to workers cheaply
+    model: str
+    run: int
+    operator: str | None = None  # a scripted operator (operators.OPERATORS), or none
+
+    @property
+    def trial_id(self) -> str:
+        base = f"{self.scenario['scenario_id']}-{self.model}-r{self.run}"
+        return base if self.operator is None else f"simop-{self.operator}-{base}"
+
+    @property
+    def participant(self) -> str:
+        """A simulated operator stands in for a participant: one per scenario and run."""
+        if self.operator is None:
+            return ""
+        return f"simop-{self.operator}-{self.scenario['scenario_id']}-r{self.run}"
+
+
+def experiment_scenarios(n: int = 28, base_seed: int = 20_150_000) -> list[Scenario]:
+    """n scenarios with fixed seeds, alternating easy-first and difficult-first."""
+    return [
+        Scenario.generate(
+            base_seed + i,
+            first_section="easy" if i % 2 == 0 else "difficult",
+            scenario_id=f"exp{i + 1:02d}",
+        )
+        for i in range(n)
+    ]
+
+
+def jobs_for(
+    scenarios: Iterable[Scenario], models: Iterable[str], runs: int, operator: str | None = None
+) -> list[Job]:
+    return [
+        Job(s.to_dict(), m, r, operator) for s in scenarios for m in models for r in range(runs)
+    ]
+
+
+def run_job(job: Job, params: Params | None = None) -> list[dict]:
+    """Run one trial to completion and return its decisions-table rows.
+
+    With an operator, the trial is an operated one (the human-team condition,
+    simulated): the scripted operator's requests go through the request API
+    and its rows are `source="study"` rows of a simulated participant (code
+    `simop-...`), so `hcss analyze --include-pilot` gives the human-team tables.
+    """
+    sim = Simulation(Scenario.from_dict(job.scenario), job.model, params, run=job.run)
+    if job.operator is None:
+        sim.run_until_finished()
+        source = "simulation"
+    else:
+        from hcss.simulation.operators import OperatedRun, operator_named
+
+        policy, interval, pace = operator_named(job.operator)
+        OperatedRun(sim, policy, interval_s=interval, pace=pace).run()
+        source = "study"
+    return [
+        d.as_row(source=source, participant=job.participant, trial_id=job.trial_id, run=job.run)
+        for d in sim.decisions
+    ]
+
+
+def run_jobs(
+    jobs: list[Job],
+    workers: int = 1,
+    dask_address: str | None = None,
+    on_done: Callable[[], None] | None = None,
+    params: Params | None = None,
+) -> list[dict]:
+    """Run every job and return all rows, in job order whatever order they finish in.
+
+    `params` (default: `Params()`) applies to every job: M1, M2 and M3 share them.
+    """
+    results: dict[int, list[dict]] = {}
+    for index, rows in _execute(jobs, workers, dask_address, params):
+        results[index] = rows
+        if on_done is not None:
+            on_done()
+    return [row for index in range(len(jobs)) for row in results[index]]
+
+
+def _execute(
+    jobs: list[Job], workers: int, dask_address: str | None, params: Params | None = None
+) -> Iterator[tuple[int, list[dict]]]:
+    if dask_address:
+        yield from _execute_dask(jobs, workers, dask_address, params)
+    elif workers <= 1:
+        for index, job in enumerate(jobs):
+            yield index, run_job(job, params)
+    else:
+        with ProcessPoolExecutor(max_workers=workers) as pool:
+            futures = {pool.submit(run_job, job, params): index for index, job in enumerate(jobs)}
+            for future in as_completed(futures):
+                yield futures[future], future.result()
+
+
+@contextmanager
+def dask_client(address: str, workers: int) -> Iterator[Any]:
+    """A Dask client on the scheduler at `address`, or on a LocalCluster of `workers` processes
+    when the address is "local"; closed (with its cluster) when the block ends."""
+    from dask.distributed import Client, LocalCluster
+
+    cluster = None
+    if address == "local":
+        cluster = LocalCluster(
+            n_workers=max(1, workers), threads_per_worker=1, processes=True, dashboard_address=None
+        )
+        client = Client(cluster)
+    else:
+        client = Client(address)
+    try:
+        yield client
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def completed_in_order_of(futures: list[Any]) -> Iterator[tuple[int, Any]]:
+    """(index in `futures`, result) as each Dask future completes."""
+    from dask.distributed import as_completed as dask_completed
+
+    index_of = {future.key: i for i, future in enumerate(futures)}
+    for future in dask_completed(futures):
+        yield index_of[future.key], future.result()
+
+
+def _execute_dask(
+    jobs: list[Job], workers: int, address: str, params: Params | None = None
+) -> Iterator[tuple[int, list[dict]]]:
+    """Run the jobs on a Dask scheduler, or on a LocalCluster when the address is "local"."""
+    with dask_client(address, workers) as client:
+        yield from completed_in_order_of(client.map(run_job, jobs, params=params, pure=False))
+
+
+# ----------------------------------------------------------------- summaries
+def summary_table(decisions_path: Path) -> str:
+    """The experiment's summary as Markdown, computed by ``hcss.analysis``.
+
+    The analysis reads the decisions file just written, with its unit of
+    analysis (a scenario, runs averaged) and its table writer (summary.csv
+    and summary.tex beside the file), so this summary and ``hcss analyze``
+    never disagree on the same decisions.
+    """
+    from hcss.analysis.summary import write_simulation_summary
+    from hcss.analysis.tables import to_markdown
+
+    return to_markdown(write_simulation_summary(decisions_path, decisions_path.parent))
+
+
+def write_decisions(rows: list[dict], path: Path) -> None:
+    """The decisions table as CSV, with the columns of docs/data-dictionary.md."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="", encoding="utf-8") as handle:
+        writer = csv.DictWriter(handle, fieldnames=DECISION_COLUMNS)
+        writer.writeheader()
+        for row in rows:
+            writer.writerow({k: _csv_value(v) for k, v in row.items()})
+
+
+def _csv_value(value: object) -> object:
+    if value is None:
+        return ""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return value
