@@ -17,7 +17,7 @@ from hcss.platform.study.texts import duration, fill, length, order_sentence
 from hcss.questionnaires import consent, pages
 from tests.platform.study_fixtures import demo_app, new_participant, visitor  # noqa: F401
 
-# By hand from studies/*.toml:
+# By hand from the bundled study files (hcss/platform/study/bundled/*.toml):
 #   original: training 300 s, trial 1200 s, MRT 2 parts x 180 s + one 60 s break,
 #             4 practice items -> 6 + 1 + 1 (instructions) + 2 (practice) = 10 minutes;
 #             session 10 + 10 + 5 + 3 x (5 + 20 + 5) = 115 minutes -> about two hours.
