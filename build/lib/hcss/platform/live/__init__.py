@@ -1,1 +1,0 @@
-"""Live trials: the runner that steps them, their stream, commands and probes."""
