@@ -20,6 +20,7 @@ import threading
 import time
 from pathlib import Path
 
+from hcss.analysis.summary import summarise_decisions
 from hcss.simulation import Params, Scenario, Simulation
 from hcss.simulation import equivalence as eq
 from hcss.simulation import experiment as exp
@@ -162,7 +163,7 @@ def full_experiment(workers: int = 2) -> list[dict]:
     sampler.stop()
     out = Path("out/bench-experiment")
     exp.write_decisions(rows, out / "decisions.csv")
-    table = exp.summary_table(out / "decisions.csv")
+    table = summarise_decisions(out / "decisions.csv")
     (out / "summary.md").write_text(
         f"# Simulation-only experiment (make bench)\n\n{table}\n", encoding="utf-8"
     )

@@ -1,10 +1,9 @@
 """The simulation-only experiment's summary, computed by the analysis itself.
 
-``hcss simulate experiment`` used to summarise with its own code (success
-over runs, time over decisions), so its summary could disagree with
-``hcss analyze`` on the same decisions file. It now calls this: the same
-loading, the same unit of analysis (a scenario, its runs averaged), the same
-descriptive statistics and the same table writer.
+``hcss simulate experiment`` writes the decisions and asks this module for the
+summary, so it and ``hcss analyze`` share the loading, the unit of analysis (a
+scenario, its runs averaged), the descriptive statistics and the table writer,
+and cannot disagree on the same decisions file.
 """
 
 from __future__ import annotations
@@ -16,7 +15,7 @@ import pandas as pd
 from hcss.analysis.decision_measures import SPLITS, decision_measures
 from hcss.analysis.descriptive import descriptive_frame
 from hcss.analysis.load import load_inputs
-from hcss.analysis.tables import Table, format_number, write_table
+from hcss.analysis.tables import Table, format_number, to_markdown, write_table
 
 SUMMARY_MEASURES = ("success_rate", "decision_time_min")
 
@@ -72,3 +71,8 @@ def write_simulation_summary(decisions_path: Path, directory: Path) -> Table:
     table = simulation_summary(decisions_path)
     write_table(table, directory)
     return table
+
+
+def summarise_decisions(decisions_path: Path) -> str:
+    """The summary as Markdown, its tables also written beside the decisions file."""
+    return to_markdown(write_simulation_summary(decisions_path, decisions_path.parent))

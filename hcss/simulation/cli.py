@@ -8,6 +8,7 @@ from pathlib import Path
 import click
 from tqdm import tqdm
 
+from hcss.analysis.summary import summarise_decisions
 from hcss.simulation import calibrate as cal
 from hcss.simulation import experiment as exp
 from hcss.simulation import fidelity as fid
@@ -193,7 +194,7 @@ def experiment(
     elapsed = time.perf_counter() - started
     out.mkdir(parents=True, exist_ok=True)
     exp.write_decisions(rows, out / "decisions.csv")
-    table = exp.summary_table(out / "decisions.csv")
+    table = summarise_decisions(out / "decisions.csv")
     (out / "summary.md").write_text(
         f"# {'Operated experiment: ' + operator if operator else 'Simulation-only experiment'}\n\n"
         f"{len(jobs)} runs, {len(rows)} decisions, {elapsed:.0f} s.\n\n"

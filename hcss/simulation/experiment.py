@@ -162,21 +162,7 @@ def _execute_dask(
         yield from completed_in_order_of(client.map(run_job, jobs, params=params, pure=False))
 
 
-# ----------------------------------------------------------------- summaries
-def summary_table(decisions_path: Path) -> str:
-    """The experiment's summary as Markdown, computed by ``hcss.analysis``.
-
-    The analysis reads the decisions file just written, with its unit of
-    analysis (a scenario, runs averaged) and its table writer (summary.csv
-    and summary.tex beside the file), so this summary and ``hcss analyze``
-    never disagree on the same decisions.
-    """
-    from hcss.analysis.summary import write_simulation_summary
-    from hcss.analysis.tables import to_markdown
-
-    return to_markdown(write_simulation_summary(decisions_path, decisions_path.parent))
-
-
+# ----------------------------------------------------------------- output
 def write_decisions(rows: list[dict], path: Path) -> None:
     """The decisions table as CSV, with the columns of docs/data-dictionary.md."""
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -43,11 +43,12 @@ def test_summary_is_the_analysis_of_the_same_decisions_file(tmp_path):
     import pandas as pd
 
     from hcss.analysis.report import run_analysis
+    from hcss.analysis.summary import summarise_decisions
     from tests.analysis.synthetic import simulation_decisions
 
     rows = simulation_decisions(scenarios=4, runs=3).to_dict("records")
     exp.write_decisions(rows, tmp_path / "decisions.csv")
-    markdown = exp.summary_table(tmp_path / "decisions.csv")
+    markdown = summarise_decisions(tmp_path / "decisions.csv")
     assert "| M1 | overall | 4 |" in markdown  # 4 scenarios, not 12 runs
     summary = pd.read_csv(tmp_path / "summary.csv")
     run_analysis([tmp_path / "decisions.csv"], tmp_path / "report", progress=False)
