@@ -99,7 +99,12 @@ def serve(
     if study is not None:
         config["STUDY"] = _study_file(study).name
     app = create_app(config)
+    from hcss.platform.live.warmup import warm_simulation
     from hcss.questionnaires.mrt import item_bank, practice_items
+
+    # Compile the simulation's kernels now, not in the first participant's trial.
+    click.echo("hcss: compiling the simulation (up to 30 s after an install or upgrade)…")
+    warm_s = warm_simulation()
 
     # Build the MRT figures and draw them now, not in the first participants' requests.
     for item in (*practice_items(), *item_bank()):
@@ -111,7 +116,8 @@ def serve(
     local = host if host not in ("0.0.0.0", "::", "") else "127.0.0.1"
     write_serving_file(f"http://{local}:{port}", study or "original")
     click.echo(
-        f"hcss serving on {url}  (Ctrl-C stops); new participants: study {study or 'original'}"
+        f"hcss serving on {url}  (Ctrl-C stops); new participants: study {study or 'original'}; "
+        f"simulation ready ({warm_s:.1f} s)"
     )
     click.echo(f"console: {url}console/   a demo trial:  hcss demo-trial --port {port}")
     waitress_serve(

@@ -1,0 +1,72 @@
+"""The first trial after an install: `hcss serve` on an empty kernel cache, in Chromium.
+
+The server compiles the simulation before it listens, so the first live
+trial's first frame comes at once; a page whose first frame is late says it
+is connecting instead of showing a blank map.
+"""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from hcss.platform.cli import upgrade_database
+from hcss.platform.db import Database
+from hcss.platform.live.trials import start_trial
+from hcss.platform.localserver import LocalServer
+from hcss.platform.models import Participant
+
+pytestmark = pytest.mark.browser
+
+#: Seconds from a trial's start to its first frame on the page.
+FIRST_FRAME_S = 2.0
+
+
+def _new_trial(database: Database) -> str:
+    """A demo participant's training, started now (as the Start button does); its page's path."""
+    with database.session_scope() as session:
+        participant = Participant(is_demo=True, study="demo")
+        session.add(participant)
+        session.flush()
+        start_trial(session, participant, kind="training", model="M1", seed=3, duration_s=60.0)
+        return f"/live/{participant.token}"
+
+
+def server_line(server: LocalServer) -> str:
+    """The server's start-up line, with the time its simulation warm-up took."""
+    return next(line for line in server.log_path.read_text().splitlines() if "serving on" in line)
+
+
+@pytest.mark.slow  # compiles the simulation into an empty cache (10-25 s)
+def test_the_first_trial_on_an_empty_kernel_cache_draws_within_2_s(browser, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    from playwright.sync_api import expect
+
+    url = f"sqlite:///{tmp_path / 'warm.sqlite3'}"
+    upgrade_database(url)
+    database = Database(url)
+    cold_cache = {"HCSS_NUMBA_CACHE_DIR": str(tmp_path / "numba")}
+    server = LocalServer(url, tmp_path / "instance", extra_env=cold_cache).start(timeout_s=240)
+    try:
+        assert "simulation ready" in server_line(server)
+        page = browser.new_page(viewport={"width": 1366, "height": 768})
+        path = _new_trial(database)
+        started = time.monotonic()
+        page.goto(server.url + path)
+        page.wait_for_selector("[data-collective]", state="attached", timeout=30_000)
+        first_frame_s = time.monotonic() - started
+        assert first_frame_s < FIRST_FRAME_S, f"first frame after {first_frame_s:.2f} s"
+        print(f"\nfirst frame {first_frame_s:.2f} s after the trial's start; {server_line(server)}")
+        expect(page.locator("#connecting")).to_be_hidden()
+
+        # A stream that does not answer: after a second the page says it is connecting.
+        late = browser.new_page(viewport={"width": 1366, "height": 768})
+        late.route("**/stream*", lambda route: None)  # held, never answered
+        late.goto(server.url + _new_trial(database))
+        late.wait_for_timeout(400)
+        expect(late.locator("#connecting")).to_be_hidden()
+        expect(late.locator("#connecting")).to_be_visible(timeout=2_000)
+        expect(late.locator("#connecting")).to_contain_text("Connecting")
+    finally:
+        server.stop()
+    database.engine.dispose()
