@@ -211,7 +211,7 @@ def answer_probe(page, server: StudyServer) -> str:  # type: ignore[no-untyped-d
     expect(page.locator("#probe-countdown")).not_to_have_text(before)  # it counts down
     expect(page.locator("#probe-ready")).to_be_focused()
     page.keyboard.press("Enter")  # "Ready", from the keyboard
-    expect(page.locator("#probe-choices button").first).to_be_focused()
+    expect(page.locator("#probe-text")).to_be_focused()  # the question, not a choice
     choice = page.locator("#probe-choices button").first.inner_text()
     page.locator("#probe-choices button").first.click()
     expect(page.locator("#probe")).to_be_hidden()

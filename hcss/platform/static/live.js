@@ -4,7 +4,11 @@
   "use strict";
   const SVG = "http://www.w3.org/2000/svg";
   const ROMAN = ["I", "II", "III", "IV", "V", "VI"];
-  const HUB = 96, TARGET = 56;
+  // Glyph sizes in screen pixels: the map scales positions to the window, but a
+  // hub, a target and their labels keep a size that can be read and clicked.
+  const HUB = 56, TARGET = 30;
+  // The arena is 2 x ARENA metres square, centred on the origin.
+  const ARENA = 707;
   const root = document.getElementById("interface");
   // The console's replay page (status "replay") feeds recorded frames to onFrame; nothing is sent.
   const replaying = root.dataset.status === "replay";
@@ -85,6 +89,23 @@
     }
   }
 
+  // ---- scale: the arena fills the panel's shorter side, the ground the rest ----
+  // World metres per screen pixel; glyphs are drawn in pixels and scaled by it.
+  let metresPerPx = 1;
+  function fitMap() {
+    const map = $("map"), box = map.getBoundingClientRect();
+    if (!box.width || !box.height) return;
+    metresPerPx = (2 * ARENA) / Math.min(box.width, box.height);
+    const w = box.width * metresPerPx, h = box.height * metresPerPx;
+    const extent = [-w / 2, -h / 2, w, h];
+    map.setAttribute("viewBox", extent.join(" "));
+    const ground = map.querySelector(".ground");
+    for (const [k, v] of Object.entries({ x: extent[0], y: extent[1], width: w, height: h })) ground.setAttribute(k, v);
+    if (state.view) drawMap(state.view);
+  }
+  // A glyph's transform: at its world position, drawn in pixels.
+  function placed(x, y) { return `translate(${x},${-y}) scale(${metresPerPx})`; }
+
   function drawMap(view) {
     const hub = state.selectedHub === null ? null : view.collectives[state.selectedHub];
     const ranges = $("layer-ranges");
@@ -112,16 +133,19 @@
 
   function createTarget(t, layer) {
     const h = TARGET / 2;
-    const root = el("g", { "data-target": t.id }, layer);
+    const root = el("g", { "data-target": t.id });
+    // In id order, so Tab meets the targets by number, after the hubs.
+    const next = Array.from(layer.children).find((g) => Number(g.dataset.target) > t.id);
+    layer.insertBefore(root, next || null);
     const glyph = {
       root,
       hit: el("rect", { x: -h, y: -h, width: TARGET, height: TARGET, fill: "transparent" }, root),
       green: el("rect", { x: -h, y: -h, width: TARGET, height: h, class: "target-green" }, root),
       blue: el("rect", { x: -h, y: 0, width: TARGET, height: h, class: "target-blue" }, root),
       frame: el("rect", { x: -h, y: -h, width: TARGET, height: TARGET, class: "target-frame" }, root),
-      mark: el("rect", { x: -h - 9, y: -h - 9, width: TARGET + 18, height: TARGET + 18, class: "range-mark" }, root),
+      mark: el("rect", { x: -h - 5, y: -h - 5, width: TARGET + 10, height: TARGET + 10, class: "range-mark" }, root),
     };
-    el("text", { x: h + 18, y: -h + 4, class: "target-id" }, root).textContent = t.id;
+    el("text", { x: h + 14, y: -h + 3, class: "target-id" }, root).textContent = t.id;
     root.addEventListener("click", () => clickTarget(t.id, "left"));
     root.addEventListener("contextmenu", (e) => { e.preventDefault(); clickTarget(t.id, "right"); });
     makeKeyboardButton(root, `Target ${t.id}`, (button) => clickTarget(t.id, button));
@@ -135,7 +159,7 @@
     else if (t.outline_support) classes.push("support");
     if (state.selectedTarget === t.id) classes.push("selected");
     glyph.root.setAttribute("class", classes.join(" "));
-    glyph.root.setAttribute("transform", `translate(${t.position[0]},${-t.position[1]})`);
+    glyph.root.setAttribute("transform", placed(t.position[0], t.position[1]));
     const label = `Target ${t.id}` + (t.drawn ? `, highest support ${Math.round(t.max_support * 100)}%` : ", not yet reported")
       + (state.selectedTarget === t.id ? ", selected" : "");
     if (glyph.root.getAttribute("aria-label") !== label) glyph.root.setAttribute("aria-label", label);
@@ -153,7 +177,7 @@
   function createCollective(c, layer) {
     const h = HUB / 2, q = HUB / 2;
     const root = el("g", { "data-collective": c.index }, layer);
-    el("text", { x: 0, y: -h - 10, class: "hub-name" }, root).textContent = ROMAN[c.index];
+    el("text", { x: 0, y: -h - 6, class: "hub-name" }, root).textContent = ROMAN[c.index];
     el("rect", { x: -h, y: -h, width: HUB, height: HUB, class: "hub-box" }, root);
     const quads = {};
     for (const [name, qx, qy] of [["U", -h, -h], ["F", 0, -h], ["C", -h, 0], ["X", 0, 0]]) {
@@ -169,7 +193,7 @@
   function updateCollective(glyph, c) {
     glyph.root.setAttribute("class", "collective" + (state.selectedHub === c.index ? " selected" : ""));
     glyph.root.setAttribute("aria-pressed", state.selectedHub === c.index ? "true" : "false");
-    glyph.root.setAttribute("transform", `translate(${c.hub[0]},${-c.hub[1]})`);
+    glyph.root.setAttribute("transform", placed(c.hub[0], c.hub[1]));
     for (const name of ["U", "F", "C", "X"]) glyph.quads[name].setAttribute("fill-opacity", c.fractions[name]);
   }
 
@@ -177,7 +201,7 @@
     const root = el("g", { class: "moving" }, layer);
     const line = el("line", { class: "move-line" }, root);
     const box = el("g", {}, root);
-    el("rect", { x: -30, y: -30, width: 60, height: 60, class: "move-box" }, box);
+    el("rect", { x: -18, y: -18, width: 36, height: 36, class: "move-box" }, box);
     el("text", { x: 0, y: 0, class: "quad-label" }, box).textContent = ROMAN[c.index];
     return { root, line, box };
   }
@@ -186,9 +210,10 @@
     const target = view.targets.find((t) => t.id === c.move.target);
     const goal = target ? target.position : c.move.position;
     for (const [k, v] of Object.entries({ x1: c.hub[0], y1: -c.hub[1], x2: goal[0], y2: -goal[1] })) glyph.line.setAttribute(k, v);
-    glyph.box.setAttribute("transform", `translate(${c.move.position[0]},${-c.move.position[1]})`);
+    glyph.box.setAttribute("transform", placed(c.move.position[0], c.move.position[1]));
   }
 
+  const FLAG_WIDTH = 180, FLAG_LINE = 21;
   function drawFlag() {
     const layer = $("layer-flags");
     const view = state.view;
@@ -206,18 +231,22 @@
       lines = [`Collective ${ROMAN[c.index]}`].concat(
         ["U", "F", "C", "X"].map((k) => `${k}: ${c.counts[k]}`));
     }
-    const key = JSON.stringify([anchor, lines]);
+    const key = JSON.stringify([anchor, lines, metresPerPx]);
     if (key === state.flagKey) return;
     state.flagKey = key;
     layer.replaceChildren();
     // The box lets every click through to the map (pointer-events: none in live.css);
     // only its close control takes clicks. Escape closes it too.
-    const g = el("g", { class: "flag", transform: `translate(${anchor[0] + 50},${-anchor[1] - 40})` }, layer);
-    el("rect", { x: 0, y: 0, width: 230, height: 26 * lines.length + 12, rx: 6 }, g);
-    lines.forEach((line, i) => { el("text", { x: 12, y: 28 + 26 * i }, g).textContent = line; });
-    const close = el("g", { class: "flag-close", transform: "translate(200,4)" }, g);
-    el("rect", { x: 0, y: 0, width: 26, height: 26, rx: 4 }, close);
-    el("text", { x: 13, y: 19 }, close).textContent = "×";
+    // Beside its hub or target, on the side with room, in pixels like the glyphs.
+    const width = FLAG_WIDTH, height = FLAG_LINE * lines.length + 10;
+    const right = Number($("map").getAttribute("viewBox").split(" ")[0]) + Number($("map").getAttribute("viewBox").split(" ")[2]);
+    const dx = anchor[0] + (36 + width) * metresPerPx > right ? -36 - width : 36;
+    const g = el("g", { class: "flag", transform: `${placed(anchor[0], anchor[1])} translate(${dx},-30)` }, layer);
+    el("rect", { x: 0, y: 0, width, height, rx: 5 }, g);
+    lines.forEach((line, i) => { el("text", { x: 10, y: 22 + FLAG_LINE * i }, g).textContent = line; });
+    const close = el("g", { class: "flag-close", transform: `translate(${width - 26},4)` }, g);
+    el("rect", { x: 0, y: 0, width: 22, height: 22, rx: 4 }, close);
+    el("text", { x: 11, y: 17 }, close).textContent = "×";
     makeKeyboardButton(close, "Close the info box", () => closeFlag());
     close.addEventListener("click", (e) => { e.stopPropagation(); closeFlag(); });
     $("sr-status").textContent = lines.join(", ");
@@ -394,10 +423,22 @@
         button.addEventListener("click", () => answerProbe(probe.id, choice));
         choices.appendChild(button);
       }
-      const first = choices.querySelector("button");
-      if (first) first.focus();
+      // No choice is focused or chosen for the participant: a key pressed for
+      // Ready (a double press) must not answer a question that was never read.
+      // Focus goes to the question itself, and keys are ignored for a moment.
+      state.questionShownAt = performance.now();
+      $("probe-text").focus();
     } else {
       $("probe-ready").focus();  // a question is waiting: Enter or Space answers "Ready"
+    }
+  }
+  // Keys in the probe box within this time of its question showing are ignored.
+  const PROBE_KEY_GUARD_MS = 500;
+  function guardProbeKeys(e) {
+    if (state.questionShownAt === undefined || $("probe").hidden) return;
+    if (performance.now() - state.questionShownAt < PROBE_KEY_GUARD_MS && (e.key === "Enter" || e.key === " ")) {
+      e.preventDefault();
+      e.stopPropagation();
     }
   }
   function readyProbe() {
@@ -418,7 +459,12 @@
     $("clock-state").textContent = paused ? "paused" : "";
     $("commit").disabled = paused || state.ended || state.committing;
   }
+  // A page whose first frame is late says so, rather than show a blank map and a stopped clock.
+  const CONNECTING_NOTICE_MS = 1000;
+  let connectingTimer = null;
   function onFrame(frame) {
+    if (connectingTimer !== null) { clearTimeout(connectingTimer); connectingTimer = null; }
+    $("connecting").hidden = true;
     $("clock").textContent = clock(frame.trial.clock_s);
     showPause(frame.trial.status === "paused");
     if (frame.messages) addMessages(frame.messages);
@@ -523,6 +569,7 @@
   $("request-reset").addEventListener("click", resetForm);
   $("cancel-assignment").addEventListener("click", cancelAssignment);
   $("probe-ready").addEventListener("click", readyProbe);
+  $("probe").addEventListener("keydown", guardProbeKeys, true);
   $("map").addEventListener("contextmenu", (e) => e.preventDefault());
   $("request-collective").addEventListener("change", (e) => {
     state.selectedHub = e.target.value === "" ? null : Number(e.target.value);
@@ -532,11 +579,14 @@
     state.selectedTarget = e.target.value === "" ? null : Number(e.target.value);
     if (state.view) drawMap(state.view);
   });
+  fitMap();
+  new ResizeObserver(fitMap).observe($("map"));
   if (replaying) {
     const clearMessages = () => { $("messages").replaceChildren(); state.seenMessages.clear(); };
     window.hcssInterface = { onFrame, clearMessages };
   } else {
     if (root.dataset.status === "ended") endTrial();
+    else connectingTimer = setTimeout(() => { $("connecting").hidden = false; }, CONNECTING_NOTICE_MS);
     connect();
   }
 })();

@@ -1,0 +1,131 @@
+"""The Collective Interface's map and probes in Chromium, at the sizes participants use.
+
+The map's text and glyphs are measured as rendered (font size times the
+screen transform, and bounding boxes) at 1366x768 and 1024x768; a probe's
+question cannot be answered by a second press of the key that said Ready.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import pytest
+from sqlalchemy import select
+
+from hcss.platform.models import ProbeEvent
+from tests.platform.inprocess_server import StudyServer, study_server
+from tests.platform.test_participant_browser import _start_live_trial, live_trial, wait_for
+
+pytestmark = pytest.mark.browser
+
+#: The smallest rendered text (px) and clickable glyph (px) the map may show.
+MIN_TEXT_PX = 12.0
+MIN_GLYPH_PX = 24.0
+
+#: Rendered sizes on the map: the font size on screen of each kind of text,
+#: the smaller side of each target and hub, and how much of the panel the map fills.
+MEASURE = """() => {
+  const text = (selector) => Array.from(document.querySelectorAll(selector)).map(
+    (n) => parseFloat(getComputedStyle(n).fontSize) * n.getScreenCTM().a);
+  const side = (selector) => Array.from(document.querySelectorAll(selector)).map((n) => {
+    const r = n.getBoundingClientRect(); return Math.min(r.width, r.height); });
+  const map = document.getElementById("map").getBoundingClientRect();
+  const panel = document.querySelector(".map-area").getBoundingClientRect();
+  const arena = document.querySelector("#map .arena").getBoundingClientRect();
+  return {
+    target_ids: text(".target-id"), quad_labels: text(".quad-label"),
+    hub_names: text(".hub-name"), info_box: text(".flag text"),
+    targets: side(".target-frame"), hubs: side(".hub-box"),
+    map_fills_panel: map.width / panel.width * (map.height / panel.height),
+    arena_fills_shorter_side: Math.max(arena.height / map.height, arena.width / map.width),
+  };
+}"""
+
+
+@pytest.fixture
+def demo_server(tmp_path) -> Iterator[StudyServer]:  # type: ignore[no-untyped-def]
+    with study_server(tmp_path, "demo") as server:
+        yield server
+
+
+def _measure(page) -> dict[str, object]:  # type: ignore[no-untyped-def]
+    sizes = page.evaluate(MEASURE)
+    for kind in ("target_ids", "quad_labels", "hub_names", "info_box"):
+        assert sizes[kind], f"no {kind} on the map"
+        assert min(sizes[kind]) >= MIN_TEXT_PX, (kind, sizes[kind])
+    for kind in ("targets", "hubs"):
+        assert min(sizes[kind]) >= MIN_GLYPH_PX, (kind, sizes[kind])
+    assert sizes["map_fills_panel"] > 0.99, sizes  # no letterbox bands
+    assert sizes["arena_fills_shorter_side"] > 0.99, sizes  # the arena is as large as fits
+    return sizes
+
+
+def test_the_map_reads_at_1366_and_1024_and_a_double_enter_answers_no_probe(
+    browser, demo_server: StudyServer, capsys
+) -> None:  # type: ignore[no-untyped-def]
+    from playwright.sync_api import expect
+
+    token = _start_live_trial(demo_server)
+    page = browser.new_page(viewport={"width": 1366, "height": 768})
+    page.goto(f"{demo_server.url}/live/{token}")
+    expect(page.locator("#connection")).to_have_text("live")
+    target = wait_for(
+        demo_server,
+        lambda lv: next((t for t in lv.view()["targets"] if t["drawn"]), None),
+        90,
+    )
+    assert target, "no target reported within 90 s"
+    glyph = page.locator(f'g.target[data-target="{target["id"]}"]')
+    glyph.click(button="right")  # the info box, measured with the rest
+    expect(page.locator("#layer-flags .flag")).to_have_count(1)
+    figures = {"1366x768": _measure(page)}
+    page.set_viewport_size({"width": 1024, "height": 768})
+    page.wait_for_function(
+        "() => Math.abs(document.getElementById('map').viewBox.baseVal.width"
+        " / document.getElementById('map').viewBox.baseVal.height"
+        " - document.getElementById('map').clientWidth / document.getElementById('map').clientHeight) < 0.01"
+    )
+    figures["1024x768"] = _measure(page)
+    # Tab (every map glyph has tabindex 0: document order) meets the hubs, then the targets by number.
+    order = page.evaluate(
+        """() => Array.from(document.querySelectorAll('#map [tabindex="0"]'), (n) =>
+            n.dataset.collective !== undefined ? 'hub ' + n.dataset.collective : Number(n.dataset.target))"""
+    )
+    hubs = [f"hub {i}" for i in range(4)]
+    assert order[:4] == hubs and order[4:] == sorted(order[4:]), order
+    with capsys.disabled():
+        for size, sizes in figures.items():
+            summary = {
+                k: round(min(v), 1) if isinstance(v, list) else round(v, 2)
+                for k, v in sizes.items()
+            }
+            print(f"\nmap at {size}: smallest {summary}")
+
+    # A probe: Ready by Enter, then Enter again as the question shows. Nothing is answered.
+    live = live_trial(demo_server)
+    assert wait_for(demo_server, lambda lv: lv.current_probe, 150), "no probe within 150 s"
+    expect(page.locator("#probe-ready")).to_be_focused()
+    page.keyboard.press("Enter")
+    expect(page.locator("#probe-choices button").first).to_be_visible()
+    page.keyboard.press("Enter")
+    page.wait_for_timeout(300)
+    page.keyboard.press("Enter")
+    page.wait_for_timeout(300)  # past the guard: Enter still finds no choice focused
+    page.keyboard.press("Enter")
+    expect(page.locator("#probe-text")).to_be_focused()
+    expect(page.locator("#probe-choices button:focus")).to_have_count(0)
+    probe = live.current_probe
+    assert probe is not None and probe.ready, "the probe was answered by the second Enter"
+    with demo_server.database.session_scope() as session:
+        answers = session.scalars(
+            select(ProbeEvent).where(ProbeEvent.probe_id == probe.id, ProbeEvent.kind == "answer")
+        ).all()
+    assert answers == []
+    page.locator("#probe-choices button").last.click()  # read, then chosen with the mouse
+    expect(page.locator("#probe")).to_be_hidden()
+    with demo_server.database.session_scope() as session:
+        (answer,) = session.scalars(
+            select(ProbeEvent).where(ProbeEvent.probe_id == probe.id, ProbeEvent.kind == "answer")
+        ).all()
+    assert answer.answer == probe.choices[-1]
+    page.close()
