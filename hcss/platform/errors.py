@@ -8,7 +8,8 @@ every answer is committed when its page is submitted.
 
 from __future__ import annotations
 
-from flask import render_template, request, url_for
+from flask import Response, render_template, request, url_for
+from flask.globals import request_ctx
 from sqlalchemy import select
 from werkzeug.exceptions import HTTPException
 
@@ -55,8 +56,12 @@ def participant_token() -> str | None:
     return token if found is not None else None
 
 
-def error_page(code: int, description: str | None = None) -> tuple[str, int]:
+def error_page(code: int, description: str | None = None) -> tuple[str, int] | Response:
     title, advice = ADVICE.get(code, ADVICE[500] if code >= 500 else ADVICE[400])
+    if request_ctx.url_adapter is None:
+        # The request could not be bound to this server (a Host header that is no
+        # hostname): no URL can be built, so no page with links; plain text says it.
+        return Response(f"{title}\n\n{advice}\n", code, mimetype="text/plain")
     token = participant_token()
     return (
         render_template(
@@ -71,7 +76,7 @@ def error_page(code: int, description: str | None = None) -> tuple[str, int]:
     )
 
 
-def http_error_page(error: HTTPException) -> tuple[str, int]:
+def http_error_page(error: HTTPException) -> tuple[str, int] | Response:
     """An HTTP error as a page; a custom description (e.g. a bad link) is shown too."""
     code = error.code or 500
     default = type(error).description

@@ -6,13 +6,15 @@ nested deeper than Python's recursion limit, and bodies of any size. Each is
 answered here with a 4xx and no database work:
 
 - ``<int:...>`` URL parts accept only what an INTEGER column can hold (else 404);
-- a NUL byte in the path, the query or a form field is a 400;
+- a NUL byte in the path, the query or a form field is a 400, and so is a form
+  field whose name werkzeug cannot read (multipart ``name="\\"``);
 - JSON nested too deeply is bad JSON (``get_json(silent=True)`` gives None);
 - a body over ``MAX_CONTENT_LENGTH`` is a 413 before it is read;
 - a JSON body to a page (not ``/api/``, nor a view marked `takes_json`) is a 415:
   pages take forms.
 
-Every answer also carries the security headers (CSP, frame-ancestors, nosniff).
+Every answer also carries the security headers (CSP, frame-ancestors, nosniff),
+and every answer but a static file ``Cache-Control: no-store``.
 """
 
 from __future__ import annotations
@@ -85,6 +87,9 @@ def _refuse_nul_bytes() -> None:
         if values is None:
             continue
         for key, value in values.items(multi=True):
+            if not isinstance(key, str) or not isinstance(value, str):
+                # werkzeug parses a multipart name it cannot read (``name="\\"``) to None
+                abort(400, description="A form field has no readable name.")
             if "\x00" in key or "\x00" in value:
                 abort(400, description="A field contains a NUL byte.")
 
@@ -108,6 +113,10 @@ SECURITY_HEADERS = {
 def _security_headers(response: Response) -> Response:
     for name, value in SECURITY_HEADERS.items():
         response.headers.setdefault(name, value)
+    if not (request.endpoint or "").endswith("static"):
+        # Console pages list participant links and participant pages carry a token:
+        # no browser or proxy cache may keep them. Static files may be cached.
+        response.headers["Cache-Control"] = "no-store"
     return response
 
 

@@ -15,6 +15,27 @@ from sqlalchemy.orm import Session
 from hcss.platform.export.rows import iso
 from hcss.platform.models import Participant, Recruitment
 
+#: A cell starting with one of these is run as a formula by Excel, LibreOffice and Sheets.
+FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
+#: pandas' default missing-value strings (`read_csv`'s na_values) that an id may spell.
+READ_AS_MISSING = frozenset(
+    {"#N/A", "#N/A N/A", "#NA", "-1.#IND", "-1.#QNAN", "-NaN", "-nan", "1.#IND", "1.#QNAN"}
+    | {"<NA>", "N/A", "NA", "NULL", "NaN", "None", "n/a", "nan", "null"}
+)
+
+
+def exported_id(value: str | None) -> str | None:
+    """An id as the export writes it: one leading apostrophe when a spreadsheet would
+    run it as a formula or pandas would read it as missing; strip it to get the id back.
+
+    The ids come from the recruitment link's query, chosen by whoever opens it.
+    """
+    if value is None:
+        return None
+    if value.startswith(FORMULA_STARTS) or value in READ_AS_MISSING or value.startswith("'"):
+        return "'" + value
+    return value
+
 
 def recruitment_rows(session: Session) -> list[dict[str, Any]]:
     rows = session.execute(
@@ -27,9 +48,9 @@ def recruitment_rows(session: Session) -> list[dict[str, Any]]:
             "participant": code,
             "study": recruitment.study,
             "source": recruitment.source,
-            "recruitment_id": recruitment.recruitment_id,
-            "recruiter_study_id": recruitment.recruiter_study_id,
-            "recruiter_session_id": recruitment.recruiter_session_id,
+            "recruitment_id": exported_id(recruitment.recruitment_id),
+            "recruiter_study_id": exported_id(recruitment.recruiter_study_id),
+            "recruiter_session_id": exported_id(recruitment.recruiter_session_id),
             "enrolled_at": iso(recruitment.created_at),
         }
         for recruitment, code in rows
