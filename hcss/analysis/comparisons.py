@@ -8,7 +8,9 @@
   figure does.
 - Simulation only: Mann-Whitney M1SIM vs M2SIM per measure and split.
 - Spearman correlations of success rate with decision time, request
-  frequencies and MRT score, per group and pooled over the human models.
+  frequencies and MRT score, per group, and over the human models with one
+  value per participant (their mean over M1–M3): pooling the three trials
+  would count each participant three times as independent.
 
 A test that cannot run (too few groups or values, a constant variable) is
 recorded with its reason instead of stopping the report: a small pilot
@@ -29,6 +31,7 @@ from typing import TypeVar
 import pandas as pd
 
 from hcss.analysis.decision_measures import SPLITS, unit_table
+from hcss.analysis.exact import snapped
 from hcss.analysis.instrument_measures import ALL_PARTICIPANTS
 from hcss.analysis.load import GROUP_ORDER
 from hcss.analysis.measures import MRT_MEASURE, measure_order
@@ -50,7 +53,12 @@ HUMAN_GROUPS = ("M1", "M2", "M3")
 #: Below this many units per group a table says its p is fragile.
 SMALL_N = 10
 SIMULATION_PAIR = ("M1SIM", "M2SIM")
-POOLED_HUMAN = "M1–M3"
+#: The pooled human correlation: one row per participant, the mean over the models met.
+POOLED_HUMAN = "M1–M3 (participant means)"
+POOLED_NOTE = (
+    "one value per participant (the mean over the models they met): "
+    "a participant's three trials are not independent observations"
+)
 
 #: (x, y) pairs correlated per unit; y is always the success rate.
 CORRELATIONS = (
@@ -244,7 +252,7 @@ def _with_mrt(units: pd.DataFrame, measures: pd.DataFrame) -> pd.DataFrame:
 
 
 def correlations(measures: pd.DataFrame) -> list[Correlation]:
-    """Spearman correlations with success rate, per group and pooled over M1–M3."""
+    """Spearman correlations with success rate, per group and over participants' M1–M3 means."""
     units = unit_table(measures[measures["group"] != ALL_PARTICIPANTS], "overall")
     if units.empty:
         return []
@@ -254,9 +262,11 @@ def correlations(measures: pd.DataFrame) -> list[Correlation]:
         for group in GROUP_ORDER
         if group in set(units["group"])
     ]
-    human = units[units["group"].isin(HUMAN_GROUPS)]
+    human = units[units["group"].isin(HUMAN_GROUPS) & (units["participant"].astype(str) != "")]
     if human["group"].nunique() > 1:
-        subsets.append((POOLED_HUMAN, human))
+        means = human.drop(columns=["group", "source", "unit"]).groupby("participant").mean()
+        means = means.apply(snapped)  # equal means tie, as in R
+        subsets.append((POOLED_HUMAN, means.reset_index()))
     results = []
     for x, y in CORRELATIONS:
         for group, subset in subsets:
@@ -266,7 +276,8 @@ def correlations(measures: pd.DataFrame) -> list[Correlation]:
                 continue
             try:
                 result, caught = quietly(spearman, subset[x], subset[y])
-                note = join_notes(result.note, caught)
+                pooled = POOLED_NOTE if group == POOLED_HUMAN else ""
+                note = join_notes(pooled, result.note, caught)
             except ValueError as error:
                 result, note = None, str(error)
             results.append(Correlation(x, y, group, result, note))

@@ -20,6 +20,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from hcss.analysis.exact import snapped
 from hcss.analysis.load import SIMULATION
 
 SPLITS = ("overall", "easy", "difficult")
@@ -50,11 +51,12 @@ def trial_measures(decisions: pd.DataFrame) -> dict[str, float]:
 
     - ``success_rate``: correct decisions / decisions (0–1). Timed-out
       decisions count, as incorrect, since the collective failed to choose.
-    - ``decision_time_min``: mean decision time in minutes, time-outs included
-      at their cap: the seconds are summed, then divided once by 60·n, so
-      two trials with the same total time give the same number (averaging
-      seconds/60 gave values one ulp apart, which rank tests then ranked
-      apart).
+    - ``decision_time_min``: mean decision time in minutes over the decisions
+      with a recorded time, time-outs included at their cap: the seconds are
+      summed, then divided once by 60·n, so two trials with the same total
+      time give the same number. A decision without a time is left out of
+      the mean (counting it as 0 s would shorten the trial); it still counts
+      for success.
     - ``request_frequency`` and one per kind: for each decision, its accepted
       requests divided by its decision time in minutes, then averaged over the
       trial's decisions ("requests per decision per minute"). A decision of
@@ -66,11 +68,14 @@ def trial_measures(decisions: pd.DataFrame) -> dict[str, float]:
     if decisions.empty:
         return {}
     seconds = decisions["decision_time_s"].astype(float)
+    timed = seconds.notna()
     minutes = seconds / 60.0
     correct = int(decisions["correct"].fillna(False).astype(bool).sum())
     measures = {
         "success_rate": correct / len(decisions),
-        "decision_time_min": float(seconds.sum()) / (60.0 * len(decisions)),
+        "decision_time_min": (
+            float(seconds[timed].sum()) / (60.0 * int(timed.sum())) if timed.any() else np.nan
+        ),
         "interventions": float(decisions["n_interventions"].astype(float).sum()),
     }
     positive = minutes > 0
@@ -80,18 +85,14 @@ def trial_measures(decisions: pd.DataFrame) -> dict[str, float]:
     return measures
 
 
-#: Unit values are rounded to this many decimals (far below any reported
-#: precision) so that quantities equal in exact arithmetic are equal floats
-#: and rank tests see the ties R sees.
-VALUE_DECIMALS = 9
-
-
 def decision_measures(decisions: pd.DataFrame) -> pd.DataFrame:
     """Every decision measure for every unit and split, as a tidy frame.
 
     Columns: measure, split, group, source, unit, participant, value. For
     simulation units, ``value`` is the mean over the scenario's runs and
-    ``participant`` is empty. Values are rounded to :data:`VALUE_DECIMALS`.
+    ``participant`` is empty. Each value is snapped to its exact fraction
+    (:mod:`hcss.analysis.exact`), so quantities equal in exact arithmetic are
+    equal floats and rank tests see the ties R sees.
     """
     rows = []
     for (group, source, participant, scenario, trial), trial_decisions in decisions.groupby(
@@ -115,7 +116,7 @@ def decision_measures(decisions: pd.DataFrame) -> pd.DataFrame:
         .mean()
         .reset_index()
     )
-    per_unit["value"] = per_unit["value"].round(VALUE_DECIMALS)
+    per_unit["value"] = snapped(per_unit["value"])
     return per_unit[MEASURE_COLUMNS]
 
 

@@ -16,6 +16,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from hcss.analysis.sources import SourceError, read_tables
@@ -60,6 +61,16 @@ STUDY_TABLES: dict[str, tuple[str, ...]] = {
 
 BOOLEAN_COLUMNS = frozenset(
     {"timed_out", "correct", "accepted", "intervention", "is_pilot", "is_bot", "is_demo"}
+)
+#: Numeric decision columns: a time in seconds and the per-decision counts. None may be
+#: negative or infinite; a missing time is allowed (the decision had no recorded end).
+NUMERIC_DECISION_COLUMNS = (
+    "decision_time_s",
+    "n_requests",
+    "n_investigate",
+    "n_abandon",
+    "n_decide",
+    "n_interventions",
 )
 TEXT_COLUMNS = frozenset(
     {"source", "model", "participant", "trial_id", "scenario_id", "collective", "difficulty"}
@@ -147,8 +158,27 @@ def _checked(frame: pd.DataFrame, where: str, table: str, required: Sequence[str
     return frame
 
 
+def _numeric(frame: pd.DataFrame, where: str, columns: Sequence[str]) -> None:
+    """Parse ``columns`` as numbers in place; text, infinity or a negative value is refused.
+
+    The CSV row number is counted as a spreadsheet shows it (header = row 1).
+    """
+    for name in columns:
+        raw = frame[name]
+        values = pd.to_numeric(raw, errors="coerce").astype(float)
+        bad = (raw.notna() & values.isna()) | np.isinf(values) | (values < 0)
+        if bad.any():
+            position = int(np.flatnonzero(bad.to_numpy())[0])
+            raise AnalysisInputError(
+                f"{where}: column {name!r} holds {str(raw.iloc[position])!r} in row "
+                f"{position + 2}, expected a finite number ≥ 0"
+            )
+        frame[name] = values
+
+
 def _decisions(frame: pd.DataFrame, where: str) -> pd.DataFrame:
     decisions = _checked(frame, where, "decisions", DECISION_COLUMNS)
+    _numeric(decisions, where, NUMERIC_DECISION_COLUMNS)
     sources = set(decisions["source"].dropna())
     unknown = sources - {SIMULATION, STUDY}
     if unknown or decisions["source"].isna().any():

@@ -26,6 +26,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
+from hcss.analysis.exact import exact_differences
 from hcss.analysis.stats import ALL_EQUAL, TestResult, all_equal
 
 
@@ -76,6 +77,9 @@ def paired_wilcoxon(first: Sequence[float], second: Sequence[float]) -> TestResu
     """Two-sided Wilcoxon signed-rank test of ``first − second``, as R's paired wilcox.test.
 
     The statistic is R's V, the sum of the ranks of positive differences.
+    Differences are taken on the exact values (:func:`exact_differences`),
+    so two pairs whose differences are equal in exact arithmetic tie, as
+    they do when R is given the same values.
     Pairs with a missing value are dropped; ``n`` is the number of pairs
     with a non-zero difference (the pairs the test uses).
     """
@@ -84,7 +88,7 @@ def paired_wilcoxon(first: Sequence[float], second: Sequence[float]) -> TestResu
     if x.shape != y.shape:
         raise ValueError("a paired test needs two samples of the same length")
     keep = ~(np.isnan(x) | np.isnan(y))
-    differences = x[keep] - y[keep]
+    differences = exact_differences(x[keep], y[keep])
     zeros = bool((differences == 0).any())
     differences = differences[differences != 0]
     n = len(differences)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import io
 import zipfile
+import zlib
 from pathlib import Path, PurePosixPath
 
 import pandas as pd
@@ -113,6 +114,12 @@ def read_tables(
                 for name in wanted
                 if name in tables
             }
-    except (OSError, zipfile.BadZipFile) as error:
+    except (OSError, zipfile.BadZipFile, zlib.error, EOFError) as error:
+        raise SourceError(f"{path}: cannot read it (damaged?): {error}") from error
+    except NotImplementedError as error:  # zipfile: a compression method it lacks
         raise SourceError(f"{path}: cannot read it: {error}") from error
+    except RuntimeError as error:  # zipfile: an encrypted member without a password
+        raise SourceError(
+            f"{path}: cannot read it: {error}; export it again unencrypted"
+        ) from error
     raise SourceError(f"{path}: no such file or directory")

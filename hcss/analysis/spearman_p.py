@@ -2,11 +2,11 @@
 
 R's default (``exact = NULL``) is *not* the t approximation scipy uses:
 
-- without ties and with n < 1290, R calls its C routine ``prho`` (Best &
+- without ties and with n ≤ 1290, R calls its C routine ``prho`` (Best &
   Roberts 1975, algorithm AS 89) for the null distribution of
   S = Σ(rank differences)²: the exact permutation distribution for n ≤ 9,
   an Edgeworth series expansion beyond;
-- with ties (or n ≥ 1290) R uses the t approximation with n − 2 df.
+- with ties (or n > 1290) R uses the t approximation with n − 2 df.
 
 This module is a transcription of that logic (R's ``cor.test.default`` and
 ``src/library/stats/src/prho.c``), so a small study's p agrees with the
@@ -24,7 +24,7 @@ from scipy import stats
 
 #: n up to which ``prho`` enumerates every permutation (R's ``n_small``).
 EXACT_MAX_N = 9
-#: R switches to the t approximation at this n (n³ would overflow in C).
+#: The largest n R gives to ``prho`` (beyond it n³ would overflow in C).
 EDGEWORTH_MAX_N = 1290
 
 EXACT = "exact (permutation distribution of S, as R's prho)"
@@ -96,7 +96,7 @@ def _prho(n: int, s: float, lower_tail: bool) -> float:
 
 def spearman_p(rho: float, n: int, ties: bool) -> tuple[float, str]:
     """Two-sided p of ρ with n pairs, and the method used, as R's default."""
-    if ties or n >= EDGEWORTH_MAX_N:
+    if ties or n > EDGEWORTH_MAX_N:
         t = (
             rho * math.sqrt((n - 2) / (1 - rho * rho))
             if abs(rho) < 1

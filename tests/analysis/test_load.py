@@ -165,3 +165,52 @@ def re_escape(text: str) -> str:
     import re
 
     return re.escape(text)
+
+
+@pytest.mark.parametrize(
+    ("time", "message"),
+    [
+        ("soon", "'decision_time_s' holds 'soon' in row 3"),
+        ("inf", "'decision_time_s' holds 'inf' in row 3"),
+        ("-4.5", "'decision_time_s' holds '-4.5' in row 3"),
+    ],
+)
+def test_text_infinite_or_negative_times_are_refused(tmp_path: Path, time: str, message: str):
+    """A time column with text used to end in a traceback; infinity and negatives passed."""
+    rows = [decision_row(source="simulation", trial_id=f"t{i}") for i in range(3)]
+    frame = pd.DataFrame(rows, columns=DECISION_COLUMNS).astype({"decision_time_s": object})
+    frame.loc[1, "decision_time_s"] = time
+    write_table(frame, tmp_path / "decisions.csv")
+    with pytest.raises(AnalysisInputError, match=re_escape(message)):
+        load_inputs([tmp_path / "decisions.csv"])
+
+
+def _zip_with_one_export(path: Path, decisions: pd.DataFrame) -> bytes:
+    import zipfile
+
+    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as archive:
+        archive.writestr("hcss-export-x/decisions.csv", decisions.to_csv(index=False))
+    return path.read_bytes()
+
+
+def _patch_central_directory(content: bytes, offset: int, value: int) -> bytes:
+    """Set a 2-byte field of the (only) central-directory entry."""
+    start = content.index(b"PK\x01\x02") + offset
+    return content[:start] + value.to_bytes(2, "little") + content[start + 2 :]
+
+
+@pytest.mark.parametrize("damage", ["corrupt", "compression", "encrypted"])
+def test_damaged_zip_members_are_clear_errors(tmp_path: Path, damage: str):
+    """Each of these ended in a zlib.error, NotImplementedError or RuntimeError traceback."""
+    decisions = simulation_decisions(scenarios=2, runs=1)
+    content = _zip_with_one_export(tmp_path / "export.zip", decisions)
+    if damage == "corrupt":
+        start = content.index(b"decisions.csv") + len(b"decisions.csv") + 20
+        content = content[:start] + bytes(40) + content[start + 40 :]
+    elif damage == "compression":
+        content = _patch_central_directory(content, 10, 99)  # method 99: AES, unsupported
+    else:
+        content = _patch_central_directory(content, 8, 0x1)  # flag bit 0: encrypted
+    (tmp_path / "export.zip").write_bytes(content)
+    with pytest.raises(AnalysisInputError, match="export.zip: cannot read it"):
+        load_inputs([tmp_path / "export.zip"])
