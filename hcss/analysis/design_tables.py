@@ -98,8 +98,12 @@ def paired_wilcoxon_table(comparisons: list[RepeatedComparison]) -> Table:
 
 
 def model_table(name: str, model: ClusteredModel) -> Table:
-    """Ratios exp(β) with 95% intervals; the method and cluster counts in the caption."""
-    rows = tuple(
+    """Ratios exp(β) with 95% intervals and Wald z p; variance components as rows beneath.
+
+    The caption names the method, the order covariates and the cluster
+    counts; a model that was not fitted is one row saying why.
+    """
+    rows = [
         (
             term.term,
             format_number(term.ratio, 3),
@@ -107,25 +111,46 @@ def model_table(name: str, model: ClusteredModel) -> Table:
             format_p(term.p),
         )
         for term in model.terms
-    )
+    ]
+    rows += [
+        (f"Variance: {component.name}", format_number(component.variance, 3), "", "")
+        for component in model.variance
+        if model.terms
+    ]
     if not rows:
-        rows = (("not fitted", "–", "–", model.note or "–"),)
+        rows = [("not fitted", "–", "–", model.note or "–")]
+    order = (
+        f" + order ({', '.join(COVARIATE_LABELS[name] for name in model.covariates)})"
+        if model.covariates
+        else " (order did not vary: no order term)"
+    )
     caption = (
-        f"{model.outcome.capitalize()} by model × difficulty: {model.method}; "
+        f"{model.outcome.capitalize()} by model × difficulty{order}: {model.method}; "
+        f"p from {model.p_method}; "
         f"{model.n_decisions} decisions of {model.n_participants} participants"
         + (f" ({model.note})" if model.note and model.terms else "")
     )
     frame = pd.DataFrame(
         [
             {"term": t.term, model.ratio_name.replace(" ", "_"): t.ratio, "lower": t.lower}
-            | {"upper": t.upper, "p": t.p}
+            | {"upper": t.upper, "p": t.p, "p_method": model.p_method}
             for t in model.terms
+        ]
+        + [
+            {"term": f"variance: {component.name}", "variance": component.variance}
+            for component in model.variance
         ]
     )
     return Table(
         name,
         caption,
-        ("Term (vs M1, easy)", model.ratio_name.capitalize(), "95% CI", "p"),
-        rows,
+        ("Term (vs M1, easy)", model.ratio_name.capitalize(), "95% CI", f"p ({model.p_method})"),
+        tuple(rows),
         frame,
     )
+
+
+COVARIATE_LABELS = {
+    "position": "trial position 1–3",
+    "first_section": "first section",
+}

@@ -144,8 +144,8 @@ def build_sections(
         design += [friedman_table(repeated), paired_wilcoxon_table(repeated)]
     if (tables.decisions["source"] == "study").any():
         design += [
-            model_table("gee_success", success_gee(tables.decisions)),
-            model_table("mixedlm_time", time_mixed_model(tables.decisions)),
+            model_table("gee_success", success_gee(tables.decisions, tables.participants)),
+            model_table("mixedlm_time", time_mixed_model(tables.decisions, tables.participants)),
         ]
     if design:
         sections.append(

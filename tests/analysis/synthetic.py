@@ -147,7 +147,7 @@ def study_export(directory: Path, participants: int = 6, seed: int = 11) -> Path
                 "participant": code,
                 "study": "original",
                 "cell": position % 8 + 1,
-                "model_order": "M1,M2,M3",
+                "model_order": "M1,M2,M3" if position % 8 < 4 else "M2,M1,M3",
                 "is_pilot": code.startswith("PILOT"),
                 "is_bot": code.startswith("BOT"),
                 "is_demo": False,
