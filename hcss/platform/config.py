@@ -11,33 +11,46 @@ from __future__ import annotations
 
 import os
 import secrets
+import sys
 from pathlib import Path
 
-PROJECT_ROOT = Path(__file__).resolve().parents[2]
+from sqlalchemy.engine import make_url
+from sqlalchemy.exc import ArgumentError
+
+
+def default_instance_path() -> Path:
+    """`instance/` of a source checkout, else Flask's place for an installed app.
+
+    Absolute either way, so the database is the same file whichever directory
+    `hcss` is started from: `<checkout>/instance` when running from a checkout
+    (`make run`), `<sys.prefix>/var/hcss-instance` when installed from a wheel.
+    """
+    checkout = Path(__file__).resolve().parents[2]
+    if (checkout / "pyproject.toml").is_file():
+        return checkout / "instance"
+    return Path(sys.prefix) / "var" / "hcss-instance"
 
 
 def instance_path() -> Path:
-    """The folder for the embedded database and the generated secret key.
-
-    An absolute path under the project root by default, so the database is the
-    same file whichever directory `hcss` is started from.
-    """
+    """The folder for the embedded database and the generated secret key."""
     configured = os.environ.get("HCSS_INSTANCE_PATH")
-    path = Path(configured).resolve() if configured else PROJECT_ROOT / "instance"
+    path = Path(configured).resolve() if configured else default_instance_path()
     path.mkdir(parents=True, exist_ok=True)
     return path
 
 
 def database_url() -> str:
     """``DATABASE_URL`` when set (PostgreSQL: ``postgresql+psycopg://...``), else SQLite."""
-    url = os.environ.get("DATABASE_URL")
-    if url:
-        if url.startswith("postgres://"):
-            # Heroku-style URLs name no driver; SQLAlchemy 2 needs one.
-            url = "postgresql+psycopg://" + url[len("postgres://") :]
-        elif url.startswith("postgresql://"):
-            url = "postgresql+psycopg://" + url[len("postgresql://") :]
-        return url
+    configured = os.environ.get("DATABASE_URL")
+    if configured:
+        try:
+            url = make_url(configured)
+        except ArgumentError as error:
+            raise ValueError(f"DATABASE_URL is not a database URL: {error}") from error
+        if url.drivername in ("postgres", "postgresql"):
+            # Heroku-style URLs name no driver (or an alias SQLAlchemy 2 dropped).
+            url = url.set(drivername="postgresql+psycopg")
+        return url.render_as_string(hide_password=False)
     return f"sqlite:///{instance_path() / 'hcss.sqlite3'}"
 
 
