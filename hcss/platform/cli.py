@@ -6,23 +6,23 @@ import os
 
 import click
 
-from hcss.platform.config import PROJECT_ROOT
 from hcss.simulation.params import MODELS
 
-MIGRATIONS = PROJECT_ROOT / "migrations"
+#: The Alembic environment, package data (Alembic's "package:directory" form).
+MIGRATIONS = "hcss.platform:migrations"
 DEFAULT_PORT = 5000
 #: Waitress threads `hcss serve` starts with: 200 concurrent trials' streams and a reserve for pages.
 DEFAULT_THREADS = 256
 
 
 def alembic_config(database_url: str | None = None):  # type: ignore[no-untyped-def]
-    """The Alembic configuration for this project's `migrations/` folder."""
+    """The Alembic configuration of the migrations shipped in the package."""
     from alembic.config import Config
 
     from hcss.platform.config import database_url as default_url
 
     config = Config()
-    config.set_main_option("script_location", str(MIGRATIONS))
+    config.set_main_option("script_location", MIGRATIONS)
     # '%' is interpolation syntax in Alembic's config parser.
     config.set_main_option("sqlalchemy.url", (database_url or default_url()).replace("%", "%%"))
     return config

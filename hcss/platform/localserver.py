@@ -39,6 +39,7 @@ class LocalServer:
         threads: int = 32,
         snapshot_interval_s: float = 1.0,
         extra_env: dict[str, str] | None = None,
+        python: str = sys.executable,
     ) -> None:
         self.database_url = database_url
         self.instance_path = Path(instance_path)
@@ -46,6 +47,9 @@ class LocalServer:
         self.threads = threads
         self.snapshot_interval_s = snapshot_interval_s
         self.extra_env = extra_env or {}
+        #: The interpreter that runs the server: another environment's, to serve what is
+        #: installed there (the installed-wheel test).
+        self.python = python
         self.process: subprocess.Popen[bytes] | None = None
         self.log_path = self.instance_path / f"server-{self.port}.log"
 
@@ -63,7 +67,7 @@ class LocalServer:
             **self.extra_env,
         }
         command = [
-            sys.executable,
+            self.python,
             "-m",
             "hcss.platform",
             "serve",
@@ -74,7 +78,11 @@ class LocalServer:
         ]
         self.instance_path.mkdir(parents=True, exist_ok=True)
         log = self.log_path.open("ab")
-        self.process = subprocess.Popen(command, env=env, stdout=log, stderr=subprocess.STDOUT)
+        # Started in the instance folder, so `-m` imports the installed hcss, never a
+        # checkout that happens to be the caller's working directory.
+        self.process = subprocess.Popen(
+            command, env=env, cwd=self.instance_path, stdout=log, stderr=subprocess.STDOUT
+        )
         log.close()
         deadline = time.monotonic() + timeout_s
         while time.monotonic() < deadline:

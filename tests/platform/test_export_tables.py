@@ -14,16 +14,14 @@ from sqlalchemy import select
 
 from hcss.analysis.load import AnalysisInputError, load_inputs
 from hcss.cli import main
-from hcss.platform.config import PROJECT_ROOT
 from hcss.platform.export.tables import TABLES
+from hcss.platform.export.writer import DICTIONARY
 from hcss.platform.models import AuditRecord, Participant
 from hcss.simulation import DECISION_COLUMNS
 from tests.platform import console_support
 from tests.platform.console_support import code_of, play_trial
 
 console, experimenter = console_support.console, console_support.experimenter
-
-DICTIONARY = PROJECT_ROOT / "docs" / "data-dictionary.md"
 
 
 def dictionary_columns() -> dict[str, list[str]]:

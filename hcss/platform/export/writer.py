@@ -13,13 +13,13 @@ import math
 import shutil
 import tempfile
 from collections import defaultdict
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
-from hcss.platform.config import PROJECT_ROOT
 from hcss.platform.export.problems import ProblemLog
 from hcss.platform.export.recruitment_rows import recruitment_rows
 from hcss.platform.export.rows import TRIAL_ROW_BUILDERS, interruption_rows
@@ -27,7 +27,8 @@ from hcss.platform.export.study_rows import participant_rows, study_flow_rows
 from hcss.platform.export.tables import PROBLEMS_TABLE, TABLES, TRIAL_TABLES, columns
 from hcss.platform.models import Participant, Trial
 
-DICTIONARY = PROJECT_ROOT / "docs" / "data-dictionary.md"
+#: The data dictionary, package data (docs/data-dictionary.md links to it).
+DICTIONARY = resources.files("hcss.platform.export") / "data-dictionary.md"
 TRAINING_DIR = "training"
 
 EXPORT_NOTES = """
