@@ -60,6 +60,8 @@ def test_a_prolific_visitor_walks_the_demo_to_its_completion_code(
     with serving(demo_app) as url:
         page = browser.new_page(viewport={"width": 1100, "height": 800})
         page.goto(f"{url}/join/demo?{urlencode(PROLIFIC)}")
+        expect(page.locator("#device-ok")).to_be_visible()
+        page.locator("#join-start").click()
         expect(page.locator("main.study")).to_have_attribute("data-stage", "consent")
         assert "/p/" in page.url and "PROLIFIC_PID" not in page.url
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import re
 import threading
 import time
 from collections import Counter
@@ -13,7 +14,7 @@ from sqlalchemy import event, func, select
 
 from hcss.platform.console.withdrawal import participant_tables
 from hcss.platform.export.writer import collect
-from hcss.platform.models import Participant, Recruitment, StudyEnrolment
+from hcss.platform.models import Participant, Recruitment, ScreenOut, StudyEnrolment
 from hcss.platform.study.enrolment import cell_counts
 from hcss.platform.study.online import OnlineSettings, Recruit, RecruitmentError
 from hcss.platform.study.recruitment import enrol_or_resume
@@ -22,8 +23,18 @@ from hcss.platform.study.studyfile import StudyFileError, load_study, parse_stud
 PROLIFIC = {"PROLIFIC_PID": "5f8a1b2c3d4e5f6a7b8c9d0e", "STUDY_ID": "S123", "SESSION_ID": "X9"}
 
 
-def _join(client, study: str = "demo", **params: str):  # type: ignore[no-untyped-def]
-    return client.get(f"/join/{study}?{urlencode(params)}")
+#: What the first page of a laptop's browser measures and posts with Start.
+LAPTOP = {"width": "1366", "height": "768", "mobile": "0", "missing": ""}
+HIDDEN = re.compile(r'<input type="hidden" name="([^"]+)" value="([^"]*)"')
+
+
+def _join(client, study: str = "demo", device=LAPTOP, **params: str):  # type: ignore[no-untyped-def]
+    """Open the study link; on its first page, press Start (as a laptop's browser posts it)."""
+    first = client.get(f"/join/{study}?{urlencode(params)}")
+    if first.status_code != 200 or 'id="join-form"' not in first.get_data(as_text=True):
+        return first
+    fields = dict(HIDDEN.findall(first.get_data(as_text=True)))
+    return client.post(f"/join/{study}", data=fields | dict(device))
 
 
 def _count(app, model) -> int:  # type: ignore[no-untyped-def]
@@ -291,3 +302,99 @@ def test_the_debrief_gives_the_completion_code_only_to_online_participants(
     finally:
         app.extensions["hcss_db"].engine.dispose()
     assert report.pages > 30
+
+
+# --- the first page: nothing before Start, the device checked, the way back ---------------
+
+PHONE = {"width": "375", "height": "812", "mobile": "1", "missing": ""}
+
+
+def test_a_bare_visit_and_an_mturk_preview_record_nothing(app) -> None:  # type: ignore[no-untyped-def]
+    client = app.test_client()
+    page = client.get("/join/demo")  # a link preview, a crawler: anonymous mode, no Start
+    assert page.status_code == 200 and 'id="join-start"' in page.get_data(as_text=True)
+    preview = client.get(
+        "/join/demo?assignmentId=ASSIGNMENT_ID_NOT_AVAILABLE&hitId=HIT1&turkSubmitTo=x"
+    )
+    assert preview.status_code == 200
+    assert "accept the HIT first" in preview.get_data(as_text=True)
+    assert 'id="join-form"' not in preview.get_data(as_text=True)
+    assert _count(app, Participant) == 0 and _count(app, Recruitment) == 0
+    assert _count(app, StudyEnrolment) == 0 and _count(app, ScreenOut) == 0
+
+
+def test_recruitment_parameter_names_match_in_any_case(app) -> None:  # type: ignore[no-untyped-def]
+    lower = _join(app.test_client(), prolific_pid="60b7c9d2", study_id="S1", session_id="X1")
+    assert lower.status_code == 302
+    again = _join(app.test_client(), PROLIFIC_PID="60b7c9d2")
+    assert again.location == lower.location
+    with app.extensions["hcss_db"].session_scope() as session:
+        row = session.scalars(select(Recruitment)).one()
+    assert (row.source, row.recruitment_id, row.recruiter_study_id) == (
+        "prolific",
+        "60b7c9d2",
+        "S1",
+    )
+    twice = app.test_client().get("/join/demo?PROLIFIC_PID=a&prolific_pid=b")
+    assert twice.status_code == 400 and "more than once" in twice.get_data(as_text=True)
+
+
+def test_a_phone_is_screened_out_with_the_code_and_nothing_else_is_kept(app) -> None:  # type: ignore[no-untyped-def]
+    page = _join(app.test_client(), device=PHONE, **PROLIFIC)
+    text = page.get_data(as_text=True)
+    assert page.status_code == 200 and 'data-stage="screened_out"' in text
+    assert "desktop or laptop" in text and "375 x 812" in text
+    assert 'id="screen-out-code" class="code">DEMOSCREEN<' in text
+    assert "https://app.prolific.com/submissions/complete?cc=DEMOSCREEN" in text
+    assert _count(app, Participant) == 0 and _count(app, StudyEnrolment) == 0
+    with app.extensions["hcss_db"].session_scope() as session:
+        row = session.scalars(select(ScreenOut)).one()
+        assert (row.study, row.source, row.recruitment_id) == (
+            "demo",
+            "prolific",
+            PROLIFIC["PROLIFIC_PID"],
+        )
+        assert (row.width, row.height, row.mobile) == (375, 812, True)
+        exported = collect(session)["screen_outs"]
+    assert [(r["study"], r["recruitment_id"], r["mobile"]) for r in exported] == [
+        ("demo", PROLIFIC["PROLIFIC_PID"], True)
+    ]
+    # The same person on a laptop afterwards is enrolled as usual.
+    assert _join(app.test_client(), **PROLIFIC).status_code == 302
+    assert _count(app, Participant) == 1
+
+
+@pytest.mark.parametrize(
+    "device",
+    [
+        {},
+        {"width": "wide", "height": "768", "mobile": "0"},
+        {"width": "1366", "height": "768", "mobile": "maybe"},
+        {"width": "1366", "height": "9" * 40, "mobile": "0"},
+        {"width": "1366", "height": "768", "mobile": "0", "missing": "webgpu"},
+    ],
+)
+def test_a_malformed_device_report_is_refused_and_writes_nothing(app, device) -> None:  # type: ignore[no-untyped-def]
+    client = app.test_client()
+    client.get("/join/demo")
+    csrf = re.search(
+        r'name="csrf_token" value="([^"]+)"', client.get("/join/demo").get_data(as_text=True)
+    )
+    response = client.post("/join/demo", data={"csrf_token": csrf.group(1), **PROLIFIC, **device})
+    assert response.status_code == 400 and "Traceback" not in response.get_data(as_text=True)
+    assert _count(app, Participant) == 0 and _count(app, ScreenOut) == 0
+
+
+@pytest.mark.parametrize(
+    ("requirements", "message"),
+    [
+        ({"min_width": "1024"}, "`requirements.min_width` must be an integer"),
+        ({"features": ["webgpu"]}, "requirements.features[0]"),
+        ({"desktop": True}, "unknown setting `requirements.desktop`"),
+    ],
+)
+def test_the_requirements_table_is_checked(requirements: dict, message: str) -> None:
+    doc = _study_doc(link=True)
+    doc["requirements"] = requirements
+    with pytest.raises(StudyFileError, match=re.escape(message)):
+        parse_study(doc, source="demo.toml")

@@ -1,4 +1,4 @@
-"""The `recruitment` table: each online participant's recruitment-site ids.
+"""The `recruitment` and `screen_outs` tables: recruitment-site ids of who came and who was turned away.
 
 Kept out of the wide participants table on purpose: these ids link a
 participant code to an account on Prolific, SONA or MTurk, which is needed
@@ -13,7 +13,7 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from hcss.platform.export.rows import iso
-from hcss.platform.models import Participant, Recruitment
+from hcss.platform.models import Participant, Recruitment, ScreenOut
 
 #: A cell starting with one of these is run as a formula by Excel, LibreOffice and Sheets.
 FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
@@ -54,4 +54,22 @@ def recruitment_rows(session: Session) -> list[dict[str, Any]]:
             "enrolled_at": iso(recruitment.created_at),
         }
         for recruitment, code in rows
+    ]
+
+
+def screen_out_rows(session: Session) -> list[dict[str, Any]]:
+    """Visitors the study link turned away before consent (no participant was made)."""
+    return [
+        {
+            "study": row.study,
+            "source": row.source,
+            "recruitment_id": row.recruitment_id,
+            "width": row.width,
+            "height": row.height,
+            "mobile": row.mobile,
+            "missing": row.missing,
+            "reasons": row.reasons,
+            "screened_out_at": iso(row.created_at),
+        }
+        for row in session.scalars(select(ScreenOut).order_by(ScreenOut.id))
     ]

@@ -67,6 +67,17 @@ TABLES: dict[str, tuple[tuple[str, str], ...]] = {
         ("recruiter_session_id", "str"),
         ("enrolled_at", "str"),
     ),
+    "screen_outs": (
+        ("study", "str"),
+        ("source", "str"),
+        ("recruitment_id", "str"),
+        ("width", "int"),
+        ("height", "int"),
+        ("mobile", "bool"),
+        ("missing", "str"),
+        ("reasons", "str"),
+        ("screened_out_at", "str"),
+    ),
     "requests": (
         *_TRIAL_KEYS,
         ("request_id", "int"),

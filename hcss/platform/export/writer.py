@@ -21,7 +21,7 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from hcss.platform.export.problems import ProblemLog
-from hcss.platform.export.recruitment_rows import recruitment_rows
+from hcss.platform.export.recruitment_rows import recruitment_rows, screen_out_rows
 from hcss.platform.export.rows import TRIAL_ROW_BUILDERS, interruption_rows
 from hcss.platform.export.study_rows import participant_rows, study_flow_rows
 from hcss.platform.export.tables import PROBLEMS_TABLE, TABLES, TRIAL_TABLES, columns
@@ -64,6 +64,8 @@ def collect(session: Session) -> dict[str, list[dict[str, Any]]]:
         tables[table].extend(rows)
     with problems.guard("recruitment", "recruitment table"):
         tables["recruitment"] = recruitment_rows(session)
+    with problems.guard("screen_outs", "screen_outs table"):
+        tables["screen_outs"] = screen_out_rows(session)
     for trial in session.scalars(select(Trial).order_by(Trial.id)):
         prefix = f"{TRAINING_DIR}/" if trial.kind == "training" else ""
         code = codes.get(trial.participant_id)

@@ -46,6 +46,7 @@ APPEND_ONLY_TABLES = (
     "probe_event",
     "recruitment",  # 0004_o14_online: ids written once, at the first visit
     "command_key",  # 0004_p8_idempotency: a command's first answer
+    "screen_out",  # 0007_screen_out: a visitor turned away before consent
 )
 
 

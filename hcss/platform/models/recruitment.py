@@ -29,3 +29,24 @@ class Recruitment(CreatedAt, Base):
     # The site's own study and session (Prolific STUDY_ID, SESSION_ID; MTurk hitId, assignmentId).
     recruiter_study_id: Mapped[str | None] = mapped_column(String(128))
     recruiter_session_id: Mapped[str | None] = mapped_column(String(128))
+
+
+class ScreenOut(CreatedAt, Base):
+    """A visitor the study link turned away before consent, and why; no participant is made.
+
+    The recruitment site's id is kept so the experimenter can match the
+    site's screen-out submissions (and pay them, where the site asks for it).
+    """
+
+    __tablename__ = "screen_out"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    study: Mapped[str] = mapped_column(String(64))
+    source: Mapped[str] = mapped_column(String(16))  # prolific, sona, mturk or link
+    recruitment_id: Mapped[str | None] = mapped_column(String(128))
+    # What the first page measured, and each shortfall in the words the visitor saw.
+    width: Mapped[int] = mapped_column()
+    height: Mapped[int] = mapped_column()
+    mobile: Mapped[bool] = mapped_column()
+    missing: Mapped[str] = mapped_column(String(128))  # browser features, comma-separated
+    reasons: Mapped[str] = mapped_column(String(1000))

@@ -30,6 +30,14 @@ class RecruitmentError(ValueError):
     """A study link the platform refuses; the message is shown to the visitor (a 4xx)."""
 
 
+class HitPreview(RecruitmentError):
+    """MTurk showing the HIT before a worker accepts it: a page, but no one to enrol."""
+
+
+#: What MTurk puts in `assignmentId` while a worker previews a HIT.
+MTURK_PREVIEW = "ASSIGNMENT_ID_NOT_AVAILABLE"
+
+
 @dataclass(frozen=True)
 class Source:
     """One recruitment site: the parameter naming the person, and its two context ids."""
@@ -79,15 +87,18 @@ class OnlineSettings:
     completion_code: StrictStr = ""
     completion_url: StrictStr = ""
     redirect: StrictBool = False
+    # For a visitor turned away by `[requirements]` or who declines consent.
+    screenout_code: StrictStr = ""
+    screenout_url: StrictStr = ""
 
-    @field_validator("completion_code")
+    @field_validator("completion_code", "screenout_code")
     @classmethod
     def _printable_code(cls, code: str) -> str:
         if code and not (code.isascii() and code.isprintable() and len(code) <= 64):
             raise ValueError("is up to 64 printable ASCII characters")
         return code
 
-    @field_validator("completion_url")
+    @field_validator("completion_url", "screenout_url")
     @classmethod
     def _web_address(cls, url: str) -> str:
         if url and (urlsplit(url).scheme not in ("https", "http") or not urlsplit(url).netloc):
@@ -103,8 +114,12 @@ class OnlineSettings:
 
 
 def _value(args: MultiDict[str, str], name: str) -> str | None:
-    """One recruitment parameter, or None when absent; RecruitmentError when unusable."""
-    values = args.getlist(name)
+    """One recruitment parameter, or None when absent; RecruitmentError when unusable.
+
+    Names are matched without regard to case (`prolific_pid` is `PROLIFIC_PID`):
+    a site or an experimenter that retypes the link must not lose the id.
+    """
+    values = [value for key in args if key.lower() == name.lower() for value in args.getlist(key)]
     if not values:
         return None
     if len(values) > 1:
@@ -134,6 +149,8 @@ def recruit_from(args: MultiDict[str, str]) -> Recruit:
         source.name: {name: _value(args, name) for name in source.parameters()}
         for source in SOURCES
     }
+    if found["mturk"]["assignmentId"] == MTURK_PREVIEW:
+        raise HitPreview("Please accept the HIT first; the study opens once you have.")
     for source in SOURCES:
         values = found[source.name]
         if values[source.id_parameter] is not None:
@@ -144,3 +161,16 @@ def recruit_from(args: MultiDict[str, str]) -> Recruit:
                 recruiter_session_id=values.get(source.session_parameter or ""),
             )
     return Recruit(source=ANONYMOUS, recruitment_id=None)
+
+
+def recruitment_parameters(recruit: Recruit) -> dict[str, str]:
+    """The recruiter's ids as the site's own parameters, to carry them through a form."""
+    source = next((s for s in SOURCES if s.name == recruit.source), None)
+    if source is None or recruit.recruitment_id is None:
+        return {}
+    values = {
+        source.id_parameter: recruit.recruitment_id,
+        source.study_parameter: recruit.recruiter_study_id,
+        source.session_parameter: recruit.recruiter_session_id,
+    }
+    return {name: value for name, value in values.items() if name and value}

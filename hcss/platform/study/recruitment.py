@@ -2,10 +2,12 @@
 
 oTree, JATOS and Gorilla all give one public link that a recruitment site
 sends everyone to. Here a visit with a recruitment id the study has already
-seen goes back to that participant's personal link; any other visit creates
-a participant, stores the recruiter's ids and enrols them through the study
-engine's own `assign_cell` (least-filled cell, the same lock), all in one
-transaction. The completion code and URL for the debrief come from the study
+seen goes back to that participant's personal link; any other visit gets a
+first page that checks the device against the study's `[requirements]`. Its
+Start creates a participant, stores the recruiter's ids and enrols them
+through the study engine's own `assign_cell` (least-filled cell, the same
+lock), all in one transaction; a device that falls short gets a screen-out
+row and a page with the study's screen-out code instead. The completion code and URL for the debrief come from the study
 file's `[online]` table.
 """
 
@@ -22,7 +24,19 @@ from werkzeug.wrappers import Response
 from hcss.platform.db import get_session
 from hcss.platform.models import Participant, Recruitment
 from hcss.platform.study.enrolment import assign_cell
-from hcss.platform.study.online import Recruit, RecruitmentError, recruit_from
+from hcss.platform.study.online import (
+    HitPreview,
+    Recruit,
+    RecruitmentError,
+    recruit_from,
+    recruitment_parameters,
+)
+from hcss.platform.study.screenout import (
+    measurement_from,
+    record_screen_out,
+    screen_out_link,
+    shortfalls,
+)
 from hcss.platform.study.studyfile import Study, StudyFileError, load_study
 
 bp = Blueprint("join", __name__, url_prefix="/join")
@@ -81,11 +95,7 @@ def enrol_or_resume(session: Session, study: Study, recruit: Recruit) -> Partici
     found = returning_participant(session, study, recruit)
     if found is not None:
         return found
-    if recruit.recruitment_id is None and not study.online.anonymous:
-        raise RecruitmentError(
-            "This link needs the id your recruitment site adds to it. "
-            "Please open the study from the site's page."
-        )
+    _check_anonymous(study, recruit)
     try:
         participant = Participant()
         session.add(participant)
@@ -126,13 +136,62 @@ def completion_for(session: Session, participant: Participant, study: Study) -> 
 
 
 @bp.get("/<study_name>")
-def join(study_name: str) -> Response | tuple[str, int]:
+def join(study_name: str) -> Response | tuple[str, int] | str:
+    """A returning id resumes; anyone else gets the first page, which checks the device.
+
+    Nothing is written here: a link preview, a crawler or a bare visit enrols
+    no one and takes no cell. Enrolment waits for the first page's Start.
+    """
     try:
         study = linked_study(study_name)
         recruit = recruit_from(request.args)
-        participant = enrol_or_resume(get_session(), study, recruit)
+        found = returning_participant(get_session(), study, recruit)
+        if found is not None:
+            return redirect(url_for("study.enter", token=found.token))
+        _check_anonymous(study, recruit)
+    except HitPreview as preview:
+        return render_template("study/join_preview.html", message=str(preview), study=study)
     except NoStudyLink as refusal:
         return render_template("study/join_refused.html", message=str(refusal)), 404
     except RecruitmentError as refusal:
         return render_template("study/join_refused.html", message=str(refusal)), 400
+    return render_template(
+        "study/join.html",
+        study=study,
+        requirements=study.requirements,
+        parameters=recruitment_parameters(recruit),
+        action=url_for("join.start", study_name=study.name),
+    )
+
+
+@bp.post("/<study_name>")
+def start(study_name: str) -> Response | tuple[str, int] | str:
+    """Start on the first page: enrol and go to consent, or record a screen-out and say why."""
+    session = get_session()
+    try:
+        study = linked_study(study_name)
+        recruit = recruit_from(request.form)
+        _check_anonymous(study, recruit)
+        measured = measurement_from(request.form)
+    except NoStudyLink as refusal:
+        return render_template("study/join_refused.html", message=str(refusal)), 404
+    except RecruitmentError as refusal:
+        return render_template("study/join_refused.html", message=str(refusal)), 400
+    if returning_participant(session, study, recruit) is None:
+        reasons = shortfalls(study.requirements, measured)
+        if reasons:
+            record_screen_out(session, study, recruit, measured, reasons)
+            session.commit()
+            return render_template(
+                "study/screened_out.html", reasons=reasons, leave=screen_out_link(study)
+            )
+    participant = enrol_or_resume(session, study, recruit)
     return redirect(url_for("study.enter", token=participant.token))
+
+
+def _check_anonymous(study: Study, recruit: Recruit) -> None:
+    if recruit.recruitment_id is None and not study.online.anonymous:
+        raise RecruitmentError(
+            "This link needs the id your recruitment site adds to it. "
+            "Please open the study from the site's page."
+        )

@@ -1,7 +1,9 @@
 """The screen and browser check before the first training.
 
-The Collective Interface needs a window of at least 1024 x 700 CSS pixels
-and a browser with EventSource, fetch and SVG. The page measures the window
+The Collective Interface needs a window of at least the study file's
+`[requirements]` size (1024 x 700 CSS pixels by default) and a browser with
+EventSource, fetch and SVG. The study link's first page checked the device
+before consent; this check is for a window made smaller since. The page measures the window
 as it is now and again whenever it changes: too small, it says so and keeps
 Continue disabled; large enough, the message clears itself. The size is
 posted with the form and checked again here, so a page with scripts off
@@ -17,13 +19,11 @@ from wtforms import IntegerField
 from wtforms.validators import InputRequired, NumberRange
 
 from hcss.platform.study.forms import attach_errors, form_of
+from hcss.platform.study.requirements import MAX_PIXELS
 from hcss.platform.study.stage import Slot, Stage
 
 if TYPE_CHECKING:
     from hcss.platform.study.flow import Flow
-
-MIN_WIDTH, MIN_HEIGHT = 1024, 700
-MAX_PIXELS = 100_000  # larger than any screen: anything above is not a measurement
 
 
 def _size_field(name: str) -> IntegerField:
@@ -46,17 +46,19 @@ class ScreenCheck(Stage):
         return form_of(fields, formdata, "ScreenCheckForm")
 
     def context(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> dict[str, Any]:
-        return {"min_width": MIN_WIDTH, "min_height": MIN_HEIGHT}
+        needed = flow.study.requirements
+        return {"min_width": needed.min_width, "min_height": needed.min_height}
 
     def submit(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> bool:
         width, height = form["width"].data, form["height"].data
-        if width < MIN_WIDTH or height < MIN_HEIGHT:
+        needed = flow.study.requirements
+        if width < needed.min_width or height < needed.min_height:
             attach_errors(
                 form,
                 {
                     "": [
                         f"Your window is {width} x {height} pixels; the trials need at least "
-                        f"{MIN_WIDTH} x {MIN_HEIGHT}. Please enlarge the window."
+                        f"{needed.min_width} x {needed.min_height}. Please enlarge the window."
                     ]
                 },
             )

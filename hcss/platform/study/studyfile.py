@@ -33,6 +33,7 @@ from pydantic import (
 
 from hcss.platform.study.files import STUDIES_ENV, StudyFileError, study_text
 from hcss.platform.study.online import OnlineSettings
+from hcss.platform.study.requirements import Requirements
 from hcss.platform.study.stages import STAGES
 from hcss.platform.study.toml_lines import line_of
 from hcss.questionnaires.consent import consent_versions
@@ -83,6 +84,7 @@ class Study:
     cells: tuple[Cell, ...]
     digest: str  # sha256 of the file, stored with each enrolment
     online: OnlineSettings = OnlineSettings()  # the `[online]` table: study link, completion
+    requirements: Requirements = Requirements()  # the device checked before consent
 
     def cell(self, number: int) -> Cell:
         for cell in self.cells:
@@ -176,7 +178,7 @@ class CounterbalancingTable(_Table):
 class StudyFileSchema(BaseModel):
     """The whole file, table by table.
 
-    Lax only so that `[online]` becomes its `OnlineSettings`; every value here
+    Lax only so that `[online]` and `[requirements]` become their dataclasses; every value here
     and in the tables is still held to its own type.
     """
 
@@ -192,6 +194,7 @@ class StudyFileSchema(BaseModel):
     probes: ProbesTable
     counterbalancing: CounterbalancingTable
     online: OnlineSettings = OnlineSettings()
+    requirements: Requirements = Requirements()
 
     @field_validator("models")
     @classmethod
@@ -329,6 +332,7 @@ def parse_study(
         cells=_cells(schema.counterbalancing, models, source, text),
         digest=digest,
         online=schema.online,
+        requirements=schema.requirements,
     )
 
 

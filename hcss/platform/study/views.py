@@ -190,7 +190,10 @@ def _refused(token: str, message: str) -> str:
 
 def _finished(flow: Flow, position: Position) -> str:
     if position.status == "declined":
-        return render_template("study/declined.html")
+        from hcss.platform.study.screenout import screen_out_for
+
+        leave = screen_out_for(flow.session, flow.participant, flow.study)
+        return render_template("study/declined.html", leave=leave)
     from hcss.platform.study.recruitment import completion_for
 
     return render_template(

@@ -1,0 +1,86 @@
+"""The study link's first page in Chromium: the device is checked before consent.
+
+A phone is turned away at once with the study's screen-out code, and nothing
+but a screen-out row is kept; a laptop whose window is too small is asked to
+enlarge it; a laptop that declines consent gets the same way back.
+"""
+
+from __future__ import annotations
+
+from urllib.parse import urlencode
+
+import pytest
+from sqlalchemy import func, select
+
+from hcss.platform.bots import bot_app
+from hcss.platform.models import ConsentRecord, Participant, ScreenOut, StageEvent
+from tests.platform.inprocess import serving
+
+pytestmark = pytest.mark.browser
+
+PROLIFIC = {"PROLIFIC_PID": "5f8a1b2c3d4e5f6a7b8c9d01", "STUDY_ID": "S1", "SESSION_ID": "X1"}
+SCREEN_OUT_URL = "https://app.prolific.com/submissions/complete?cc=DEMOSCREEN"
+
+
+@pytest.fixture
+def demo_app(database_url: str):  # type: ignore[no-untyped-def]
+    app = bot_app(database_url, "demo")
+    app.extensions["hcss_db"].create_all()
+    yield app
+    app.extensions["hcss_db"].engine.dispose()
+
+
+def _count(app, model) -> int:  # type: ignore[no-untyped-def]
+    with app.extensions["hcss_db"].session_scope() as session:
+        return session.scalar(select(func.count()).select_from(model))
+
+
+def test_a_phone_is_screened_out_before_consent_and_a_small_window_is_asked_to_grow(
+    browser, demo_app
+) -> None:  # type: ignore[no-untyped-def]
+    from playwright.sync_api import expect
+
+    with serving(demo_app) as url:
+        link = f"{url}/join/demo?{urlencode(PROLIFIC)}"
+        phone = browser.new_context(
+            viewport={"width": 375, "height": 812}, is_mobile=True, has_touch=True
+        )
+        page = phone.new_page()
+        page.goto(link)
+        expect(page.locator("main.study")).to_have_attribute("data-stage", "screened_out")
+        expect(page.locator("#screen-out-reasons")).to_contain_text("desktop or laptop")
+        expect(page.locator("#screen-out-code")).to_have_text("DEMOSCREEN")
+        expect(page.locator("#screen-out-link")).to_have_attribute("href", SCREEN_OUT_URL)
+        phone.close()
+        assert _count(demo_app, Participant) == 0 and _count(demo_app, StageEvent) == 0
+        with demo_app.extensions["hcss_db"].session_scope() as session:
+            row = session.scalars(select(ScreenOut)).one()
+            assert (row.recruitment_id, row.mobile, row.width) == (
+                PROLIFIC["PROLIFIC_PID"],
+                True,
+                375,
+            )
+
+        # A laptop with a small window: asked to enlarge it; Start once it is large enough.
+        page = browser.new_page(viewport={"width": 900, "height": 600})
+        page.goto(link)
+        expect(page.locator("#window-too-small")).to_be_visible()
+        expect(page.locator("#window-too-small")).to_contain_text("900 x 600")
+        expect(page.locator("#join-start")).to_be_disabled()
+        assert _count(demo_app, Participant) == 0
+        page.set_viewport_size({"width": 1366, "height": 768})
+        expect(page.locator("#device-ok")).to_be_visible()
+        page.locator("#join-start").click()
+        expect(page.locator("main.study")).to_have_attribute("data-stage", "consent")
+        assert _count(demo_app, Participant) == 1
+
+        # Declining consent ends with the same way back to the recruitment site.
+        page.get_by_label("I do not agree").check()
+        page.get_by_role("button", name="Continue").click()
+        page.get_by_role("button", name="Confirm").click()
+        expect(page.locator("main.study")).to_have_attribute("data-stage", "declined")
+        expect(page.locator("#screen-out-code")).to_have_text("DEMOSCREEN")
+        expect(page.locator("#screen-out-link")).to_have_attribute("href", SCREEN_OUT_URL)
+        assert _count(demo_app, ConsentRecord) == 1
+        assert _count(demo_app, ScreenOut) == 1  # the phone's; a decline is its own record
+        page.close()
