@@ -85,9 +85,12 @@ def test_the_installed_wheel_runs_the_study_end_to_end(tmp_path: Path) -> None:
 
     assert "at revision head" in _run([hcss, "db", "upgrade"], away, env)
     server_env = {"HCSS_STUDY": "demo", "HCSS_TIME_ACCELERATION": "60"}
-    with LocalServer(
+    server = LocalServer(
         database_url, tmp_path / "instance", extra_env=server_env, python=str(python)
-    ) as server:
+    )
+    # A fresh install has no compiled-kernel cache: `hcss serve` compiles before it listens.
+    server.start(timeout_s=300)
+    try:
         # Creates the bot participant in the database, then walks it through every
         # page of the demo study over HTTP, as a browser would.
         walked = _run(
@@ -97,6 +100,8 @@ def test_the_installed_wheel_runs_the_study_end_to_end(tmp_path: Path) -> None:
             timeout=600,
         )
         log = server.log_path.read_text()
+    finally:
+        server.stop()
     assert "1 completed, 0 failed" in walked, walked
     assert "Traceback" not in log, log
 
