@@ -17,13 +17,14 @@ from hcss.analysis.decision_measures import SPLITS
 from hcss.analysis.load import GROUP_ORDER
 from hcss.analysis.measures import measure_label, measure_order
 from hcss.analysis.stats import mann_whitney_u
-from hcss.analysis.tables import Table, format_number, format_p
+from hcss.analysis.tables import Table, effect_record, format_effect, format_number, format_p
 
 SPLIT_LABELS = {"overall": "Overall", "easy": "Easy", "difficult": "Difficult"}
 POSTHOC_TITLES = {
-    "tukey_kramer_ranks": "Tukey-Kramer comparisons of Kruskal-Wallis mean ranks",
-    "dunn_holm": "Dunn's test with Holm correction",
-    "tukey_hsd": "Tukey HSD on raw values",
+    "tukey_kramer_ranks": "Tukey-Kramer comparisons of Kruskal-Wallis mean ranks "
+    "(studentized range on ranks, large-sample, tie-corrected variance)",
+    "dunn_holm": "Dunn's test (normal approximation, tie-corrected) with Holm correction",
+    "tukey_hsd": "Tukey HSD on raw values (studentized range, pooled variance)",
 }
 
 
@@ -94,10 +95,12 @@ def kruskal_table(comparisons: list[OmnibusComparison]) -> Table:
     for comparison in comparisons:
         result = comparison.kruskal
         if result is None or math.isnan(result.statistic):
-            text, p, effect = "–", "–", "–"
+            text, p, effect, variant = "–", "–", "–", ""
         else:
             text = f"χ²({result.df:g}, N = {result.n}) = {format_number(result.statistic)}"
-            p, effect = format_p(result.p), format_number(result.effect_size)
+            p = format_p(result.p)
+            effect = format_effect(result.effect_size, result.effect_lower, result.effect_upper)
+            variant = result.method
         rows.append(
             (
                 measure_label(comparison.measure),
@@ -106,6 +109,7 @@ def kruskal_table(comparisons: list[OmnibusComparison]) -> Table:
                 text,
                 p,
                 effect,
+                variant,
                 comparison.note,
             )
         )
@@ -119,14 +123,16 @@ def kruskal_table(comparisons: list[OmnibusComparison]) -> Table:
                 "df": result.df if result else None,
                 "n": result.n if result else None,
                 "p": result.p if result else None,
-                "epsilon_squared": result.effect_size if result else None,
+                **effect_record(result, "epsilon_squared"),
+                "method": result.method if result else "",
                 "note": comparison.note,
             }
         )
-    header = ("Measure", "Split", "Models", "χ²(df, N)", "p", "ε²", "Note")
+    header = ("Measure", "Split", "Models", "χ²(df, N)", "p", "ε² [95% CI]", "Test", "Note")
     return Table(
         "kruskal_wallis",
-        "Kruskal-Wallis tests across models",
+        "Kruskal-Wallis tests across models; ε² = H/(n − 1) with a percentile bootstrap "
+        "interval (2,000 resamples within groups, seeded)",
         header,
         tuple(rows),
         pd.DataFrame(records, columns=list(_KW_COLUMNS)),
@@ -143,6 +149,10 @@ _KW_COLUMNS = (
     "n",
     "p",
     "epsilon_squared",
+    "epsilon_squared_lower",
+    "epsilon_squared_upper",
+    "interval_method",
+    "method",
     "note",
 )
 
@@ -218,7 +228,9 @@ def mann_whitney_table(comparisons: list[TwoSampleComparison]) -> Table:
                 format_number(u, 1) if result else "–",
                 format_number(result.statistic, 1) if result else "–",
                 format_p(result.p) if result else "–",
-                format_number(result.effect_size) if result else "–",
+                format_effect(result.effect_size, result.effect_lower, result.effect_upper)
+                if result
+                else "–",
                 result.method if result else "",
                 comparison.note,
             )
@@ -234,16 +246,28 @@ def mann_whitney_table(comparisons: list[TwoSampleComparison]) -> Table:
                 "U": u,
                 "W": result.statistic if result else None,
                 "p": result.p if result else None,
-                "rank_biserial_r": result.effect_size if result else None,
+                **effect_record(result, "rank_biserial_r"),
                 "method": result.method if result else "",
                 "note": comparison.note,
             }
         )
     a, b = comparisons[0].groups if comparisons else ("M1SIM", "M2SIM")
-    header = ("Measure", "Split", f"n {a}", f"n {b}", "U", "W (R)", "p", "r", "Method", "Note")
+    header = (
+        "Measure",
+        "Split",
+        f"n {a}",
+        f"n {b}",
+        "U",
+        "W (R)",
+        "p",
+        "Rank-biserial r [95% CI]",
+        "Test",
+        "Note",
+    )
     return Table(
         "mann_whitney",
-        f"Mann-Whitney-Wilcoxon tests, {a} vs {b} (U = min(U₁, U₂); W as R prints it)",
+        f"Mann-Whitney-Wilcoxon tests, {a} vs {b} (U = min(U₁, U₂); W as R prints it); "
+        "rank-biserial r with its Fisher-z interval",
         header,
         tuple(rows),
         pd.DataFrame(records),
@@ -259,7 +283,9 @@ def spearman_table(results: list[Correlation]) -> Table:
             (
                 f"{measure_label(correlation.x)} vs {measure_label(correlation.y)}",
                 correlation.group,
-                format_number(result.statistic) if result else "–",
+                format_effect(result.statistic, result.effect_lower, result.effect_upper)
+                if result
+                else "–",
                 f"{result.df:g}" if result else "–",
                 format_p(result.p) if result else "–",
                 str(result.n) if result else "–",
@@ -273,6 +299,8 @@ def spearman_table(results: list[Correlation]) -> Table:
                 "y": correlation.y,
                 "group": correlation.group,
                 "rho": result.statistic if result else None,
+                "rho_lower": result.effect_lower if result else None,
+                "rho_upper": result.effect_upper if result else None,
                 "df": result.df if result else None,
                 "p": result.p if result else None,
                 "n": result.n if result else None,
@@ -280,10 +308,10 @@ def spearman_table(results: list[Correlation]) -> Table:
                 "note": correlation.note,
             }
         )
-    header = ("Correlation", "Models", "ρ", "df", "p", "N", "p method", "Note")
+    header = ("Correlation", "Models", "ρ [95% CI]", "df", "p", "N", "p method", "Note")
     return Table(
         "spearman",
-        "Spearman correlations with success rate",
+        "Spearman correlations with success rate; 95% CI by Fisher z with Bonett-Wright SE",
         header,
         tuple(rows),
         pd.DataFrame(records),

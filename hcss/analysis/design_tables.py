@@ -8,7 +8,7 @@ from hcss.analysis.builders import SPLIT_LABELS
 from hcss.analysis.clustered import ClusteredModel
 from hcss.analysis.measures import measure_label
 from hcss.analysis.paired import RepeatedComparison
-from hcss.analysis.tables import Table, format_number, format_p
+from hcss.analysis.tables import Table, effect_record, format_effect, format_number, format_p
 
 
 def friedman_table(comparisons: list[RepeatedComparison]) -> Table:
@@ -29,7 +29,8 @@ def friedman_table(comparisons: list[RepeatedComparison]) -> Table:
                 SPLIT_LABELS[comparison.split],
                 statistic,
                 format_p(result.p),
-                format_number(result.effect_size),
+                format_effect(result.effect_size, result.effect_lower, result.effect_upper),
+                result.method,
                 comparison.note,
             )
         )
@@ -41,14 +42,16 @@ def friedman_table(comparisons: list[RepeatedComparison]) -> Table:
                 "chi2": result.statistic,
                 "df": result.df,
                 "p": result.p,
-                "kendall_w": result.effect_size,
+                **effect_record(result, "kendall_w"),
+                "method": result.method,
                 "note": comparison.note,
             }
         )
     return Table(
         "friedman",
-        "Friedman tests across M1, M2, M3 (participants with all three), with Kendall's W",
-        ("Measure", "Split", "χ²(df, N)", "p", "W", "Note"),
+        "Friedman tests across M1, M2, M3 (participants with all three), with Kendall's W "
+        "and a percentile bootstrap interval (2,000 resamples of participants, seeded)",
+        ("Measure", "Split", "χ²(df, N)", "p", "W [95% CI]", "Test", "Note"),
         tuple(rows),
         pd.DataFrame(records),
     )
@@ -69,7 +72,7 @@ def paired_wilcoxon_table(comparisons: list[RepeatedComparison]) -> Table:
                     format_number(result.statistic, 1),
                     format_p(result.p),
                     format_p(pair.p_holm),
-                    format_number(result.effect_size),
+                    format_effect(result.effect_size, result.effect_lower, result.effect_upper),
                     result.method or result.note,
                 )
             )
@@ -83,15 +86,16 @@ def paired_wilcoxon_table(comparisons: list[RepeatedComparison]) -> Table:
                     "V": result.statistic,
                     "p": result.p,
                     "p_holm": pair.p_holm,
-                    "r": result.effect_size,
+                    **effect_record(result, "rank_biserial_r"),
                     "method": result.method,
                     "note": result.note,
                 }
             )
     return Table(
         "wilcoxon_paired",
-        "Paired Wilcoxon signed-rank tests, Holm-adjusted within measure and split",
-        ("Measure", "Split", "Pair", "n", "V", "p", "p (Holm)", "r", "Method"),
+        "Paired Wilcoxon signed-rank tests, Holm-adjusted within measure and split; "
+        "matched-pairs rank-biserial r with its Fisher-z interval",
+        ("Measure", "Split", "Pair", "n", "V", "p", "p (Holm)", "r_rb [95% CI]", "Test"),
         tuple(rows),
         pd.DataFrame(records),
     )

@@ -6,14 +6,15 @@ reviewer would ask for the paired analysis, which this module gives, with
 R's conventions so a check in R agrees:
 
 - :func:`friedman`: ``friedman.test`` (tie-corrected), with Kendall's
-  W = χ² / (n(k − 1)) as ``rstatix::friedman_effsize`` reports it;
+  W = χ² / (n(k − 1)) as ``rstatix::friedman_effsize`` reports it and a
+  bootstrap interval over participants;
 - :func:`paired_wilcoxon`: ``wilcox.test(x, y, paired = TRUE)``: zero
   differences dropped, exact signed-rank p when n < 50 without ties or
   zeros, else the normal approximation with tie and continuity corrections;
-  effect size r = |z|/√n with z the tie-corrected normal score of V without
-  continuity correction, as ``rstatix::wilcox_effsize`` (coin's
-  ``wilcoxsign_test``) when no difference is zero; with zero differences
-  coin keeps them (Pratt) while this, like ``wilcox.test``, drops them.
+  effect size the matched-pairs rank-biserial r = (T₊ − T₋) / (T₊ + T₋),
+  signed like the difference, with its Fisher-z interval, as
+  ``effectsize::rank_biserial(x, y, paired = TRUE)``: zeros are dropped from
+  r, while its standard error counts every complete pair.
 """
 
 from __future__ import annotations
@@ -26,6 +27,12 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
+from hcss.analysis.effect_intervals import (
+    BOOTSTRAP,
+    FISHER,
+    kendalls_w_interval,
+    paired_rank_biserial_interval,
+)
 from hcss.analysis.exact import exact_differences
 from hcss.analysis.stats import ALL_EQUAL, TestResult, all_equal
 
@@ -53,7 +60,25 @@ def friedman(blocks: pd.DataFrame) -> TestResult:
     sums = ranks.sum(axis=0)
     statistic = 12.0 * float(((sums - n * (k + 1) / 2.0) ** 2).sum()) / denominator
     p = float(stats.chi2.sf(statistic, df))
-    return TestResult("friedman", "χ²", statistic, df, p, n, "Kendall's W", statistic / (n * df))
+    lower, upper = kendalls_w_interval(complete)
+    return TestResult(
+        "friedman",
+        "χ²",
+        statistic,
+        df,
+        p,
+        n,
+        "Kendall's W",
+        statistic / (n * df),
+        FRIEDMAN_METHOD,
+        effect_lower=lower,
+        effect_upper=upper,
+        interval_method=BOOTSTRAP if not math.isnan(lower) else "",
+    )
+
+
+FRIEDMAN_METHOD = "χ² approximation, tie-corrected"
+PAIRED_EFFECT = "matched-pairs rank-biserial r"
 
 
 @lru_cache(maxsize=64)
@@ -96,7 +121,9 @@ def paired_wilcoxon(first: Sequence[float], second: Sequence[float]) -> TestResu
         nan = float("nan")
         if not keep.any():
             raise ValueError("a paired test needs at least one complete pair")
-        return TestResult("wilcoxon_paired", "V", nan, nan, nan, 0, "r", nan, note=ALL_EQUAL)
+        return TestResult(
+            "wilcoxon_paired", "V", nan, nan, nan, 0, PAIRED_EFFECT, nan, note=ALL_EQUAL
+        )
     ranks = stats.rankdata(np.abs(differences))
     v = float(ranks[differences > 0].sum())
     _, tie_counts = np.unique(ranks, return_counts=True)
@@ -119,5 +146,22 @@ def paired_wilcoxon(first: Sequence[float], second: Sequence[float]) -> TestResu
         method = "asymptotic, continuity=True"
         if zeros or ties:
             method += " (ties or zero differences: no exact p, as R)"
-    effect = abs(centred) / sigma / math.sqrt(n) if sigma > 0 else float("nan")
-    return TestResult("wilcoxon_paired", "V", v, float("nan"), p, n, "r", effect, method)
+        elif n >= 50:
+            method += " (n ≥ 50)"
+    total = n * (n + 1) / 2.0
+    effect = (v - (total - v)) / total
+    lower, upper = paired_rank_biserial_interval(effect, int(keep.sum()))
+    return TestResult(
+        "wilcoxon_paired",
+        "V",
+        v,
+        float("nan"),
+        p,
+        n,
+        PAIRED_EFFECT,
+        effect,
+        method,
+        effect_lower=lower,
+        effect_upper=upper,
+        interval_method=FISHER if not math.isnan(lower) else "",
+    )

@@ -17,16 +17,29 @@ from typing import Literal
 import numpy as np
 from scipy import stats
 
+from hcss.analysis.effect_intervals import (
+    BOOTSTRAP,
+    FISHER,
+    epsilon_squared_interval,
+    rank_biserial_interval,
+    spearman_interval,
+)
 from hcss.analysis.spearman_p import spearman_p
 
 ALL_EQUAL = "all values equal"
+KRUSKAL_METHOD = "χ² approximation, tie-corrected"
+KRUSKAL_METHOD_UNTIED = "χ² approximation (no ties)"
+RANK_BISERIAL = "rank-biserial r"
 
 
 @dataclass(frozen=True)
 class TestResult:
     """One test: its statistic, degrees of freedom, p, sample size and effect.
 
-    ``df`` is NaN for tests without degrees of freedom (Mann-Whitney). A test
+    ``df`` is NaN for tests without degrees of freedom (Mann-Whitney).
+    ``effect_lower``/``effect_upper`` bound the effect size's 95% confidence
+    interval, computed as ``interval_method`` says
+    (:mod:`hcss.analysis.effect_intervals`); NaN when none can be given. A test
     that R would answer with NaN (every value tied) has NaN statistic and p
     and says why in ``note``, so no table shows a p that looks like a result.
     """
@@ -41,6 +54,9 @@ class TestResult:
     effect_size: float
     method: str = ""
     note: str = ""
+    effect_lower: float = math.nan
+    effect_upper: float = math.nan
+    interval_method: str = ""
 
     __test__ = False  # not a pytest test class, despite its name
 
@@ -91,8 +107,20 @@ def kruskal_wallis(groups: Mapping[str, Sequence[float]]) -> TestResult:
         nan = float("nan")
         return TestResult("kruskal_wallis", "H", nan, df, nan, n, "ε²", nan, note=ALL_EQUAL)
     statistic, p = stats.kruskal(*samples)
+    lower, upper = epsilon_squared_interval(samples)
     return TestResult(
-        "kruskal_wallis", "H", float(statistic), df, float(p), n, "ε²", float(statistic) / (n - 1)
+        "kruskal_wallis",
+        "H",
+        float(statistic),
+        df,
+        float(p),
+        n,
+        "ε²",
+        float(statistic) / (n - 1),
+        KRUSKAL_METHOD if _has_ties(np.concatenate(samples)) else KRUSKAL_METHOD_UNTIED,
+        effect_lower=lower,
+        effect_upper=upper,
+        interval_method=BOOTSTRAP if not math.isnan(lower) else "",
     )
 
 
@@ -128,22 +156,38 @@ def mann_whitney(
         raise ValueError("Mann-Whitney needs values in both samples")
     pooled = np.concatenate([x, y])
     note = ""
+    reason = ""
     if method == "auto":
         exact = len(x) < 50 and len(y) < 50 and not _has_ties(pooled)
+        if not exact:
+            reason = "ties: no exact p" if _has_ties(pooled) else "n ≥ 50"
         method = "exact" if exact else "asymptotic"
     elif method == "exact" and _has_ties(pooled):
-        method, note = "asymptotic", EXACT_WITH_TIES
+        method, note, reason = "asymptotic", EXACT_WITH_TIES, "ties: no exact p"
     description = method if method == "exact" else f"asymptotic, continuity={continuity}"
+    if reason:
+        description += f" ({reason})"
     if all_equal(pooled):
         u = len(x) * len(y) / 2.0
         nan = float("nan")
         return TestResult(
-            "mann_whitney", "W", u, nan, nan, len(pooled), "r", nan, description, ALL_EQUAL
+            "mann_whitney",
+            "W",
+            u,
+            nan,
+            nan,
+            len(pooled),
+            RANK_BISERIAL,
+            nan,
+            description,
+            ALL_EQUAL,
         )
     result = stats.mannwhitneyu(
         x, y, alternative="two-sided", method=method, use_continuity=continuity
     )
     u = float(result.statistic)
+    r = 2.0 * u / (len(x) * len(y)) - 1.0
+    lower, upper = rank_biserial_interval(r, len(x), len(y))
     return TestResult(
         "mann_whitney",
         "W",
@@ -151,10 +195,13 @@ def mann_whitney(
         float("nan"),
         float(result.pvalue),
         len(pooled),
-        "r",
-        2.0 * u / (len(x) * len(y)) - 1.0,
+        RANK_BISERIAL,
+        r,
         description,
         note,
+        lower,
+        upper,
+        FISHER if not math.isnan(lower) else "",
     )
 
 
@@ -184,4 +231,8 @@ def spearman(first: Sequence[float], second: Sequence[float]) -> TestResult:
         return TestResult("spearman", "ρ", nan, float(n - 2), nan, n, "ρ", nan, note=ALL_EQUAL)
     rho = float(stats.spearmanr(x, y).statistic)
     p, method = spearman_p(rho, n, _has_ties(x) or _has_ties(y))
-    return TestResult("spearman", "ρ", rho, float(n - 2), p, n, "ρ", rho, method)
+    lower, upper = spearman_interval(rho, n)
+    interval = "Fisher z, Bonett-Wright SE" if not math.isnan(lower) else ""
+    return TestResult(
+        "spearman", "ρ", rho, float(n - 2), p, n, "ρ", rho, method, "", lower, upper, interval
+    )

@@ -14,6 +14,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from hcss.analysis.stats import TestResult
+
 
 @dataclass(frozen=True)
 class Table:
@@ -40,6 +42,27 @@ def format_p(p: float) -> str:
     if p < 0.001:
         return "< .001"
     return f"{p:.3f}".replace("0.", ".", 1) if p < 1 else "1.000"
+
+
+def format_effect(estimate: float, lower: float, upper: float) -> str:
+    """An effect size with its 95% interval, ``0.42 [0.10, 0.66]``; bare when none exists."""
+    if estimate is None or math.isnan(estimate):
+        return "–"
+    if lower is None or upper is None or math.isnan(lower) or math.isnan(upper):
+        return format_number(estimate)
+    return f"{format_number(estimate)} [{format_number(lower)}, {format_number(upper)}]"
+
+
+def effect_record(result: TestResult | None, column: str) -> dict[str, object]:
+    """The effect, its interval and how it was computed, as CSV columns named after it."""
+    if result is None:
+        return {column: None, f"{column}_lower": None, f"{column}_upper": None}
+    return {
+        column: result.effect_size,
+        f"{column}_lower": result.effect_lower,
+        f"{column}_upper": result.effect_upper,
+        "interval_method": result.interval_method,
+    }
 
 
 def to_markdown(table: Table) -> str:

@@ -73,7 +73,7 @@ def test_mann_whitney_exact_with_ties_falls_back_to_normal_like_r():
     result = stats.mann_whitney([1, 2, 2, 3, 5], [3, 4, 4, 5, 6], method="exact")
     assert result.statistic == 4
     assert result.p == pytest.approx(0.0906883662, rel=REL)
-    assert result.method == "asymptotic, continuity=True"
+    assert result.method == "asymptotic, continuity=True (ties: no exact p)"
     assert "cannot compute exact p-value with ties" in result.note
     assert stats.mann_whitney_u(result, 5, 5) == 4  # min(4, 25 - 4)
 
@@ -209,6 +209,46 @@ def test_paired_wilcoxon_with_ties_and_zeros_matches_r(a, b, v, p, n):
     assert result.method.startswith("asymptotic")
 
 
+def test_paired_rank_biserial_with_a_zero_difference_matches_effectsize():
+    # effectsize::rank_biserial(m[,2], m[,3], paired = TRUE)
+    #   0.75, 95% CI [0.1928996600157, 0.9414395798715] (r without the zero, SE with it)
+    result = repeated.paired_wilcoxon(SCORES["M2"], SCORES["M3"])
+    assert result.effect_size == pytest.approx(0.75, rel=REL)
+    assert result.effect_lower == pytest.approx(0.1928996600157, rel=REL)
+    assert result.effect_upper == pytest.approx(0.9414395798715, rel=REL)
+
+
+def test_spearman_interval_matches_the_bonett_wright_formula_in_r():
+    # r <- cor(1:12, c(5,1,4,3,12,2,6,9,7,8,11,10), method = "spearman"); n <- 12
+    # tanh(atanh(r) + c(-1, 1) * qnorm(0.975) * sqrt((1 + r^2/2)/(n - 3)))
+    #   0.06756904733748 0.90668453923855
+    result = stats.spearman(list(range(1, 13)), [5, 1, 4, 3, 12, 2, 6, 9, 7, 8, 11, 10])
+    assert result.effect_lower == pytest.approx(0.06756904733748, rel=REL)
+    assert result.effect_upper == pytest.approx(0.90668453923855, rel=REL)
+
+
+def test_bootstrap_statistics_are_the_r_checked_ones_and_intervals_are_seeded():
+    """The vectorised ε² and W the bootstrap resamples equal the R-checked tests' values."""
+    from hcss.analysis import effect_intervals
+
+    rng = np.random.default_rng(3)
+    for _ in range(20):
+        blocks = rng.integers(1, 6, size=(7, 3)).astype(float)  # many ties
+        if all(len(set(row)) == 1 for row in blocks):
+            continue
+        w = effect_intervals._kendalls_w(*blocks.T)
+        assert w == pytest.approx(repeated.friedman(pd.DataFrame(blocks)).effect_size, rel=1e-12)
+        groups = [rng.integers(1, 8, size=size).astype(float) for size in (4, 5, 6)]
+        e2 = effect_intervals._epsilon_squared(*groups)
+        named = {str(index): group for index, group in enumerate(groups)}
+        assert e2 == pytest.approx(stats.kruskal_wallis(named).effect_size, rel=1e-12)
+    first = repeated.friedman(SCORES)
+    again = repeated.friedman(SCORES)
+    assert first.effect_lower <= first.effect_size <= first.effect_upper <= 1
+    assert (first.effect_lower, first.effect_upper) == (again.effect_lower, again.effect_upper)
+    assert first.interval_method.startswith("percentile bootstrap, 2,000 resamples, seed")
+
+
 def test_paired_wilcoxon_holm_matches_r():
     # p.adjust(c(0.0200852866725, 0.0136766868988, 0.0851916964359), "holm")
     #   0.0410300606965 0.0410300606965 0.0851916964359
@@ -234,14 +274,19 @@ def test_paired_wilcoxon_exact_and_effect_size_match_r():
     # y <- c(88, 65, 60, 205, 106, 129, 106, 314, 129)
     # wilcox.test(x, y, paired = TRUE)  # V = 40, p-value = 0.0390625 (exact)
     # dd <- data.frame(id = factor(rep(1:9, 2)), g = factor(rep(c("x","y"), each = 9)), v = c(x, y))
-    # rstatix::wilcox_effsize(dd, v ~ g, paired = TRUE)  # effsize 0.691073690719
+    # effectsize::rank_biserial(x, y, paired = TRUE)  # 0.7777777777778
+    #   95% CI [0.2953631293362, 0.9441559019201]
+    # (before: rstatix::wilcox_effsize's |z|/√n = 0.691073690719, also labelled "r")
     x = [183, 50, 162, 248, 168, 188, 155, 306, 130]
     y = [88, 65, 60, 205, 106, 129, 106, 314, 129]
     result = repeated.paired_wilcoxon(x, y)
     assert result.statistic == 40
     assert result.p == pytest.approx(0.0390625, rel=REL)
     assert result.method == "exact"
-    assert result.effect_size == pytest.approx(0.691073690719, rel=REL)
+    assert result.effect_size == pytest.approx(0.7777777777778, rel=REL)
+    assert result.effect_lower == pytest.approx(0.2953631293362, rel=REL)
+    assert result.effect_upper == pytest.approx(0.9441559019201, rel=REL)
+    assert result.effect_name == "matched-pairs rank-biserial r"
 
 
 def test_paired_wilcoxon_refuses_unequal_lengths():

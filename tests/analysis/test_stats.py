@@ -49,9 +49,15 @@ def test_mann_whitney_matches_r_with_ties(ozone_by_month):
     result = stats.mann_whitney(ozone_by_month[5], ozone_by_month[8])
     assert result.statistic == pytest.approx(127.5, rel=REL)
     assert result.p == pytest.approx(1.208078308e-04, rel=REL)
-    assert result.method == "asymptotic, continuity=True"
-    # rank-biserial r = 2U/(n1 n2) - 1 with n1 = n2 = 26
+    assert result.method == "asymptotic, continuity=True (ties: no exact p)"
+    # rank-biserial r = 2U/(n1 n2) - 1 with n1 = n2 = 26; effectsize 0.8.3:
+    # a <- airquality[airquality$Month %in% c(5, 8), ]
+    # rank_biserial(Ozone ~ Month, data = a)  # -0.6227810650888 [-0.7803966500989, -0.3907515176515]
     assert result.effect_size == pytest.approx(2 * 127.5 / 676 - 1, rel=REL)
+    assert result.effect_size == pytest.approx(-0.6227810650888, rel=REL)
+    assert result.effect_lower == pytest.approx(-0.7803966500989, rel=REL)
+    assert result.effect_upper == pytest.approx(-0.3907515176515, rel=REL)
+    assert result.effect_name == "rank-biserial r" and result.interval_method == "Fisher z"
 
 
 def test_mann_whitney_without_continuity_is_smaller_p(ozone_by_month):

@@ -132,6 +132,6 @@ def test_a_constant_measure_shows_no_p_but_says_all_values_equal():
     table = kruskal_table(comparisons)
     (row,) = table.rows
     assert row[3:6] == ("–", "–", "–")  # no statistic, p or effect that looks like a result
-    assert "all values equal" in row[6]
+    assert "all values equal" in row[7]
     for posthoc in posthoc_tables(comparisons):
         assert all(cells[-1] == "–" for cells in posthoc.rows)
