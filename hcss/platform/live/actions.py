@@ -24,7 +24,7 @@ from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
 from hcss.platform.live.rebuild import accepted_text, refusal_text
-from hcss.platform.live.recorder import record_request_statuses
+from hcss.platform.live.recorder import kept_until_written, record_request_statuses
 from hcss.platform.live.session import RunningTrial
 from hcss.platform.models import (
     Command,
@@ -58,10 +58,13 @@ def submit_request(
         _require_running(live)
         sim = live.sim
         step, sim_time = sim.step_count, float(sim.time)
-        before, statuses_written = sim.snapshot(), set(live.request_statuses_written)
+        before = sim.snapshot()
         outcome = sim.apply(command)
         try:
-            with database.session_scope() as session:
+            with (
+                kept_until_written(live, simulation_restored=True),
+                database.session_scope() as session,
+            ):
                 row = Command.applied(
                     live.trial_id,
                     command,
@@ -87,7 +90,6 @@ def submit_request(
                 )
         except BaseException:
             live.sim = Simulation.restore(before)
-            live.request_statuses_written = statuses_written
             raise
         live.last_command_id = row.id
         n = sim.scenario.n_collectives

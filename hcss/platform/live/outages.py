@@ -1,4 +1,4 @@
-"""A server outage stops the trial clock, as an experimenter's pause does.
+"""A server or database outage stops the trial clock, as an experimenter's pause does.
 
 While the server is down nobody can see or command the trial, so it must not
 run on: a training trial used to advance 38 steps during an 8.8 s outage,
@@ -18,11 +18,12 @@ computed but not written is replayed again after the restart.
 
 from __future__ import annotations
 
-from datetime import datetime
+from datetime import UTC, datetime
 
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
+from hcss.platform.live.clock import pause_clock, resume_clock
 from hcss.platform.live.session import RunningTrial
 from hcss.platform.models import (
     Command,
@@ -85,3 +86,40 @@ def stop_clock_for_outage(live: RunningTrial, reached_step: int, now: float) -> 
     outage_s = max(0.0, live.running_wall_s(now) - reached_wall_s)
     live.paused_s += outage_s
     return outage_s
+
+
+def database_went_away(live: RunningTrial, now: float) -> None:
+    """The database refused the trial's rows: stop its clock here, as an outage stops it.
+
+    The participant can neither command nor have anything recorded, so the
+    trial must not run on; the rows of the batch that failed wait in memory
+    (one batch at most, since the simulation steps no further).
+    """
+    live.database_away_since = now
+    pause_clock(live, now)
+
+
+def record_database_outage(live: RunningTrial, session: Session, now: float) -> None:
+    """The outage as an `Interruption`, in the unit of work that writes the held rows.
+
+    `outage_s` is the time the clock stood still, so a later rebuild (which
+    adds every earlier outage to the trial's paused time) keeps it stopped too.
+    """
+    assert live.database_away_since is not None
+    session.add(
+        Interruption(
+            trial_id=live.trial_id,
+            snapshot_step=live.sim.step_count,
+            resumed_step=live.sim.step_count,
+            replayed_commands=0,
+            state_digest=live.sim.state_digest(),
+            last_seen_at=datetime.fromtimestamp(live.database_away_since, UTC),
+            outage_s=max(0.0, now - live.database_away_since),
+        )
+    )
+
+
+def database_came_back(live: RunningTrial, now: float) -> None:
+    """The held rows are written: the clock runs again from where it stood."""
+    live.database_away_since = None
+    resume_clock(live, now)

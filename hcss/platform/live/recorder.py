@@ -3,9 +3,23 @@
 Called by the runner after each batch of steps, and once after a rebuild, with
 the trial's lock held. Everything is derived from the simulation's state, so a
 rebuild that replays the same steps writes only what had not been written.
+
+The cursors that say "written up to here" (the last event time, the decisions
+recorded, the request statuses, the probes shown) move only with the commit:
+`kept_until_written` restores them when the commit fails, and the events and
+status changes the simulation handed over wait on the `RunningTrial`
+(`unwritten_events`, `unwritten_status_changes`) to be written first, in
+order, by the next commit that succeeds. The page's System Messages show an
+event once, when the simulation hands it over.
 """
 
 from __future__ import annotations
+
+import copy
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from sqlalchemy.orm import Session
@@ -27,6 +41,60 @@ from hcss.platform.models.vocabularies import RequestStatus, TrialStatus
 EXPORT_IDENTITY = ("source", "participant", "trial_id", "run")
 
 
+@dataclass
+class _Cursors:
+    """What a `RunningTrial` says is written; put back when the commit that wrote it fails."""
+
+    fields: dict[str, Any]
+
+    NAMES = (
+        "last_event_time",
+        "decisions_recorded",
+        "request_statuses_written",
+        "pending_projection",
+        "probes_shown",
+        "postponed_until",
+        "current_probe",
+        "last_snapshot_epoch",
+        "ended",
+        "end_reason",
+    )
+
+    @classmethod
+    def of(cls, live: RunningTrial) -> _Cursors:
+        values = {name: getattr(live, name) for name in cls.NAMES}
+        return cls({k: copy.copy(v) if isinstance(v, set | list) else v for k, v in values.items()})
+
+    def restore(self, live: RunningTrial) -> None:
+        for name, value in self.fields.items():
+            setattr(live, name, value)
+
+
+@contextmanager
+def kept_until_written(live: RunningTrial, *, simulation_restored: bool = False) -> Iterator[None]:
+    """Around a unit of work that records progress: its cursors stand if it commits.
+
+    When the block raises (the commit failed, the database is away), the
+    cursors go back to what was written and the handed-over events and status
+    changes stay queued, so the next attempt writes them all; nothing the
+    participant saw is dropped. A caller that puts the simulation back as it
+    was before the block (`simulation_restored`: a command that was not
+    logged) drops what the block handed over instead: it never happened.
+    """
+    saved = _Cursors.of(live)
+    events, changes = len(live.unwritten_events), len(live.unwritten_status_changes)
+    try:
+        yield
+    except BaseException:
+        saved.restore(live)
+        if simulation_restored:
+            del live.unwritten_events[events:]
+            del live.unwritten_status_changes[changes:]
+        raise
+    live.unwritten_events.clear()
+    live.unwritten_status_changes.clear()
+
+
 def record_progress(live: RunningTrial, session: Session) -> None:
     """Events, decisions, request statuses and probes up to the simulation's now."""
     sim = live.sim
@@ -37,11 +105,19 @@ def record_progress(live: RunningTrial, session: Session) -> None:
     _show_probe(live, session, sim.time)
 
 
-def _record_events(live: RunningTrial, session: Session) -> None:
+def _take_events(live: RunningTrial) -> None:
+    """The simulation's new events join the unwritten ones and the System Messages, once."""
     for event in live.sim.drain_events():
         time = float(event["time"])
         if time <= live.last_event_time:
             continue  # written before an interruption; the replay produced it again
+        live.unwritten_events.append(event)
+        live.add_message(time, str(event["kind"]), str(event["text"]))
+
+
+def _record_events(live: RunningTrial, session: Session) -> None:
+    _take_events(live)
+    for event in live.unwritten_events:
         session.add(
             SimEvent(
                 trial_id=live.trial_id,
@@ -49,10 +125,9 @@ def _record_events(live: RunningTrial, session: Session) -> None:
                 collective=_int_or_none(event.get("collective")),
                 target=_int_or_none(event.get("target")),
                 text=str(event["text"])[:300],
-                sim_time=time,
+                sim_time=float(event["time"]),
             )
         )
-        live.add_message(time, str(event["kind"]), str(event["text"]))
     # Events of one step share its time and are written together, so the
     # newest time marks everything written.
     live.last_event_time = max(live.last_event_time, float(live.sim.time) - 1e-9)
@@ -104,7 +179,8 @@ def record_request_statuses(live: RunningTrial, session: Session) -> None:
     A rebuild replays changes that were written before the interruption;
     `request_statuses_written` (restored from the rows) skips those.
     """
-    for change in live.sim.drain_status_changes():
+    live.unwritten_status_changes.extend(live.sim.drain_status_changes())
+    for change in live.unwritten_status_changes:
         key = (change.request_id, change.status)
         if key in live.request_statuses_written:
             continue

@@ -20,13 +20,23 @@ from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
 
 from flask import Flask
-from sqlalchemy.exc import DBAPIError, OperationalError, ProgrammingError
+from sqlalchemy.exc import DBAPIError, InterfaceError, OperationalError, ProgrammingError
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
 from hcss.platform.live.clock import pause_clock, resume_clock
+from hcss.platform.live.outages import (
+    database_came_back,
+    database_went_away,
+    record_database_outage,
+)
 from hcss.platform.live.rebuild import load_trial
-from hcss.platform.live.recorder import end_trial, record_progress, write_snapshot
+from hcss.platform.live.recorder import (
+    end_trial,
+    kept_until_written,
+    record_progress,
+    write_snapshot,
+)
 from hcss.platform.live.session import RunningTrial
 from hcss.platform.live.trials import latest_status, running_trial_ids
 from hcss.platform.models import Trial, TrialProblem, TrialStatusChange
@@ -202,7 +212,14 @@ class Runner:
         now = self.clock()
         if now - self._last_sync >= SYNC_EVERY_S:
             self._last_sync = now
-            self.sync()
+            try:
+                self.sync()
+            except (OperationalError, InterfaceError) as error:
+                if _missing_table(error):
+                    raise
+                # The database is away: the trials in memory still advance, and
+                # their failing writes stop their clocks until it is back.
+                log.debug("runner sync skipped: the database is away", exc_info=True)
         with self._registry_lock:
             live_trials = list(self._trials.values())
         for live in live_trials:
@@ -214,24 +231,46 @@ class Runner:
                 self.forget(live.trial_id)
 
     def advance(self, live: RunningTrial, now: float) -> None:
-        """Step the trial to the step due at `now`, record it, end it at its time limit."""
+        """Step the trial to the step due at `now`, record it, end it at its time limit.
+
+        While the database is away (`database_away_since`) the trial stands
+        still and each call tries again to write what it holds.
+        """
         with live.lock:
             if live.ended:
                 return
             due = live.due_step(now)
-            if due <= live.sim.step_count and due < live.total_steps:
+            if live.database_away_since is None:
+                if due <= live.sim.step_count and due < live.total_steps:
+                    return
+                # The end is judged by `due`, not by the simulation's step: a simulation
+                # whose decisions are all made stops stepping early, and a trial rebuilt
+                # after its deadline (load_trial steps it to `due`) has nothing left to step.
+                live.sim.step(due - live.sim.step_count)
+                live.touch()
+            try:
+                with kept_until_written(live), self.database.session_scope() as session:
+                    record_progress(live, session)
+                    if live.database_away_since is not None:
+                        record_database_outage(live, session, now)
+                    if due >= live.total_steps:
+                        end_trial(live, session, "time_limit", now)
+                    elif now - live.last_snapshot_epoch >= self.snapshot_interval_s:
+                        write_snapshot(live, session, now)
+            except (OperationalError, InterfaceError):
+                if live.database_away_since is None:
+                    log.warning(
+                        "live trial %s: the database takes no writes; the trial stands "
+                        "still and what it holds is written when the database is back",
+                        live.trial_id,
+                        exc_info=True,
+                    )
+                    database_went_away(live, now)
+                    live.touch()
                 return
-            # The end is judged by `due`, not by the simulation's step: a simulation
-            # whose decisions are all made stops stepping early, and a trial rebuilt
-            # after its deadline (load_trial steps it to `due`) has nothing left to step.
-            live.sim.step(due - live.sim.step_count)
-            live.touch()
-            with self.database.session_scope() as session:
-                record_progress(live, session)
-                if due >= live.total_steps:
-                    end_trial(live, session, "time_limit", now)
-                elif now - live.last_snapshot_epoch >= self.snapshot_interval_s:
-                    write_snapshot(live, session, now)
+            if live.database_away_since is not None:
+                database_came_back(live, now)
+                log.warning("live trial %s: the database is back; the trial goes on", live.trial_id)
             live.touch()
 
     # --- the thread --------------------------------------------------------------

@@ -100,6 +100,14 @@ class RunningTrial:
     # trial clock stood still, and the start of the pause under way, if any.
     paused_s: float = 0.0
     paused_since: float | None = None
+    # What the simulation handed over (and the page was shown) that no commit has
+    # written yet; the recorder writes it first, in order, when the database takes
+    # writes again (hcss.platform.live.recorder.kept_until_written).
+    unwritten_events: list[dict[str, Any]] = field(default_factory=list)
+    unwritten_status_changes: list[Any] = field(default_factory=list)
+    # The wall instant the database stopped taking this trial's rows: the trial
+    # clock stands still from then until they are written (hcss.platform.live.runner).
+    database_away_since: float | None = None
     _view_cache: tuple[int, Display, dict[str, Any], str] | None = None
 
     def __post_init__(self) -> None:
@@ -183,6 +191,8 @@ class RunningTrial:
                 "duration_s": self.duration_s,
                 "step": self.sim.step_count,
                 "version": self.version,
+                # Why a pause the experimenter did not make: the database is away.
+                "held_by": None if self.database_away_since is None else "database",
             },
             "messages": new_messages,
             "probe": None if self.current_probe is None else self.current_probe.public(),

@@ -74,7 +74,9 @@ class Snapshot(CreatedAt, Base):
 
 
 class Interruption(CreatedAt, Base):
-    """A server restart that found this trial live and rebuilt it."""
+    """A server restart that found this trial live and rebuilt it, or a database outage
+    the server lived through (the trial stood still; `replayed_commands` 0, and
+    `snapshot_step` = `resumed_step`, the step it stood at)."""
 
     __tablename__ = "interruption"
 
