@@ -13,7 +13,7 @@ from hcss.platform.bots import run_bots
 from hcss.platform.console.progress import progress_rows
 from hcss.platform.console.sessions import ConsoleError, change_session
 from hcss.platform.models import ConsoleAction, Participant, StudyEnrolment
-from hcss.platform.study.flow import sequence
+from hcss.platform.study.stages import sequence
 from hcss.platform.study.studyfile import load_study
 from tests.platform import console_support
 from tests.platform.study_fixtures import demo_app  # noqa: F401

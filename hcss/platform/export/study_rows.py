@@ -27,7 +27,7 @@ from hcss.platform.models import (
     Trial,
 )
 from hcss.platform.pilots import is_pilot
-from hcss.platform.study.enrolment import participant_status
+from hcss.platform.study.flow import participant_status
 
 Row = dict[str, Any]
 

@@ -7,8 +7,8 @@ participant's append-only stage events; `enrolment.assign_cell` does the
 counterbalancing; `views` serves `/p/<token>`.
 """
 
-from hcss.platform.study.enrolment import assign_cell, participant_status
-from hcss.platform.study.flow import Position, current_position
+from hcss.platform.study.enrolment import assign_cell
+from hcss.platform.study.flow import Position, current_position, participant_status
 from hcss.platform.study.studyfile import Study, StudyFileError, load_study
 
 __all__ = [

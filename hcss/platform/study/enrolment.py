@@ -25,6 +25,7 @@ from hcss.platform.models import (
 )
 from hcss.platform.pilots import is_pilot
 from hcss.platform.session_state import aborted_participants
+from hcss.platform.study.stages import sequence
 from hcss.platform.study.studyfile import Study, load_study
 
 POOLS = ("real", "pilot", "bot", "demo")
@@ -68,7 +69,7 @@ def current_enrolment(session: Session, participant_id: int) -> StudyEnrolment |
     ).first()
 
 
-def _not_counted(session: Session) -> set[int]:
+def not_counted(session: Session) -> set[int]:
     """Participants who declined consent or whose session the experimenter aborted."""
     declined = set(
         session.scalars(
@@ -90,7 +91,7 @@ def cell_counts(session: Session, study: Study, pool: str) -> Counter[int]:
         .join(latest, StudyEnrolment.id == latest.c.last)
         .where(StudyEnrolment.study == study.name, StudyEnrolment.pool == pool)
     ).all()
-    excluded = _not_counted(session)
+    excluded = not_counted(session)
     counts: Counter[int] = Counter({cell.number: 0 for cell in study.cells})
     counts.update(cell for participant_id, cell in rows if participant_id not in excluded)
     return counts
@@ -179,8 +180,6 @@ def _check_reassignable(
     session: Session, participant: Participant, existing: StudyEnrolment, study: Study
 ) -> None:
     """A cell may change only before the first stage that depends on it."""
-    from hcss.platform.study.flow import sequence
-
     events = list(
         session.scalars(select(StageEvent).where(StageEvent.participant_id == participant.id))
     )
@@ -194,19 +193,3 @@ def _check_reassignable(
         raise ValueError(
             f"participant {participant.code} has begun the model stages; the cell cannot change"
         )
-
-
-def participant_status(session: Session, participant: Participant) -> str:
-    """``in_progress``, ``completed``, ``declined`` or ``aborted`` (the export's status)."""
-    from hcss.platform.study.flow import current_position
-
-    if participant.id in _not_counted(session):
-        consent = session.scalars(
-            select(ConsentRecord.decision)
-            .where(ConsentRecord.participant_id == participant.id)
-            .order_by(ConsentRecord.id.desc())
-            .limit(1)
-        ).first()
-        return "declined" if consent == "decline" else "aborted"
-    status = current_position(session, participant).status
-    return "in_progress" if status == "not_enrolled" else status

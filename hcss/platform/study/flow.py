@@ -27,9 +27,11 @@ from hcss.platform.models import (
     StageEvent,
     StudyEnrolment,
 )
+from hcss.platform.study.enrolment import current_enrolment, not_counted
 from hcss.platform.study.stage import Slot
-from hcss.platform.study.studyfile import Study, load_study
-from hcss.questionnaires.definitions import ScoreRow, ordinal_labels
+from hcss.platform.study.stages import sequence
+from hcss.platform.study.studyfile import load_study
+from hcss.questionnaires.definitions import ScoreRow
 
 
 def study_now() -> datetime:
@@ -46,20 +48,6 @@ class Position:
     slot: Slot | None  # None: the study is over for this participant
     step: str = ""
     status: str = "in_progress"  # "in_progress", "completed" or "declined"
-
-
-def sequence(study: Study, enrolment: StudyEnrolment) -> tuple[Slot, ...]:
-    """The participant's stages: the study's list with per-model stages in their order."""
-    from hcss.platform.study.stages import STAGES
-
-    names: list[tuple[str, str, str]] = [(name, "", "") for name in study.before]
-    models = enrolment.models()
-    for model, label in zip(models, ordinal_labels(len(models)), strict=True):
-        names += [(name, model, label) for name in study.per_model]
-    names += [(name, "", "") for name in study.after]
-    return tuple(
-        Slot(index, STAGES[name], model, label) for index, (name, model, label) in enumerate(names)
-    )
 
 
 class Flow:
@@ -244,9 +232,21 @@ def current_position(session: Session, participant: Participant) -> Position:
     next request records those. A participant not yet enrolled is before the
     first stage.
     """
-    from hcss.platform.study.enrolment import current_enrolment
-
     enrolment = current_enrolment(session, participant.id)
     if enrolment is None:
         return Position(None, status="not_enrolled")
     return Flow(session, participant, enrolment, session_now(session)).locate()
+
+
+def participant_status(session: Session, participant: Participant) -> str:
+    """``in_progress``, ``completed``, ``declined`` or ``aborted`` (the export's status)."""
+    if participant.id in not_counted(session):
+        consent = session.scalars(
+            select(ConsentRecord.decision)
+            .where(ConsentRecord.participant_id == participant.id)
+            .order_by(ConsentRecord.id.desc())
+            .limit(1)
+        ).first()
+        return "declined" if consent == "decline" else "aborted"
+    status = current_position(session, participant).status
+    return "in_progress" if status == "not_enrolled" else status

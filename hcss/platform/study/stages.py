@@ -31,10 +31,12 @@ from hcss.platform.study.stage import Refused, Slot, Stage
 from hcss.platform.study.texts import fill
 from hcss.platform.study.trial_stage import TrainingStage, TrialStage
 from hcss.questionnaires import consent, demographics, pages, post_trial, ranking, sart, tlx
-from hcss.questionnaires.definitions import Questionnaire, ValidationErrors
+from hcss.questionnaires.definitions import Questionnaire, ValidationErrors, ordinal_labels
 
 if TYPE_CHECKING:
+    from hcss.platform.models import StudyEnrolment
     from hcss.platform.study.flow import Flow
+    from hcss.platform.study.studyfile import Study
 
 DECLINE_QUESTION = (
     "You chose not to take part. If that is right, press Confirm: the study ends here and "
@@ -297,3 +299,15 @@ for _stage in (
     Debrief,
 ):
     STAGES[_stage.name] = _stage()
+
+
+def sequence(study: Study, enrolment: StudyEnrolment) -> tuple[Slot, ...]:
+    """The participant's stages: the study's list with per-model stages in their order."""
+    names: list[tuple[str, str, str]] = [(name, "", "") for name in study.before]
+    models = enrolment.models()
+    for model, label in zip(models, ordinal_labels(len(models)), strict=True):
+        names += [(name, model, label) for name in study.per_model]
+    names += [(name, "", "") for name in study.after]
+    return tuple(
+        Slot(index, STAGES[name], model, label) for index, (name, model, label) in enumerate(names)
+    )

@@ -24,6 +24,8 @@ from hcss.platform.session_state import session_state
 from hcss.platform.study.enrolment import current_enrolment, first_enrolment
 from hcss.platform.study.flow import Flow, Position, study_now
 from hcss.platform.study.markdown import render_markdown
+from hcss.platform.study.recruitment import completion_for
+from hcss.platform.study.screenout import screen_out_for
 from hcss.platform.study.stage import Refused
 from hcss.platform.study.texts import fill
 from hcss.questionnaires import pages
@@ -190,12 +192,8 @@ def _refused(token: str, message: str) -> str:
 
 def _finished(flow: Flow, position: Position) -> str:
     if position.status == "declined":
-        from hcss.platform.study.screenout import screen_out_for
-
         leave = screen_out_for(flow.session, flow.participant, flow.study)
         return render_template("study/declined.html", leave=leave)
-    from hcss.platform.study.recruitment import completion_for
-
     return render_template(
         "study/debrief.html",
         text_html=render_markdown(fill(pages.debrief_text().markdown, flow.study)),
