@@ -6,22 +6,18 @@ registers them here, so this module stays a short table of contents.
 
 from __future__ import annotations
 
-import importlib
 import os
 
 import click
 
-# (module, attribute) pairs: each attribute is a click command or group.
-COMMANDS: list[tuple[str, str]] = [
-    ("hcss.simulation.cli", "simulate"),
-    ("hcss.analysis.cli", "analyze"),
-    ("hcss.platform.cli", "serve"),
-    ("hcss.platform.cli", "db_group"),
-    ("hcss.platform.cli", "demo_trial"),
-    ("hcss.platform.console.cli", "admin_group"),
-    ("hcss.platform.export.cli", "export"),
-    ("hcss.platform.bots", "bots_command"),
-]
+from hcss.analysis.cli import analyze
+from hcss.platform.bot_command import bots_command
+from hcss.platform.cli import db_group, demo_trial, serve
+from hcss.platform.console.cli import admin_group
+from hcss.platform.export.cli import export
+from hcss.simulation.cli import simulate
+
+COMMANDS = (simulate, analyze, serve, db_group, demo_trial, admin_group, export, bots_command)
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -40,8 +36,8 @@ def main(studies: str | None) -> None:
         os.environ["HCSS_STUDIES"] = os.path.abspath(studies)
 
 
-for module_name, attribute in COMMANDS:
-    main.add_command(getattr(importlib.import_module(module_name), attribute))
+for command in COMMANDS:
+    main.add_command(command)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -6,7 +6,6 @@ gets its own app and database, and the server builds exactly one.
 
 from __future__ import annotations
 
-import importlib
 from collections.abc import Mapping
 from typing import Any
 
@@ -16,21 +15,29 @@ from werkzeug.exceptions import HTTPException
 from werkzeug.middleware.proxy_fix import ProxyFix
 
 from hcss.platform import config as platform_config
-from hcss.platform import db, hardening
+from hcss.platform import db, hardening, pages
+from hcss.platform.console import presence
+from hcss.platform.console import views as console_views
 from hcss.platform.errors import error_page, http_error_page
 from hcss.platform.hardening import SchemeSecureSessions
+from hcss.platform.live import api as live_api
+from hcss.platform.live import views as live_views
+from hcss.platform.live.runner import init_runner
+from hcss.platform.replay import views as replay_views
+from hcss.platform.study import recruitment
+from hcss.platform.study import views as study_views
 
-# (module, attribute) of each blueprint; each part of the platform adds its line.
-BLUEPRINTS: list[tuple[str, str]] = [
-    ("hcss.platform.pages", "bp"),
-    ("hcss.platform.live.views", "bp"),
-    ("hcss.platform.live.api", "bp"),
-    ("hcss.platform.study.views", "bp"),
-    ("hcss.platform.console.views", "bp"),
-    ("hcss.platform.console.presence", "bp"),
-    ("hcss.platform.study.recruitment", "bp"),
-    ("hcss.platform.replay.views", "bp"),
-]
+# Each part of the platform adds its blueprint here.
+BLUEPRINTS = (
+    pages.bp,
+    live_views.bp,
+    live_api.bp,
+    study_views.bp,
+    console_views.bp,
+    presence.bp,
+    recruitment.bp,
+    replay_views.bp,
+)
 
 csrf = CSRFProtect()
 
@@ -53,11 +60,8 @@ def create_app(config: Mapping[str, Any] | None = None) -> Flask:
     db.init_app(app)
     csrf.init_app(app)
     _register_json_errors(app)
-    for module_name, attribute in BLUEPRINTS:
-        app.register_blueprint(getattr(importlib.import_module(module_name), attribute))
-
-    from hcss.platform.live.runner import init_runner
-
+    for blueprint in BLUEPRINTS:
+        app.register_blueprint(blueprint)
     init_runner(app)
     return app
 
