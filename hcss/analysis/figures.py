@@ -14,16 +14,16 @@ import matplotlib
 
 matplotlib.use("Agg")  # no display on servers or in tests; must precede pyplot
 
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-import pandas as pd  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
-from matplotlib.lines import Line2D  # noqa: E402
-from matplotlib.patches import Patch  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.patches import Patch
 
-from hcss.analysis.decision_measures import SPLITS  # noqa: E402
-from hcss.analysis.load import GROUP_ORDER  # noqa: E402
-from hcss.analysis.measures import measure_label  # noqa: E402
+from hcss.analysis.decision_measures import SPLITS
+from hcss.analysis.load import GROUP_ORDER
+from hcss.analysis.measures import measure_label
 
 GROUP_COLOURS = {
     "M1SIM": "#9ecae1",

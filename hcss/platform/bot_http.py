@@ -148,7 +148,7 @@ class HttpClient:
         self,
         url: str,
         data: dict[str, Any] | None = None,
-        json: Any = None,  # noqa: A002 - the test client's name
+        json: Any = None,  # the test client's name
         headers: dict[str, str] | None = None,
         follow_redirects: bool = True,
     ) -> _Response:

@@ -541,7 +541,7 @@ class Simulation:
         """
         try:
             state = pickle.loads(blob)
-        except Exception as error:  # noqa: BLE001 - any unpickling failure means "not a snapshot"
+        except Exception as error:  # any unpickling failure means "not a snapshot"
             raise SimulationError(f"not a simulation snapshot: {error}") from error
         if not isinstance(state, dict) or state.get("version") != SNAPSHOT_VERSION:
             raise SimulationError("not a simulation snapshot of this version")

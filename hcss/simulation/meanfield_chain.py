@@ -220,7 +220,7 @@ class Chain:
                 return True
         return False
 
-    def deliver(self, r, s_state, s_target, s_estimate, s_key, draw) -> bool:  # noqa: ANN001
+    def deliver(self, r, s_state, s_target, s_estimate, s_key, draw) -> bool:
         """Spec §4 and §7 for one message to each of the distinct receivers r."""
         st, tg = self.state[r].copy(), self.target[r].copy()
         self.silence[r] = 0.0

@@ -117,7 +117,7 @@ def test_console_batch_links_live_table_and_pause_resume(browser, console_app) -
     def walk() -> None:
         try:
             ParticipantBot(app, token, seed=3, tick_s=6.0).run(load_study("demo"))
-        except BaseException as error:  # reported by the test below
+        except BaseException as error:  # noqa: BLE001 - reported by the test below
             failures.append(error)
 
     bot = threading.Thread(target=walk, daemon=True)

@@ -12,7 +12,7 @@ def test_an_app_built_for_a_script_has_no_runner_thread(tmp_path) -> None:  # ty
     app = create_app({"DATABASE_URL": f"sqlite:///{tmp_path / 'x.db'}", "SECRET_KEY": "s"})
     runner = app.extensions["hcss_runner"]
     try:
-        assert runner._thread is None  # noqa: SLF001 - the point of the test
+        assert runner._thread is None  # the point of the test
     finally:
         runner.stop()
         app.extensions["hcss_db"].engine.dispose()
@@ -29,7 +29,7 @@ def test_an_unmigrated_database_gives_one_clear_message_not_a_traceback_per_tick
         }
     )
     runner = app.extensions["hcss_runner"]
-    runner._last_sync = -float("inf")  # noqa: SLF001
+    runner._last_sync = -float("inf")
     with caplog.at_level(logging.INFO, logger="hcss.platform.live.runner"):
         deadline = time.monotonic() + 5.0
         while time.monotonic() < deadline and not caplog.records:

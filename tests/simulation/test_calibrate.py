@@ -45,7 +45,7 @@ def test_the_rate_fit_finds_the_rate_of_a_known_curve(monkeypatch: pytest.Monkey
     """A world whose M1 takes 5/r_msg minutes needs r_msg = 5/2.46 for the study's time."""
     calls: list[float] = []
 
-    def fake(params: Params, scenarios: int, runs: int, workers: int, seed: int = 0):  # noqa: ANN202
+    def fake(params: Params, scenarios: int, runs: int, workers: int, seed: int = 0):
         calls.append(params.message_rate)
         return 5.0 / params.message_rate + 0.3 / params.message_rate**2, 0.01
 

@@ -102,7 +102,7 @@ def _request_failed(app: Flask, exception: BaseException, **_extra: Any) -> None
     try:
         with app.extensions["hcss_db"].session_scope() as session:
             code = session.scalar(select(Participant.code).where(Participant.token == token))
-    except Exception:  # the database itself may be what failed
+    except Exception:  # noqa: BLE001 - the database itself may be what failed
         code = None
     endpoint = request.endpoint or request.path
     logger.error(f"{code or 'unknown participant'} error on {endpoint}: {exception!r}")
