@@ -47,9 +47,12 @@ fuzz: install
 bench: install
 	$(PY) -m benchmarks
 
+# ruff (style, banned dynamic imports, dead noqa), import-linter (the contracts of
+# docs/architecture.md, in pyproject.toml).
 lint: install
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
+	$(VENV)/bin/lint-imports
 
 format: install
 	$(VENV)/bin/ruff check --fix .
