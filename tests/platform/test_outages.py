@@ -103,3 +103,38 @@ def test_two_outages_both_stop_the_clock(app, make_trial, database_url) -> None:
         assert outages == [pytest.approx(5.0), pytest.approx(7.0)]
     finally:
         second.extensions["hcss_db"].engine.dispose()
+
+
+def test_a_trial_whose_simulation_finished_early_loses_only_the_outage(
+    app, make_trial, database_url
+) -> None:
+    """The server is last seen alive by its newest row's time, not by its newest step.
+
+    A simulation whose decisions are all made stops stepping while the trial
+    runs on to its deadline; its rows keep the finishing step. Taking that step
+    as the last moment seen counted all the time since the finish as outage:
+    the clock went back hundreds of seconds and the trial ran past its end.
+    """
+    trial = make_trial(seed=2, duration_s=3000.0)
+    seconds = 0.0
+    while not trial.live().sim.finished and seconds < 3000.0:
+        seconds += 20.0
+        trial.run_to(seconds)
+    assert trial.live().sim.finished, "the simulation never finished"
+    seconds += 300.0  # running on, finished, for 300 s
+    for _ in range(60):
+        seconds += 5.0
+        trial.run_to(seconds)
+    clock_at_crash = trial.live().clock(trial.runner.clock.now)
+    crash_wall = trial.runner.clock.now
+
+    restarted = _restart(database_url, crash_wall + 6.0)
+    try:
+        live = restarted.extensions["hcss_runner"].get(trial.trial_id)
+        assert live is not None
+        assert live.clock(crash_wall + 6.0) == pytest.approx(clock_at_crash, abs=0.5)
+        with restarted.extensions["hcss_db"].session_scope() as session:
+            (interruption,) = session.scalars(select(Interruption)).all()
+        assert interruption.outage_s == pytest.approx(6.0, abs=0.5)
+    finally:
+        restarted.extensions["hcss_db"].engine.dispose()

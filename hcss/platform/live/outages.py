@@ -1,11 +1,9 @@
 """A server or database outage stops the trial clock, as an experimenter's pause does.
 
 While the server is down nobody can see or command the trial, so it must not
-run on: a training trial used to advance 38 steps during an 8.8 s outage,
-with the participant looking at a dead page. On a rebuild the trial resumes
-at the last step the dead server is known to have reached (the newest step
-in its rows), and the wall time since then is added to the trial's paused
-time, so the simulation, the probes and the deadline all move on by the
+run on. On a rebuild the trial resumes where the dead server was last seen
+alive (the newest row's time, never earlier than the newest step in its
+rows), and the wall time since then is added to the trial's paused time, so the simulation, the probes and the deadline all move on by the
 outage's length (the stage flow already waits for a paused trial to end).
 
 Each `Interruption` row keeps the outage (`outage_s`, wall seconds) and when
@@ -14,6 +12,9 @@ crash, read before the rebuild writes anything), so a later rebuild restores
 every earlier outage and the export shows which trials were interrupted and
 for how long. At most one snapshot interval of steps the dead server had
 computed but not written is replayed again after the restart.
+
+The database going away while the server lives stops the clock the same way
+(`database_went_away` .. `database_came_back`), with an `Interruption` too.
 """
 
 from __future__ import annotations
@@ -80,10 +81,22 @@ def earlier_outages_s(session: Session, trial_id: int) -> float:
     return float(total or 0.0)
 
 
-def stop_clock_for_outage(live: RunningTrial, reached_step: int, now: float) -> float:
-    """Pause the trial clock for the outage since `reached_step`; returns its wall seconds."""
-    reached_wall_s = reached_step * live.dt / live.acceleration
-    outage_s = max(0.0, live.running_wall_s(now) - reached_wall_s)
+def stop_clock_for_outage(
+    live: RunningTrial, seen: datetime | None, reached_step: int, now: float
+) -> float:
+    """Pause the trial clock from the last moment the server was seen alive; returns the
+    outage's wall seconds.
+
+    The moment is the newest row's time (`seen`), not the newest step: a
+    simulation whose decisions are all made stops stepping while the trial runs
+    on to its deadline, and its rows (snapshots every few seconds) keep that
+    step. The step the dead server reached is a floor, for rows without a time.
+    """
+    alive_wall_s = reached_step * live.dt / live.acceleration
+    if seen is not None:
+        seen_epoch = (seen if seen.tzinfo else seen.replace(tzinfo=UTC)).timestamp()
+        alive_wall_s = max(alive_wall_s, live.running_wall_s(min(now, seen_epoch)))
+    outage_s = max(0.0, live.running_wall_s(now) - alive_wall_s)
     live.paused_s += outage_s
     return outage_s
 

@@ -79,7 +79,7 @@ def load_trial(session: Session, trial: Trial, now: float) -> RunningTrial:
     outage_s = 0.0
     if snapshot is not None:  # it ran in a server that died: the outage stops its clock
         reached = max(last_reached_step(session, trial.id), sim.step_count)
-        outage_s = stop_clock_for_outage(live, reached, now)
+        outage_s = stop_clock_for_outage(live, seen, reached, now)
     due = live.due_step(now)
     if sim.step_count < due:
         sim.step(due - sim.step_count)
