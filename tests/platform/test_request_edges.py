@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import csv
-from urllib.parse import urlencode
 
 import pytest
 
 from hcss.platform.export.writer import write_export
 from tests.platform import console_support
+from tests.platform.test_online_recruitment import _join as join
 
 console, experimenter = console_support.console, console_support.experimenter
 
@@ -74,8 +74,7 @@ def test_recruitment_ids_are_exported_so_spreadsheets_run_no_formula_and_keep_ev
     ids = ["+1-2", "-SUM", "@cmd", "NaN", "null", "None", "5f8a1b2c3d4e"]
     client = app.test_client()
     for recruitment_id in ids:
-        query = urlencode({"PROLIFIC_PID": recruitment_id})
-        assert client.get(f"/join/demo?{query}").status_code == 302
+        assert join(client, PROLIFIC_PID=recruitment_id).status_code == 302
     with app.extensions["hcss_db"].session_scope() as session:
         write_export(session, tmp_path / "export")
     with (tmp_path / "export" / "recruitment.csv").open(encoding="utf-8") as handle:
