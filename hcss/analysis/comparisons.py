@@ -52,6 +52,12 @@ from hcss.analysis.stats import (
 HUMAN_GROUPS = ("M1", "M2", "M3")
 #: Below this many units per group a table says its p is fragile.
 SMALL_N = 10
+#: Fewer units than this in a group (or complete participants for a paired test) and the
+#: test is not run: with one or two units a rank test's p cannot be small and its effect
+#: size is degenerate (ε² = 1 with one unit per group, r = ±1 with one pair).
+MIN_UNITS = 3
+#: A Spearman correlation needs this many complete pairs (its interval needs n − 3 > 0).
+MIN_PAIRS = 4
 SIMULATION_PAIR = ("M1SIM", "M2SIM")
 #: The pooled human correlation: one row per participant, the mean over the models met.
 POOLED_HUMAN = "M1–M3 (participant means)"
@@ -169,7 +175,9 @@ def _omnibus(measures, measure, split, family, groups) -> OmnibusComparison | No
     by_group = {
         group: values.dropna().tolist() for group, values in measures.groupby("group")["value"]
     }  # ``measures`` is already this measure and split
-    samples = {group: by_group[group] for group in groups if by_group.get(group)}
+    samples = {
+        group: by_group[group] for group in groups if len(by_group.get(group, ())) >= MIN_UNITS
+    }
     if len(samples) < 2:
         return None
     names = tuple(samples)
@@ -226,6 +234,8 @@ def simulation_comparisons(
         first, second = (_values(measures, measure, split, g) for g in SIMULATION_PAIR)
         if not first and not second:
             continue
+        if 0 < min(len(first), len(second)) < MIN_UNITS:
+            continue
         try:
             result, caught = quietly(mann_whitney, first, second, method, continuity)
             note = join_notes(result.note, caught)
@@ -272,7 +282,7 @@ def correlations(measures: pd.DataFrame) -> list[Correlation]:
         for group, subset in subsets:
             if x not in subset.columns or y not in subset.columns:
                 continue
-            if subset[x].notna().sum() == 0:
+            if (subset[x].notna() & subset[y].notna()).sum() < MIN_PAIRS:
                 continue
             try:
                 result, caught = quietly(spearman, subset[x], subset[y])

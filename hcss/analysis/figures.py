@@ -17,6 +17,7 @@ matplotlib.use("Agg")  # no display on servers or in tests; must precede pyplot
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
@@ -95,6 +96,7 @@ def comparison_figure(measures: pd.DataFrame, measure: str) -> Figure:
     splits = [split for split in SPLITS if split in set(chosen["split"])]
     figure, axes = plt.subplots(figsize=(2.2 + 1.1 * len(groups) * len(splits) / 2, 4.0))
     _legend(axes, _draw_boxes(axes, chosen, np.random.default_rng(0)))
+    _fix_range(axes, measure)
     axes.set_ylabel(measure_label(measure))
     axes.set_title(f"{measure_label(measure)} per model")
     figure.tight_layout()
@@ -110,6 +112,7 @@ def family_figure(measures: pd.DataFrame, members: list[str], title: str) -> Fig
     groups: list[str] = []
     for panel, measure in zip(axes.flat, members, strict=False):
         groups = _draw_boxes(panel, measures[measures["measure"] == measure], rng) or groups
+        _fix_range(panel, measure)
         panel.set_title(measure_label(measure), fontsize="small")
     for panel in list(axes.flat)[len(members) :]:
         panel.set_visible(False)
@@ -119,32 +122,94 @@ def family_figure(measures: pd.DataFrame, members: list[str], title: str) -> Fig
     return figure
 
 
+#: Measures that are proportions or percentages: their axis shows the whole range.
+RATE_RANGES = {"success_rate": (0.0, 1.0)}
+PERCENT_PREFIXES = ("sa_", "collective_observations", "target_observations")
+
+
+def measure_range(measure: str) -> tuple[float, float] | None:
+    """The fixed axis range of a rate (0–1) or percentage (0–100), else None."""
+    if measure in RATE_RANGES:
+        return RATE_RANGES[measure]
+    if measure.startswith(PERCENT_PREFIXES):
+        return (0.0, 100.0)
+    return None
+
+
+def _fix_range(axes: Axes, measure: str) -> None:
+    bounds = measure_range(measure)
+    if bounds:
+        margin = 0.03 * (bounds[1] - bounds[0])
+        axes.set_ylim(bounds[0] - margin, bounds[1] + margin)
+
+
+def _profile_panels(members: list[str]) -> list[tuple[str, list[str]]]:
+    """Scales of one kind per panel: NASA-TLX totals, ratings and weighted scores differ in range."""
+    kinds = {
+        "Totals (0–100)": [m for m in members if m.endswith((".overall", ".raw_tlx"))],
+        "Subscale ratings (0–100)": [m for m in members if m.endswith("_rating")],
+        "Weighted subscales (rating × weight ÷ 15)": [
+            m for m in members if m.endswith("_weighted")
+        ],
+    }
+    if (
+        not kinds["Subscale ratings (0–100)"]
+        and not kinds["Weighted subscales (rating × weight ÷ 15)"]
+    ):
+        return [("", members)]
+    return [(title, chosen) for title, chosen in kinds.items() if chosen]
+
+
+def _scale_label(measure: str) -> str:
+    label = measure_label(measure).partition(": ")[2] or measure
+    return label.removesuffix(" rating").removesuffix(" weighted")
+
+
 def profile_figure(measures: pd.DataFrame, members: list[str], title: str) -> Figure:
-    """Mean ± standard error of each scale per model: a questionnaire's profile."""
+    """Mean ± SE of each scale per model, as dots grouped by scale (no lines between scales).
+
+    Scales are separate quantities, so nothing joins them; NASA-TLX totals,
+    ratings and weighted scores get a panel each because their ranges differ.
+    """
     chosen = measures[measures["measure"].isin(members) & (measures["split"] == "overall")]
     groups = [group for group in GROUP_ORDER if group in set(chosen["group"])]
     groups += sorted(set(chosen["group"]) - set(groups))
-    figure, axes = plt.subplots(figsize=(max(5.0, 0.6 * len(members) + 2.5), 4.2))
-    positions = np.arange(len(members))
-    for index, group in enumerate(groups):
-        stats = chosen[chosen["group"] == group].groupby("measure")["value"].agg(["mean", "sem"])
-        stats = stats.reindex(members)
-        offset = (index - (len(groups) - 1) / 2) * 0.08
-        axes.errorbar(
-            positions + offset,
-            stats["mean"],
-            yerr=stats["sem"],
-            marker="o",
-            capsize=3,
-            label=group,
-            color=GROUP_COLOURS.get(group, "#555555"),
+    panels = _profile_panels(members)
+    widths = [max(2.0, 0.7 * len(scales) + 1.0) for _, scales in panels]
+    figure, axes_row = plt.subplots(
+        1,
+        len(panels),
+        figsize=(sum(widths) + 1.5, 4.4),
+        squeeze=False,
+        gridspec_kw={"width_ratios": widths},
+    )
+    for axes, (panel_title, scales) in zip(axes_row[0], panels, strict=True):
+        positions = np.arange(len(scales))
+        for index, group in enumerate(groups):
+            rows = chosen[chosen["group"] == group].groupby("measure")["value"]
+            summary = rows.agg(["mean", "sem"]).reindex(scales)
+            offset = (index - (len(groups) - 1) / 2) * 0.18
+            axes.errorbar(
+                positions + offset,
+                summary["mean"],
+                yerr=summary["sem"],
+                marker="o",
+                linestyle="none",
+                capsize=3,
+                label=group,
+                color=GROUP_COLOURS.get(group, "#555555"),
+            )
+        axes.set_xticks(
+            positions, [_scale_label(m) for m in scales], rotation=35, ha="right", fontsize="small"
         )
-    labels = [measure_label(measure).partition(": ")[2] or measure for measure in members]
-    axes.set_xticks(positions, labels, rotation=35, ha="right", fontsize="small")
-    axes.set_ylabel("mean ± SE")
-    axes.set_title(title)
-    axes.grid(axis="y", alpha=0.3)
-    axes.legend(fontsize="small")
+        axes.set_xlim(-0.6, len(scales) - 0.4)
+        if "(0–100)" in panel_title:
+            axes.set_ylim(-3, 103)
+        axes.set_title(panel_title, fontsize="small")
+        axes.grid(axis="y", alpha=0.3)
+    axes_row[0][0].set_ylabel("mean ± SE")
+    axes_row[0][-1].legend(fontsize="small", title="model")
+    figure.suptitle(title)
     figure.tight_layout()
     return figure
 

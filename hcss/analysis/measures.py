@@ -31,7 +31,7 @@ MEASURE_LABELS = {
     "interventions": "Interventions per participant",
     "collective_observations": "Collective observations (% of actions)",
     "target_observations": "Target observations (% of actions)",
-    "sa_overall": "SA probes correct, SA0 overall (%)",
+    "sa_overall": "SA probes correct, all levels (%)",
     "sa_level1": "SA probes correct, level 1 perception (%)",
     "sa_level2": "SA probes correct, level 2 comprehension (%)",
     "sa_level3": "SA probes correct, level 3 projection (%)",

@@ -16,6 +16,7 @@ import pandas as pd
 
 from hcss.analysis.comparisons import (
     HUMAN_GROUPS,
+    MIN_UNITS,
     SMALL_N,
     join_notes,
     measure_splits,
@@ -65,7 +66,7 @@ def participant_blocks(measures: pd.DataFrame, measure: str, split: str) -> pd.D
 def _compare(measures: pd.DataFrame, measure: str, split: str) -> RepeatedComparison | None:
     blocks = participant_blocks(measures, measure, split)
     groups = tuple(blocks.columns)
-    if len(groups) < 2 or blocks.empty:
+    if len(groups) < 2 or len(blocks) < MIN_UNITS:
         return None
     n = len(blocks)
     notes = [f"n = {n} < {SMALL_N} participants with every model" if n < SMALL_N else ""]

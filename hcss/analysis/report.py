@@ -14,6 +14,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
+from hcss.analysis.banner import SampleBanner, sample_banner
 from hcss.analysis.figures import write_figure
 from hcss.analysis.load import AnalysisInputError, StudyTables, load_inputs
 from hcss.analysis.measures import all_measures
@@ -30,6 +31,7 @@ th:first-child, td:first-child { text-align: left; }
 figure { display: inline-block; margin: 0.5em; }
 img { max-width: 46em; }
 .files { font-size: 0.8em; }
+.banner { background: #eef4fb; border-left: 4px solid #3182bd; padding: 0.2em 1em; }
 .warning { background: #fff3cd; border-left: 4px solid #e0a800; padding: 0.4em 0.8em; }
 nav ol { columns: 2; }
 """
@@ -48,22 +50,60 @@ class Report:
 
 
 def _inputs_html(tables: StudyTables) -> str:
-    """The inputs actually read, with their rows per table after exclusions."""
+    """The inputs actually read (by file name: a report travels without its paths)."""
     items = []
     for summary in tables.inputs:
         counts = ", ".join(f"{table} {rows}" for table, rows in summary.table_rows if rows)
+        name = Path(summary.path).name
         items.append(
-            f"<li><code>{html.escape(summary.path)}</code>: {html.escape(counts or 'no rows')}</li>"
+            f"<li><code>{html.escape(name)}</code>: {html.escape(counts or 'no rows')}</li>"
         )
     warnings = "".join(
-        f"<p class='warning'>Warning: {html.escape(text)}</p>" for text in tables.warnings
+        f"<p class='warning'>Warning: {html.escape(_without_paths(text, tables))}</p>"
+        for text in tables.warnings
     )
     groups = tables.decisions.groupby("group").size()
-    decided = ", ".join(f"{group}: {groups[group]} decisions" for group in tables.groups)
+    decided = ", ".join(
+        f"{group}: {groups[group]} decision{'' if groups[group] == 1 else 's'}"
+        for group in tables.groups
+    )
     return (
         f"<ul>{''.join(items)}</ul>{warnings}"
         f"<p>{html.escape(decided or 'No completed decisions in the inputs.')}</p>"
     )
+
+
+def _without_paths(text: str, tables: StudyTables) -> str:
+    for summary in tables.inputs:
+        text = text.replace(summary.path, Path(summary.path).name)
+    return text
+
+
+def _banner_html(banner: SampleBanner, excluded: str) -> str:
+    """The sample first: counts, what was left out, and the tests too small to run."""
+    counts = "".join(f"<li>{html.escape(line)}</li>" for line in banner.counts)
+    parts = [f"<section id='banner' class='banner'><h2>Sample at a glance</h2><ul>{counts}"]
+    parts.append(f"<li>{html.escape(excluded)}</li></ul>")
+    if banner.not_run:
+        items = "".join(f"<li>{html.escape(reason)}</li>" for reason in banner.not_run)
+        parts.append(f"<p><strong>Not run: the sample is too small</strong></p><ul>{items}</ul>")
+    parts.append("</section>")
+    return "".join(parts)
+
+
+def _excluded_text(tables: StudyTables, include_pilot: bool) -> str:
+    """What --include-pilot would change, counted."""
+    everyone = tables.all_participants
+    kinds = {"is_bot": "bot", "is_pilot": "pilot", "is_demo": "demo"}
+    counts = []
+    for column, word in kinds.items():
+        if column in everyone.columns:
+            count = int(everyone[column].fillna(False).astype(bool).sum())
+            counts.append(f"{count} {word}{'' if count == 1 else 's'}")
+    listed = ", ".join(counts) or "none flagged"
+    if include_pilot:
+        return f"Bot, pilot and demo participants are included (--include-pilot): {listed}."
+    return f"Left out (bot, pilot and demo participants; --include-pilot keeps them): {listed}."
 
 
 def _table_html(table: Table) -> str:
@@ -105,11 +145,7 @@ def write_html(
 ) -> Path:
     """One page: contents, inputs, then every section with its figures and tables."""
     stamp = datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC")
-    pilot = (
-        "Bot, pilot and demo participants are <strong>included</strong>."
-        if include_pilot
-        else "Bot, pilot and demo participants are excluded."
-    )
+    banner = _banner_html(sample_banner(tables), _excluded_text(tables, include_pilot))
     contents = "".join(
         f"<li><a href='#{section.key}'>{html.escape(section.title)}</a></li>"
         for section in sections
@@ -119,7 +155,8 @@ def write_html(
 <html lang="en"><head><meta charset="utf-8"><title>hcss analysis report</title>
 <style>{STYLE}</style></head><body>
 <h1>hcss analysis report</h1>
-<p>Generated {stamp}. {pilot}</p>
+<p>Generated {stamp}. R code for every test is in <a href="analysis.R">analysis.R</a>.</p>
+{banner}
 <nav id="contents"><h2>Contents</h2><ol><li><a href="#inputs">Inputs read</a></li>{contents}</ol></nav>
 <section id="inputs"><h2>Inputs read</h2>{_inputs_html(tables)}</section>
 {body}

@@ -19,7 +19,7 @@ NUMERIC = ("video_games", "robots", "mrt_score")
 STATUS_LABELS = {
     "completed": "Completed",
     "in_progress": "In progress",
-    "aborted": "Withdrawn (aborted)",
+    "aborted": "Stopped before the end (aborted or withdrew)",
     "declined": "Declined consent",
 }
 
@@ -99,8 +99,13 @@ def attrition_table(stage_timings: pd.DataFrame) -> Table:
 
 
 def demographics_table(participants: pd.DataFrame) -> Table:
-    """Counts per category and mean (SD) of numeric answers of the analysed participants."""
-    real = participants
+    """Counts per category and mean (SD) of numeric answers of the analysed participants.
+
+    Only participants who answered at least one demographic item count: a
+    visitor who never reached the questionnaire is no "not answered".
+    """
+    asked = [name for name in (*CATEGORICAL, *NUMERIC[:2]) if name in participants]
+    real = participants[participants[asked].notna().any(axis=1)] if asked else participants
     rows, records = [], []
     for column in CATEGORICAL:
         if column not in real:
@@ -128,4 +133,28 @@ def demographics_table(participants: pd.DataFrame) -> Table:
         ("Item", "Answer", "n (%) or mean (SD)"),
         tuple(rows),
         pd.DataFrame(records, columns=["item", "value", "n", "mean", "sd"]),
+    )
+
+
+def counterbalancing_table(participants: pd.DataFrame) -> Table:
+    """Analysed participants per counterbalancing cell and model order, by status."""
+    if participants.empty or "cell" not in participants.columns:
+        return Table("counterbalancing", "", ("Cell",), (), pd.DataFrame())
+    people = participants.assign(
+        cell=participants["cell"].astype("Int64").astype(str),
+        model_order=participants.get("model_order", pd.Series(dtype=str)).fillna("–"),
+        status=participants.get("status", pd.Series(dtype=str)).fillna("unknown"),
+    )
+    counts = people.groupby(["cell", "model_order", "status"]).size().unstack(fill_value=0)
+    statuses = list(counts.columns)
+    rows = [
+        (cell, order, *(str(int(counts.loc[(cell, order), status])) for status in statuses))
+        for cell, order in counts.index
+    ]
+    return Table(
+        "counterbalancing",
+        "Counterbalancing achieved: analysed participants per cell and model order, by status",
+        ("Cell", "Model order", *(STATUS_LABELS.get(status, status) for status in statuses)),
+        tuple(rows),
+        counts.reset_index(),
     )

@@ -21,16 +21,26 @@ from hcss.analysis.builders import (
     spearman_table,
 )
 from hcss.analysis.clustered import success_gee, time_mixed_model
-from hcss.analysis.comparisons import correlations, omnibus_comparisons, simulation_comparisons
+from hcss.analysis.comparisons import (
+    OmnibusComparison,
+    correlations,
+    omnibus_comparisons,
+    simulation_comparisons,
+)
 from hcss.analysis.descriptive import descriptive_frame
 from hcss.analysis.design_tables import friedman_table, model_table, paired_wilcoxon_table
 from hcss.analysis.families import FAMILIES
 from hcss.analysis.figures import comparison_figure, family_figure, profile_figure
 from hcss.analysis.load import StudyTables
 from hcss.analysis.measures import MRT_MEASURE
-from hcss.analysis.paired import repeated_comparisons
+from hcss.analysis.paired import RepeatedComparison, repeated_comparisons
 from hcss.analysis.paper_tables import family_table, pvalue_matrix
-from hcss.analysis.sample import attrition_table, demographics_table, sample_table
+from hcss.analysis.sample import (
+    attrition_table,
+    counterbalancing_table,
+    demographics_table,
+    sample_table,
+)
 from hcss.analysis.stats import MannWhitneyMethod
 from hcss.analysis.tables import Table
 
@@ -43,7 +53,21 @@ INDEPENDENT_NOTE = (
 REPEATED_NOTE = (
     "Tests that respect the design: Friedman with Kendall's W and paired Wilcoxon signed-rank "
     "tests (Holm) on participants with all three models; a logistic GEE of success per decision "
-    "and a linear mixed model of log decision time, both with the participant as cluster."
+    "(population-averaged odds ratios; the subject-specific glmer fit is in analysis.R) and a "
+    "linear mixed model of log decision time, both with the participant as cluster and the "
+    "counterbalancing (trial position, first section) as covariates when it varies."
+)
+MULTIPLICITY_NOTE = (
+    "Multiplicity: Holm's correction is applied within a family of tests, and only there. "
+    "The families are (1) the three pairwise comparisons of one measure and split after "
+    "Kruskal-Wallis (Dunn-Holm; Tukey-Kramer and Tukey HSD control the family-wise error "
+    "themselves) and (2) the three paired Wilcoxon tests of one measure and split. Omnibus "
+    "tests, model terms and correlations across measures are not corrected: read them as "
+    "exploratory, one confirmatory hypothesis per pre-registered measure."
+)
+DESIGN_NOTE = (
+    "The counterbalancing achieved (participants per cell and model order, by status) and "
+    "the attrition by stage of the analysed participants."
 )
 
 
@@ -64,12 +88,9 @@ def _family_section(family, measures, summary, kruskal, friedman, extra=()) -> S
     if not members:
         return None
     tables = [family_table(family, summary, kruskal, friedman), *extra]
-    per_measure = descriptive_tables(summary[summary["measure"].isin(members)])
-    details: list[Table] = []
-    if family.profile:  # one table for the instrument; per-scale tables folded away
-        details = per_measure
-    else:
-        tables += per_measure
+    # the family table holds every mean (SD); the per-measure tables (with medians and
+    # ranges) repeat them, so they are written and linked but folded away
+    details = descriptive_tables(summary[summary["measure"].isin(members)])
     if family.profile:
         figures = [(family.key, lambda: profile_figure(measures, members, family.title))]
     elif family.key == "performance":
@@ -77,7 +98,12 @@ def _family_section(family, measures, summary, kruskal, friedman, extra=()) -> S
     else:
         figures = [(family.key, lambda: family_figure(measures, members, family.title))]
     return Section(
-        family.key, family.title, "", tuple(t for t in tables if t), tuple(figures), tuple(details)
+        family.key,
+        family.title,
+        "",
+        tuple(t for t in tables if t and t.rows),
+        tuple(figures),
+        tuple(t for t in details if t.rows),
     )
 
 
@@ -87,13 +113,20 @@ def _sample_section(tables: StudyTables, include_pilot: bool) -> Section | None:
     return Section(
         "sample",
         "Sample",
-        "Counts before exclusions; attrition and demographics of the analysed participants.",
+        "Counts before exclusions; demographics of the analysed participants.",
         (
             sample_table(tables.all_participants, include_pilot),
-            attrition_table(tables.stage_timings),
             demographics_table(tables.participants),
         ),
     )
+
+
+def _design_section(tables: StudyTables) -> Section | None:
+    design = [counterbalancing_table(tables.participants), attrition_table(tables.stage_timings)]
+    design = [table for table in design if table.rows]
+    if not design:
+        return None
+    return Section("design", "Design achieved", DESIGN_NOTE, tuple(design))
 
 
 def build_sections(
@@ -110,7 +143,7 @@ def build_sections(
     kruskal = {(c.measure, c.split): c for c in omnibus if c.family == "human-collective models"}
     friedman = {(c.measure, c.split): c for c in repeated}
     correlation_results = correlations(measures)
-    sections = [s for s in [_sample_section(tables, include_pilot)] if s]
+    sections = [s for s in [_sample_section(tables, include_pilot), _design_section(tables)] if s]
     covered: set[str] = set()
     for family in FAMILIES:
         extra = []
@@ -124,6 +157,28 @@ def build_sections(
     others = summary[~summary["measure"].isin(covered)]
     if not others.empty:
         sections.append(Section("other", "Other measures", "", tuple(descriptive_tables(others))))
+    sections += _test_sections(tables, measures, omnibus, repeated)
+    sections += _simulation_sections(measures, mann_whitney_method, continuity)
+    if correlation_results:
+        sections.append(
+            Section(
+                "correlations",
+                "Correlations with success rate",
+                "",
+                (spearman_table(correlation_results),),
+            )
+        )
+    return [section for section in sections if section.tables or section.figures]
+
+
+def _test_sections(
+    tables: StudyTables,
+    measures: pd.DataFrame,
+    omnibus: list[OmnibusComparison],
+    repeated: list[RepeatedComparison],
+) -> list[Section]:
+    """The paper's independent-groups tests and the repeated-measures analyses."""
+    sections = []
     if omnibus:
         matrices = [
             pvalue_matrix(family, family.members(measures), omnibus, repeated)
@@ -135,37 +190,40 @@ def build_sections(
             Section(
                 "independent",
                 "Model comparisons as in the paper",
-                INDEPENDENT_NOTE,
-                tuple(independent),
+                f"{INDEPENDENT_NOTE} {MULTIPLICITY_NOTE}",
+                tuple(table for table in independent if table.rows),
             )
         )
     design = []
     if repeated:
         design += [friedman_table(repeated), paired_wilcoxon_table(repeated)]
     if (tables.decisions["source"] == "study").any():
-        design += [
-            model_table("gee_success", success_gee(tables.decisions, tables.participants)),
-            model_table("mixedlm_time", time_mixed_model(tables.decisions, tables.participants)),
-        ]
+        for name, model in (
+            ("gee_success", success_gee(tables.decisions, tables.participants)),
+            ("mixedlm_time", time_mixed_model(tables.decisions, tables.participants)),
+        ):
+            if model.terms or not model.note.startswith("needs"):  # too small: in the banner
+                design.append(model_table(name, model))
+    design = [table for table in design if table.rows]
     if design:
         sections.append(
-            Section("repeated", "Repeated-measures analyses", REPEATED_NOTE, tuple(design))
-        )
-    two_sample = simulation_comparisons(measures, mann_whitney_method, continuity)
-    if two_sample:
-        sections.append(
-            Section("simulation", "Simulation-only models", "", (mann_whitney_table(two_sample),))
-        )
-    if correlation_results:
-        sections.append(
             Section(
-                "correlations",
-                "Correlations with success rate",
-                "",
-                (spearman_table(correlation_results),),
+                "repeated",
+                "Repeated-measures analyses",
+                f"{REPEATED_NOTE} {MULTIPLICITY_NOTE}",
+                tuple(design),
             )
         )
     return sections
+
+
+def _simulation_sections(
+    measures: pd.DataFrame, mann_whitney_method: MannWhitneyMethod, continuity: bool
+) -> list[Section]:
+    two_sample = simulation_comparisons(measures, mann_whitney_method, continuity)
+    if not two_sample:
+        return []
+    return [Section("simulation", "Simulation-only models", "", (mann_whitney_table(two_sample),))]
 
 
 def _renamed(table: Table, name: str) -> Table:

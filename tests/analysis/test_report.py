@@ -80,7 +80,7 @@ def test_a_simulation_experiment_plus_bot_export(bot_export, tmp_path):
     assert sections == ["sample", "performance", "simulation", "correlations"]
     assert_complete(page, sections, out)
     # the bot export is named in a warning instead of vanishing
-    assert f"Warning: {export} contributes nothing" in page
+    assert f"Warning: {export.name} contributes nothing" in page  # no path in the report
     assert f"Warning: {export} contributes nothing" in stderr
     sample = pd.read_csv(out / "tables" / "sample.csv").set_index("row")["n"]
     assert sample["Excluded: bots"] == 1 and sample["Enrolled (real participants)"] == 0
@@ -120,12 +120,16 @@ def test_c_console_zip_as_downloaded(bot_export, tmp_path):
     assert stderr == ""
     expected = ["sample", "performance", "requests", "observations", *QUESTIONNAIRE_SECTIONS]
     assert [s for s in sections if s in expected] == expected
-    assert {"independent", "repeated"} <= set(sections)
+    # one participant: the tests are listed once as not run, not printed as rows of n = 1
+    assert not {"independent", "repeated"} & set(sections)
+    assert "Friedman and paired Wilcoxon tests: 1 participant with every model" in page
     assert_complete(page, sections, out)
-    assert str(archive) in page  # the inputs actually read
+    assert f"<code>{archive.name}</code>" in page  # the inputs read, without the path
+    assert str(archive.parent) not in page
     # the practice trials in the zip's training/ folder are not analysed
     measures = pd.read_csv(out / "measures.csv")
     assert set(measures["group"]) <= {"M1", "M2", "M3", "All"}
-    for name in ("gee_success", "mixedlm_time", "friedman", "wilcoxon_paired", "attrition"):
-        assert (out / "tables" / f"{name}.csv").exists(), name
+    for name in ("gee_success", "mixedlm_time", "friedman", "wilcoxon_paired"):
+        assert not (out / "tables" / f"{name}.csv").exists(), name
+    assert (out / "tables" / "attrition.csv").exists()
     assert 'id="demographics"' in page

@@ -92,7 +92,7 @@ def test_sample_attrition_and_demographics_tables():
     )
     sample = sample_table(participants, include_pilot=False).frame.set_index("row")["n"]
     assert sample["Enrolled (real participants)"] == 3
-    assert sample["Completed"] == 2 and sample["Withdrawn (aborted)"] == 1
+    assert sample["Completed"] == 2 and sample["Stopped before the end (aborted or withdrew)"] == 1
     assert sample["Excluded: bots"] == 1
     timings = pd.DataFrame(
         {
