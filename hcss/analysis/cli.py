@@ -42,6 +42,16 @@ from hcss.analysis.load import AnalysisInputError
     show_default=True,
     help="Continuity correction for the asymptotic Mann-Whitney p.",
 )
+@click.option(
+    "--study",
+    default=None,
+    help="Analyse only this study's participants (its file's name, e.g. original).",
+)
+@click.option(
+    "--pool-studies",
+    is_flag=True,
+    help="Analyse participants of different study files together (refused by default).",
+)
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 def analyze(
     inputs: tuple[Path, ...],
@@ -49,6 +59,8 @@ def analyze(
     include_pilot: bool,
     mw_method: str,
     continuity: bool,
+    study: str | None,
+    pool_studies: bool,
     quiet: bool,
 ) -> None:
     """Analyse study exports and simulation decision tables.
@@ -57,7 +69,9 @@ def analyze(
     directory (decisions and, for a study, the other export tables, as CSV
     or Parquet), or a decisions CSV or Parquet file from the simulation-only
     experiment. Writes tables, figures and report.html; an INPUT left with no
-    rows after exclusions is named in a warning.
+    rows after exclusions is named in a warning. Participants of different
+    study files (a demo beside the protocol) are refused unless --study picks
+    one or --pool-studies is given; the report names each study file it used.
     """
     # Imported here so `hcss --help` stays fast: the analysis pulls in
     # scipy, statsmodels and matplotlib.
@@ -84,6 +98,8 @@ def analyze(
             progress=not quiet,
             mann_whitney_method=mw_method,
             continuity=continuity,
+            study=study,
+            pool_studies=pool_studies,
         )
     except AnalysisInputError as error:
         raise click.ClickException(str(error)) from error

@@ -20,6 +20,13 @@ import numpy as np
 import pandas as pd
 
 from hcss.analysis.sources import SourceError, read_tables
+from hcss.analysis.studies import (
+    StudyFile,
+    StudyPoolingError,
+    in_study,
+    refuse_pooling,
+    study_files,
+)
 
 SIMULATION = "simulation"
 STUDY = "study"
@@ -116,6 +123,7 @@ class StudyTables:
     all_participants: pd.DataFrame = field(default_factory=pd.DataFrame)
     inputs: tuple[InputSummary, ...] = ()
     warnings: tuple[str, ...] = ()
+    studies: tuple[StudyFile, ...] = ()  # the study files of the analysed participants
 
     @property
     def groups(self) -> list[str]:
@@ -264,7 +272,29 @@ def _contributions(
     return tuple(summaries)
 
 
-def load_inputs(paths: Iterable[str | Path], include_pilot: bool = False) -> StudyTables:
+def _keep_study(combined: dict[str, pd.DataFrame], study: str) -> None:
+    """Keep one study's participants in every table (simulation decisions stay), in place."""
+    kept = in_study(combined["participants"], study)
+    if not kept:
+        present = sorted({file.name for file in study_files(combined["participants"])} - {""})
+        raise AnalysisInputError(
+            f"no participant of study {study!r} in the inputs; studies there: "
+            + (", ".join(present) or "none named")
+        )
+    for table, frame in combined.items():
+        if "participant" in frame.columns and len(frame):
+            keep = frame["participant"].astype(str).isin(kept)
+            if table == "decisions":
+                keep |= frame["source"] != STUDY
+            combined[table] = frame[keep]
+
+
+def load_inputs(
+    paths: Iterable[str | Path],
+    include_pilot: bool = False,
+    study: str | None = None,
+    pool_studies: bool = False,
+) -> StudyTables:
     """Read and combine every INPUT, tag groups and drop flagged participants.
 
     Study data without a participants table are refused unless
@@ -273,6 +303,10 @@ def load_inputs(paths: Iterable[str | Path], include_pilot: bool = False) -> Stu
     than stopping. An INPUT left with no rows after the exclusions is named
     in ``warnings`` (it does not vanish silently); when no INPUT is left with
     any row the analysis stops with that explanation.
+
+    ``study`` keeps one study's participants; participants of different
+    study files (name or digest) are refused unless ``pool_studies``
+    (`hcss.analysis.studies`).
     """
     inputs = [Path(path) for path in paths]
     if not inputs:
@@ -287,6 +321,8 @@ def load_inputs(paths: Iterable[str | Path], include_pilot: bool = False) -> Stu
         else _empty(table)
         for table in ("decisions", *STUDY_TABLES)
     }
+    if study is not None:
+        _keep_study(combined, study)
     all_participants = combined["participants"].reset_index(drop=True)
     before = {summary.path: summary.rows for summary in _contributions(inputs, combined)}
     if _has_study_rows(combined) and not include_pilot:
@@ -297,6 +333,12 @@ def load_inputs(paths: Iterable[str | Path], include_pilot: bool = False) -> Stu
                 "--include-pilot"
             )
         _exclude(combined)
+    studies = study_files(combined["participants"])
+    if not pool_studies:
+        try:
+            refuse_pooling(studies)
+        except StudyPoolingError as error:
+            raise AnalysisInputError(str(error)) from error
     summaries = _contributions(inputs, combined)
     warnings = tuple(
         f"{summary.path} contributes nothing: "
@@ -318,5 +360,9 @@ def load_inputs(paths: Iterable[str | Path], include_pilot: bool = False) -> Stu
         combined[table] = frame.reset_index(drop=True)
     combined["decisions"] = combined["decisions"].reset_index(drop=True)
     return StudyTables(
-        **combined, all_participants=all_participants, inputs=summaries, warnings=warnings
+        **combined,
+        all_participants=all_participants,
+        inputs=summaries,
+        warnings=warnings,
+        studies=studies,
     )

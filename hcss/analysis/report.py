@@ -62,6 +62,9 @@ def _inputs_html(tables: StudyTables) -> str:
         f"<p class='warning'>Warning: {html.escape(_without_paths(text, tables))}</p>"
         for text in tables.warnings
     )
+    studies = "; ".join(study.label() for study in tables.studies)
+    if studies:
+        warnings += f"<p id='studies'>Study files analysed: {html.escape(studies)}.</p>"
     groups = tables.decisions.groupby("group").size()
     decided = ", ".join(
         f"{group}: {groups[group]} decision{'' if groups[group] == 1 else 's'}"
@@ -174,12 +177,17 @@ def run_analysis(
     progress: bool = True,
     mann_whitney_method: MannWhitneyMethod = "auto",
     continuity: bool = True,
+    study: str | None = None,
+    pool_studies: bool = False,
 ) -> Report:
-    """Load INPUTs, compute measures and tests, write tables, figures and report.html."""
+    """Load INPUTs (one study's participants, or several study files only when pooled),
+    compute measures and tests, write tables, figures and report.html."""
     directory = Path(out)
     steps = tqdm(total=5, desc="hcss analyze", unit="step", disable=not progress)
     steps.set_postfix_str("loading")
-    tables = load_inputs(inputs, include_pilot=include_pilot)
+    tables = load_inputs(
+        inputs, include_pilot=include_pilot, study=study, pool_studies=pool_studies
+    )
     steps.update()
     steps.set_postfix_str("measures")
     measures = all_measures(tables)

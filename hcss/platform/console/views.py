@@ -71,6 +71,18 @@ def _init_login(state) -> None:  # type: ignore[no-untyped-def]
     eventlog.install(state.app)
 
 
+@bp.app_context_processor
+def _export_studies() -> dict[str, object]:
+    """The console bar's export choice: the studies that have participants (read when shown)."""
+
+    def export_studies() -> list[str]:
+        from hcss.platform.export.selection import participant_studies
+
+        return sorted({name for name in participant_studies(get_session()).values() if name})
+
+    return {"export_studies": export_studies}
+
+
 @login_manager.user_loader
 def _load_experimenter(user_id: str) -> Experimenter | None:
     return experimenter_for_cookie(get_session(), user_id)
@@ -311,8 +323,15 @@ def withdraw_participant(code: str):  # type: ignore[no-untyped-def]
 
 @bp.get("/export.zip")
 @login_required
-def export_zip() -> Response:
+def export_zip() -> Response | tuple[str, int]:
+    """The export as a zip: every participant, or one study's (`?study=NAME`)."""
     from hcss.platform.export.archive import export_archive
+    from hcss.platform.export.selection import UnknownStudy
 
-    archive, name = export_archive(database(), current_user.username)
+    study = request.args.get("study") or None
+    try:
+        archive, name = export_archive(database(), current_user.username, study)
+    except UnknownStudy as error:
+        flash(str(error))
+        return redirect(url_for("console.index")), 303  # type: ignore[return-value]
     return send_file(archive, mimetype="application/zip", as_attachment=True, download_name=name)

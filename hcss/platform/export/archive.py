@@ -12,15 +12,17 @@ from hcss.platform.export.writer import write_export
 from hcss.platform.models import AuditRecord
 
 
-def export_archive(database: Database, experimenter: str) -> tuple[io.BytesIO, str]:
-    """(zip bytes, file name); the zip holds the same files `hcss export` writes."""
+def export_archive(
+    database: Database, experimenter: str, study: str | None = None
+) -> tuple[io.BytesIO, str]:
+    """(zip bytes, file name); the zip holds the files `hcss export [--study]` writes."""
     stamp = database.now().strftime("%Y%m%dT%H%M%SZ")
-    name = f"hcss-export-{stamp}"
+    name = f"hcss-export-{study}-{stamp}" if study else f"hcss-export-{stamp}"
     buffer = io.BytesIO()
     with tempfile.TemporaryDirectory() as scratch:
         outdir = Path(scratch) / name
         with database.session_scope() as session:
-            counts = write_export(session, outdir)
+            counts = write_export(session, outdir, study=study)
             session.add(
                 AuditRecord(
                     action="export",

@@ -15,32 +15,41 @@ import click
     default=None,
     help="Database to export (default: DATABASE_URL, else instance/).",
 )
-def export(outdir: Path, replace: bool, database_url: str | None) -> None:
+@click.option(
+    "--study",
+    default=None,
+    help="Only this study's participants (the study file's name, e.g. original); default: all.",
+)
+def export(outdir: Path, replace: bool, database_url: str | None, study: str | None) -> None:
     """Write every table (CSV, and Parquet with pyarrow) and the data dictionary to OUTDIR.
 
     Participants appear by code only. Pilot, bot and demo participants are
     flagged in participants.csv; `hcss analyze` leaves them out unless asked.
+    participants.csv names each participant's study and its file's digest;
+    `hcss analyze` refuses to pool different study files unless asked.
     """
 
     from hcss.platform.config import database_url as default_url
     from hcss.platform.db import Database
+    from hcss.platform.export.selection import UnknownStudy
     from hcss.platform.export.writer import ExportError, write_export
     from hcss.platform.models import AuditRecord
 
     database = Database(database_url or default_url())
     try:
         with database.command_scope() as session:
-            counts = write_export(session, outdir, replace=replace)
+            counts = write_export(session, outdir, replace=replace, study=study)
             session.add(
                 AuditRecord(
                     action="export", experimenter="cli", participant_code=None, row_counts=counts
                 )
             )
-    except ExportError as error:
+    except (ExportError, UnknownStudy) as error:
         raise click.ClickException(str(error)) from error
     participants = counts.get("participants", 0)
     decisions = counts.get("decisions", 0)
-    click.echo(f"exported {participants} participants, {decisions} decisions to {outdir}")
+    which = f" of study {study}" if study else ""
+    click.echo(f"exported {participants} participants{which}, {decisions} decisions to {outdir}")
     problems = counts.get("export_problems", 0)
     if problems:
         click.echo(

@@ -63,7 +63,7 @@ def screen_out_rows(session: Session) -> list[dict[str, Any]]:
         {
             "study": row.study,
             "source": row.source,
-            "recruitment_id": row.recruitment_id,
+            "recruitment_id": exported_id(row.recruitment_id),
             "width": row.width,
             "height": row.height,
             "mobile": row.mobile,

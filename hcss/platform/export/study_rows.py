@@ -71,6 +71,7 @@ def participant_rows(session: Session, participants: list[Participant]) -> list[
             is_pilot=is_pilot(session, participant),
             is_bot=participant.is_bot,
             is_demo=participant.is_demo,
+            study=participant.study,  # the chosen study, until an enrolment says otherwise
         )
         records = {name: table.get(participant.id, []) for name, table in study.items()}
         row["status"] = participant_status(session, participant)
@@ -91,7 +92,12 @@ def _study_records(session: Session) -> dict[str, dict[int, list[Any]]]:
 def _fill_study_columns(row: Row, records: dict[str, list[Any]]) -> None:
     if records["enrolment"]:
         enrolment = records["enrolment"][-1]
-        row.update(study=enrolment.study, cell=enrolment.cell, model_order=enrolment.model_order)
+        row.update(
+            study=enrolment.study,
+            study_digest=enrolment.study_digest,
+            cell=enrolment.cell,
+            model_order=enrolment.model_order,
+        )
     answers = {
         item.item: item.value
         for item in _newest(records["items"], lambda i: (i.instrument, i.model, i.item))

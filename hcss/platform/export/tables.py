@@ -47,6 +47,7 @@ TABLES: dict[str, tuple[tuple[str, str], ...]] = {
     "participants": (
         ("participant", "str"),
         ("study", "str"),
+        ("study_digest", "str"),
         ("cell", "int"),
         ("model_order", "str"),
         ("is_pilot", "bool"),

@@ -23,6 +23,7 @@ from sqlalchemy.orm import Session
 from hcss.platform.export.problems import ProblemLog
 from hcss.platform.export.recruitment_rows import recruitment_rows, screen_out_rows
 from hcss.platform.export.rows import TRIAL_ROW_BUILDERS, interruption_rows
+from hcss.platform.export.selection import participants_of
 from hcss.platform.export.study_rows import participant_rows, study_flow_rows
 from hcss.platform.export.tables import PROBLEMS_TABLE, TABLES, TRIAL_TABLES, columns
 from hcss.platform.models import Participant, Trial
@@ -49,24 +50,30 @@ class ExportError(ValueError):
     """An export that cannot be written where asked; nothing was written."""
 
 
-def collect(session: Session) -> dict[str, list[dict[str, Any]]]:
+def collect(session: Session, study: str | None = None) -> dict[str, list[dict[str, Any]]]:
     """Every table's rows, keyed by file name relative to the export directory.
 
-    Total: a record that cannot be read is skipped and listed in
-    `export_problems` (see `hcss.platform.export.problems`), so one bad row
-    never stops the export of any other.
+    With `study`, only that study's participants, their trials, and the
+    study link's recruitment and screen-out rows (UnknownStudy when the study
+    has no participant). Total: a record that cannot be read is skipped and
+    listed in `export_problems` (see `hcss.platform.export.problems`), so one
+    bad row never stops the export of any other.
     """
     problems = ProblemLog()
-    participants = list(session.scalars(select(Participant).order_by(Participant.id)))
+    participants = participants_of(session, study)
     codes = {p.id: p.code for p in participants}
     tables: dict[str, list[dict[str, Any]]] = defaultdict(list)
     for table, rows in _participant_tables(session, participants, problems).items():
         tables[table].extend(rows)
+    in_study = (lambda row: True) if study is None else (lambda row: row["study"] == study)
     with problems.guard("recruitment", "recruitment table"):
-        tables["recruitment"] = recruitment_rows(session)
+        tables["recruitment"] = [r for r in recruitment_rows(session) if in_study(r)]
     with problems.guard("screen_outs", "screen_outs table"):
-        tables["screen_outs"] = screen_out_rows(session)
-    for trial in session.scalars(select(Trial).order_by(Trial.id)):
+        tables["screen_outs"] = [r for r in screen_out_rows(session) if in_study(r)]
+    trials = select(Trial).order_by(Trial.id)
+    if study is not None:
+        trials = trials.where(Trial.participant_id.in_(list(codes)))
+    for trial in session.scalars(trials):
         prefix = f"{TRAINING_DIR}/" if trial.kind == "training" else ""
         code = codes.get(trial.participant_id)
         for table, build in TRIAL_ROW_BUILDERS.items():
@@ -147,14 +154,16 @@ def write_parquet(path: Path, table: str, rows: list[dict[str, Any]]) -> bool:
     return True
 
 
-def write_export(session: Session, outdir: Path, *, replace: bool = False) -> dict[str, int]:
-    """Write every table into OUTDIR; returns the row count of each file."""
+def write_export(
+    session: Session, outdir: Path, *, replace: bool = False, study: str | None = None
+) -> dict[str, int]:
+    """Write every table (or one study's rows of each) into OUTDIR; the row count of each file."""
     outdir = Path(outdir)
     if outdir.exists() and not outdir.is_dir():
         raise ExportError(f"{outdir} exists and is not a directory")
     if outdir.is_dir() and any(outdir.iterdir()) and not replace:
         raise ExportError(f"{outdir} is not empty; choose a new directory or pass --replace")
-    tables = collect(session)
+    tables = collect(session, study)
     outdir.parent.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=f".{outdir.name}-", dir=outdir.parent))
     try:

@@ -1,0 +1,51 @@
+"""Which participants an export holds: all of them, or one study's.
+
+A server runs several study files (the protocol, a demo for walk-throughs),
+and their data must not be pooled by accident. A participant belongs to the
+study of their newest enrolment; one who never opened their link has none
+yet and belongs to the study the experimenter chose when creating them.
+"""
+
+from __future__ import annotations
+
+from sqlalchemy import func, select
+from sqlalchemy.orm import Session
+
+from hcss.platform.models import Participant, StudyEnrolment
+
+
+class UnknownStudy(ValueError):
+    """An export asked for a study no participant belongs to; the message lists those there are."""
+
+
+def participant_studies(session: Session) -> dict[int, str | None]:
+    """Each participant's study: their newest enrolment's, else the one chosen at creation."""
+    newest = (
+        select(StudyEnrolment.participant_id, func.max(StudyEnrolment.id).label("last_id"))
+        .group_by(StudyEnrolment.participant_id)
+        .subquery()
+    )
+    rows = session.execute(
+        select(StudyEnrolment.participant_id, StudyEnrolment.study).join(
+            newest, StudyEnrolment.id == newest.c.last_id
+        )
+    )
+    enrolled = {pid: study for pid, study in rows}
+    chosen = session.execute(select(Participant.id, Participant.study))
+    return {pid: enrolled.get(pid, study) for pid, study in chosen}
+
+
+def participants_of(session: Session, study: str | None) -> list[Participant]:
+    """Every participant (study None) or the study's, in id order; UnknownStudy when it has none."""
+    participants = list(session.scalars(select(Participant).order_by(Participant.id)))
+    if study is None:
+        return participants
+    studies = participant_studies(session)
+    chosen = [p for p in participants if studies.get(p.id) == study]
+    if not chosen:
+        present = sorted({name for name in studies.values() if name})
+        raise UnknownStudy(
+            f"no participant belongs to study {study!r}; studies in this database: "
+            + (", ".join(present) or "none")
+        )
+    return chosen

@@ -1,0 +1,77 @@
+"""`hcss export --study NAME`: one study's participants, their trials and link rows only."""
+
+from __future__ import annotations
+
+import csv
+
+from click.testing import CliRunner
+
+from hcss.cli import main
+from hcss.platform.models import Participant, Recruitment
+from hcss.platform.study.enrolment import assign_cell
+from hcss.platform.study.studyfile import load_study
+
+
+def _participants(app) -> dict[str, str]:  # type: ignore[no-untyped-def]
+    """Two demo participants (one through the study link), one original, one never started."""
+    codes = {}
+    with app.app_context(), app.extensions["hcss_db"].session_scope() as session:
+        for label, study in (("demo", "demo"), ("linked", "demo"), ("original", "original")):
+            participant = Participant()
+            session.add(participant)
+            session.flush()
+            assign_cell(session, participant, study=study)
+            codes[label] = participant.code
+            if label == "linked":
+                session.add(
+                    Recruitment(
+                        participant_id=participant.id,
+                        study="demo",
+                        source="sona",
+                        recruitment_id="77",
+                    )
+                )
+        waiting = Participant(study="original")  # created in the console, link not yet opened
+        session.add(waiting)
+        session.flush()
+        codes["waiting"] = waiting.code
+    return codes
+
+
+def _rows(path) -> list[dict[str, str]]:  # type: ignore[no-untyped-def]
+    with path.open(encoding="utf-8") as handle:
+        return list(csv.DictReader(handle))
+
+
+def test_export_of_one_study(app, database_url, tmp_path) -> None:  # type: ignore[no-untyped-def]
+    codes = _participants(app)
+    result = CliRunner().invoke(
+        main, ["export", str(tmp_path / "demo"), "--study", "demo", "--database-url", database_url]
+    )
+    assert result.exit_code == 0, result.output
+    assert "exported 2 participants of study demo" in result.output
+    rows = _rows(tmp_path / "demo" / "participants.csv")
+    assert sorted(r["participant"] for r in rows) == sorted([codes["demo"], codes["linked"]])
+    assert {(r["study"], r["study_digest"]) for r in rows} == {("demo", load_study("demo").digest)}
+    assert [r["recruitment_id"] for r in _rows(tmp_path / "demo" / "recruitment.csv")] == ["77"]
+
+    everyone = CliRunner().invoke(
+        main, ["export", str(tmp_path / "all"), "--database-url", database_url]
+    )
+    assert everyone.exit_code == 0, everyone.output
+    studies = {
+        r["participant"]: (r["study"], r["study_digest"])
+        for r in _rows(tmp_path / "all" / "participants.csv")
+    }
+    assert len(studies) == 4
+    assert studies[codes["waiting"]] == ("original", "")  # never started: the chosen study
+
+    unknown = CliRunner().invoke(
+        main, ["export", str(tmp_path / "x"), "--study", "pilot-2", "--database-url", database_url]
+    )
+    assert unknown.exit_code == 1
+    assert (
+        "no participant belongs to study 'pilot-2'; studies in this database: demo, original"
+        in unknown.output
+    )
+    assert not (tmp_path / "x").exists()
