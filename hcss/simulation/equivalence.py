@@ -34,6 +34,7 @@ from scipy.stats import mannwhitneyu
 
 from hcss.simulation import experiment as exp
 from hcss.simulation.params import Params
+from hcss.tidy_csv import write_table
 
 # Every Params value as it was on 2026-11-26 (commit 5718869), when the
 # reference outcomes were written.  Do not follow the defaults.
@@ -109,19 +110,18 @@ def run_outcomes(
 
 
 def write_reference(rows: list[dict], path: Path) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="", encoding="utf-8") as handle:
-        writer = csv.DictWriter(handle, fieldnames=OUTCOME_COLUMNS)
-        writer.writeheader()
-        for row in rows:
-            writer.writerow(
-                {
-                    **row,
-                    "correct": int(bool(row["correct"])),
-                    "timed_out": int(bool(row["timed_out"])),
-                    "decision_time_s": f"{float(row['decision_time_s']):g}",
-                }
-            )
+    write_table(
+        path,
+        OUTCOME_COLUMNS,
+        (
+            row | {"correct": bool(row["correct"]), "timed_out": bool(row["timed_out"])}
+            for row in rows
+        ),
+    )
+
+
+#: A true cell: `true` as hcss.tidy_csv writes it, `1` in references written before it.
+TRUE = ("true", "1")
 
 
 def read_reference(path: Path) -> list[dict]:
@@ -131,9 +131,9 @@ def read_reference(path: Path) -> list[dict]:
                 "model": r["model"],
                 "trial_id": r["trial_id"],
                 "difficulty": r["difficulty"],
-                "correct": r["correct"] == "1",
+                "correct": r["correct"] in TRUE,
                 "decision_time_s": float(r["decision_time_s"]),
-                "timed_out": r["timed_out"] == "1",
+                "timed_out": r["timed_out"] in TRUE,
             }
             for r in csv.DictReader(handle)
         ]

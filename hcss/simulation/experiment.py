@@ -7,7 +7,6 @@ pool or, for sweeps that outgrow one machine, on Dask distributed.
 
 from __future__ import annotations
 
-import csv
 from collections.abc import Callable, Iterable, Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from contextlib import contextmanager
@@ -19,6 +18,7 @@ from hcss.simulation.decisions import DECISION_COLUMNS
 from hcss.simulation.engine import Simulation
 from hcss.simulation.params import Params
 from hcss.simulation.scenario import Scenario
+from hcss.tidy_csv import write_table
 
 SPLITS = ("overall", "easy", "difficult")
 
@@ -165,17 +165,4 @@ def _execute_dask(
 # ----------------------------------------------------------------- output
 def write_decisions(rows: list[dict], path: Path) -> None:
     """The decisions table as CSV, with the columns of docs/data-dictionary.md."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="", encoding="utf-8") as handle:
-        writer = csv.DictWriter(handle, fieldnames=DECISION_COLUMNS)
-        writer.writeheader()
-        for row in rows:
-            writer.writerow({k: _csv_value(v) for k, v in row.items()})
-
-
-def _csv_value(value: object) -> object:
-    if value is None:
-        return ""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    return value
+    write_table(path, DECISION_COLUMNS, rows)

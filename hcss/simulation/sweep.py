@@ -19,7 +19,6 @@ two sweeps in one table. Cells run on local processes or on Dask.
 
 from __future__ import annotations
 
-import csv
 import itertools
 import json
 import os
@@ -31,6 +30,7 @@ from pathlib import Path
 from hcss.simulation import experiment as exp
 from hcss.simulation.decisions import DECISION_COLUMNS
 from hcss.simulation.params import Params
+from hcss.tidy_csv import TableWriter, write_table
 
 MANIFEST = "sweep.json"
 CELLS = "cells"
@@ -233,11 +233,7 @@ def _execute_dask(
 def _write_cell(out: Path, sweep: Sweep, cell: dict[str, object], rows: list[dict]) -> None:
     path = out / CELLS / f"{cell_name(cell)}.csv"
     tmp = path.with_suffix(".csv.tmp")
-    with tmp.open("w", newline="", encoding="utf-8") as handle:
-        writer = csv.DictWriter(handle, fieldnames=sweep.columns, lineterminator="\n")
-        writer.writeheader()
-        for row in rows:
-            writer.writerow({**cell, **{k: exp._csv_value(v) for k, v in row.items()}})
+    write_table(tmp, sweep.columns, ({**cell, **row} for row in rows))
     os.replace(tmp, path)
 
 
@@ -246,9 +242,11 @@ def combine(out: Path, sweep: Sweep) -> Path:
     path = out / "decisions.csv"
     tmp = path.with_suffix(".csv.tmp")
     with tmp.open("w", newline="", encoding="utf-8") as handle:
-        handle.write(",".join(sweep.columns) + "\n")
+        TableWriter(handle, sweep.columns)  # the header
         for cell in sweep.cells:
-            with (out / CELLS / f"{cell_name(cell)}.csv").open(encoding="utf-8") as part:
+            # Each cell's file was written by the same writer: its rows are copied as they are.
+            cell_file = out / CELLS / f"{cell_name(cell)}.csv"
+            with cell_file.open(newline="", encoding="utf-8") as part:
                 part.readline()  # header
                 for line in part:
                     handle.write(line)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import csv
 import io
 from collections.abc import Iterable
 
@@ -15,6 +14,7 @@ from hcss.platform.console.sessions import ConsoleError
 from hcss.platform.models import ConsoleAction, Experimenter, Participant
 from hcss.platform.study.enrolment import assign_cell, current_enrolment
 from hcss.platform.study.studyfile import StudyFileError, load_study
+from hcss.tidy_csv import TableWriter
 
 
 def create_participants(
@@ -117,7 +117,7 @@ def link_rows(session: Session, participants: list[Participant]) -> list[dict[st
 
 def links_csv(rows: list[dict[str, str]]) -> str:
     buffer = io.StringIO()
-    writer = csv.DictWriter(buffer, fieldnames=LINK_COLUMNS, lineterminator="\r\n")
-    writer.writeheader()
-    writer.writerows(rows)
+    writer = TableWriter(buffer, LINK_COLUMNS)
+    for row in rows:
+        writer.write(row)
     return buffer.getvalue()

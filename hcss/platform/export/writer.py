@@ -8,8 +8,6 @@ same columns, kept but out of the analysis's way.
 
 from __future__ import annotations
 
-import csv
-import math
 import shutil
 import tempfile
 from collections import defaultdict
@@ -27,6 +25,7 @@ from hcss.platform.export.selection import participants_of
 from hcss.platform.export.study_rows import participant_rows, study_flow_rows
 from hcss.platform.export.tables import PROBLEMS_TABLE, TABLES, TRIAL_TABLES, columns
 from hcss.platform.models import Participant, Trial
+from hcss.tidy_csv import is_missing, write_table
 
 #: The data dictionary, package data (docs/data-dictionary.md links to it).
 DICTIONARY = resources.files("hcss.platform.export") / "data-dictionary.md"
@@ -116,20 +115,8 @@ def _participant_tables(
         return tables
 
 
-def _csv_cell(value: Any) -> Any:
-    if value is None or (isinstance(value, float) and math.isnan(value)):
-        return ""
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    return value
-
-
 def write_csv(path: Path, table: str, rows: list[dict[str, Any]]) -> None:
-    with path.open("w", newline="", encoding="utf-8") as handle:
-        writer = csv.DictWriter(handle, fieldnames=columns(table), extrasaction="raise")
-        writer.writeheader()
-        for row in rows:
-            writer.writerow({name: _csv_cell(row.get(name)) for name in columns(table)})
+    write_table(path, columns(table), rows)
 
 
 def write_parquet(path: Path, table: str, rows: list[dict[str, Any]]) -> bool:
@@ -142,12 +129,7 @@ def write_parquet(path: Path, table: str, rows: list[dict[str, Any]]) -> bool:
     types = {"str": pa.string(), "int": pa.int64(), "float": pa.float64(), "bool": pa.bool_()}
     schema = pa.schema([(name, types[kind]) for name, kind in TABLES[table]])
     cleaned = [
-        {
-            name: None
-            if row.get(name) is None or (isinstance(row.get(name), float) and math.isnan(row[name]))
-            else row[name]
-            for name in schema.names
-        }
+        {name: None if is_missing(row.get(name)) else row[name] for name in schema.names}
         for row in rows
     ]
     pq.write_table(pa.Table.from_pylist(cleaned, schema=schema), path)

@@ -1,0 +1,61 @@
+"""The one CSV writer of hcss, with one rule for every cell.
+
+The study export, the simulation's decisions, a sweep's cells and the
+equivalence reference are all read by the same analysis (and by people in a
+spreadsheet), so they are written alike (docs/data-dictionary.md):
+
+- a missing value, None or a float NaN, is an empty cell, never ``nan``;
+- a bool is ``true`` or ``false``;
+- anything else is written as ``str`` gives it (a float in its shortest
+  round-trip form);
+- UTF-8, a header row, lines ending in CRLF (RFC 4180).
+
+It imports nothing from hcss, so every package may use it.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import TextIO
+
+
+def is_missing(value: object) -> bool:
+    """None or a float NaN: the one meaning of "no value" (Parquet writes it as null)."""
+    return value is None or (isinstance(value, float) and math.isnan(value))
+
+
+def cell(value: object) -> object:
+    """A value as its CSV cell."""
+    if is_missing(value):
+        return ""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    return value
+
+
+class TableWriter:
+    """Rows of named columns to an open text file; the header is written at once."""
+
+    def __init__(self, handle: TextIO, columns: Sequence[str]) -> None:
+        self.columns = tuple(columns)
+        self._writer = csv.DictWriter(handle, fieldnames=self.columns, lineterminator="\r\n")
+        self._writer.writeheader()
+
+    def write(self, row: Mapping[str, object]) -> None:
+        """One row; a column it lacks is missing (empty), a key outside the columns an error."""
+        unknown = set(row) - set(self.columns)
+        if unknown:
+            raise ValueError(f"columns not in the table: {sorted(unknown)}")
+        self._writer.writerow({name: cell(row.get(name)) for name in self.columns})
+
+
+def write_table(path: Path, columns: Sequence[str], rows: Iterable[Mapping[str, object]]) -> None:
+    """The table at `path` (its folder made when missing)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="", encoding="utf-8") as handle:
+        writer = TableWriter(handle, columns)
+        for row in rows:
+            writer.write(row)
