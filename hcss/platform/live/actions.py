@@ -232,6 +232,8 @@ def _current_probe(live: RunningTrial, probe_id: int):  # type: ignore[no-untype
 
 
 def _require_running(live: RunningTrial) -> None:
+    if live.moved:  # its lease was lost under this command: the new host must carry it out
+        raise ActionError("the trial moved to another server process; try again", 503, "moved")
     if live.ended:
         raise ActionError("the trial has ended", 409, "ended")
     if live.paused_since is not None:

@@ -25,6 +25,7 @@ from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
 from hcss.platform.live.clock import pause_clock, resume_clock
+from hcss.platform.live.leases import LEASE_S, HostedElsewhere, Leases
 from hcss.platform.live.outages import (
     database_came_back,
     database_went_away,
@@ -54,8 +55,12 @@ class Runner:
         database: Database,
         *,
         snapshot_interval_s: float = 5.0,
+        leases: Leases | None = None,
     ) -> None:
         self.database = database
+        #: None: this process hosts every running trial; else only those it holds the lease of.
+        self.leases = leases
+        self._last_renewal = -float("inf")
         self.snapshot_interval_s = snapshot_interval_s
         self._trials: dict[int, RunningTrial] = {}
         self._registry_lock = threading.RLock()
@@ -76,7 +81,12 @@ class Runner:
     # --- finding trials -------------------------------------------------------
 
     def get(self, trial_id: int) -> RunningTrial | None:
-        """The live trial, loading it first if the database says it is running."""
+        """The live trial, loading it first if the database says it is running.
+
+        With leases, loading means taking the trial's lease first (a takeover
+        when its owner died); `HostedElsewhere` (503) when another live
+        process holds it.
+        """
         live = self._trials.get(trial_id)
         if live is not None:
             return live
@@ -84,20 +94,32 @@ class Runner:
             live = self._trials.get(trial_id)
             if live is not None:
                 return live
+            with self.database.session_scope() as session:
+                if latest_status(session, trial_id) != TrialStatus.RUNNING:
+                    return None
+            if self.leases is not None and not self.leases.claim(trial_id, self.clock()):
+                raise HostedElsewhere(trial_id, self.leases.holder(trial_id, self.clock()) or "")
             try:
                 with self.database.session_scope() as session:
-                    if latest_status(session, trial_id) != TrialStatus.RUNNING:
-                        return None
                     trial = session.get(Trial, trial_id)
                     live = load_trial(session, trial, self.clock())
             except DBAPIError:
+                self._release(trial_id)
                 raise  # the database is away: try again later, the trial is not at fault
             except Exception as error:
                 log.exception("live trial %s cannot be rebuilt; ending it", trial_id)
                 self._give_up(trial_id, error)
+                self._release(trial_id)
                 return None
             self._trials[trial_id] = live
             return live
+
+    def hosts(self, trial_id: int) -> bool:
+        """Whether this process may host the trial now (always, without leases)."""
+        try:
+            return self.get(trial_id) is not None
+        except HostedElsewhere:
+            return False
 
     def loaded(self, trial_id: int) -> RunningTrial | None:
         """The live trial if this process holds it in memory; never loads it."""
@@ -112,7 +134,19 @@ class Runner:
     def forget(self, trial_id: int) -> RunningTrial | None:
         """Drop a trial from memory; the next `get` rebuilds it from the database if running."""
         with self._registry_lock:
-            return self._trials.pop(trial_id, None)
+            live = self._trials.pop(trial_id, None)
+        if live is not None:
+            self._release(trial_id)
+        return live
+
+    def _release(self, trial_id: int) -> None:
+        """Give up the trial's lease so another process need not wait for it to run out."""
+        if self.leases is None:
+            return
+        try:
+            self.leases.release(trial_id)
+        except DBAPIError:
+            log.warning("could not release the lease of trial %s; it runs out by itself", trial_id)
 
     # --- controlling one trial --------------------------------------------------
 
@@ -140,8 +174,14 @@ class Runner:
         live.touch()
 
     def finish_overdue(self, trial_id: int) -> None:
-        """Step a trial past its deadline to its end, recording everything on the way."""
-        live = self.get(trial_id)
+        """Step a trial past its deadline to its end, recording everything on the way.
+
+        Only its host does: a trial hosted by another process ends there.
+        """
+        try:
+            live = self.get(trial_id)
+        except HostedElsewhere:
+            return
         if live is None:
             return
         self.advance(live, self.clock())
@@ -198,7 +238,10 @@ class Runner:
         with self.database.session_scope() as session:
             running = running_trial_ids(session)
         self._told_unmigrated = False  # the tables are there (again)
-        for trial_id in running:
+        missing = [t for t in running if t not in self._trials]
+        if self.leases is not None:  # take over only what nobody hosts
+            missing = self.leases.unhosted(missing, self.clock())
+        for trial_id in missing:
             if trial_id not in self._trials:
                 try:
                     self.get(trial_id)
@@ -210,6 +253,8 @@ class Runner:
     def tick(self) -> None:
         """Bring every live trial up to the wall clock; the thread calls this in a loop."""
         now = self.clock()
+        if self.leases is not None and now - self._last_renewal >= self.leases.renew_every_s:
+            self._renew(now)
         if now - self._last_sync >= SYNC_EVERY_S:
             self._last_sync = now
             try:
@@ -230,6 +275,33 @@ class Runner:
             if live.ended:
                 self.forget(live.trial_id)
 
+    def _renew(self, now: float) -> None:
+        """Renew the leases of every trial held; stop hosting any whose lease was lost.
+
+        A lease is lost when this process could not renew it in time (a stall,
+        or a database outage longer than the lease), and another process may
+        host the trial now: writing for it from here would fork its record.
+        """
+        assert self.leases is not None
+        with self._registry_lock:
+            held = set(self._trials)
+        try:
+            kept = self.leases.renew(held, now)
+        except DBAPIError:
+            if now - self._last_renewal < self.leases.lease_s:
+                raise  # not yet at risk: the next tick tries again
+            kept = set()
+        else:
+            self._last_renewal = now
+        for trial_id in held - kept:
+            log.warning("lost the lease of live trial %s; another process hosts it", trial_id)
+            with self._registry_lock:
+                lost = self._trials.pop(trial_id, None)
+            if lost is not None:
+                with lost.lock:
+                    lost.moved = True  # its streams close; the participant reconnects to the host
+                    lost.touch()
+
     def advance(self, live: RunningTrial, now: float) -> None:
         """Step the trial to the step due at `now`, record it, end it at its time limit.
 
@@ -237,7 +309,7 @@ class Runner:
         still and each call tries again to write what it holds.
         """
         with live.lock:
-            if live.ended:
+            if live.ended or live.moved:
                 return
             due = live.due_step(now)
             if live.database_away_since is None:
@@ -314,8 +386,14 @@ def _missing_table(error: DBAPIError) -> bool:
 
 def init_runner(app: Flask) -> Runner:
     """Attach a runner to the app; its thread starts only if LIVE_RUNNER (`hcss serve`) asks."""
+    database = app.extensions["hcss_db"]
+    process = app.config.get("PROCESS_NAME")
     runner = Runner(
-        app.extensions["hcss_db"], snapshot_interval_s=float(app.config["SNAPSHOT_INTERVAL_S"])
+        database,
+        snapshot_interval_s=float(app.config["SNAPSHOT_INTERVAL_S"]),
+        leases=None
+        if not process
+        else Leases(database, str(process), lease_s=float(app.config.get("LEASE_S", LEASE_S))),
     )
     app.extensions["hcss_runner"] = runner
     if app.config["LIVE_RUNNER"]:

@@ -82,6 +82,9 @@ class RunningTrial:
     version: int = 0
     ended: bool = False
     end_reason: str = ""
+    #: Another process hosts the trial now (this one lost its lease): streams close so
+    #: the page reconnects to the host, and this copy is never written again.
+    moved: bool = False
     # System Messages so far, oldest first: {"seq", "time", "kind", "text"}.
     messages: list[dict[str, Any]] = field(default_factory=list)
     # (request id, status) pairs already written as RequestStatusChange rows.

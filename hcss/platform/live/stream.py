@@ -43,6 +43,8 @@ def event_stream(
                 live.changed.wait(timeout=max(0.0, due - wallclock.monotonic()))
             if superseded():
                 break
+            if live.moved:
+                return  # closed without an ending: the browser reconnects, to the host
             text, after_seq = live.frame(clock(), after_seq)
             sent_version, ended = live.version, live.ended
         # Due one interval after the last frame was: a send that takes time (200

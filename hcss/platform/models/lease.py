@@ -1,0 +1,28 @@
+"""Which server process hosts a live trial, and until when.
+
+With several processes on one PostgreSQL database a trial must live in
+exactly one of them: the one holding its lease. The row is the one mutable
+record of the live wing (ownership changes hands, it is not a fact of the
+study), so it is not append-only and not exported. Times are epoch seconds
+of the processes' clocks (`Database.clock`), which must agree to well
+within a lease's length (NTP does).
+"""
+
+from __future__ import annotations
+
+from sqlalchemy import Double, String
+from sqlalchemy.orm import Mapped, mapped_column
+
+from hcss.platform.models.base import Base
+
+
+class TrialLease(Base):
+    __tablename__ = "trial_lease"
+
+    #: No foreign key: a withdrawal deletes the trial, and a leftover lease of a
+    #: trial that is not running is never read.
+    trial_id: Mapped[int] = mapped_column(primary_key=True, autoincrement=False)
+    #: The process ("host:port"), see `hcss.platform.live.leases`.
+    owner: Mapped[str] = mapped_column(String(128))
+    expires_epoch: Mapped[float] = mapped_column(Double)
+    taken_epoch: Mapped[float] = mapped_column(Double)

@@ -1,0 +1,154 @@
+"""Trial ownership by lease: one host per trial, takeover when the host stops renewing.
+
+Two apps on one database stand for two server processes (each its own
+engine, connections and runner, named as `hcss serve --processes` names
+them); a process "dies" here by no longer ticking, so its leases run out.
+The real processes, kill -9 and nginx are in test_failover.py.
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Iterator
+
+import pytest
+from flask import Flask
+from sqlalchemy import func, select
+
+from hcss.platform.app import create_app
+from hcss.platform.bots import ManualClock
+from hcss.platform.db import Database
+from hcss.platform.live.leases import HostedElsewhere, Leases
+from hcss.platform.live.runner import Runner
+from hcss.platform.live.trials import start_bot_trial
+from hcss.platform.models import Interruption, TrialLease
+
+LEASE_S = 6.0
+
+
+def _process(database_url: str, name: str, clock: ManualClock) -> Flask:
+    app = create_app(
+        {
+            "DATABASE_URL": database_url,
+            "SECRET_KEY": "test-secret",
+            "TESTING": True,
+            "LIVE_RUNNER": False,
+            "SNAPSHOT_INTERVAL_S": 1.0,
+            "PROCESS_NAME": name,
+            "LEASE_S": LEASE_S,
+        }
+    )
+    app.extensions["hcss_runner"].clock = clock
+    return app
+
+
+@pytest.fixture
+def pair(database_url: str) -> Iterator[tuple[Runner, Runner, ManualClock]]:
+    clock = ManualClock(1_000_000.0)
+    a = _process(database_url, "127.0.0.1:5001", clock)
+    a.extensions["hcss_db"].create_all()
+    b = _process(database_url, "127.0.0.1:5002", clock)
+    yield a.extensions["hcss_runner"], b.extensions["hcss_runner"], clock
+    for app in (a, b):
+        app.extensions["hcss_db"].engine.dispose()
+
+
+def _start(runner: Runner, duration_s: float = 600.0) -> int:
+    with runner.database.session_scope() as session:
+        _, trial = start_bot_trial(session, seed=2, duration_s=duration_s)
+        return trial.id
+
+
+def test_a_trial_is_hosted_by_one_process_and_taken_over_when_its_lease_runs_out(pair) -> None:
+    a, b, clock = pair
+    trial_id = _start(a)
+    live = a.get(trial_id)  # the participant's first request reaches A: A claims it
+    assert live is not None
+    with pytest.raises(HostedElsewhere):
+        b.get(trial_id)
+    for _ in range(10):  # A keeps it on time and renews its lease
+        clock.now += 1.0
+        a.tick()
+        b.tick()
+    assert trial_id in a.loaded_ids() and trial_id not in b.loaded_ids()
+    assert not b.hosts(trial_id)
+    step_before = live.sim.step_count
+    assert step_before > 0
+
+    clock.now += LEASE_S + 0.5  # A stops (it died): its lease runs out
+    taken = b.get(trial_id)
+    assert taken is not None and taken is not live
+    assert taken.sim.step_count >= step_before - 10  # from the newest snapshot, not from 0
+    with b.database.session_scope() as session:
+        assert session.scalar(select(TrialLease.owner)) == "127.0.0.1:5002"
+        interruptions = session.scalars(select(Interruption)).all()
+    assert len(interruptions) == 1 and interruptions[0].outage_s > LEASE_S
+
+    a.tick()  # A comes back: its renewal finds the lease gone, so it stops hosting
+    assert trial_id not in a.loaded_ids() and live.moved
+    assert a.leases is not None and a.leases.renew([trial_id], clock.now) == set()
+    with pytest.raises(HostedElsewhere):
+        a.get(trial_id)
+
+
+def test_a_runner_takes_over_only_trials_nobody_hosts(pair) -> None:
+    a, b, clock = pair
+    hosted = _start(a)
+    a.get(hosted)
+    fresh = _start(a)  # started by a page on A, not yet opened: no lease yet
+    b.tick()
+    assert b.loaded_ids() == set()  # neither the hosted nor the just-started one
+    clock.now += LEASE_S + 0.5
+    b.tick()  # A is silent past a lease: B's runner hosts both
+    assert b.loaded_ids() == {hosted, fresh}
+
+
+def test_only_the_host_finishes_an_overdue_trial(pair) -> None:
+    a, b, clock = pair
+    trial_id = _start(a, duration_s=20.0)
+    live = a.get(trial_id)
+    assert live is not None
+    for _ in range(3):  # A renews its lease, then stalls: the trial is overdue
+        clock.now += 5.0
+        a.tick()
+    clock.now += 5.5  # 20.5 s: past the deadline, within A's lease
+    b.finish_overdue(trial_id)  # the study page on B: not B's to end
+    assert trial_id not in b.loaded_ids() and not live.ended
+    a.finish_overdue(trial_id)
+    assert live.ended
+    with a.database.session_scope() as session:
+        assert session.scalar(select(func.count()).select_from(TrialLease)) == 0  # released
+
+
+def test_two_takeovers_racing_for_one_expired_lease_exactly_one_wins(database_url: str) -> None:
+    """Each round, two processes claim the same expired lease at once on their own connections."""
+    clock = ManualClock(1_000_000.0)
+    setup = Database(database_url, clock=clock)
+    setup.create_all()
+    contenders = [Leases(Database(database_url, clock=clock), f"p{i}") for i in range(2)]
+    with setup.session_scope() as session:
+        _, trial = start_bot_trial(session, seed=1, duration_s=60.0)
+        trial_id = trial.id
+    assert Leases(setup, "dead").claim(trial_id, clock.now)
+    rounds = 30
+    winners: list[list[str]] = []
+    for round_ in range(rounds):
+        now = clock.now + (round_ + 1) * 2 * LEASE_S  # every earlier lease has run out
+        start = threading.Barrier(2)
+        won: list[str] = []
+
+        def claim(leases: Leases, now: float = now, start=start, won=won) -> None:
+            start.wait()
+            if leases.claim(trial_id, now):
+                won.append(leases.owner)
+
+        threads = [threading.Thread(target=claim, args=(c,)) for c in contenders]
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join(timeout=30)
+        winners.append(won)
+    assert all(len(won) == 1 for won in winners), winners
+    for leases in contenders:
+        leases.database.engine.dispose()
+    setup.engine.dispose()
