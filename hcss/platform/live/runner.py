@@ -102,6 +102,7 @@ class Runner:
             try:
                 with self.database.session_scope() as session:
                     trial = session.get(Trial, trial_id)
+                    assert trial is not None  # it has a status, so it exists
                     live = load_trial(session, trial, self.clock())
             except DBAPIError:
                 self._release(trial_id)
@@ -289,8 +290,9 @@ class Runner:
             kept = self.leases.renew(held, now)
         except DBAPIError:
             if now - self._last_renewal < self.leases.lease_s:
-                raise  # not yet at risk: the next tick tries again
-            kept = set()
+                log.debug("lease renewal failed; the next tick tries again", exc_info=True)
+                return
+            kept = set()  # the database was away longer than a lease: another may host them
         else:
             self._last_renewal = now
         for trial_id in held - kept:
