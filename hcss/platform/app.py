@@ -11,6 +11,8 @@ from typing import Any
 
 from flask import Flask, jsonify, request
 from flask_wtf.csrf import CSRFError, CSRFProtect
+from sqlalchemy.exc import InterfaceError, OperationalError
+from sqlalchemy.exc import TimeoutError as PoolTimeout
 from werkzeug.exceptions import HTTPException
 from werkzeug.middleware.proxy_fix import ProxyFix
 
@@ -18,7 +20,12 @@ from hcss.platform import config as platform_config
 from hcss.platform import db, hardening, pages
 from hcss.platform.console import presence
 from hcss.platform.console import views as console_views
-from hcss.platform.errors import error_page, http_error_page
+from hcss.platform.errors import (
+    database_away,
+    database_unavailable_page,
+    error_page,
+    http_error_page,
+)
 from hcss.platform.hardening import SchemeSecureSessions
 from hcss.platform.live import api as live_api
 from hcss.platform.live import views as live_views
@@ -75,8 +82,16 @@ def _register_json_errors(app: Flask) -> None:
             return jsonify(error="csrf", message=error.description), 400
         return error_page(400)
 
+    @app.errorhandler(OperationalError)
+    @app.errorhandler(InterfaceError)
+    @app.errorhandler(PoolTimeout)
+    def _database_away(_error: Exception):  # type: ignore[no-untyped-def]
+        return database_unavailable_page()
+
     @app.errorhandler(HTTPException)
     def _http_error(error: HTTPException):  # type: ignore[no-untyped-def]
+        if database_away(getattr(error, "original_exception", None)):
+            return database_unavailable_page()  # the request's commit failed
         if request.path.startswith("/api/"):
             return jsonify(error=error.name.lower().replace(" ", "_"), message=error.description), (
                 error.code or 500

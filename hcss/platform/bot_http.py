@@ -175,7 +175,8 @@ class HttpClient:
     def _send(self, request: urllib.request.Request) -> tuple[_Response, bool]:
         """The answer, and whether the request had to be sent more than once.
 
-        A browser retries while the server restarts, and so does this client.
+        A browser retries while the server restarts, and so does this client;
+        it also asks again after a 503's Retry-After (the database is away).
         A GET is safe to repeat. So is a POST: a command carries its
         Idempotency-Key (the server answers a repeat with the first outcome),
         and a stage form is taken once (a repeat is refused with 409).
@@ -190,6 +191,10 @@ class HttpClient:
                 break
             except urllib.error.HTTPError as error:
                 status, body, final = error.code, error.read(), error.geturl()
+                wait_s = _retry_after_s(error)
+                if wait_s is not None and time.perf_counter() - started + wait_s < RECONNECT_FOR_S:
+                    time.sleep(wait_s)  # the database is away: as the page does, ask again
+                    continue
                 break
             except (
                 urllib.error.URLError,
@@ -206,6 +211,16 @@ class HttpClient:
         path = urllib.parse.urlsplit(final).path
         response = _Response(status_code=status, body=body, request=SimpleNamespace(path=path))
         return response, tries > 1
+
+
+def _retry_after_s(error: urllib.error.HTTPError) -> float | None:
+    """Seconds to wait before the same request again: a 503 that says Retry-After."""
+    if error.code != 503:
+        return None
+    try:
+        return min(10.0, max(0.1, float(error.headers.get("Retry-After", ""))))
+    except ValueError:
+        return None
 
 
 def _json_bytes(value: Any) -> bytes:

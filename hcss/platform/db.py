@@ -26,6 +26,9 @@ from sqlalchemy.orm import Session, sessionmaker
 
 from hcss.platform.models import Base, CreatedAt
 
+#: SQLite errors after which a pooled connection is replaced, not used again.
+SQLITE_REOPEN_ON = ("readonly database", "disk i/o error", "unable to open database")
+
 
 def make_engine(url: str) -> Engine:
     """An engine fit for several threads writing at once."""
@@ -40,6 +43,16 @@ def make_engine(url: str) -> Engine:
             # Waitress' threads bound the count; an SQLite connection is a file handle.
             max_overflow=-1,
         )
+
+        @event.listens_for(engine, "handle_error")
+        def _reopen_after(context) -> None:  # type: ignore[no-untyped-def]
+            # A connection opened while the file or its disk was read-only stays
+            # read-only, and one that met an I/O error may be unusable: treat both
+            # as lost, so the pool discards its connections and opens new ones,
+            # and the server recovers without a restart once the disk does.
+            text = str(context.original_exception).lower()
+            if any(sign in text for sign in SQLITE_REOPEN_ON):
+                context.is_disconnect = True
 
         @event.listens_for(engine, "connect")
         def _sqlite_pragmas(dbapi_connection, _record) -> None:  # type: ignore[no-untyped-def]

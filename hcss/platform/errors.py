@@ -28,6 +28,11 @@ ADVICE = {
         "This page cannot be opened like that",
         "Nothing was changed. Go to your current page to carry on.",
     ),
+    503: (
+        "Please wait a moment",
+        "The study's database is not answering just now. Please wait: this page tries "
+        "again by itself in a few seconds. Your answers so far are saved.",
+    ),
     500: (
         "Something went wrong on our side",
         "Your answers so far are saved. Please wait a moment and go to your current page; "
@@ -56,7 +61,38 @@ def participant_token() -> str | None:
     return token if found is not None else None
 
 
-def error_page(code: int, description: str | None = None) -> tuple[str, int] | Response:
+#: Seconds a client is asked to wait before trying again while the database is away.
+DATABASE_RETRY_S = 5
+
+
+def database_away(error: BaseException | None) -> bool:
+    """Whether an exception means the database cannot be used just now (not a bug):
+    unreachable, restarting, read-only, full, locked, or its pool exhausted."""
+    from sqlalchemy.exc import InterfaceError, OperationalError
+    from sqlalchemy.exc import TimeoutError as PoolTimeout
+
+    return isinstance(error, OperationalError | InterfaceError | PoolTimeout)
+
+
+def database_unavailable_page() -> tuple[str, int, dict[str, str]] | Response:
+    """503 with Retry-After: JSON for the API (the bots and the page retry), else a
+    "please wait" page that reloads itself."""
+    from flask import jsonify
+
+    headers = {"Retry-After": str(DATABASE_RETRY_S)}
+    if request.path.startswith("/api/"):
+        body = jsonify(error="database_unavailable", message=ADVICE[503][1])
+        return body, 503, headers  # type: ignore[return-value]
+    page = error_page(503, retry_after=DATABASE_RETRY_S)
+    if isinstance(page, Response):
+        page.headers.update(headers)
+        return page
+    return page[0], 503, headers
+
+
+def error_page(
+    code: int, description: str | None = None, *, retry_after: int | None = None
+) -> tuple[str, int] | Response:
     title, advice = ADVICE.get(code, ADVICE[500] if code >= 500 else ADVICE[400])
     if request_ctx.url_adapter is None:
         # The request could not be bound to this server (a Host header that is no
@@ -71,6 +107,7 @@ def error_page(code: int, description: str | None = None) -> tuple[str, int] | R
             detail=description,
             advice=advice,
             current_url=url_for("study.enter", token=token) if token else None,
+            retry_after=retry_after,
         ),
         code,
     )

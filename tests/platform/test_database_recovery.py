@@ -1,0 +1,71 @@
+"""The server rides out a database it cannot use: 503 with Retry-After meanwhile, and
+working again as soon as the database is, without a restart."""
+
+from __future__ import annotations
+
+import time
+
+from hcss.platform.app import create_app
+from hcss.platform.bots import ManualClock
+from tests.platform.own_disk import own_disk
+from tests.platform.own_postgres import own_postgres
+from tests.platform.test_online_recruitment import _join as join
+
+
+def _server_app(database_url: str):  # type: ignore[no-untyped-def]
+    """As `hcss serve` builds it: errors are pages, not exceptions in the test."""
+    app = create_app({"DATABASE_URL": database_url, "SECRET_KEY": "s", "LIVE_RUNNER": False})
+    app.extensions["hcss_runner"].clock = ManualClock(1_000_000.0)
+    return app
+
+
+def test_a_database_read_only_across_a_start_is_used_once_it_is_writable(tmp_path) -> None:
+    with own_disk(tmp_path) as disk:
+        url = f"sqlite:///{disk.path / 'hcss.sqlite3'}"
+        setup = _server_app(url)
+        setup.extensions["hcss_db"].create_all()
+        setup.extensions["hcss_db"].engine.dispose()
+
+        disk.read_only()
+        app = _server_app(url)  # the server starts on a read-only database
+        client = app.test_client()
+        try:
+            refused = [join(client) for _ in range(3)]
+            assert [r.status_code for r in refused] == [503] * 3
+            assert all(r.headers.get("Retry-After") for r in refused)
+            disk.writable()
+            statuses = [join(client).status_code for _ in range(3)]
+            assert statuses == [302, 302, 302], statuses
+        finally:
+            disk.writable()
+            app.extensions["hcss_db"].engine.dispose()
+
+
+def test_a_postgresql_outage_answers_503_with_retry_after_and_a_please_wait_page() -> None:
+    with own_postgres() as server:
+        app = _server_app(server.url)
+        app.extensions["hcss_db"].create_all()
+        client = app.test_client()
+        try:
+            joined = join(client)
+            assert joined.status_code == 302
+            link = joined.headers["Location"]
+            assert client.get(link, follow_redirects=True).status_code == 200
+            server.stop()
+            page = client.get(link, follow_redirects=True)
+            assert page.status_code == 503 and int(page.headers["Retry-After"]) > 0
+            text = page.get_data(as_text=True)
+            assert "please wait" in text.lower() and 'http-equiv="refresh"' in text
+            assert "Traceback" not in text
+            api = client.get("/api/live/" + "x" * 20 + "/trials/1/state")
+            assert api.status_code == 503 and api.get_json()["error"] == "database_unavailable"
+            server.start()
+            started = time.monotonic()
+            while time.monotonic() - started < 10:
+                page = client.get(link, follow_redirects=True)
+                if page.status_code == 200:
+                    break
+                time.sleep(0.2)
+            assert page.status_code == 200  # the same server, no restart
+        finally:
+            app.extensions["hcss_db"].engine.dispose()
