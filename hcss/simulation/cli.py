@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any, TypeVar
 
 import click
 from tqdm import tqdm
@@ -26,6 +28,9 @@ from hcss.simulation.params import (
 from hcss.simulation.scenario import Scenario
 from hcss.simulation.view import Display
 
+#: A click command function, before or after its options are attached.
+F = TypeVar("F", bound=Callable[..., Any])
+
 
 @click.group()
 def simulate() -> None:
@@ -41,10 +46,10 @@ _WORKERS = click.option(
 )
 
 
-def _size_options(runs: int, runs_help: str, min_scenarios: int = 1):  # type: ignore[no-untyped-def]
+def _size_options(runs: int, runs_help: str, min_scenarios: int = 1) -> Callable[[F], F]:
     """--scenarios and --runs: how big a batch is (one definition for every batch command)."""
 
-    def decorate(command: click.Command) -> click.Command:
+    def decorate(command: F) -> F:
         command = click.option(
             "--runs",
             type=click.IntRange(min=1, max=10_000),
@@ -62,7 +67,7 @@ def _size_options(runs: int, runs_help: str, min_scenarios: int = 1):  # type: i
     return decorate
 
 
-def _batch_options(command: click.Command) -> click.Command:
+def _batch_options(command: F) -> F:
     """--workers, --dask and --seed: where batch runs go and which scenarios they use."""
     for option in reversed(
         (
@@ -220,7 +225,7 @@ def _status(display: Display) -> str:
     return f"section {display.section} | " + " | ".join(parts)
 
 
-def _reading_options(command: click.Command) -> click.Command:
+def _reading_options(command: F) -> F:
     """Options that override the readings of the paper (params.py) for one command."""
     for name, choices in reversed(
         (

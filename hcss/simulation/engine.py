@@ -417,6 +417,7 @@ class Simulation:
                 )
                 continue
             decision = self.open[c]
+            assert decision is not None  # checked above
             best = dec.best_available(w, int(c), p)
             decision.best_target = best
             decision.best_value = float(w.target_value[best]) if best >= 0 else float("nan")
@@ -434,6 +435,7 @@ class Simulation:
         w = self.world
         t = int(w.executing[c])
         decision = self.open[c]
+        assert decision is not None, "a collective moves only while deciding"
         chosen_distance = float(w.hub_distance[c, t])
         self._record(decision, t, chosen_distance, timed_out=False)
         w.hub[c] = w.target_pos[t]

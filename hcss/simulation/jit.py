@@ -47,7 +47,7 @@ def cache_dir() -> Path:
     return Path(tempfile.mkdtemp(prefix="hcss-numba-"))
 
 
-numba.config.CACHE_DIR = str(cache_dir())
+numba.config.CACHE_DIR = str(cache_dir())  # type: ignore[attr-defined]  # set from the environment at run time
 
 
 class _CompiledCallersOnly(CPUDispatcher):

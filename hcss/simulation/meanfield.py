@@ -25,6 +25,7 @@ model checks the other. Discovery is the paper's P_γ = v·g(d) per agent;
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -120,7 +121,7 @@ def solve_meanfield(
     m2 = model == "M2"
 
     # y = [uL, uH, uI, a(n), go(n), back(n), fI(n), fD(n), fR(n), H(n), survival, win(n)]
-    def unpack(y: np.ndarray) -> tuple[np.ndarray, ...]:
+    def unpack(y: np.ndarray) -> tuple[Any, ...]:
         parts = np.split(y[3:], [n, 2 * n, 3 * n, 4 * n, 5 * n, 6 * n, 7 * n, 7 * n + 1])
         return (y[0], y[1], y[2], *parts)
 

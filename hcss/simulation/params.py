@@ -8,7 +8,9 @@ every value: the models differ only in their rules, never in their parameters.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -194,7 +196,7 @@ class Params:
         """τ_i = 2·d_i/speed."""
         return 2.0 * distance_m / self.speed_mps
 
-    def with_changes(self, **changes: object) -> Params:
+    def with_changes(self, **changes: Any) -> Params:
         """A copy with some values changed, e.g. ``params.with_changes(dt_s=0.5)``."""
         return replace(self, **changes)
 
@@ -202,7 +204,7 @@ class Params:
         return {name: getattr(self, name) for name in self.__dataclass_fields__}
 
     @classmethod
-    def from_dict(cls, values: dict[str, object]) -> Params:
+    def from_dict(cls, values: Mapping[str, Any]) -> Params:
         known = {k: v for k, v in values.items() if k in cls.__dataclass_fields__}
         for key in ("target_values", "target_distances_m", "m2_mechanisms"):
             if key in known:

@@ -77,7 +77,9 @@ def discovery_gap(distance_m: np.ndarray, params: Params) -> np.ndarray:
 
 
 def _discovery_gap(d: np.ndarray, params: Params) -> np.ndarray:
-    return 1.0 / params.discovery_rate(params.m2_d_max_m) - 1.0 / params.discovery_rate(d)
+    return np.asarray(
+        1.0 / params.discovery_rate(params.m2_d_max_m) - 1.0 / params.discovery_rate(d)
+    )
 
 
 def round_trip_gap(distance_m: np.ndarray, params: Params) -> np.ndarray:
@@ -86,7 +88,7 @@ def round_trip_gap(distance_m: np.ndarray, params: Params) -> np.ndarray:
 
 
 def _round_trip_gap(d: np.ndarray, params: Params) -> np.ndarray:
-    return params.round_trip_s(params.m2_d_max_m) - params.round_trip_s(d)
+    return np.asarray(params.round_trip_s(params.m2_d_max_m) - params.round_trip_s(d))
 
 
 def frequency_modulation(distance_m: np.ndarray, params: Params) -> np.ndarray:
@@ -107,7 +109,7 @@ def site_rate(distance_m: np.ndarray, params: Params) -> np.ndarray:
     Distances are floored at the hub radius: a site can be no nearer than the
     edge of the hub area, and g(d) diverges at d = 0.
     """
-    return params.discovery_rate(np.maximum(distance_m, params.hub_radius_m))
+    return np.asarray(params.discovery_rate(np.maximum(distance_m, params.hub_radius_m)))
 
 
 def refresh_geometry(world: World, params: Params) -> None:

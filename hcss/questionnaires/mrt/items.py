@@ -177,7 +177,7 @@ def _turned_copies(
     same figure already in the item and is extended in place.
     """
     group = shapes.rotation_group()
-    figures = []
+    figures: list[Figure] = []
     for _ in range(_MAX_VIEW_ATTEMPTS):
         if len(figures) == count:
             return figures

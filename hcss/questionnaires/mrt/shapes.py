@@ -85,7 +85,7 @@ class ArmPath:
 def normalise(cubes: np.ndarray) -> CanonicalForm:
     """Translate to the origin and sort, so equal cube sets compare equal."""
     shifted = np.asarray(cubes, dtype=np.int64) - np.asarray(cubes).min(axis=0)
-    return tuple(sorted(tuple(int(v) for v in row) for row in shifted))
+    return tuple(sorted((int(row[0]), int(row[1]), int(row[2])) for row in shifted))
 
 
 def canonical_form(cubes: np.ndarray) -> CanonicalForm:
