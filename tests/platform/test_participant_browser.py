@@ -22,6 +22,8 @@ from tests.platform.screenshots import screenshot
 pytestmark = pytest.mark.browser
 
 VIEWPORT = {"width": 1280, "height": 900}
+#: The README's walk of the demo study is taken on a common laptop's window.
+LAPTOP = {"width": 1366, "height": 768}
 
 
 @pytest.fixture
@@ -65,7 +67,7 @@ def chosen_for(item: mrt.MrtItem, how: str) -> list[int]:
     }[how]
 
 
-def answer_mrt(page, server: StudyServer) -> dict[str, str]:  # type: ignore[no-untyped-def]
+def answer_mrt(page, server: StudyServer, walk: bool = False) -> dict[str, str]:  # type: ignore[no-untyped-def]
     """Instructions, the practice item, then the timed part with PATTERN; the answers given."""
     from playwright.sync_api import expect
 
@@ -93,6 +95,8 @@ def answer_mrt(page, server: StudyServer) -> dict[str, str]:  # type: ignore[no-
             expect(box).to_be_enabled()
             box.check()
         given[item.key] = mrt.format_selection(chosen)
+        if walk and number == 1:  # the README's walk shows an answered item
+            screenshot(page, "walk-mrt.png", docs_name="walk-3-mrt.png")
         page.get_by_role("button", name="Next").click()
     return given
 
@@ -212,6 +216,7 @@ def answer_probe(page, server: StudyServer) -> str:  # type: ignore[no-untyped-d
     expect(page.locator("#probe-ready")).to_be_focused()
     page.keyboard.press("Enter")  # "Ready", from the keyboard
     expect(page.locator("#probe-text")).to_be_focused()  # the question, not a choice
+    screenshot(page, "walk-probe.png", docs_name="walk-5-probe.png")
     choice = page.locator("#probe-choices button").first.inner_text()
     page.locator("#probe-choices button").first.click()
     expect(page.locator("#probe")).to_be_hidden()
@@ -279,13 +284,18 @@ def test_the_demo_study_from_the_link_to_the_debrief(browser, demo_server: Study
 
     from hcss.platform.models import Command, CommandKey, ProbeEvent
 
-    token = demo_server.participant()
-    page = browser.new_page(viewport=VIEWPORT)
-    page.goto(f"{demo_server.url}/p/{token}")
+    # From the study link (anonymous in the demo), as an online participant arrives.
+    page = browser.new_page(viewport=LAPTOP)
+    page.goto(f"{demo_server.url}/join/demo")
+    expect(page.locator("#device-ok")).to_be_visible()
+    screenshot(page, "walk-first-page.png", docs_name="walk-1-first-page.png")
+    page.locator("#join-start").click()
     expect(page.locator("#code-note")).to_contain_text("Your participant code is")
+    token = re.search(r"/p/([A-Za-z0-9_-]+)/", page.url).group(1)
     code = page.locator("#code-note .participant-code").inner_text()
+    screenshot(page, "walk-consent.png", docs_name="walk-2-consent.png")
     consent_and_demographics(page)
-    given = answer_mrt(page, demo_server)
+    given = answer_mrt(page, demo_server, walk=True)
 
     expect_stage(page, "introduction")
     while page.locator("main.study").get_attribute("data-stage") == "introduction":
@@ -299,7 +309,7 @@ def test_the_demo_study_from_the_link_to_the_debrief(browser, demo_server: Study
     expect(page.locator("#screen-too-small")).to_be_visible()
     expect(page.locator("#screen-size")).to_have_text("900 x 600")
     expect(page.locator("#screen-continue")).to_be_disabled()
-    page.set_viewport_size(VIEWPORT)
+    page.set_viewport_size(LAPTOP)
     expect(page.locator("#screen-too-small")).to_be_hidden()
     expect(page.locator("#screen-ok")).to_be_visible()
     page.locator("#screen-continue").click()
@@ -311,6 +321,11 @@ def test_the_demo_study_from_the_link_to_the_debrief(browser, demo_server: Study
         page.get_by_role("button", name="Start").click()
         expect(page.locator("#connection")).to_have_text("live")
         expect(page.locator("#fullscreen")).to_be_visible()  # trials offer full screen
+        if round_ == 0:
+            wait_for(demo_server, lambda lv: len(lv.view()["targets"]) >= 3, 40)
+            page.locator('g.collective[data-collective="0"]').click(button="right")
+            expect(page.locator("#layer-flags .flag")).to_have_count(1)
+            screenshot(page, "walk-training.png", docs_name="walk-4-training.png")
         run_to_end(page, demo_server, step_s=6.0)
 
         expect_stage(page, "trial", "ready")
@@ -343,6 +358,8 @@ def test_the_demo_study_from_the_link_to_the_debrief(browser, demo_server: Study
     expect_stage(page, "debrief")
     expect(page.locator("#code-note")).to_contain_text(code)
     expect(page.locator("article.text")).to_contain_text("always came last")
+    expect(page.locator("#completion-code")).to_have_text("DEMO2026")  # came through the link
+    screenshot(page, "walk-debrief.png", docs_name="walk-6-debrief.png")
     page.close()
 
     assert supervised is not None and probes_answered >= 1
@@ -461,6 +478,8 @@ def test_the_interface_by_keyboard_info_box_messages_and_contrast(
     page.select_option("#request-kind", "investigate")
     page.locator("#commit").click()
     expect(page.locator("#request-note")).to_contain_text("accepted")
+    # Good news in green; amber (255, 210, 122) is for refusals.
+    expect(page.locator("#request-note")).to_have_css("color", "rgb(139, 224, 164)")
     row = page.locator("#assignments li").first
     row.focus()
     page.keyboard.press("Enter")

@@ -67,7 +67,10 @@
     try { await action(); } catch (e) { note(e.message); }
     finally { buttons.forEach((b) => { b.disabled = false; }); }
   }
-  function note(text) { $("request-note").textContent = text || ""; }
+  function note(text, ok) {
+    $("request-note").textContent = text || "";
+    $("request-note").classList.toggle("ok", !!ok);
+  }
 
   // ---- map ---------------------------------------------------------------
   // Glyphs are created once per collective or target and updated in place:
@@ -331,7 +334,7 @@
     try {
       const outcome = await post("/requests", { kind, collective: Number(collective), target: Number(target), selections });
       if (outcome.accepted) resetForm();
-      note(outcome.accepted ? `Request ${outcome.request_id} accepted.` : `Refused: ${outcome.reason}`);
+      note(outcome.accepted ? `Request ${outcome.request_id} accepted.` : `Refused: ${outcome.reason}`, outcome.accepted);
     } catch (e) { note(e.message); }
     finally {
       state.committing = false;
@@ -381,7 +384,7 @@
     const request_id = state.selectedAssignment;
     return inFlight([$("cancel-assignment")], async () => {
       const outcome = await post("/requests", { kind: "cancel", request_id });
-      note(outcome.accepted ? "Assignment cancelled." : `Refused: ${outcome.reason}`);
+      note(outcome.accepted ? "Assignment cancelled." : `Refused: ${outcome.reason}`, outcome.accepted);
     });
   }
 
