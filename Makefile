@@ -4,7 +4,7 @@ PY     := $(VENV)/bin/python
 HCSS   := $(VENV)/bin/hcss
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: install run test bench lint format browser fuzz
+.PHONY: install run test bench lint format browser fuzz r
 
 $(PY):
 	python3 -m venv $(VENV)
@@ -30,6 +30,11 @@ run: install
 # Browser tests need Debian's Chromium; scripts/ensure-chromium installs it when missing.
 browser:
 	bash scripts/ensure-chromium
+
+# R with lme4 and geepack for tests/analysis/test_r_script.py (skipped without it). Not a
+# prerequisite of `test`: Debian's R takes ~5 minutes to install on a fresh machine.
+r:
+	bash scripts/ensure-r
 
 test: install browser
 	$(PY) -m pytest -q -n 2

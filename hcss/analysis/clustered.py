@@ -12,9 +12,9 @@ participant being correlated:
   ``glmer``) is in the R script written beside the report, since Python
   offers only a variational Bayes approximation of it;
 - decision time by the same design on log seconds: a linear mixed model with
-  a random intercept per participant (REML), reported as time ratios exp(β),
-  with lme4's standard errors (:mod:`hcss.analysis.mixed_errors`) and the
-  variance components.
+  a random intercept per participant (REML, refined to lme4's optimum),
+  reported as time ratios exp(β), with lme4's standard errors
+  (:mod:`hcss.analysis.mixed_errors`) and the variance components.
 
 Both models carry the counterbalancing as covariates when it varies: the
 trial's position in the participant's order of models (1–3, linear) and the
@@ -40,7 +40,7 @@ import statsmodels.api as sm
 import statsmodels.formula.api as smf
 from scipy import stats
 
-from hcss.analysis.mixed_errors import lme4_covariance, variance_components
+from hcss.analysis.mixed_errors import lme4_covariance, refine_intercept_fit
 
 HUMAN_MODELS = ("M1", "M2", "M3")
 DESIGN = "C(model, Treatment('M1')) * C(difficulty, Treatment('easy'))"
@@ -268,15 +268,20 @@ def time_mixed_model(
     if not result.converged:
         note = "the REML fit did not converge (statsmodels: converged=False): no estimates shown"
         return ClusteredModel(outcome, method, ratio_name, n, clusters, (), note)
-    covariance = lme4_covariance(result)
-    errors = pd.Series(np.sqrt(np.diag(covariance)), index=result.fe_params.index)
-    components = tuple(
-        VarianceComponent(name, value) for name, value in variance_components(result)
+    try:
+        refined, _ = _fitted(lambda: refine_intercept_fit(model, result))
+        covariance = lme4_covariance(model, refined)
+    except (ValueError, np.linalg.LinAlgError) as error:
+        return ClusteredModel(outcome, method, ratio_name, n, clusters, (), f"not fitted: {error}")
+    errors = pd.Series(np.sqrt(np.diag(covariance)), index=refined.fe_params.index)
+    components = (
+        VarianceComponent("participant (intercept)", refined.participant_variance),
+        VarianceComponent("residual", refined.scale),
     )
     note = ""
     if components and components[0].variance <= 1e-8 * max(components[-1].variance, 1e-300):
         note = "participant variance at the boundary (0): a singular fit, as lme4 would say"
-    terms = _ratio_terms(result.fe_params, errors)
+    terms = _ratio_terms(refined.fe_params, errors)
     return ClusteredModel(
         outcome, method, ratio_name, n, clusters, terms, note, WALD_Z, components, covariates
     )

@@ -18,6 +18,7 @@ from hcss.analysis.banner import SampleBanner, sample_banner
 from hcss.analysis.figures import write_figure
 from hcss.analysis.load import AnalysisInputError, StudyTables, load_inputs
 from hcss.analysis.measures import all_measures
+from hcss.analysis.rscript import write_r_script
 from hcss.analysis.sections import Section, build_sections
 from hcss.analysis.stats import MannWhitneyMethod
 from hcss.analysis.tables import Table, to_html, write_table
@@ -210,6 +211,7 @@ def run_analysis(
         for name, draw in section.figures:
             write_figure(draw(), directory / "figures", name)
             figures.setdefault(section.key, []).append(name)
+    write_r_script(directory, tables.decisions, tables.participants)
     html_path = write_html(directory, sections, figures, tables, include_pilot)
     steps.update()
     steps.close()

@@ -1,0 +1,83 @@
+"""`Rscript analysis.R` in a report's folder reproduces the report's p-values with R's functions.
+
+R is the independent implementation here: kruskal.test, TukeyHSD, friedman.test,
+wilcox.test, cor.test, geepack::geeglm and lme4::lmer recompute every p the report's
+tables show. Needs Debian's r-base-core, r-cran-lme4 and r-cran-geepack (`make r`);
+skipped with that reason otherwise.
+"""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from hcss.analysis.report import run_analysis
+from tests.analysis.synthetic import simulation_decisions, study_export, write_table
+
+
+def _r_with_packages() -> str:
+    if shutil.which("Rscript") is None:
+        return "Rscript is not installed (make r installs r-base-core, r-cran-lme4, r-cran-geepack)"
+    check = subprocess.run(
+        ["Rscript", "-e", "library(lme4); library(geepack)"], capture_output=True, text=True
+    )
+    if check.returncode != 0:
+        return "R lacks lme4 or geepack (make r installs r-cran-lme4, r-cran-geepack)"
+    return ""
+
+
+REASON = _r_with_packages()
+pytestmark = [pytest.mark.slow, pytest.mark.skipif(bool(REASON), reason=REASON)]
+
+#: Relative agreement per table, and an absolute floor for p-values near 0, where R's
+#: ptukey and pchisq(lower.tail = FALSE) keep ~1e-14 absolute precision.
+RELATIVE = {
+    "kruskal_wallis": 1e-9,
+    "friedman": 1e-9,
+    "wilcoxon_paired": 1e-9,
+    "mann_whitney": 1e-9,
+    "spearman": 1e-9,
+    "tukey_hsd": 1e-6,
+    "gee_success": 1e-4,  # iterative fits with different stopping rules
+    "mixedlm_time": 1e-5,
+}
+ABSOLUTE = 1e-12
+
+
+@pytest.fixture(scope="module")
+def r_pvalues(tmp_path_factory) -> tuple[pd.DataFrame, Path]:
+    base = tmp_path_factory.mktemp("rscript")
+    export = study_export(base / "export", participants=12, seed=4)
+    write_table(simulation_decisions(scenarios=8, runs=2), base / "sim" / "decisions.csv")
+    report = run_analysis([export, base / "sim"], base / "report", progress=False)
+    completed = subprocess.run(
+        ["Rscript", "analysis.R"], cwd=report.directory, capture_output=True, text=True
+    )
+    assert completed.returncode == 0, completed.stderr
+    assert "Logistic mixed model (glmer" in completed.stdout
+    return pd.read_csv(report.directory / "r_pvalues.csv"), report.directory
+
+
+def _hcss_p_count(directory: Path, table: str) -> int:
+    frame = pd.read_csv(directory / "tables" / f"{table}.csv")
+    return int(frame["p"].notna().sum())
+
+
+def test_every_p_value_of_the_report_is_reproduced_by_r(r_pvalues):
+    table, directory = r_pvalues
+    for name, tolerance in RELATIVE.items():
+        rows = table[table["table"] == name]
+        assert len(rows), f"no {name} p-values recomputed"
+        difference = (rows["p_r"] - rows["p_hcss"]).abs()
+        allowed = (tolerance * rows["p_hcss"].abs()).clip(lower=ABSOLUTE)
+        worst = rows.assign(difference=difference)[difference > allowed]
+        assert worst.empty, f"{name}: R and hcss differ\n{worst.to_string()}"
+    for name in ("kruskal_wallis", "friedman", "wilcoxon_paired", "mann_whitney", "tukey_hsd"):
+        assert (table["table"] == name).sum() == _hcss_p_count(directory, name), name
+    spearman = _hcss_p_count(directory, "spearman")
+    assert (table["table"] == "spearman").sum() >= spearman
+    print(f"\nRscript analysis.R reproduced {len(table)} p-values")
