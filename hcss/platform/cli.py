@@ -6,6 +6,7 @@ import os
 
 import click
 
+from hcss.platform.connections import PER_CLIENT
 from hcss.simulation.params import MODELS
 
 #: The Alembic environment, package data (Alembic's "package:directory" form).
@@ -78,13 +79,25 @@ def _redacted(url: str) -> str:
     default=None,
     help="Trial seconds per wall second for trials started by this server (tests, bots).",
 )
+@click.option(
+    "--connections-per-client",
+    default=PER_CLIENT,
+    show_default=True,
+    envvar="HCSS_CONNECTIONS_PER_CLIENT",
+    type=click.IntRange(0),
+    help="Open connections one address may hold (0: no cap; off behind HCSS_PROXY_HOPS).",
+)
 def serve(
-    host: str, port: int, study: str | None, threads: int, time_acceleration: float | None
+    host: str,
+    port: int,
+    study: str | None,
+    threads: int,
+    time_acceleration: float | None,
+    connections_per_client: int,
 ) -> None:
     """Serve the study platform with waitress; one line per participant event on stderr."""
-    from waitress import serve as waitress_serve
-
     from hcss.platform.app import create_app
+    from hcss.platform.connections import bounded_server
     from hcss.platform.console.accounts import ensure_first_login
     from hcss.platform.live.streams import reserve_for_pages
     from hcss.platform.serving import log_events_to_stderr, write_serving_file
@@ -120,18 +133,23 @@ def serve(
         f"simulation ready ({warm_s:.1f} s)"
     )
     click.echo(f"console: {url}console/   a demo trial:  hcss demo-trial --port {port}")
-    waitress_serve(
+    proxied = int(app.config.get("PROXY_HOPS") or 0) > 0
+    server = bounded_server(
         app,
         host=host,
         port=port,
         threads=threads,
-        channel_timeout=3600,
         ident="hcss",
         max_request_body_size=int(app.config["MAX_CONTENT_LENGTH"]),
-        # Waitress accepts 100 connections by default: past ~90 open streams the
-        # rest were reset. Every thread's stream plus as many short requests.
-        connection_limit=2 * threads,
+        # Every thread's stream plus as many short requests, and room for idle and
+        # slow connections, which cost no thread (hcss.platform.connections bounds
+        # them); poll, not select, which stops at descriptor 1024.
+        connection_limit=2 * threads + 1024,
+        asyncore_use_poll=True,
+        # Behind the proxy every visitor has its address: the proxy caps clients.
+        per_client=0 if proxied else connections_per_client,
     )
+    server.run()
 
 
 @click.command("demo-trial")
