@@ -4,7 +4,7 @@ PY     := $(VENV)/bin/python
 HCSS   := $(VENV)/bin/hcss
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: install run test bench lint format browser fuzz r
+.PHONY: install run test bench lint format browser nginx fuzz r
 
 $(PY):
 	python3 -m venv $(VENV)
@@ -36,7 +36,11 @@ browser:
 r:
 	bash scripts/ensure-r
 
-test: install browser
+# The multi-process tests start Debian's nginx; scripts/ensure-nginx installs it when missing.
+nginx:
+	bash scripts/ensure-nginx
+
+test: install browser nginx
 	$(PY) -m pytest -q -n 2
 
 # Long fuzz run of every route (tests/platform/test_fuzz.py): 3 groups x FUZZ_EXAMPLES requests

@@ -12,12 +12,22 @@ import click
 
 from hcss.analysis.cli import analyze
 from hcss.platform.bot_command import bots_command
-from hcss.platform.cli import db_group, demo_trial, serve
+from hcss.platform.cli import db_group, demo_trial, deploy_group, serve
 from hcss.platform.console.cli import admin_group
 from hcss.platform.export.cli import export
 from hcss.simulation.cli import simulate
 
-COMMANDS = (simulate, analyze, serve, db_group, demo_trial, admin_group, export, bots_command)
+COMMANDS = (
+    simulate,
+    analyze,
+    serve,
+    db_group,
+    demo_trial,
+    deploy_group,
+    admin_group,
+    export,
+    bots_command,
+)
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})

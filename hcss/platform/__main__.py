@@ -7,7 +7,7 @@ independent of them.
 
 import click
 
-from hcss.platform.cli import db_group, demo_trial, serve
+from hcss.platform.cli import db_group, demo_trial, deploy_group, serve
 
 
 @click.group()
@@ -18,6 +18,7 @@ def platform() -> None:
 platform.add_command(serve)
 platform.add_command(db_group)
 platform.add_command(demo_trial)
+platform.add_command(deploy_group)
 
 if __name__ == "__main__":
     platform()

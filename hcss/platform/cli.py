@@ -87,6 +87,20 @@ def _redacted(url: str) -> str:
     type=click.IntRange(0),
     help="Open connections one address may hold (0: no cap; off behind HCSS_PROXY_HOPS).",
 )
+@click.option(
+    "--processes",
+    default=1,
+    show_default=True,
+    type=click.IntRange(1, 64),
+    help="Server processes on ports PORT, PORT+1, ... sharing the (PostgreSQL) database; "
+    "put nginx in front (`hcss deploy nginx`).",
+)
+@click.option(
+    "--cluster",
+    is_flag=True,
+    help="This process is one of several on one PostgreSQL database (on this or other "
+    "hosts): it hosts live trials by lease. --processes sets it for its workers.",
+)
 def serve(
     host: str,
     port: int,
@@ -94,19 +108,46 @@ def serve(
     threads: int,
     time_acceleration: float | None,
     connections_per_client: int,
+    processes: int,
+    cluster: bool,
 ) -> None:
     """Serve the study platform with waitress; one line per participant event on stderr."""
     from hcss.platform.app import create_app
     from hcss.platform.connections import bounded_server
+    from hcss.platform.config import database_url
     from hcss.platform.console.accounts import ensure_first_login
     from hcss.platform.live.streams import reserve_for_pages
     from hcss.platform.serving import log_events_to_stderr, write_serving_file
+    from hcss.platform.workers import (
+        GroupRefused,
+        process_name,
+        require_shared_database,
+        run_group,
+    )
+
+    if processes > 1 or cluster:
+        try:
+            require_shared_database(database_url())
+        except GroupRefused as refused:
+            raise click.UsageError(str(refused)) from refused
+    if processes > 1:
+        ensure_first_login(create_app({}))  # once, before the workers race to it
+        worker_args = ["--threads", str(threads)]
+        worker_args += ["--connections-per-client", str(connections_per_client)]
+        if study is not None:
+            worker_args += ["--study", study]
+        if time_acceleration is not None:
+            worker_args += ["--time-acceleration", str(time_acceleration)]
+        click.echo(f"hcss: {processes} server processes on ports {port}-{port + processes - 1}")
+        raise SystemExit(run_group(processes, host, port, worker_args))
 
     # Streams hold a thread each; the reserve keeps page loads and the console answering.
     config: dict[str, object] = {
         "MAX_STREAMS": threads - reserve_for_pages(threads),
         "LIVE_RUNNER": True,  # only a serving process keeps trials on time
     }
+    if cluster:
+        config["PROCESS_NAME"] = process_name(host, port)
     if time_acceleration is not None:
         config["TIME_ACCELERATION"] = time_acceleration
     if study is not None:
@@ -150,6 +191,61 @@ def serve(
         per_client=0 if proxied else connections_per_client,
     )
     server.run()
+
+
+@click.group("deploy")
+def deploy_group() -> None:
+    """Configuration for running the platform behind a reverse proxy."""
+
+
+@deploy_group.command("nginx")
+@click.option(
+    "--server",
+    "servers",
+    multiple=True,
+    metavar="HOST:PORT",
+    help="An hcss process (repeat for each; on several hosts too). "
+    "Default: --processes ports from --port on --host.",
+)
+@click.option("--host", default="127.0.0.1", show_default=True)
+@click.option("--port", default=DEFAULT_PORT, show_default=True, type=click.IntRange(1, 65535))
+@click.option("--processes", default=2, show_default=True, type=click.IntRange(1, 64))
+@click.option("--listen", default="8080", show_default=True, help="nginx's listen address.")
+@click.option(
+    "--standalone",
+    type=click.Path(file_okay=False),
+    default=None,
+    help="Write a whole nginx.conf that runs unprivileged with its files in this folder "
+    "(nginx -p DIR -c nginx.conf); default: the http-level part for /etc/nginx/conf.d/.",
+)
+@click.option("--output", "-o", type=click.Path(dir_okay=False), default=None)
+def deploy_nginx(
+    servers: tuple[str, ...],
+    host: str,
+    port: int,
+    processes: int,
+    listen: str,
+    standalone: str | None,
+    output: str | None,
+) -> None:
+    """Write the nginx configuration that routes each participant to one hcss process."""
+    from pathlib import Path
+
+    from hcss.platform.nginx import site_config, standalone_config
+
+    members = list(servers) or [f"{host}:{port + index}" for index in range(processes)]
+    if standalone is None:
+        text = site_config(members, listen=listen)
+    else:
+        prefix = Path(standalone).resolve()
+        for folder in ("body", "proxy", "fastcgi", "uwsgi", "scgi"):
+            (prefix / "temp" / folder).mkdir(parents=True, exist_ok=True)
+        text = standalone_config(members, listen=listen, prefix=prefix)
+    if output is None:
+        click.echo(text, nl=False)
+    else:
+        Path(output).write_text(text)
+        click.echo(f"nginx configuration for {len(members)} process(es) in {output}", err=True)
 
 
 @click.command("demo-trial")

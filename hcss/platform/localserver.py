@@ -18,6 +18,7 @@ import sys
 import time
 import urllib.error
 import urllib.request
+from collections.abc import Sequence
 from pathlib import Path
 
 
@@ -40,6 +41,8 @@ class LocalServer:
         snapshot_interval_s: float = 1.0,
         extra_env: dict[str, str] | None = None,
         python: str = sys.executable,
+        serve_args: Sequence[str] = (),
+        host: str = "127.0.0.1",
     ) -> None:
         self.database_url = database_url
         self.instance_path = Path(instance_path)
@@ -50,12 +53,15 @@ class LocalServer:
         #: The interpreter that runs the server: another environment's, to serve what is
         #: installed there (the installed-wheel test).
         self.python = python
+        #: More `serve` options (`--cluster` for a process of a group).
+        self.serve_args = list(serve_args)
+        self.host = host
         self.process: subprocess.Popen[bytes] | None = None
         self.log_path = self.instance_path / f"server-{self.port}.log"
 
     @property
     def url(self) -> str:
-        return f"http://127.0.0.1:{self.port}"
+        return f"http://{self.host}:{self.port}"
 
     def start(self, timeout_s: float = 30.0) -> LocalServer:
         env = {
@@ -74,10 +80,13 @@ class LocalServer:
             "-m",
             "hcss.platform",
             "serve",
+            "--host",
+            self.host,
             "--port",
             str(self.port),
             "--threads",
             str(self.threads),
+            *self.serve_args,
         ]
         self.instance_path.mkdir(parents=True, exist_ok=True)
         log = self.log_path.open("ab")
@@ -117,6 +126,70 @@ class LocalServer:
         self.process = None
 
     def __enter__(self) -> LocalServer:
+        return self.start()
+
+    def __exit__(self, *_exc: object) -> None:
+        self.stop()
+
+
+class LocalNginx:
+    """nginx in the foreground, configured by `hcss deploy nginx --standalone`, on a loopback port.
+
+    Routes to the given `LocalServer`s (host:port each) as a deployment does;
+    a context manager. `available()` says whether the binary is there.
+    """
+
+    BINARY = "/usr/sbin/nginx"
+
+    def __init__(self, servers: Sequence[str], prefix: Path, *, port: int | None = None) -> None:
+        self.servers = list(servers)
+        self.prefix = Path(prefix)
+        self.port = port or free_port()
+        self.process: subprocess.Popen[bytes] | None = None
+
+    @classmethod
+    def available(cls) -> bool:
+        return os.access(cls.BINARY, os.X_OK)
+
+    @property
+    def url(self) -> str:
+        return f"http://127.0.0.1:{self.port}"
+
+    def start(self, timeout_s: float = 10.0) -> LocalNginx:
+        from hcss.platform.nginx import standalone_config
+
+        for folder in ("body", "proxy", "fastcgi", "uwsgi", "scgi"):
+            (self.prefix / "temp" / folder).mkdir(parents=True, exist_ok=True)
+        config = self.prefix / "nginx.conf"
+        config.write_text(
+            standalone_config(self.servers, listen=f"127.0.0.1:{self.port}", prefix=self.prefix)
+        )
+        log = (self.prefix / "nginx.out").open("ab")
+        self.process = subprocess.Popen(
+            [self.BINARY, "-p", str(self.prefix), "-c", str(config)],
+            stdout=log,
+            stderr=subprocess.STDOUT,
+        )
+        log.close()
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            if self.process.poll() is not None:
+                raise RuntimeError(f"nginx exited: {(self.prefix / 'error.log').read_text()}")
+            try:
+                with socket.create_connection(("127.0.0.1", self.port), timeout=1):
+                    return self
+            except OSError:
+                time.sleep(0.05)
+        self.stop()
+        raise RuntimeError(f"nginx did not listen within {timeout_s} s")
+
+    def stop(self) -> None:
+        if self.process is not None and self.process.poll() is None:
+            self.process.terminate()
+            self.process.wait(timeout=10)
+        self.process = None
+
+    def __enter__(self) -> LocalNginx:
         return self.start()
 
     def __exit__(self, *_exc: object) -> None:

@@ -43,12 +43,15 @@ class TrialClient:
         with self.opener.open(self.api + "/state", timeout=10) as response:
             return json.loads(response.read())
 
-    def post(self, path: str, body: dict[str, Any]) -> tuple[int, dict[str, Any]]:
+    def post(
+        self, path: str, body: dict[str, Any], *, key: str | None = None
+    ) -> tuple[int, dict[str, Any]]:
+        """POST a command; with `key` as its Idempotency-Key (a repeat gets the first answer)."""
+        headers = {"Content-Type": "application/json", "X-CSRFToken": self.csrf}
+        if key is not None:
+            headers["Idempotency-Key"] = key
         request = urllib.request.Request(
-            self.api + path,
-            data=json.dumps(body).encode(),
-            headers={"Content-Type": "application/json", "X-CSRFToken": self.csrf},
-            method="POST",
+            self.api + path, data=json.dumps(body).encode(), headers=headers, method="POST"
         )
         try:
             with self.opener.open(request, timeout=10) as response:

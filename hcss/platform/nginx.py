@@ -1,0 +1,100 @@
+"""The nginx configuration that puts several `hcss serve` processes behind one address.
+
+A live trial is hosted by one process at a time (hcss.platform.live.leases),
+so every request of one participant should reach the same process: the
+upstream hashes the participant's token, taken from the path of the study
+pages (/p/<token>), the trial page (/live/<token>) and the live API and its
+stream (/api/live/<token>/...). `consistent` (ketama) hashing moves only the
+tokens of a process that leaves. Requests without a token (the console, study
+links, static files) have an empty key, which nginx spreads round-robin.
+
+When a process is down, or answers 503 because another process hosts the
+trial (`HostedElsewhere`), nginx tries the next one. Commands are POSTs, so
+`non_idempotent` lets nginx retry them too: a command carries an
+Idempotency-Key, and a process that did it once answers a repeat with the
+first outcome. The stream needs no buffering and long read timeouts.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+UPSTREAM = "hcss_processes"
+
+
+def site_config(servers: Sequence[str], *, listen: str = "8080") -> str:
+    """The `http {}` part: the token map, the upstream and the server (for conf.d/)."""
+    if not servers:
+        raise ValueError("name at least one hcss process (HOST:PORT)")
+    # max_fails=0: a 503 from a process that does not host the trial must not mark that
+    # process down (nginx counts every http_503 it passes on as a failure), or after a
+    # kill the survivor is "down" too until fail_timeout, while it takes the trials over.
+    members = "\n".join(f"    server {server} max_fails=0;" for server in servers)
+    return f"""\
+# Written by `hcss deploy nginx`: {len(servers)} hcss process(es), routed by participant token.
+map $uri $hcss_token {{
+    ~^/(?:p|live|api/live)/(?<token>[^/]+) $token;
+    default "";
+}}
+
+upstream {UPSTREAM} {{
+    hash $hcss_token consistent;
+{members}
+    keepalive 32;
+}}
+
+server {{
+    listen {listen};
+    client_max_body_size 256k;
+
+    location / {{
+        proxy_pass http://{UPSTREAM};
+        proxy_http_version 1.1;
+        proxy_set_header Connection "";
+        proxy_set_header Host $http_host;
+        proxy_set_header X-Forwarded-For $proxy_add_x_forwarded_for;
+        proxy_set_header X-Forwarded-Proto $scheme;
+
+        # Server-Sent Events: every frame at once, and a stream may stay open for an hour.
+        proxy_buffering off;
+        proxy_cache off;
+        proxy_read_timeout 3600s;
+        proxy_send_timeout 3600s;
+
+        # A process that is down (or does not host the trial: 503) passes to the next.
+        proxy_connect_timeout 2s;
+        proxy_next_upstream error timeout http_502 http_503 non_idempotent;
+        proxy_next_upstream_tries {len(servers)};
+        proxy_next_upstream_timeout 15s;
+    }}
+}}
+"""
+
+
+def standalone_config(servers: Sequence[str], *, listen: str, prefix: Path) -> str:
+    """A whole nginx.conf that runs unprivileged in the foreground with its files under `prefix`.
+
+    For tests, benchmarks and a trial run on one machine: `nginx -p PREFIX -c nginx.conf`.
+    """
+    temp = prefix / "temp"
+    return f"""\
+daemon off;
+worker_processes 1;
+pid {prefix / "nginx.pid"};
+error_log {prefix / "error.log"} warn;
+events {{ worker_connections 4096; }}
+http {{
+    access_log off;
+    client_body_temp_path {temp / "body"};
+    proxy_temp_path {temp / "proxy"};
+    fastcgi_temp_path {temp / "fastcgi"};
+    uwsgi_temp_path {temp / "uwsgi"};
+    scgi_temp_path {temp / "scgi"};
+{_indent(site_config(servers, listen=listen))}
+}}
+"""
+
+
+def _indent(text: str) -> str:
+    return "\n".join(("    " + line) if line else line for line in text.splitlines())

@@ -1,0 +1,119 @@
+"""Two server processes behind nginx on one PostgreSQL database: kill -9 the trial's host.
+
+The real path: `hcss serve --cluster` processes, the nginx configuration
+`hcss deploy nginx` writes, HTTP through nginx, SIGKILL. The trial must go
+on in the other process within 10 s, with every row it had, and a command
+the dead process carried out must not be carried out twice when the
+participant's page repeats it there.
+"""
+
+from __future__ import annotations
+
+import time
+import urllib.error
+import uuid
+
+import pytest
+from sqlalchemy import select
+
+from hcss.platform.cli import upgrade_database
+from hcss.platform.db import Database
+from hcss.platform.live.client import TrialClient
+from hcss.platform.live.trials import start_bot_trial
+from hcss.platform.localserver import LocalNginx, LocalServer
+from hcss.platform.models import Interruption, TrialLease
+from tests.platform.conftest import STUDY_TRIAL_S
+from tests.platform.test_restart import _records
+
+ACCELERATION = 20.0
+FAILOVER_LIMIT_S = 10.0
+
+
+def _wait_for(condition, timeout_s: float, what: str):  # type: ignore[no-untyped-def]
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        try:
+            value = condition()
+        except (urllib.error.URLError, ConnectionError, TimeoutError):
+            value = None  # nobody hosts the trial yet (503), or the answer was cut
+        if value:
+            return value
+        time.sleep(0.1)
+    pytest.fail(f"timed out waiting for {what}")
+
+
+def _lease_owner(database: Database, trial_id: int) -> str | None:
+    with database.session_scope() as session:
+        return session.scalar(select(TrialLease.owner).where(TrialLease.trial_id == trial_id))
+
+
+def _require_group(database_url: str) -> None:
+    if not database_url.startswith("postgresql"):
+        pytest.skip("several server processes share PostgreSQL; SQLite serves one process")
+    if not LocalNginx.available():
+        pytest.skip(f"needs nginx at {LocalNginx.BINARY} (scripts/ensure-nginx installs it)")
+
+
+@pytest.mark.slow
+def test_kill_9_of_the_host_moves_the_trial_to_the_other_process(database_url, tmp_path) -> None:
+    _require_group(database_url)
+    upgrade_database(database_url)
+    database = Database(database_url)
+    servers = {
+        name: LocalServer(
+            database_url, tmp_path / name, snapshot_interval_s=1.0, serve_args=["--cluster"]
+        )
+        for name in ("a", "b")
+    }
+    nginx = LocalNginx([f"127.0.0.1:{s.port}" for s in servers.values()], tmp_path / "nginx")
+    try:
+        for server in servers.values():
+            server.start(timeout_s=120)  # a first start compiles the simulation
+        nginx.start()
+        with database.session_scope() as session:
+            participant, trial = start_bot_trial(
+                session, seed=2, duration_s=STUDY_TRIAL_S, time_acceleration=ACCELERATION
+            )
+            token, trial_id = participant.token, trial.id
+        client = TrialClient(nginx.url, token)
+        client.open_page()
+        view = _wait_for(lambda: client.state()["view"]["targets"], 30, "a visible target")
+        owner = _lease_owner(database, trial_id)
+        host = next(s for s in servers.values() if owner == f"127.0.0.1:{s.port}")
+        other = next(s for s in servers.values() if s is not host)
+
+        key = str(uuid.uuid4())
+        command = {"kind": "investigate", "collective": 0, "target": view[0]["id"]}
+        first = client.post("/requests", command, key=key)
+        assert first[0] == 200
+        client.post("/observations", {"kind": "collective", "collective": 1, "button": "right"})
+        _wait_for(lambda: client.state()["trial"]["step"] > 40, 30, "the trial to run on")
+        before = _records(database, trial_id)
+        step_at_kill = client.state()["trial"]["step"]
+
+        host.kill()
+        killed = time.monotonic()
+        _wait_for(
+            lambda: client.state()["trial"]["step"] > step_at_kill, 20, "the trial on the other"
+        )
+        failover_s = time.monotonic() - killed
+        assert _lease_owner(database, trial_id) == f"127.0.0.1:{other.port}"
+        assert failover_s < FAILOVER_LIMIT_S, failover_s
+
+        # The page repeats the command whose answer it lost: the first answer, not a second command.
+        assert client.post("/requests", command, key=key) == first
+        after = _records(database, trial_id)
+        assert after["commands"] == before["commands"]  # none lost, none invented
+        for kind in ("outcomes", "probes", "probe_events", "decisions"):
+            assert after[kind][: len(before[kind])] == before[kind], kind
+        with database.session_scope() as session:
+            interruption = session.scalars(
+                select(Interruption).where(Interruption.trial_id == trial_id)
+            ).one()
+        assert interruption.outage_s > 0
+        print(f"failover: {failover_s:.1f} s from kill -9 to the first step on the other process")
+    finally:
+        nginx.stop()
+        for server in servers.values():
+            server.stop()
+        database.engine.dispose()
