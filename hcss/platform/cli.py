@@ -113,8 +113,8 @@ def serve(
 ) -> None:
     """Serve the study platform with waitress; one line per participant event on stderr."""
     from hcss.platform.app import create_app
-    from hcss.platform.connections import bounded_server
     from hcss.platform.config import database_url
+    from hcss.platform.connections import bounded_server
     from hcss.platform.console.accounts import ensure_first_login
     from hcss.platform.live.streams import reserve_for_pages
     from hcss.platform.serving import log_events_to_stderr, write_serving_file
