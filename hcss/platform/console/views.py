@@ -208,10 +208,13 @@ MAX_LINKS = 500
 
 
 def _named_participants() -> list[Participant]:
-    """The participants in ``?codes=P1,P2``: a batch just created, or any selection."""
+    """The participants in ``?codes=P1,P2`` (a batch just created, or any selection);
+    without codes, every participant's, newest first, so links can be handed out again."""
     raw = request.args.get("codes", "")
     codes = [code.strip() for code in raw.split(",") if code.strip()]
-    if not codes or len(codes) > MAX_LINKS or any(not CODE.fullmatch(c) for c in codes):
+    if not raw.strip(", "):
+        return list(get_session().scalars(select(Participant).order_by(Participant.id.desc())))
+    if len(codes) > MAX_LINKS or any(not CODE.fullmatch(c) for c in codes):
         abort(400, f"codes= lists 1 to {MAX_LINKS} participant codes, comma-separated")
     try:
         return participants_by_code(get_session(), codes)
