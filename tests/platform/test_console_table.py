@@ -116,6 +116,11 @@ def test_the_links_page_needs_a_signed_in_experimenter(app, console) -> None:
 def test_each_row_offers_only_the_actions_that_apply(app, console) -> None:
     console.post("/console/participants", {"count": "1", "study": "demo"})
     (code,) = console.progress()
+    # Not started: nothing to pause; an abort keeps the link from opening.
+    assert console.progress()[code]["actions"] == ["abort", "mark_pilot"]
+    assert console.progress()[code]["time_in_stage_s"] is None
+    (link,) = LINK.findall(console.get("/console/links").get_data(as_text=True))
+    app.test_client().get(link, follow_redirects=True)  # the first visit
     assert console.progress()[code]["actions"] == ["pause", "abort", "mark_pilot"]
     index = console.get("/console/").get_data(as_text=True)
     row = index[index.index(f'<tr data-code="{code}"') :]

@@ -22,6 +22,7 @@ from hcss.platform.live.clock import paused_intervals, trial_time_s
 from hcss.platform.models import (
     Participant,
     ParticipantPresence,
+    Recruitment,
     StageEvent,
     StudyEnrolment,
     Trial,
@@ -44,7 +45,7 @@ class ProgressRow:
     stage: str
     stage_number: int | None  # 1-based; None before enrolment
     stage_count: int | None
-    time_in_stage_s: float
+    time_in_stage_s: float | None  # None before the participant's first visit
     trial_clock_s: float | None  # None outside a running trial
     trial_duration_s: float | None
     last_seen_s: float | None  # seconds since the page's last heartbeat; None: never
@@ -54,6 +55,7 @@ class ProgressRow:
     is_bot: bool
     is_demo: bool
     actions: list[str]  # what the console offers for this row now
+    recruitment: str | None = None  # "prolific 5f8a…": the recruitment site and its id
 
 
 def trial_clock_s(session: Session, trial: Trial, now: float) -> float:
@@ -152,6 +154,10 @@ def progress_rows(session: Session, now: float) -> list[ProgressRow]:
     presence = presence_by_participant(session)
     states = session_states(session)
     enrolments = _latest_enrolments(session)
+    recruited = {
+        r.participant_id: f"{r.source} {r.recruitment_id}" if r.recruitment_id else r.source
+        for r in session.scalars(select(Recruitment))
+    }
     participants = list(session.scalars(select(Participant).order_by(Participant.id.desc())))
     pilots = pilot_flags(session, participants)
     rows = []
@@ -187,7 +193,9 @@ def progress_rows(session: Session, now: float) -> list[ProgressRow]:
                 stage=stage,
                 stage_number=place.stage_number,
                 stage_count=place.stage_count,
-                time_in_stage_s=max(0.0, now - since),
+                time_in_stage_s=None
+                if position.status == "not_enrolled" and trial is None
+                else max(0.0, now - since),
                 trial_clock_s=clock,
                 trial_duration_s=duration,
                 last_seen_s=last_seen,
@@ -197,6 +205,7 @@ def progress_rows(session: Session, now: float) -> list[ProgressRow]:
                 is_bot=participant.is_bot,
                 is_demo=participant.is_demo,
                 actions=available_actions(state, position.status, pilots[participant.id]),
+                recruitment=recruited.get(participant.id),
             )
         )
     return rows

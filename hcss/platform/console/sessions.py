@@ -40,8 +40,9 @@ def available_actions(state: str, status: str, is_pilot: bool) -> list[str]:
     """
     actions: list[str] = []
     if state != "aborted" and status not in FINISHED:
-        actions += ["resume"] if state == "paused" else ["pause"]
-        actions.append("abort")
+        if status != "not_enrolled":  # nothing runs yet that a pause could hold
+            actions += ["resume"] if state == "paused" else ["pause"]
+        actions.append("abort")  # for a link not yet opened: it will not open
     actions.append("unmark_pilot" if is_pilot else "mark_pilot")
     return actions
 

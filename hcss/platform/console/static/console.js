@@ -91,7 +91,15 @@
     link.textContent = p.code;
     const first = document.createElement("td");
     first.append(link);
-    const shown = p.status === "completed" || p.status === "declined" ? p.status : p.state;
+    if (p.recruitment) {
+      const id = document.createElement("span");
+      id.className = "recruitment muted";
+      id.textContent = p.recruitment;
+      first.append(id);
+    }
+    const shown = p.status === "not_enrolled" && p.state === "active" ? "not started"
+      : p.status === "completed" || p.status === "declined" ? p.status : p.state;
+    tr.dataset.search = [p.code, p.recruitment || "", p.study, shown, p.stage].join(" ").toLowerCase();
     const clock = p.trial_clock_s === null ? "–"
       : minutes(p.trial_clock_s) + " / " + Math.floor(p.trial_duration_s / 60) + " min";
     const flags = [p.is_pilot && "pilot", p.is_bot && "bot", p.is_demo && "demo"].filter(Boolean);
@@ -100,7 +108,7 @@
       cell(p.study + " · " + (p.cell === null ? "cell at first visit" : "cell " + p.cell), "study"),
       cell(shown, "session state-" + shown),
       stageCell(p),
-      cell(minutes(p.time_in_stage_s)),
+      cell(p.time_in_stage_s === null ? "–" : minutes(p.time_in_stage_s)),
       cell(clock),
       presenceCell(p),
       cell(flags.join(" ")),
@@ -109,13 +117,17 @@
     return tr;
   }
 
+  // The search box: every word must appear in the row's code, recruitment id, study, session or stage.
+  const search = document.getElementById("search");
   function applyFilters() {
     const hidden = filters.filter((box) => box.checked).map((box) => box.dataset.flag);
+    const words = search ? search.value.toLowerCase().split(/\s+/).filter(Boolean) : [];
     let total = 0;
     let shown = 0;
     for (const tr of body.querySelectorAll("tr[data-code]")) {
       total += 1;
-      tr.hidden = hidden.some((flag) => tr.dataset[flag] === "1");
+      tr.hidden = hidden.some((flag) => tr.dataset[flag] === "1")
+        || words.some((word) => !(tr.dataset.search || "").includes(word));
       if (!tr.hidden) shown += 1;
     }
     if (shownCount) shownCount.textContent = "showing " + shown + " of " + total;
@@ -124,7 +136,7 @@
   // Cells are replaced only where their content changed, so a button (and the click on it)
   // survives the refresh of everything around it.
   function sync(tr, fresh) {
-    for (const flag of ["pilot", "bot", "demo"]) tr.dataset[flag] = fresh.dataset[flag];
+    for (const flag of ["pilot", "bot", "demo", "search"]) tr.dataset[flag] = fresh.dataset[flag];
     const old = Array.from(tr.children);
     const now = Array.from(fresh.children);
     if (old.length !== now.length) {
@@ -186,6 +198,7 @@
       applyFilters();
     });
   }
+  if (search) search.addEventListener("input", applyFilters);
   applyFilters();
   setInterval(poll, Number(table.dataset.pollMs) || 2000);
 })();
