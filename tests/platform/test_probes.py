@@ -194,6 +194,23 @@ def test_latencies_are_wall_clock_milliseconds_from_delivery(
     with (out / "probes.csv").open() as handle:
         row = next(r for r in csv.DictReader(handle) if r["probe_index"] == str(probe["index"]))
     assert (float(row["ready_latency_ms"]), float(row["answer_latency_ms"])) == (250.0, 333.0)
+    # 333 ms is quicker than anyone reads a question: flagged (the study file's 1000 ms).
+    assert row["fast_answer"] == "true"
+
+
+def test_the_fast_answer_threshold_is_a_checked_study_setting() -> None:
+    import tomllib
+
+    from hcss.platform.study.files import study_text
+    from hcss.platform.study.studyfile import StudyFileError, load_study, parse_study
+
+    assert load_study("original").fast_answer_ms == 1000
+    doc = tomllib.loads(study_text("demo")[1].decode())
+    doc["probes"]["fast_answer_ms"] = 600
+    assert parse_study(doc, source="demo.toml").fast_answer_ms == 600
+    doc["probes"]["fast_answer_ms"] = -5
+    with pytest.raises(StudyFileError, match="probes.fast_answer_ms"):
+        parse_study(doc, source="demo.toml")
 
 
 def test_the_study_files_probe_counts_reach_the_runner_and_survive_a_rebuild(

@@ -27,8 +27,13 @@ from hcss.platform.models import (
     Trial,
 )
 from hcss.platform.naming import collective_name
+from hcss.platform.study.enrolment import current_enrolment
+from hcss.platform.study.studyfile import Study, StudyFileError, load_study
 from hcss.simulation import DECISION_COLUMNS
 from hcss.simulation.params import Params
+
+#: `[probes] fast_answer_ms` of a study file that does not set it.
+DEFAULT_FAST_MS = Study.__dataclass_fields__["fast_answer_ms"].default
 
 Row = dict[str, Any]
 
@@ -131,10 +136,22 @@ def probe_rows(session: Session, trial: Trial, code: str, problems: ProblemLog) 
         .order_by(ProbeEvent.id)
     ):
         events[event.probe_id].append(event)
-    return [_probe_row(trial, code, probe, events[probe.id]) for probe in probes]
+    fast_ms = fast_answer_ms(session, trial.participant_id)
+    return [_probe_row(trial, code, probe, events[probe.id], fast_ms) for probe in probes]
 
 
-def _probe_row(trial: Trial, code: str, probe: Probe, events: Iterable[ProbeEvent]) -> Row:
+def fast_answer_ms(session: Session, participant_id: int) -> int:
+    """The participant's study's `[probes] fast_answer_ms` (the default without a study)."""
+    enrolment = current_enrolment(session, participant_id)
+    try:
+        return load_study(enrolment.study).fast_answer_ms if enrolment else DEFAULT_FAST_MS
+    except StudyFileError:  # a study file since removed: its data still export
+        return DEFAULT_FAST_MS
+
+
+def _probe_row(
+    trial: Trial, code: str, probe: Probe, events: Iterable[ProbeEvent], fast_ms: int
+) -> Row:
     first: dict[str, ProbeEvent] = {}
     for event in events:  # the first of each kind counts; later ones are never expected
         first.setdefault(event.kind, event)
@@ -150,6 +167,9 @@ def _probe_row(trial: Trial, code: str, probe: Probe, events: Iterable[ProbeEven
         "truth": scored.truth if scored is not None and scored.truth else probe.truth,
         "correct": None if scored is None else scored.correct,
         "timed_out": answer is None and "timeout" in first,
+        "fast_answer": None
+        if answer is None or answer.latency_ms is None
+        else answer.latency_ms < fast_ms,
     }
 
 

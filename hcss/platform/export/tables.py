@@ -109,6 +109,7 @@ TABLES: dict[str, tuple[tuple[str, str], ...]] = {
         ("truth", "str"),
         ("correct", "bool"),
         ("timed_out", "bool"),
+        ("fast_answer", "bool"),
     ),
     "questionnaire_items": (
         ("participant", "str"),

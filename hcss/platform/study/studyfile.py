@@ -84,6 +84,7 @@ class Study:
     cells: tuple[Cell, ...]
     digest: str  # sha256 of the file, stored with each enrolment
     online: OnlineSettings = OnlineSettings()  # the `[online]` table: study link, completion
+    fast_answer_ms: int = 1000  # `[probes] fast_answer_ms`: quicker answers are flagged
     requirements: Requirements = Requirements()  # the device checked before consent
 
     def cell(self, number: int) -> Cell:
@@ -157,6 +158,9 @@ class ProbesTable(_Table):
     perception: int
     comprehension: int
     projection: int
+    #: An answer given sooner after its question showed is flagged in the export
+    #: (`probes.fast_answer`): too fast to have read the question.
+    fast_answer_ms: Annotated[int, Field(ge=0, le=30_000)] = 1000
 
     @field_validator("perception", "comprehension", "projection")
     @classmethod
@@ -329,6 +333,7 @@ def parse_study(
         probe_counts={
             int(level): getattr(schema.probes, level.name.lower()) for level in ProbeLevel
         },
+        fast_answer_ms=schema.probes.fast_answer_ms,
         cells=_cells(schema.counterbalancing, models, source, text),
         digest=digest,
         online=schema.online,
