@@ -117,7 +117,7 @@ def model_table(name: str, model: ClusteredModel) -> Table:
         for term in model.terms
     ]
     rows += [
-        (f"Variance: {component.name}", format_number(component.variance, 3), "", "")
+        (f"Variance: {component.name}", f"{component.variance:.3g}", "", "")
         for component in model.variance
         if model.terms
     ]

@@ -131,8 +131,8 @@ def _section_html(section: Section, figures: list[str]) -> str:
     parts += [_table_html(table) for table in section.tables]
     if section.details:
         parts.append(
-            f"<details><summary>Per-scale tables ({len(section.details)}): mean (SD) and "
-            "median (min–max)</summary>"
+            f"<details><summary>{html.escape(section.details_label)} "
+            f"({len(section.details)})</summary>"
             + "".join(_table_html(table) for table in section.details)
             + "</details>"
         )

@@ -80,7 +80,8 @@ class Section:
     intro: str = ""
     tables: tuple[Table, ...] = ()
     figures: tuple[tuple[str, Callable[[], Figure]], ...] = field(default=())
-    details: tuple[Table, ...] = ()  # written and linked, shown folded (per-scale tables)
+    details: tuple[Table, ...] = ()  # written and linked, shown folded
+    details_label: str = "Per-measure tables: mean (SD) and median (min–max)"
 
 
 def _family_section(family, measures, summary, kruskal, friedman, extra=()) -> Section | None:
@@ -184,19 +185,23 @@ def _test_sections(
             pvalue_matrix(family, family.members(measures), omnibus, repeated)
             for family in FAMILIES
         ]
-        independent = [kruskal_table(omnibus), *[t for t in posthoc_tables(omnibus) if t.rows]]
-        independent += [m for m in matrices if m]
+        independent = [kruskal_table(omnibus), *[m for m in matrices if m]]
+        pairwise = [t for t in posthoc_tables(omnibus) if t.rows]
         sections.append(
             Section(
                 "independent",
                 "Model comparisons as in the paper",
                 f"{INDEPENDENT_NOTE} {MULTIPLICITY_NOTE}",
                 tuple(table for table in independent if table.rows),
+                details=tuple(pairwise),
+                details_label="Every pair of every post-hoc test (the matrices above summarise them)",
             )
         )
     design = []
+    paired: tuple[Table, ...] = ()
     if repeated:
-        design += [friedman_table(repeated), paired_wilcoxon_table(repeated)]
+        design.append(friedman_table(repeated))
+        paired = tuple(t for t in [paired_wilcoxon_table(repeated)] if t.rows)
     if (tables.decisions["source"] == "study").any():
         for name, model in (
             ("gee_success", success_gee(tables.decisions, tables.participants)),
@@ -212,6 +217,9 @@ def _test_sections(
                 "Repeated-measures analyses",
                 f"{REPEATED_NOTE} {MULTIPLICITY_NOTE}",
                 tuple(design),
+                details=paired,
+                details_label="Paired Wilcoxon tests, every pair (their Holm p is below the "
+                "diagonal of the matrices in the previous section)",
             )
         )
     return sections
