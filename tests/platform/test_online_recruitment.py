@@ -19,6 +19,9 @@ from hcss.platform.study.enrolment import cell_counts
 from hcss.platform.study.online import OnlineSettings, Recruit, RecruitmentError
 from hcss.platform.study.recruitment import enrol_or_resume
 from hcss.platform.study.studyfile import StudyFileError, load_study, parse_study
+from tests.platform import console_support
+
+console, experimenter = console_support.console, console_support.experimenter
 
 PROLIFIC = {"PROLIFIC_PID": "5f8a1b2c3d4e5f6a7b8c9d0e", "STUDY_ID": "S123", "SESSION_ID": "X9"}
 
@@ -398,3 +401,38 @@ def test_the_requirements_table_is_checked(requirements: dict, message: str) -> 
     doc["requirements"] = requirements
     with pytest.raises(StudyFileError, match=re.escape(message)):
         parse_study(doc, source="demo.toml")
+
+
+def test_a_recruitment_target_closes_the_link_and_the_console_shows_it(
+    app, console, tmp_path, monkeypatch
+) -> None:  # type: ignore[no-untyped-def]
+    from hcss.platform.study.files import STUDIES_ENV, study_text
+
+    text = study_text("demo")[1].decode()
+    text = text.replace('name = "demo"', 'name = "capped"').replace(
+        "[online]\n", "[online]\ntarget = 2\n"
+    )
+    (tmp_path / "studies").mkdir()
+    (tmp_path / "studies" / "capped.toml").write_text(text)
+    monkeypatch.setenv(STUDIES_ENV, str(tmp_path / "studies"))
+    first = _join(app.test_client(), "capped", PROLIFIC_PID="p1")
+    assert first.status_code == 302
+    assert _join(app.test_client(), "capped", PROLIFIC_PID="p2").status_code == 302
+    index = console.get("/console/").get_data(as_text=True)
+    assert "2 of 2 real participants in progress or completed" in index and "full:" in index
+
+    full = _join(app.test_client(), "capped", PROLIFIC_PID="p3")
+    assert full.status_code == 200 and 'data-stage="study_full"' in full.get_data(as_text=True)
+    assert _count(app, Participant) == 2 and _count(app, Recruitment) == 2
+    # A Start pressed on a first page opened before the last place went: refused too.
+    client = app.test_client()
+    csrf = re.search(
+        r'name="csrf_token" value="([^"]+)"', client.get("/join/demo").get_data(as_text=True)
+    )
+    late = client.post(
+        "/join/capped", data={"csrf_token": csrf.group(1), "PROLIFIC_PID": "p4", **LAPTOP}
+    )
+    assert late.status_code == 200 and 'data-stage="study_full"' in late.get_data(as_text=True)
+    assert _count(app, Participant) == 2
+    # Someone already enrolled still gets back in.
+    assert _join(app.test_client(), "capped", PROLIFIC_PID="p1").location == first.location

@@ -28,6 +28,7 @@ from flask import (
 )
 from flask_login import LoginManager, current_user, login_required, login_user, logout_user
 from sqlalchemy import select
+from sqlalchemy.orm import Session
 
 from hcss.platform.console import eventlog, forms
 from hcss.platform.console.accounts import authenticate
@@ -56,6 +57,9 @@ from hcss.platform.models import AuditRecord, ConsoleAction, Experimenter, Parti
 from hcss.platform.pilots import is_pilot
 from hcss.platform.session_state import session_state
 from hcss.platform.study.enrolment import current_enrolment
+from hcss.platform.study.files import study_names
+from hcss.platform.study.recruitment import Enrolled, enrolled
+from hcss.platform.study.studyfile import StudyFileError, load_study
 
 bp = Blueprint("console", __name__, url_prefix="/console", static_folder="static")
 login_manager = LoginManager()
@@ -162,10 +166,24 @@ def index() -> str:
         create_form=forms.CreateParticipantsForm(),
         action_form=forms.ActionForm(),
         audits=audit_entries(audits),
+        recruitment=recruitment_targets(session),
         action_labels=ACTION_LABELS,
         connected_within_s=CONNECTED_WITHIN_S,
         poll_s=float(current_app.config.get("CONSOLE_POLL_S", 2.0)),
     )
+
+
+def recruitment_targets(session: Session) -> list[Enrolled]:
+    """Each study with a study link and a recruitment target: how far it is."""
+    studies = []
+    for name in study_names():
+        try:
+            study = load_study(name)
+        except StudyFileError:  # a broken file is reported when it is used, not here
+            continue
+        if study.online.link and (study.online.target or study.online.cell_target):
+            studies.append(enrolled(session, study))
+    return studies
 
 
 @bp.get("/progress.json")

@@ -115,7 +115,7 @@ def assign_cell(
     if existing is not None:
         _check_reassignable(session, participant, existing, chosen_study)
     pool = pool_of(participant)
-    _one_assignment_at_a_time(session)
+    hold_assignment_lock(session)
     if override is not None:
         if isinstance(override, bool) or not isinstance(override, int):
             raise ValueError(f"a cell is a whole number, got {override!r}")
@@ -150,14 +150,14 @@ def first_enrolment(session: Session, participant: Participant) -> StudyEnrolmen
     queues on the assignment lock and looks again, so only the first enrols
     and the others read its row.
     """
-    _one_assignment_at_a_time(session)
+    hold_assignment_lock(session)
     existing = current_enrolment(session, participant.id)
     if existing is not None:
         return existing
     return assign_cell(session, participant)
 
 
-def _one_assignment_at_a_time(session: Session) -> None:
+def hold_assignment_lock(session: Session) -> None:
     """Two participants arriving at once must not both see the same counts.
 
     PostgreSQL: a transaction-scoped advisory lock queues concurrent

@@ -12,9 +12,18 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass
+from typing import Annotated
 from urllib.parse import urlsplit
 
-from pydantic import ConfigDict, StrictBool, StrictStr, ValidationInfo, field_validator
+from pydantic import (
+    ConfigDict,
+    Field,
+    StrictBool,
+    StrictInt,
+    StrictStr,
+    ValidationInfo,
+    field_validator,
+)
 from pydantic.dataclasses import dataclass as pydantic_dataclass
 from werkzeug.datastructures import MultiDict
 
@@ -90,6 +99,11 @@ class OnlineSettings:
     # For a visitor turned away by `[requirements]` or who declines consent.
     screenout_code: StrictStr = ""
     screenout_url: StrictStr = ""
+    # The recruitment target: the link closes ("study full") once this many real
+    # participants are in progress or completed (0: no target), or once every
+    # counterbalancing cell holds `cell_target` of them.
+    target: Annotated[StrictInt, Field(ge=0)] = 0
+    cell_target: Annotated[StrictInt, Field(ge=0)] = 0
 
     @field_validator("completion_code", "screenout_code")
     @classmethod

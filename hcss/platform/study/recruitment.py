@@ -23,7 +23,7 @@ from werkzeug.wrappers import Response
 
 from hcss.platform.db import get_session
 from hcss.platform.models import Participant, Recruitment
-from hcss.platform.study.enrolment import assign_cell
+from hcss.platform.study.enrolment import assign_cell, cell_counts, hold_assignment_lock
 from hcss.platform.study.online import (
     HitPreview,
     Recruit,
@@ -46,6 +46,47 @@ MAX_STUDY_NAME = 64
 
 class NoStudyLink(RecruitmentError):
     """No study of that name offers a link (a 404, not a 400)."""
+
+
+class StudyFull(RecruitmentError):
+    """The study has reached its recruitment target: no one new is enrolled."""
+
+
+@dataclass(frozen=True)
+class Enrolled:
+    """How far a study's recruitment is: real participants in progress or completed."""
+
+    study: str
+    total: int
+    target: int  # 0: none
+    cell_target: int  # 0: none
+    cells: dict[int, int]
+
+    @property
+    def full(self) -> bool:
+        if self.target and self.total >= self.target:
+            return True
+        return bool(self.cell_target) and all(n >= self.cell_target for n in self.cells.values())
+
+
+def enrolled(session: Session, study: Study) -> Enrolled:
+    """The study's real participants who count against its targets, per cell."""
+    counts = cell_counts(session, study, "real")
+    return Enrolled(
+        study.name,
+        sum(counts.values()),
+        study.online.target,
+        study.online.cell_target,
+        dict(sorted(counts.items())),
+    )
+
+
+def _check_room(session: Session, study: Study) -> None:
+    if (study.online.target or study.online.cell_target) and enrolled(session, study).full:
+        raise StudyFull(
+            "This study has all the participants it needs, so it cannot take you. "
+            "Thank you for your interest."
+        )
 
 
 @dataclass(frozen=True)
@@ -96,6 +137,9 @@ def enrol_or_resume(session: Session, study: Study, recruit: Recruit) -> Partici
     if found is not None:
         return found
     _check_anonymous(study, recruit)
+    # Counted under the assignment lock, so two last arrivals cannot both take the last place.
+    hold_assignment_lock(session)
+    _check_room(session, study)
     try:
         participant = Participant()
         session.add(participant)
@@ -149,6 +193,9 @@ def join(study_name: str) -> Response | tuple[str, int] | str:
         if found is not None:
             return redirect(url_for("study.enter", token=found.token))
         _check_anonymous(study, recruit)
+        _check_room(get_session(), study)
+    except StudyFull as full:
+        return _study_full(study, str(full))
     except HitPreview as preview:
         return render_template("study/join_preview.html", message=str(preview), study=study)
     except NoStudyLink as refusal:
@@ -185,8 +232,19 @@ def start(study_name: str) -> Response | tuple[str, int] | str:
             return render_template(
                 "study/screened_out.html", reasons=reasons, leave=screen_out_link(study)
             )
-    participant = enrol_or_resume(session, study, recruit)
+    try:
+        participant = enrol_or_resume(session, study, recruit)
+    except StudyFull as full:
+        session.rollback()
+        return _study_full(study, str(full))
     return redirect(url_for("study.enter", token=participant.token))
+
+
+def _study_full(study: Study, message: str) -> str:
+    """The page for a new visitor once the study has reached its target; nothing recorded."""
+    return render_template(
+        "study/join_full.html", study=study, message=message, leave=screen_out_link(study)
+    )
 
 
 def _check_anonymous(study: Study, recruit: Recruit) -> None:
