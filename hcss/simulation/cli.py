@@ -14,17 +14,21 @@ from hcss.analysis.summary import summarise_decisions
 from hcss.simulation import calibrate as cal
 from hcss.simulation import experiment as exp
 from hcss.simulation import fidelity as fid
+from hcss.simulation import fit_study as fs
 from hcss.simulation.engine import Simulation
 from hcss.simulation.operators import OPERATORS
 from hcss.simulation.params import (
+    ABANDONMENT_READINGS,
     DISCOVERY_READINGS,
     FOREIGN_TARGETS,
+    G_READINGS,
     M2_BEYOND_DMAX,
     M2_DISTANCE_BOUNDS,
     MODELS,
     ROMAN,
     Params,
 )
+from hcss.simulation.presets import DEFAULT_PRESET, PRESETS, preset_params
 from hcss.simulation.scenario import Scenario
 from hcss.simulation.view import Display
 
@@ -43,6 +47,15 @@ _WORKERS = click.option(
     default=2,
     show_default=True,
     help="Local processes.",
+)
+
+
+_PRESET = click.option(
+    "--preset",
+    type=click.Choice(tuple(PRESETS)),
+    default=DEFAULT_PRESET,
+    show_default=True,
+    help="Named parameter set (docs/simulation-notes.md); readings given below override it.",
 )
 
 
@@ -81,7 +94,7 @@ def _batch_options(command: F) -> F:
             click.option(
                 "--seed",
                 type=int,
-                default=20_150_000,
+                default=exp.DEFAULT_SCENARIO_SEED,
                 show_default=True,
                 help="Seed of the first scenario.",
             ),
@@ -93,6 +106,7 @@ def _batch_options(command: F) -> F:
 
 @simulate.command()
 @click.option("--model", type=click.Choice(MODELS), default="M1", show_default=True)
+@_PRESET
 @click.option("--seed", type=int, default=1, show_default=True, help="Scenario seed.")
 @click.option(
     "--first-section", type=click.Choice(["easy", "difficult"]), default="easy", show_default=True
@@ -111,12 +125,16 @@ def _batch_options(command: F) -> F:
     show_default=True,
     help="Trial length.",
 )
-def demo(model: str, seed: int, first_section: str, speed: float, minutes: float) -> None:
+def demo(
+    model: str, preset: str, seed: int, first_section: str, speed: float, minutes: float
+) -> None:
     """A four-collective trial, paced against the wall clock, with a live text summary."""
-    sim = Simulation(Scenario.generate(seed, first_section=first_section), model, None)
+    params = preset_params(preset)
+    sim = Simulation(Scenario.generate(seed, first_section=first_section), model, params)
     limit = minutes * 60.0
     click.echo(
-        f"{model} trial, seed {seed}, {first_section} section first, {speed:g}x real time. Ctrl-C stops."
+        f"{model} trial ({preset}), seed {seed}, {first_section} section first, "
+        f"{speed:g}x real time. Ctrl-C stops."
     )
     started = time.monotonic()
     bar = tqdm(total=int(limit), unit="sim s", desc="trial", dynamic_ncols=True)
@@ -140,6 +158,7 @@ def demo(model: str, seed: int, first_section: str, speed: float, minutes: float
 
 
 @simulate.command()
+@_PRESET
 @_size_options(runs=10, runs_help="Runs per scenario and model.")
 @click.option(
     "--models",
@@ -161,6 +180,7 @@ def demo(model: str, seed: int, first_section: str, speed: float, minutes: float
     "--models then defaults to M1,M2,M3.",
 )
 def experiment(
+    preset: str,
     scenarios: int,
     runs: int,
     models: str | None,
@@ -191,18 +211,21 @@ def experiment(
     jobs = exp.jobs_for(exp.experiment_scenarios(scenarios, seed), chosen, runs, operator)
     where = f"Dask ({dask_address})" if dask_address else f"{workers} local process(es)"
     click.echo(
-        f"{len(jobs)} runs ({scenarios} scenarios × {runs} runs × {', '.join(chosen)}) on {where}."
+        f"{len(jobs)} runs ({scenarios} scenarios × {runs} runs × {', '.join(chosen)}) "
+        f"on {where}, preset {preset}."
     )
     started = time.perf_counter()
     with tqdm(total=len(jobs), unit="run", desc="experiment", dynamic_ncols=True) as bar:
-        rows = exp.run_jobs(jobs, workers, dask_address, on_done=bar.update)
+        rows = exp.run_jobs(
+            jobs, workers, dask_address, on_done=bar.update, params=preset_params(preset)
+        )
     elapsed = time.perf_counter() - started
     out.mkdir(parents=True, exist_ok=True)
     exp.write_decisions(rows, out / "decisions.csv")
     table = summarise_decisions(out / "decisions.csv")
     (out / "summary.md").write_text(
         f"# {'Operated experiment: ' + operator if operator else 'Simulation-only experiment'}\n\n"
-        f"{len(jobs)} runs, {len(rows)} decisions, {elapsed:.0f} s.\n\n"
+        f"{len(jobs)} runs, {len(rows)} decisions, {elapsed:.0f} s, preset {preset}.\n\n"
         "Unit: the scenario (each run's success rate and mean decision time, averaged over "
         "the scenario's runs), as `hcss analyze` computes it.\n\n"
         f"{table}\n",
@@ -233,20 +256,23 @@ def _reading_options(command: F) -> F:
             ("m2-distance-bounds", M2_DISTANCE_BOUNDS),
             ("m2-beyond-dmax", M2_BEYOND_DMAX),
             ("foreign-targets", FOREIGN_TARGETS),
+            ("abandonment", ABANDONMENT_READINGS),
+            ("m2-g-reading", G_READINGS),
         )
     ):
         command = click.option(
             f"--{name}",
             type=click.Choice(choices),
             default=None,
-            help="Override this reading (default: params.py).",
+            help="Override this reading of the preset.",
         )(command)
-    return command
+    return _PRESET(command)
 
 
-def _params_with(**readings: object) -> Params:
+def _params_with(preset: str = DEFAULT_PRESET, **readings: object) -> Params:
+    """The preset's params with the readings given on the command line."""
     changes = {k: v for k, v in readings.items() if v is not None}
-    return Params().with_changes(**changes) if changes else Params()
+    return preset_params(preset).with_changes(**changes)
 
 
 @simulate.command()
@@ -258,19 +284,96 @@ def _params_with(**readings: object) -> Params:
     show_default=True,
     help="Walks per fit of the sensing radius.",
 )
-@_size_options(runs=2, runs_help="Runs per scenario for each r_msg tried.", min_scenarios=2)
+@_size_options(
+    runs=2,
+    runs_help="Runs per scenario for each r_msg tried, or each search trial.",
+    min_scenarios=2,
+)
 @click.option("--iterations", type=click.IntRange(min=2, max=20), default=4, show_default=True)
 @_WORKERS
+@click.option(
+    "--to",
+    "to",
+    type=click.Choice(["published", "study"]),
+    default="published",
+    show_default=True,
+    help="published: the sensing radius to g(d) and r_msg to M1's 2.46 min, one at a time; "
+    "study: readings and unstated values jointly to the study's eight split cells.",
+)
+@click.option(
+    "--budget",
+    type=click.IntRange(min=1, max=100_000),
+    default=120,
+    show_default=True,
+    help="--to study: search trials (each a reduced experiment).",
+)
+@click.option(
+    "--finalists",
+    type=click.IntRange(min=1, max=100),
+    default=3,
+    show_default=True,
+    help="--to study: best search trials run on the full experiment.",
+)
+@click.option(
+    "--final-runs",
+    type=click.IntRange(min=1, max=10_000),
+    default=10,
+    show_default=True,
+    help="--to study: runs per scenario and model for the finalists.",
+)
+@click.option(
+    "--sampler-seed", type=int, default=1, show_default=True, help="--to study: the search's seed."
+)
+@click.option("--dask", "dask_address", default=None, help="--to study: Dask scheduler or 'local'.")
+@click.option(
+    "--out",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=Path("out/calibration"),
+    show_default=True,
+    help="--to study: trials (resumable), fit.json, report.md.",
+)
 def calibrate(
-    radius_runs: int, scenarios: int, runs: int, iterations: int, workers: int, **readings: object
+    radius_runs: int,
+    scenarios: int,
+    runs: int,
+    iterations: int,
+    workers: int,
+    to: str,
+    budget: int,
+    finalists: int,
+    final_runs: int,
+    sampler_seed: int,
+    dask_address: str | None,
+    out: Path,
+    **readings: object,
 ) -> None:
     """Re-fit the shared calibrations from the engine and print the fit.
 
-    The sensing radius (discovery "spatial") so that a collective's first
-    explorer finds a site at d after the study's 1/g(d); then r_msg so that
-    M1's mean decision time in the simulation-only experiment is 2.46 min.
-    Copy the printed values into hcss/simulation/params.py.
+    --to published (the default): the sensing radius (discovery "spatial") so
+    that a collective's first explorer finds a site at d after the study's
+    1/g(d); then r_msg so that M1's mean decision time in the simulation-only
+    experiment is 2.46 min. Copy the printed values into params.py.
+
+    --to study: the readings and the values the paper does not state, fitted
+    jointly for M1 and M2 to the study's eight published split cells (optuna
+    over reduced experiments, then the finalists on the full one). Resumes an
+    interrupted run in the same --out. Copy fit.json into presets.py.
     """
+    if to == "study":
+        _calibrate_to_study(
+            fs.Settings(
+                budget=budget,
+                scenarios=scenarios,
+                runs=runs,
+                finalists=finalists,
+                final_runs=final_runs,
+                seed=sampler_seed,
+            ),
+            workers,
+            dask_address,
+            out,
+        )
+        return
     params = _params_with(**readings)
     click.echo(
         f"Calibrating with dt = {params.dt_s:g} s, discovery = {params.discovery}, "
@@ -310,6 +413,39 @@ def calibrate(
     )
 
 
+def _calibrate_to_study(
+    settings: fs.Settings, workers: int, dask_address: str | None, out: Path
+) -> None:
+    click.echo(
+        f"Calibrating to the study's eight split cells: {settings.budget} search trials of "
+        f"{settings.scenarios} scenarios × {settings.runs} run(s), then {settings.finalists} "
+        f"finalist(s) × {settings.final_runs} runs; trials kept in {out}."
+    )
+    try:
+        study = fs.open_study(out, settings)
+    except ValueError as error:
+        raise click.BadParameter(str(error), param_hint="--out") from None
+    done = len(fs.completed(study))
+    with tqdm(
+        total=settings.budget, initial=min(done, settings.budget), unit="trial", desc="search"
+    ) as bar:
+
+        def on_trial(number: int, e: fs.Evaluation) -> None:
+            bar.update(1)
+            bar.set_postfix_str(f"loss {e.loss:.2f}, {e.met}/8", refresh=False)
+
+        result = fs.calibrate(
+            out,
+            settings,
+            workers,
+            dask_address,
+            on_trial=on_trial,
+            on_finalist=lambda e: bar.write(f"finalist: loss {e.loss:.2f}, {e.met} of 8"),
+        )
+    click.echo(fs.report(result, settings))
+    click.echo(f"Written: {out / 'report.md'}, {out / 'fit.json'}, {out / 'trials.csv'}.")
+
+
 @simulate.command()
 @_reading_options
 @_size_options(runs=2, runs_help="Runs per scenario and variant.", min_scenarios=2)
@@ -320,27 +456,47 @@ def calibrate(
     show_default=True,
     help="Also run M2 without F_D, without F_R and without M_i.",
 )
-def fidelity(scenarios: int, runs: int, workers: int, ablations: bool, **readings: object) -> None:
+@click.option(
+    "--seed",
+    type=int,
+    default=exp.DEFAULT_SCENARIO_SEED,
+    show_default=True,
+    help="Seed of the first scenario.",
+)
+def fidelity(
+    scenarios: int, runs: int, workers: int, ablations: bool, seed: int, **readings: object
+) -> None:
     """The reduced experiment for M1, M2 and M2's ablations, as Markdown with standard errors.
 
-    Also prints which of the study's qualitative claims (spec §10) the rows meet.
+    Also prints M1's and M2's split cells beside the study's published ones,
+    and which of the study's qualitative claims (spec §10) the rows meet.
+    Use --seed of a block the calibration did not search to validate a preset
+    out of sample.
     """
     params = _params_with(**readings)
     click.echo(
-        f"Reduced experiment: {scenarios} scenarios × {runs} runs; discovery = {params.discovery}, "
-        f"m2_distance_bounds = {params.m2_distance_bounds}, m2_beyond_dmax = {params.m2_beyond_dmax}, "
-        f"foreign_targets = {params.foreign_targets}, r_msg = {params.message_rate:g}/s.\n"
+        f"Reduced experiment: {scenarios} scenarios × {runs} runs, scenario seeds from {seed}; "
+        f"preset {params.preset}: discovery = {params.discovery}, "
+        f"d_max = {params.m2_d_max_m:g} m ({params.m2_distance_bounds}), "
+        f"m2_beyond_dmax = {params.m2_beyond_dmax}, foreign_targets = {params.foreign_targets}, "
+        f"abandonment = {params.abandonment} (α scale {params.abandon_scale:g}), "
+        f"g = {params.m2_g_reading}, r_msg = {params.message_rate:g}/s, "
+        f"sensing radius = {params.sensing_radius_m:g} m, turn sd = {params.turn_sd_rad:g}.\n"
     )
     started = time.perf_counter()
-    table = fid.run_fidelity(
+    rows = fid.variant_rows(
         params,
         scenarios,
         runs,
         workers,
         ablations,
         on_variant=lambda label: click.echo(f"  running {label}", err=True),
+        seed=seed,
     )
+    table = [cell for label, variant in rows for cell in fid.cells(label, variant)]
     click.echo(fid.fidelity_table(table))
+    click.echo("\nPer decision, beside the study's published simulation-only results:\n")
+    click.echo(fid.study_comparison(rows))
     click.echo("")
     click.echo(fid.claims_table(table))
     click.echo(f"\n{time.perf_counter() - started:.0f} s.")
@@ -379,6 +535,7 @@ def meanfield(runs: int, **readings: object) -> None:
 
 
 @simulate.command("sweep")
+@_PRESET
 @click.option(
     "--param",
     "param_specs",
@@ -397,6 +554,7 @@ def meanfield(runs: int, **readings: object) -> None:
     show_default=True,
 )
 def sweep_command(
+    preset: str,
     param_specs: tuple[str, ...],
     scenarios: int,
     runs: int,
@@ -421,7 +579,7 @@ def sweep_command(
         )
     try:
         axes = tuple(sw.parse_axis(spec) for spec in param_specs)
-        plan = sw.Sweep(axes, scenarios, runs, chosen, seed)
+        plan = sw.Sweep(axes, scenarios, runs, chosen, seed, preset)
         n_cells = len(plan.cells)
         pending = sw.prepare(plan, out)
     except sw.SweepError as error:

@@ -28,7 +28,7 @@ class Constants(NamedTuple):
     stop_probability: float  # per step, 1 - exp(-P_U^I·dt)
     leave_probability: float  # per step, 1 - exp(-P_L·dt)
     message_rate: float
-    abandon_alpha: float
+    abandon_alpha: float  # α times its scale (params.abandon_scale)
     abandon_unit_m: float
     neighbour_draws: int
     quorum_k: int
@@ -38,6 +38,8 @@ class Constants(NamedTuple):
     discovery_delay: bool  # M2's mechanisms in force for this model
     reassessment_delay: bool
     modulation: bool
+    abandon_rate: bool  # params.abandonment == "rate"
+    g_value_inside: bool  # params.m2_g_reading == "value_inside"
 
 
 @functools.lru_cache(maxsize=256)
@@ -55,7 +57,7 @@ def constants_for(params: Params, model: str) -> Constants:
         stop_probability=-math.expm1(-params.stop_exploring_rate * params.dt_s),
         leave_probability=-math.expm1(-params.resume_rate * params.dt_s),
         message_rate=float(params.message_rate),
-        abandon_alpha=float(params.abandon_alpha),
+        abandon_alpha=float(params.abandon_alpha * params.abandon_scale),
         abandon_unit_m=float(params.abandon_unit_m),
         neighbour_draws=int(params.neighbour_draws),
         quorum_k=int(params.quorum_k),
@@ -65,4 +67,6 @@ def constants_for(params: Params, model: str) -> Constants:
         discovery_delay=params.m2_uses(model, "discovery_delay"),
         reassessment_delay=params.m2_uses(model, "reassessment_delay"),
         modulation=params.m2_uses(model, "modulation"),
+        abandon_rate=params.abandonment == "rate",
+        g_value_inside=params.m2_g_reading == "value_inside",
     )

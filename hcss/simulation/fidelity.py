@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hcss.simulation import experiment as exp
+from hcss.simulation import study_targets as st
 from hcss.simulation.calibrate import STUDY_M1_DECISION_MIN
 from hcss.simulation.params import M2_MECHANISMS, Params
 
@@ -86,6 +87,25 @@ def variants(params: Params, ablations: bool = True) -> list[tuple[str, str, Par
     return runs
 
 
+def variant_rows(
+    params: Params,
+    scenarios: int = 28,
+    runs: int = 2,
+    workers: int = 2,
+    ablations: bool = True,
+    on_variant: Callable[[str], None] | None = None,
+    seed: int = exp.DEFAULT_SCENARIO_SEED,
+) -> list[tuple[str, list[dict]]]:
+    """(label, decision rows) of every variant, on the same scenarios and runs."""
+    out = []
+    for label, model, variant_params in variants(params, ablations):
+        if on_variant is not None:
+            on_variant(label)
+        jobs = exp.jobs_for(exp.experiment_scenarios(scenarios, seed), [model], runs)
+        out.append((label, exp.run_jobs(jobs, workers, params=variant_params)))
+    return out
+
+
 def run_fidelity(
     params: Params,
     scenarios: int = 28,
@@ -93,15 +113,21 @@ def run_fidelity(
     workers: int = 2,
     ablations: bool = True,
     on_variant: Callable[[str], None] | None = None,
+    seed: int = exp.DEFAULT_SCENARIO_SEED,
 ) -> list[Cell]:
     """The reduced experiment for every variant, on the same scenarios and runs."""
-    table: list[Cell] = []
-    for label, model, variant_params in variants(params, ablations):
-        if on_variant is not None:
-            on_variant(label)
-        jobs = exp.jobs_for(exp.experiment_scenarios(scenarios), [model], runs)
-        table.extend(cells(label, exp.run_jobs(jobs, workers, params=variant_params)))
-    return table
+    rows = variant_rows(params, scenarios, runs, workers, ablations, on_variant, seed)
+    return [cell for label, variant in rows for cell in cells(label, variant)]
+
+
+def study_comparison(rows: list[tuple[str, list[dict]]]) -> str:
+    """M1's and M2's split cells beside the study's published ones (study_targets)."""
+    measured = st.measure(r for label, variant in rows if label in ("M1", "M2") for r in variant)
+    return (
+        f"{st.comparison_table(measured)}\n\n{st.cells_met(measured)} of 8 published numbers "
+        f"within their band (±{st.SR_BAND_POINTS:g} points, ±{st.DT_BAND_MIN:g} min); "
+        f"loss {st.loss(measured):.2f}."
+    )
 
 
 def fidelity_table(table: list[Cell]) -> str:

@@ -17,10 +17,12 @@ import numpy as np
 # Named readings of the paper where it can be read more than one way. Each
 # option is a string, so that a trial's stored params record which one it used.
 DISCOVERY_READINGS = ("spatial", "per_agent")
-M2_DISTANCE_BOUNDS = ("site_distances", "search_space")
+M2_DISTANCE_BOUNDS = ("site_distances", "search_space", "fitted")
 M2_BEYOND_DMAX = ("guard", "clamp")
 FOREIGN_TARGETS = ("eligible", "own_only")
 M2_MECHANISMS = ("discovery_delay", "reassessment_delay", "modulation")
+ABANDONMENT_READINGS = ("per_visit", "rate")
+G_READINGS = ("distance_only", "value_inside")
 
 
 @dataclass(frozen=True)
@@ -64,6 +66,10 @@ class Params:
     message_rate: float = 1.65
     abandon_alpha: float = 0.05  # [choice] "5% per metre", read per 100 m
     abandon_unit_m: float = 100.0
+    # [fitted in the study-calibrated preset] The scale of α: the paper's "5% per
+    # metre travelled" states no unit of time or distance, so α's size is not
+    # published. Multiplies α under either abandonment reading.
+    abandon_scale: float = 1.0
     neighbour_draws: int = 8  # [choice] rejection-sampling draws to find a neighbour
 
     # --- M2 (spec §5) -----------------------------------------------------
@@ -72,6 +78,9 @@ class Params:
     discovery_unit_m: float = 100.0  # [choice] the fit's distance unit
     site_d_min_m: float = 150.0  # [choice] minimum site distance of the problem
     site_d_max_m: float = 350.0  # [choice] maximum site distance of the problem
+    # [fitted in the study-calibrated preset] d_max under m2_distance_bounds="fitted":
+    # a search-space bound the paper does not state, between the sites' 350 m and R.
+    fitted_d_max_m: float = 500.0
 
     # --- readings of the paper (named options; see docs/simulation-notes.md) ---
     # How an explorer discovers a site.
@@ -111,6 +120,25 @@ class Params:
     # diagnosis (`hcss simulate fidelity`), never a setting of the study:
     # "discovery_delay" (F_D), "reassessment_delay" (F_R), "modulation" (M_i).
     m2_mechanisms: tuple[str, ...] = M2_MECHANISMS
+    # How abandonment is applied. The paper: "P_α = α/v", abandonment of "5% per
+    # metre travelled".
+    #   "per_visit": once per assessment visit, on arrival at the site, with
+    #     probability min(1, α·(d/100 m)/v̂) (spec §4): distance and value.
+    #   "rate": a spontaneous rate α/v̂ per second while favouring and in the hub
+    #     (F_I, F_D, F_R → U_I), value only: the spontaneous abandonment of Reina
+    #     et al.'s design pattern, which lets supporters of poor sites drop out
+    #     over time whatever their distance.
+    abandonment: str = "per_visit"
+    # Whether v is inside g in M2's discovery delay. The paper prints
+    # g(d_i) = v_i·μ·e^(ξ·d_i)/d_i in places, and g(d) = μ·e^(ξ·d)/d where it fits it.
+    #   "distance_only": P_D(i) = v̂/(1/g(d_max) − 1/g(d_i)) (spec §5).
+    #   "value_inside": g carries the agent's v̂ at both distances, so the gap is
+    #     divided by v̂ and P_D(i) = v̂²/(1/g(d_max) − 1/g(d_i)): poorer sites wait longer.
+    #   Per-agent discovery is v̂·g(d) under both (P_γ = v·g(d) with g as fitted).
+    m2_g_reading: str = "distance_only"
+    # The named preset these values came from (presets.py), stored with every
+    # trial's params. Values changed after choosing a preset are stored beside it.
+    preset: str = "literal"
 
     # --- quorum (spec §7) -------------------------------------------------
     quorum_k: int = 15
@@ -131,6 +159,8 @@ class Params:
             ("m2_distance_bounds", M2_DISTANCE_BOUNDS),
             ("m2_beyond_dmax", M2_BEYOND_DMAX),
             ("foreign_targets", FOREIGN_TARGETS),
+            ("abandonment", ABANDONMENT_READINGS),
+            ("m2_g_reading", G_READINGS),
         ):
             if getattr(self, name) not in allowed:
                 raise ValueError(
@@ -143,6 +173,12 @@ class Params:
             )
         if not self.sensing_radius_m > 0 or not self.message_rate > 0:
             raise ValueError("sensing_radius_m and message_rate must be positive")
+        if not self.abandon_scale > 0 or not self.turn_sd_rad >= 0:
+            raise ValueError("abandon_scale must be positive and turn_sd_rad not negative")
+        if not self.site_d_min_m < self.fitted_d_max_m <= self.exploration_range_m:
+            raise ValueError(
+                "fitted_d_max_m must lie above site_d_min_m and at most exploration_range_m"
+            )
 
     # --- derived quantities ----------------------------------------------
     def m2_uses(self, model: str, mechanism: str) -> bool:
@@ -159,6 +195,8 @@ class Params:
         """d_max of M2's delays, under the chosen reading."""
         if self.m2_distance_bounds == "search_space":
             return self.exploration_range_m
+        if self.m2_distance_bounds == "fitted":
+            return self.fitted_d_max_m
         return self.site_d_max_m
 
     def m2_distance(self, distance_m: np.ndarray) -> np.ndarray:

@@ -194,8 +194,8 @@ def reach_target_kernel(w: Arrays, k: Constants, agents, n):
     """Agents arriving at a target: executing agents enter D; assessing agents re-estimate it.
 
     An assessing agent (F_L, sent to reassess, recruited or asked to
-    investigate) takes a fresh estimate and abandons with probability P_α,
-    returning uncommitted; otherwise it returns favouring the target (through
+    investigate) takes a fresh estimate and, under the "per_visit" reading of
+    abandonment, abandons with probability P_α, returning uncommitted; otherwise it returns favouring the target (through
     F_R in M2). A target taken or reserved by another collective meanwhile is
     dropped without a report.
     """
@@ -213,7 +213,7 @@ def reach_target_kernel(w: Arrays, k: Constants, agents, n):
                 continue
             w.estimate[i] = assess(w, k, t)
             w.report_target[i] = t
-            if stream.uniform(w.stream) < abandon_probability_one(w, k, i):
+            if not k.abandon_rate and stream.uniform(w.stream) < abandon_probability_one(w, k, i):
                 w.arrival_state[i] = S.U_I
             else:
                 w.arrival_state[i] = S.F_R if k.reassessment_delay else S.F_I
@@ -264,8 +264,9 @@ def agent_rules_kernel(w: Arrays, k: Constants, orders, discovery, transitions):
     rate g(d_i), some site within a step with probability 1 − exp(−Σ g(d_i)·dt),
     which one in proportion to the rates; its flights stay spatial.
 
-    Rate transitions: stop exploring (U_L → home), resume exploring (U_I →
-    U_L), reassess (F_I → F_L), and M2's delays: F_D → F_I at P_D(i) =
+    Rate transitions: under the "rate" reading of abandonment, favouring agents
+    in the hub abandon at α/v̂ (→ U_I); stop exploring (U_L → home), resume
+    exploring (U_I → U_L), reassess (F_I → F_L), and M2's delays: F_D → F_I at P_D(i) =
     v̂/(1/g(d_max) − 1/g(d_i)) and F_R → F_I at P_R(i) = v̂/(τ_max − τ_i), so
     that every target's discovery-plus-delay and round-trip-plus-delay times
     match those of a target at d_max. Where d_i ≥ d_max the state is left at once.
@@ -327,6 +328,11 @@ def agent_rules_kernel(w: Arrays, k: Constants, orders, discovery, transitions):
                     leg[i] = S.TO_HUB
                     arrival_state[i] = S.U_I
         elif leg[i] == S.AT_HUB:
+            if k.abandon_rate and state[i] == S.F_I:
+                u, r = stream.unit(r)
+                if within_step(u, k.abandon_alpha / estimate[i], k.dt_s):
+                    set_state_one(state, target, streak, i, S.U_I, -1)
+                    continue
             if state[i] == S.U_I:
                 u, r = stream.unit(r)
                 if u < k.leave_probability:
@@ -339,7 +345,12 @@ def agent_rules_kernel(w: Arrays, k: Constants, orders, discovery, transitions):
                     leg[i] = S.TO_TARGET
             elif state[i] == S.F_D or state[i] == S.F_R:  # only M2 (with its delays) has them
                 c, t = collective[i], target[i]
-                gap = w.discovery_gap[c, t] if state[i] == S.F_D else w.round_trip_gap[c, t]
+                if state[i] == S.F_D:
+                    gap = w.discovery_gap[c, t]
+                    if k.g_value_inside:  # g carries v̂ at both distances: the gap is over v̂
+                        gap = gap / estimate[i]
+                else:
+                    gap = w.round_trip_gap[c, t]
                 rate = leave_rate_one(estimate[i], gap)
                 leave = rate == math.inf
                 if not leave:

@@ -30,6 +30,7 @@ from pathlib import Path
 from hcss.simulation import experiment as exp
 from hcss.simulation.decisions import DECISION_COLUMNS
 from hcss.simulation.params import Params
+from hcss.simulation.presets import DEFAULT_PRESET, preset_params
 from hcss.tidy_csv import TableWriter, write_table
 
 MANIFEST = "sweep.json"
@@ -63,7 +64,7 @@ def parse_axis(spec: str) -> Axis:
     if name not in kinds:
         raise SweepError(f"{name!r} is not a simulation parameter")
     default = getattr(Params(), name)
-    if isinstance(default, tuple | type(None)) or name == "dt_s":
+    if isinstance(default, tuple | type(None)) or name in ("dt_s", "preset"):
         raise SweepError(f"{name!r} cannot be swept (only single-valued parameters, dt fixed)")
     values = []
     for text in raw.split(","):
@@ -119,9 +120,11 @@ class Sweep:
     runs: int
     models: tuple[str, ...]
     seed: int
+    preset: str = DEFAULT_PRESET  # every value not swept is this preset's
 
     def manifest(self) -> dict:
         return {
+            "preset": self.preset,
             "parameters": {a.name: list(a.values) for a in self.axes},
             "scenarios": self.scenarios,
             "runs": self.runs,
@@ -182,7 +185,7 @@ def run_sweep(
         on_done(skipped * len(jobs))
     tasks = [(job, cell) for cell in pending for job in jobs]
     finished: dict[str, dict[int, list[dict]]] = {cell_name(c): {} for c in pending}
-    for index, rows in _execute(tasks, workers, dask_address):
+    for index, rows in _execute(tasks, workers, dask_address, sweep.preset):
         cell = tasks[index][1]
         done = finished[cell_name(cell)]
         done[index] = rows
@@ -195,37 +198,42 @@ def run_sweep(
     return len(pending)
 
 
-def _run_task(job: exp.Job, cell: dict[str, object]) -> list[dict]:
-    return exp.run_job(job, Params().with_changes(**cell))
+def _run_task(job: exp.Job, cell: dict[str, object], preset: str) -> list[dict]:
+    return exp.run_job(job, preset_params(preset).with_changes(**cell))
 
 
 def _execute(
-    tasks: list[tuple[exp.Job, dict]], workers: int, dask_address: str | None
+    tasks: list[tuple[exp.Job, dict]], workers: int, dask_address: str | None, preset: str
 ) -> Iterator[tuple[int, list[dict]]]:
     """Run (job, cell) tasks, yielding (index, rows) as they finish."""
     if not tasks:
         return
     if dask_address:
-        yield from _execute_dask(tasks, workers, dask_address)
+        yield from _execute_dask(tasks, workers, dask_address, preset)
     elif workers <= 1:
         for index, (job, cell) in enumerate(tasks):
-            yield index, _run_task(job, cell)
+            yield index, _run_task(job, cell, preset)
     else:
         with ProcessPoolExecutor(max_workers=workers) as pool:
             futures = {
-                pool.submit(_run_task, job, cell): index for index, (job, cell) in enumerate(tasks)
+                pool.submit(_run_task, job, cell, preset): index
+                for index, (job, cell) in enumerate(tasks)
             }
             for future in as_completed(futures):
                 yield futures[future], future.result()
 
 
 def _execute_dask(
-    tasks: list[tuple[exp.Job, dict]], workers: int, address: str
+    tasks: list[tuple[exp.Job, dict]], workers: int, address: str, preset: str
 ) -> Iterator[tuple[int, list[dict]]]:
     """On a Dask scheduler, or on a LocalCluster of `workers` processes when address is "local"."""
     with exp.dask_client(address, workers) as client:
         futures = client.map(
-            _run_task, [job for job, _ in tasks], [cell for _, cell in tasks], pure=False
+            _run_task,
+            [job for job, _ in tasks],
+            [cell for _, cell in tasks],
+            preset=preset,
+            pure=False,
         )
         yield from exp.completed_in_order_of(futures)
 

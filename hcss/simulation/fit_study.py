@@ -1,0 +1,369 @@
+"""Calibration to the study's published tables: `hcss simulate calibrate --to study`.
+
+Fits, jointly for M1 and M2 (they share every value), the quantities the
+paper does not state to the eight published split cells (`study_targets`):
+
+- readings (categorical): discovery (`spatial` or `per_agent`), abandonment
+  (`per_visit` or `rate`), g with or without v inside M2's discovery delay;
+- values (continuous): r_msg, the sensing radius, d_max between the sites'
+  350 m and R = 500 m, the scale of α, the walk's turning sd.
+
+Everything else stays at the `literal` preset's values. The search is
+optuna's TPE sampler (seeded) over the reduced experiment (28 scenarios × a
+few runs); its trials are stored in an SQLite file in the output directory,
+so an interrupted calibration resumes where it stopped. The best few
+("finalists") are then run on the full experiment (28 × 10), and the one with
+the smallest loss there is the fit. The output also holds the Pareto front
+between M2's easy success and its time cost, and PED-ANOVA importances of each
+searched value (optuna's implementation): which parameters matter.
+
+The search's scenarios use the experiment's default seed block; validate the
+fit on another (`hcss simulate fidelity --preset study-calibrated --seed ...`).
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from hcss.simulation import experiment as exp
+from hcss.simulation import study_targets as st
+from hcss.simulation.params import ABANDONMENT_READINGS, DISCOVERY_READINGS, G_READINGS, Params
+
+STUDY_NAME = "hcss-study-calibration"
+SEARCH_SEED_BLOCK = 20_150_000  # the experiment's default scenarios (exp.experiment_scenarios)
+MODELS = ("M1", "M2")
+
+# name -> ("categorical", choices) or ("float", low, high, log scale)
+SEARCH_SPACE: dict[str, tuple[Any, ...]] = {
+    "discovery": ("categorical", DISCOVERY_READINGS),
+    "abandonment": ("categorical", ABANDONMENT_READINGS),
+    "m2_g_reading": ("categorical", G_READINGS),
+    "message_rate": ("float", 1.0, 3.5, True),
+    "sensing_radius_m": ("float", 2.0, 10.0, False),
+    "fitted_d_max_m": ("float", 350.0, 500.0, False),
+    "abandon_scale": ("float", 0.1, 4.0, True),
+    "turn_sd_rad": ("float", 0.2, 1.0, False),
+}
+
+
+@dataclass(frozen=True)
+class Settings:
+    """What a calibration run does; stored beside its trials so a resume cannot mix two."""
+
+    budget: int = 150  # search trials (reduced experiment each)
+    scenarios: int = 28
+    runs: int = 1  # per scenario and model in the search
+    finalists: int = 3
+    final_runs: int = 10  # per scenario and model for the finalists (the full experiment)
+    seed: int = 1  # the sampler's seed
+    scenario_seed: int = SEARCH_SEED_BLOCK
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """One parameter set run on one experiment: its cells, loss and the Pareto quantities."""
+
+    values: dict[str, Any]
+    measured: dict[tuple[str, str], st.Measured]
+    loss: float
+    met: int
+    m2_easy_success: float
+    m2_time_cost: float  # M2's overall mean decision time minus M1's, minutes
+
+
+def base_params() -> Params:
+    """The values the calibration does not search: the literal preset's, with d_max fitted."""
+    from hcss.simulation.presets import preset_params
+
+    return preset_params("literal").with_changes(m2_distance_bounds="fitted")
+
+
+def params_for(values: dict[str, Any]) -> Params:
+    return base_params().with_changes(**values)
+
+
+def evaluate(
+    values: dict[str, Any],
+    scenarios: int,
+    runs: int,
+    scenario_seed: int,
+    workers: int,
+    dask_address: str | None = None,
+) -> Evaluation:
+    """Run M1 and M2 on one experiment and measure its distance from the study."""
+    jobs = exp.jobs_for(exp.experiment_scenarios(scenarios, scenario_seed), MODELS, runs)
+    rows = exp.run_jobs(jobs, workers, dask_address, params=params_for(values))
+    measured = st.measure(rows)
+    m2_easy = measured.get(("M2", "easy"))
+    return Evaluation(
+        values=dict(values),
+        measured=measured,
+        loss=st.loss(measured),
+        met=st.cells_met(measured),
+        m2_easy_success=m2_easy.success_pct if m2_easy else math.nan,
+        m2_time_cost=st.overall_time(rows, "M2") - st.overall_time(rows, "M1"),
+    )
+
+
+def suggest(trial: Any) -> dict[str, Any]:
+    """One point of the search space, drawn by the optuna trial."""
+    values: dict[str, Any] = {}
+    for name, spec in SEARCH_SPACE.items():
+        if spec[0] == "categorical":
+            values[name] = trial.suggest_categorical(name, list(spec[1]))
+        else:
+            values[name] = trial.suggest_float(name, spec[1], spec[2], log=spec[3])
+    return values
+
+
+def _record(trial: Any, evaluation: Evaluation) -> None:
+    trial.set_user_attr("met", evaluation.met)
+    trial.set_user_attr("m2_easy_success", evaluation.m2_easy_success)
+    trial.set_user_attr("m2_time_cost", evaluation.m2_time_cost)
+    for (model, split), m in evaluation.measured.items():
+        trial.set_user_attr(f"{model}_{split}_success", m.success_pct)
+        trial.set_user_attr(f"{model}_{split}_time", m.time_min)
+
+
+def open_study(out: Path, settings: Settings) -> Any:
+    """The optuna study in OUT/calibration.db, created or resumed (same settings only)."""
+    import optuna
+
+    out.mkdir(parents=True, exist_ok=True)
+    manifest = out / "calibration.json"
+    wanted = {"settings": settings.__dict__, "search_space": _jsonable(SEARCH_SPACE)}
+    if manifest.exists():
+        stored = json.loads(manifest.read_text(encoding="utf-8"))
+        if stored != wanted:
+            raise ValueError(
+                f"{out} holds a calibration with other settings; choose another --out "
+                "or repeat the first run's options to resume it"
+            )
+    else:
+        manifest.write_text(json.dumps(wanted, indent=2), encoding="utf-8")
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    return optuna.create_study(
+        study_name=STUDY_NAME,
+        storage=f"sqlite:///{out / 'calibration.db'}",
+        sampler=optuna.samplers.TPESampler(seed=settings.seed),
+        direction="minimize",
+        load_if_exists=True,
+    )
+
+
+def _jsonable(space: dict[str, tuple[Any, ...]]) -> dict[str, list[Any]]:
+    return {k: [list(x) if isinstance(x, tuple) else x for x in v] for k, v in space.items()}
+
+
+def search(
+    study: Any,
+    settings: Settings,
+    workers: int,
+    dask_address: str | None = None,
+    on_trial: Callable[[int, Evaluation], None] | None = None,
+) -> None:
+    """Run search trials until the study holds `settings.budget` completed ones."""
+    import optuna
+
+    done = sum(t.state == optuna.trial.TrialState.COMPLETE for t in study.trials)
+    for _ in range(max(0, settings.budget - done)):
+        trial = study.ask()
+        evaluation = evaluate(
+            suggest(trial),
+            settings.scenarios,
+            settings.runs,
+            settings.scenario_seed,
+            workers,
+            dask_address,
+        )
+        _record(trial, evaluation)
+        study.tell(trial, evaluation.loss)
+        if on_trial is not None:
+            on_trial(trial.number, evaluation)
+
+
+def completed(study: Any) -> list[Any]:
+    import optuna
+
+    return [t for t in study.trials if t.state == optuna.trial.TrialState.COMPLETE]
+
+
+def finalists(study: Any, settings: Settings) -> list[dict[str, Any]]:
+    """The parameter sets of the best search trials, best first."""
+    best = sorted(completed(study), key=lambda t: t.value)[: settings.finalists]
+    return [dict(t.params) for t in best]
+
+
+def pareto_front(study: Any) -> list[Any]:
+    """Search trials not dominated in (M2's easy success ↑, M2's time cost ↓)."""
+    points = [
+        t
+        for t in completed(study)
+        if math.isfinite(t.user_attrs.get("m2_easy_success", math.nan))
+        and math.isfinite(t.user_attrs.get("m2_time_cost", math.nan))
+    ]
+
+    def dominated(t: Any) -> bool:
+        s, c = t.user_attrs["m2_easy_success"], t.user_attrs["m2_time_cost"]
+        return any(
+            o.user_attrs["m2_easy_success"] >= s
+            and o.user_attrs["m2_time_cost"] <= c
+            and (o.user_attrs["m2_easy_success"] > s or o.user_attrs["m2_time_cost"] < c)
+            for o in points
+        )
+
+    return sorted(
+        (t for t in points if not dominated(t)), key=lambda t: t.user_attrs["m2_easy_success"]
+    )
+
+
+def importances(study: Any) -> dict[str, float]:
+    """PED-ANOVA importance of each searched value for the loss (needs a few trials).
+
+    How far each value's distribution among the best trials departs from its
+    distribution over all trials (optuna's implementation, no model fitted).
+    """
+    import optuna
+
+    if len(completed(study)) < 4:
+        return {}
+    evaluator = optuna.importance.PedAnovaImportanceEvaluator()
+    return dict(optuna.importance.get_param_importances(study, evaluator=evaluator))
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """The outcome: every finalist's full-experiment evaluation, the fit, and the wall time."""
+
+    finals: list[Evaluation]
+    fit: Evaluation
+    front: list[Any]
+    importance: dict[str, float]
+    trials: int
+    wall_s: float
+
+
+def calibrate(
+    out: Path,
+    settings: Settings,
+    workers: int = 2,
+    dask_address: str | None = None,
+    on_trial: Callable[[int, Evaluation], None] | None = None,
+    on_finalist: Callable[[Evaluation], None] | None = None,
+) -> Calibration:
+    """Search, run the finalists on the full experiment, and write OUT's files."""
+    started = time.perf_counter()
+    study = open_study(out, settings)
+    search(study, settings, workers, dask_address, on_trial)
+    finals = []
+    for values in finalists(study, settings):
+        evaluation = evaluate(
+            values,
+            settings.scenarios,
+            settings.final_runs,
+            settings.scenario_seed,
+            workers,
+            dask_address,
+        )
+        finals.append(evaluation)
+        if on_finalist is not None:
+            on_finalist(evaluation)
+    fit = min(finals, key=lambda e: e.loss)
+    result = Calibration(
+        finals=finals,
+        fit=fit,
+        front=pareto_front(study),
+        importance=importances(study),
+        trials=len(completed(study)),
+        wall_s=time.perf_counter() - started,
+    )
+    write_trials(study, out / "trials.csv")
+    (out / "fit.json").write_text(json.dumps(fit.values, indent=2), encoding="utf-8")
+    (out / "report.md").write_text(report(result, settings), encoding="utf-8")
+    return result
+
+
+def write_trials(study: Any, path: Path) -> None:
+    """Every search trial: its values, loss, cells met and measured cells."""
+    trials = completed(study)
+    attrs = sorted({k for t in trials for k in t.user_attrs})
+    with path.open("w", newline="", encoding="utf-8") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(["trial", *SEARCH_SPACE, "loss", *attrs])
+        for t in trials:
+            writer.writerow(
+                [
+                    t.number,
+                    *(t.params.get(n, "") for n in SEARCH_SPACE),
+                    t.value,
+                    *(t.user_attrs.get(a, "") for a in attrs),
+                ]
+            )
+
+
+def _values_line(values: dict[str, Any]) -> str:
+    return ", ".join(
+        f"{k} = {v:.3g}" if isinstance(v, float) else f"{k} = {v}" for k, v in values.items()
+    )
+
+
+def report(result: Calibration, settings: Settings) -> str:
+    """The calibration's outcome as Markdown."""
+    fit = result.fit
+    lines = [
+        "# Calibration to the study's published tables",
+        "",
+        f"Search: {result.trials} trials of the reduced experiment ({settings.scenarios} "
+        f"scenarios × {settings.runs} run(s) × M1, M2; scenario seeds from "
+        f"{settings.scenario_seed}); finalists: the best {settings.finalists} on "
+        f"{settings.scenarios} × {settings.final_runs}. Free values fitted: "
+        f"{len(SEARCH_SPACE)} ({sum(s[0] == 'categorical' for s in SEARCH_SPACE.values())} "
+        f"readings, {sum(s[0] == 'float' for s in SEARCH_SPACE.values())} continuous) against "
+        f"{2 * len(st.STUDY_TARGETS)} published numbers. Wall time {result.wall_s / 60:.1f} min.",
+        "",
+        "## The fit",
+        "",
+        _values_line(fit.values),
+        "",
+        f"Loss {fit.loss:.2f} (squared distance in bands of 10 points and 1 min); "
+        f"{fit.met} of 8 published numbers within their band; M2's time cost "
+        f"{fit.m2_time_cost:+.2f} min.",
+        "",
+        st.comparison_table(fit.measured),
+        "",
+        "## Finalists on the full experiment",
+        "",
+        "| loss | within band | M2 easy SR % | M2 − M1 time (min) | values |",
+        "|---|---|---|---|---|",
+    ]
+    for e in result.finals:
+        lines.append(
+            f"| {e.loss:.2f} | {e.met} | {e.m2_easy_success:.1f} | {e.m2_time_cost:+.2f} "
+            f"| {_values_line(e.values)} |"
+        )
+    lines += [
+        "",
+        "## Pareto front of the search: M2's easy success against its time cost",
+        "",
+        "| M2 easy SR % | M2 − M1 time (min) | loss | within band | values |",
+        "|---|---|---|---|---|",
+    ]
+    for t in result.front:
+        lines.append(
+            f"| {t.user_attrs['m2_easy_success']:.1f} | {t.user_attrs['m2_time_cost']:+.2f} "
+            f"| {t.value:.2f} | {t.user_attrs['met']} | {_values_line(dict(t.params))} |"
+        )
+    lines += ["", "## Which values matter (PED-ANOVA importance for the loss)", ""]
+    if result.importance:
+        lines += ["| value | importance |", "|---|---|"]
+        lines += [f"| {k} | {v:.3f} |" for k, v in result.importance.items()]
+    else:
+        lines.append("Too few trials to estimate importances.")
+    return "\n".join(lines) + "\n"
