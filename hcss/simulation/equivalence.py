@@ -80,6 +80,12 @@ PRE_CHANGE_PARAMS: dict[str, object] = {
     "m2_beyond_dmax": "guard",
     "foreign_targets": "eligible",
     "m2_mechanisms": ("discovery_delay", "reassessment_delay", "modulation"),
+    # Readings and values named with the study calibration: the pre-change rules.
+    "abandon_scale": 1.0,
+    "abandonment": "per_visit",
+    "m2_g_reading": "distance_only",
+    "fitted_d_max_m": 500.0,
+    "preset": "literal",
 }
 
 REFERENCE_SCENARIOS = 28

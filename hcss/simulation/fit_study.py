@@ -133,18 +133,29 @@ def _record(trial: Any, evaluation: Evaluation) -> None:
 
 
 def open_study(out: Path, settings: Settings) -> Any:
-    """The optuna study in OUT/calibration.db, created or resumed (same settings only)."""
+    """The optuna study in OUT/calibration.db, created or resumed.
+
+    A resume must search the same experiment (scenarios, runs, seeds, space);
+    a larger budget continues the search, more finalists rerun the best.
+    """
     import optuna
 
     out.mkdir(parents=True, exist_ok=True)
     manifest = out / "calibration.json"
-    wanted = {"settings": settings.__dict__, "search_space": _jsonable(SEARCH_SPACE)}
+    # What makes trials comparable; the budget and the finalists may change on resume.
+    wanted = {
+        "scenarios": settings.scenarios,
+        "runs": settings.runs,
+        "sampler_seed": settings.seed,
+        "scenario_seed": settings.scenario_seed,
+        "search_space": _jsonable(SEARCH_SPACE),
+    }
     if manifest.exists():
         stored = json.loads(manifest.read_text(encoding="utf-8"))
         if stored != wanted:
             raise ValueError(
-                f"{out} holds a calibration with other settings; choose another --out "
-                "or repeat the first run's options to resume it"
+                f"{out} holds a calibration of another experiment or search space; choose "
+                "another --out, or repeat the first run's --scenarios, --runs and seeds"
             )
     else:
         manifest.write_text(json.dumps(wanted, indent=2), encoding="utf-8")

@@ -386,6 +386,12 @@ def reach_hub(world: World, agents: np.ndarray) -> np.ndarray:
     return visible[:n]
 
 
+def reach_target(world: World, agents: np.ndarray, params: Params, model: str) -> None:
+    """Agents arriving at their target (`reach_target_kernel`)."""
+    agents = np.asarray(agents, dtype=np.int64)
+    _reach_target(world.kernel_arrays(), constants_for(params, model), agents, agents.size)
+
+
 def discoverable(world: World, params: Params) -> np.ndarray:
     """(C, T): targets each collective's explorers can adopt (`discoverable_sites`)."""
     ok = np.zeros(world.abandon_order.shape, dtype=np.bool_)
@@ -409,6 +415,11 @@ def enforce_orders(world: World, params: Params) -> None:
 @njit(cache=True)
 def _reach_hub(w, agents, n, newly_visible):
     return reach_hub_kernel(w, agents, n, newly_visible)
+
+
+@njit(cache=True)
+def _reach_target(w, k, agents, n):
+    reach_target_kernel(w, k, agents, n)
 
 
 @njit(cache=True)

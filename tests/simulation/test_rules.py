@@ -16,6 +16,7 @@ from hcss.simulation.rules import (
     leave_rate,
     per_step,
     rate_transitions,
+    reach_target,
     round_trip_gap,
 )
 
@@ -148,3 +149,67 @@ def test_explorers_ignore_targets_under_an_abandon_order():
     w.abandon_order[0, t] = True
     discovery(w, sim.params, "M1")
     assert np.all(w.state[explorers] == S.U_L)
+
+
+# ------------------------------------------- abandonment and g readings (fidelity)
+@pytest.mark.parametrize("estimate", [0.5, 1.0])
+def test_rate_abandonment_drops_hub_supporters_at_scale_alpha_over_v_hat(estimate):
+    """Reading "rate": F_I agents in the hub leave for U_I at α·scale/v̂ per second."""
+    sim = make_sim("M1", n_agents=4000, abandonment="rate", abandon_scale=2.0, **FIRST_READING)
+    w = sim.world
+    supporters = agents_of(w, 0, 3000)
+    place(w, supporters, S.F_I, target=_target_at(sim, 0, near=True), estimate=estimate)
+    rate_transitions(w, sim.params, "M1")
+    p = per_step(2.0 * 0.05 / estimate, sim.params)
+    share = np.mean(w.state[supporters] == S.U_I)
+    assert abs(share - p) < 4 * math.sqrt(p * (1 - p) / supporters.size)
+    assert np.all(w.target[supporters[w.state[supporters] == S.U_I]] == -1)
+
+
+def test_rate_abandonment_is_value_only_and_per_visit_abandonment_is_not_a_rate():
+    near = make_sim("M1", n_agents=4000, abandonment="rate", **FIRST_READING)
+    far = make_sim("M1", n_agents=4000, abandonment="rate", **FIRST_READING)
+    shares = []
+    for sim, is_near in ((near, True), (far, False)):
+        w = sim.world
+        supporters = agents_of(w, 0, 3000)
+        place(w, supporters, S.F_I, target=_target_at(sim, 0, near=is_near), estimate=0.7)
+        rate_transitions(w, sim.params, "M1")
+        shares.append(np.mean(w.state[supporters] == S.U_I))
+    p = per_step(0.05 / 0.7, near.params)
+    assert all(abs(s - p) < 4 * math.sqrt(p * (1 - p) / 3000) for s in shares)
+    per_visit = make_sim("M1", n_agents=4000, **FIRST_READING)
+    supporters = agents_of(per_visit.world, 0, 3000)
+    place(per_visit.world, supporters, S.F_I, target=_target_at(per_visit, 0, near=False))
+    rate_transitions(per_visit.world, per_visit.params, "M1")
+    assert not np.any(per_visit.world.state[supporters] == S.U_I)
+
+
+def test_rate_abandonment_spares_the_delay_states_and_the_visit():
+    """F_D and F_R waits differ by distance by design: a rate there would penalise near sites."""
+    sim = make_sim("M2", abandonment="rate", abandon_scale=50.0, **FIRST_READING)
+    w = sim.world
+    t = _target_at(sim, 0, near=True)
+    waiting = agents_of(w, 0, 100)
+    place(w, waiting, S.F_D, target=t, estimate=0.1)
+    rate_transitions(w, sim.params, "M2")
+    assert not np.any(w.state[waiting] == S.U_I)
+    # On a visit nothing is abandoned, however far and poor the site (P_α would be 1).
+    visitors = agents_of(w, 0, 50, start=100)
+    place(w, visitors, S.F_L, target=_target_at(sim, 0, near=False), leg=S.TO_TARGET)
+    w.target_value[:] = 0.05
+    reach_target(w, visitors, sim.params, "M2")
+    assert np.all(w.arrival_state[visitors] == S.F_R)
+
+
+def test_value_inside_g_makes_the_discovery_delay_v_hat_squared_over_the_gap():
+    sim = make_sim("M2", n_agents=4000, m2_g_reading="value_inside", **FIRST_READING)
+    w = sim.world
+    t = _target_at(sim, 0, near=True)
+    waiting = agents_of(w, 0, 3000)
+    place(w, waiting, S.F_D, target=t, estimate=0.5)
+    d = w.hub_distance[0, t]
+    p = per_step(0.5 * 0.5 / (1 / g(350) - 1 / g(d)), sim.params)
+    rate_transitions(w, sim.params, "M2")
+    share = np.mean(w.state[waiting] == S.F_I)
+    assert abs(share - p) < 4 * math.sqrt(p * (1 - p) / waiting.size)

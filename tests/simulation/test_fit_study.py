@@ -1,0 +1,104 @@
+"""The study calibration: targets, loss, presets and `hcss simulate calibrate --to study`."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from hcss.cli import main
+from hcss.simulation import fit_study as fs
+from hcss.simulation import study_targets as st
+from hcss.simulation.params import Params
+from hcss.simulation.presets import DEFAULT_PRESET, PRESETS, preset_params
+
+
+def _row(model: str, split: str, trial: str, correct: bool, seconds: float) -> dict:
+    return {
+        "model": model,
+        "difficulty": split,
+        "trial_id": trial,
+        "correct": correct,
+        "decision_time_s": seconds,
+    }
+
+
+def test_measure_pools_decisions_and_takes_standard_errors_over_trials() -> None:
+    rows = [
+        _row("M1", "easy", "a", True, 120),
+        _row("M1", "easy", "a", False, 240),
+        _row("M1", "easy", "b", True, 60),
+    ]
+    m = st.measure(rows)[("M1", "easy")]
+    # By hand: 2 of 3 decisions correct; times 2, 4 and 1 minutes.
+    assert m.decisions == 3
+    assert m.success_pct == pytest.approx(200 / 3)
+    assert m.time_min == pytest.approx(7 / 3)
+    # Trial means: success 50 and 100 (sd 35.355, se 25); time 3 and 1 (sd 1.4142, se 1).
+    assert m.success_se == pytest.approx(25.0)
+    assert m.time_se == pytest.approx(1.0)
+
+
+def test_loss_is_squared_distance_in_bands_and_counts_cells_within_them() -> None:
+    measured = {
+        (t.model, t.split): st.Measured(t.model, t.split, 10, t.success_pct, 0, t.time_min, 0)
+        for t in st.STUDY_TARGETS
+    }
+    assert st.loss(measured) == 0.0
+    assert st.cells_met(measured) == 8
+    # M2 easy 20 points low (2 bands) and 0.5 min slow (half a band): 4 + 0.25.
+    measured[("M2", "easy")] = st.Measured("M2", "easy", 10, 76.7 - 20, 0, 4.17 + 0.5, 0)
+    assert st.loss(measured) == pytest.approx(4.25)
+    assert st.cells_met(measured) == 7
+    del measured[("M1", "difficult")]
+    assert st.loss(measured) == float("inf")
+    assert "| M1 | difficult | 6.8 | – |" in st.comparison_table(measured)
+
+
+def test_presets_are_named_in_the_params_they_give_and_share_every_value_across_models() -> None:
+    assert set(PRESETS) == {"literal", "study-calibrated"}
+    assert preset_params("literal") == Params()
+    for name, params in PRESETS.items():
+        assert params.preset == name
+        assert Params.from_dict(json.loads(json.dumps(params.to_dict()))) == params
+    assert DEFAULT_PRESET in PRESETS
+    with pytest.raises(ValueError, match="literal, study-calibrated"):
+        preset_params("bogus")
+
+
+def test_an_unknown_preset_is_a_usage_error_on_every_simulate_command() -> None:
+    for command in ("experiment", "fidelity", "sweep", "calibrate", "demo", "meanfield"):
+        result = CliRunner().invoke(main, ["simulate", command, "--preset", "bogus"])
+        assert result.exit_code == 2, command
+        assert "Traceback" not in result.output
+        assert "literal" in result.output
+
+
+@pytest.mark.slow
+def test_calibrate_to_study_writes_a_fit_a_front_and_importances_and_resumes(
+    tmp_path: Path,
+) -> None:
+    out = tmp_path / "cal"
+    args = ["simulate", "calibrate", "--to", "study", "--scenarios", "2", "--runs", "1"]
+    args += ["--budget", "4", "--finalists", "1", "--final-runs", "1", "--workers", "1"]
+    result = CliRunner().invoke(main, [*args, "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    fit = json.loads((out / "fit.json").read_text())
+    assert set(fit) == set(fs.SEARCH_SPACE)
+    report = (out / "report.md").read_text()
+    for heading in ("## The fit", "## Pareto front", "## Which values matter"):
+        assert heading in report
+    assert len((out / "trials.csv").read_text().splitlines()) == 1 + 4
+    # A larger budget resumes the search: the 4 trials are kept and 2 more run.
+    more = [a if a != "4" else "6" for a in args]
+    again = CliRunner().invoke(main, [*more, "--out", str(out)])
+    assert again.exit_code == 0, again.output
+    assert len((out / "trials.csv").read_text().splitlines()) == 1 + 6
+    # Another experiment in the same directory is refused, not mixed in.
+    other = [a if a != "2" else "3" for a in args]
+    refused = CliRunner().invoke(main, [*other, "--out", str(out)])
+    assert refused.exit_code == 2
+    assert "another experiment" in refused.output
+    assert "Traceback" not in refused.output
