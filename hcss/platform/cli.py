@@ -310,6 +310,7 @@ def demo_trial(
             duration_s=length_s if minutes is None else minutes * 60.0,
             time_acceleration=float(os.environ.get("HCSS_TIME_ACCELERATION", "1.0")),
             probe_counts=study_file.probe_counts,
+            preset=study_file.simulation_preset,
         )
         link = f"{base_url.rstrip('/')}/live/{participant.token}"
         click.echo(

@@ -1,32 +1,56 @@
-"""A participant's trial runs the batch experiment's model: the same params but the time-out."""
+"""A participant's trial runs the batch experiment's model: its preset's params but the time-out."""
 
 from __future__ import annotations
 
+import tomllib
 from dataclasses import fields
 
+import pytest
+
+from hcss.platform.models import Trial
+from hcss.platform.study.files import study_text
+from hcss.platform.study.studyfile import StudyFileError, load_study, parse_study
 from hcss.simulation import Params
+from hcss.simulation.presets import DEFAULT_PRESET, preset_params
 
 
-def test_a_live_m2_trial_uses_the_batch_defaults_apart_from_the_decision_timeout(
+def _differing(a: Params, b: Params) -> list[str]:
+    return [f.name for f in fields(Params) if getattr(a, f.name) != getattr(b, f.name)]
+
+
+def test_a_live_m2_trial_is_the_batch_experiments_m2_apart_from_the_decision_timeout(
     make_trial,  # type: ignore[no-untyped-def]
 ) -> None:
     handle = make_trial(model="M2")
     live = handle.live()
-    live_params, batch = live.sim.params, Params()
-    differing = [
-        f.name for f in fields(Params) if getattr(live_params, f.name) != getattr(batch, f.name)
-    ]
-    assert differing == ["decision_timeout_s"]
-    assert live_params.decision_timeout_s is None
-    # The calibrations and the readings the study file records are the batch ones.
-    stored = live.sim.params.to_dict()
-    for name in (
-        "discovery",
-        "sensing_radius_m",
-        "message_rate",
-        "m2_distance_bounds",
-        "m2_beyond_dmax",
-        "foreign_targets",
-        "m2_mechanisms",
-    ):
-        assert stored[name] == batch.to_dict()[name]
+    batch = preset_params(DEFAULT_PRESET)  # what `hcss simulate experiment` runs by default
+    assert _differing(live.sim.params, batch) == ["decision_timeout_s"]
+    assert live.sim.params.decision_timeout_s is None
+    assert live.sim.params.preset == DEFAULT_PRESET
+    # The trial row stores them, preset named, and a rebuild reads the same model back.
+    database = handle.app.extensions["hcss_db"]
+    with database.session_scope() as session:
+        stored = Params.from_dict(session.get(Trial, handle.trial_id).params)
+    assert stored == live.sim.params
+
+
+def test_the_original_study_names_the_default_preset_and_its_trials_use_it(
+    make_trial,  # type: ignore[no-untyped-def]
+) -> None:
+    original = load_study("original")
+    assert "[simulation]" in study_text("original")[1].decode()
+    assert original.simulation_preset == DEFAULT_PRESET
+    handle = make_trial(model="M1", preset="literal")
+    assert handle.live().sim.params == Params().with_changes(decision_timeout_s=None)
+
+
+def test_a_study_file_names_a_preset_or_is_refused_naming_the_presets() -> None:
+    doc = tomllib.loads(study_text("original")[1].decode())
+    doc["simulation"] = {"preset": "literal"}
+    assert parse_study(doc, source="t").simulation_preset == "literal"
+    del doc["simulation"]
+    assert parse_study(doc, source="t").simulation_preset == DEFAULT_PRESET
+    for bad in ({"preset": "bogus"}, {"preset": 3}, {"preset": "literal", "r_msg": 2}):
+        doc["simulation"] = bad
+        with pytest.raises(StudyFileError, match=r"simulation"):
+            parse_study(doc, source="t")

@@ -19,6 +19,7 @@ from hcss.platform.live.probes import stored_counts
 from hcss.platform.models import Participant, Trial, TrialStatusChange
 from hcss.platform.models.vocabularies import TrialKind, TrialStatus
 from hcss.simulation.params import MODELS
+from hcss.simulation.presets import DEFAULT_PRESET, preset_params
 
 #: Kinds of live trial. Their lengths come from the study file (`[timing]`), never from here.
 TRIAL_KINDS = tuple(TrialKind)
@@ -36,9 +37,12 @@ def start_trial(
     time_acceleration: float = 1.0,
     started_at: datetime | None = None,
     probe_counts: Mapping[int, int] | None = None,
+    preset: str = DEFAULT_PRESET,
 ) -> Trial:
     """Write a new trial whose clock starts now; the runner picks it up.
 
+    `preset` is the study's `[simulation] preset`: a live trial runs the batch
+    experiment's params of that preset, with no per-decision time-out.
     `probe_counts` is the study's `[probes]` (per 20-minute trial, by level;
     None: the original protocol's). `duration_s` is the study's `timing.trial_s` or `timing.training_s` (or a
     demo's chosen length): the caller reads it from the study file.
@@ -48,7 +52,7 @@ def start_trial(
     the database's clock (the runner's; tests and bots move it); the study flow
     passes the instant its trial stage was entered.
     """
-    from hcss.simulation import Params, Scenario
+    from hcss.simulation import Scenario
 
     if kind not in TRIAL_KINDS:
         raise ValueError(f"trial kind must be one of {TRIAL_KINDS}, not {kind!r}")
@@ -76,7 +80,7 @@ def start_trial(
         seed=int(seed),
         first_section=None if kind == "training" else first_section,
         # A live trial has no per-decision cap, only its own time limit (spec §2).
-        params=Params().with_changes(decision_timeout_s=None).to_dict(),
+        params=preset_params(preset).with_changes(decision_timeout_s=None).to_dict(),
         probe_counts=stored_counts(probe_counts),
         time_acceleration=time_acceleration,
         duration_s=duration,

@@ -40,6 +40,7 @@ from hcss.questionnaires.consent import consent_versions
 from hcss.questionnaires.mrt import item_bank, practice_items
 from hcss.questionnaires.probes import ProbeLevel
 from hcss.simulation.params import MODELS
+from hcss.simulation.presets import DEFAULT_PRESET, PRESETS
 
 #: Probes per level and 20-minute trial a study may ask for (each needs a time-out apart).
 MAX_PROBES_PER_LEVEL = 20
@@ -86,6 +87,7 @@ class Study:
     online: OnlineSettings = OnlineSettings()  # the `[online]` table: study link, completion
     fast_answer_ms: int = 1000  # `[probes] fast_answer_ms`: quicker answers are flagged
     requirements: Requirements = Requirements()  # the device checked before consent
+    simulation_preset: str = DEFAULT_PRESET  # `[simulation] preset`: the collectives' params
 
     def cell(self, number: int) -> Cell:
         for cell in self.cells:
@@ -179,6 +181,19 @@ class CounterbalancingTable(_Table):
     exclude: list[dict[str, Any]] = []
 
 
+class SimulationTable(_Table):
+    """The simulation's named parameter preset (hcss.simulation.presets)."""
+
+    preset: StrictStr = DEFAULT_PRESET
+
+    @field_validator("preset")
+    @classmethod
+    def _known_preset(cls, name: str) -> str:
+        if name not in PRESETS:
+            raise ValueError(f"names no preset; presets: {sorted(PRESETS)}")
+        return name
+
+
 class StudyFileSchema(BaseModel):
     """The whole file, table by table.
 
@@ -199,6 +214,7 @@ class StudyFileSchema(BaseModel):
     counterbalancing: CounterbalancingTable
     online: OnlineSettings = OnlineSettings()
     requirements: Requirements = Requirements()
+    simulation: SimulationTable = SimulationTable()
 
     @field_validator("models")
     @classmethod
@@ -336,6 +352,7 @@ def parse_study(
         fast_answer_ms=schema.probes.fast_answer_ms,
         cells=_cells(schema.counterbalancing, models, source, text),
         digest=digest,
+        simulation_preset=schema.simulation.preset,
         online=schema.online,
         requirements=schema.requirements,
     )

@@ -60,6 +60,7 @@ class LiveStage(Stage):
             time_acceleration=flow.enrolment.time_acceleration,
             started_at=flow.now,
             probe_counts=flow.study.probe_counts,
+            preset=flow.study.simulation_preset,
         )
         flow.record(slot, step, "submitted")
         flow.record(slot, "run", "entered", deadline=trial.deadline, detail={"trial_id": trial.id})
