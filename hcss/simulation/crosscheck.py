@@ -71,16 +71,18 @@ def compare(layout: str, model: str, params: Params, runs: int, seed: int = 7) -
     best = int(np.argmax([s.value for s in sites]))
     ode = solve_meanfield(sites, model, params)
     rng = np.random.default_rng(seed)
-    chain = [run_chain(sites, model, params, rng) for _ in range(runs)]
+    # The chain applies abandonment per visit only; under the "rate" reading its columns are NaN.
+    chain_runs = runs if params.abandonment == "per_visit" else 0
+    chain = [run_chain(sites, model, params, rng) for _ in range(chain_runs)]
     agent = [agent_decision(sites, model, params, seed * 1000 + i) for i in range(runs)]
-    chain_time, chain_se = _mean_se([c.time_s for c in chain])
+    chain_time, chain_se = _mean_se([c.time_s for c in chain]) if chain else (math.nan, math.nan)
     agent_time, agent_se = _mean_se([t for _, t in agent])
     return Comparison(
         layout=layout,
         model=model,
         ode_best=ode.win_probability[best],
         ode_time_s=ode.decision_s,
-        chain_best=float(np.mean([c.chosen == best for c in chain])),
+        chain_best=float(np.mean([c.chosen == best for c in chain])) if chain else math.nan,
         chain_time_s=chain_time,
         chain_time_se=chain_se,
         agent_best=float(np.mean([c == best for c, _ in agent])),

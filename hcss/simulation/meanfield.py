@@ -62,7 +62,8 @@ class Rates:
     discovery: np.ndarray  # g(d_i)·scale, per exploring agent
     value: np.ndarray
     flight_s: np.ndarray  # d_i / speed
-    abandon: np.ndarray  # P_α(i) with v̂ = v
+    abandon: np.ndarray  # P_α(i) with v̂ = v, per visit (0 under the "rate" reading)
+    abandon_rate: np.ndarray  # scale·α/v per second in F_I (0 under "per_visit")
     leave_delay: np.ndarray  # P_D(i); inf where the guard applies (M1: inf)
     leave_reassess: np.ndarray  # P_R(i)
     modulation: np.ndarray  # M_i (M1: 1)
@@ -74,18 +75,36 @@ class Rates:
         d = np.array([s.distance_m for s in sites], dtype=float)
         v = np.array([s.value for s in sites], dtype=float)
         discovery = np.asarray(params.discovery_rate(d)) * discovery_scale
-        abandon = np.minimum(1.0, params.abandon_alpha * (d / params.abandon_unit_m) / v)
+        alpha = params.abandon_alpha * params.abandon_scale
+        if params.abandonment == "rate":
+            abandon, abandon_rate = np.zeros(d.size), alpha / v
+        else:
+            abandon = np.minimum(1.0, alpha * (d / params.abandon_unit_m) / v)
+            abandon_rate = np.zeros(d.size)
         inf = np.full(d.size, np.inf)
         if model != "M2":
-            return cls(discovery, v, d / params.speed_mps, abandon, inf, inf, np.ones(d.size))
+            return cls(
+                discovery, v, d / params.speed_mps, abandon, abandon_rate, inf, inf, np.ones(d.size)
+            )
         dm = params.m2_distance(d)
         gap_d = 1.0 / params.discovery_rate(params.m2_d_max_m) - 1.0 / params.discovery_rate(dm)
         gap_r = params.round_trip_s(params.m2_d_max_m) - params.round_trip_s(dm)
+        if params.m2_g_reading == "value_inside":
+            gap_d = gap_d / v
         with np.errstate(divide="ignore"):
             leave_d = np.where(gap_d > 0, v / np.where(gap_d > 0, gap_d, 1.0), np.inf)
             leave_r = np.where(gap_r > 0, v / np.where(gap_r > 0, gap_r, 1.0), np.inf)
         modulation = dm / params.m2_d_min_m
-        return cls(discovery, v, d / params.speed_mps, abandon, leave_d, leave_r, modulation)
+        return cls(
+            discovery,
+            v,
+            d / params.speed_mps,
+            abandon,
+            abandon_rate,
+            leave_d,
+            leave_r,
+            modulation,
+        )
 
 
 FAST = 1e3  # a rate standing for "at once" (the guard of spec §5) in the ODEs
@@ -141,7 +160,14 @@ def solve_meanfield(
         arrive = fly * a
         d_uL = -found.sum() - stop * uL + resume * uI + inhibited.sum()
         d_uH = stop * uL - home * uH
-        d_uI = home * uH - resume * uI - recruit.sum() + (returned * rates.abandon).sum()
+        dropped = rates.abandon_rate * fI  # the "rate" reading: F_I abandons in the hub
+        d_uI = (
+            home * uH
+            - resume * uI
+            - recruit.sum()
+            + (returned * rates.abandon).sum()
+            + dropped.sum()
+        )
         d_a = found - arrive
         d_go = recruit + resume * fI - fly * go
         d_back = fly * go - returned
@@ -153,7 +179,7 @@ def solve_meanfield(
             d_fD = np.zeros(n)
             d_fR = np.zeros(n)
             into_fI = arrive + kept
-        d_fI = into_fI - resume * fI - inhibit_rate * fI
+        d_fI = into_fI - resume * fI - inhibit_rate * fI - dropped
         # Quorum hazard of F_I(i) agents (expected quorum events per second).
         receive = total_send / hub
         share = np.clip(send / max(total_send, 1e-12), 0.0, 1.0)

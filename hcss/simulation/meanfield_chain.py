@@ -57,6 +57,10 @@ class Chain:
         rng: np.random.Generator,
         discovery_scale: float = 1.0,
     ):
+        if params.abandonment != "per_visit":
+            raise ValueError(
+                "the chain applies abandonment per visit only (abandonment='per_visit')"
+            )
         self.sites, self.p, self.rng, self.m2 = sites, params, rng, model == "M2"
         self.rates = Rates.of(sites, model, params, discovery_scale)
         self.distance = np.array([s.distance_m for s in sites])
@@ -131,7 +135,11 @@ class Chain:
         self.estimate[at_site] = self.assess(at_site)
         d = self.distance[self.target[at_site]]
         p_abandon = np.minimum(
-            1.0, self.p.abandon_alpha * (d / self.p.abandon_unit_m) / self.estimate[at_site]
+            1.0,
+            self.p.abandon_alpha
+            * self.p.abandon_scale
+            * (d / self.p.abandon_unit_m)
+            / self.estimate[at_site],
         )
         self.abandoning[at_site] = self.rng.random(at_site.size) < p_abandon
         self.fly(at_site, FBACK)

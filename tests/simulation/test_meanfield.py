@@ -94,3 +94,34 @@ def test_the_agent_model_agrees_with_the_mean_field_chain_on_simple_layouts() ->
         chain_time = np.mean([c.time_s for c in chain])
         agent_time = np.mean([t for _, t in agent])
         assert 1 / 4 <= agent_time / chain_time <= 4, (layout, model, chain_time, agent_time)
+
+
+def test_the_odes_read_rate_abandonment_as_value_only_and_per_visit_as_distance_and_value() -> None:
+    from hcss.simulation.meanfield import Rates
+
+    sites = [Site(150.0, 1.0), Site(350.0, 0.5)]
+    rate = Rates.of(sites, "M2", Params().with_changes(abandonment="rate", abandon_scale=2.0))
+    assert rate.abandon == pytest.approx([0.0, 0.0])
+    assert rate.abandon_rate == pytest.approx([2 * 0.05 / 1.0, 2 * 0.05 / 0.5])
+    visit = Rates.of(sites, "M2", Params().with_changes(abandon_scale=2.0))
+    assert visit.abandon == pytest.approx([2 * 0.05 * 1.5 / 1.0, min(1.0, 2 * 0.05 * 3.5 / 0.5)])
+    assert visit.abandon_rate == pytest.approx([0.0, 0.0])
+    # Supporters who abandon within seconds never reach a quorum.
+    drained = solve_meanfield(
+        LAYOUTS["easy"],
+        "M1",
+        Params().with_changes(abandonment="rate", abandon_scale=100.0),
+        horizon_s=600.0,
+    )
+    assert drained.undecided > 0.99
+    with pytest.raises(ValueError, match="per visit"):
+        run_chain(sites, "M1", Params().with_changes(abandonment="rate"), np.random.default_rng(1))
+
+
+def test_value_inside_g_lengthens_the_discovery_delay_of_poorer_sites() -> None:
+    from hcss.simulation.meanfield import Rates
+
+    sites = [Site(150.0, 1.0), Site(150.0, 0.5)]
+    plain = Rates.of(sites, "M2", SEARCH_SPACE)
+    inside = Rates.of(sites, "M2", SEARCH_SPACE.with_changes(m2_g_reading="value_inside"))
+    assert inside.leave_delay == pytest.approx(plain.leave_delay * np.array([1.0, 0.5]))
