@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import csv
+import json
 import shutil
 from pathlib import Path
 
@@ -13,7 +14,7 @@ from hcss.cli import main
 from hcss.simulation import DECISION_COLUMNS
 from hcss.simulation import experiment as exp
 from hcss.simulation import sweep as sw
-from hcss.simulation.params import Params
+from hcss.simulation.presets import DEFAULT_PRESET, preset_params
 
 GRID = ["--param", "message_rate=0.5,1,2", "--param", "quorum_k=10,15,20"]
 REDUCED = ["--scenarios", "1", "--runs", "1", "--models", "M1,M2", "--workers", "1"]
@@ -49,9 +50,12 @@ def test_a_3x3_sweep_writes_one_row_per_decision_with_the_cells_values(swept):
 
 
 def test_each_cell_is_the_experiment_at_its_parameter_values(swept):
-    """The (2, 10) cell's rows are exactly a direct run of the experiment at those values."""
+    """The (2, 10) cell's rows are exactly a direct run of the experiment at those values,
+    every other value the default preset's (named in the manifest)."""
+    assert json.loads((swept / "sweep.json").read_text())["preset"] == DEFAULT_PRESET
     jobs = exp.jobs_for(exp.experiment_scenarios(1), ["M1", "M2"], 1)
-    direct = exp.run_jobs(jobs, params=Params().with_changes(message_rate=2.0, quorum_k=10))
+    at_cell = preset_params(DEFAULT_PRESET).with_changes(message_rate=2.0, quorum_k=10)
+    direct = exp.run_jobs(jobs, params=at_cell)
     cell = [
         r
         for r in _rows(swept / "decisions.csv")
