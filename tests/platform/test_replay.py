@@ -7,7 +7,14 @@ import re
 import pytest
 from sqlalchemy import select
 
-from hcss.platform.models import Command, Interruption, Participant, Snapshot, Trial
+from hcss.platform.models import (
+    Command,
+    CommandOutcome,
+    Interruption,
+    Participant,
+    Snapshot,
+    Trial,
+)
 from hcss.simulation import Simulation
 from tests.platform import console_support
 from tests.platform.console_support import code_of
@@ -57,7 +64,10 @@ def test_a_finished_trial_replays_to_the_recorded_end_state(app, make_trial, con
         independent = replay_trial(session, trial.trial_id, 180)
         interruptions = len(session.scalars(select(Interruption)).all())
         accepted = session.scalars(
-            select(Command).where(Command.trial_id == trial.trial_id).order_by(Command.id)
+            select(Command)
+            .join(CommandOutcome, CommandOutcome.command_id == Command.id)
+            .where(Command.trial_id == trial.trial_id, CommandOutcome.accepted)
+            .order_by(Command.id)
         ).all()
     assert independent.state_digest() == recorded
     assert interruptions == 1
