@@ -68,6 +68,20 @@ def decision_row(**values) -> dict:
     return row
 
 
+def trial_rows(participant: str, model: str, seconds: list[float]) -> list[dict]:
+    """One study trial's decisions, one per decision time (seconds) given."""
+    return [
+        decision_row(
+            participant=participant,
+            model=model,
+            trial_id=f"{participant}-{model}",
+            decision_index=index + 1,
+            decision_time_s=float(value),
+        )
+        for index, value in enumerate(seconds)
+    ]
+
+
 def _trial_decisions(rng, source, model, participant, trial_id, scenario_id, run, human):
     """Twelve decisions of one trial, six per section, success depending on model."""
     success = {"M1": (0.9, 0.3), "M2": (0.9, 0.7), "M3": (0.8, 0.6)}[model]

@@ -6,26 +6,15 @@ import pandas as pd
 import pytest
 
 import hcss.analysis as analysis
+from tests.analysis.test_r_agreement import SCORES
 
 REL = 1e-6
 
-#: Eight participants × three models (the Friedman example of test_r_agreement).
-MATRIX = [
-    [50, 75, 60],
-    [40, 70, 70],
-    [55, 80, 65],
-    [30, 60, 45],
-    [60, 55, 70],
-    [45, 90, 50],
-    [35, 65, 40],
-    [50, 85, 75],
-]
-LONG = pd.DataFrame(
-    [
-        {"participant": f"P{row}", "model": model, "score": value}
-        for row, values in enumerate(MATRIX)
-        for model, value in zip(("M1", "M2", "M3"), values, strict=True)
-    ]
+#: The Friedman example of test_r_agreement (8 participants × 3 models), in long format.
+LONG = (
+    SCORES.rename_axis("participant")
+    .reset_index()
+    .melt(id_vars="participant", var_name="model", value_name="score")
 )
 
 

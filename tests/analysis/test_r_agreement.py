@@ -17,28 +17,15 @@ import pytest
 from hcss.analysis import posthoc, repeated, stats
 from hcss.analysis.decision_measures import decision_measures
 from hcss.analysis.spearman_p import EDGEWORTH, EXACT, T_APPROXIMATION
-from tests.analysis.synthetic import decision_row
+from tests.analysis.synthetic import trial_rows
 
 REL = 1e-6
 
 
-def _trial(participant: str, model: str, seconds: list[float]) -> list[dict]:
-    return [
-        decision_row(
-            participant=participant,
-            model=model,
-            trial_id=f"{participant}-{model}",
-            decision_index=index + 1,
-            decision_time_s=float(value),
-        )
-        for index, value in enumerate(seconds)
-    ]
-
-
 def test_equal_total_times_are_equal_measures_and_kruskal_wallis_agrees_with_r():
     """Two trials of 640 s over 5 decisions: one value, so ranked as a tie (failed before)."""
-    rows = _trial("A", "M1", [90, 100, 130, 150, 170])  # 640 s; mean of s/60 was 1 ulp off
-    rows += _trial("B", "M2", [128] * 5)  # 640 s
+    rows = trial_rows("A", "M1", [90, 100, 130, 150, 170])  # 640 s; mean of s/60 was 1 ulp off
+    rows += trial_rows("B", "M2", [128] * 5)  # 640 s
     for participant, model, total in [
         ("C", "M1", 600),
         ("D", "M1", 700),
@@ -48,7 +35,7 @@ def test_equal_total_times_are_equal_measures_and_kruskal_wallis_agrees_with_r()
         ("H", "M3", 720),
         ("I", "M3", 660),
     ]:
-        rows += _trial(participant, model, [total / 5] * 5)
+        rows += trial_rows(participant, model, [total / 5] * 5)
     decisions = pd.DataFrame(rows)
     decisions["group"] = decisions["model"]  # study rows: the group is the model
     measures = decision_measures(decisions)

@@ -12,7 +12,7 @@ from hcss.analysis.decision_measures import decision_measures
 from hcss.analysis.paired import participant_blocks
 from hcss.analysis.repeated import paired_wilcoxon
 from hcss.analysis.spearman_p import EDGEWORTH
-from tests.analysis.synthetic import decision_row
+from tests.analysis.synthetic import trial_rows
 
 REL = 1e-6
 
@@ -25,19 +25,6 @@ def _seconds(total: int) -> list[int]:
     """Ten whole-second decision times summing to ``total``."""
     base, extra = divmod(total, 10)
     return [base + (1 if index < extra else 0) for index in range(10)]
-
-
-def _trial(participant: str, model: str, seconds: list[float]) -> list[dict]:
-    return [
-        decision_row(
-            participant=participant,
-            model=model,
-            trial_id=f"{participant}-{model}",
-            decision_index=index + 1,
-            decision_time_s=value,
-        )
-        for index, value in enumerate(seconds)
-    ]
 
 
 def _measures(rows: list[dict]) -> pd.DataFrame:
@@ -59,8 +46,8 @@ def test_equal_paired_differences_tie_as_in_r():
     """
     rows = []
     for index, (first, second) in enumerate(TOTALS):
-        rows += _trial(f"P{index}", "M1", _seconds(first))
-        rows += _trial(f"P{index}", "M2", _seconds(second))
+        rows += trial_rows(f"P{index}", "M1", _seconds(first))
+        rows += trial_rows(f"P{index}", "M2", _seconds(second))
     blocks = participant_blocks(_measures(rows), "decision_time_min", "overall")
     result = paired_wilcoxon(blocks["M1"], blocks["M2"])
     assert result.statistic == 31
@@ -75,7 +62,7 @@ def test_a_missing_decision_time_is_left_out_of_the_mean():
         mean(c(60, 120, NA), na.rm = TRUE) / 60  # 1.5
     The decision still counts for success: 2 of 3 correct.
     """
-    rows = _trial("P1", "M1", [60.0, 120.0, float("nan")])
+    rows = trial_rows("P1", "M1", [60.0, 120.0, float("nan")])
     rows[2]["correct"] = False
     measures = _measures(rows)
     overall = measures[measures["split"] == "overall"].set_index("measure")["value"]
