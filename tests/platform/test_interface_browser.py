@@ -2,7 +2,8 @@
 
 The map's text and glyphs are measured as rendered (font size times the
 screen transform, and bounding boxes) at 1366x768 and 1024x768; a probe's
-question cannot be answered by a second press of the key that said Ready.
+question cannot be answered by a second press of the key that said Ready;
+a trial the experimenter aborts says so.
 """
 
 from __future__ import annotations
@@ -12,7 +13,8 @@ from collections.abc import Iterator
 import pytest
 from sqlalchemy import select
 
-from hcss.platform.models import ProbeEvent
+from hcss.platform.console.sessions import change_session
+from hcss.platform.models import Participant, ProbeEvent
 from tests.platform.inprocess_server import StudyServer, study_server
 from tests.platform.test_participant_browser import _start_live_trial, live_trial, wait_for
 
@@ -128,4 +130,15 @@ def test_the_map_reads_at_1366_and_1024_and_a_double_enter_answers_no_probe(
             select(ProbeEvent).where(ProbeEvent.probe_id == probe.id, ProbeEvent.kind == "answer")
         ).all()
     assert answer.answer == probe.choices[-1]
+
+    # The experimenter aborts: the page says so, not "Time is up".
+    with demo_server.app.app_context(), demo_server.database.session_scope() as session:
+        participant = session.scalars(select(Participant).where(Participant.token == token)).one()
+        session.expunge(participant)
+    with demo_server.app.app_context():
+        change_session(demo_server.database, demo_server.runner, participant, None, "abort")
+    expect(page.locator("#ended")).to_be_visible()
+    expect(page.locator("#ended-title")).to_have_text("Ended by the experimenter")
+    page.reload()  # the ended trial's page, opened again, says the same
+    expect(page.locator("#ended-title")).to_have_text("Ended by the experimenter")
     page.close()

@@ -20,6 +20,7 @@ from hcss.platform.live.idempotency import idempotent, pending_key
 from hcss.platform.live.session import RunningTrial
 from hcss.platform.live.stream import ended_stream, event_stream
 from hcss.platform.live.streams import RETRY_AFTER_S, StreamSlots
+from hcss.platform.live.trials import end_reason
 
 _POSITION = re.compile(r"[0-9]{1,18}")
 
@@ -76,7 +77,9 @@ def stream(token: str, trial_id: int) -> Response:
     headers = {"Cache-Control": "no-cache", "X-Accel-Buffering": "no"}
     if live is None:
         return Response(
-            ended_stream(trial.id, trial.duration_s), mimetype="text/event-stream", headers=headers
+            ended_stream(trial.id, trial.duration_s, end_reason(get_session(), trial.id)),
+            mimetype="text/event-stream",
+            headers=headers,
         )
     slots = stream_slots()
     ticket = slots.acquire(token)

@@ -196,6 +196,8 @@ class RunningTrial:
                 "version": self.version,
                 # Why a pause the experimenter did not make: the database is away.
                 "held_by": None if self.database_away_since is None else "database",
+                # Why it ended ("time_limit", "aborted"): the page words it.
+                "end_reason": self.end_reason if self.ended else None,
             },
             "messages": new_messages,
             "probe": None if self.current_probe is None else self.current_probe.public(),

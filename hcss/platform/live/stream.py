@@ -61,7 +61,14 @@ def event_stream(
     yield takeover_frame()
 
 
-def ended_stream(trial_id: int, duration_s: float) -> Iterator[str]:
-    """For a trial no longer live: one frame saying so, then close."""
-    frame = {"trial": {"id": trial_id, "status": TrialStatus.ENDED, "clock_s": duration_s}}
+def ended_stream(trial_id: int, duration_s: float, end_reason: str | None = None) -> Iterator[str]:
+    """For a trial no longer live: one frame saying so (and why, when known), then close."""
+    frame = {
+        "trial": {
+            "id": trial_id,
+            "status": TrialStatus.ENDED,
+            "clock_s": duration_s,
+            "end_reason": end_reason,
+        }
+    }
     yield f"retry: 5000\ndata: {json.dumps(frame)}\n\n"

@@ -118,6 +118,17 @@ def latest_status(session: Session, trial_id: int) -> str | None:
     return None if row is None else row.status
 
 
+def end_reason(session: Session, trial_id: int) -> str | None:
+    """Why an ended trial ended (its last status change's reason); None while it runs."""
+    row = session.scalars(
+        select(TrialStatusChange)
+        .where(TrialStatusChange.trial_id == trial_id)
+        .order_by(TrialStatusChange.id.desc())
+        .limit(1)
+    ).first()
+    return row.reason if row is not None and row.status == TrialStatus.ENDED else None
+
+
 def running_trial_ids(session: Session) -> list[int]:
     """Trials whose most recent status change is ``running``."""
     latest = (

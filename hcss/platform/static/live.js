@@ -479,9 +479,19 @@
       drawAssignments(frame.view);
     }
     drawProbe(frame.probe || null, frame.trial.clock_s);
-    if (frame.trial.status === "ended") endTrial();
+    if (frame.trial.status === "ended") endTrial(frame.trial.end_reason);
   }
-  function endTrial() {
+  // Why the trial ended, in the participant's words; the time limit is the usual reason.
+  const ENDINGS = {
+    aborted: ["Ended by the experimenter", "The experimenter has ended this session. Please wait for their instructions."],
+  };
+  function endTrial(reason) {
+    const ending = ENDINGS[reason];
+    if (ending) {
+      $("ended-title").textContent = ending[0];
+      $("ended-text").textContent = ending[1];
+      $("clock-box").hidden = true;  // the clock stopped early; its time is not the limit
+    }
     state.ended = true;
     if (stream) stream.close();
     $("probe").hidden = true;
