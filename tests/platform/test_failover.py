@@ -4,25 +4,31 @@ The real path: `hcss serve --cluster` processes, the nginx configuration
 `hcss deploy nginx` writes, HTTP through nginx, SIGKILL. The trial must go
 on in the other process within 10 s, with every row it had, and a command
 the dead process carried out must not be carried out twice when the
-participant's page repeats it there.
+participant's page repeats it there. Before the kill, the experimenter's
+console on the other process pauses and resumes the trial through its host.
 """
 
 from __future__ import annotations
 
+import html
+import http.cookiejar
 import time
 import urllib.error
+import urllib.parse
+import urllib.request
 import uuid
 
 import pytest
 from sqlalchemy import select
 
 from hcss.platform.cli import upgrade_database
+from hcss.platform.console.accounts import create_experimenter
 from hcss.platform.db import Database
 from hcss.platform.live.client import TrialClient
 from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.localserver import LocalNginx, LocalServer
 from hcss.platform.models import Interruption, TrialLease
-from tests.platform.conftest import STUDY_TRIAL_S
+from tests.platform.conftest import STUDY_TRIAL_S, csrf_token_of
 from tests.platform.test_restart import _records
 
 ACCELERATION = 20.0
@@ -45,6 +51,44 @@ def _wait_for(condition, timeout_s: float, what: str):  # type: ignore[no-untype
 def _lease_owner(database: Database, trial_id: int) -> str | None:
     with database.session_scope() as session:
         return session.scalar(select(TrialLease.owner).where(TrialLease.trial_id == trial_id))
+
+
+class _Console:
+    """An experimenter's browser on one process (the console has no token: any process serves it)."""
+
+    def __init__(self, base_url: str) -> None:
+        self.base_url = base_url
+        self.opener = urllib.request.build_opener(
+            urllib.request.HTTPCookieProcessor(http.cookiejar.CookieJar())
+        )
+
+    def page(self, path: str) -> tuple[str, str]:
+        with self.opener.open(self.base_url + path, timeout=10) as response:
+            html = response.read().decode()
+        return html, csrf_token_of(html)
+
+    def post(self, path: str, fields: dict[str, str]) -> str:
+        body = urllib.parse.urlencode(fields).encode()
+        with self.opener.open(self.base_url + path, data=body, timeout=10) as response:
+            return response.read().decode()
+
+    def act(self, code: str, action: str) -> str:
+        _, csrf = self.page(f"/console/participants/{code}")
+        return html.unescape(
+            self.post(f"/console/participants/{code}/{action}", {"csrf_token": csrf})
+        )
+
+
+def _signed_in_console(database: Database, base_url: str) -> _Console:
+    with database.session_scope() as session:
+        create_experimenter(session, "alice", "correct horse battery")
+    console = _Console(base_url)
+    _, csrf = console.page("/console/login")
+    console.post(
+        "/console/login",
+        {"csrf_token": csrf, "username": "alice", "password": "correct horse battery"},
+    )
+    return console
 
 
 def _require_group(database_url: str) -> None:
@@ -74,7 +118,7 @@ def test_kill_9_of_the_host_moves_the_trial_to_the_other_process(database_url, t
             participant, trial = start_bot_trial(
                 session, seed=2, duration_s=STUDY_TRIAL_S, time_acceleration=ACCELERATION
             )
-            token, trial_id = participant.token, trial.id
+            token, trial_id, code = participant.token, trial.id, participant.code
         client = TrialClient(nginx.url, token)
         client.open_page()
         view = _wait_for(lambda: client.state()["view"]["targets"], 30, "a visible target")
@@ -88,6 +132,14 @@ def test_kill_9_of_the_host_moves_the_trial_to_the_other_process(database_url, t
         assert first[0] == 200
         client.post("/observations", {"kind": "collective", "collective": 1, "button": "right"})
         _wait_for(lambda: client.state()["trial"]["step"] > 40, 30, "the trial to run on")
+
+        # The experimenter's console, served by the other process, pauses and resumes it.
+        console = _signed_in_console(database, other.url)
+        for action, status in (("pause", "paused"), ("resume", "running")):
+            issued = time.monotonic()
+            assert f"{code}: {action} done" in console.act(code, action)
+            _wait_for(lambda s=status: client.state()["trial"]["status"] == s, 2.0, action)
+            print(f"console {action} on the other process: {time.monotonic() - issued:.2f} s")
         before = _records(database, trial_id)
         step_at_kill = client.state()["trial"]["step"]
 

@@ -12,6 +12,9 @@ from __future__ import annotations
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
+from hcss.platform.live.control import control_trial
+from hcss.platform.live.leases import HostedElsewhere
+from hcss.platform.live.orders import send_order
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.session import RunningTrial
 from hcss.platform.live.trials import current_trial, latest_status
@@ -52,11 +55,17 @@ def study_status(session: Session, participant: Participant) -> str:
     return current_position(session, participant).status
 
 
-def _live_trial(session: Session, runner: Runner, participant: Participant) -> RunningTrial | None:
+def _live_trial(
+    session: Session, runner: Runner, participant: Participant
+) -> RunningTrial | HostedElsewhere | None:
+    """The participant's running trial if hosted here; `HostedElsewhere` if another process hosts it."""
     trial = current_trial(session, participant)
     if trial is None or latest_status(session, trial.id) != TrialStatus.RUNNING:
         return None
-    return runner.get(trial.id)
+    try:
+        return runner.get(trial.id)
+    except HostedElsewhere as elsewhere:
+        return elsewhere
 
 
 def _record(
@@ -109,32 +118,32 @@ def change_session(
         raise ConsoleError(
             f"{participant.code} has {status} the study; there is nothing to {action}"
         )
-    now = runner.clock()
-    if live is None:
-        _record(database, participant, experimenter, action, now)
+    experimenter_id = None if experimenter is None else experimenter.id
+    if isinstance(live, HostedElsewhere):
+        _send_order(database, runner, live.trial_id, action, experimenter_id)
         return
-    # Advanced to `now` first: the clock stops (or the trial ends) at this instant.
-    with runner.holding(live, now, advance=action != "resume"):
-        if live.ended:  # reached its time limit just now
-            _record(database, participant, experimenter, action, now)
-            return
-        with database.session_scope() as session:
-            session.add(
-                ConsoleAction(
-                    participant_id=participant.id,
-                    experimenter_id=None if experimenter is None else experimenter.id,
-                    action=action,
-                    trial_id=live.trial_id,
-                    at_epoch=now,
-                    detail=f"trial clock {live.clock(now):.1f} s",
-                )
-            )
-            if action == "abort":
-                runner.end(live, session, "aborted", now)
-        if action == "pause":
-            runner.pause(live, now)
-        elif action == "resume":
-            runner.resume(live, now)
+    if live is None:
+        _record(database, participant, experimenter, action, runner.clock())
+        return
+    control_trial(
+        runner, live, action, participant_id=participant.id, experimenter_id=experimenter_id
+    )
+
+
+def _send_order(
+    database: Database, runner: Runner, trial_id: int, action: str, experimenter_id: int | None
+) -> None:
+    """Have the process hosting the trial carry the action out; wait for it to confirm."""
+    issued_by = "" if runner.leases is None else runner.leases.owner
+    outcome = send_order(
+        database, trial_id, action, experimenter_id=experimenter_id, issued_by=issued_by
+    )
+    if outcome is None:
+        raise ConsoleError(
+            f"the {action} is sent to the server process hosting trial {trial_id}, which has "
+            "not confirmed it yet; it is carried out as soon as that process (or the one "
+            "taking the trial over) gets to it"
+        )
 
 
 def set_pilot(

@@ -25,7 +25,9 @@ from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
 from hcss.platform.live.clock import pause_clock, resume_clock
+from hcss.platform.live.control import control_trial
 from hcss.platform.live.leases import LEASE_S, HostedElsewhere, Leases
+from hcss.platform.live.orders import POLL_S, pending_orders
 from hcss.platform.live.outages import (
     database_came_back,
     database_went_away,
@@ -61,6 +63,7 @@ class Runner:
         #: None: this process hosts every running trial; else only those it holds the lease of.
         self.leases = leases
         self._last_renewal = -float("inf")
+        self._last_orders = -float("inf")  # monotonic
         self.snapshot_interval_s = snapshot_interval_s
         self._trials: dict[int, RunningTrial] = {}
         self._registry_lock = threading.RLock()
@@ -266,6 +269,9 @@ class Runner:
                 # The database is away: the trials in memory still advance, and
                 # their failing writes stop their clocks until it is back.
                 log.debug("runner sync skipped: the database is away", exc_info=True)
+        if self.leases is not None and wallclock.monotonic() - self._last_orders >= POLL_S:
+            self._last_orders = wallclock.monotonic()
+            self.carry_out_orders()
         with self._registry_lock:
             live_trials = list(self._trials.values())
         for live in live_trials:
@@ -275,6 +281,24 @@ class Runner:
                 log.exception("live trial %s failed to advance", live.trial_id)
             if live.ended:
                 self.forget(live.trial_id)
+
+    def carry_out_orders(self) -> None:
+        """Carry out the console orders other processes wrote for trials hosted here."""
+        for order in pending_orders(self.database, self.loaded_ids()):
+            live = self.loaded(order.trial_id)
+            if live is None:
+                continue
+            try:
+                control_trial(
+                    self,
+                    live,
+                    order.action,
+                    participant_id=order.participant_id,
+                    experimenter_id=order.experimenter_id,
+                    order_id=order.id,
+                )
+            except Exception:
+                log.exception("console order %s for trial %s failed", order.id, order.trial_id)
 
     def _renew(self, now: float) -> None:
         """Renew the leases of every trial held; stop hosting any whose lease was lost.

@@ -6,6 +6,7 @@ from hcss.platform.models.console import AuditRecord, ConsoleAction, Experimente
 from hcss.platform.models.idempotency import CommandKey
 from hcss.platform.models.lease import TrialLease
 from hcss.platform.models.observation import Observation
+from hcss.platform.models.order import TrialOrder
 from hcss.platform.models.outcome import DecisionRow, SimEvent
 from hcss.platform.models.participant import Participant, new_code, new_token
 from hcss.platform.models.presence import ParticipantPresence
@@ -64,6 +65,7 @@ __all__ = [
     "StudyEnrolment",
     "Trial",
     "TrialLease",
+    "TrialOrder",
     "TrialProblem",
     "TrialStatusChange",
     "UTCDateTime",

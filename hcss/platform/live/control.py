@@ -1,0 +1,82 @@
+"""The experimenter's pause, resume and abort of a live trial hosted by this process.
+
+One place carries them out, whether the console that asked is served by this
+process or by another one (whose `TrialOrder` the runner picked up): the
+`ConsoleAction` row is written first, inside the trial's lock, then the
+clock stops or runs on (or the trial ends), so the runner, the participant's
+commands and the console never see a half-done pause.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from sqlalchemy import update
+
+from hcss.platform.models import ConsoleAction, TrialOrder
+from hcss.platform.session_state import STATE_ACTIONS
+
+if TYPE_CHECKING:
+    from hcss.platform.live.runner import Runner
+    from hcss.platform.live.session import RunningTrial
+
+#: What `control_trial` answers: carried out, or the trial had just reached its end.
+DONE = "done"
+ENDED = "ended"
+
+
+def control_trial(
+    runner: Runner,
+    live: RunningTrial,
+    action: str,
+    *,
+    participant_id: int,
+    experimenter_id: int | None,
+    order_id: int | None = None,
+) -> str:
+    """Pause, resume or abort the trial now; `ENDED` if it ended first (then only logged).
+
+    `order_id`: the `TrialOrder` this carries out, marked done in the same
+    transaction as the action's row, so a host that dies in between leaves
+    either both or neither, and the next host never does it twice.
+    """
+    if action not in STATE_ACTIONS:
+        raise ValueError(f"unknown session action {action!r}")
+    now = runner.clock()
+    # Advanced to `now` first: the clock stops (or the trial ends) at this instant.
+    with runner.holding(live, now, advance=action != "resume"):
+        with runner.database.session_scope() as session:
+            if order_id is not None:
+                outcome = ENDED if live.ended else DONE
+                session.execute(
+                    update(TrialOrder)
+                    .where(TrialOrder.id == order_id)
+                    .values(done_epoch=now, outcome=outcome)
+                )
+            if live.ended:  # reached its time limit just now: the session's state still changes
+                session.add(
+                    ConsoleAction(
+                        participant_id=participant_id,
+                        experimenter_id=experimenter_id,
+                        action=action,
+                        at_epoch=now,
+                    )
+                )
+                return ENDED
+            session.add(
+                ConsoleAction(
+                    participant_id=participant_id,
+                    experimenter_id=experimenter_id,
+                    action=action,
+                    trial_id=live.trial_id,
+                    at_epoch=now,
+                    detail=f"trial clock {live.clock(now):.1f} s",
+                )
+            )
+            if action == "abort":
+                runner.end(live, session, "aborted", now)
+        if action == "pause":
+            runner.pause(live, now)
+        elif action == "resume":
+            runner.resume(live, now)
+    return DONE

@@ -1,0 +1,83 @@
+"""A console action issued in one process reaches the trial's host in another, within 2 s.
+
+Two apps on one database stand for two processes; the host's runner ticks in
+its own thread, as `hcss serve` runs it. The same through nginx and real
+processes is in test_failover.py.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Iterator
+
+import pytest
+from flask import Flask
+from sqlalchemy import select
+
+from hcss.platform.bots import ManualClock
+from hcss.platform.console.accounts import create_experimenter
+from hcss.platform.models import ConsoleAction, Participant, TrialOrder
+from tests.platform.console_support import sign_in
+from tests.platform.test_leases import _process, _start
+
+ORDER_LIMIT_S = 2.0
+
+
+@pytest.fixture
+def host_and_console(database_url: str) -> Iterator[tuple[Flask, Flask]]:
+    clock = ManualClock(1_000_000.0)
+    host = _process(database_url, "127.0.0.1:5001", clock)
+    host.extensions["hcss_db"].create_all()
+    console = _process(database_url, "127.0.0.1:5002", clock)
+    stop = threading.Event()
+
+    def run_host() -> None:  # the host's runner thread, on the (still) fake clock
+        while not stop.is_set():
+            host.extensions["hcss_runner"].tick()
+            stop.wait(0.05)
+
+    ticking = threading.Thread(target=run_host, daemon=True)
+    ticking.start()
+    yield host, console
+    stop.set()
+    ticking.join(timeout=10)
+    for app in (host, console):
+        app.extensions["hcss_db"].engine.dispose()
+
+
+def test_a_pause_and_resume_on_one_process_reach_the_host_of_the_trial(host_and_console) -> None:
+    host, console = host_and_console
+    runner = host.extensions["hcss_runner"]
+    trial_id = _start(runner)
+    live = runner.get(trial_id)
+    assert live is not None
+    with host.extensions["hcss_db"].session_scope() as session:
+        create_experimenter(session, "alice", "correct horse battery")
+        code = session.scalars(select(Participant.code)).one()
+    client = console.test_client()
+    assert sign_in(client, "alice", "correct horse battery").status_code == 302
+
+    for action, paused in (("pause", True), ("resume", False)):
+        page = client.get(f"/console/participants/{code}")
+        csrf = page.get_data(as_text=True).split('name="csrf-token" content="')[1].split('"')[0]
+        started = time.monotonic()
+        answer = client.post(
+            f"/console/participants/{code}/{action}",
+            data={"csrf_token": csrf},
+            follow_redirects=True,
+        )
+        took_s = time.monotonic() - started
+        assert f"{code}: {action} done" in answer.get_data(as_text=True)
+        assert took_s < ORDER_LIMIT_S, took_s
+        assert (live.paused_since is not None) is paused  # carried out in the host's memory
+        assert trial_id not in console.extensions["hcss_runner"].loaded_ids()
+
+    with host.extensions["hcss_db"].session_scope() as session:
+        actions = session.scalars(select(ConsoleAction).order_by(ConsoleAction.id)).all()
+        orders = session.scalars(select(TrialOrder).order_by(TrialOrder.id)).all()
+    assert [(a.action, a.trial_id) for a in actions] == [("pause", trial_id), ("resume", trial_id)]
+    assert [(o.action, o.outcome, o.issued_by) for o in orders] == [
+        ("pause", "done", "127.0.0.1:5002"),
+        ("resume", "done", "127.0.0.1:5002"),
+    ]
