@@ -21,7 +21,7 @@ sample too small to vary (every resample alike) gives no interval.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 from scipy import stats
@@ -65,7 +65,10 @@ def spearman_interval(rho: float, n: int) -> Interval:
     return _fisher(rho, math.sqrt((1 + rho * rho / 2.0) / (n - 3)))
 
 
-def _percentile(samples: tuple[np.ndarray, ...], statistic, paired: bool) -> Interval:
+Statistic = Callable[..., np.ndarray]
+
+
+def _percentile(samples: tuple[np.ndarray, ...], statistic: Statistic, paired: bool) -> Interval:
     result = stats.bootstrap(
         samples,
         statistic,
@@ -96,7 +99,7 @@ def _epsilon_squared(*groups: np.ndarray, axis: int = -1) -> np.ndarray:
     h *= 12.0 / (n * (n + 1))
     correction = 1.0 - ties / (n**3 - n)
     with np.errstate(invalid="ignore", divide="ignore"):
-        return h / correction / (n - 1)
+        return np.asarray(h / correction / (n - 1), dtype=float)
 
 
 def _tie_sum(ranks: np.ndarray) -> np.ndarray:
@@ -107,10 +110,10 @@ def _tie_sum(ranks: np.ndarray) -> np.ndarray:
     keeps the bootstrap vectorised.
     """
     n = ranks.shape[-1]
-    return 2.0 * n * (n + 1) * (2 * n + 1) - 12.0 * (ranks**2).sum(axis=-1)
+    return np.asarray(2.0 * n * (n + 1) * (2 * n + 1) - 12.0 * (ranks**2).sum(axis=-1))
 
 
-def epsilon_squared_interval(groups: Sequence[Sequence[float]]) -> Interval:
+def epsilon_squared_interval(groups: Sequence[Sequence[float] | np.ndarray]) -> Interval:
     """Bootstrap 95% CI of Kruskal-Wallis ε² = H/(n − 1), resampling within groups."""
     samples = tuple(np.asarray(group, dtype=float) for group in groups)
     if len(samples) < 2 or any(len(sample) < 2 for sample in samples):
@@ -127,7 +130,7 @@ def _kendalls_w(*conditions: np.ndarray, axis: int = -1) -> np.ndarray:
     chi2 = 12.0 * ((sums - n * (k + 1) / 2.0) ** 2).sum(axis=-1)
     with np.errstate(invalid="ignore", divide="ignore"):
         chi2 = chi2 / (n * k * (k + 1) - ties / (k - 1))
-        return chi2 / (n * (k - 1))
+        return np.asarray(chi2 / (n * (k - 1)), dtype=float)
 
 
 def kendalls_w_interval(blocks: np.ndarray) -> Interval:

@@ -68,3 +68,20 @@ def test_tlx_profile_has_a_panel_per_kind_and_no_lines_across_subscales():
     for axes in figure.axes:
         for line in axes.get_lines():
             assert line.get_linestyle() == "None"  # markers and error bars, never a line
+
+
+def test_demographics_leave_out_visitors_who_never_reached_the_questionnaire():
+    """A visitor with no answer at all was counted as "not answered" in every item."""
+    from hcss.analysis.sample import demographics_table
+
+    participants = pd.DataFrame(
+        {
+            "participant": ["P1", "P2", "V1"],
+            "age_band": ["18-30", "31-45", None],
+            "gender": ["x", "y", None],
+            "video_games": [3, 4, None],
+        }
+    )
+    table = demographics_table(participants)
+    assert ("age band", "18-30", "1 (50%)") in table.rows
+    assert all("not answered" not in row[1] for row in table.rows)
