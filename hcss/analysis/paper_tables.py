@@ -82,6 +82,7 @@ def family_table(
                         "friedman_p": fr_p,
                     }
                 )
+    header, rows = _without_untested(header, rows)
     return Table(
         f"family_{family.key}",
         f"{family.title}: mean (SD) per model",
@@ -89,6 +90,18 @@ def family_table(
         tuple(rows),
         pd.DataFrame(records),
     )
+
+
+def _without_untested(
+    header: tuple[str, ...], rows: list[tuple[str, ...]]
+) -> tuple[tuple[str, ...], list[tuple[str, ...]]]:
+    """Drop the KW/Friedman p columns when no row has that test (a sample too small for it)."""
+    keep = [
+        index
+        for index, name in enumerate(header)
+        if name not in ("KW p", "Friedman p") or any(row[index] != "–" for row in rows)
+    ]
+    return tuple(header[i] for i in keep), [tuple(row[i] for i in keep) for row in rows]
 
 
 def pvalue_matrix(

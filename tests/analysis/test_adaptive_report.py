@@ -85,3 +85,11 @@ def test_demographics_leave_out_visitors_who_never_reached_the_questionnaire():
     table = demographics_table(participants)
     assert ("age band", "18-30", "1 (50%)") in table.rows
     assert all("not answered" not in row[1] for row in table.rows)
+
+
+def test_family_tables_drop_p_columns_of_tests_not_run(tmp_path: Path):
+    """With one participant every "KW p" and "Friedman p" cell was an en dash."""
+    tables = load_inputs([study_export(tmp_path / "export", participants=1)])
+    sections = {s.key: s for s in build_sections(tables, all_measures(tables))}
+    family = sections["performance"].tables[0]
+    assert family.header == ("Measure", "Split", "M1 M (SD)", "M2 M (SD)", "M3 M (SD)", "N")
