@@ -1,5 +1,8 @@
 """Two server processes behind nginx on one PostgreSQL database: kill -9 the trial's host.
 
+The processes listen on different loopback addresses (127.0.0.2, 127.0.0.3),
+as processes on two hosts would: nothing but the database and nginx joins them.
+
 The real path: `hcss serve --cluster` processes, the nginx configuration
 `hcss deploy nginx` writes, HTTP through nginx, SIGKILL. The trial must go
 on in the other process within 10 s, with every row it had, and a command
@@ -103,13 +106,18 @@ def test_kill_9_of_the_host_moves_the_trial_to_the_other_process(database_url, t
     _require_group(database_url)
     upgrade_database(database_url)
     database = Database(database_url)
+    # Two addresses, as two hosts would have: the processes know each other only by the database.
     servers = {
         name: LocalServer(
-            database_url, tmp_path / name, snapshot_interval_s=1.0, serve_args=["--cluster"]
+            database_url,
+            tmp_path / name,
+            snapshot_interval_s=1.0,
+            serve_args=["--cluster"],
+            host=address,
         )
-        for name in ("a", "b")
+        for name, address in (("a", "127.0.0.2"), ("b", "127.0.0.3"))
     }
-    nginx = LocalNginx([f"127.0.0.1:{s.port}" for s in servers.values()], tmp_path / "nginx")
+    nginx = LocalNginx([f"{s.host}:{s.port}" for s in servers.values()], tmp_path / "nginx")
     try:
         for server in servers.values():
             server.start(timeout_s=120)  # a first start compiles the simulation
@@ -123,7 +131,7 @@ def test_kill_9_of_the_host_moves_the_trial_to_the_other_process(database_url, t
         client.open_page()
         view = _wait_for(lambda: client.state()["view"]["targets"], 30, "a visible target")
         owner = _lease_owner(database, trial_id)
-        host = next(s for s in servers.values() if owner == f"127.0.0.1:{s.port}")
+        host = next(s for s in servers.values() if owner == f"{s.host}:{s.port}")
         other = next(s for s in servers.values() if s is not host)
 
         key = str(uuid.uuid4())
@@ -149,7 +157,7 @@ def test_kill_9_of_the_host_moves_the_trial_to_the_other_process(database_url, t
             lambda: client.state()["trial"]["step"] > step_at_kill, 20, "the trial on the other"
         )
         failover_s = time.monotonic() - killed
-        assert _lease_owner(database, trial_id) == f"127.0.0.1:{other.port}"
+        assert _lease_owner(database, trial_id) == f"{other.host}:{other.port}"
         assert failover_s < FAILOVER_LIMIT_S, failover_s
 
         # The page repeats the command whose answer it lost: the first answer, not a second command.
