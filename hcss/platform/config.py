@@ -69,6 +69,13 @@ def secret_key() -> str:
     return key_file.read_text().strip()
 
 
+def _join_limit() -> tuple[int, float] | None:
+    from hcss.platform.ratelimit import DEFAULT, parse_limit
+
+    configured = os.environ.get("HCSS_JOIN_PER_CLIENT")
+    return DEFAULT if configured is None else parse_limit(configured)
+
+
 def defaults() -> dict[str, object]:
     """The settings `create_app` starts from."""
     return {
@@ -112,6 +119,9 @@ def defaults() -> dict[str, object]:
             for network in os.environ.get("HCSS_CONSOLE_ALLOW", "").split(",")
             if network.strip()
         ],
+        # Starts of the public study link one address may send: (count, seconds), or
+        # None; HCSS_JOIN_PER_CLIENT="30/600" (hcss.platform.ratelimit).
+        "JOIN_PER_CLIENT": _join_limit(),
         # Bytes of request body (Flask answers 413 past it; `hcss serve` tells waitress too).
         # The largest legitimate body, a questionnaire page, is a few kB.
         "MAX_CONTENT_LENGTH": 256 * 1024,

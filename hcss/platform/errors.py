@@ -28,6 +28,10 @@ ADVICE = {
         "This page cannot be opened like that",
         "Nothing was changed. Go to your current page to carry on.",
     ),
+    429: (
+        "Too many sign-ups from your network",
+        "Nothing was changed. Please wait a few minutes and open the study link again.",
+    ),
     503: (
         "Please wait a moment",
         "The study's database is not answering just now. Please wait: this page tries "

@@ -30,8 +30,7 @@ def is_pilot(session: Session, participant: Participant) -> bool:
     return participant.is_pilot if latest is None else latest == "mark_pilot"
 
 
-def pilot_flags(session: Session, participants: list[Participant]) -> dict[int, bool]:
-    """`is_pilot` for many participants in one query (the console's live table)."""
+def _latest_marks(session: Session) -> dict[int, str]:
     latest: dict[int, str] = {}
     for participant_id, action in session.execute(
         select(ConsoleAction.participant_id, ConsoleAction.action)
@@ -39,6 +38,20 @@ def pilot_flags(session: Session, participants: list[Participant]) -> dict[int, 
         .order_by(ConsoleAction.id)
     ):
         latest[participant_id] = action  # the newest mark wins
+    return latest
+
+
+def pilot_marks(session: Session) -> tuple[set[int], set[int]]:
+    """Ids the experimenter marked pilot, and ids unmarked, by each one's newest mark
+    (the console filters its table with them in SQL)."""
+    latest = _latest_marks(session)
+    marked = {pid for pid, action in latest.items() if action == "mark_pilot"}
+    return marked, set(latest) - marked
+
+
+def pilot_flags(session: Session, participants: list[Participant]) -> dict[int, bool]:
+    """`is_pilot` for many participants in one query (the console's live table)."""
+    latest = _latest_marks(session)
     return {
         p.id: p.is_pilot if p.id not in latest else latest[p.id] == "mark_pilot"
         for p in participants

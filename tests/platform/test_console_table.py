@@ -10,7 +10,7 @@ import pytest
 from sqlalchemy import select
 
 from hcss.platform.bots import run_bots
-from hcss.platform.console.progress import progress_rows
+from hcss.platform.console.progress import progress_page
 from hcss.platform.console.sessions import ConsoleError, change_session
 from hcss.platform.models import ConsoleAction, Participant, StudyEnrolment
 from hcss.platform.study.stages import sequence
@@ -147,7 +147,7 @@ def test_a_participant_who_finished_shows_completed_and_cannot_be_paused(demo_ap
     (report,) = run_bots(demo_app, 1)
     database = demo_app.extensions["hcss_db"]
     with demo_app.app_context(), database.session_scope() as session:
-        (row,) = progress_rows(session, demo_app.extensions["hcss_runner"].clock())
+        (row,) = progress_page(session, demo_app.extensions["hcss_runner"].clock()).rows
         participant = session.scalars(select(Participant)).one()
     assert row.code == report.code
     assert (row.status, row.state, row.stage) == ("completed", "active", "completed")

@@ -118,5 +118,11 @@ def heartbeat(token: str) -> Response:
     return Response(status=204)
 
 
-def presence_by_participant(session: Session) -> dict[int, ParticipantPresence]:
-    return {row.participant_id: row for row in session.scalars(select(ParticipantPresence))}
+def presence_by_participant(
+    session: Session, ids: list[int] | None = None
+) -> dict[int, ParticipantPresence]:
+    """Each participant's heartbeat row; only those of `ids` when given (a page of the table)."""
+    query = select(ParticipantPresence)
+    if ids is not None:
+        query = query.where(ParticipantPresence.participant_id.in_(ids))
+    return {row.participant_id: row for row in session.scalars(query)}

@@ -1,7 +1,9 @@
 """The live table: every participant's study, cell, stage, clocks, presence and actions.
 
-Read straight from the database on each poll (a few hundred participants at
-most), so the table is right whichever server process runs the trials. The
+Read straight from the database on each poll, so the table is right
+whichever server process runs the trials. The table is paged and filtered in
+the database (`progress_page`): a page costs its own rows, whether the study
+has 50 participants or 5,000. The
 trial clock is computed the way the runner computes it: running wall time,
 pauses excluded, times the trial's acceleration. Presence comes from the
 heartbeats of the participant's page (hcss.platform.console.presence).
@@ -12,7 +14,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 from typing import Any
 
-from sqlalchemy import func, select
+from sqlalchemy import ColumnElement, and_, false, func, or_, select, true
 from sqlalchemy.orm import Session
 
 from hcss.platform.console.presence import CONNECTED_WITHIN_S, presence_by_participant
@@ -29,7 +31,7 @@ from hcss.platform.models import (
     TrialStatusChange,
 )
 from hcss.platform.models.vocabularies import TrialStatus
-from hcss.platform.pilots import pilot_flags
+from hcss.platform.pilots import pilot_flags, pilot_marks
 from hcss.platform.session_state import session_states
 from hcss.platform.study.enrolment import default_study_name
 from hcss.platform.study.flow import Flow, Position
@@ -70,8 +72,12 @@ def trial_clock_s(session: Session, trial: Trial, now: float) -> float:
     )
 
 
-def _latest_trials(session: Session) -> dict[int, Trial]:
-    newest = select(func.max(Trial.id)).group_by(Trial.participant_id)
+def _latest_trials(session: Session, ids: list[int]) -> dict[int, Trial]:
+    newest = (
+        select(func.max(Trial.id))
+        .where(Trial.participant_id.in_(ids))
+        .group_by(Trial.participant_id)
+    )
     return {t.participant_id: t for t in session.scalars(select(Trial).where(Trial.id.in_(newest)))}
 
 
@@ -84,8 +90,12 @@ def _trial_status(session: Session, trial_id: int) -> TrialStatusChange | None:
     ).first()
 
 
-def _latest_stage_events(session: Session) -> dict[int, StageEvent]:
-    newest = select(func.max(StageEvent.id)).group_by(StageEvent.participant_id)
+def _latest_stage_events(session: Session, ids: list[int]) -> dict[int, StageEvent]:
+    newest = (
+        select(func.max(StageEvent.id))
+        .where(StageEvent.participant_id.in_(ids))
+        .group_by(StageEvent.participant_id)
+    )
     return {
         e.participant_id: e
         for e in session.scalars(select(StageEvent).where(StageEvent.id.in_(newest)))
@@ -112,9 +122,13 @@ class _Place:
     entered: StageEvent | None  # when the current step was entered, if it was
 
 
-def _latest_enrolments(session: Session) -> dict[int, StudyEnrolment]:
+def _latest_enrolments(session: Session, ids: list[int]) -> dict[int, StudyEnrolment]:
     """Each participant's enrolment (the newest row, as `current_enrolment`), in one query."""
-    newest = select(func.max(StudyEnrolment.id)).group_by(StudyEnrolment.participant_id)
+    newest = (
+        select(func.max(StudyEnrolment.id))
+        .where(StudyEnrolment.participant_id.in_(ids))
+        .group_by(StudyEnrolment.participant_id)
+    )
     return {
         e.participant_id: e
         for e in session.scalars(select(StudyEnrolment).where(StudyEnrolment.id.in_(newest)))
@@ -141,24 +155,76 @@ def _presence(row: ParticipantPresence | None, now: float) -> tuple[float | None
     return ago, ago <= CONNECTED_WITHIN_S, bool(row.hidden)
 
 
-def progress_rows(session: Session, now: float) -> list[ProgressRow]:
-    """One row per participant, newest first.
+#: Rows per page of the live table.
+PER_PAGE = 25
+#: What the table can hide, by the flag's name in the page's filter boxes.
+FLAGS = ("pilot", "bot", "demo")
+
+
+@dataclass(frozen=True)
+class ProgressPage:
+    rows: list[ProgressRow]
+    page: int  # 1-based
+    pages: int
+    total: int  # participants the filters let through
+
+
+def _shown(session: Session, hide: frozenset[str]) -> ColumnElement[bool]:
+    """The SQL condition for the participants the filters let through."""
+    conditions: list[ColumnElement[bool]] = [true()]
+    if "bot" in hide:
+        conditions.append(Participant.is_bot == false())
+    if "demo" in hide:
+        conditions.append(Participant.is_demo == false())
+    if "pilot" in hide:
+        marked, unmarked = pilot_marks(session)
+        conditions.append(Participant.id.not_in(marked))
+        conditions.append(or_(Participant.is_pilot == false(), Participant.id.in_(unmarked)))
+    return and_(*conditions)
+
+
+def progress_page(
+    session: Session, now: float, *, page: int = 1, hide: frozenset[str] = frozenset()
+) -> ProgressPage:
+    """One page of the table, newest first, with the hidden flags filtered out in SQL."""
+    shown = _shown(session, hide)
+    total = int(session.scalar(select(func.count()).select_from(Participant).where(shown)) or 0)
+    pages = max(1, -(-total // PER_PAGE))
+    page = min(max(1, page), pages)
+    participants = list(
+        session.scalars(
+            select(Participant)
+            .where(shown)
+            .order_by(Participant.id.desc())
+            .limit(PER_PAGE)
+            .offset((page - 1) * PER_PAGE)
+        )
+    )
+    return ProgressPage(progress_rows(session, now, participants), page, pages, total)
+
+
+def progress_rows(
+    session: Session, now: float, participants: list[Participant] | None = None
+) -> list[ProgressRow]:
+    """One row per participant given (default: all), in the order given (newest first).
 
     The stage is the study engine's own answer, so the console never
     disagrees with what the participant sees; a running trial adds its
     clock. Time in stage counts from the step's entry, or from the last thing
     that happened when the participant has not opened the next step yet.
     """
-    trials = _latest_trials(session)
-    last_events = _latest_stage_events(session)
-    presence = presence_by_participant(session)
+    if participants is None:
+        participants = list(session.scalars(select(Participant).order_by(Participant.id.desc())))
+    ids = [participant.id for participant in participants]
+    trials = _latest_trials(session, ids)
+    last_events = _latest_stage_events(session, ids)
+    presence = presence_by_participant(session, ids)
     states = session_states(session)
-    enrolments = _latest_enrolments(session)
+    enrolments = _latest_enrolments(session, ids)
     recruited = {
         r.participant_id: f"{r.source} {r.recruitment_id}" if r.recruitment_id else r.source
-        for r in session.scalars(select(Recruitment))
+        for r in session.scalars(select(Recruitment).where(Recruitment.participant_id.in_(ids)))
     }
-    participants = list(session.scalars(select(Participant).order_by(Participant.id.desc())))
     pilots = pilot_flags(session, participants)
     rows = []
     for participant in participants:
@@ -211,5 +277,10 @@ def progress_rows(session: Session, now: float) -> list[ProgressRow]:
     return rows
 
 
-def progress_json(session: Session, now: float) -> list[dict[str, Any]]:
-    return [asdict(row) for row in progress_rows(session, now)]
+def progress_json(page: ProgressPage) -> dict[str, Any]:
+    return {
+        "participants": [asdict(row) for row in page.rows],
+        "page": page.page,
+        "pages": page.pages,
+        "total": page.total,
+    }

@@ -43,7 +43,7 @@ from hcss.platform.console.participants import (
     participants_by_code,
 )
 from hcss.platform.console.presence import CONNECTED_WITHIN_S
-from hcss.platform.console.progress import progress_json, progress_rows
+from hcss.platform.console.progress import FLAGS, progress_json, progress_page
 from hcss.platform.console.sessions import (
     ConsoleError,
     available_actions,
@@ -162,7 +162,7 @@ def index() -> str:
     audits = session.scalars(select(AuditRecord).order_by(AuditRecord.id.desc()).limit(20)).all()
     return render_template(
         "console/index.html",
-        rows=progress_rows(session, _runner().clock()),
+        table=_table_page(),
         create_form=forms.CreateParticipantsForm(),
         action_form=forms.ActionForm(),
         audits=audit_entries(audits),
@@ -189,7 +189,15 @@ def recruitment_targets(session: Session) -> list[Enrolled]:
 @bp.get("/progress.json")
 @login_required
 def progress() -> Response:
-    return jsonify(participants=progress_json(get_session(), _runner().clock()))
+    return jsonify(progress_json(_table_page()))
+
+
+def _table_page():  # type: ignore[no-untyped-def]
+    """The page of the live table that ``?page=N&hide=pilot,bot,demo`` asks for."""
+    page = request.args.get("page", "1")
+    hide = frozenset(flag for flag in request.args.get("hide", "").split(",") if flag in FLAGS)
+    number = int(page) if page.isdigit() and len(page) < 7 else 1
+    return progress_page(get_session(), _runner().clock(), page=number, hide=hide)
 
 
 @bp.post("/participants")

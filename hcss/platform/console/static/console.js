@@ -1,5 +1,6 @@
 // The live participant table: refreshed every two seconds (CONSOLE_POLL_S) from /console/progress.json,
-// with filters that hide pilot, bot and demo participants (remembered in this browser).
+// one page at a time, with filters that hide pilot, bot and demo participants (remembered in this
+// browser; the server filters, so a page is full).
 (function () {
   "use strict";
   // A button that asks first (Abort): one delegated handler, since inline script is forbidden (CSP).
@@ -176,10 +177,27 @@
     applyFilters();
   }
 
+  // The server pages and filters the table: ask for this page with the hidden flags.
+  const pager = document.getElementById("pager");
+  const pageOf = document.getElementById("page-of");
+  function pageUrl() {
+    const hidden = filters.filter((box) => box.checked).map((box) => box.dataset.flag);
+    const page = pager ? pager.dataset.page : "1";
+    return table.dataset.url + "?page=" + encodeURIComponent(page)
+      + "&hide=" + encodeURIComponent(hidden.join(","));
+  }
+
   async function poll() {
     try {
-      const response = await fetch(table.dataset.url, { credentials: "same-origin" });
-      if (response.ok) render((await response.json()).participants);
+      const response = await fetch(pageUrl(), { credentials: "same-origin" });
+      if (response.ok) {
+        const answer = await response.json();
+        render(answer.participants);
+        if (pageOf) {
+          pageOf.textContent = "page " + answer.page + " of " + answer.pages + " · "
+            + answer.total + " participants";
+        }
+      }
     } catch (error) {
       // A dropped poll is retried by the next one.
     }
@@ -196,6 +214,7 @@
     box.addEventListener("change", () => {
       localStorage.setItem("hcss-hide-" + box.dataset.flag, box.checked ? "1" : "0");
       applyFilters();
+      poll();
     });
   }
   if (search) search.addEventListener("input", applyFilters);

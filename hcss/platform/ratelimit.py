@@ -1,0 +1,78 @@
+"""A per-client rate limit on enrolment through the public study link.
+
+Anyone with the link can press Start, and each Start of a new visitor makes a
+participant: one client made 4,500 in 73 s, and each counted in its cell.
+`JOIN_PER_CLIENT` (count, seconds; ``HCSS_JOIN_PER_CLIENT=30/600``) bounds the
+Starts one address may send in a sliding window; more answer 429 with
+Retry-After and write nothing. The address is the proxy-corrected one
+(``PROXY_HOPS``). A lab whose participants share one address raises the count.
+
+The windows live in the process, not the database: a restart forgets them,
+which costs an attacker one window, and checking one costs no query. The
+recruitment cap of a study (its file's setting) applies as well, in the view.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections import deque
+from collections.abc import Callable
+
+from flask import Flask, current_app, request
+
+from hcss.platform.errors import error_page
+
+#: (Starts, seconds) one address may send; None: no limit.
+DEFAULT = (30, 600.0)
+LIMITED_ENDPOINTS = frozenset({"join.start"})
+
+
+class SlidingWindows:
+    """At most `count` events per key within any `seconds`; thread-safe, pruned as it goes."""
+
+    def __init__(self, clock: Callable[[], float] = time.monotonic) -> None:
+        self.clock = clock
+        self._events: dict[str, deque[float]] = {}
+        self._lock = threading.Lock()
+
+    def take(self, key: str, count: int, seconds: float) -> float:
+        """Count one event for `key`; 0 when allowed, else the seconds until one is."""
+        now = self.clock()
+        with self._lock:
+            for stale in [k for k, q in self._events.items() if not q or q[-1] <= now - seconds]:
+                del self._events[stale]  # keys idle for a whole window: memory stays bounded
+            events = self._events.setdefault(key, deque())
+            while events and events[0] <= now - seconds:
+                events.popleft()
+            if len(events) >= count:
+                return events[0] + seconds - now
+            events.append(now)
+            return 0.0
+
+
+def parse_limit(text: str) -> tuple[int, float] | None:
+    """``"30/600"`` -> (30, 600.0); ``"0"`` or ``""`` -> None (no limit)."""
+    if not text or text.strip() == "0":
+        return None
+    count, _, seconds = text.partition("/")
+    return int(count), float(seconds or 60)
+
+
+def _limit_enrolment():  # type: ignore[no-untyped-def]
+    if request.method != "POST" or request.endpoint not in LIMITED_ENDPOINTS:
+        return None
+    limit = current_app.config.get("JOIN_PER_CLIENT")
+    if not limit:
+        return None
+    windows: SlidingWindows = current_app.extensions["hcss_join_windows"]
+    wait_s = windows.take(request.remote_addr or "?", int(limit[0]), float(limit[1]))
+    if wait_s <= 0:
+        return None
+    page, code = error_page(429)  # type: ignore[misc]
+    return page, code, {"Retry-After": str(max(1, round(wait_s)))}
+
+
+def install(app: Flask) -> None:
+    app.extensions["hcss_join_windows"] = SlidingWindows()
+    app.before_request(_limit_enrolment)
