@@ -63,7 +63,9 @@ class LocalServer:
     def url(self) -> str:
         return f"http://{self.host}:{self.port}"
 
-    def start(self, timeout_s: float = 30.0) -> LocalServer:
+    def start(self, timeout_s: float = 120.0) -> LocalServer:
+        """Start and wait until it answers; `hcss serve` compiles the simulation first
+        (up to about 25 s on an empty kernel cache), hence the long default wait."""
         env = {
             **os.environ,
             "DATABASE_URL": self.database_url,

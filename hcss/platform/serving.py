@@ -44,4 +44,7 @@ def log_events_to_stderr(stream: TextIO | None = None) -> logging.Handler:
     logger = logging.getLogger("hcss.events")
     logger.setLevel(logging.INFO)
     logger.addHandler(handler)
+    # Waitress gives the root logger a handler of its own (basicConfig): without
+    # this, every event was printed a second time as "INFO:hcss.events:...".
+    logger.propagate = False
     return handler

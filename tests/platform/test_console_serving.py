@@ -98,6 +98,7 @@ def test_the_server_prints_participant_events_and_enrols_in_its_study(instance) 
     log = server.log_path.read_text()
     assert re.search(rf"^\d\d:\d\d:\d\d {code} enrolled: study demo, cell \d+ ", log, re.M), log
     assert re.search(rf"^\d\d:\d\d:\d\d {code} stage 1 consent: entered$", log, re.M), log
+    assert log.count(f"{code} stage 1 consent: entered") == 1, log  # once, not twice
     assert token not in log
 
 
