@@ -17,7 +17,7 @@ from sqlalchemy import select
 
 from hcss.platform.bots import ManualClock
 from hcss.platform.console.accounts import create_experimenter
-from hcss.platform.models import ConsoleAction, Participant, TrialOrder
+from hcss.platform.models import ConsoleAction, Participant, TrialLease, TrialOrder
 from tests.platform.console_support import sign_in
 from tests.platform.test_leases import _process, _start
 
@@ -81,3 +81,34 @@ def test_a_pause_and_resume_on_one_process_reach_the_host_of_the_trial(host_and_
         ("pause", "done", "127.0.0.1:5002"),
         ("resume", "done", "127.0.0.1:5002"),
     ]
+
+
+def test_a_withdrawal_on_one_process_takes_the_trial_from_its_host_first(
+    host_and_console,
+) -> None:
+    host, console = host_and_console
+    runner = host.extensions["hcss_runner"]
+    trial_id = _start(runner)
+    live = runner.get(trial_id)
+    assert live is not None
+    with host.extensions["hcss_db"].session_scope() as session:
+        create_experimenter(session, "alice", "correct horse battery")
+        code = session.scalars(select(Participant.code)).one()
+    client = console.test_client()
+    assert sign_in(client, "alice", "correct horse battery").status_code == 302
+    page = client.get(f"/console/participants/{code}")
+    csrf = page.get_data(as_text=True).split('name="csrf-token" content="')[1].split('"')[0]
+    answer = client.post(
+        f"/console/participants/{code}/withdraw",
+        data={"csrf_token": csrf, "confirm_code": code},
+        follow_redirects=True,
+    )
+    assert answer.status_code == 200
+    assert live.moved and trial_id not in runner.loaded_ids()  # the host stopped first
+    with host.extensions["hcss_db"].session_scope() as session:
+        assert session.scalars(select(Participant)).all() == []
+        assert session.scalars(select(TrialLease)).all() == []
+    for _ in range(5):  # and writes nothing for it afterwards
+        runner.clock.now += 1.0
+        runner.tick()
+    assert trial_id not in runner.loaded_ids()

@@ -14,6 +14,7 @@ from sqlalchemy import ColumnElement, MetaData, Select, Table, delete, false, or
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
+from hcss.platform.live.leases import HostedElsewhere
 from hcss.platform.live.runner import Runner
 from hcss.platform.models import AuditRecord, Base, DeletionPermit, Participant, Trial
 
@@ -78,8 +79,14 @@ def withdraw(
         trial_ids = list(
             session.scalars(select(Trial.id).where(Trial.participant_id == participant_id))
         )
-    with runner.withdrawing(trial_ids, "withdrawn"):
-        return _delete_all(database, participant_id, participant_code, experimenter)
+    try:
+        with runner.withdrawing(trial_ids, "withdrawn"):
+            return _delete_all(database, participant_id, participant_code, experimenter)
+    except HostedElsewhere as elsewhere:
+        raise WithdrawalError(
+            f"the server process hosting trial {elsewhere.trial_id} did not hand it over in "
+            "time; nothing was deleted, try again"
+        ) from elsewhere
 
 
 def _delete_all(

@@ -32,6 +32,7 @@ from collections.abc import Iterable
 from sqlalchemy import delete, or_, select, update
 from sqlalchemy.dialects.postgresql import insert as pg_insert
 from sqlalchemy.dialects.sqlite import insert as sqlite_insert
+from sqlalchemy.orm import Session
 from werkzeug.exceptions import ServiceUnavailable
 
 from hcss.platform.db import Database
@@ -111,6 +112,14 @@ class Leases:
                 .returning(TrialLease.trial_id)
             )
             return {trial_id for (trial_id,) in rows}
+
+    def pass_on(self, session: Session, trial_id: int, heir: str, now: float) -> None:
+        """Give our lease of the trial to `heir`, in the caller's transaction."""
+        session.execute(
+            update(TrialLease)
+            .where(TrialLease.trial_id == trial_id, TrialLease.owner == self.owner)
+            .values(owner=heir, expires_epoch=now + self.lease_s, taken_epoch=now)
+        )
 
     def release(self, trial_id: int) -> None:
         """Give the trial up now (it ended, or this process stops hosting it)."""

@@ -20,6 +20,9 @@ from sqlalchemy import select
 from hcss.platform.db import Database
 from hcss.platform.models import Trial, TrialOrder
 
+#: Not a console action: "stop hosting the trial and pass its lease to the order's issuer",
+#: which a withdrawal asks of the host before it deletes the trial's rows.
+HAND_OVER = "hand_over"
 #: How often a host looks for orders (wall seconds).
 POLL_S = 0.25
 #: How long the console waits for the host to confirm an order.
@@ -33,6 +36,7 @@ class PendingOrder:
     participant_id: int
     experimenter_id: int | None
     action: str
+    issued_by: str
 
 
 def send_order(
@@ -78,6 +82,7 @@ def pending_orders(database: Database, trial_ids: Iterable[int]) -> list[Pending
                 Trial.participant_id,
                 TrialOrder.experimenter_id,
                 TrialOrder.action,
+                TrialOrder.issued_by,
             )
             .join(Trial, Trial.id == TrialOrder.trial_id)
             .where(TrialOrder.done_epoch.is_(None), TrialOrder.trial_id.in_(wanted))

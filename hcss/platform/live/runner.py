@@ -20,6 +20,7 @@ from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
 
 from flask import Flask
+from sqlalchemy import update
 from sqlalchemy.exc import DBAPIError, InterfaceError, OperationalError, ProgrammingError
 from sqlalchemy.orm import Session
 
@@ -27,7 +28,7 @@ from hcss.platform.db import Database
 from hcss.platform.live.clock import pause_clock, resume_clock
 from hcss.platform.live.control import control_trial
 from hcss.platform.live.leases import LEASE_S, HostedElsewhere, Leases
-from hcss.platform.live.orders import POLL_S, pending_orders
+from hcss.platform.live.orders import HAND_OVER, POLL_S, PendingOrder, pending_orders, send_order
 from hcss.platform.live.outages import (
     database_came_back,
     database_went_away,
@@ -42,7 +43,7 @@ from hcss.platform.live.recorder import (
 )
 from hcss.platform.live.session import RunningTrial
 from hcss.platform.live.trials import latest_status, running_trial_ids
-from hcss.platform.models import Trial, TrialProblem, TrialStatusChange
+from hcss.platform.models import Trial, TrialOrder, TrialProblem, TrialStatusChange
 from hcss.platform.models.vocabularies import TrialStatus
 
 log = logging.getLogger(__name__)
@@ -198,7 +199,11 @@ class Runner:
 
         No runner step or command can write a row for the trials meanwhile; a
         trial loaded by another thread during the deletion is dropped too.
+        With leases, this process first holds the lease of each (a trial
+        another process hosts is handed over), so no other process writes either.
         """
+        if self.leases is not None:
+            self._take_hold(trial_ids)
         with self._registry_lock:
             held = [self._trials[t] for t in trial_ids if t in self._trials]
         with ExitStack() as stack:
@@ -213,6 +218,7 @@ class Runner:
                 stale = self.forget(trial_id)
                 if stale is not None:
                     stale.ended = True
+                self._release(trial_id)  # held for the deletion, never loaded
 
     def _give_up(self, trial_id: int, error: Exception) -> None:
         """End a trial whose records cannot be rebuilt, saying why, instead of failing forever.
@@ -289,6 +295,9 @@ class Runner:
             if live is None:
                 continue
             try:
+                if order.action == HAND_OVER:
+                    self._hand_over(live, order)
+                    continue
                 control_trial(
                     self,
                     live,
@@ -299,6 +308,44 @@ class Runner:
                 )
             except Exception:
                 log.exception("console order %s for trial %s failed", order.id, order.trial_id)
+
+    def _hand_over(self, live: RunningTrial, order: PendingOrder) -> None:
+        """Stop hosting the trial and pass its lease to the process that asked for it."""
+        assert self.leases is not None
+        with live.lock:
+            with self.database.session_scope() as session:
+                now = self.clock()
+                self.leases.pass_on(session, live.trial_id, order.issued_by, now)
+                session.execute(
+                    update(TrialOrder)
+                    .where(TrialOrder.id == order.id)
+                    .values(done_epoch=now, outcome="done")
+                )
+            with self._registry_lock:
+                self._trials.pop(live.trial_id, None)
+            live.moved = True  # its streams close; the page reconnects to the new host
+            live.touch()
+
+    def _take_hold(self, trial_ids: list[int]) -> None:
+        """Make this process the holder of every lease of these trials (for a withdrawal).
+
+        A trial no process hosts is claimed; one another process hosts is asked
+        for by a hand-over order. Then no other process can write a row for
+        them while they are deleted here.
+        """
+        assert self.leases is not None
+        for trial_id in trial_ids:
+            if trial_id in self._trials or self.leases.claim(trial_id, self.clock()):
+                continue
+            outcome = send_order(
+                self.database,
+                trial_id,
+                HAND_OVER,
+                experimenter_id=None,
+                issued_by=self.leases.owner,
+            )
+            if outcome is None:
+                raise HostedElsewhere(trial_id, self.leases.holder(trial_id, self.clock()) or "")
 
     def _renew(self, now: float) -> None:
         """Renew the leases of every trial held; stop hosting any whose lease was lost.
