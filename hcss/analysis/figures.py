@@ -34,6 +34,8 @@ GROUP_COLOURS = {
     "M3": "#31a354",
 }
 SPLIT_LABELS = {"overall": "Overall", "easy": "Easy", "difficult": "Difficult"}
+#: Fewer values than this are drawn as coloured dots, not a box.
+MIN_BOX_VALUES = 3
 
 
 def _draw_boxes(axes, chosen: pd.DataFrame, rng: np.random.Generator) -> list[str]:
@@ -48,6 +50,16 @@ def _draw_boxes(axes, chosen: pd.DataFrame, rng: np.random.Generator) -> list[st
             if not len(values):
                 continue
             position = split_index + (group_index - (len(groups) - 1) / 2) * width
+            if len(values) < MIN_BOX_VALUES:  # a box of one or two values says nothing
+                axes.scatter(
+                    np.full(len(values), position),
+                    values,
+                    s=45,
+                    color=GROUP_COLOURS.get(group, "#cccccc"),
+                    edgecolor="black",
+                    zorder=3,
+                )
+                continue
             boxes = axes.boxplot(
                 values,
                 positions=[position],

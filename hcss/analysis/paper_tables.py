@@ -27,6 +27,12 @@ def _mean_sd(row: pd.Series | None) -> str:
     return f"{format_number(row['mean'])} ({format_number(row['sd'])})"
 
 
+def _sizes(cells: pd.DataFrame, groups: list[str]) -> str:
+    """Units per model, once when every model has the same number (e.g. ``28``, ``28/27/28``)."""
+    counts = cells.set_index("group")["n"].reindex(groups).dropna().astype(int)
+    return str(counts.iloc[0]) if counts.nunique() == 1 else "/".join(map(str, counts))
+
+
 def family_table(
     family: Family,
     summary: pd.DataFrame,
@@ -43,7 +49,7 @@ def family_table(
         "Measure",
         "Split",
         *(f"{group} M (SD)" for group in groups),
-        "N",
+        "n per model",
         "KW p",
         "Friedman p",
     )
@@ -63,7 +69,7 @@ def family_table(
                     measure_label(measure),
                     SPLIT_LABELS[split],
                     *(_mean_sd(by_group.get(group)) for group in groups),
-                    str(int(cells["n"].sum())),
+                    _sizes(cells, groups),
                     format_p(kw_p),
                     format_p(fr_p),
                 )

@@ -53,6 +53,10 @@ def test_rate_axes_show_the_whole_range():
     figure = comparison_figure(_measures("success_rate", [1.0, 1.0]), "success_rate")
     low, high = figure.axes[0].get_ylim()
     assert low <= 0.0 and 1.0 <= high < 1.05
+    # two values per model: coloured dots, not a box that draws a line without colour
+    assert len(figure.axes[0].patches) == 0
+    colours = {tuple(c.get_facecolor()[0]) for c in figure.axes[0].collections}
+    assert len(colours) == 3
 
 
 def test_tlx_profile_has_a_panel_per_kind_and_no_lines_across_subscales():
@@ -92,4 +96,12 @@ def test_family_tables_drop_p_columns_of_tests_not_run(tmp_path: Path):
     tables = load_inputs([study_export(tmp_path / "export", participants=1)])
     sections = {s.key: s for s in build_sections(tables, all_measures(tables))}
     family = sections["performance"].tables[0]
-    assert family.header == ("Measure", "Split", "M1 M (SD)", "M2 M (SD)", "M3 M (SD)", "N")
+    assert family.header == (
+        "Measure",
+        "Split",
+        "M1 M (SD)",
+        "M2 M (SD)",
+        "M3 M (SD)",
+        "n per model",
+    )
+    assert family.rows[0][-1] == "1"  # one participant per model, not N = 3
