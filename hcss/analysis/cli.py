@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 from pathlib import Path
+from typing import cast
 
 import click
 
 from hcss.analysis.load import AnalysisInputError
+from hcss.analysis.stats import MannWhitneyMethod
 
 
 @click.command("analyze")
@@ -96,7 +98,7 @@ def analyze(
             out,
             include_pilot=include_pilot,
             progress=not quiet,
-            mann_whitney_method=mw_method,
+            mann_whitney_method=cast(MannWhitneyMethod, mw_method),  # a click.Choice of them
             continuity=continuity,
             study=study,
             pool_studies=pool_studies,

@@ -86,7 +86,7 @@ def _compare(measures: pd.DataFrame, measure: str, split: str) -> RepeatedCompar
             continue
         tests.append((a, b, test))
         notes.append(f"{a}–{b}: {caught}" if caught else "")
-    adjusted = holm([test.p for _, _, test in tests]) if tests else []
+    adjusted = list(holm([test.p for _, _, test in tests])) if tests else []
     pairs = tuple(
         PairedTest(a, b, test, float(p)) for (a, b, test), p in zip(tests, adjusted, strict=True)
     )

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import partial
 
 import pandas as pd
 from matplotlib.figure import Figure
@@ -95,7 +96,7 @@ def _family_section(family, measures, summary, kruskal, friedman, extra=()) -> S
     if family.profile:
         figures = [(family.key, lambda: profile_figure(measures, members, family.title))]
     elif family.key == "performance":
-        figures = [(name, lambda name=name: comparison_figure(measures, name)) for name in members]
+        figures = [(name, partial(comparison_figure, measures, name)) for name in members]
     else:
         figures = [(family.key, lambda: family_figure(measures, members, family.title))]
     return Section(

@@ -105,14 +105,14 @@ def read_tables(
             frame = _read(path, path.suffix, text_columns, str(path), "decisions")
             return {"decisions": (str(path), frame)}
         if path.is_dir():
-            tables = _folder_tables(path)
+            files = _folder_tables(path)
             return {
                 name: (
-                    str(tables[name]),
-                    _read(tables[name], tables[name].suffix, text_columns, str(path), name),
+                    str(files[name]),
+                    _read(files[name], files[name].suffix, text_columns, str(path), name),
                 )
                 for name in wanted
-                if name in tables
+                if name in files
             }
     except (OSError, zipfile.BadZipFile, zlib.error, EOFError) as error:
         raise SourceError(f"{path}: cannot read it (damaged?): {error}") from error

@@ -146,7 +146,7 @@ def analyse_sweep(path: Path, out: Path) -> SweepReport:
     md_path = tables / "sweep_cells.md"
     md_path.write_text(_markdown(table), encoding="utf-8")
     report.tables += [csv_path, md_path]
-    pairs = list(itertools.combinations(names, 2)) or [(names[0], None)]
+    pairs: list[tuple[str, str | None]] = [*itertools.combinations(names, 2)] or [(names[0], None)]
     for x, y in pairs:
         name = f"sweep_{x}" + (f"__{y}" if y else "") + ".png"
         report.figures.append(heatmap(table, x, y, Path(out) / "figures" / name))

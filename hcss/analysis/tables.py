@@ -28,7 +28,7 @@ class Table:
     frame: pd.DataFrame
 
 
-def format_number(value: float, digits: int = 2) -> str:
+def format_number(value: float | None, digits: int = 2) -> str:
     """Fixed decimals, an en dash for a missing value."""
     if value is None or (isinstance(value, float) and math.isnan(value)):
         return "–"

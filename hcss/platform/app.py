@@ -78,7 +78,7 @@ def _register_json_errors(app: Flask) -> None:
     """API clients get JSON errors they can show; pages keep Flask's HTML ones."""
 
     @app.errorhandler(CSRFError)
-    def _csrf_error(error: CSRFError):  # type: ignore[no-untyped-def]
+    def _csrf_error(error: CSRFError):
         if request.path.startswith("/api/"):
             return jsonify(error="csrf", message=error.description), 400
         return error_page(400)
@@ -86,11 +86,11 @@ def _register_json_errors(app: Flask) -> None:
     @app.errorhandler(OperationalError)
     @app.errorhandler(InterfaceError)
     @app.errorhandler(PoolTimeout)
-    def _database_away(_error: Exception):  # type: ignore[no-untyped-def]
+    def _database_away(_error: Exception):
         return database_unavailable_page()
 
     @app.errorhandler(HTTPException)
-    def _http_error(error: HTTPException):  # type: ignore[no-untyped-def]
+    def _http_error(error: HTTPException):
         if database_away(getattr(error, "original_exception", None)):
             return database_unavailable_page()  # the request's commit failed
         if request.path.startswith("/api/"):

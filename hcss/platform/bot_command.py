@@ -60,8 +60,8 @@ def bots_command(
             figures = run_http_bots(
                 base_url, url, study, count, concurrency=concurrency, seed=seed, progress=bar.update
             )
-        for error in figures.errors:
-            click.echo(f"failed: {error}", err=True)
+        for failure in figures.errors:
+            click.echo(f"failed: {failure}", err=True)
         click.echo(figures.summary())
         if figures.errors:
             raise SystemExit(1)

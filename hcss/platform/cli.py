@@ -16,7 +16,7 @@ DEFAULT_PORT = 5000
 DEFAULT_THREADS = 256
 
 
-def alembic_config(database_url: str | None = None):  # type: ignore[no-untyped-def]
+def alembic_config(database_url: str | None = None):
     """The Alembic configuration of the migrations shipped in the package."""
     from alembic.config import Config
 
@@ -320,7 +320,7 @@ def demo_trial(
     click.echo(link)
 
 
-def _study_file(name: str):  # type: ignore[no-untyped-def]
+def _study_file(name: str):
     from hcss.platform.study.studyfile import StudyFileError, load_study
 
     try:

@@ -45,7 +45,7 @@ def make_engine(url: str) -> Engine:
         )
 
         @event.listens_for(engine, "handle_error")
-        def _reopen_after(context) -> None:  # type: ignore[no-untyped-def]
+        def _reopen_after(context) -> None:
             # A connection opened while the file or its disk was read-only stays
             # read-only, and one that met an I/O error may be unusable: treat both
             # as lost, so the pool discards its connections and opens new ones,
@@ -55,7 +55,7 @@ def make_engine(url: str) -> Engine:
                 context.is_disconnect = True
 
         @event.listens_for(engine, "connect")
-        def _sqlite_pragmas(dbapi_connection, _record) -> None:  # type: ignore[no-untyped-def]
+        def _sqlite_pragmas(dbapi_connection, _record) -> None:
             # WAL lets the stream threads read while the runner writes.
             cursor = dbapi_connection.cursor()
             cursor.execute("PRAGMA journal_mode=WAL")
@@ -139,7 +139,7 @@ def init_app(app: Flask) -> Database:
     app.extensions["hcss_db"] = database
 
     @app.after_request
-    def _commit(response):  # type: ignore[no-untyped-def]
+    def _commit(response):
         session: Session | None = g.pop("db_session", None)
         if session is not None:
             try:

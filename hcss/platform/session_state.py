@@ -19,7 +19,7 @@ STATE_ACTIONS = ("pause", "resume", "abort")
 _STATE_OF_ACTION = {"pause": "paused", "resume": "active", "abort": "aborted"}
 
 
-def _latest_state_actions():  # type: ignore[no-untyped-def]
+def _latest_state_actions():
     """Subquery: the newest pause/resume/abort row id per participant."""
     return (
         select(func.max(ConsoleAction.id))

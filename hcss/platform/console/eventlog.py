@@ -29,7 +29,7 @@ _PENDING = "hcss_event_lines"
 
 def _code(session: Session, participant_id: int) -> str:
     """The participant's code, from the session's identity map or one small query."""
-    known = session.identity_map.get(session.identity_key(Participant, participant_id))  # type: ignore[union-attr]
+    known = session.identity_map.get(session.identity_key(Participant, participant_id))
     if known is not None:
         return str(known.code)
     code = session.connection().scalar(
@@ -40,7 +40,7 @@ def _code(session: Session, participant_id: int) -> str:
 
 def _trial(session: Session, trial_id: int) -> tuple[str, str]:
     """(participant code, "trial M2") of a trial."""
-    trial = session.identity_map.get(session.identity_key(Trial, trial_id))  # type: ignore[union-attr]
+    trial = session.identity_map.get(session.identity_key(Trial, trial_id))
     if trial is None:
         row = (
             session.connection()

@@ -112,7 +112,7 @@ class LoginThrottle:
                     _of(key), LoginFailure.locked_until.is_not(None)
                 )
             ).one()
-            if (locked_until or 0.0) > now:
+            if locked_until is not None and locked_until > now:
                 return Attempt(key, wait_s=locked_until - now)
             recent = session.scalar(
                 select(func.count()).where(

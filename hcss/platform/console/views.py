@@ -70,7 +70,7 @@ CODE = re.compile(r"[A-Z0-9]{1,32}")
 
 
 @bp.record_once
-def _init_login(state) -> None:  # type: ignore[no-untyped-def]
+def _init_login(state) -> None:
     login_manager.init_app(state.app)
     eventlog.install(state.app)
 
@@ -102,7 +102,7 @@ def _throttle() -> LoginThrottle | None:
     return current_app.extensions.setdefault("hcss_login_throttle", LoginThrottle(database()))
 
 
-def _runner():  # type: ignore[no-untyped-def]
+def _runner():
     return current_app.extensions["hcss_runner"]
 
 
@@ -121,7 +121,7 @@ def _safe_next(target: str | None) -> str:
 
 
 @bp.route("/login", methods=["GET", "POST"])
-def login():  # type: ignore[no-untyped-def]
+def login():
     form = forms.LoginForm()
     if form.validate_on_submit():
         throttle = _throttle()
@@ -146,7 +146,7 @@ def login():  # type: ignore[no-untyped-def]
 
 @bp.post("/logout")
 @login_required
-def logout():  # type: ignore[no-untyped-def]
+def logout():
     if not forms.ActionForm().validate_on_submit():
         abort(400)
     end_sessions(get_session(), current_user.id)  # every cookie issued so far stops working
@@ -202,7 +202,7 @@ def _table_page():  # type: ignore[no-untyped-def]
 
 @bp.post("/participants")
 @login_required
-def create():  # type: ignore[no-untyped-def]
+def create():
     form = forms.CreateParticipantsForm()
     if not form.validate_on_submit():
         for field, errors in form.errors.items():
@@ -311,7 +311,7 @@ ACTION_LABELS = {
 
 @bp.post("/participants/<code>/<action>")
 @login_required
-def act(code: str, action: str):  # type: ignore[no-untyped-def]
+def act(code: str, action: str):
     if action not in SESSION_ACTIONS:
         abort(404)
     if not forms.ActionForm().validate_on_submit():
@@ -334,7 +334,7 @@ def act(code: str, action: str):  # type: ignore[no-untyped-def]
 
 @bp.post("/participants/<code>/withdraw")
 @login_required
-def withdraw_participant(code: str):  # type: ignore[no-untyped-def]
+def withdraw_participant(code: str):
     form = forms.WithdrawForm()
     if not form.validate_on_submit():
         abort(400)

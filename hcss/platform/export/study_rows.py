@@ -32,7 +32,7 @@ from hcss.platform.study.flow import participant_status
 Row = dict[str, Any]
 
 
-def _newest(rows: list[Any], key) -> list[Any]:  # type: ignore[no-untyped-def]
+def _newest(rows: list[Any], key) -> list[Any]:
     """The newest row (highest id) of each key, in the order the keys first appeared."""
     newest: dict[Any, Any] = {}
     for row in sorted(rows, key=lambda r: r.id):

@@ -74,7 +74,7 @@ def collect(session: Session, study: str | None = None) -> dict[str, list[dict[s
         trials = trials.where(Trial.participant_id.in_(list(codes)))
     for trial in session.scalars(trials):
         prefix = f"{TRAINING_DIR}/" if trial.kind == "training" else ""
-        code = codes.get(trial.participant_id)
+        code = codes.get(trial.participant_id, "")
         for table, build in TRIAL_ROW_BUILDERS.items():
             with problems.guard(table, f"trial {trial.id}", participant=code, trial_id=trial.id):
                 tables[prefix + table].extend(build(session, trial, code, problems))

@@ -207,7 +207,7 @@ def _answered(
     return answer
 
 
-def _probe_event(live: RunningTrial, probe_id: int, kind: str, answer: str | None = None):  # type: ignore[no-untyped-def]
+def _probe_event(live: RunningTrial, probe_id: int, kind: str, answer: str | None = None):
     return ProbeEvent(
         probe_id=probe_id,
         kind=kind,
@@ -223,7 +223,7 @@ def _latency_ms(since_s: float | None, now_s: float | None) -> float | None:
     return round(max(0.0, now_s - since_s) * 1000.0, 1)
 
 
-def _current_probe(live: RunningTrial, probe_id: int):  # type: ignore[no-untyped-def]
+def _current_probe(live: RunningTrial, probe_id: int):
     _require_running(live)
     probe = live.current_probe
     if probe is None or probe.id != probe_id:

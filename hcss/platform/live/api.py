@@ -28,7 +28,7 @@ bp = Blueprint("api", __name__, url_prefix="/api/live/<token>/trials/<int:trial_
 
 
 @bp.errorhandler(actions.ActionError)
-def _action_error(error: actions.ActionError):  # type: ignore[no-untyped-def]
+def _action_error(error: actions.ActionError):
     response = jsonify(error=error.code, message=error.message)
     if error.status == 503:
         response.headers["Retry-After"] = str(RETRY_AFTER_S)
@@ -116,7 +116,7 @@ def state(token: str, trial_id: int) -> Response:
 
 @bp.post("/requests")
 @idempotent
-def submit_request(token: str, trial_id: int):  # type: ignore[no-untyped-def]
+def submit_request(token: str, trial_id: int):
     live = _live(token, trial_id)
     command, selections = validation.parse_request(
         request.get_json(silent=True), live, get_session(), trial_id
@@ -128,7 +128,7 @@ def submit_request(token: str, trial_id: int):  # type: ignore[no-untyped-def]
 
 @bp.post("/observations")
 @idempotent
-def observe(token: str, trial_id: int):  # type: ignore[no-untyped-def]
+def observe(token: str, trial_id: int):
     live = _live(token, trial_id)
     body = _body()
     kind, button = body.get("kind"), body.get("button")
@@ -159,7 +159,7 @@ def _clicked(body: dict[str, Any], name: str, kind: str, high: int, *, low: int)
 
 @bp.post("/probes/<int:probe_id>/ready")
 @idempotent
-def probe_ready(token: str, trial_id: int, probe_id: int):  # type: ignore[no-untyped-def]
+def probe_ready(token: str, trial_id: int, probe_id: int):
     live = _live(token, trial_id)
     answer = actions.probe_ready(
         database(), live, probe_id, now=runner().clock(), key=pending_key()
@@ -169,7 +169,7 @@ def probe_ready(token: str, trial_id: int, probe_id: int):  # type: ignore[no-un
 
 @bp.post("/probes/<int:probe_id>/answer")
 @idempotent
-def probe_answer(token: str, trial_id: int, probe_id: int):  # type: ignore[no-untyped-def]
+def probe_answer(token: str, trial_id: int, probe_id: int):
     live = _live(token, trial_id)
     answer = _body().get("answer")
     if not isinstance(answer, str):

@@ -82,7 +82,7 @@ def probe_plan(
     return []
 
 
-def fill_probe(level: int, display: Display, truth: Truth, rng: np.random.Generator):  # type: ignore[no-untyped-def]
+def fill_probe(level: int, display: Display, truth: Truth, rng: np.random.Generator):
     """The probe for this moment, or None when no subject makes sense yet.
 
     Subjects come from what the participant sees (`display`); the level-2

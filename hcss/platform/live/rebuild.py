@@ -154,12 +154,12 @@ def _replay_commands(session: Session, live: RunningTrial) -> int:
 def _restore_bookkeeping(session: Session, live: RunningTrial) -> None:
     """What was already written, so the recorder writes only what is new."""
     tid = live.trial_id
-    live.last_event_time = session.scalar(
+    live.last_event_time = session.execute(
         select(func.coalesce(func.max(SimEvent.sim_time), -1.0)).where(SimEvent.trial_id == tid)
-    )
-    live.decisions_recorded = session.scalar(
+    ).scalar_one()
+    live.decisions_recorded = session.execute(
         select(func.count()).select_from(DecisionRow).where(DecisionRow.trial_id == tid)
-    )
+    ).scalar_one()
     written = session.execute(
         select(RequestStatusChange.request_id, RequestStatusChange.status).where(
             RequestStatusChange.trial_id == tid
@@ -269,7 +269,7 @@ def refusal_text(command: Command, reason: str, n_collectives: int | None = None
 def accepted_text(
     command: Command, request_id: int | None, n_collectives: int | None = None
 ) -> str:
-    """System Messages log accepted requests as well as refusals (issue 8)."""
+    """The System Message of a command: accepted requests are logged as well as refusals."""
     if command.kind == "cancel":
         return f"Request accepted ({_subject(command, n_collectives)})"
     return f"Request {request_id} accepted ({_subject(command, n_collectives)})"

@@ -11,6 +11,7 @@ from __future__ import annotations
 from typing import Any
 
 from flask import Blueprint, Flask, Response, abort, current_app, render_template, request
+from flask.typing import ResponseReturnValue
 from flask_login import login_required
 from sqlalchemy import select
 
@@ -76,14 +77,14 @@ def page(trial_id: int) -> str:
 
 @bp.get("/<int:trial_id>/replay/timeline")
 @login_required
-def timeline_json(trial_id: int) -> Response:
+def timeline_json(trial_id: int) -> ResponseReturnValue:
     trial = _trial(trial_id)
     return current_app.json.response(timeline(get_session(), trial, _dt(trial)))
 
 
 @bp.get("/<int:trial_id>/replay/frames")
 @login_required
-def frames_json(trial_id: int) -> Response | tuple[Response, int]:
+def frames_json(trial_id: int) -> ResponseReturnValue:
     trial = _trial(trial_id)
     start = _bounded_int("start", 0)
     count = _bounded_int("count", MAX_CHUNK)

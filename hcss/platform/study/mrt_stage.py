@@ -145,12 +145,13 @@ class MentalRotation(Stage):
                 "number": int(step.removeprefix("practice_")),
                 "count": flow.study.mrt.practice_items,
             }
-        number, item = self._next_item(flow, slot, step) or (0, None)
+        found: tuple[int, MrtItem | None] = self._next_item(flow, slot, step) or (0, None)
+        number, next_item = found
         return {
             "kind": "part",
             "part": int(step.removeprefix("part_")),
-            "item": item,
-            "svgs": None if item is None else _svgs(item),
+            "item": next_item,
+            "svgs": None if next_item is None else _svgs(next_item),
             "number": number,
             "count": len(self._part_items(flow, step)),
             "feedback": None,  # timed items are answered, never marked
@@ -164,7 +165,7 @@ class MentalRotation(Stage):
             return True
         answered = flow.answers(slot.index, INSTRUMENT)
         item_key, action = form["item"].data, form["action"].data
-        selection = mrt.format_selection(int(value) for value in form["chosen"].data or [])
+        selection = mrt.format_selection([int(value) for value in form["chosen"].data or []])
         if step.startswith("practice_"):
             item = self._practice_item(step)
             if item_key != item.key:

@@ -103,8 +103,9 @@ class QuestionnaireStage(Stage):
             attach_errors(form, errors)
             return False
         flow.record_answers(slot, self.questionnaire.instrument, answers, slot.model)
-        if self.score is not None:
-            rows = type(self).score(answers).rows()
+        score = type(self).score  # a staticmethod: read from the class, not bound
+        if score is not None:
+            rows = score(answers).rows()
             flow.record_scores(tuple(row.for_model(slot.model) for row in rows))
         return True
 
@@ -200,7 +201,9 @@ class NasaTlx(Stage):
         if errors:
             attach_errors(form, errors)
             return False
-        presentation = flow.event(slot.index, "comparisons", "entered").detail["presentation"]  # type: ignore[union-attr]
+        shown = flow.event(slot.index, "comparisons", "entered")
+        assert shown is not None and shown.detail is not None, "submitted before it was shown"
+        presentation = shown.detail["presentation"]
         flow.record_answers(slot, tlx.INSTRUMENT, choices | presentation, slot.model)
         rows = tlx.score(ratings | choices).rows()
         flow.record_scores(tuple(row.for_model(slot.model) for row in rows))
@@ -238,7 +241,7 @@ class Ranking(Stage):
         answers = answers_of(form, ranking.ITEM_KEYS)
         errors = ranking.validate(answers)
         if errors:
-            form.dimension_errors = {  # type: ignore[attr-defined]
+            form.dimension_errors = {
                 d.key: errors.pop(d.key) for d in ranking.DIMENSIONS if d.key in errors
             }
             attach_errors(form, errors)

@@ -362,7 +362,7 @@ def _cells(
     design: CounterbalancingTable, models: tuple[str, ...], source: str, text: str | None
 ) -> tuple[Cell, ...]:
     names = list(design.factors)
-    cells = []
+    cells: list[Cell] = []
     for combination in itertools.product(*(design.factors[name] for name in names)):
         levels = dict(zip(names, combination, strict=True)) | dict(design.constants)
         if any(all(levels.get(k) == v for k, v in rule.items()) for rule in design.exclude):

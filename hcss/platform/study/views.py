@@ -134,7 +134,7 @@ def submit(token: str, index: int, step: str) -> Response | tuple[str, int] | st
     flow = _flow(token)
     held = _held(flow)
     if held is not None:
-        return held, 409  # type: ignore[return-value]
+        return held, 409
     position = _settled(flow)
     try:
         _check_current(flow, position, index, step)

@@ -21,8 +21,9 @@ from hcss.questionnaires.definitions import (
 from hcss.questionnaires.mrt.items import ALTERNATIVE_COUNT, MrtItem, item_bank
 from hcss.questionnaires.mrt.protocol import INSTRUMENT
 
-#: One participant's raw MRT answer: chosen alternative indices, or their text form "0,2".
-Selection = Collection[int] | str
+#: One participant's raw MRT answer: chosen alternative indices (as numbers, or as the
+#: form's text values), or their stored text form "0,2".
+Selection = Collection[int] | Collection[str] | str
 
 
 def format_selection(chosen: Collection[int]) -> str:
@@ -47,10 +48,10 @@ def selection_errors(value: Selection) -> list[str]:
         parts = list(value)
     else:
         return ["A selection is a list of alternative numbers."]
-    numbers = [parse_int(part) for part in parts]
-    if any(number is None for number in numbers):
+    numbers = [number for number in map(parse_int, parts) if number is not None]
+    if len(numbers) != len(parts):
         return ["Alternatives are identified by whole numbers."]
-    if any(not 0 <= number < ALTERNATIVE_COUNT for number in numbers):  # type: ignore[operator]
+    if any(not 0 <= number < ALTERNATIVE_COUNT for number in numbers):
         return [f"Alternatives are numbered 0 to {ALTERNATIVE_COUNT - 1}."]
     if len(set(numbers)) != len(numbers):
         return ["An alternative was chosen twice."]
