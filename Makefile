@@ -57,11 +57,12 @@ bench: install
 	$(PY) -m benchmarks
 
 # ruff (style, banned dynamic imports, dead noqa), import-linter (the contracts of
-# docs/architecture.md, in pyproject.toml).
+# docs/architecture.md, in pyproject.toml), mypy (settings in pyproject.toml).
 lint: install
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
 	$(VENV)/bin/lint-imports
+	$(VENV)/bin/mypy
 
 format: install
 	$(VENV)/bin/ruff check --fix .

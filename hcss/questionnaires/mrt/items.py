@@ -65,7 +65,7 @@ class Figure:
     def drawn_centres(self) -> np.ndarray:
         """Cube centres as drawn (view coordinates, centroid at the origin)."""
         cells = self.cube_array().astype(float)
-        return (cells - cells.mean(axis=0)) @ self.view_matrix().T
+        return np.asarray((cells - cells.mean(axis=0)) @ self.view_matrix().T)
 
     def radius(self) -> float:
         return figure_radius(self.cube_array())
@@ -104,9 +104,8 @@ class MrtItem:
     def _drawings(self) -> tuple[str, ...]:
         """The target's and the alternatives' SVGs, drawn once per item.
 
-        An item never changes, and drawing its five figures takes about 27 ms
-        of CPU: drawn on every MRT page, it made those pages the slowest of the
-        study under load (benchmarks/study.py).
+        An item never changes, and drawing its five figures costs tens of
+        milliseconds of CPU, too much to spend on every MRT page.
         """
         radius = self.radius()
         return (
@@ -143,7 +142,7 @@ def draw_view(rng: np.random.Generator) -> np.ndarray:
         yaw = float(rng.uniform(0.0, 360.0))
         tilt = float(rng.uniform(*_TILT_RANGE_DEG))
         off_right_angle = abs((yaw + 45.0) % 90.0 - 45.0)
-        view = _rotation_x(tilt) @ _rotation_y(yaw)
+        view = np.asarray(_rotation_x(tilt) @ _rotation_y(yaw))
         if (
             off_right_angle >= _MIN_YAW_FROM_RIGHT_ANGLE_DEG
             and np.abs(view[2]).max() <= _MAX_AXIS_TOWARD_VIEWER
