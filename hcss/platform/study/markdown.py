@@ -1,74 +1,30 @@
-"""The small Markdown subset the study texts use, rendered to safe HTML.
+"""The study texts' Markdown, rendered to HTML that is safe to put in a participant's page.
 
 Researchers write consent, introduction and debrief texts as Markdown
-(hcss/questionnaires/texts). They use headings, paragraphs, bulleted and
-numbered lists (with indented continuation lines), **bold** and *italic*;
-that is all this renders. Text is escaped first, so a text file can never
-inject markup into a participant's page.
+(hcss/questionnaires/texts, and any lab's own). markdown-it-py renders
+CommonMark with raw HTML turned off, so markup typed into a text is shown as
+text; nh3 then keeps only the typographic tags below, so whatever a text
+holds (a link, an image, an attribute) can never script, load or navigate.
 """
 
 from __future__ import annotations
 
-import re
+import nh3
+from markdown_it import MarkdownIt
+from markupsafe import Markup
 
-from markupsafe import Markup, escape
+#: What a study text may be made of: headings, paragraphs, lists, emphasis, quotes, code.
+ALLOWED_TAGS = frozenset(
+    {"h1", "h2", "h3", "h4", "h5", "h6", "p", "br", "hr", "ul", "ol", "li"}
+    | {"strong", "em", "blockquote", "code", "pre"}
+)
+#: A numbered list that does not start at 1 keeps its number.
+ALLOWED_ATTRIBUTES = {"ol": {"start"}}
 
-_BULLET = re.compile(r"^[-*] +(.*)$")
-_NUMBERED = re.compile(r"^\d+\. +(.*)$")
-_HEADING = re.compile(r"^(#{1,6}) +(.*)$")
-
-
-def _inline(text: str) -> str:
-    html = str(escape(text))
-    html = re.sub(r"\*\*(.+?)\*\*", r"<strong>\1</strong>", html)
-    return re.sub(r"(?<![*\w])\*(?!\s)(.+?)(?<!\s)\*(?!\*)", r"<em>\1</em>", html)
+_RENDERER = MarkdownIt("commonmark", {"html": False})
 
 
 def render_markdown(markdown: str) -> Markup:
-    """HTML for the texts' Markdown subset; unknown syntax is shown as plain text."""
-    out: list[str] = []
-    paragraph: list[str] = []
-    items: list[list[str]] = []
-    list_tag = ""
-
-    def flush_paragraph() -> None:
-        if paragraph:
-            out.append(f"<p>{_inline(' '.join(paragraph))}</p>")
-            paragraph.clear()
-
-    def flush_list() -> None:
-        nonlocal list_tag
-        if items:
-            body = "".join(f"<li>{_inline(' '.join(item))}</li>" for item in items)
-            out.append(f"<{list_tag}>{body}</{list_tag}>")
-            items.clear()
-        list_tag = ""
-
-    for raw in markdown.splitlines():
-        line = raw.rstrip()
-        stripped = line.strip()
-        heading = _HEADING.match(line)
-        bullet, numbered = _BULLET.match(line), _NUMBERED.match(line)
-        if not stripped:
-            flush_paragraph()
-            flush_list()
-        elif heading:
-            flush_paragraph()
-            flush_list()
-            level = len(heading.group(1))
-            out.append(f"<h{level}>{_inline(heading.group(2))}</h{level}>")
-        elif bullet or numbered:
-            flush_paragraph()
-            tag = "ul" if bullet else "ol"
-            if list_tag and list_tag != tag:
-                flush_list()
-            list_tag = tag
-            items.append([(bullet or numbered).group(1)])  # type: ignore[union-attr]
-        elif items and line.startswith(" "):
-            items[-1].append(stripped)  # continuation of the list item
-        else:
-            flush_list()
-            paragraph.append(stripped)
-    flush_paragraph()
-    flush_list()
-    return Markup("\n".join(out))
+    """The text as sanitised HTML."""
+    html = _RENDERER.render(markdown)
+    return Markup(nh3.clean(html, tags=set(ALLOWED_TAGS), attributes=ALLOWED_ATTRIBUTES))
