@@ -15,21 +15,19 @@ first visit, as it does a real participant. Target 127.0.0.1 only.
 
 from __future__ import annotations
 
-import http.client
-import http.cookiejar
 import json
 import re
 import threading
 import time
-import urllib.error
 import urllib.parse
-import urllib.request
 import uuid
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from types import SimpleNamespace
 from typing import Any
+
+import httpx
 
 from hcss.platform.bots import BotReport, ParticipantBot
 from hcss.platform.db import Database
@@ -132,17 +130,18 @@ class _Response(SimpleNamespace):
 
 
 class HttpClient:
-    """A browser's cookies and requests over HTTP, with the test client's interface."""
+    """A browser's cookies and requests over HTTP (httpx), with the test client's interface."""
 
     def __init__(self, base_url: str, figures: LoadFigures) -> None:
         self.base_url = base_url.rstrip("/")
         self.figures = figures
-        self.opener = urllib.request.build_opener(
-            urllib.request.HTTPCookieProcessor(http.cookiejar.CookieJar())
-        )
+        self.http = httpx.Client(follow_redirects=True, timeout=60.0)
+
+    def close(self) -> None:
+        self.http.close()
 
     def get(self, url: str, follow_redirects: bool = True, **_: Any) -> _Response:
-        return self._send(urllib.request.Request(self.base_url + url, method="GET"))[0]
+        return self._send("GET", url)[0]
 
     def post(
         self,
@@ -162,17 +161,20 @@ class HttpClient:
         else:
             body = urllib.parse.urlencode(data or {}, doseq=True).encode()
             headers["Content-Type"] = "application/x-www-form-urlencoded"
-        request = urllib.request.Request(
-            self.base_url + url, data=body, headers=headers, method="POST"
-        )
-        response, repeated = self._send(request)
+        response, repeated = self._send("POST", url, body, headers)
         if repeated and response.status_code == 409 and KEY_HEADER not in headers:
             # The lost form had been taken ("already submitted"): its address leads on
             # to the current page, as a participant reloading it would find.
             return self.get(url)
         return response
 
-    def _send(self, request: urllib.request.Request) -> tuple[_Response, bool]:
+    def _send(
+        self,
+        method: str,
+        url: str,
+        body: bytes | None = None,
+        headers: dict[str, str] | None = None,
+    ) -> tuple[_Response, bool]:
         """The answer, and whether the request had to be sent more than once.
 
         A browser retries while the server restarts, and so does this client;
@@ -186,39 +188,36 @@ class HttpClient:
         while True:
             tries += 1
             try:
-                with self.opener.open(request, timeout=60) as answer:
-                    status, body, final = answer.status, answer.read(), answer.geturl()
-                break
-            except urllib.error.HTTPError as error:
-                status, body, final = error.code, error.read(), error.geturl()
-                wait_s = _retry_after_s(error)
-                if wait_s is not None and time.perf_counter() - started + wait_s < RECONNECT_FOR_S:
-                    time.sleep(wait_s)  # the database is away: as the page does, ask again
-                    continue
-                break
-            except (
-                urllib.error.URLError,
-                ConnectionError,
-                http.client.HTTPException,
-                TimeoutError,
-            ):
+                answer = self.http.request(
+                    method, self.base_url + url, content=body, headers=headers
+                )
+            except httpx.TransportError:
                 if time.perf_counter() - started >= RECONNECT_FOR_S:
                     raise
                 time.sleep(RECONNECT_WAIT_S)
+                continue
+            wait_s = _retry_after_s(answer)
+            if wait_s is not None and time.perf_counter() - started + wait_s < RECONNECT_FOR_S:
+                time.sleep(wait_s)  # the database is away: as the page does, ask again
+                continue
+            break
         self.figures.record(
-            request.full_url, status, time.perf_counter() - started, request.get_method()
+            self.base_url + url, answer.status_code, time.perf_counter() - started, method
         )
-        path = urllib.parse.urlsplit(final).path
-        response = _Response(status_code=status, body=body, request=SimpleNamespace(path=path))
+        response = _Response(
+            status_code=answer.status_code,
+            body=answer.content,
+            request=SimpleNamespace(path=answer.url.path),
+        )
         return response, tries > 1
 
 
-def _retry_after_s(error: urllib.error.HTTPError) -> float | None:
+def _retry_after_s(answer: httpx.Response) -> float | None:
     """Seconds to wait before the same request again: a 503 that says Retry-After."""
-    if error.code != 503:
+    if answer.status_code != 503:
         return None
     try:
-        return min(10.0, max(0.1, float(error.headers.get("Retry-After", ""))))
+        return min(10.0, max(0.1, float(answer.headers.get("Retry-After", ""))))
     except ValueError:
         return None
 
@@ -266,6 +265,8 @@ def run_http_bots(
         except Exception as error:  # noqa: BLE001 - a failed bot is a figure, not a crash
             with figures.lock:
                 figures.errors.append(f"{code}: {type(error).__name__}: {error}")
+        finally:
+            client.close()
         if progress is not None:
             progress()
 

@@ -10,63 +10,56 @@ tests use it, so keep its interface stable.
 
 from __future__ import annotations
 
-import http.cookiejar
 import json
 import re
-import urllib.error
-import urllib.request
 from collections.abc import Iterator
 from typing import Any
+
+import httpx
+from httpx_sse import connect_sse
 
 
 class TrialClient:
     def __init__(self, base_url: str, token: str) -> None:
         self.base_url = base_url.rstrip("/")
         self.token = token
-        self.opener = urllib.request.build_opener(
-            urllib.request.HTTPCookieProcessor(http.cookiejar.CookieJar())
-        )
+        # httpx keeps the session cookie, as the browser does.
+        self.http = httpx.Client(timeout=10.0)
         self.csrf = ""
         self.trial_id: int | None = None
 
     def open_page(self) -> None:
-        with self.opener.open(f"{self.base_url}/live/{self.token}", timeout=10) as response:
-            html = response.read().decode()
-        self.csrf = re.search(r'name="csrf-token" content="([^"]+)"', html).group(1)  # type: ignore[union-attr]
-        self.trial_id = int(re.search(r"/trials/(\d+)/stream", html).group(1))  # type: ignore[union-attr]
+        html = self.http.get(f"{self.base_url}/live/{self.token}").raise_for_status().text
+        csrf = re.search(r'name="csrf-token" content="([^"]+)"', html)
+        stream = re.search(r"/trials/(\d+)/stream", html)
+        if csrf is None or stream is None:
+            raise ValueError(f"/live/{self.token} is not a trial page")
+        self.csrf, self.trial_id = csrf.group(1), int(stream.group(1))
 
     @property
     def api(self) -> str:
         return f"{self.base_url}/api/live/{self.token}/trials/{self.trial_id}"
 
     def state(self) -> dict[str, Any]:
-        with self.opener.open(self.api + "/state", timeout=10) as response:
-            return json.loads(response.read())
+        answer: dict[str, Any] = self.http.get(self.api + "/state").raise_for_status().json()
+        return answer
 
     def post(
         self, path: str, body: dict[str, Any], *, key: str | None = None
     ) -> tuple[int, dict[str, Any]]:
         """POST a command; with `key` as its Idempotency-Key (a repeat gets the first answer)."""
-        headers = {"Content-Type": "application/json", "X-CSRFToken": self.csrf}
+        headers = {"X-CSRFToken": self.csrf}
         if key is not None:
             headers["Idempotency-Key"] = key
-        request = urllib.request.Request(
-            self.api + path, data=json.dumps(body).encode(), headers=headers, method="POST"
-        )
-        try:
-            with self.opener.open(request, timeout=10) as response:
-                return response.status, json.loads(response.read())
-        except urllib.error.HTTPError as error:
-            return error.code, json.loads(error.read() or b"{}")
+        response = self.http.post(self.api + path, json=body, headers=headers)
+        return response.status_code, response.json() if response.content else {}
 
     def frames(self, timeout_s: float = 10.0) -> Iterator[dict[str, Any]]:
         """Stream frames as they arrive (close the generator to hang up)."""
-        with self.opener.open(self.api + "/stream", timeout=timeout_s) as response:
-            data: list[str] = []
-            for raw in response:
-                line = raw.decode().rstrip("\n")
-                if line.startswith("data: "):
-                    data.append(line[6:])
-                elif line == "" and data:
-                    yield json.loads("\n".join(data))
-                    data = []
+        with connect_sse(self.http, "GET", self.api + "/stream", timeout=timeout_s) as source:
+            for event in source.iter_sse():
+                if event.data:
+                    yield json.loads(event.data)
+
+    def close(self) -> None:
+        self.http.close()
