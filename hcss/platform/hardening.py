@@ -1,9 +1,9 @@
 """What every request passes through before any view sees it: bounds on what a client can send.
 
-A fuzzer found 500s that no view could prevent on its own: ids too large for
-the database's integer columns, NUL bytes PostgreSQL refuses in text, JSON
-nested deeper than Python's recursion limit, and bodies of any size. Each is
-answered here with a 4xx and no database work:
+Some inputs would fail in every view alike: ids too large for the database's
+integer columns, NUL bytes PostgreSQL refuses in text, JSON nested deeper
+than Python's recursion limit, and bodies of any size. Each is answered here
+with a 4xx and no database work:
 
 - ``<int:...>`` URL parts accept only what an INTEGER column can hold (else 404);
 - a NUL byte in the path, the query or a form field is a 400, and so is a form

@@ -74,7 +74,7 @@ PRE_CHANGE_PARAMS: dict[str, object] = {
     "outline_support": 0.30,
     "visible_reports": 1,
     "drawn_reports": 2,
-    # Readings named later (issue 12); these values are the pre-change engine's rules.
+    # The readings the reference engine used, pinned so later defaults cannot move them.
     "discovery": "spatial",
     "m2_distance_bounds": "site_distances",
     "m2_beyond_dmax": "guard",

@@ -1,8 +1,8 @@
 """Console sign-ins that a sign-out really ends, server-side.
 
 Flask keeps the session in a signed cookie, so deleting it in the browser
-used to be all a sign-out did: a copied cookie kept working. Each account
-now has a `login_generation`; the cookie names the account *and* the
+alone would leave a copied cookie working. Each account has a
+`login_generation`; the cookie names the account *and* the
 generation it was issued in (``"<id>.<generation>"``), and signing out moves
 the generation on, so every cookie issued before stops working (on every
 device of that account: signing out signs out everywhere).

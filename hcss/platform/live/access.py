@@ -25,15 +25,13 @@ def participant_for(token: str) -> Participant:
 def trial_for(token: str, trial_id: int) -> Trial:
     """The trial, only if it belongs to the token's participant (else 404, revealing nothing).
 
-    One query, once per request: a keyed command asks in the idempotency
-    wrapper and again in its view, and under load every repeated lookup
-    delayed every answer (benchmarks/study.py).
+    One query per request, remembered for the request: a keyed command asks
+    in the idempotency wrapper and again in its view.
 
     The check only reads, and its connection goes back to the pool here: the
     caller then waits for the runner's or the trial's lock, whose holder may
-    need a connection itself. Holding one while waiting deadlocked 200 streams
-    opened at once (each held a connection, the loader of their trials waited
-    for one) until the pool timed out.
+    need a connection itself, so a caller holding one while it waits could
+    deadlock many streams opened at once until the pool timed out.
     """
     checked: dict[tuple[str, int], Trial] = g.setdefault("checked_trials", {})
     trial = checked.get((token, trial_id))
@@ -55,9 +53,8 @@ def held_trial(token: str, trial_id: int) -> RunningTrial | None:
 
     The live API's looks and commands come several times a second per trial;
     checking a held trial's owner in memory spares each of them a query and a
-    transaction (under the study load benchmark these were a third of the
-    live API's CPU). A trial not held, or held for another token, goes the
-    database's way, so every answer (404, 409) stays as it was.
+    transaction. A trial not held, or held for another token, goes the
+    database's way, so every answer (404, 409) is the same either way.
     """
     live = runner().loaded(trial_id)
     if live is None or not hmac.compare_digest(live.participant_token.encode(), token.encode()):

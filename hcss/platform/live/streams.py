@@ -1,8 +1,8 @@
 """Who may hold a stream: one per participant link, and a ceiling for the whole server.
 
 Each open Server-Sent Events stream holds one waitress thread for up to
-`STREAM_MAX_S`. One token opening 70 streams used to take every thread and
-time the console out. Two rules now:
+`STREAM_MAX_S`, so one token opening many streams could take every thread and
+time the console out. Two rules keep threads free:
 
 - per link (token): the newest stream takes over. The older one gets a
   ``takeover`` event (data ``{"reason": "another_tab"}``) and closes, which is

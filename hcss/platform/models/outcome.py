@@ -22,7 +22,7 @@ class DecisionRow(CreatedAt, Base):
     step: Mapped[int]  # step at which the record appeared
     correct: Mapped[bool | None]
     # The simulation's decision record as decisions-table columns, without the export's
-    # source/participant/trial_id/run (rows written before issue 10 still carry them).
+    # source/participant/trial_id/run (rows written by earlier versions may also carry them).
     record: Mapped[dict[str, Any]]
 
 
