@@ -1,7 +1,9 @@
 """A loopback proxy that loses the answer to one request, as a server killed mid-answer does.
 
-Each connection carries one request (urllib sends ``Connection: close``). The
-proxy forwards it to the real server and waits for the whole answer; for the
+Each connection carries one request: the proxy forwards it to the real server
+with ``Connection: close`` (whatever the client asked), so the server's answer
+ends with the connection and the client opens a new one for the next request.
+It waits for the whole answer; for the
 first request whose request line starts with `drop`, it then closes the
 client's connection without a byte: the server has done the work, the client
 never hears of it. Every other answer is passed on unchanged.
@@ -34,6 +36,13 @@ def _read_request(connection: socket.socket) -> bytes:
     return head + b"\r\n\r\n" + body
 
 
+def _closing(request: bytes) -> bytes:
+    """The request with `Connection: close` in place of any keep-alive the client asked."""
+    head, _, body = request.partition(b"\r\n\r\n")
+    lines = [line for line in head.split(b"\r\n") if not line.lower().startswith(b"connection:")]
+    return b"\r\n".join([*lines, b"Connection: close"]) + b"\r\n\r\n" + body
+
+
 class LossyProxy:
     def __init__(self, upstream_port: int, drop: bytes) -> None:
         self.upstream_port = upstream_port
@@ -55,7 +64,7 @@ class LossyProxy:
 
     def _relay(self, client: socket.socket) -> None:
         with client:
-            request = _read_request(client)
+            request = _closing(_read_request(client))
             with socket.create_connection(("127.0.0.1", self.upstream_port)) as upstream:
                 upstream.sendall(request)
                 answer = b""
