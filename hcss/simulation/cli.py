@@ -269,7 +269,7 @@ def _reading_options(command: F) -> F:
     return _PRESET(command)
 
 
-def _params_with(preset: str = DEFAULT_PRESET, **readings: object) -> Params:
+def _params_with(preset: str = DEFAULT_PRESET, **readings: Any) -> Params:
     """The preset's params with the readings given on the command line."""
     changes = {k: v for k, v in readings.items() if v is not None}
     return preset_params(preset).with_changes(**changes)
@@ -345,7 +345,7 @@ def calibrate(
     sampler_seed: int,
     dask_address: str | None,
     out: Path,
-    **readings: object,
+    **readings: Any,
 ) -> None:
     """Re-fit the shared calibrations from the engine and print the fit.
 
@@ -464,7 +464,7 @@ def _calibrate_to_study(
     help="Seed of the first scenario.",
 )
 def fidelity(
-    scenarios: int, runs: int, workers: int, ablations: bool, seed: int, **readings: object
+    scenarios: int, runs: int, workers: int, ablations: bool, seed: int, **readings: Any
 ) -> None:
     """The reduced experiment for M1, M2 and M2's ablations, as Markdown with standard errors.
 
@@ -511,7 +511,7 @@ def fidelity(
     show_default=True,
     help="Chain and agent runs per layout and model.",
 )
-def meanfield(runs: int, **readings: object) -> None:
+def meanfield(runs: int, **readings: Any) -> None:
     """The paper's equations beside the agent model on simple layouts (one collective).
 
     ODEs (scipy), the stochastic N-agent chain and the agent model, each on

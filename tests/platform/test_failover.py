@@ -21,6 +21,7 @@ import urllib.parse
 import urllib.request
 import uuid
 
+import httpx
 import pytest
 from sqlalchemy import select
 
@@ -43,7 +44,7 @@ def _wait_for(condition, timeout_s: float, what: str):  # type: ignore[no-untype
     while time.monotonic() < deadline:
         try:
             value = condition()
-        except (urllib.error.URLError, ConnectionError, TimeoutError):
+        except (httpx.HTTPError, urllib.error.URLError, ConnectionError, TimeoutError):
             value = None  # nobody hosts the trial yet (503), or the answer was cut
         if value:
             return value

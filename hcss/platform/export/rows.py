@@ -28,12 +28,12 @@ from hcss.platform.models import (
 )
 from hcss.platform.naming import collective_name
 from hcss.platform.study.enrolment import current_enrolment
-from hcss.platform.study.studyfile import Study, StudyFileError, load_study
+from hcss.platform.study.studyfile import FAST_ANSWER_MS, StudyFileError, load_study
 from hcss.simulation import DECISION_COLUMNS
 from hcss.simulation.params import Params
 
 #: `[probes] fast_answer_ms` of a study file that does not set it.
-DEFAULT_FAST_MS = Study.__dataclass_fields__["fast_answer_ms"].default
+DEFAULT_FAST_MS = FAST_ANSWER_MS
 
 Row = dict[str, Any]
 

@@ -46,6 +46,8 @@ from hcss.simulation.presets import DEFAULT_PRESET, PRESETS
 MAX_PROBES_PER_LEVEL = 20
 
 SECTIONS = ("easy", "difficult")
+#: Probe answers quicker than this (ms) are flagged, unless `[probes] fast_answer_ms` says.
+FAST_ANSWER_MS = 1000
 
 __all__ = ["Cell", "MrtSettings", "Study", "StudyFileError", "load_study", "parse_study"]
 
@@ -85,7 +87,7 @@ class Study:
     cells: tuple[Cell, ...]
     digest: str  # sha256 of the file, stored with each enrolment
     online: OnlineSettings = OnlineSettings()  # the `[online]` table: study link, completion
-    fast_answer_ms: int = 1000  # `[probes] fast_answer_ms`: quicker answers are flagged
+    fast_answer_ms: int = FAST_ANSWER_MS  # `[probes] fast_answer_ms`: quicker answers are flagged
     requirements: Requirements = Requirements()  # the device checked before consent
     simulation_preset: str = DEFAULT_PRESET  # `[simulation] preset`: the collectives' params
 
@@ -162,7 +164,7 @@ class ProbesTable(_Table):
     projection: int
     #: An answer given sooner after its question showed is flagged in the export
     #: (`probes.fast_answer`): too fast to have read the question.
-    fast_answer_ms: Annotated[int, Field(ge=0, le=30_000)] = 1000
+    fast_answer_ms: Annotated[int, Field(ge=0, le=30_000)] = FAST_ANSWER_MS
 
     @field_validator("perception", "comprehension", "projection")
     @classmethod
