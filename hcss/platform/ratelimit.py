@@ -59,7 +59,7 @@ def parse_limit(text: str) -> tuple[int, float] | None:
     return int(count), float(seconds or 60)
 
 
-def _limit_enrolment():  # type: ignore[no-untyped-def]
+def _limit_enrolment():
     if request.method != "POST" or request.endpoint not in LIMITED_ENDPOINTS:
         return None
     limit = current_app.config.get("JOIN_PER_CLIENT")
@@ -69,7 +69,7 @@ def _limit_enrolment():  # type: ignore[no-untyped-def]
     wait_s = windows.take(request.remote_addr or "?", int(limit[0]), float(limit[1]))
     if wait_s <= 0:
         return None
-    page, code = error_page(429)  # type: ignore[misc]
+    page, code = error_page(429)
     return page, code, {"Retry-After": str(max(1, round(wait_s)))}
 
 

@@ -192,7 +192,7 @@ def progress() -> Response:
     return jsonify(progress_json(_table_page()))
 
 
-def _table_page():  # type: ignore[no-untyped-def]
+def _table_page():
     """The page of the live table that ``?page=N&hide=pilot,bot,demo`` asks for."""
     page = request.args.get("page", "1")
     hide = frozenset(flag for flag in request.args.get("hide", "").split(",") if flag in FLAGS)
