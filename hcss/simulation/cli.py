@@ -475,7 +475,7 @@ def fidelity(
     """
     params = _params_with(**readings)
     click.echo(
-        f"Reduced experiment: {scenarios} scenarios × {runs} runs, scenario seeds from {seed}; "
+        f"Experiment: {scenarios} scenarios × {runs} runs, scenario seeds from {seed}; "
         f"preset {params.preset}: discovery = {params.discovery}, "
         f"d_max = {params.m2_d_max_m:g} m ({params.m2_distance_bounds}), "
         f"m2_beyond_dmax = {params.m2_beyond_dmax}, foreign_targets = {params.foreign_targets}, "
