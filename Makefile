@@ -52,6 +52,8 @@ fuzz: install
 		$(PY) -m pytest tests/platform/test_fuzz.py -q -n 2
 	@awk '{n[$$1]+=$$2; t+=$$2} END {for (s in n) printf "  HTTP %s: %d\n", s, n[s]; \
 		printf "fuzz: %d requests\n", t}' test-artifacts/fuzz-tally.txt | sort
+	@awk '{r[$$3" "$$1]+=$$2} END {for (k in r) printf "  %s: %d\n", k, r[k]}' \
+		test-artifacts/fuzz-tally.txt | sort
 
 bench: install
 	$(PY) -m benchmarks

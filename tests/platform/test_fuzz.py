@@ -7,8 +7,15 @@ bytes, superscript digits, 5,000-digit numbers, JSON nested thousands deep,
 wrong types and random text. CSRF is off here (it is tested on its own in
 test_console_access and test_access) so the fuzz reaches the code behind it.
 
-`make test` runs 500 examples per route group on each database (1,500 requests);
-`make fuzz` sets HCSS_FUZZ_EXAMPLES for a long run and prints the tally.
+Beyond the three route groups: Host headers that are no hostname and hostile
+multipart names on every group; every console page after failed sign-ins
+from several clients with the lockout on; and every group while the disk
+under SQLite is full and the runner ticks (a 503 with Retry-After is the
+right answer then, a 500 never).
+
+`make test` runs 500 examples per route group on each database;
+`make fuzz` sets HCSS_FUZZ_EXAMPLES for a long run and prints the tally,
+by status and by route (endpoint).
 """
 
 from __future__ import annotations
@@ -19,13 +26,14 @@ from collections import Counter
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
-from urllib.parse import quote
+from urllib.parse import quote, urlsplit
 
 import pytest
 from flask import Flask
 from flask.testing import FlaskClient
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from werkzeug.exceptions import HTTPException
 
 from hcss.platform.app import create_app
 from hcss.platform.bots import ManualClock
@@ -94,7 +102,8 @@ class Target:
     token: str
     code: str
     trial_id: int
-    tally: Counter[str] = field(default_factory=Counter)
+    tally: Counter[tuple[str, str]] = field(default_factory=Counter)
+    database_away: bool = False  # during an outage a 503 with Retry-After is the answer
 
 
 def _segment(draw: st.DrawFn, real: Any) -> str:
@@ -104,6 +113,20 @@ def _segment(draw: st.DrawFn, real: Any) -> str:
 
 @pytest.fixture
 def target(database_url: str) -> Iterator[Target]:
+    fuzzed = _make_target(database_url)
+    yield fuzzed
+    _write_tally(fuzzed)
+    fuzzed.app.extensions["hcss_db"].engine.dispose()
+
+
+def _write_tally(fuzzed: Target) -> None:
+    if TALLY_FILE:
+        with open(TALLY_FILE, "a", encoding="utf-8") as handle:
+            for (status, route), count in sorted(fuzzed.tally.items()):
+                handle.write(f"{status} {count} {route}\n")
+
+
+def _make_target(database_url: str, **config: Any) -> Target:
     app = create_app(
         {
             "DATABASE_URL": database_url,
@@ -113,6 +136,8 @@ def target(database_url: str) -> Iterator[Target]:
             "STREAM_MAX_S": 0.0,  # one frame, then the stream closes
             "STREAM_INTERVAL_S": 0.0,
             "LOGIN_RATE_LIMIT": False,
+            "JOIN_PER_CLIENT": None,
+            **config,
         }
     )
     app.extensions["hcss_db"].create_all()
@@ -126,21 +151,30 @@ def target(database_url: str) -> Iterator[Target]:
         app.extensions["hcss_runner"].clock.now = trial.started_at.timestamp() + 5.0
     console = app.test_client()
     assert sign_in(console, "alice", "correct horse battery").status_code == 302
-    fuzzed = Target(app, app.test_client(), console, token, code, trial_id)
-    yield fuzzed
-    if TALLY_FILE:
-        with open(TALLY_FILE, "a", encoding="utf-8") as handle:
-            for status, count in sorted(fuzzed.tally.items()):
-                handle.write(f"{status} {count}\n")
-    app.extensions["hcss_db"].engine.dispose()
+    return Target(app, app.test_client(), console, token, code, trial_id)
 
 
 def _send(target: Target, client: FlaskClient, method: str, path: str, **options: Any) -> None:
     """One request; it must not answer 5xx, and nothing may be logged as an error."""
     response = client.open(path, method=method, **options)
     body = response.get_data()  # runs a stream's generator too
-    target.tally[str(response.status_code)] += 1
+    target.tally[(str(response.status_code), _route(target.app, method, path))] += 1
+    if target.database_away and response.status_code == 503:
+        assert response.headers.get("Retry-After"), (method, path[:200])  # please wait, by design
+        assert b"Traceback" not in body
+        return
     assert response.status_code < 500, (method, path[:200], repr(options)[:300], body[:300])
+
+
+def _route(app: Flask, method: str, path: str) -> str:
+    """The endpoint a request reached (for the tally by route), or why none did."""
+    try:
+        endpoint, _ = app.url_map.bind("localhost").match(urlsplit(path).path, method=method)
+    except HTTPException as refusal:
+        return f"({refusal.code or 'no'}-route)"
+    except Exception:  # noqa: BLE001 - an unroutable path is a route of its own for the tally
+        return "(unroutable)"
+    return f"{method}:{endpoint}"
 
 
 def _body_options(draw: st.DrawFn, *, form_fields: tuple[str, ...] = ()) -> dict[str, Any]:
@@ -192,13 +226,22 @@ def live_requests(draw: st.DrawFn, target: Target) -> tuple[str, str, dict[str, 
 @st.composite
 def study_requests(draw: st.DrawFn, target: Target) -> tuple[str, str, dict[str, Any]]:
     token = _segment(draw, target.token)
-    route = draw(st.sampled_from(["enter", "stage", "submit", "home"]))
+    route = draw(st.sampled_from(["enter", "stage", "submit", "home", "heartbeat", "join"]))
     if route == "home":
         return "GET", "/", {}
     if route == "enter":
         return "GET", f"/p/{token}", {}
     if route == "stage":
         return "GET", f"/p/{token}/stage", {}
+    if route == "heartbeat":
+        return "POST", f"/p/{token}/heartbeat", _body_options(draw)
+    if route == "join":
+        study = _segment(draw, draw(st.sampled_from(["demo", "original"])))
+        query = quote(str(draw(texts)), safe="")
+        if draw(st.booleans()):
+            return "GET", f"/join/{study}?PROLIFIC_PID={query}", {}
+        fields = ("PROLIFIC_PID", "STUDY_ID", "SESSION_ID", "id", "screen_width", "pointer")
+        return "POST", f"/join/{study}", _body_options(draw, form_fields=fields)
     index = _segment(draw, 0)
     step = _segment(draw, draw(st.sampled_from(["form", "ready", "part_1", "page_1"])))
     fields = ("decision", "age_band", "gender", "answer", "mental_demand", "submit")
@@ -221,6 +264,9 @@ def console_requests(draw: st.DrawFn, target: Target) -> tuple[str, str, dict[st
                 "act",
                 "withdraw",
                 "export",
+                "links",
+                "replay",
+                "table",
             ]
         )
     )
@@ -244,6 +290,18 @@ def console_requests(draw: st.DrawFn, target: Target) -> tuple[str, str, dict[st
         )
     if route == "show":
         return "GET", f"/console/participants/{code}", {}
+    if route == "links":
+        codes = ",".join([code, quote(str(draw(texts)), safe="")][: draw(st.integers(1, 2))])
+        return "GET", f"/console/{draw(st.sampled_from(['links', 'links.csv']))}?codes={codes}", {}
+    if route == "replay":
+        trial = _segment(draw, target.trial_id)
+        part = draw(st.sampled_from(["", "/frames", "/timeline"]))
+        query = f"?from={quote(str(draw(st.one_of(ints, texts))), safe='')}"
+        return "GET", f"/console/trials/{trial}/replay{part}{query}", {}
+    if route == "table":
+        page = quote(str(draw(st.one_of(ints, texts))), safe="")
+        hide = quote(str(draw(st.one_of(st.sampled_from(["pilot,bot,demo", "bot"]), texts))))
+        return "GET", f"/console/progress.json?page={page}&hide={hide}", {}
     if route == "withdraw":
         return (
             "POST",
@@ -263,6 +321,45 @@ FUZZ_SETTINGS = settings(
     suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow],
     database=None,
 )
+
+
+#: Host headers that are not hostnames: a label over 63 characters, an empty label, junk.
+BAD_HOSTS = [
+    "a" * 64 + ".example",
+    "a..b",
+    ".",
+    "x" * 300,
+    "[::1",
+    "h\u00e9.example",
+    "1.2.3.4:99999",
+]
+#: Multipart field names werkzeug reads oddly (a lone backslash parses to no name).
+BAD_FIELD_NAMES = ["\\", '\\"', "", "a\x00b", "\u00b2", "x" * 500]
+
+
+@st.composite
+def envelopes(
+    draw: st.DrawFn, request: tuple[str, str, dict[str, Any]]
+) -> tuple[str, str, dict[str, Any]]:
+    """The request, sometimes with a Host that is no hostname or a hostile multipart body."""
+    method, path, options = request
+    options = dict(options)
+    if draw(st.integers(0, 3)) == 0:
+        options["headers"] = {
+            **options.get("headers", {}),
+            "Host": draw(st.sampled_from(BAD_HOSTS)),
+        }
+    if method == "POST" and draw(st.integers(0, 3)) == 0:
+        name = draw(st.sampled_from(BAD_FIELD_NAMES))
+        boundary = "fuzz-boundary"
+        body = (
+            f'--{boundary}\r\nContent-Disposition: form-data; name="{name}"\r\n\r\n'
+            f"{draw(texts)}\r\n--{boundary}--\r\n"
+        ).encode("utf-8", "surrogatepass")
+        options.pop("json", None)
+        options["data"] = body
+        options["content_type"] = f"multipart/form-data; boundary={boundary}"
+    return method, path, options
 
 
 def _run(
@@ -306,3 +403,86 @@ def test_fuzz_console(target: Target, caplog) -> None:  # type: ignore[no-untype
         _run(target, target.console if signed_in else target.participant, request, caplog)
 
     fuzz()
+
+
+@pytest.mark.slow
+def test_fuzz_hosts_and_multipart_names(target: Target, caplog) -> None:  # type: ignore[no-untyped-def]
+    """Malformed Host headers and multipart names on every route group."""
+
+    @FUZZ_SETTINGS
+    @given(data=st.data())
+    def fuzz(data: st.DataObject) -> None:
+        group = data.draw(st.sampled_from([live_requests, study_requests, console_requests]))
+        request = data.draw(envelopes(data.draw(group(target))))
+        client = target.console if group is console_requests else target.participant
+        _run(target, client, request, caplog)
+
+    fuzz()
+
+
+@pytest.mark.slow
+def test_every_console_page_answers_after_failed_sign_ins_from_many_clients(
+    database_url: str, caplog
+) -> None:  # type: ignore[no-untyped-def]
+    """5 failed sign-ins (any username, several clients, the rate limit on), then every page."""
+    fuzzed = _make_target(database_url, LOGIN_RATE_LIMIT=True)
+    try:
+        for address, username in (("10.0.0.1", "x"), ("10.0.0.2", "x"), ("10.0.0.1", "alice")):
+            guesser = fuzzed.app.test_client()
+            guesser.environ_base["REMOTE_ADDR"] = address
+            for _ in range(6):  # the sixth is refused: locked
+                fields = {"username": username, "password": "y"}
+                _send(fuzzed, guesser, "POST", "/console/login", data=fields)
+        for path in (
+            "/console/",
+            "/console/progress.json",
+            "/console/progress.json?page=2&hide=bot",
+            f"/console/participants/{fuzzed.code}",
+            f"/console/links?codes={fuzzed.code}",
+            f"/console/links.csv?codes={fuzzed.code}",
+            f"/console/trials/{fuzzed.trial_id}/replay",
+            "/console/export.zip",
+            "/console/login",
+        ):
+            _run(fuzzed, fuzzed.console, ("GET", path, {}), caplog)
+        assert fuzzed.console.get("/console/").status_code == 200
+    finally:
+        fuzzed.app.extensions["hcss_db"].engine.dispose()
+
+
+@pytest.mark.slow
+def test_fuzz_during_a_database_outage(tmp_path, caplog) -> None:  # type: ignore[no-untyped-def]
+    """A full disk under SQLite while a trial runs: every route answers, 503 with Retry-After
+    at worst, never a 500; the runner ticks between requests as the server's thread does."""
+    from tests.platform.own_disk import own_disk
+
+    with own_disk(tmp_path) as disk:
+        fuzzed = _make_target(f"sqlite:///{disk.path / 'hcss.sqlite3'}")
+        runner, engine = (
+            fuzzed.app.extensions["hcss_runner"],
+            fuzzed.app.extensions["hcss_db"].engine,
+        )
+        with engine.connect() as connection:
+            connection.exec_driver_sql("PRAGMA wal_checkpoint(TRUNCATE)")
+        disk.fill()
+        fuzzed.database_away = True
+        try:
+
+            @settings(FUZZ_SETTINGS, max_examples=max(50, EXAMPLES // 5))
+            @given(data=st.data())
+            def fuzz(data: st.DataObject) -> None:
+                group = data.draw(
+                    st.sampled_from([live_requests, study_requests, console_requests])
+                )
+                client = fuzzed.console if group is console_requests else fuzzed.participant
+                runner.clock.now += 0.5
+                caplog.clear()
+                runner.tick()
+                method, path, options = data.draw(group(fuzzed))
+                _send(fuzzed, client, method, path, **options)
+
+            fuzz()
+        finally:
+            disk.free()
+            _write_tally(fuzzed)
+            engine.dispose()

@@ -29,6 +29,7 @@ from sqlalchemy.exc import SQLAlchemyError
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import get_session
+from hcss.platform.errors import DATABASE_RETRY_S
 from hcss.platform.hardening import takes_json
 from hcss.platform.models import Participant, ParticipantPresence
 
@@ -119,7 +120,12 @@ def heartbeat(token: str) -> Response:
     except SQLAlchemyError:
         session.rollback()
         current_app.logger.warning("heartbeat not stored (database busy)", exc_info=True)
-        return Response("busy; the next heartbeat will tell", status=503, mimetype="text/plain")
+        return Response(
+            "busy; the next heartbeat will tell",
+            status=503,
+            mimetype="text/plain",
+            headers={"Retry-After": str(DATABASE_RETRY_S)},
+        )
     return Response(status=204)
 
 
