@@ -84,3 +84,28 @@ def test_a_phone_is_screened_out_before_consent_and_a_small_window_is_asked_to_g
         assert _count(demo_app, ConsentRecord) == 1
         assert _count(demo_app, ScreenOut) == 1  # the phone's; a decline is its own record
         page.close()
+
+
+def test_a_double_submit_sends_the_form_once(browser, demo_app) -> None:  # type: ignore[no-untyped-def]
+    from playwright.sync_api import expect
+
+    with serving(demo_app) as url:
+        page = browser.new_page(viewport={"width": 1366, "height": 768})
+        page.goto(f"{url}/join/demo")
+        page.locator("#join-start").click()
+        expect(page.locator("main.study")).to_have_attribute("data-stage", "consent")
+        page.get_by_label("I agree").check()
+        # Two submits in one go, as a double click on Continue makes them: the second
+        # is held back by the page (whether the browser would have sent it or not).
+        sent = page.evaluate(
+            """() => {
+                const form = document.getElementById('stage-form'), sent = [];
+                form.addEventListener('submit', (e) => sent.push(!e.defaultPrevented));
+                form.requestSubmit(); form.requestSubmit();
+                return sent;
+            }"""
+        )
+        assert sent == [True, False], sent
+        expect(page.locator("main.study")).to_have_attribute("data-stage", "demographics")
+        expect(page.locator("main")).not_to_contain_text("already been submitted")
+        page.close()
