@@ -59,6 +59,7 @@ def create_app(config: Mapping[str, Any] | None = None) -> Flask:
 
     hops = int(app.config.get("PROXY_HOPS") or 0)
     if hops:
+        # Flask's documented way to add WSGI middleware; its stubs call the method final.
         app.wsgi_app = ProxyFix(  # type: ignore[method-assign]
             app.wsgi_app, x_for=hops, x_proto=hops, x_host=hops, x_port=hops
         )

@@ -282,7 +282,10 @@ class ParticipantBot:
 
     def supervise(self, page: PageParser, stage: str, report: BotReport) -> str:
         """Run the trial to its end: look, request, answer probes; then press Continue."""
-        trial_id = int(re.search(r"/trials/(\d+)/", page.interface["data-stream-url"]).group(1))  # type: ignore[union-attr]
+        stream = re.search(r"/trials/(\d+)/", page.interface["data-stream-url"])
+        if stream is None:
+            raise BotError(f"{stage}: the trial page names no stream")
+        trial_id = int(stream.group(1))
         api = f"/api/live/{self.token}/trials/{trial_id}"
         headers = {"X-CSRFToken": page.csrf}
         report.trials.append(trial_id)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from flask import Response, render_template, request, url_for
 from flask.globals import request_ctx
+from flask.typing import ResponseReturnValue
 from sqlalchemy import select
 from werkzeug.exceptions import HTTPException
 
@@ -78,7 +79,7 @@ def database_away(error: BaseException | None) -> bool:
     return isinstance(error, OperationalError | InterfaceError | PoolTimeout)
 
 
-def database_unavailable_page() -> tuple[str, int, dict[str, str]] | Response:
+def database_unavailable_page() -> ResponseReturnValue:
     """503 with Retry-After: JSON for the API (the bots and the page retry), else a
     "please wait" page that reloads itself."""
     from flask import jsonify
@@ -86,7 +87,7 @@ def database_unavailable_page() -> tuple[str, int, dict[str, str]] | Response:
     headers = {"Retry-After": str(DATABASE_RETRY_S)}
     if request.path.startswith("/api/"):
         body = jsonify(error="database_unavailable", message=ADVICE[503][1])
-        return body, 503, headers  # type: ignore[return-value]
+        return body, 503, headers
     page = error_page(503, retry_after=DATABASE_RETRY_S)
     if isinstance(page, Response):
         page.headers.update(headers)

@@ -147,6 +147,7 @@ class LoginThrottle:
                     LoginFailure.key.endswith(":" + _name(username), autoescape=True),
                 )
             )
+            # A DELETE answers a CursorResult; Session.execute is typed as any Result.
             return int(result.rowcount or 0)  # type: ignore[attr-defined]
 
 

@@ -83,6 +83,7 @@ class Leases:
                 .values(trial_id=trial_id, owner=self.owner, expires_epoch=expires, taken_epoch=now)
                 .on_conflict_do_nothing(index_elements=["trial_id"])
             )
+            # An INSERT/UPDATE answers a CursorResult; Session.execute is typed as any Result.
             if inserted.rowcount == 1:  # type: ignore[attr-defined]
                 return True
             taken = session.execute(
@@ -93,7 +94,7 @@ class Leases:
                 )
                 .values(owner=self.owner, expires_epoch=expires, taken_epoch=now)
             )
-            return taken.rowcount == 1  # type: ignore[attr-defined]
+            return taken.rowcount == 1  # type: ignore[attr-defined]  # a CursorResult, as above
 
     def renew(self, trial_ids: Iterable[int], now: float) -> set[int]:
         """Extend our leases of these trials in one statement; the ids still ours."""

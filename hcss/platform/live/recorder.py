@@ -288,5 +288,6 @@ def end_trial(live: RunningTrial, session: Session, reason: str, now: float) -> 
     live.end_reason = reason
 
 
-def _int_or_none(value: object) -> int | None:
-    return None if value is None else int(value)  # type: ignore[call-overload]
+def _int_or_none(value: Any) -> int | None:
+    """A record's integer field (numpy or Python), or None."""
+    return None if value is None else int(value)

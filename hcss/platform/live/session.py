@@ -16,7 +16,7 @@ from typing import Any
 from hcss.platform.live.clock import running_wall_s, trial_time_s
 from hcss.platform.models.vocabularies import TrialStatus
 from hcss.questionnaires.probes import ScheduledProbe
-from hcss.simulation import Display
+from hcss.simulation import Display, Simulation
 
 
 @dataclass
@@ -73,7 +73,7 @@ class RunningTrial:
     seed: int
     scenario_id: str
     first_section: str | None
-    sim: Any  # hcss.simulation.Simulation
+    sim: Simulation
     started_epoch: float  # wall clock, seconds since the epoch
     acceleration: float
     duration_s: float

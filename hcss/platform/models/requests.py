@@ -73,7 +73,8 @@ class Command(CreatedAt, Base):
     def operator_command(self) -> OperatorCommand:
         """The command as the simulation took it, for a replay."""
         if self.kind == "cancel":
-            return OperatorCommand.cancel(self.cancel_request_id)  # type: ignore[arg-type]
+            assert self.cancel_request_id is not None, "a cancel row names its request"
+            return OperatorCommand.cancel(self.cancel_request_id)
         return OperatorCommand(self.kind, self.collective, self.target)
 
 

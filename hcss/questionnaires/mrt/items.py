@@ -162,8 +162,8 @@ def _as_figure(cubes: np.ndarray, view: np.ndarray) -> Figure:
     cells = np.asarray(cubes, dtype=np.int64)
     cells = cells - cells.min(axis=0)
     return Figure(
-        cubes=tuple(tuple(int(v) for v in row) for row in cells),  # type: ignore[misc]
-        view=tuple(tuple(float(v) for v in row) for row in view),  # type: ignore[misc]
+        cubes=tuple((int(x), int(y), int(z)) for x, y, z in cells),
+        view=tuple((float(x), float(y), float(z)) for x, y, z in view),
     )
 
 

@@ -227,5 +227,6 @@ def _axis_directions() -> list[tuple[int, int, int]]:
 
 
 def _mirror_path(path: ArmPath) -> ArmPath:
-    flipped = tuple(tuple(int(v) for v in MIRROR @ np.asarray(d)) for d in path.directions)
-    return ArmPath(flipped, path.steps)  # type: ignore[arg-type]
+    mirrored = (MIRROR @ np.asarray(d) for d in path.directions)
+    flipped = tuple((int(x), int(y), int(z)) for x, y, z in mirrored)
+    return ArmPath(flipped, path.steps)
