@@ -22,7 +22,7 @@ from hcss.analysis.comparisons import (
     measure_splits,
     quietly,
 )
-from hcss.analysis.posthoc import holm
+from hcss.analysis.r_distributions import holm
 from hcss.analysis.repeated import friedman, paired_wilcoxon
 from hcss.analysis.stats import TestResult
 

@@ -5,7 +5,7 @@ Three flavours, because the study's analyses used more than one:
 - :func:`tukey_kramer_ranks`: Tukey-Kramer on the Kruskal-Wallis mean ranks,
   as MATLAB's ``multcompare`` does after ``kruskalwallis``. No scipy,
   statsmodels or scikit-posthocs function computes this, so it is written
-  here, from R's studentized-range distribution (:mod:`tukey_distribution`).
+  here, from R's studentized-range distribution (:mod:`r_distributions`).
 - :func:`tukey_hsd`: classic Tukey HSD (Tukey-Kramer for unequal sizes) on
   the raw values, as R's ``TukeyHSD(aov(...))`` (a group of one value included).
 - :func:`dunn_holm`: Dunn's z test on mean ranks with Holm's step-down
@@ -27,8 +27,8 @@ import pandas as pd
 import scikit_posthocs
 from scipy import stats
 
+from hcss.analysis.r_distributions import holm, qtukey, tukey_sf
 from hcss.analysis.stats import ALL_EQUAL, all_equal
-from hcss.analysis.tukey_distribution import qtukey, tukey_sf
 
 
 @dataclass(frozen=True)
@@ -147,7 +147,7 @@ def tukey_hsd(groups: Mapping[str, Sequence[float]], alpha: float = 0.05) -> Pai
     se = sqrt(MSE/2 · (1/nᵢ + 1/nⱼ)), q = (ȳᵢ − ȳⱼ)/se, p = P(Q > |q|) for
     the studentized range with k groups and N − k df, and the interval
     diff ± q₁₋α·se, with p and q₁₋α from R's own ``ptukey``/``qtukey``
-    (:mod:`hcss.analysis.tukey_distribution`). Undefined (NaN, with a note) when there are no error df
+    (:mod:`hcss.analysis.r_distributions`). Undefined (NaN, with a note) when there are no error df
     (every group has one value) or no error variance.
     """
     samples = _samples(groups)
@@ -202,27 +202,6 @@ def _undefined(
         for a, b in combinations(samples, 2)
     )
     return PairwiseComparison(test, statistic, sum(map(len, samples.values())), rows, note)
-
-
-def holm(p_values: Sequence[float]) -> np.ndarray:
-    """Holm's step-down adjustment: p₍ᵢ₎·(m − i + 1), made monotone, capped at 1.
-
-    Written out because statsmodels' ``multipletests(method="holm")`` runs a
-    full ``gc.collect()`` on every call, which made a report with a hundred
-    comparisons spend most of its time in the garbage collector. The test
-    suite checks this against statsmodels and R. A NaN p (a degenerate pair)
-    stays NaN and does not count in m, as in R's ``p.adjust``.
-    """
-    p = np.asarray(p_values, dtype=float)
-    adjusted = np.full_like(p, np.nan)
-    present = ~np.isnan(p)  # as R's p.adjust: a missing p is no comparison
-    kept = p[present]
-    order = np.argsort(kept, kind="stable")
-    scaled = kept[order] * np.arange(len(kept), 0, -1)
-    result = np.empty_like(kept)
-    result[order] = np.minimum(np.maximum.accumulate(scaled), 1.0)
-    adjusted[present] = result
-    return adjusted
 
 
 def dunn_holm(groups: Mapping[str, Sequence[float]]) -> PairwiseComparison:

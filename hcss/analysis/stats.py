@@ -24,7 +24,7 @@ from hcss.analysis.effect_intervals import (
     rank_biserial_interval,
     spearman_interval,
 )
-from hcss.analysis.spearman_p import spearman_p
+from hcss.analysis.r_distributions import spearman_p
 
 ALL_EQUAL = "all values equal"
 KRUSKAL_METHOD = "χ² approximation, tie-corrected"
@@ -215,7 +215,7 @@ def spearman(first: Sequence[float], second: Sequence[float]) -> TestResult:
 
     Pairs with a missing value are dropped. p is exact (permutation) for
     n ≤ 9 and an Edgeworth series for larger n when there are no ties, and
-    the t approximation with n − 2 df otherwise (:mod:`spearman_p`); the
+    the t approximation with n − 2 df otherwise (:mod:`r_distributions`); the
     result's ``method`` names which. df is n − 2. A constant variable has no
     correlation: R gives NA, this gives NaN with the note "all values equal".
     """

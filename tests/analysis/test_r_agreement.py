@@ -16,7 +16,7 @@ import pytest
 
 from hcss.analysis import posthoc, repeated, stats
 from hcss.analysis.decision_measures import decision_measures
-from hcss.analysis.spearman_p import EDGEWORTH, EXACT, T_APPROXIMATION
+from hcss.analysis.r_distributions import EDGEWORTH, EXACT, T_APPROXIMATION
 from tests.analysis.synthetic import trial_rows
 
 REL = 1e-6

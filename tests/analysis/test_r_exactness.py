@@ -10,8 +10,8 @@ import pytest
 from hcss.analysis import stats
 from hcss.analysis.decision_measures import decision_measures
 from hcss.analysis.paired import participant_blocks
+from hcss.analysis.r_distributions import EDGEWORTH
 from hcss.analysis.repeated import paired_wilcoxon
-from hcss.analysis.spearman_p import EDGEWORTH
 from tests.analysis.synthetic import trial_rows
 
 REL = 1e-6

@@ -214,13 +214,13 @@ def test_tukey_hsd_q_is_consistent_with_its_p(plant_growth):
     ],
 )
 def test_ptukey_is_rs(q, groups, df, expected):
-    from hcss.analysis.tukey_distribution import ptukey
+    from hcss.analysis.r_distributions import ptukey
 
     assert ptukey(q, groups, df) == pytest.approx(expected, rel=1e-12)
 
 
 def test_qtukey_is_rs():
-    from hcss.analysis.tukey_distribution import qtukey
+    from hcss.analysis.r_distributions import qtukey
 
     # c(qtukey(0.95, 3, 27), qtukey(0.95, 3, 5), qtukey(0.95, 5, 1e6))
     #   3.5064261233926857 4.6017254459428374 3.8576555268516346
