@@ -38,9 +38,15 @@ SPLIT_LABELS = {"overall": "Overall", "easy": "Easy", "difficult": "Difficult"}
 MIN_BOX_VALUES = 3
 
 
+def _ordered_groups(chosen: pd.DataFrame) -> list[str]:
+    """Models in display order, then any other group (e.g. "All" for the MRT, met once)."""
+    present = set(chosen["group"])
+    return [g for g in GROUP_ORDER if g in present] + sorted(present - set(GROUP_ORDER))
+
+
 def _draw_boxes(axes, chosen: pd.DataFrame, rng: np.random.Generator) -> list[str]:
     """Boxes per model (colour) within each split (position), each unit a jittered dot."""
-    groups = [group for group in GROUP_ORDER if group in set(chosen["group"])]
+    groups = _ordered_groups(chosen)
     splits = [split for split in SPLITS if split in set(chosen["split"])]
     width = 0.8 / max(len(groups), 1)
     for split_index, split in enumerate(splits):
@@ -104,7 +110,7 @@ def _legend(axes, groups: list[str]) -> None:
 def comparison_figure(measures: pd.DataFrame, measure: str) -> Figure:
     """Box and strip plot of ``measure`` per model (colour) within each split (position)."""
     chosen = measures[measures["measure"] == measure]
-    groups = [group for group in GROUP_ORDER if group in set(chosen["group"])]
+    groups = _ordered_groups(chosen)
     splits = [split for split in SPLITS if split in set(chosen["split"])]
     figure, axes = plt.subplots(figsize=(2.2 + 1.1 * len(groups) * len(splits) / 2, 4.0))
     _legend(axes, _draw_boxes(axes, chosen, np.random.default_rng(0)))
@@ -184,8 +190,7 @@ def profile_figure(measures: pd.DataFrame, members: list[str], title: str) -> Fi
     ratings and weighted scores get a panel each because their ranges differ.
     """
     chosen = measures[measures["measure"].isin(members) & (measures["split"] == "overall")]
-    groups = [group for group in GROUP_ORDER if group in set(chosen["group"])]
-    groups += sorted(set(chosen["group"]) - set(groups))
+    groups = _ordered_groups(chosen)
     panels = _profile_panels(members)
     widths = [max(2.0, 0.7 * len(scales) + 1.0) for _, scales in panels]
     figure, axes_row = plt.subplots(

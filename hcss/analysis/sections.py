@@ -161,13 +161,14 @@ def build_sections(
         sections.append(Section("other", "Other measures", "", tuple(descriptive_tables(others))))
     sections += _test_sections(tables, measures, omnibus, repeated)
     sections += _simulation_sections(measures, mann_whitney_method, continuity)
-    if correlation_results:
+    decision_correlations = [c for c in correlation_results if c.x != MRT_MEASURE]
+    if decision_correlations:  # the MRT's are in its own section
         sections.append(
             Section(
                 "correlations",
                 "Correlations with success rate",
                 "",
-                (spearman_table(correlation_results),),
+                (spearman_table(decision_correlations),),
             )
         )
     return [section for section in sections if section.tables or section.figures]

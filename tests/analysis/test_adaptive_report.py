@@ -105,3 +105,17 @@ def test_family_tables_drop_p_columns_of_tests_not_run(tmp_path: Path):
         "n per model",
     )
     assert family.rows[0][-1] == "1"  # one participant per model, not N = 3
+
+
+def test_a_measure_met_once_per_participant_is_drawn():
+    """The MRT (group "All") drew an empty panel: only model groups were drawn."""
+    from hcss.analysis.figures import family_figure
+
+    rows = [
+        ("mrt.overall", "overall", "All", "study", f"P{i}", f"P{i}", 10.0 + i) for i in range(5)
+    ]
+    measures = pd.DataFrame(
+        rows, columns=["measure", "split", "group", "source", "unit", "participant", "value"]
+    )
+    figure = family_figure(measures, ["mrt.overall"], "Mental Rotations Test")
+    assert len(figure.axes[0].patches) == 1  # the box of the five scores
