@@ -121,16 +121,17 @@ def test_each_row_offers_only_the_actions_that_apply(app, console) -> None:
     assert console.progress()[code]["time_in_stage_s"] is None
     (link,) = LINK.findall(console.get("/console/links").get_data(as_text=True))
     app.test_client().get(link, follow_redirects=True)  # the first visit
-    assert console.progress()[code]["actions"] == ["pause", "abort", "mark_pilot"]
+    offered = ["pause", "abort", "skip_stage", "mark_pilot"]
+    assert console.progress()[code]["actions"] == offered
     index = console.get("/console/").get_data(as_text=True)
     row = index[index.index(f'<tr data-code="{code}"') :]
     row = row[: row.index("</tr>")]
-    assert re.findall(r'data-action="(\w+)"', row) == ["pause", "abort", "mark_pilot"]
+    assert re.findall(r'data-action="(\w+)"', row) == offered
 
     # A button in the table comes back to the table.
     response = console.post(f"/console/participants/{code}/pause", {"next": "/console/"})
     assert response.status_code == 303 and response.headers["Location"] == "/console/"
-    assert console.progress()[code]["actions"] == ["resume", "abort", "mark_pilot"]
+    assert console.progress()[code]["actions"] == ["resume", "abort", "skip_stage", "mark_pilot"]
     # ... and a "next" leading elsewhere is not followed.
     response = console.post(f"/console/participants/{code}/resume", {"next": "https://evil/"})
     assert response.headers["Location"] == "/console/"
@@ -179,3 +180,40 @@ def test_every_link_can_be_listed_again_and_the_console_script_runs_once(console
     assert 'id="all-links"' in index
     # One copy of the table's script: two would poll twice and ask every question twice.
     assert index.count("console.js") == 1
+
+
+def test_a_stuck_participant_is_moved_past_their_step_audited(app, console, tmp_path) -> None:
+    from click.testing import CliRunner
+
+    from hcss.cli import main
+    from tests.platform.study_fixtures import visitor
+
+    console.post("/console/participants", {"count": "1", "study": "demo"})
+    (code,) = console.progress()
+    (link,) = LINK.findall(console.get("/console/links").get_data(as_text=True))
+    guest = visitor(app, link.rsplit("/", 1)[-1])
+    guest.page()
+    refused = console.act(code, "skip_stage")  # consent: never skipped
+    assert refused.status_code == 303
+    assert "cannot be skipped" in console.get("/console/").get_data(as_text=True)
+    assert console.progress()[code]["stage"] == "consent"
+
+    guest.submit({"decision": "agree"})
+    guest.page()
+    assert 'data-stage="demographics"' in guest.html
+    assert console.act(code, "skip_stage").status_code == 303
+    assert "skipped stage 2 demographics" in console.get("/console/").get_data(as_text=True)
+    assert console.progress()[code]["stage"].startswith("mental_rotation")
+    guest.page()
+    assert 'data-stage="mental_rotation"' in guest.html
+    with app.extensions["hcss_db"].session_scope() as session:
+        (action,) = session.scalars(
+            select(ConsoleAction).where(ConsoleAction.action == "skip_stage")
+        ).all()
+        assert action.detail == "stage 2 demographics form" and action.experimenter_id is not None
+    out = tmp_path / "export"
+    url = app.config["DATABASE_URL"]
+    assert CliRunner().invoke(main, ["export", str(out), "--database-url", url]).exit_code == 0
+    timings = {r["stage"]: r for r in csv.DictReader((out / "stage_timings.csv").open())}
+    assert timings["demographics"]["skipped"] == "true" and timings["demographics"]["submitted_at"]
+    assert timings["consent"]["skipped"] == "false"

@@ -46,6 +46,8 @@ def available_actions(state: str, status: str, is_pilot: bool) -> list[str]:
         if status != "not_enrolled":  # nothing runs yet that a pause could hold
             actions += ["resume"] if state == "paused" else ["pause"]
         actions.append("abort")  # for a link not yet opened: it will not open
+        if status == "in_progress":
+            actions.append("skip_stage")  # hcss.platform.console.skipping
     actions.append("unmark_pilot" if is_pilot else "mark_pilot")
     return actions
 

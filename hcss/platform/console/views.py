@@ -52,6 +52,7 @@ from hcss.platform.console.sessions import (
     set_pilot,
     study_status,
 )
+from hcss.platform.console.skipping import skip_step
 from hcss.platform.console.withdrawal import WithdrawalError, withdraw
 from hcss.platform.db import database, get_session
 from hcss.platform.models import AuditRecord, ConsoleAction, Experimenter, Participant
@@ -300,13 +301,14 @@ def participant(code: str) -> str:
     )
 
 
-SESSION_ACTIONS = {"pause", "resume", "abort", "mark_pilot", "unmark_pilot"}
+SESSION_ACTIONS = {"pause", "resume", "abort", "mark_pilot", "unmark_pilot", "skip_stage"}
 ACTION_LABELS = {
     "pause": "Pause",
     "resume": "Resume",
     "abort": "Abort",
     "mark_pilot": "Mark pilot",
     "unmark_pilot": "Unmark pilot",
+    "skip_stage": "Skip stage",
 }
 
 
@@ -324,6 +326,10 @@ def act(code: str, action: str):
     try:
         if action in ("mark_pilot", "unmark_pilot"):
             set_pilot(database(), _runner(), found, current_user, action == "mark_pilot")
+        elif action == "skip_stage":
+            skipped = skip_step(database(), found, current_user)
+            flash(f"{code}: skipped {skipped}")
+            return redirect(back), 303
         else:
             change_session(database(), _runner(), found, current_user, action)
     except ConsoleError as error:

@@ -27,7 +27,7 @@ from hcss.platform.models import (
     Trial,
 )
 from hcss.platform.pilots import is_pilot
-from hcss.platform.study.flow import participant_status
+from hcss.platform.study.flow import DONE_KINDS, participant_status
 
 Row = dict[str, Any]
 
@@ -167,7 +167,7 @@ def stage_timing_rows(code: str, events: list[Any]) -> list[Row]:
     for index in sorted(stages):
         stage_events = stages[index]
         entered = [e.at for e in stage_events if e.kind == "entered"]
-        ends = [e for e in stage_events if e.kind in ("submitted", "timed_out")]
+        ends = [e for e in stage_events if e.kind in DONE_KINDS]
         finished = bool(ends) and (index < last_index or stage_events[-1].kind != "entered")
         rows.append(
             {
@@ -178,6 +178,7 @@ def stage_timing_rows(code: str, events: list[Any]) -> list[Row]:
                 "entered_at": iso(min(entered)) if entered else None,
                 "submitted_at": iso(max(e.at for e in ends)) if finished else None,
                 "timed_out": any(e.kind == "timed_out" for e in stage_events),
+                "skipped": any(e.kind == "skipped" for e in stage_events),
             }
         )
     return rows

@@ -134,6 +134,7 @@ TABLES: dict[str, tuple[tuple[str, str], ...]] = {
         ("entered_at", "str"),
         ("submitted_at", "str"),
         ("timed_out", "bool"),
+        ("skipped", "bool"),
     ),
     "interruptions": (
         ("participant", "str"),

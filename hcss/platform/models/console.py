@@ -27,6 +27,7 @@ CONSOLE_ACTIONS = (
     "mark_pilot",
     "unmark_pilot",
     "cell_override",
+    "skip_stage",
 )
 
 

@@ -21,7 +21,8 @@ from sqlalchemy.orm import Mapped, mapped_column
 
 from hcss.platform.models.base import Base, CreatedAt
 
-STAGE_EVENT_KINDS = ("entered", "submitted", "timed_out")
+#: `skipped`: the experimenter moved the participant past the step (hcss.platform.console.skipping).
+STAGE_EVENT_KINDS = ("entered", "submitted", "timed_out", "skipped")
 CONSENT_DECISIONS = ("agree", "decline")
 
 

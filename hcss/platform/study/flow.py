@@ -43,6 +43,10 @@ def study_now() -> datetime:
     return database().now()
 
 
+#: Stage event kinds after which a step is done.
+DONE_KINDS = ("submitted", "timed_out", "skipped")
+
+
 @dataclass(frozen=True)
 class Position:
     slot: Slot | None  # None: the study is over for this participant
@@ -85,7 +89,8 @@ class Flow:
         return self._first_event.get((index, step, kind))
 
     def finished(self, index: int, step: str) -> bool:
-        return any((index, step, kind) in self._first_event for kind in ("submitted", "timed_out"))
+        """Submitted, timed out, or skipped by the experimenter: the flow has moved past it."""
+        return any((index, step, kind) in self._first_event for kind in DONE_KINDS)
 
     def consent(self) -> ConsentRecord | None:
         """The newest consent record, read once per flow (`record_consent` adds one)."""
@@ -101,7 +106,7 @@ class Flow:
         return self._consent[0]
 
     def locate(self) -> Position:
-        """Which stage and step now: the first step not yet submitted or timed out."""
+        """Which stage and step now: the first step not yet submitted, timed out or skipped."""
         consent = self.consent()
         if consent is not None and consent.decision == "decline":
             return Position(None, status="declined")

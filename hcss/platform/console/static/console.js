@@ -75,6 +75,7 @@
       button.dataset.action = action;
       button.textContent = labels[action];
       if (action === "abort") button.dataset.confirm = "Abort this session?";
+      if (action === "skip_stage") button.dataset.confirm = "Move this participant past their current step?";
       form.append(button);
       td.append(form);
     }
