@@ -3,11 +3,15 @@
 from __future__ import annotations
 
 import os
+from typing import TYPE_CHECKING
 
 import click
 
 from hcss.platform.connections import PER_CLIENT
 from hcss.simulation.params import MODELS
+
+if TYPE_CHECKING:
+    from flask import Flask
 
 #: The Alembic environment, package data (Alembic's "package:directory" form).
 MIGRATIONS = "hcss.platform:migrations"
@@ -164,6 +168,7 @@ def serve(
     for item in (*practice_items(), *item_bank()):
         item.target_svg()
     ensure_first_login(app)  # prints a console login once, on a server with no experimenter
+    _warn_about_study_files(app)
     url = f"http://{host}:{port}/"
     log_events_to_stderr()
     # A server on every interface is reached from this machine at 127.0.0.1.
@@ -246,6 +251,21 @@ def deploy_nginx(
     else:
         Path(output).write_text(text)
         click.echo(f"nginx configuration for {len(members)} process(es) in {output}", err=True)
+
+
+def _warn_about_study_files(app: Flask) -> None:
+    """Say at start which study files cannot be loaded or changed under enrolled participants."""
+    from sqlalchemy.exc import SQLAlchemyError
+
+    from hcss.platform.study.versions import study_problems
+
+    try:
+        with app.extensions["hcss_db"].session_scope() as session:
+            problems = study_problems(session)
+    except SQLAlchemyError:
+        return  # the database is not ready; the runner says so
+    for problem in problems:
+        click.echo(f"hcss: warning: {problem}", err=True)
 
 
 @click.command("demo-trial")

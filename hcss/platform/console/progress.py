@@ -35,6 +35,7 @@ from hcss.platform.pilots import pilot_flags, pilot_marks
 from hcss.platform.session_state import session_states
 from hcss.platform.study.enrolment import default_study_name
 from hcss.platform.study.flow import Flow, Position
+from hcss.platform.study.versions import StudyHeld, enrolled_study
 
 
 @dataclass(frozen=True)
@@ -120,6 +121,7 @@ class _Place:
     stage_number: int | None
     stage_count: int | None
     entered: StageEvent | None  # when the current step was entered, if it was
+    held: str = ""  # why the participant is held (their study file is missing or changed)
 
 
 def _latest_enrolments(session: Session, ids: list[int]) -> dict[int, StudyEnrolment]:
@@ -140,6 +142,12 @@ def _place(session: Session, participant: Participant, enrolment: StudyEnrolment
     if enrolment is None:
         study = participant.study or default_study_name()
         return _Place(Position(None, status="not_enrolled"), study, None, None, None, None)
+    try:
+        enrolled_study(enrolment)
+    except StudyHeld as held:
+        return _Place(
+            Position(None), enrolment.study, enrolment.cell, None, None, None, held.reason
+        )
     flow = Flow(session, participant, enrolment, session_now(session))
     position = flow.locate()
     count = len(flow.slots)
@@ -244,6 +252,8 @@ def progress_rows(
             reason = "" if status is None else f" ({status.reason})"
             stage = f"{trial.kind} {trial.model} ended{reason}"
             since = (trial.started_at if status is None else status.created_at).timestamp()
+        elif place.held:
+            stage = f"held: {place.held}"
         else:
             stage = _stage_label(position)
             if place.entered is not None:

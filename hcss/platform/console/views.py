@@ -62,6 +62,7 @@ from hcss.platform.study.enrolment import current_enrolment
 from hcss.platform.study.files import study_names
 from hcss.platform.study.recruitment import Enrolled, enrolled
 from hcss.platform.study.studyfile import StudyFileError, load_study
+from hcss.platform.study.versions import study_problems
 
 bp = Blueprint("console", __name__, url_prefix="/console", static_folder="static")
 login_manager = LoginManager()
@@ -165,6 +166,7 @@ def index() -> str:
     return render_template(
         "console/index.html",
         table=_table_page(),
+        study_problems=study_problems(session),
         create_form=forms.CreateParticipantsForm(),
         action_form=forms.ActionForm(),
         audits=audit_entries(audits),

@@ -28,6 +28,7 @@ from hcss.platform.study.recruitment import completion_for
 from hcss.platform.study.screenout import screen_out_for
 from hcss.platform.study.stage import Refused
 from hcss.platform.study.texts import fill
+from hcss.platform.study.versions import enrolled_study
 from hcss.questionnaires import pages
 
 bp = Blueprint("study", __name__, url_prefix="/p")
@@ -75,6 +76,7 @@ def _flow(token: str) -> Flow:
     enrolment = current_enrolment(session, participant.id)
     if enrolment is None:
         enrolment = first_enrolment(session, participant)
+    enrolled_study(enrolment)  # a missing or changed study file holds the participant (503)
     return Flow(session, participant, enrolment, study_now())
 
 
