@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field
+from typing import Any
 
 from hcss.simulation.params import ROMAN, Params
 from hcss.simulation.world import World
@@ -102,7 +103,7 @@ class DecisionRecord:
 
     def as_row(
         self, source: str = "simulation", participant: str = "", trial_id: str = "", run: int = 0
-    ) -> dict:
+    ) -> dict[str, Any]:
         """The record as a row of the decisions table (docs/data-dictionary.md)."""
         row = asdict(self)
         row.update(

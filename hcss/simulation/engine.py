@@ -18,6 +18,7 @@ import math
 import pickle
 from dataclasses import asdict
 from types import SimpleNamespace
+from typing import Any
 
 import numpy as np
 
@@ -78,7 +79,7 @@ class Simulation:
         self.commands_applied = (
             0  # every command, accepted or refused: a replay's position in its log
         )
-        self.events: list[dict] = []
+        self.events: list[dict[str, Any]] = []
         self.status_changes: list[StatusChange] = []  # drained by drain_status_changes
         self._start_section(0)
 
@@ -153,7 +154,7 @@ class Simulation:
     def _steps(self, max_steps: int, part: int) -> tuple[int, int]:
         """The compiled step (`step.steps`) on this trial's arrays and scratch buffers."""
         w, scratch = self.world, self._scratch
-        return steps(
+        done, visible = steps(
             w.kernel_arrays(),
             self._k,
             scratch.at_target,
@@ -168,6 +169,7 @@ class Simulation:
             max_steps,
             part,
         )
+        return int(done), int(visible)
 
     def _step_once(self) -> None:
         """One step in two halves, serving the requests that wait for agents in between."""
@@ -316,7 +318,7 @@ class Simulation:
         """What the Collective Interface shows (spec §9), as read-only arrays; never the truth."""
         return display_of(self)
 
-    def view(self) -> dict:
+    def view(self) -> dict[str, Any]:
         """The display as JSON-able values, for the browser (`Display.to_json`)."""
         return self.display().to_json()
 
@@ -327,7 +329,7 @@ class Simulation:
         """
         return truth_of(self)
 
-    def drain_events(self) -> list[dict]:
+    def drain_events(self) -> list[dict[str, Any]]:
         """System messages since the last call: discoveries, commitments, moves, arrivals."""
         events, self.events = self.events, []
         return events

@@ -29,6 +29,7 @@ import math
 import statistics
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from scipy.stats import mannwhitneyu
 
@@ -108,14 +109,14 @@ def run_outcomes(
     runs: int = REFERENCE_RUNS,
     models: tuple[str, ...] = REFERENCE_MODELS,
     workers: int = 1,
-) -> list[dict]:
+) -> list[dict[str, Any]]:
     """The reduced experiment at the pinned parameters: one outcome row per decision."""
     jobs = exp.jobs_for(exp.experiment_scenarios(scenarios), models, runs)
     rows = exp.run_jobs(jobs, workers=workers, params=pinned_params())
     return [{column: row[column] for column in OUTCOME_COLUMNS} for row in rows]
 
 
-def write_reference(rows: list[dict], path: Path) -> None:
+def write_reference(rows: list[dict[str, Any]], path: Path) -> None:
     write_table(
         path,
         OUTCOME_COLUMNS,
@@ -130,7 +131,7 @@ def write_reference(rows: list[dict], path: Path) -> None:
 TRUE = ("true", "1")
 
 
-def read_reference(path: Path) -> list[dict]:
+def read_reference(path: Path) -> list[dict[str, Any]]:
     with path.open(newline="", encoding="utf-8") as handle:
         return [
             {
@@ -173,9 +174,11 @@ class CellComparison:
         )
 
 
-def per_trial(rows: list[dict], model: str, split: str) -> tuple[list[float], list[float]]:
+def per_trial(
+    rows: list[dict[str, Any]], model: str, split: str
+) -> tuple[list[float], list[float]]:
     """Each trial's success rate and mean decision time (minutes) within a split."""
-    by_trial: dict[str, list[dict]] = {}
+    by_trial: dict[str, list[dict[str, Any]]] = {}
     for r in rows:
         if r["model"] == model and (split == "overall" or r["difficulty"] == split):
             by_trial.setdefault(r["trial_id"], []).append(r)
@@ -186,7 +189,7 @@ def per_trial(rows: list[dict], model: str, split: str) -> tuple[list[float], li
     return success, minutes
 
 
-def compare(reference: list[dict], new: list[dict]) -> list[CellComparison]:
+def compare(reference: list[dict[str, Any]], new: list[dict[str, Any]]) -> list[CellComparison]:
     models = sorted({r["model"] for r in reference})
     cells = [(m, s) for m in models for s in exp.SPLITS]
     threshold = FAMILY_ALPHA / (2 * len(cells))

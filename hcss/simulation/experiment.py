@@ -28,7 +28,7 @@ DEFAULT_SCENARIO_SEED = 20_150_000  # the experiment's scenario block; calibrati
 class Job:
     """One simulation run: a scenario, a model and a replicate number."""
 
-    scenario: dict  # Scenario.to_dict(): plain values travel to workers cheaply
+    scenario: dict[str, Any]  # Scenario.to_dict(): plain values travel to workers cheaply
     model: str
     run: int
     operator: str | None = None  # a scripted operator (operators.OPERATORS), or none
@@ -66,7 +66,7 @@ def jobs_for(
     ]
 
 
-def run_job(job: Job, params: Params | None = None) -> list[dict]:
+def run_job(job: Job, params: Params | None = None) -> list[dict[str, Any]]:
     """Run one trial to completion and return its decisions-table rows.
 
     With an operator, the trial is an operated one (the human-team condition,
@@ -96,12 +96,12 @@ def run_jobs(
     dask_address: str | None = None,
     on_done: Callable[[], None] | None = None,
     params: Params | None = None,
-) -> list[dict]:
+) -> list[dict[str, Any]]:
     """Run every job and return all rows, in job order whatever order they finish in.
 
     `params` (default: `Params()`) applies to every job: M1, M2 and M3 share them.
     """
-    results: dict[int, list[dict]] = {}
+    results: dict[int, list[dict[str, Any]]] = {}
     for index, rows in _execute(jobs, workers, dask_address, params):
         results[index] = rows
         if on_done is not None:
@@ -111,7 +111,7 @@ def run_jobs(
 
 def _execute(
     jobs: list[Job], workers: int, dask_address: str | None, params: Params | None = None
-) -> Iterator[tuple[int, list[dict]]]:
+) -> Iterator[tuple[int, list[dict[str, Any]]]]:
     if dask_address:
         yield from _execute_dask(jobs, workers, dask_address, params)
     elif workers <= 1:
@@ -157,13 +157,13 @@ def completed_in_order_of(futures: list[Any]) -> Iterator[tuple[int, Any]]:
 
 def _execute_dask(
     jobs: list[Job], workers: int, address: str, params: Params | None = None
-) -> Iterator[tuple[int, list[dict]]]:
+) -> Iterator[tuple[int, list[dict[str, Any]]]]:
     """Run the jobs on a Dask scheduler, or on a LocalCluster when the address is "local"."""
     with dask_client(address, workers) as client:
         yield from completed_in_order_of(client.map(run_job, jobs, params=params, pure=False))
 
 
 # ----------------------------------------------------------------- output
-def write_decisions(rows: list[dict], path: Path) -> None:
+def write_decisions(rows: list[dict[str, Any]], path: Path) -> None:
     """The decisions table as CSV, with the columns of docs/data-dictionary.md."""
     write_table(path, DECISION_COLUMNS, rows)

@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -50,7 +51,7 @@ def _mean_se(values: list[float]) -> tuple[float, float]:
     return float(a.mean()), se
 
 
-def cells(variant: str, rows: list[dict]) -> list[Cell]:
+def cells(variant: str, rows: list[dict[str, Any]]) -> list[Cell]:
     """The three splits of one variant's decisions."""
     out = []
     for split in exp.SPLITS:
@@ -95,7 +96,7 @@ def variant_rows(
     ablations: bool = True,
     on_variant: Callable[[str], None] | None = None,
     seed: int = exp.DEFAULT_SCENARIO_SEED,
-) -> list[tuple[str, list[dict]]]:
+) -> list[tuple[str, list[dict[str, Any]]]]:
     """(label, decision rows) of every variant, on the same scenarios and runs."""
     out = []
     for label, model, variant_params in variants(params, ablations):
@@ -120,7 +121,7 @@ def run_fidelity(
     return [cell for label, variant in rows for cell in cells(label, variant)]
 
 
-def study_comparison(rows: list[tuple[str, list[dict]]]) -> str:
+def study_comparison(rows: list[tuple[str, list[dict[str, Any]]]]) -> str:
     """M1's and M2's split cells beside the study's published ones (study_targets)."""
     measured = st.measure(r for label, variant in rows if label in ("M1", "M2") for r in variant)
     return (

@@ -17,7 +17,9 @@ from __future__ import annotations
 import hashlib
 import os
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any, NoReturn, TypeVar, cast
 
 import numba
 from numba.core.registry import CPUDispatcher
@@ -47,13 +49,16 @@ def cache_dir() -> Path:
     return Path(tempfile.mkdtemp(prefix="hcss-numba-"))
 
 
+#: A kernel: the function `internal` compiles.
+F = TypeVar("F", bound=Callable[..., Any])
+
 numba.config.CACHE_DIR = str(cache_dir())  # type: ignore[attr-defined]  # set from the environment at run time
 
 
 class _CompiledCallersOnly(CPUDispatcher):
     """A dispatcher compiled without the wrappers that let Python call it."""
 
-    def __call__(self, *args, **kwargs):
+    def __call__(self, *args: Any, **kwargs: Any) -> NoReturn:
         # Without its Python wrapper a call from Python would crash the process.
         raise TypeError(
             f"{self.py_func.__qualname__} is called only from compiled code; "
@@ -61,7 +66,7 @@ class _CompiledCallersOnly(CPUDispatcher):
         )
 
 
-def internal(func):
+def internal(func: F) -> F:
     """`njit(cache=True)` for a kernel that only other compiled functions call.
 
     numba compiles every function with two entry wrappers, one for calls from
@@ -77,4 +82,4 @@ def internal(func):
         targetoptions={"nopython": True, "no_cpython_wrapper": True, "no_cfunc_wrapper": True},
     )
     dispatcher.enable_caching()
-    return dispatcher
+    return cast(F, dispatcher)  # typed as the function it compiles, for its compiled callers

@@ -79,10 +79,10 @@ class Chain:
 
     def assess(self, agents: np.ndarray) -> np.ndarray:
         e = self.rng.uniform(-self.p.value_error, self.p.value_error, agents.size)
-        return np.clip(self.rates.value[self.target[agents]] * (1.0 + e), 1e-9, 1.0)
+        return np.asarray(np.clip(self.rates.value[self.target[agents]] * (1.0 + e), 1e-9, 1.0))
 
     def key(self, agents: np.ndarray) -> np.ndarray:
-        return PHASE[self.state[agents]] * 64 + self.target[agents]
+        return np.asarray(PHASE[self.state[agents]] * 64 + self.target[agents])
 
     def become(
         self, agents: np.ndarray, new_state: int, new_target: np.ndarray | None = None
@@ -228,7 +228,15 @@ class Chain:
                 return True
         return False
 
-    def deliver(self, r, s_state, s_target, s_estimate, s_key, draw) -> bool:
+    def deliver(
+        self,
+        r: np.ndarray,
+        s_state: np.ndarray,
+        s_target: np.ndarray,
+        s_estimate: np.ndarray,
+        s_key: np.ndarray,
+        draw: np.ndarray,
+    ) -> bool:
         """Spec §4 and §7 for one message to each of the distinct receivers r."""
         st, tg = self.state[r].copy(), self.target[r].copy()
         self.silence[r] = 0.0

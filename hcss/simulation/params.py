@@ -202,7 +202,7 @@ class Params:
     def m2_distance(self, distance_m: np.ndarray) -> np.ndarray:
         """The distance M2's delays and M_i use: as is ("guard") or clamped to [d_min, d_max]."""
         if self.m2_beyond_dmax == "clamp":
-            return np.clip(distance_m, self.m2_d_min_m, self.m2_d_max_m)
+            return np.asarray(np.clip(distance_m, self.m2_d_min_m, self.m2_d_max_m))
         return np.asarray(distance_m, dtype=float)
 
     @property

@@ -15,6 +15,7 @@ as it drains events.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -45,13 +46,13 @@ class OperatorCommand:
     def cancel(cls, request_id: int) -> OperatorCommand:
         return cls("cancel", request_id=request_id)
 
-    def to_json(self) -> dict:
+    def to_json(self) -> dict[str, Any]:
         """The command as the platform's request endpoint takes it (a bot's POST body)."""
         if self.kind == "cancel":
             return {"kind": "cancel", "request_id": self.request_id}
         return {"kind": self.kind, "collective": self.collective, "target": self.target}
 
-    def key(self) -> tuple:
+    def key(self) -> tuple[str, int | None, int | None, int | None]:
         """What makes two commands the same click (the request id only for a cancel)."""
         return (self.kind, self.collective, self.target, self.request_id)
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -113,7 +114,7 @@ class Scenario:
             sections=tuple(sections),
         )
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, Any]:
         return {
             "scenario_id": self.scenario_id,
             "seed": self.seed,
@@ -132,7 +133,7 @@ class Scenario:
         }
 
     @classmethod
-    def from_dict(cls, raw: dict) -> Scenario:
+    def from_dict(cls, raw: dict[str, Any]) -> Scenario:
         try:
             return cls(
                 scenario_id=str(raw["scenario_id"]),

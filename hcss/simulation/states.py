@@ -48,4 +48,4 @@ def decision_key(state: np.ndarray, target: np.ndarray) -> np.ndarray:
     Relies on the invariant that uncommitted agents have target -1, which
     `World.set_state` keeps, so their key is 0 whatever they did before.
     """
-    return _KEY_BASE[state] + target + 1
+    return np.asarray(_KEY_BASE[state] + target + 1)

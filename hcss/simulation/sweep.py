@@ -26,6 +26,7 @@ from collections.abc import Callable, Iterator
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, fields
 from pathlib import Path
+from typing import Any
 
 from hcss.simulation import experiment as exp
 from hcss.simulation.decisions import DECISION_COLUMNS
@@ -122,7 +123,7 @@ class Sweep:
     seed: int
     preset: str = DEFAULT_PRESET  # every value not swept is this preset's
 
-    def manifest(self) -> dict:
+    def manifest(self) -> dict[str, Any]:
         return {
             "preset": self.preset,
             "parameters": {a.name: list(a.values) for a in self.axes},
@@ -184,7 +185,7 @@ def run_sweep(
     if on_done is not None and skipped:
         on_done(skipped * len(jobs))
     tasks = [(job, cell) for cell in pending for job in jobs]
-    finished: dict[str, dict[int, list[dict]]] = {cell_name(c): {} for c in pending}
+    finished: dict[str, dict[int, list[dict[str, Any]]]] = {cell_name(c): {} for c in pending}
     for index, rows in _execute(tasks, workers, dask_address, sweep.preset):
         cell = tasks[index][1]
         done = finished[cell_name(cell)]
@@ -198,13 +199,13 @@ def run_sweep(
     return len(pending)
 
 
-def _run_task(job: exp.Job, cell: dict[str, object], preset: str) -> list[dict]:
+def _run_task(job: exp.Job, cell: dict[str, object], preset: str) -> list[dict[str, Any]]:
     return exp.run_job(job, preset_params(preset).with_changes(**cell))
 
 
 def _execute(
-    tasks: list[tuple[exp.Job, dict]], workers: int, dask_address: str | None, preset: str
-) -> Iterator[tuple[int, list[dict]]]:
+    tasks: list[tuple[exp.Job, dict[str, Any]]], workers: int, dask_address: str | None, preset: str
+) -> Iterator[tuple[int, list[dict[str, Any]]]]:
     """Run (job, cell) tasks, yielding (index, rows) as they finish."""
     if not tasks:
         return
@@ -224,8 +225,8 @@ def _execute(
 
 
 def _execute_dask(
-    tasks: list[tuple[exp.Job, dict]], workers: int, address: str, preset: str
-) -> Iterator[tuple[int, list[dict]]]:
+    tasks: list[tuple[exp.Job, dict[str, Any]]], workers: int, address: str, preset: str
+) -> Iterator[tuple[int, list[dict[str, Any]]]]:
     """On a Dask scheduler, or on a LocalCluster of `workers` processes when address is "local"."""
     with exp.dask_client(address, workers) as client:
         futures = client.map(
@@ -238,7 +239,9 @@ def _execute_dask(
         yield from exp.completed_in_order_of(futures)
 
 
-def _write_cell(out: Path, sweep: Sweep, cell: dict[str, object], rows: list[dict]) -> None:
+def _write_cell(
+    out: Path, sweep: Sweep, cell: dict[str, object], rows: list[dict[str, Any]]
+) -> None:
     path = out / CELLS / f"{cell_name(cell)}.csv"
     tmp = path.with_suffix(".csv.tmp")
     write_table(tmp, sweep.columns, ({**cell, **row} for row in rows))

@@ -17,7 +17,7 @@ Targets are named by their public (1-based) ids; collectives by 0-based index.
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, fields
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -86,7 +86,7 @@ class Display:
         found = np.flatnonzero(self.target_ids == target)
         return int(found[0]) if found.size else None
 
-    def to_json(self) -> dict:
+    def to_json(self) -> dict[str, Any]:
         """The browser's view: JSON-able values (the contract in docs/simulation-api.md)."""
         n = self.n_agents
         counts = self.state_counts.tolist()
@@ -146,7 +146,7 @@ class Display:
         }
 
     @classmethod
-    def from_json(cls, view: dict) -> Display:
+    def from_json(cls, view: dict[str, Any]) -> Display:
         """The display back from its JSON (what a client of the stream gets), e.g. for a bot."""
         collectives, targets = view["collectives"], view["targets"]
         n_c = len(collectives)
