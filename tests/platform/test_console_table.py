@@ -217,3 +217,43 @@ def test_a_stuck_participant_is_moved_past_their_step_audited(app, console, tmp_
     timings = {r["stage"]: r for r in csv.DictReader((out / "stage_timings.csv").open())}
     assert timings["demographics"]["skipped"] == "true" and timings["demographics"]["submitted_at"]
     assert timings["consent"]["skipped"] == "false"
+
+
+def test_bulk_actions_on_ticked_rows_are_audited_one_by_one(app, console) -> None:
+    console.post("/console/participants", {"count": "3"})
+    first, second, third = sorted(console.progress())
+    response = console.client.post(
+        "/console/bulk",
+        data={"csrf_token": console.csrf, "action": "mark_pilot", "codes": [first, second]},
+    )
+    assert response.status_code == 303
+    rows = console.progress()
+    assert (rows[first]["is_pilot"], rows[second]["is_pilot"], rows[third]["is_pilot"]) == (
+        True,
+        True,
+        False,
+    )
+    console.client.post(
+        "/console/bulk",
+        data={"csrf_token": console.csrf, "action": "abort", "codes": [first, third]},
+    )
+    assert [console.progress()[c]["state"] for c in (first, second, third)] == [
+        "aborted",
+        "active",
+        "aborted",
+    ]
+    with app.extensions["hcss_db"].session_scope() as session:
+        kinds = sorted(
+            a.action for a in session.scalars(select(ConsoleAction)) if a.action != "create"
+        )
+    assert kinds == ["abort", "abort", "mark_pilot", "mark_pilot"]
+    # Bad input changes nothing: an unknown action, a malformed code, no CSRF token.
+    for data in (
+        {"csrf_token": console.csrf, "action": "withdraw", "codes": [second]},
+        {"csrf_token": console.csrf, "action": "abort", "codes": ["<x>"]},
+        {"action": "abort", "codes": [second]},
+    ):
+        assert console.client.post("/console/bulk", data=data).status_code == 400
+    assert console.progress()[second]["state"] == "active"
+    index = console.get("/console/").get_data(as_text=True)
+    assert index.count('form="bulk-form"') == 3 and 'id="bulk-apply"' in index

@@ -171,6 +171,7 @@ def index() -> str:
         action_form=forms.ActionForm(),
         audits=audit_entries(audits),
         recruitment=recruitment_targets(session),
+        bulk_actions=BULK_ACTIONS,
         action_labels=ACTION_LABELS,
         connected_within_s=CONNECTED_WITHIN_S,
         poll_s=float(current_app.config.get("CONSOLE_POLL_S", 2.0)),
@@ -312,6 +313,45 @@ ACTION_LABELS = {
     "unmark_pilot": "Unmark pilot",
     "skip_stage": "Skip stage",
 }
+
+
+#: What the table's "Selected rows" form applies to every participant ticked.
+BULK_ACTIONS = ("mark_pilot", "unmark_pilot", "abort")
+
+
+@bp.post("/bulk")
+@login_required
+def bulk():  # type: ignore[no-untyped-def]
+    """One action on the participants ticked in the table, each audited as if done on its own."""
+    action = request.form.get("action", "")
+    if action not in BULK_ACTIONS or not forms.ActionForm().validate_on_submit():
+        abort(400)
+    codes = request.form.getlist("codes")
+    if not codes:
+        flash("Tick the participants first; nothing was changed.")
+        return redirect(url_for("console.index")), 303
+    if len(codes) > MAX_LINKS or any(not CODE.fullmatch(code) for code in codes):
+        abort(400, f"up to {MAX_LINKS} participant codes")
+    try:
+        chosen = participants_by_code(get_session(), codes)
+    except ConsoleError as error:
+        abort(404, str(error))
+    done, refused = [], []
+    for found in chosen:
+        try:
+            if action == "abort":
+                change_session(database(), _runner(), found, current_user, "abort")
+            else:
+                set_pilot(database(), _runner(), found, current_user, action == "mark_pilot")
+            done.append(found.code)
+        except ConsoleError as error:
+            refused.append(str(error))
+    label = ACTION_LABELS[action].lower()
+    flash(
+        f"{label}: {len(done)} of {len(chosen)} done"
+        + (f"; {'; '.join(refused)}" if refused else "")
+    )
+    return redirect(url_for("console.index")), 303
 
 
 @bp.post("/participants/<code>/<action>")

@@ -15,7 +15,7 @@
   const csrf = document.querySelector('meta[name="csrf-token"]').content;
   const filters = Array.from(document.querySelectorAll("#filters input[data-flag]"));
   const shownCount = document.getElementById("shown-count");
-  const COLUMNS = 9;
+  const COLUMNS = 10;
   const minutes = (s) => Math.floor(s / 60) + ":" + String(Math.floor(s % 60)).padStart(2, "0");
 
   function cell(text, className) {
@@ -105,7 +105,18 @@
     const clock = p.trial_clock_s === null ? "–"
       : minutes(p.trial_clock_s) + " / " + Math.floor(p.trial_duration_s / 60) + " min";
     const flags = [p.is_pilot && "pilot", p.is_bot && "bot", p.is_demo && "demo"].filter(Boolean);
+    // The row's checkbox belongs to the bulk form above the table (its form attribute).
+    const select = document.createElement("input");
+    select.type = "checkbox";
+    select.name = "codes";
+    select.value = p.code;
+    select.className = "select";
+    select.setAttribute("form", "bulk-form");
+    select.setAttribute("aria-label", "Select " + p.code);
+    const pick = document.createElement("td");
+    pick.append(select);
     tr.append(
+      pick,
       first,
       cell(p.study + " · " + (p.cell === null ? "cell at first visit" : "cell " + p.cell), "study"),
       cell(shown, "session state-" + shown),
