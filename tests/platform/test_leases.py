@@ -18,7 +18,7 @@ from sqlalchemy import func, select
 from hcss.platform.app import create_app
 from hcss.platform.bots import ManualClock
 from hcss.platform.db import Database
-from hcss.platform.live.leases import HostedElsewhere, Leases
+from hcss.platform.live.leases import UNCLAIMED_GRACE_S, HostedElsewhere, Leases
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.models import Interruption, TrialLease
@@ -99,7 +99,10 @@ def test_a_runner_takes_over_only_trials_nobody_hosts(pair) -> None:
     b.tick()
     assert b.loaded_ids() == set()  # neither the hosted nor the just-started one
     clock.now += LEASE_S + 0.5
-    b.tick()  # A is silent past a lease: B's runner hosts both
+    b.tick()  # A is silent past a lease: B's runner hosts the one A hosted
+    assert b.loaded_ids() == {hosted}
+    clock.now += UNCLAIMED_GRACE_S
+    b.tick()  # and the one nobody opened, once its starter had time to claim it
     assert b.loaded_ids() == {hosted, fresh}
 
 

@@ -40,6 +40,9 @@ from hcss.platform.models import Trial, TrialLease
 
 #: Seconds a lease lasts unless renewed; failover takes at most this long plus a sync.
 LEASE_S = 6.0
+#: Seconds a started trial that no process has claimed yet is left to the process whose
+#: participant started it (its first request claims it) before any runner takes it.
+UNCLAIMED_GRACE_S = 30.0
 #: Renewals per lease length: a renewal may be late twice before the lease is at risk.
 RENEWALS_PER_LEASE = 3
 
@@ -143,10 +146,12 @@ class Leases:
     def unhosted(self, trial_ids: Iterable[int], now: float) -> list[int]:
         """Of these running trials, those nobody hosts: their lease ran out, or they have none.
 
-        A trial without a lease row is left alone for one lease length after
+        A trial without a lease row is left alone for `UNCLAIMED_GRACE_S` after
         its start: the process whose participant started it claims it with
         the participant's first request, and a runner elsewhere must not take
-        it first (the participant would be served through a detour).
+        it first (every request of the participant would then take a detour
+        through nginx's next upstream). After that it is taken anyway, so a
+        trial nobody opens still ends on time.
         """
         wanted = list(trial_ids)
         if not wanted:
@@ -161,5 +166,5 @@ class Leases:
             return sorted(
                 trial_id
                 for trial_id, started_at, expires in rows
-                if expires is not None or started_at.timestamp() <= now - self.lease_s
+                if expires is not None or started_at.timestamp() <= now - UNCLAIMED_GRACE_S
             )
