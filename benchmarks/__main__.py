@@ -5,7 +5,7 @@ from __future__ import annotations
 import importlib
 import sys
 
-SUITES = ("simulation", "live", "console", "analysis", "study")
+SUITES = ("simulation", "live", "live_processes", "console", "analysis", "study")
 
 
 def main(argv: list[str]) -> None:

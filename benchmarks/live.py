@@ -80,9 +80,12 @@ class StreamReader(threading.Thread):
         sent_at = time.perf_counter()
         with self.lock:
             self.sent.append(sent_at)
-        status, outcome = self.client.post(
-            "/requests", {"kind": "decide", "collective": number % 4, "target": 1}
-        )
+        try:
+            status, outcome = self.client.post(
+                "/requests", {"kind": "decide", "collective": number % 4, "target": 1}
+            )
+        except OSError:  # refused or timed out: counted as unseen, the run goes on
+            return
         if status != 200 or outcome.get("accepted"):
             with self.lock:  # no refusal will be shown for this one
                 if sent_at in self.sent:
@@ -92,43 +95,57 @@ class StreamReader(threading.Thread):
 def measure(n_trials: int, workdir: Path) -> dict[str, float]:
     url = f"sqlite:///{workdir / f'live-{n_trials}.sqlite3'}"
     upgrade_database(url)
-    database = Database(url)
+    tokens = start_trials(url, n_trials)
+    with LocalServer(url, workdir / f"instance-{n_trials}", threads=DEFAULT_THREADS) as server:
+        assert server.process is not None
+        return drive(server.url, tokens, [server.process.pid])
+
+
+def start_trials(database_url: str, n_trials: int) -> list[str]:
+    """N bot participants with a live trial each; their tokens."""
+    database = Database(database_url)
     tokens = []
     with database.session_scope() as session:
         for i in range(n_trials):
             participant, _ = start_bot_trial(session, seed=1000 + i, duration_s=STUDY.trial_s)
             tokens.append(participant.token)
     database.engine.dispose()
+    return tokens
+
+
+def drive(base_url: str, tokens: list[str], server_pids: list[int]) -> dict[str, float]:
+    """Each token's page through `base_url`: stream rate, command-to-stream latency, server CPU.
+
+    `server_pids`: the processes whose CPU counts as the server's (with nginx, its worker too).
+    """
     stop = threading.Event()
-    with LocalServer(url, workdir / f"instance-{n_trials}", threads=DEFAULT_THREADS) as server:
-        readers = []
-        for token in tokens:
-            client = TrialClient(server.url, token)
-            client.open_page()
-            readers.append(StreamReader(client, stop))
+    readers = []
+    for token in tokens:
+        client = TrialClient(base_url, token)
+        client.open_page()
+        readers.append(StreamReader(client, stop))
+    for reader in readers:
+        reader.start()
+    time.sleep(2.0)  # let every stream settle
+    started = time.perf_counter()
+    cpu_started = sum(_process_cpu_s(pid) for pid in server_pids)
+    number = 0
+    while time.perf_counter() - started < MEASURE_S:
         for reader in readers:
-            reader.start()
-        time.sleep(2.0)  # let every stream settle
-        started = time.perf_counter()
-        assert server.process is not None
-        cpu_started = _process_cpu_s(server.process.pid)
-        number = 0
-        while time.perf_counter() - started < MEASURE_S:
-            for reader in readers:
-                reader.command(number)
-                number += 1
-            time.sleep(COMMAND_EVERY_S)
-        ended = time.perf_counter()
-        server_cpu_s = _process_cpu_s(server.process.pid) - cpu_started
-        time.sleep(1.0)  # the last refusals
-        stop.set()
-        for reader in readers:
-            reader.join(timeout=5.0)
+            reader.command(number)
+            number += 1
+        time.sleep(COMMAND_EVERY_S)
+    ended = time.perf_counter()
+    server_cpu_s = sum(_process_cpu_s(pid) for pid in server_pids) - cpu_started
+    time.sleep(1.0)  # the last refusals
+    stop.set()
+    for reader in readers:
+        reader.join(timeout=5.0)
     rates = [sum(started <= t <= ended for t in r.frame_times) / (ended - started) for r in readers]
     latencies = sorted(ms for r in readers for ms in r.latencies_ms)
     lost = sum(len(r.sent) for r in readers)
     return {
-        "trials": n_trials,
+        "trials": len(tokens),
         "min_rate_hz": min(rates),
         "median_rate_hz": statistics.median(rates),
         "p50_ms": _percentile(latencies, 50),

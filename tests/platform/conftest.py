@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import os
 import re
-import secrets
 from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
@@ -22,13 +21,12 @@ from typing import Any
 import pytest
 from flask import Flask
 from flask.testing import FlaskClient
-from sqlalchemy import create_engine, text
-from sqlalchemy.engine import make_url
 
 from hcss.platform.app import create_app
 from hcss.platform.bots import ManualClock
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.trials import start_bot_trial
+from hcss.platform.localserver import postgres_schema
 from hcss.platform.study.studyfile import load_study
 
 PG_ENV = "HCSS_TEST_DATABASE_URL"
@@ -42,20 +40,10 @@ def database_url(request: pytest.FixtureRequest, tmp_path) -> Iterator[str]:  # 
     base = os.environ.get(PG_ENV)
     if not base:
         pytest.skip(f"PostgreSQL tests need {PG_ENV}")
-    schema = f"hcss_test_{secrets.token_hex(6)}"
-    admin = create_engine(base, isolation_level="AUTOCOMMIT")
-    with admin.connect() as connection:
-        connection.execute(text(f'CREATE SCHEMA "{schema}"'))
     # Commits need not wait for the disk in a test database: about 4x faster on
     # PostgreSQL's write-heavy tests, with the same visibility and isolation.
-    options = f"-csearch_path={schema} -csynchronous_commit=off"
-    url = make_url(base).update_query_dict({"options": options})
-    try:
-        yield url.render_as_string(hide_password=False)
-    finally:
-        with admin.connect() as connection:
-            connection.execute(text(f'DROP SCHEMA "{schema}" CASCADE'))
-        admin.dispose()
+    with postgres_schema(base, "hcss_test", options="-csynchronous_commit=off") as url:
+        yield url
 
 
 #: The original study's trial length (`timing.trial_s`), for trials a test starts directly.

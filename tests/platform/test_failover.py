@@ -115,6 +115,7 @@ def test_kill_9_of_the_host_moves_the_trial_to_the_other_process(database_url, t
             snapshot_interval_s=1.0,
             serve_args=["--cluster"],
             host=address,
+            extra_env={"HCSS_PROXY_HOPS": "1"},  # behind nginx, as deployed
         )
         for name, address in (("a", "127.0.0.2"), ("b", "127.0.0.3"))
     }
