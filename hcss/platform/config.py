@@ -99,6 +99,9 @@ def defaults() -> dict[str, object]:
         "MAX_STREAMS": None,
         # Streams per participant link; the newest takes over ("takeover" event).
         "STREAMS_PER_TOKEN": 1,
+        # Streams one client address may hold; None: a quarter of MAX_STREAMS, at least 4
+        # (HCSS_STREAMS_PER_CLIENT raises it for a lab whose participants share an address).
+        "STREAMS_PER_CLIENT": int(os.environ.get("HCSS_STREAMS_PER_CLIENT", "0") or 0) or None,
         # Session cookies: not sent on cross-site subrequests; Secure whenever the request
         # came over HTTPS (directly, or as the trusted proxy says), and always with
         # HCSS_SECURE_COOKIES=1.

@@ -98,9 +98,10 @@ class LocalServer:
             "HCSS_INSTANCE_PATH": str(self.instance_path),
             "HCSS_SECRET_KEY": "local-server-secret",
             "HCSS_SNAPSHOT_INTERVAL_S": str(self.snapshot_interval_s),
-            # The tests and the benchmark drive hundreds of pages from this one address;
-            # a test of the per-client cap sets it in extra_env.
+            # The tests and the benchmark drive hundreds of pages and streams from this
+            # one address; a test of a per-client cap sets it in extra_env.
             "HCSS_CONNECTIONS_PER_CLIENT": "0",
+            "HCSS_STREAMS_PER_CLIENT": "1000000",
             **self.extra_env,
         }
         command = [

@@ -66,6 +66,24 @@ def test_the_server_refuses_a_stream_above_its_ceiling_with_retry_after(app, mak
     assert app.extensions["hcss_streams"].count == 0
 
 
+def test_one_client_cannot_hold_every_stream(app, make_trial) -> None:
+    """Scripted participants from one address used to hold all the streams: the next real
+    participant's stream was refused. One address now gets a share of the ceiling."""
+    app.config["MAX_STREAMS"] = 8
+    app.config["STREAMS_PER_CLIENT"] = 3
+    trials = [make_trial(seed=seed) for seed in range(2, 7)]
+    for trial in trials[:4]:
+        trial.client.environ_base["REMOTE_ADDR"] = "203.0.113.7"  # the scripted ones
+    held = [_stream(trial)[0] for trial in trials[:3]]
+    refused = trials[3].client.get(f"{trials[3].api}/stream")
+    assert refused.status_code == 503 and refused.headers["Retry-After"] == "5"
+    trials[4].client.environ_base["REMOTE_ADDR"] = "198.51.100.4"  # a real participant
+    admitted, _ = _stream(trials[4])
+    for response in (*held, admitted):
+        response.close()
+    assert app.extensions["hcss_streams"].count == 0
+
+
 def test_slots_count_takeovers_once() -> None:
     slots = StreamSlots(max_streams=3, per_token=1)
     tickets = [slots.acquire("a") for _ in range(70)]

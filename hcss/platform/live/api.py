@@ -19,7 +19,7 @@ from hcss.platform.live.access import held_trial, runner, trial_for
 from hcss.platform.live.idempotency import idempotent, pending_key
 from hcss.platform.live.session import RunningTrial
 from hcss.platform.live.stream import ended_stream, event_stream
-from hcss.platform.live.streams import RETRY_AFTER_S, StreamSlots
+from hcss.platform.live.streams import RETRY_AFTER_S, StreamSlots, client_share
 from hcss.platform.live.trials import end_reason
 
 _POSITION = re.compile(r"[0-9]{1,18}")
@@ -36,13 +36,16 @@ def _action_error(error: actions.ActionError):
 
 
 def stream_slots() -> StreamSlots:
-    """The app's stream allowance (made on first use from MAX_STREAMS, STREAMS_PER_TOKEN)."""
+    """The app's stream allowance (made on first use from MAX_STREAMS, STREAMS_PER_TOKEN,
+    STREAMS_PER_CLIENT)."""
     slots = current_app.extensions.get("hcss_streams")
     if slots is None:
         config = current_app.config
+        ceiling = config.get("MAX_STREAMS")
+        per_client = config.get("STREAMS_PER_CLIENT") or client_share(ceiling)
         slots = current_app.extensions.setdefault(
             "hcss_streams",
-            StreamSlots(config.get("MAX_STREAMS"), int(config.get("STREAMS_PER_TOKEN", 1))),
+            StreamSlots(ceiling, int(config.get("STREAMS_PER_TOKEN", 1)), per_client),
         )
     return slots
 
@@ -82,7 +85,7 @@ def stream(token: str, trial_id: int) -> Response:
             headers=headers,
         )
     slots = stream_slots()
-    ticket = slots.acquire(token)
+    ticket = slots.acquire(token, request.remote_addr or "?")
     if ticket is None:
         raise actions.ActionError(
             "the server has as many live streams as it can hold; retrying shortly",

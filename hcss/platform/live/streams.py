@@ -1,4 +1,4 @@
-"""Who may hold a stream: one per participant link, and a ceiling for the whole server.
+"""Who may hold a stream: one per participant link, a share per client, and a server ceiling.
 
 Each open Server-Sent Events stream holds one waitress thread for up to
 `STREAM_MAX_S`, so one token opening many streams could take every thread and
@@ -9,7 +9,11 @@ time the console out. Two rules keep threads free:
   also what a second browser tab should see;
 - per server: at most `MAX_STREAMS` streams; one more is a 503 with
   Retry-After, so the threads above the ceiling stay free for page loads and
-  the console (`hcss serve` sets the ceiling from its thread count).
+  the console (`hcss serve` sets the ceiling from its thread count);
+- per client address: at most `STREAMS_PER_CLIENT` of them (default a
+  quarter of the ceiling, at least 4), so participants scripted from one
+  address cannot hold every stream and starve real ones. The address is the
+  proxy-corrected one (``PROXY_HOPS``).
 
 A takeover replaces the link's own stream, so it is allowed at the ceiling.
 """
@@ -35,20 +39,30 @@ def reserve_for_pages(threads: int) -> int:
     return max(16, threads // 8)
 
 
+def client_share(max_streams: int | None) -> int | None:
+    """Streams one address may hold by default: a quarter of the ceiling, at least 4."""
+    return None if max_streams is None else max(4, max_streams // 4)
+
+
 @dataclass(frozen=True)
 class StreamTicket:
     token: str
     number: int
+    client: str = "?"
 
 
 class StreamSlots:
     """The server's open streams; thread-safe."""
 
-    def __init__(self, max_streams: int | None, per_token: int = 1) -> None:
+    def __init__(
+        self, max_streams: int | None, per_token: int = 1, per_client: int | None = None
+    ) -> None:
         self.max_streams = max_streams
         self.per_token = per_token
+        self.per_client = per_client
         self._lock = threading.Lock()
         self._open: dict[str, list[int]] = {}  # token -> ticket numbers, oldest first
+        self._clients: dict[str, int] = {}  # address -> open streams
         self._count = 0
         self._next = 0
 
@@ -56,19 +70,25 @@ class StreamSlots:
     def count(self) -> int:
         return self._count
 
-    def acquire(self, token: str) -> StreamTicket | None:
-        """A ticket for a new stream of `token`, or None when the server is full."""
+    def acquire(self, token: str, client: str = "?") -> StreamTicket | None:
+        """A ticket for a new stream of `token` from `client`, or None when the server or
+        the client's share is full."""
         with self._lock:
             mine = self._open.setdefault(token, [])
             taking_over = len(mine) >= self.per_token
-            if not taking_over and self.max_streams is not None and self._count >= self.max_streams:
+            full = self.max_streams is not None and self._count >= self.max_streams
+            over_share = self.per_client is not None and (
+                self._clients.get(client, 0) >= self.per_client
+            )
+            if not taking_over and (full or over_share):
                 if not mine:
                     del self._open[token]
                 return None
             self._next += 1
             mine.append(self._next)
             self._count += 1
-            return StreamTicket(token, self._next)
+            self._clients[client] = self._clients.get(client, 0) + 1
+            return StreamTicket(token, self._next, client)
 
     def superseded(self, ticket: StreamTicket) -> bool:
         """True once newer streams of the same link fill its allowance."""
@@ -82,5 +102,10 @@ class StreamSlots:
             if ticket.number in mine:
                 mine.remove(ticket.number)
                 self._count -= 1
+                left = self._clients.get(ticket.client, 1) - 1
+                if left > 0:
+                    self._clients[ticket.client] = left
+                else:
+                    self._clients.pop(ticket.client, None)
             if not mine:
                 self._open.pop(ticket.token, None)
