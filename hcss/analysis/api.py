@@ -17,7 +17,7 @@ from itertools import combinations
 
 import pandas as pd
 
-from hcss.analysis import posthoc, repeated
+from hcss.analysis import posthoc, r_distributions, repeated
 from hcss.analysis import stats as tests
 from hcss.analysis.stats import MannWhitneyMethod, TestResult
 
@@ -135,7 +135,7 @@ def paired_wilcoxon(data: pd.DataFrame, dv: str, within: str, subject: str) -> p
         pair = wide[[a, b]].dropna()
         rows.append(_row(repeated.paired_wilcoxon(pair[a], pair[b]), group_a=a, group_b=b))
     frame = pd.DataFrame(rows)
-    frame["p_holm"] = posthoc.holm(frame["p"].tolist())
+    frame["p_holm"] = r_distributions.holm(frame["p"].tolist())
     return frame
 
 

@@ -24,7 +24,7 @@ meets every human model): the paired tests are in :mod:`hcss.analysis.paired`.
 from __future__ import annotations
 
 import warnings
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TypeVar
 
@@ -116,7 +116,7 @@ class Correlation:
 Result = TypeVar("Result")
 
 
-def quietly(function: Callable[..., Result], *arguments) -> tuple[Result, str]:
+def quietly(function: Callable[..., Result], *arguments: object) -> tuple[Result, str]:
     """Call ``function`` with library warnings caught; return them as one note."""
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -130,7 +130,7 @@ def join_notes(*notes: str) -> str:
     return "; ".join(note for note in notes if note)
 
 
-def design_note(measures: pd.DataFrame, measure: str, split: str, groups) -> str:
+def design_note(measures: pd.DataFrame, measure: str, split: str, groups: Sequence[str]) -> str:
     """Warnings about the design: small groups, or groups sharing participants."""
     chosen = measures[
         (measures["measure"] == measure)
@@ -158,7 +158,8 @@ def _values(measures: pd.DataFrame, measure: str, split: str, group: str) -> lis
         & (measures["split"] == split)
         & (measures["group"] == group)
     ]
-    return chosen["value"].dropna().tolist()
+    values: list[float] = chosen["value"].dropna().tolist()
+    return values
 
 
 def measure_splits(measures: pd.DataFrame) -> list[tuple[str, str]]:
@@ -171,7 +172,9 @@ def measure_splits(measures: pd.DataFrame) -> list[tuple[str, str]]:
     )
 
 
-def _omnibus(measures, measure, split, family, groups) -> OmnibusComparison | None:
+def _omnibus(
+    measures: pd.DataFrame, measure: str, split: str, family: str, groups: Sequence[str]
+) -> OmnibusComparison | None:
     by_group = {
         group: values.dropna().tolist() for group, values in measures.groupby("group")["value"]
     }  # ``measures`` is already this measure and split

@@ -17,6 +17,8 @@ apart: the models differ most on difficult decisions.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import numpy as np
 import pandas as pd
 
@@ -39,7 +41,7 @@ HUMAN_ONLY = frozenset({*REQUEST_KINDS, "interventions"})
 MEASURE_COLUMNS = ["measure", "split", "group", "source", "unit", "participant", "value"]
 
 
-def _split_decisions(decisions: pd.DataFrame):
+def _split_decisions(decisions: pd.DataFrame) -> Iterator[tuple[str, pd.DataFrame]]:
     """Yield (split name, the decisions in it)."""
     yield "overall", decisions
     for difficulty in ("easy", "difficult"):

@@ -44,7 +44,7 @@ def _ordered_groups(chosen: pd.DataFrame) -> list[str]:
     return [g for g in GROUP_ORDER if g in present] + sorted(present - set(GROUP_ORDER))
 
 
-def _draw_boxes(axes, chosen: pd.DataFrame, rng: np.random.Generator) -> list[str]:
+def _draw_boxes(axes: Axes, chosen: pd.DataFrame, rng: np.random.Generator) -> list[str]:
     """Boxes per model (colour) within each split (position), each unit a jittered dot."""
     groups = _ordered_groups(chosen)
     splits = [split for split in SPLITS if split in set(chosen["split"])]
@@ -88,7 +88,7 @@ def _draw_boxes(axes, chosen: pd.DataFrame, rng: np.random.Generator) -> list[st
     return groups
 
 
-def _legend(axes, groups: list[str]) -> None:
+def _legend(axes: Axes, groups: list[str]) -> None:
     mean_marker = Line2D(
         [], [], marker="D", linestyle="", markerfacecolor="white", color="black", label="mean"
     )

@@ -255,7 +255,7 @@ def _null_s(n: int) -> np.ndarray:
     every = np.fromiter(
         (value for order in permutations(range(n)) for value in order), dtype=np.int8
     ).reshape(-1, n)
-    return ((every - ranks) ** 2).sum(axis=1)
+    return np.asarray(((every - ranks) ** 2).sum(axis=1))
 
 
 def _prho(n: int, s: float, lower_tail: bool) -> float:

@@ -7,7 +7,7 @@ tests are computed once here and shared by the tables that show them.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from functools import partial
 
@@ -30,7 +30,7 @@ from hcss.analysis.comparisons import (
 )
 from hcss.analysis.descriptive import descriptive_frame
 from hcss.analysis.design_tables import friedman_table, model_table, paired_wilcoxon_table
-from hcss.analysis.families import FAMILIES
+from hcss.analysis.families import FAMILIES, Family
 from hcss.analysis.figures import comparison_figure, family_figure, profile_figure
 from hcss.analysis.load import StudyTables
 from hcss.analysis.measures import MRT_MEASURE
@@ -85,7 +85,14 @@ class Section:
     details_label: str = "Per-measure tables: mean (SD) and median (min–max)"
 
 
-def _family_section(family, measures, summary, kruskal, friedman, extra=()) -> Section | None:
+def _family_section(
+    family: Family,
+    measures: pd.DataFrame,
+    summary: pd.DataFrame,
+    kruskal: dict[tuple[str, str], OmnibusComparison],
+    friedman: dict[tuple[str, str], RepeatedComparison],
+    extra: Sequence[Table] = (),
+) -> Section | None:
     members = family.members(measures)
     if not members:
         return None

@@ -77,7 +77,7 @@ class TestResult:
 def _clean(values: Sequence[float] | np.ndarray) -> np.ndarray:
     """Values as floats with missing ones dropped, as R's na.omit would."""
     array = np.asarray(values, dtype=float)
-    return array[~np.isnan(array)]
+    return np.asarray(array[~np.isnan(array)])
 
 
 def _has_ties(values: np.ndarray) -> bool:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import html
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -68,7 +69,7 @@ def effect_record(result: TestResult | None, column: str) -> dict[str, object]:
 def to_markdown(table: Table) -> str:
     """GitHub-flavoured Markdown with the caption as a heading."""
 
-    def line(cells):
+    def line(cells: Sequence[str]) -> str:
         return "| " + " | ".join(cell.replace("|", "\\|") for cell in cells) + " |"
 
     lines = [f"### {table.caption}", "", line(table.header)]
