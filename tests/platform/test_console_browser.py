@@ -153,7 +153,8 @@ def test_console_batch_links_live_table_and_pause_resume(browser, console_app) -
 
     # Pause the visitor from the table: Resume replaces Pause, and their page is held.
     visitor_row = _row(page, visitor)
-    expect(visitor_row.locator("button[data-action]")).to_have_count(4)  # Pause, Abort, Skip, Mark pilot
+    # Pause, Abort, Skip, Mark pilot
+    expect(visitor_row.locator("button[data-action]")).to_have_count(4)
     visitor_row.locator('button[data-action="pause"]').click()
     expect(page.locator(".flashes")).to_contain_text(f"{visitor}: pause done")
     expect(visitor_row.locator(".session")).to_have_text("paused")
