@@ -112,3 +112,23 @@ def test_a_file_that_is_not_toml_names_its_line(studies: Path) -> None:
     (studies / "mine.toml").write_text('name = "mine"\ntitle = \n')
     with pytest.raises(StudyFileError, match=r"mine\.toml: .*line 2"):
         load_study("mine")
+
+
+def test_hcss_studies_names_the_directory_for_every_command(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`hcss --studies DIR` sets HCSS_STUDIES, so the command (and servers it starts) see it."""
+    from click.testing import CliRunner
+
+    from hcss.cli import main
+
+    monkeypatch.delenv(STUDIES_ENV, raising=False)  # restored after: the CLI sets it
+    _write(tmp_path, "mine")
+    database = f"sqlite:///{tmp_path / 'x.sqlite3'}"
+    result = CliRunner().invoke(
+        main,
+        ["--studies", str(tmp_path), "bots", "--study", "nope", "--database-url", database],
+    )
+    assert result.exit_code == 2 and "'mine'" in result.output, result.output
+    missing = CliRunner().invoke(main, ["--studies", str(tmp_path / "nowhere"), "bots"])
+    assert missing.exit_code == 2 and "does not exist" in missing.output
