@@ -142,3 +142,16 @@ def test_demographics_keep_their_promise_and_label_each_scale_end_once(demo_app)
     fieldset = fieldset[: fieldset.index("</fieldset>")]
     assert fieldset.count("Extensive") == 1 and fieldset.count(">None<") == 1
     assert 'class="anchor"' not in fieldset
+
+
+def test_the_mrt_instructions_count_the_practice_rows(demo_app) -> None:  # noqa: F811
+    from tests.platform.study_fixtures import new_participant, visitor
+
+    guest = visitor(demo_app, new_participant(demo_app))
+    guest.submit({"decision": "agree"})
+    page = guest.page()
+    guest.submit({key: page.radios[key][0] for key in page.radios})
+    text = guest.page() and guest.html
+    assert 'data-stage="mental_rotation"' in text
+    assert "First, a practice row shows you" in text  # the demo has one practice item
+    assert "a few practice rows" not in text

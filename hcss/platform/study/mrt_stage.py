@@ -16,7 +16,7 @@ from markupsafe import Markup
 from hcss.platform.study.forms import mrt_form
 from hcss.platform.study.markdown import render_markdown
 from hcss.platform.study.stage import Refused, Slot, Stage
-from hcss.platform.study.texts import duration
+from hcss.platform.study.texts import duration, number_word
 from hcss.questionnaires import mrt
 from hcss.questionnaires.definitions import ScoreRow
 from hcss.questionnaires.mrt.items import MrtItem
@@ -35,6 +35,15 @@ def _parts(flow: Flow) -> tuple[tuple[MrtItem, ...], ...]:
     return tuple(parts)
 
 
+def _practice_sentence(count: int) -> str:
+    """The practice, counted: one practice row is not "a few"."""
+    if count == 0:
+        return ""
+    if count == 1:
+        return " First, a practice row shows you whether your answers were right."
+    return f" First, {number_word(count)} practice rows show you whether your answers were right."
+
+
 def _instructions(flow: Flow) -> Markup:
     """The protocol's instructions, with the paragraph on parts and timing made to fit the study."""
     settings = flow.study.mrt
@@ -45,11 +54,7 @@ def _instructions(flow: Flow) -> Markup:
         f"You have {duration(settings.part_time_limit_s)} for each part"
         + (", with a short break between them." if len(parts) > 1 else ".")
         + " Work quickly but carefully."
-        + (
-            " First, a few practice rows show you whether your answers were right."
-            if settings.practice_items
-            else ""
-        )
+        + _practice_sentence(settings.practice_items)
     )
     paragraphs = [p for p in INSTRUCTIONS.split("\n\n") if not p.startswith("The test has")]
     return render_markdown("\n\n".join([*paragraphs, timing]))
