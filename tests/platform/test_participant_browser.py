@@ -344,6 +344,14 @@ def test_the_demo_study_from_the_link_to_the_debrief(browser, demo_server: Study
 
         for stage in ("post_trial", "nasa_tlx", "nasa_tlx", "sart"):
             expect_stage(page, stage)
+            if stage == "post_trial" and round_ == 0:
+                # The 1-7 points line up from question to question.
+                columns = page.evaluate(
+                    """() => Array.from(document.querySelectorAll('fieldset.question'), (q) =>
+                        Array.from(q.querySelectorAll('input[type=radio]'),
+                                   (r) => Math.round(r.getBoundingClientRect().x)))"""
+                )
+                assert len(columns) > 1 and all(c == columns[0] for c in columns), columns
             answer_every_radio_group(page)
             page.get_by_role("button", name="Continue").click()
 
