@@ -95,16 +95,21 @@ def _signed_in_console(database: Database, base_url: str) -> _Console:
     return console
 
 
-def _require_group(database_url: str) -> None:
+@pytest.fixture
+def group_database_url(database_url: str) -> str:
+    """PostgreSQL for a group of processes behind nginx; a clear skip otherwise."""
     if not database_url.startswith("postgresql"):
         pytest.skip("several server processes share PostgreSQL; SQLite serves one process")
     if not LocalNginx.available():
         pytest.skip(f"needs nginx at {LocalNginx.BINARY} (scripts/ensure-nginx installs it)")
+    return database_url
 
 
 @pytest.mark.slow
-def test_kill_9_of_the_host_moves_the_trial_to_the_other_process(database_url, tmp_path) -> None:
-    _require_group(database_url)
+def test_kill_9_of_the_host_moves_the_trial_to_the_other_process(
+    group_database_url: str, tmp_path
+) -> None:
+    database_url = group_database_url
     upgrade_database(database_url)
     database = Database(database_url)
     # Two addresses, as two hosts would have: the processes know each other only by the database.

@@ -1,0 +1,72 @@
+"""The participant's page through nginx shows frames again after its host is killed, without a reload.
+
+Chromium on the trial page, two `--cluster` processes behind nginx on
+PostgreSQL. The page's clock is drawn only from stream frames, so a clock
+that moves on after the kill is a stream served by the other process.
+"""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from hcss.platform.cli import upgrade_database
+from hcss.platform.db import Database
+from hcss.platform.live.trials import start_bot_trial
+from hcss.platform.localserver import LocalNginx, LocalServer
+from tests.platform.conftest import STUDY_TRIAL_S
+from tests.platform.test_failover import _lease_owner, group_database_url  # noqa: F401
+
+pytestmark = pytest.mark.browser
+
+
+def test_the_page_comes_back_by_itself_on_the_other_process(
+    group_database_url, tmp_path, browser  # noqa: F811 (the fixture imported above)
+) -> None:
+    from playwright.sync_api import expect
+
+    database_url = group_database_url
+    upgrade_database(database_url)
+    database = Database(database_url)
+    servers = [
+        LocalServer(
+            database_url,
+            tmp_path / name,
+            snapshot_interval_s=1.0,
+            serve_args=["--cluster"],
+            extra_env={"HCSS_PROXY_HOPS": "1"},
+        )
+        for name in ("a", "b")
+    ]
+    nginx = LocalNginx([f"127.0.0.1:{s.port}" for s in servers], tmp_path / "nginx")
+    try:
+        for server in servers:
+            server.start(timeout_s=120)
+        nginx.start()
+        with database.session_scope() as session:
+            participant, trial = start_bot_trial(
+                session, seed=2, duration_s=STUDY_TRIAL_S, time_acceleration=20.0
+            )
+            token, trial_id = participant.token, trial.id
+        page = browser.new_page()
+        page.goto(f"{nginx.url}/live/{token}")
+        expect(page.locator("#connection")).to_have_text("live", timeout=15_000)
+        expect(page.locator("#clock")).not_to_have_text("0:00", timeout=15_000)
+        owner = _lease_owner(database, trial_id)
+        host = next(s for s in servers if owner == f"127.0.0.1:{s.port}")
+
+        host.kill()
+        killed = time.monotonic()
+        expect(page.locator("#connection")).to_have_text("reconnecting…", timeout=10_000)
+        at_kill = page.locator("#clock").text_content()
+        expect(page.locator("#connection")).to_have_text("live", timeout=20_000)
+        expect(page.locator("#clock")).not_to_have_text(at_kill or "", timeout=20_000)
+        print(f"page live again {time.monotonic() - killed:.1f} s after the kill")
+        assert _lease_owner(database, trial_id) != owner
+        page.close()
+    finally:
+        nginx.stop()
+        for server in servers:
+            server.stop()
+        database.engine.dispose()
