@@ -95,14 +95,18 @@ def _signed_in_console(database: Database, base_url: str) -> _Console:
     return console
 
 
-@pytest.fixture
-def group_database_url(database_url: str) -> str:
+def skip_unless_group(database_url: str) -> str:
     """PostgreSQL for a group of processes behind nginx; a clear skip otherwise."""
     if not database_url.startswith("postgresql"):
         pytest.skip("several server processes share PostgreSQL; SQLite serves one process")
     if not LocalNginx.available():
         pytest.skip(f"needs nginx at {LocalNginx.BINARY} (scripts/ensure-nginx installs it)")
     return database_url
+
+
+@pytest.fixture
+def group_database_url(database_url: str) -> str:
+    return skip_unless_group(database_url)
 
 
 @pytest.mark.slow

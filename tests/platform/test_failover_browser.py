@@ -16,17 +16,21 @@ from hcss.platform.db import Database
 from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.localserver import LocalNginx, LocalServer
 from tests.platform.conftest import STUDY_TRIAL_S
-from tests.platform.test_failover import _lease_owner, group_database_url  # noqa: F401
+from tests.platform.test_failover import _lease_owner, skip_unless_group
 
 pytestmark = pytest.mark.browser
 
 
-def test_the_page_comes_back_by_itself_on_the_other_process(
-    group_database_url, tmp_path, browser  # noqa: F811 (the fixture imported above)
-) -> None:
+@pytest.fixture
+def group_url(database_url: str) -> str:
+    """Skips before the browser starts, on SQLite or without nginx."""
+    return skip_unless_group(database_url)
+
+
+def test_the_page_comes_back_by_itself_on_the_other_process(group_url, tmp_path, browser) -> None:
     from playwright.sync_api import expect
 
-    database_url = group_database_url
+    database_url = group_url
     upgrade_database(database_url)
     database = Database(database_url)
     servers = [
