@@ -51,6 +51,17 @@ def console_app(tmp_path):  # type: ignore[no-untyped-def]
     app.extensions["hcss_db"].engine.dispose()
 
 
+def sign_in(page, base: str) -> None:  # type: ignore[no-untyped-def]
+    """The experimenter signs in and lands on the live table."""
+    from playwright.sync_api import expect
+
+    page.goto(f"{base}/console/")
+    page.fill("#username", USERNAME)
+    page.fill("#password", PASSWORD)
+    page.click("button[type=submit]")
+    expect(page.locator("h1")).to_have_text("Participants")
+
+
 def _row(page, code: str):  # type: ignore[no-untyped-def]
     return page.locator(f'#progress tr[data-code="{code}"]')
 
@@ -65,11 +76,7 @@ def test_console_batch_links_live_table_and_pause_resume(browser, console_app) -
     page = context.new_page()
 
     # Sign in, then create a batch of three on the demo study (the server's default is original).
-    page.goto(f"{base}/console/")
-    page.fill("#username", USERNAME)
-    page.fill("#password", PASSWORD)
-    page.click("button[type=submit]")
-    expect(page.locator("h1")).to_have_text("Participants")
+    sign_in(page, base)
     expect(page.locator("#study")).to_have_value("original")
     page.select_option("#study", "demo")
     page.fill("#count", "3")

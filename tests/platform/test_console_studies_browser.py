@@ -15,7 +15,7 @@ import zipfile
 import pytest
 
 from hcss.platform.study.studyfile import load_study
-from tests.platform.test_console_browser import PASSWORD, USERNAME, console_app  # noqa: F401 - a fixture
+from tests.platform.test_console_browser import console_app, sign_in  # noqa: F401 - a fixture
 
 pytestmark = pytest.mark.browser
 
@@ -41,11 +41,7 @@ def test_the_console_exports_one_study(browser, console_app) -> None:  # type: i
     _app, base = console_app
     context = browser.new_context(viewport={"width": 1366, "height": 768}, accept_downloads=True)
     page = context.new_page()
-    page.goto(f"{base}/console/")
-    page.fill("#username", USERNAME)
-    page.fill("#password", PASSWORD)
-    page.click("button[type=submit]")
-    expect(page.locator("h1")).to_have_text("Participants")
+    sign_in(page, base)
     demo, links = _create_batch(page, "demo", 2)
     original, _ = _create_batch(page, "original", 2)
     # One demo participant opens their link: enrolled, with the demo file's digest.

@@ -12,22 +12,14 @@ from urllib.parse import urlencode
 import pytest
 from sqlalchemy import func, select
 
-from hcss.platform.bots import bot_app
 from hcss.platform.models import ConsentRecord, Participant, ScreenOut, StageEvent
 from tests.platform.inprocess import serving
+from tests.platform.test_online_browser import demo_app  # noqa: F401 - a fixture
 
 pytestmark = pytest.mark.browser
 
 PROLIFIC = {"PROLIFIC_PID": "5f8a1b2c3d4e5f6a7b8c9d01", "STUDY_ID": "S1", "SESSION_ID": "X1"}
 SCREEN_OUT_URL = "https://app.prolific.com/submissions/complete?cc=DEMOSCREEN"
-
-
-@pytest.fixture
-def demo_app(database_url: str):  # type: ignore[no-untyped-def]
-    app = bot_app(database_url, "demo")
-    app.extensions["hcss_db"].create_all()
-    yield app
-    app.extensions["hcss_db"].engine.dispose()
 
 
 def _count(app, model) -> int:  # type: ignore[no-untyped-def]
@@ -36,7 +28,8 @@ def _count(app, model) -> int:  # type: ignore[no-untyped-def]
 
 
 def test_a_phone_is_screened_out_before_consent_and_a_small_window_is_asked_to_grow(
-    browser, demo_app
+    browser,
+    demo_app,  # noqa: F811
 ) -> None:  # type: ignore[no-untyped-def]
     from playwright.sync_api import expect
 
@@ -86,7 +79,7 @@ def test_a_phone_is_screened_out_before_consent_and_a_small_window_is_asked_to_g
         page.close()
 
 
-def test_a_double_submit_sends_the_form_once(browser, demo_app) -> None:  # type: ignore[no-untyped-def]
+def test_a_double_submit_sends_the_form_once(browser, demo_app) -> None:  # type: ignore[no-untyped-def]  # noqa: F811
     from playwright.sync_api import expect
 
     with serving(demo_app) as url:

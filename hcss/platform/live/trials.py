@@ -108,24 +108,23 @@ def start_bot_trial(session: Session, **options: Any) -> tuple[Participant, Tria
     return participant, start_trial(session, participant, **options)
 
 
-def latest_status(session: Session, trial_id: int) -> str | None:
-    row = session.scalars(
+def _latest_change(session: Session, trial_id: int) -> TrialStatusChange | None:
+    return session.scalars(
         select(TrialStatusChange)
         .where(TrialStatusChange.trial_id == trial_id)
         .order_by(TrialStatusChange.id.desc())
         .limit(1)
     ).first()
+
+
+def latest_status(session: Session, trial_id: int) -> str | None:
+    row = _latest_change(session, trial_id)
     return None if row is None else row.status
 
 
 def end_reason(session: Session, trial_id: int) -> str | None:
     """Why an ended trial ended (its last status change's reason); None while it runs."""
-    row = session.scalars(
-        select(TrialStatusChange)
-        .where(TrialStatusChange.trial_id == trial_id)
-        .order_by(TrialStatusChange.id.desc())
-        .limit(1)
-    ).first()
+    row = _latest_change(session, trial_id)
     return row.reason if row is not None and row.status == TrialStatus.ENDED else None
 
 
