@@ -1,7 +1,7 @@
-"""A participant's session state: ``active``, ``paused`` or ``aborted`` (rule and query).
+"""A participant's session state: ``active``, ``paused``, ``aborted`` or ``timed_out``.
 
 The rule, in one place: the state is given by the participant's latest
-pause/resume/abort `ConsoleAction` row (none: active). The console writes those
+pause/resume/abort/time_out `ConsoleAction` row (none: active). The console writes those
 rows; the study flow holds a paused or aborted participant in place; enrolment
 does not count an aborted participant in a cell. All three ask this module.
 """
@@ -14,9 +14,17 @@ from sqlalchemy.orm import Session
 from hcss.platform.models import ConsoleAction
 
 #: The console actions that change a session's state.
-STATE_ACTIONS = ("pause", "resume", "abort")
+#: `time_out` is written by the server itself (hcss.platform.study.timeouts), never the console.
+STATE_ACTIONS = ("pause", "resume", "abort", "time_out")
 
-_STATE_OF_ACTION = {"pause": "paused", "resume": "active", "abort": "aborted"}
+_STATE_OF_ACTION = {
+    "pause": "paused",
+    "resume": "active",
+    "abort": "aborted",
+    "time_out": "timed_out",
+}
+#: States after which the session never continues.
+ENDED_STATES = ("aborted", "timed_out")
 
 
 def _latest_state_actions():
@@ -55,3 +63,8 @@ def session_states(session: Session) -> dict[int, str]:
 def aborted_participants(session: Session) -> set[int]:
     """Ids of every participant whose session is ``aborted``."""
     return {pid for pid, state in session_states(session).items() if state == "aborted"}
+
+
+def timed_out_participants(session: Session) -> set[int]:
+    """Ids of every participant the server timed out (inactive, or over the study's limit)."""
+    return {pid for pid, state in session_states(session).items() if state == "timed_out"}

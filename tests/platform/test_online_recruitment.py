@@ -14,7 +14,13 @@ from sqlalchemy import event, func, select
 
 from hcss.platform.console.withdrawal import participant_tables
 from hcss.platform.export.writer import collect
-from hcss.platform.models import Participant, Recruitment, ScreenOut, StudyEnrolment
+from hcss.platform.models import (
+    ConsoleAction,
+    Participant,
+    Recruitment,
+    ScreenOut,
+    StudyEnrolment,
+)
 from hcss.platform.study.enrolment import cell_counts
 from hcss.platform.study.online import OnlineSettings, Recruit, RecruitmentError
 from hcss.platform.study.recruitment import enrol_or_resume
@@ -436,3 +442,55 @@ def test_a_recruitment_target_closes_the_link_and_the_console_shows_it(
     assert _count(app, Participant) == 2
     # Someone already enrolled still gets back in.
     assert _join(app.test_client(), "capped", PROLIFIC_PID="p1").location == first.location
+
+
+def test_an_abandoned_participant_is_timed_out_and_frees_the_place(
+    app, console, tmp_path, monkeypatch
+) -> None:  # type: ignore[no-untyped-def]
+    from hcss.platform.study.files import STUDIES_ENV, study_text
+
+    text = study_text("demo")[1].decode().replace('name = "demo"', 'name = "timed"')
+    text = text.replace("[online]\n", "[online]\ntarget = 1\n")
+    text += "\n[timeouts]\ninactivity_s = 600\n"
+    (tmp_path / "studies").mkdir()
+    (tmp_path / "studies" / "timed.toml").write_text(text)
+    monkeypatch.setenv(STUDIES_ENV, str(tmp_path / "studies"))
+    clock = app.extensions["hcss_runner"].clock
+    first = _join(app.test_client(), "timed", PROLIFIC_PID="p1")
+    assert first.status_code == 302
+    assert app.test_client().get(first.location, follow_redirects=True).status_code == 200
+    assert 'data-stage="study_full"' in _join(
+        app.test_client(), "timed", PROLIFIC_PID="p2"
+    ).get_data(as_text=True)
+    clock.now += 599.0  # not yet
+    assert 'data-stage="study_full"' in _join(
+        app.test_client(), "timed", PROLIFIC_PID="p2"
+    ).get_data(as_text=True)
+    clock.now += 2.0  # ten minutes without a sign of life: p1 is timed out, the place is free
+    second = _join(app.test_client(), "timed", PROLIFIC_PID="p2")
+    assert second.status_code == 302 and second.location != first.location
+    (code,) = [c for c, row in console.progress().items() if row["state"] == "timed_out"]
+    with app.extensions["hcss_db"].session_scope() as session:
+        action = session.scalars(
+            select(ConsoleAction).where(ConsoleAction.action == "time_out")
+        ).one()
+        assert action.experimenter_id is None and action.detail == "no activity for 601 s"
+        statuses = {row["participant"]: row["status"] for row in collect(session)["participants"]}
+    assert statuses[code] == "timed_out"
+    # p1 comes back: held, told why; the console cannot resume them.
+    back = _join(app.test_client(), "timed", PROLIFIC_PID="p1")
+    page = app.test_client().get(back.location, follow_redirects=True).get_data(as_text=True)
+    assert "Your session has timed out" in page
+    assert console.progress()[code]["actions"] == ["mark_pilot"]
+    index = console.get("/console/").get_data(as_text=True)
+    assert "timed out after 600 s without activity, their cell freed" in index
+
+
+def test_the_timeouts_table_is_checked() -> None:
+    doc = _study_doc(link=True)
+    doc["timeouts"] = {"inactivity_s": -1}
+    with pytest.raises(StudyFileError, match="timeouts.inactivity_s"):
+        parse_study(doc, source="demo.toml")
+    doc["timeouts"] = {"inactivity_s": 600, "overall_s": 7200, "free_cell": False}
+    limits = parse_study(doc, source="demo.toml").timeouts
+    assert (limits.inactivity_s, limits.overall_s, limits.free_cell) == (600, 7200, False)

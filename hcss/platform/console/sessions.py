@@ -21,7 +21,7 @@ from hcss.platform.live.trials import current_trial, latest_status
 from hcss.platform.models import ConsoleAction, Experimenter, Participant
 from hcss.platform.models.vocabularies import TrialStatus
 from hcss.platform.pilots import is_pilot
-from hcss.platform.session_state import STATE_ACTIONS, session_state
+from hcss.platform.session_state import ENDED_STATES, STATE_ACTIONS, session_state
 from hcss.platform.study.flow import current_position
 
 
@@ -42,7 +42,7 @@ def available_actions(state: str, status: str, is_pilot: bool) -> list[str]:
     or aborted, an active one paused or aborted.
     """
     actions: list[str] = []
-    if state != "aborted" and status not in FINISHED:
+    if state not in ENDED_STATES and status not in FINISHED:
         if status != "not_enrolled":  # nothing runs yet that a pause could hold
             actions += ["resume"] if state == "paused" else ["pause"]
         actions.append("abort")  # for a link not yet opened: it will not open
@@ -105,8 +105,11 @@ def change_session(
     with database.session_scope() as session:
         state = session_state(session, participant.id)
         live = _live_trial(session, runner, participant)
-    if state == "aborted":
-        raise ConsoleError(f"{participant.code}'s session was aborted; it cannot change now")
+    if action == "time_out":
+        raise ConsoleError("only the server times a session out")
+    if state in ENDED_STATES:
+        ended = state.replace("_", " ")
+        raise ConsoleError(f"{participant.code}'s session was {ended}; it cannot change now")
     if action == "pause" and state == "paused":
         raise ConsoleError(f"{participant.code}'s session is already paused")
     if action == "resume" and state != "paused":

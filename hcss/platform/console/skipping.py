@@ -19,7 +19,7 @@ from hcss.platform.db import Database, session_now
 from hcss.platform.live.trials import latest_status
 from hcss.platform.models import ConsoleAction, Experimenter, Participant
 from hcss.platform.models.vocabularies import TrialStatus
-from hcss.platform.session_state import session_state
+from hcss.platform.session_state import ENDED_STATES, session_state
 from hcss.platform.study.enrolment import current_enrolment
 from hcss.platform.study.flow import Flow
 
@@ -32,8 +32,8 @@ def skip_step(
 ) -> str:
     """Mark the participant's current step skipped; returns it (``stage 4 introduction page_2``)."""
     with database.session_scope() as session:
-        if session_state(session, participant.id) == "aborted":
-            raise ConsoleError(f"{participant.code}'s session was aborted; nothing to skip")
+        if session_state(session, participant.id) in ENDED_STATES:
+            raise ConsoleError(f"{participant.code}'s session has ended; nothing to skip")
         enrolment = current_enrolment(session, participant.id)
         if enrolment is None:
             raise ConsoleError(f"{participant.code} has not opened their link yet")

@@ -54,7 +54,7 @@ from hcss.platform.console.sessions import (
 )
 from hcss.platform.console.skipping import skip_step
 from hcss.platform.console.withdrawal import WithdrawalError, withdraw
-from hcss.platform.db import database, get_session
+from hcss.platform.db import database, get_session, session_now
 from hcss.platform.models import AuditRecord, ConsoleAction, Experimenter, Participant
 from hcss.platform.pilots import is_pilot
 from hcss.platform.session_state import session_state
@@ -62,6 +62,7 @@ from hcss.platform.study.enrolment import current_enrolment
 from hcss.platform.study.files import study_names
 from hcss.platform.study.recruitment import Enrolled, enrolled
 from hcss.platform.study.studyfile import StudyFileError, load_study
+from hcss.platform.study.timeouts import time_out_abandoned
 from hcss.platform.study.versions import study_problems
 
 bp = Blueprint("console", __name__, url_prefix="/console", static_folder="static")
@@ -179,14 +180,15 @@ def index() -> str:
 
 
 def recruitment_targets(session: Session) -> list[Enrolled]:
-    """Each study with a study link and a recruitment target: how far it is."""
+    """Each study with a study link and a recruitment target or time-outs: how far it is."""
     studies = []
     for name in study_names():
         try:
             study = load_study(name)
         except StudyFileError:  # a broken file is reported when it is used, not here
             continue
-        if study.online.link and (study.online.target or study.online.cell_target):
+        limits = study.online.target or study.online.cell_target or study.timeouts.active
+        if study.online.link and limits:
             studies.append(enrolled(session, study))
     return studies
 
@@ -202,7 +204,10 @@ def _table_page():
     page = request.args.get("page", "1")
     hide = frozenset(flag for flag in request.args.get("hide", "").split(",") if flag in FLAGS)
     number = int(page) if page.isdigit() and len(page) < 7 else 1
-    return progress_page(get_session(), _runner().clock(), page=number, hide=hide)
+    session = get_session()
+    if time_out_abandoned(session, session_now(session)):  # the study files' [timeouts]
+        session.commit()
+    return progress_page(session, _runner().clock(), page=number, hide=hide)
 
 
 @bp.post("/participants")

@@ -28,6 +28,7 @@ CONSOLE_ACTIONS = (
     "unmark_pilot",
     "cell_override",
     "skip_stage",
+    "time_out",  # written by the server (hcss.platform.study.timeouts), no experimenter
 )
 
 

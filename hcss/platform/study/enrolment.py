@@ -24,7 +24,7 @@ from hcss.platform.models import (
     StudyEnrolment,
 )
 from hcss.platform.pilots import is_pilot
-from hcss.platform.session_state import aborted_participants
+from hcss.platform.session_state import aborted_participants, timed_out_participants
 from hcss.platform.study.stages import sequence
 from hcss.platform.study.studyfile import Study, load_study
 
@@ -69,14 +69,18 @@ def current_enrolment(session: Session, participant_id: int) -> StudyEnrolment |
     ).first()
 
 
-def not_counted(session: Session) -> set[int]:
-    """Participants who declined consent or whose session the experimenter aborted."""
+def not_counted(session: Session, study: Study | None = None) -> set[int]:
+    """Participants who declined consent, whose session the experimenter aborted, or who
+    were timed out (unless `study` keeps a timed-out participant's cell: `free_cell = false`)."""
     declined = set(
         session.scalars(
             select(ConsentRecord.participant_id).where(ConsentRecord.decision == "decline")
         )
     )
-    return declined | aborted_participants(session)
+    ended = declined | aborted_participants(session)
+    if study is None or study.timeouts.free_cell:
+        ended |= timed_out_participants(session)
+    return ended
 
 
 def cell_counts(session: Session, study: Study, pool: str) -> Counter[int]:
@@ -91,7 +95,7 @@ def cell_counts(session: Session, study: Study, pool: str) -> Counter[int]:
         .join(latest, StudyEnrolment.id == latest.c.last)
         .where(StudyEnrolment.study == study.name, StudyEnrolment.pool == pool)
     ).all()
-    excluded = not_counted(session)
+    excluded = not_counted(session, study)
     counts: Counter[int] = Counter({cell.number: 0 for cell in study.cells})
     counts.update(cell for participant_id, cell in rows if participant_id not in excluded)
     return counts

@@ -27,6 +27,7 @@ from hcss.platform.models import (
     StageEvent,
     StudyEnrolment,
 )
+from hcss.platform.session_state import session_state
 from hcss.platform.study.enrolment import current_enrolment, not_counted
 from hcss.platform.study.stage import Slot
 from hcss.platform.study.stages import sequence
@@ -244,7 +245,7 @@ def current_position(session: Session, participant: Participant) -> Position:
 
 
 def participant_status(session: Session, participant: Participant) -> str:
-    """``in_progress``, ``completed``, ``declined`` or ``aborted`` (the export's status)."""
+    """``in_progress``, ``completed``, ``declined``, ``aborted`` or ``timed_out`` (the export's)."""
     if participant.id in not_counted(session):
         consent = session.scalars(
             select(ConsentRecord.decision)
@@ -252,6 +253,8 @@ def participant_status(session: Session, participant: Participant) -> str:
             .order_by(ConsentRecord.id.desc())
             .limit(1)
         ).first()
-        return "declined" if consent == "decline" else "aborted"
+        if consent == "decline":
+            return "declined"
+        return "timed_out" if session_state(session, participant.id) == "timed_out" else "aborted"
     status = current_position(session, participant).status
     return "in_progress" if status == "not_enrolled" else status

@@ -21,9 +21,10 @@ from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 from werkzeug.wrappers import Response
 
-from hcss.platform.db import get_session
+from hcss.platform.db import get_session, session_now
 from hcss.platform.models import Participant, Recruitment
 from hcss.platform.study.enrolment import assign_cell, cell_counts, hold_assignment_lock
+from hcss.platform.study.limits import Timeouts
 from hcss.platform.study.online import (
     HitPreview,
     Recruit,
@@ -38,6 +39,7 @@ from hcss.platform.study.screenout import (
     shortfalls,
 )
 from hcss.platform.study.studyfile import Study, StudyFileError, load_study
+from hcss.platform.study.timeouts import time_out_abandoned
 
 bp = Blueprint("join", __name__, url_prefix="/join")
 
@@ -61,6 +63,7 @@ class Enrolled:
     target: int  # 0: none
     cell_target: int  # 0: none
     cells: dict[int, int]
+    timeouts: Timeouts = Timeouts()
 
     @property
     def full(self) -> bool:
@@ -78,11 +81,17 @@ def enrolled(session: Session, study: Study) -> Enrolled:
         study.online.target,
         study.online.cell_target,
         dict(sorted(counts.items())),
+        study.timeouts,
     )
 
 
 def _check_room(session: Session, study: Study) -> None:
-    if (study.online.target or study.online.cell_target) and enrolled(session, study).full:
+    """StudyFull when the study is at its target, after timing out the abandoned."""
+    if not (study.online.target or study.online.cell_target):
+        return
+    if enrolled(session, study).full and time_out_abandoned(session, session_now(session)):
+        session.commit()  # the places they held are free now
+    if enrolled(session, study).full:
         raise StudyFull(
             "This study has all the participants it needs, so it cannot take you. "
             "Thank you for your interest."

@@ -32,6 +32,7 @@ from pydantic import (
 )
 
 from hcss.platform.study.files import STUDIES_ENV, StudyFileError, study_text
+from hcss.platform.study.limits import Timeouts
 from hcss.platform.study.online import OnlineSettings
 from hcss.platform.study.requirements import Requirements
 from hcss.platform.study.stages import STAGES
@@ -90,6 +91,7 @@ class Study:
     fast_answer_ms: int = FAST_ANSWER_MS  # `[probes] fast_answer_ms`: quicker answers are flagged
     requirements: Requirements = Requirements()  # the device checked before consent
     simulation_preset: str = DEFAULT_PRESET  # `[simulation] preset`: the collectives' params
+    timeouts: Timeouts = Timeouts()  # `[timeouts]`: when an abandoned participant is timed out
 
     def cell(self, number: int) -> Cell:
         for cell in self.cells:
@@ -217,6 +219,7 @@ class StudyFileSchema(BaseModel):
     online: OnlineSettings = OnlineSettings()
     requirements: Requirements = Requirements()
     simulation: SimulationTable = SimulationTable()
+    timeouts: Timeouts = Timeouts()
 
     @field_validator("models")
     @classmethod
@@ -357,6 +360,7 @@ def parse_study(
         simulation_preset=schema.simulation.preset,
         online=schema.online,
         requirements=schema.requirements,
+        timeouts=schema.timeouts,
     )
 
 

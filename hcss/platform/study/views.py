@@ -28,6 +28,7 @@ from hcss.platform.study.recruitment import completion_for
 from hcss.platform.study.screenout import screen_out_for
 from hcss.platform.study.stage import Refused
 from hcss.platform.study.texts import fill
+from hcss.platform.study.timeouts import time_out_abandoned
 from hcss.platform.study.versions import enrolled_study
 from hcss.questionnaires import pages
 
@@ -77,7 +78,10 @@ def _flow(token: str) -> Flow:
     if enrolment is None:
         enrolment = first_enrolment(session, participant)
     enrolled_study(enrolment)  # a missing or changed study file holds the participant (503)
-    return Flow(session, participant, enrolment, study_now())
+    now = study_now()
+    if time_out_abandoned(session, now, participant.id):  # back after the study's [timeouts]
+        session.commit()
+    return Flow(session, participant, enrolment, now)
 
 
 def _settled(flow: Flow) -> Position:
