@@ -64,15 +64,12 @@ def time_out_abandoned(
     session: Session, now: datetime, participant_id: int | None = None
 ) -> list[str]:
     """Time out every abandoned participant (or only this one); their codes. The caller commits."""
+    newest = select(func.max(StudyEnrolment.id)).group_by(StudyEnrolment.participant_id)
+    if participant_id is not None:  # a participant's own page: one row, not the table's
+        newest = newest.where(StudyEnrolment.participant_id == participant_id)
     enrolments: dict[int, StudyEnrolment] = {
         e.participant_id: e
-        for e in session.scalars(
-            select(StudyEnrolment).where(
-                StudyEnrolment.id.in_(
-                    select(func.max(StudyEnrolment.id)).group_by(StudyEnrolment.participant_id)
-                )
-            )
-        )
+        for e in session.scalars(select(StudyEnrolment).where(StudyEnrolment.id.in_(newest)))
     }
     studies = _studies({e.study for e in enrolments.values()})
     limited = {
