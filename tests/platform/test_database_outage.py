@@ -51,7 +51,7 @@ def _run_through_outage(app, begin: Callable[[], None], end: Callable[[], None],
         clock.now += TICK_S
         try:
             runner.tick()
-        except Exception:
+        except Exception:  # as Runner._run: a failed tick is logged and the next one runs
             logging.getLogger(__name__).exception("runner tick failed")
 
     for _ in range(int(TRIAL_S / 3 / TICK_S)):
