@@ -15,6 +15,7 @@ A running trial is never timed out: it ends at its own limit first.
 from __future__ import annotations
 
 from datetime import datetime
+from typing import Any
 
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
@@ -34,9 +35,10 @@ from hcss.platform.study.flow import current_position
 from hcss.platform.study.studyfile import Study, StudyFileError, load_study
 
 
-def _latest(session: Session, model: type, column: str) -> dict[int, object]:
-    newest = select(func.max(model.id)).group_by(model.participant_id)  # type: ignore[attr-defined]
-    rows = session.scalars(select(model).where(model.id.in_(newest)))  # type: ignore[attr-defined]
+def _latest(session: Session, model: Any, column: str) -> dict[int, Any]:
+    """Each participant's newest row of `model` (a mapped class with participant_id): `column`."""
+    newest = select(func.max(model.id)).group_by(model.participant_id)
+    rows = session.scalars(select(model).where(model.id.in_(newest)))
     return {row.participant_id: getattr(row, column) for row in rows}
 
 
