@@ -46,21 +46,31 @@ def host_and_console(database_url: str) -> Iterator[tuple[Flask, Flask]]:
         app.extensions["hcss_db"].engine.dispose()
 
 
-def test_a_pause_and_resume_on_one_process_reach_the_host_of_the_trial(host_and_console) -> None:
-    host, console = host_and_console
+def _hosted_trial_and_console(host: Flask, console: Flask):  # type: ignore[no-untyped-def]
+    """A trial the host holds, its participant's code, and an experimenter signed in on the other."""
     runner = host.extensions["hcss_runner"]
-    trial_id = _start(runner)
-    live = runner.get(trial_id)
+    live = runner.get(_start(runner))
     assert live is not None
     with host.extensions["hcss_db"].session_scope() as session:
         create_experimenter(session, "alice", "correct horse battery")
         code = session.scalars(select(Participant.code)).one()
     client = console.test_client()
     assert sign_in(client, "alice", "correct horse battery").status_code == 302
+    return live, code, client
+
+
+def _csrf(client, code: str) -> str:  # type: ignore[no-untyped-def]
+    page = client.get(f"/console/participants/{code}")
+    return page.get_data(as_text=True).split('name="csrf-token" content="')[1].split('"')[0]
+
+
+def test_a_pause_and_resume_on_one_process_reach_the_host_of_the_trial(host_and_console) -> None:
+    host, console = host_and_console
+    live, code, client = _hosted_trial_and_console(host, console)
+    trial_id = live.trial_id
 
     for action, paused in (("pause", True), ("resume", False)):
-        page = client.get(f"/console/participants/{code}")
-        csrf = page.get_data(as_text=True).split('name="csrf-token" content="')[1].split('"')[0]
+        csrf = _csrf(client, code)
         started = time.monotonic()
         answer = client.post(
             f"/console/participants/{code}/{action}",
@@ -88,16 +98,9 @@ def test_a_withdrawal_on_one_process_takes_the_trial_from_its_host_first(
 ) -> None:
     host, console = host_and_console
     runner = host.extensions["hcss_runner"]
-    trial_id = _start(runner)
-    live = runner.get(trial_id)
-    assert live is not None
-    with host.extensions["hcss_db"].session_scope() as session:
-        create_experimenter(session, "alice", "correct horse battery")
-        code = session.scalars(select(Participant.code)).one()
-    client = console.test_client()
-    assert sign_in(client, "alice", "correct horse battery").status_code == 302
-    page = client.get(f"/console/participants/{code}")
-    csrf = page.get_data(as_text=True).split('name="csrf-token" content="')[1].split('"')[0]
+    live, code, client = _hosted_trial_and_console(host, console)
+    trial_id = live.trial_id
+    csrf = _csrf(client, code)
     answer = client.post(
         f"/console/participants/{code}/withdraw",
         data={"csrf_token": csrf, "confirm_code": code},
