@@ -75,8 +75,12 @@ def answer_mrt(page, server: StudyServer, walk: bool = False) -> dict[str, str]:
     page.get_by_role("button", name="Begin").click()
     expect_stage(page, "mental_rotation", "practice_1")
     page.locator('input[name="chosen"][value="0"]').check()
+    before = page.locator(".mrt-alternative").first.bounding_box()
     page.get_by_role("button", name="Check").click()
     expect(page.locator(".feedback")).to_be_visible()
+    after = page.locator(".mrt-alternative").first.bounding_box()
+    # The feedback appears below the alternatives; they stay where they were.
+    assert (round(after["x"]), round(after["y"])) == (round(before["x"]), round(before["y"]))
     page.get_by_role("button", name="Continue").click()
     expect_stage(page, "mental_rotation", "begin_1")
     expect(page.locator("h2#part-begins")).to_have_text("Part 1 begins")
