@@ -10,7 +10,7 @@ is what makes snapshots and restores exact.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, fields
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from numba import njit
@@ -99,7 +99,7 @@ class World:
     section: int = 0
     decisions_in_section: int = 0
     finished: bool = False
-    extra: dict = field(default_factory=dict)
+    extra: dict[str, Any] = field(default_factory=dict)
 
     @property
     def n_collectives(self) -> int:
@@ -205,14 +205,14 @@ class World:
         return hx, hy
 
     def favouring(self) -> np.ndarray:
-        return S.FAVOURING[self.state]
+        return np.asarray(S.FAVOURING[self.state])
 
     def support(self) -> np.ndarray:
         """(C, T) fraction of each collective favouring each target (true state)."""
         fav = self.favouring()
         counts = np.zeros((self.n_collectives, self.target_pos.shape[0]))
         np.add.at(counts, (self.collective[fav], self.target[fav]), 1.0)
-        return counts / (self.collective.shape[0] / self.n_collectives)
+        return np.asarray(counts / (self.collective.shape[0] / self.n_collectives))
 
     def set_state(
         self, agents: np.ndarray, new_state: int, new_target: np.ndarray | int | None = None
@@ -282,19 +282,26 @@ class World:
 # Integer arguments of any width are widened to these signatures' int64, so
 # these functions are compiled once each, not once per combination of types.
 @njit("int64(int64, int64)", cache=True)
-def target_in(new_state, new_target):
+def target_in(new_state: int, new_target: int) -> int:
     """Uncommitted agents have no target (-1): the invariant decision keys rely on."""
     return -1 if S.PHASE_OF_STATE[new_state] == 0 else new_target
 
 
 @njit("boolean(int64, int64, int64, int64)", cache=True)
-def decision_changed(old_state, old_target, new_state, new_target):
+def decision_changed(old_state: int, old_target: int, new_state: int, new_target: int) -> bool:
     """Whether the decision state (phase and target) changes: the quorum window is then cleared."""
     return S.PHASE_OF_STATE[old_state] != S.PHASE_OF_STATE[new_state] or old_target != new_target
 
 
 @njit(cache=True, inline="always")
-def set_state_one(state, target, streak, agent, new_state, new_target):
+def set_state_one(
+    state: np.ndarray,
+    target: np.ndarray,
+    streak: np.ndarray,
+    agent: int,
+    new_state: int,
+    new_target: int,
+) -> None:
     """The one rule for a change of state: uncommitted agents have no target, and the
     quorum streak is cleared when the decision state (phase and target) changes."""
     new_target = target_in(new_state, new_target)
@@ -305,13 +312,27 @@ def set_state_one(state, target, streak, agent, new_state, new_target):
 
 
 @njit(cache=True)
-def set_states_kernel(state, target, streak, agents, new_states, new_targets):
+def set_states_kernel(
+    state: np.ndarray,
+    target: np.ndarray,
+    streak: np.ndarray,
+    agents: np.ndarray,
+    new_states: np.ndarray,
+    new_targets: np.ndarray,
+) -> None:
     for i in range(agents.size):
         set_state_one(state, target, streak, agents[i], new_states[i], new_targets[i])
 
 
 @njit(cache=True, inline="always")
-def send_home_one(state, target, streak, leg, arrival_state, agent):
+def send_home_one(
+    state: np.ndarray,
+    target: np.ndarray,
+    streak: np.ndarray,
+    leg: np.ndarray,
+    arrival_state: np.ndarray,
+    agent: int,
+) -> None:
     """The one rule for sending an agent home: uncommitted, flying back if away from the hub."""
     set_state_one(state, target, streak, agent, S.U_I, -1)
     if leg[agent] != S.AT_HUB:
@@ -321,13 +342,28 @@ def send_home_one(state, target, streak, leg, arrival_state, agent):
 
 
 @njit(cache=True)
-def send_home_kernel(state, target, streak, leg, arrival_state, agents):
+def send_home_kernel(
+    state: np.ndarray,
+    target: np.ndarray,
+    streak: np.ndarray,
+    leg: np.ndarray,
+    arrival_state: np.ndarray,
+    agents: np.ndarray,
+) -> None:
     for i in range(agents.size):
         send_home_one(state, target, streak, leg, arrival_state, agents[i])
 
 
 @njit(cache=True)
-def reset_collective_kernel(state, target, streak, leg, arrival_state, collective, c):
+def reset_collective_kernel(
+    state: np.ndarray,
+    target: np.ndarray,
+    streak: np.ndarray,
+    leg: np.ndarray,
+    arrival_state: np.ndarray,
+    collective: np.ndarray,
+    c: int,
+) -> None:
     for i in range(state.size):
         if collective[i] != c:
             continue
