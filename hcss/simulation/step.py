@@ -14,21 +14,26 @@ for whole steps or for either half: compiled once, not once per entry point
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit
 
 from hcss.simulation import states as S
+from hcss.simulation.constants import Constants
 from hcss.simulation.jit import internal
 from hcss.simulation.messaging import exchange_kernel, initiating_silence_kernel
 from hcss.simulation.movement import move_kernel
 from hcss.simulation.rules import agent_rules_kernel, reach_hub_kernel, reach_target_kernel
+from hcss.simulation.world import Arrays
 
 
 @njit(cache=True, inline="always")
-def advance_agents(w, k, at_target, at_hub, newly_visible):
+def advance_agents(
+    w: Arrays, k: Constants, at_target: np.ndarray, at_hub: np.ndarray, newly_visible: np.ndarray
+) -> int:
     """Move, arrive, enforce orders, discover, rate transitions. Returns the newly visible count."""
     n_target, n_hub = move_kernel(w, k, at_target, at_hub)
     reach_target_kernel(w, k, at_target, n_target)
-    n_visible = reach_hub_kernel(w, at_hub, n_hub, newly_visible)
+    n_visible: int = reach_hub_kernel(w, at_hub, n_hub, newly_visible)
     # Plain booleans, as the rules' Python entry points pass them: a literal True
     # is a type of its own, for which the kernel would be compiled a second time.
     every = bool(True)  # noqa: UP018 - bool() makes it a plain bool for numba
@@ -37,7 +42,14 @@ def advance_agents(w, k, at_target, at_hub, newly_visible):
 
 
 @njit(cache=True, inline="always")
-def exchange_and_report(w, k, finished, state_counts, committed, moving):
+def exchange_and_report(
+    w: Arrays,
+    k: Constants,
+    finished: np.ndarray,
+    state_counts: np.ndarray,
+    committed: np.ndarray,
+    moving: np.ndarray,
+) -> None:
     """Messages, the silence rule, and each agent in its hub reporting its state (spec §9).
 
     `finished` marks collectives whose D(i) quorum was reached; `state_counts`
@@ -69,20 +81,20 @@ WHOLE, ADVANCE, EXCHANGE = 0, 1, 2
 
 @njit(cache=True)
 def steps(
-    w,
-    k,
-    at_target,
-    at_hub,
-    newly_visible,
-    finished,
-    state_counts,
-    committed,
-    moving,
-    commit_announced,
-    executing,
-    max_steps,
-    part,
-):
+    w: Arrays,
+    k: Constants,
+    at_target: np.ndarray,
+    at_hub: np.ndarray,
+    newly_visible: np.ndarray,
+    finished: np.ndarray,
+    state_counts: np.ndarray,
+    committed: np.ndarray,
+    moving: np.ndarray,
+    commit_announced: np.ndarray,
+    executing: np.ndarray,
+    max_steps: int,
+    part: int,
+) -> tuple[int, int]:
     """Up to `max_steps` whole steps, stopping after the first one that needs the engine;
     or, for `part` ADVANCE or EXCHANGE, that half of one step.
 
@@ -114,7 +126,7 @@ def steps(
 
 
 @internal
-def leading(counts):
+def leading(counts: np.ndarray) -> int:
     """The first index of the largest count, or -1 if all are zero (counts are >= 0).
 
     A loop rather than numpy's max and argmax: each of those is a further
