@@ -22,7 +22,7 @@ from hcss.simulation.world import Arrays, World
 
 
 @njit(cache=True, inline="always")
-def home(w, i):
+def home(w: Arrays, i: int) -> tuple[float, float]:
     """Centre of agent i's hub area: its collective's hub, or the new site for X and D."""
     if w.state[i] >= S.X:
         t = w.target[i]
@@ -46,7 +46,7 @@ _REDUCED_EXACTLY = 2.0**19 * 1.5707963267948966  # n·π/2 exact in two parts up
 
 
 @njit(cache=True)
-def fill_cos_sin(angles, cos_out, sin_out):
+def fill_cos_sin(angles: np.ndarray, cos_out: np.ndarray, sin_out: np.ndarray) -> None:
     """cos and sin of every angle, in a loop without calls that the compiler vectorises.
 
     Three to four times faster than a libm call per angle (every walker turns
@@ -74,7 +74,9 @@ def fill_cos_sin(angles, cos_out, sin_out):
 
 
 @internal
-def move_kernel(w: Arrays, k: Constants, at_target, at_hub):
+def move_kernel(
+    w: Arrays, k: Constants, at_target: np.ndarray, at_hub: np.ndarray
+) -> tuple[int, int]:
     """Advance every agent one step.
 
     Fills `at_target` and `at_hub` with the agents that reached their target or
@@ -150,7 +152,15 @@ def move_kernel(w: Arrays, k: Constants, at_target, at_hub):
 
 
 @njit(cache=True)
-def scatter_kernel(pos, heading, s, home_x, home_y, hub_radius_m, agents):
+def scatter_kernel(
+    pos: np.ndarray,
+    heading: np.ndarray,
+    s: np.ndarray,
+    home_x: np.ndarray,
+    home_y: np.ndarray,
+    hub_radius_m: float,
+    agents: np.ndarray,
+) -> None:
     """Place agents uniformly in the disc around their home with random headings.
 
     Takes only the arrays it needs, not the world's `Arrays`: Python calls it,
@@ -188,5 +198,5 @@ def move(world: World, params: Params) -> tuple[np.ndarray, np.ndarray]:
 
 # The kernel's entry from Python (the kernel itself has none: jit.internal).
 @njit(cache=True)
-def _move(w, k, at_target, at_hub):
+def _move(w: Arrays, k: Constants, at_target: np.ndarray, at_hub: np.ndarray) -> tuple[int, int]:
     return move_kernel(w, k, at_target, at_hub)
