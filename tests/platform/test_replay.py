@@ -97,6 +97,10 @@ def test_the_timeline_marks_requests_probe_answers_and_messages(app, make_trial,
     assert all(p["shown"] <= p["closed"] for p in body["probes"])
     times = [m["time"] for m in body["messages"]]
     assert times == sorted(times) and any(m["kind"] == "refusal" for m in body["messages"])
+    # The System Messages the participant saw, "Request N accepted" lines included.
+    accepted = [m["text"] for m in body["messages"] if m["kind"] == "accepted"]
+    assert len(accepted) == sum(1 for c in body["commands"] if c["accepted"])
+    assert all(re.match(r"Request (\d+ )?accepted \(", text) for text in accepted), accepted
     assert body["trial"]["dt"] == 1.0 and body["trial"]["duration_s"] == 180.0
 
 

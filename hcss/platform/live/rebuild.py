@@ -11,6 +11,7 @@ state's digest.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from sqlalchemy import func, select
@@ -175,22 +176,47 @@ _STEP_EVENTS, _COMMANDS = 0, 1
 
 
 def _restore_messages(session: Session, live: RunningTrial) -> None:
-    """The System Messages in the order the live page had them.
+    """The System Messages in the order the live page had them; a command that
+    cannot be worded is recorded as a trial problem instead."""
+
+    def unworded(command: Command, error: Uninterpretable) -> None:
+        session.add(
+            TrialProblem(
+                trial_id=live.trial_id,
+                source="rebuild",
+                record=f"command {command.id}",
+                problem=f"not shown in System Messages: {error}"[:300],
+            )
+        )
+
+    n = live.sim.scenario.n_collectives
+    for time, kind, text in shown_messages(session, live.trial_id, n, unworded):
+        live.add_message(time, kind, text)
+
+
+def shown_messages(
+    session: Session,
+    trial_id: int,
+    n_collectives: int | None = None,
+    unworded: Callable[[Command, Uninterpretable], None] | None = None,
+) -> list[tuple[float, str, str]]:
+    """(time, kind, text) of every System Message the participant's page showed, in order:
+    the simulation's events, and each command accepted or refused (the replay shows the same).
 
     Live, the runner records a step's events as soon as it reaches the step,
     under the trial's lock; a command lands between two steps, so at the time
     of a step its events come first, then the commands applied there, each
     kind in the order of its rows. Ids of two tables are never compared.
     """
-    n = live.sim.scenario.n_collectives
+    n = n_collectives
     events = [
         (e.sim_time, _STEP_EVENTS, e.id, e.kind, e.text)
-        for e in session.scalars(select(SimEvent).where(SimEvent.trial_id == live.trial_id))
+        for e in session.scalars(select(SimEvent).where(SimEvent.trial_id == trial_id))
     ]
     outcomes = session.execute(
         select(Command, CommandOutcome)
         .join(CommandOutcome, CommandOutcome.command_id == Command.id)
-        .where(Command.trial_id == live.trial_id)
+        .where(Command.trial_id == trial_id)
     )
     for command, outcome in outcomes:
         try:
@@ -212,16 +238,9 @@ def _restore_messages(session: Session, live: RunningTrial) -> None:
                 )
             )
         except Uninterpretable as error:
-            session.add(
-                TrialProblem(
-                    trial_id=live.trial_id,
-                    source="rebuild",
-                    record=f"command {command.id}",
-                    problem=f"not shown in System Messages: {error}"[:300],
-                )
-            )
-    for time, _rank, _id, kind, text in sorted(events):
-        live.add_message(time, kind, text)
+            if unworded is not None:
+                unworded(command, error)
+    return [(time, kind, text) for time, _rank, _id, kind, text in sorted(events)]
 
 
 def _restore_probes(session: Session, live: RunningTrial) -> None:

@@ -14,8 +14,8 @@ from typing import Any
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
-from hcss.platform.live.rebuild import refusal_text
-from hcss.platform.models import Command, CommandOutcome, Probe, ProbeEvent, SimEvent, Trial
+from hcss.platform.live.rebuild import shown_messages
+from hcss.platform.models import Command, CommandOutcome, Probe, ProbeEvent, Trial
 from hcss.simulation import ROMAN
 
 
@@ -78,20 +78,10 @@ def probe_marks(session: Session, trial_id: int) -> list[dict[str, Any]]:
 
 
 def system_messages(session: Session, trial_id: int) -> list[dict[str, Any]]:
-    """The System Messages as the participant saw them: events and refusals, by time."""
-    events = [
-        (e.sim_time, 0, e.id, e.kind, e.text)
-        for e in session.scalars(select(SimEvent).where(SimEvent.trial_id == trial_id))
-    ]
-    refusals = session.execute(
-        select(Command, CommandOutcome)
-        .join(CommandOutcome, CommandOutcome.command_id == Command.id)
-        .where(Command.trial_id == trial_id, CommandOutcome.accepted.is_(False))
-    )
-    events += [(c.sim_time, 1, c.id, "refusal", refusal_text(c, o.reason)) for c, o in refusals]
+    """The System Messages as the participant saw them: events, accepted and refused requests."""
     return [
         {"seq": seq, "time": round(float(time), 1), "kind": kind, "text": text}
-        for seq, (time, _order, _id, kind, text) in enumerate(sorted(events), start=1)
+        for seq, (time, kind, text) in enumerate(shown_messages(session, trial_id), start=1)
     ]
 
 
