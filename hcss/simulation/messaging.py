@@ -47,13 +47,14 @@ class Inbox:
 
 
 @njit(cache=True, inline="always")
-def decision_key(state, target):
+def decision_key(state: int, target: int) -> int:
     """One integer for a decision state: phase and target (uncommitted agents have target -1)."""
-    return S.PHASE_OF_STATE[state] * 4096 + target + 1
+    key: int = S.PHASE_OF_STATE[state] * 4096 + target + 1
+    return key
 
 
 @internal
-def compose_kernel(w: Arrays, k: Constants):
+def compose_kernel(w: Arrays, k: Constants) -> tuple[np.ndarray, np.ndarray]:
     """Who sends how many messages to whom this step: (sender, receiver) arrays."""
     state, leg, collective, pos = w.state, w.leg, w.collective, w.pos
     n_agents = state.size
@@ -124,8 +125,15 @@ def compose_kernel(w: Arrays, k: Constants):
 
 @internal
 def deliver_messages(
-    w: Arrays, k: Constants, receiver, s_state, s_target, s_estimate, draw, finished
-):
+    w: Arrays,
+    k: Constants,
+    receiver: np.ndarray,
+    s_state: np.ndarray,
+    s_target: np.ndarray,
+    s_estimate: np.ndarray,
+    draw: np.ndarray,
+    finished: np.ndarray,
+) -> None:
     """Apply the messages one after another, each to the state the previous ones left.
 
     Message m goes to `receiver[m]` from a sender in state `s_state[m]` for
@@ -174,7 +182,7 @@ def deliver_messages(
 
 
 @internal
-def exchange_kernel(w: Arrays, k: Constants, finished):
+def exchange_kernel(w: Arrays, k: Constants, finished: np.ndarray) -> None:
     """Send, deliver and apply one step of messages, in a random order.
 
     Marks in `finished` the collectives in which a D(i) quorum was reached.
@@ -204,7 +212,7 @@ def exchange_kernel(w: Arrays, k: Constants, finished):
 
 
 @internal
-def initiating_silence_kernel(w: Arrays, k: Constants):
+def initiating_silence_kernel(w: Arrays, k: Constants) -> None:
     """I(i) → X(i) after k/r_msg seconds without receiving any message."""
     for i in range(w.state.size):
         if w.state[i] == S.I and w.silence[i] >= k.silence_limit_s:
@@ -248,10 +256,19 @@ def deliver(
 
 # The kernels' entries from Python (the kernels themselves have none: jit.internal).
 @njit(cache=True)
-def _compose(w, k):
+def _compose(w: Arrays, k: Constants) -> tuple[np.ndarray, np.ndarray]:
     return compose_kernel(w, k)
 
 
 @njit(cache=True)
-def _deliver(w, k, receiver, s_state, s_target, s_estimate, draw, finished):
+def _deliver(
+    w: Arrays,
+    k: Constants,
+    receiver: np.ndarray,
+    s_state: np.ndarray,
+    s_target: np.ndarray,
+    s_estimate: np.ndarray,
+    draw: np.ndarray,
+    finished: np.ndarray,
+) -> None:
     deliver_messages(w, k, receiver, s_state, s_target, s_estimate, draw, finished)
