@@ -34,7 +34,10 @@ def _ziggurat_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     strip (layer 0, with the tail beyond r) and 255 rectangles of equal area v.
     """
     r = _ZIGGURAT_R
-    density = lambda x: math.exp(-0.5 * x * x)  # noqa: E731
+
+    def density(x: float) -> float:
+        return math.exp(-0.5 * x * x)
+
     v = r * density(r) + math.sqrt(math.pi / 2.0) * math.erfc(r / math.sqrt(2.0))
     m = 2.0**52
     ki = np.zeros(256, dtype=np.uint64)
@@ -57,6 +60,10 @@ _ZIGGURAT_R = 3.6541528853610088  # where the base strip's tail begins
 _ZIG_K, _ZIG_W, _ZIG_F = _ziggurat_tables()
 
 
+#: A stream state held in registers: the four 64-bit words of xoshiro256**.
+Words = tuple[np.uint64, np.uint64, np.uint64, np.uint64]
+
+
 def seed_stream(seed: int, run: int) -> np.ndarray:
     """A fresh stream state for a trial's (scenario seed, run)."""
     state = np.random.SeedSequence(seed, spawn_key=(2, run)).generate_state(4, np.uint64)
@@ -66,12 +73,14 @@ def seed_stream(seed: int, run: int) -> np.ndarray:
 
 
 @njit(cache=True, inline="always")
-def _rotl(x, k):
+def _rotl(x: np.uint64, k: int) -> np.uint64:
     return (x << _U64(k)) | (x >> _U64(64 - k))
 
 
 @njit(cache=True)
-def _advance(s0, s1, s2, s3):
+def _advance(
+    s0: np.uint64, s1: np.uint64, s2: np.uint64, s3: np.uint64
+) -> tuple[np.uint64, np.uint64, np.uint64, np.uint64, np.uint64]:
     """One xoshiro256** step on a state held in registers: (64 random bits, new state)."""
     result = _rotl(s1 * _U64(5), 7) * _U64(9)
     t = s1 << _U64(17)
@@ -87,25 +96,25 @@ def _advance(s0, s1, s2, s3):
 # A hot loop keeps the state in registers: `r = load(s)`, then `u, r = unit(r)` for
 # each draw, then `store(s, r)`. The functions on `s` itself advance the array in place.
 @njit(cache=True, inline="always")
-def load(s):
+def load(s: np.ndarray) -> Words:
     """The state as a tuple of four words, for a loop that draws many numbers."""
     return (s[0], s[1], s[2], s[3])
 
 
 @njit(cache=True, inline="always")
-def store(s, r):
+def store(s: np.ndarray, r: Words) -> None:
     s[0], s[1], s[2], s[3] = r[0], r[1], r[2], r[3]
 
 
 @njit(cache=True, inline="always")
-def unit(r):
+def unit(r: Words) -> tuple[float, Words]:
     """(a double uniform in [0, 1), the advanced state)."""
     result, s0, s1, s2, s3 = _advance(r[0], r[1], r[2], r[3])
     return float(np.int64(result >> _U64(11))) * _TO_UNIT, (s0, s1, s2, s3)  # via int64: cheaper
 
 
 @njit(cache=True, inline="always")
-def index_below(r, n):
+def index_below(r: Words, n: int) -> tuple[int, Words]:
     """(an integer uniform in [0, n), the advanced state); n > 0, the bias of 53-bit
     scaling is < 2^-40 here."""
     u, r = unit(r)
@@ -113,7 +122,7 @@ def index_below(r, n):
 
 
 @njit(cache=True, inline="always")
-def poisson_count(r, limit):
+def poisson_count(r: Words, limit: float) -> tuple[int, Words]:
     """(a Poisson count of mean λ given limit = exp(-λ), the advanced state): Knuth's product."""
     total = 0
     product, r = unit(r)
@@ -125,7 +134,7 @@ def poisson_count(r, limit):
 
 
 @njit(cache=True, inline="always")
-def poisson_count_of(r, lam):
+def poisson_count_of(r: Words, lam: float) -> tuple[int, Words]:
     """(a Poisson count of mean λ, the advanced state), in chunks of mean <= 20 so that
     exp(-λ) cannot underflow."""
     total = 0
@@ -138,7 +147,7 @@ def poisson_count_of(r, lam):
 
 
 @njit(cache=True, inline="always")
-def uniform(s):
+def uniform(s: np.ndarray) -> float:
     """A double uniform in [0, 1); advances `s` in place."""
     u, r = unit(load(s))
     store(s, r)
@@ -146,7 +155,7 @@ def uniform(s):
 
 
 @njit(cache=True, inline="always")
-def below(s, n):
+def below(s: np.ndarray, n: int) -> int:
     """An integer uniform in [0, n) (n > 0); advances `s` in place."""
     j, r = index_below(load(s), n)
     store(s, r)
@@ -154,7 +163,7 @@ def below(s, n):
 
 
 @njit(cache=True)
-def fill_normals(s, out):
+def fill_normals(s: np.ndarray, out: np.ndarray) -> None:
     """Standard normal deviates into `out` (ziggurat), the state kept in registers meanwhile.
 
     Each deviate takes a layer, a sign and a point from one 64-bit draw; the
@@ -182,7 +191,7 @@ def fill_normals(s, out):
 
 
 @internal
-def _normal_edge(s, layer, x):
+def _normal_edge(s: np.ndarray, layer: np.uint64, x: float) -> float:
     """The rare draws outside a layer's rectangle: |deviate| from the tail (layer 0) or
     the wedge, NaN if the wedge rejects it (draw again)."""
     if layer == 0:
