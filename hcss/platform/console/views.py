@@ -203,7 +203,7 @@ def _table_page():
     """The page of the live table that ``?page=N&hide=pilot,bot,demo`` asks for."""
     page = request.args.get("page", "1")
     hide = frozenset(flag for flag in request.args.get("hide", "").split(",") if flag in FLAGS)
-    number = int(page) if page.isdigit() and len(page) < 7 else 1
+    number = int(page) if page.isascii() and page.isdigit() and len(page) < 7 else 1
     session = get_session()
     if time_out_abandoned(session, session_now(session)):  # the study files' [timeouts]
         session.commit()
