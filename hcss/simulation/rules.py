@@ -27,13 +27,13 @@ from hcss.simulation.world import Arrays, World, set_state_one
 
 # ----------------------------------------------------------------- formulas
 @njit(cache=True)
-def per_step_probability(rate, dt):
+def per_step_probability(rate: float, dt: float) -> float:
     """Probability that a Poisson event of the given rate happens within one step."""
     return -math.expm1(-rate * dt)
 
 
 @njit(cache=True, inline="always")
-def within_step(u, rate, dt):
+def within_step(u: float, rate: float, dt: float) -> bool:
     """Whether a uniform draw u falls below `per_step_probability(rate, dt)`.
 
     Exact, and cheap for the common draw: 1 - e^(-x) lies between x·(1 - x)
@@ -48,23 +48,23 @@ def within_step(u, rate, dt):
 
 
 @njit(cache=True)
-def leave_rate_one(estimate, gap):
+def leave_rate_one(estimate: float, gap: float) -> float:
     """v̂ / gap, with the guard of spec §5: infinite (leave at once) where gap ≤ 0."""
     return estimate / gap if gap > 0.0 else math.inf
 
 
 @njit(cache=True, inline="always")
-def assess(w: Arrays, k: Constants, t):
+def assess(w: Arrays, k: Constants, t: int) -> float:
     """A fresh estimate v̂ = v·(1+e) of target t, e ~ U[-0.1, 0.1], clipped to (0, 1]."""
     error = k.value_error * (2.0 * stream.uniform(w.stream) - 1.0)
-    return min(max(w.target_value[t] * (1.0 + error), 1e-9), 1.0)
+    return float(min(max(w.target_value[t] * (1.0 + error), 1e-9), 1.0))
 
 
 @njit(cache=True, inline="always")
-def abandon_probability_one(w: Arrays, k: Constants, i):
+def abandon_probability_one(w: Arrays, k: Constants, i: int) -> float:
     """P_α = min(1, α·(d_i/100 m)/v̂): farther and poorer targets are abandoned more."""
     d = w.hub_distance[w.collective[i], w.target[i]]
-    return min(1.0, k.abandon_alpha * (d / k.abandon_unit_m) / w.estimate[i])
+    return float(min(1.0, k.abandon_alpha * (d / k.abandon_unit_m) / w.estimate[i]))
 
 
 def discovery_gap(distance_m: np.ndarray, params: Params) -> np.ndarray:
@@ -129,7 +129,7 @@ def refresh_geometry(world: World, params: Params) -> None:
 
 # -------------------------------------------------------------------- rules
 @internal
-def discoverable_sites(w: Arrays, k: Constants, ok):
+def discoverable_sites(w: Arrays, k: Constants, ok: np.ndarray) -> None:
     """(C, T) into `ok`: whether collective c's explorers can adopt target t.
 
     Active, in range of the hub, not reserved by another collective, not under
@@ -151,7 +151,7 @@ def discoverable_sites(w: Arrays, k: Constants, ok):
 
 
 @njit(cache=True, inline="always")
-def adopt_on_discovery(w: Arrays, k: Constants, i, t):
+def adopt_on_discovery(w: Arrays, k: Constants, i: int, t: int) -> None:
     """An explorer that found target t assesses it, adopts it with probability v̂ and flies home."""
     estimate = assess(w, k, t)
     if stream.uniform(w.stream) < estimate:
@@ -163,7 +163,9 @@ def adopt_on_discovery(w: Arrays, k: Constants, i, t):
 
 
 @internal
-def discovery_plan(w: Arrays, k: Constants):
+def discovery_plan(
+    w: Arrays, k: Constants
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """What an explorer can find this step: it depends on its collective only, and a
     discovery changes none of it, so it is worked out once per step.
 
@@ -190,7 +192,7 @@ def discovery_plan(w: Arrays, k: Constants):
 
 
 @internal
-def reach_target_kernel(w: Arrays, k: Constants, agents, n):
+def reach_target_kernel(w: Arrays, k: Constants, agents: np.ndarray, n: int) -> None:
     """Agents arriving at a target: executing agents enter D; assessing agents re-estimate it.
 
     An assessing agent (F_L, sent to reassess, recruited or asked to
@@ -220,7 +222,7 @@ def reach_target_kernel(w: Arrays, k: Constants, agents, n):
 
 
 @internal
-def reach_hub_kernel(w: Arrays, agents, n, newly_visible):
+def reach_hub_kernel(w: Arrays, agents: np.ndarray, n: int, newly_visible: np.ndarray) -> int:
     """Agents arriving home enter their arrival state and report their estimate.
 
     Writes the targets that became visible to the operator with these reports
@@ -243,7 +245,9 @@ def reach_hub_kernel(w: Arrays, agents, n, newly_visible):
 
 
 @internal
-def agent_rules_kernel(w: Arrays, k: Constants, orders, discovery, transitions):
+def agent_rules_kernel(
+    w: Arrays, k: Constants, orders: bool, discovery: bool, transitions: bool
+) -> None:
     """Standing orders, discovery and the rate transitions, agent by agent in one pass.
 
     Each rule reads only its agent and target-level state that none of them
@@ -363,7 +367,7 @@ def agent_rules_kernel(w: Arrays, k: Constants, orders, discovery, transitions):
 
 # ------------------------------------------------------- Python entry points
 def per_step(rate: float, params: Params) -> float:
-    return per_step_probability(float(rate), float(params.dt_s))
+    return float(per_step_probability(float(rate), float(params.dt_s)))
 
 
 def leave_rate(estimate: np.ndarray, gap: np.ndarray) -> np.ndarray:
@@ -413,20 +417,20 @@ def enforce_orders(world: World, params: Params) -> None:
 
 # The kernels' entries from Python (the kernels themselves have none: jit.internal).
 @njit(cache=True)
-def _reach_hub(w, agents, n, newly_visible):
+def _reach_hub(w: Arrays, agents: np.ndarray, n: int, newly_visible: np.ndarray) -> int:
     return reach_hub_kernel(w, agents, n, newly_visible)
 
 
 @njit(cache=True)
-def _reach_target(w, k, agents, n):
+def _reach_target(w: Arrays, k: Constants, agents: np.ndarray, n: int) -> None:
     reach_target_kernel(w, k, agents, n)
 
 
 @njit(cache=True)
-def _discoverable_sites(w, k, ok):
+def _discoverable_sites(w: Arrays, k: Constants, ok: np.ndarray) -> None:
     discoverable_sites(w, k, ok)
 
 
 @njit(cache=True)
-def _agent_rules(w, k, orders, discovery, transitions):
+def _agent_rules(w: Arrays, k: Constants, orders: bool, discovery: bool, transitions: bool) -> None:
     agent_rules_kernel(w, k, orders, discovery, transitions)
