@@ -14,13 +14,15 @@ Otherwise a percentile bootstrap (``scipy.stats.bootstrap``, 2,000
 resamples, seed :data:`SEED`, so a report is reproducible): ε² of
 Kruskal-Wallis resamples within each group; Kendall's W of Friedman
 resamples participants, each with all their conditions, because the
-participant is the unit of the repeated-measures design. A bootstrap of a
-sample too small to vary (every resample alike) gives no interval.
+participant is the unit of the repeated-measures design. A bootstrap whose
+resampled statistic is degenerate (every resample alike, or NaN, as when
+almost every value is 0) gives no interval rather than scipy's warning.
 """
 
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -69,16 +71,20 @@ Statistic = Callable[..., np.ndarray]
 
 
 def _percentile(samples: tuple[np.ndarray, ...], statistic: Statistic, paired: bool) -> Interval:
-    result = stats.bootstrap(
-        samples,
-        statistic,
-        paired=paired,
-        vectorized=True,
-        n_resamples=RESAMPLES,
-        confidence_level=0.95,
-        method="percentile",
-        random_state=np.random.default_rng(SEED),
-    )
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = stats.bootstrap(
+            samples,
+            statistic,
+            paired=paired,
+            vectorized=True,
+            n_resamples=RESAMPLES,
+            confidence_level=0.95,
+            method="percentile",
+            random_state=np.random.default_rng(SEED),
+        )
+    if caught:  # scipy: the resampled statistic is degenerate (e.g. almost every value 0)
+        return NO_INTERVAL
     lower, upper = float(result.confidence_interval.low), float(result.confidence_interval.high)
     if not (math.isfinite(lower) and math.isfinite(upper)) or lower == upper:
         return NO_INTERVAL

@@ -236,6 +236,16 @@ def test_bootstrap_statistics_are_the_r_checked_ones_and_intervals_are_seeded():
     assert first.interval_method.startswith("percentile bootstrap, 2,000 resamples, seed")
 
 
+def test_a_degenerate_bootstrap_gives_no_interval_and_no_warning():
+    """Interventions, almost all 0, put scipy's "BCa ... cannot be calculated" in a note."""
+    from hcss.analysis.effect_intervals import kendalls_w_interval
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        lower, upper = kendalls_w_interval(np.array([[0, 0, 0]] * 9 + [[0, 0, 1]], dtype=float))
+    assert math.isnan(lower) and math.isnan(upper)
+
+
 def test_paired_wilcoxon_holm_matches_r():
     # p.adjust(c(0.0200852866725, 0.0136766868988, 0.0851916964359), "holm")
     #   0.0410300606965 0.0410300606965 0.0851916964359
