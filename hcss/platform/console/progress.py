@@ -175,6 +175,7 @@ class ProgressPage:
     page: int  # 1-based
     pages: int
     total: int  # participants the filters let through
+    everyone: int = 0  # participants before the filters ("showing N of everyone")
 
 
 def _shown(session: Session, hide: frozenset[str]) -> ColumnElement[bool]:
@@ -208,7 +209,12 @@ def progress_page(
             .offset((page - 1) * PER_PAGE)
         )
     )
-    return ProgressPage(progress_rows(session, now, participants), page, pages, total)
+    everyone = (
+        total
+        if not hide
+        else int(session.scalar(select(func.count()).select_from(Participant)) or 0)
+    )
+    return ProgressPage(progress_rows(session, now, participants), page, pages, total, everyone)
 
 
 def progress_rows(
@@ -293,4 +299,5 @@ def progress_json(page: ProgressPage) -> dict[str, Any]:
         "page": page.page,
         "pages": page.pages,
         "total": page.total,
+        "everyone": page.everyone,
     }

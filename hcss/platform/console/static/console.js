@@ -132,6 +132,9 @@
 
   // The search box: every word must appear in the row's code, recruitment id, study, session or stage.
   const search = document.getElementById("search");
+  // Participants before any filter, as the server last counted them (the rows here are one
+  // page, and the server leaves out the hidden): "showing N of everyone".
+  let everyone = null;
   function applyFilters() {
     const hidden = filters.filter((box) => box.checked).map((box) => box.dataset.flag);
     const words = search ? search.value.toLowerCase().split(/\s+/).filter(Boolean) : [];
@@ -143,6 +146,7 @@
         || words.some((word) => !(tr.dataset.search || "").includes(word));
       if (!tr.hidden) shown += 1;
     }
+    if (everyone !== null) total = Math.max(everyone, total);
     if (shownCount) shownCount.textContent = "showing " + shown + " of " + total;
   }
 
@@ -204,6 +208,7 @@
       const response = await fetch(pageUrl(), { credentials: "same-origin" });
       if (response.ok) {
         const answer = await response.json();
+        if (typeof answer.everyone === "number") everyone = answer.everyone;
         render(answer.participants);
         if (pageOf) {
           pageOf.textContent = "page " + answer.page + " of " + answer.pages + " · "
