@@ -493,7 +493,7 @@ def fidelity(
         on_variant=lambda label: click.echo(f"  running {label}", err=True),
         seed=seed,
     )
-    table = [cell for label, variant in rows for cell in fid.cells(label, variant)]
+    table = fid.variant_cells(rows)
     click.echo(fid.fidelity_table(table))
     click.echo("\nPer decision, beside the study's published simulation-only results:\n")
     click.echo(fid.study_comparison(rows))

@@ -107,17 +107,8 @@ def variant_rows(
     return out
 
 
-def run_fidelity(
-    params: Params,
-    scenarios: int = 28,
-    runs: int = 2,
-    workers: int = 2,
-    ablations: bool = True,
-    on_variant: Callable[[str], None] | None = None,
-    seed: int = exp.DEFAULT_SCENARIO_SEED,
-) -> list[Cell]:
-    """The reduced experiment for every variant, on the same scenarios and runs."""
-    rows = variant_rows(params, scenarios, runs, workers, ablations, on_variant, seed)
+def variant_cells(rows: list[tuple[str, list[dict[str, Any]]]]) -> list[Cell]:
+    """Every variant's three splits (`cells`), in the order `variant_rows` ran them."""
     return [cell for label, variant in rows for cell in cells(label, variant)]
 
 

@@ -75,7 +75,8 @@ def test_claims_are_judged_on_the_rows(monkeypatch: pytest.MonkeyPatch) -> None:
         ]
 
     monkeypatch.setattr(fid.exp, "run_jobs", fake_run_jobs)
-    table = fid.run_fidelity(Params(), scenarios=2, runs=1, workers=1, ablations=False)
+    rows = fid.variant_rows(Params(), scenarios=2, runs=1, workers=1, ablations=False)
+    table = fid.variant_cells(rows)
     verdict = {claim: met for claim, met, _ in fid.claims(table)}
     assert all(verdict.values())
     assert "| M2 | difficult | 3 | 1.000 ± 0.000 |" in fid.fidelity_table(table)
