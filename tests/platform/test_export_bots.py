@@ -25,9 +25,10 @@ def test_a_bot_run_exports_every_table_with_rows(database_url, tmp_path) -> None
     result = CliRunner().invoke(main, ["export", str(outdir), "--database-url", database_url])
     assert result.exit_code == 0, result.output
 
-    # Empty in a healthy run: no restart, nothing the export could not read, and no
-    # recruitment ids (bots are enrolled directly, not through a study link).
-    empty_when_healthy = {"interruptions", "export_problems", "recruitment"}
+    # Empty in a healthy run: no restart, nothing the export could not read, no
+    # recruitment ids and no screen-outs (bots are enrolled directly, not through a
+    # study link's device check).
+    empty_when_healthy = {"interruptions", "export_problems", "recruitment", "screen_outs"}
     for table, names in dictionary_columns().items():
         header, rows = read_csv(outdir / f"{table}.csv")
         assert header == names and bool(rows) != (table in empty_when_healthy), table
