@@ -11,8 +11,8 @@ from pathlib import Path
 
 from scipy.stats import studentized_range
 
+from hcss.analysis.r_distributions import tukey_sf
 from hcss.analysis.report import run_analysis
-from hcss.analysis.tukey_distribution import tukey_sf
 from tests.analysis.synthetic import simulation_decisions, study_export, write_table
 
 
