@@ -170,9 +170,11 @@ def refusal(world: World, params: Params, kind: str, collective: int, target: in
         if world.abandon_order[collective, target]:
             return f"Collective {name} is already abandoning target {target_id(target)}."
         if support_count < params.abandon_min_supporters:
+            robots = "robot" if support_count == 1 else "robots"
+            favour = "favours" if support_count == 1 else "favour"
             return (
-                f"Only {support_count} agent(s) of collective {name} favour target {target_id(target)}; "
-                f"abandon needs at least {params.abandon_min_supporters}."
+                f"Only {support_count} {robots} of collective {name} {favour} target "
+                f"{target_id(target)}; abandon needs at least {params.abandon_min_supporters}."
             )
     elif kind == "decide":
         share = support_count / params.n_agents

@@ -100,6 +100,8 @@ def test_abandon_needs_two_supporters_then_drops_them_in_the_hub_until_cancelled
     place(w, fans[:1], S.F_I, target=t)
     refused = sim.abandon(0, t + 1)
     assert not refused.accepted and "abandon needs at least 2" in refused.reason
+    # In the participant's words (the introduction's "robots"), singular for one.
+    assert refused.reason.startswith(f"Only 1 robot of collective I favours target {t + 1};")
     place(w, fans, S.F_I, target=t)
     accepted = sim.abandon(0, t + 1)
     assert accepted.accepted
