@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 from sqlalchemy import update
 
+from hcss.platform.live.recorder import kept_until_written, record_progress
 from hcss.platform.models import ConsoleAction, TrialOrder
 from hcss.platform.session_state import STATE_ACTIONS
 
@@ -39,13 +40,21 @@ def control_trial(
     `order_id`: the `TrialOrder` this carries out, marked done in the same
     transaction as the action's row, so a host that dies in between leaves
     either both or neither, and the next host never does it twice.
+
+    The transaction is a recorder unit of work (`kept_until_written`): when
+    its commit fails, an abort has ended nothing (the trial stays running in
+    memory, its probe open), so the console's retry ends it once. It first
+    writes what the trial holds unwritten (an advance that met a database
+    outage), since the guard counts the queue written when it commits.
     """
     if action not in STATE_ACTIONS:
         raise ValueError(f"unknown session action {action!r}")
     now = runner.clock()
     # Advanced to `now` first: the clock stops (or the trial ends) at this instant.
     with runner.holding(live, now, advance=action != "resume"):
-        with runner.database.session_scope() as session:
+        with kept_until_written(live), runner.database.session_scope() as session:
+            if not live.ended:
+                record_progress(live, session)
             if order_id is not None:
                 outcome = ENDED if live.ended else DONE
                 session.execute(
