@@ -36,7 +36,7 @@ class StudyFile:
 def _column(participants: pd.DataFrame, name: str) -> pd.Series:
     if name not in participants.columns:
         return pd.Series([""] * len(participants), index=participants.index, dtype="object")
-    return participants[name].fillna("").astype(str)
+    return participants[name].astype(object).fillna("").astype(str)
 
 
 def study_files(participants: pd.DataFrame) -> tuple[StudyFile, ...]:

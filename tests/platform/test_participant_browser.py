@@ -75,9 +75,13 @@ def answer_mrt(page, server: StudyServer, walk: bool = False) -> dict[str, str]:
     page.get_by_role("button", name="Begin").click()
     expect_stage(page, "mental_rotation", "practice_1")
     page.locator('input[name="chosen"][value="0"]').check()
+    # Measured once each page has loaded its stylesheet, as a participant sees it:
+    # under load the feedback can be in the DOM before study.css is applied.
+    page.wait_for_load_state("load")
     before = page.locator(".mrt-alternative").first.bounding_box()
     page.get_by_role("button", name="Check").click()
     expect(page.locator(".feedback")).to_be_visible()
+    page.wait_for_load_state("load")
     after = page.locator(".mrt-alternative").first.bounding_box()
     # The feedback appears below the alternatives; they stay where they were.
     assert (round(after["x"]), round(after["y"])) == (round(before["x"]), round(before["y"]))
