@@ -52,7 +52,9 @@ def _counts(tables: StudyTables, units: dict[str, int], complete: int) -> list[s
     lines = []
     people = tables.participants
     if not people.empty and "study" in people.columns:
-        per_study = people.groupby(people["study"].astype(object).fillna("unknown").astype(str)).size()
+        per_study = people.groupby(
+            people["study"].astype(object).fillna("unknown").astype(str)
+        ).size()
         lines.append(
             "Participants analysed per study: "
             + ", ".join(f"{study} {count}" for study, count in per_study.items())
