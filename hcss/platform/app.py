@@ -95,7 +95,8 @@ def _register_json_errors(app: Flask) -> None:
         if database_away(getattr(error, "original_exception", None)):
             return database_unavailable_page()  # the request's commit failed
         if request.path.startswith("/api/"):
-            return jsonify(error=error.name.lower().replace(" ", "_"), message=error.description), (
-                error.code or 500
-            )
+            name = error.name.lower().replace(" ", "_")
+            # A 503 here is a trial hosted by another server process: the page retries.
+            held = {"held_by": "server"} if error.code == 503 else {}
+            return jsonify(error=name, message=error.description, **held), (error.code or 500)
         return http_error_page(error)

@@ -86,7 +86,7 @@ def database_unavailable_page() -> ResponseReturnValue:
 
     headers = {"Retry-After": str(DATABASE_RETRY_S)}
     if request.path.startswith("/api/"):
-        body = jsonify(error="database_unavailable", message=ADVICE[503][1])
+        body = jsonify(error="database_unavailable", message=ADVICE[503][1], held_by="database")
         return body, 503, headers
     page = error_page(503, retry_after=DATABASE_RETRY_S)
     if isinstance(page, Response):

@@ -59,6 +59,7 @@ def test_a_postgresql_outage_answers_503_with_retry_after_and_a_please_wait_page
             assert "Traceback" not in text
             api = client.get("/api/live/" + "x" * 20 + "/trials/1/state")
             assert api.status_code == 503 and api.get_json()["error"] == "database_unavailable"
+            assert api.get_json()["held_by"] == "database"  # the page says why it waits
             server.start()
             started = time.monotonic()
             while time.monotonic() - started < 10:

@@ -29,7 +29,9 @@ bp = Blueprint("api", __name__, url_prefix="/api/live/<token>/trials/<int:trial_
 
 @bp.errorhandler(actions.ActionError)
 def _action_error(error: actions.ActionError):
-    response = jsonify(error=error.code, message=error.message)
+    # A trial that moved to another server process holds the command back: the page retries.
+    held = {"held_by": "server"} if error.code == "moved" else {}
+    response = jsonify(error=error.code, message=error.message, **held)
     if error.status == 503:
         response.headers["Retry-After"] = str(RETRY_AFTER_S)
     return response, error.status

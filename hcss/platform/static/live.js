@@ -38,27 +38,45 @@
     const bytes = crypto.getRandomValues(new Uint8Array(16));
     return Array.from(bytes, (b) => b.toString(16).padStart(2, "0")).join("");
   }
+  // A 503 holds a command back without storing it (the database is away, or the
+  // trial is moving to another server process; the body's held_by says which):
+  // the page sends it again with the same key after 0.5 s, doubling up to the
+  // answer's Retry-After, for at most HELD_LIMIT_S, and says why it waits.
+  const HELD_LIMIT_S = 60;
+  const HELD_NOTICE = {
+    database: "The study's database is not answering just now",
+    server: "The trial is moving to another server",
+  };
+  const pause = (ms) => new Promise((resolve) => setTimeout(resolve, ms));
   async function post(path, body) {
     if (replaying) throw new Error("This is a replay: nothing is sent.");
     const key = newKey();
-    let response;
-    for (let attempt = 0; ; attempt++) {
+    const started = Date.now();
+    for (let attempt = 0, held = 0; ; attempt++) {
+      let response;
       try {
         response = await fetch(apiUrl + path, {
           method: "POST", credentials: "same-origin",
           headers: { "Content-Type": "application/json", "X-CSRFToken": csrf, "Idempotency-Key": key },
           body: JSON.stringify(body || {}),
         });
-        break;
       } catch (e) {  // the connection dropped: the same key again is safe
         if (attempt >= 2) throw new Error("No connection to the server; please try again.");
-        await new Promise((resolve) => setTimeout(resolve, 300 * (attempt + 1)));
+        await pause(300 * (attempt + 1));
+        continue;
       }
+      let payload = {};
+      try { payload = await response.json(); } catch (e) { /* empty body */ }
+      if (response.ok) return payload;
+      const waitS = Math.min(0.5 * 2 ** held, retryAfterS(response));
+      if (response.status !== 503 || state.ended || Date.now() - started + waitS * 1000 > HELD_LIMIT_S * 1000) {
+        throw new Error(payload.message || response.statusText);
+      }
+      held++;
+      const why = HELD_NOTICE[payload.held_by] || "The server is busy just now";
+      note(`${why}: sending again in ${Math.ceil(waitS)} s…`);
+      await pause(waitS * 1000);
     }
-    let payload = {};
-    try { payload = await response.json(); } catch (e) { /* empty body */ }
-    if (!response.ok) throw new Error(payload.message || response.statusText);
-    return payload;
   }
   // A button that sends a command is disabled until its answer is in.
   async function inFlight(buttons, action) {

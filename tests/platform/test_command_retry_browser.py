@@ -1,0 +1,86 @@
+"""A command the server answers 503 (the database is away) is sent again, once stored.
+
+The page keeps the command's Idempotency-Key across its retries, waits a
+growing pause between them, and says why it waits (the 503's `held_by`).
+The server here really fails: the first commits of the command's unit of
+work raise as a dropped database connection does, so it answers 503 with
+Retry-After, and the retry that finally commits stores exactly one command.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import pytest
+from sqlalchemy import event, select
+from sqlalchemy.exc import OperationalError
+
+from hcss.platform.models import Command
+from tests.platform.inprocess_server import StudyServer, study_server
+from tests.platform.test_participant_browser import _start_live_trial, wait_for
+
+pytestmark = pytest.mark.browser
+
+FAILED_COMMITS = 3
+
+
+@pytest.fixture
+def demo_server(tmp_path) -> Iterator[StudyServer]:  # type: ignore[no-untyped-def]
+    with study_server(tmp_path, "demo") as server:
+        yield server
+
+
+def test_a_command_answered_503_is_retried_with_its_key_and_stored_once(
+    browser, demo_server: StudyServer
+) -> None:
+    from playwright.sync_api import expect
+
+    token = _start_live_trial(demo_server)
+    page = browser.new_page(viewport={"width": 1280, "height": 900})
+    page.goto(f"{demo_server.url}/live/{token}")
+    expect(page.locator("#connection")).to_have_text("live")
+    target = wait_for(
+        demo_server,
+        lambda lv: next(
+            (t for t in lv.view()["targets"] if t["drawn"] and 0 in t["in_range_of"]), None
+        ),
+        90,
+    )
+    assert target
+    page.locator('g.collective[data-collective="0"]').click()
+    page.locator(f'g.target[data-target="{target["id"]}"]').click()
+    page.select_option("#request-kind", "investigate")
+
+    failed: list[int] = []
+
+    def drop_the_command(session, *_args) -> None:  # type: ignore[no-untyped-def]
+        # The command's row is flushed (for its id) before the commit: it is in the identity map.
+        stored = list(session.new) + list(session.identity_map.values())
+        if len(failed) < FAILED_COMMITS and any(isinstance(o, Command) for o in stored):
+            failed.append(1)
+            raise OperationalError("COMMIT", {}, Exception("server closed the connection"))
+
+    sent: list[tuple[str | None, int]] = []
+    page.on(
+        "response",
+        lambda r: (
+            sent.append((r.request.headers.get("idempotency-key"), r.status))
+            if r.url.endswith("/requests")
+            else None
+        ),
+    )
+    event.listen(demo_server.database.sessions, "before_commit", drop_the_command)
+    try:
+        page.locator("#commit").click()
+        expect(page.locator("#request-note")).to_contain_text("database", timeout=5000)
+        expect(page.locator("#request-note")).to_contain_text("accepted", timeout=20000)
+    finally:
+        event.remove(demo_server.database.sessions, "before_commit", drop_the_command)
+
+    assert len(failed) == FAILED_COMMITS
+    assert [status for _, status in sent] == [503] * FAILED_COMMITS + [200]
+    keys = {key for key, _ in sent}
+    assert len(keys) == 1 and None not in keys  # one key across every attempt
+    with demo_server.database.session_scope() as session:
+        assert len(session.scalars(select(Command)).all()) == 1
+    expect(page.locator("#messages li.accepted")).to_have_count(1)
