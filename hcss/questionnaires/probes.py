@@ -56,6 +56,21 @@ class ProbeTemplate:
             raise ValueError(f"level {self.level} probes need a {self.slot}")
         return self.text.format(**{self.slot: value})
 
+    def subject(self, question: str) -> str | None:
+        """The slot's value in a question this template worded (fill's inverse).
+
+        The page keeps the probe box off the collective or target a question
+        asks about, so it needs the subject apart from the wording; None for a
+        question without a slot or one this template did not word.
+        """
+        if self.slot is None:
+            return None
+        head, _, tail = self.text.partition("{" + self.slot + "}")
+        if not (question.startswith(head) and question.endswith(tail)):
+            return None
+        value = question[len(head) : len(question) - len(tail)]
+        return value or None
+
     def answer_choices(self, collectives: Sequence[str], targets: Sequence[int]) -> tuple[str, ...]:
         """The options offered: the collectives I-IV, or the visible target ids."""
         if self.answer_kind is AnswerKind.COLLECTIVE:

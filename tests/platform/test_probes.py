@@ -60,6 +60,7 @@ def test_probe_flow_records_latencies_and_scores_against_the_simulation(make_tri
     trial = make_trial(seed=4)
     probe, state, second = _until_probe(trial, 0, level=ProbeLevel.PERCEPTION)
     assert probe["phase"] == "ready" and probe["question"] is None and probe["choices"] is None
+    assert probe["subject"] is None  # the question, and what it is about, wait for Ready
     row = _probe_row(trial.app, probe["id"])
     target_id = int(row.question.rsplit(" ", 1)[1].rstrip("?"))
     assert any(t["id"] == target_id for t in state["view"]["targets"])
@@ -81,6 +82,7 @@ def test_probe_flow_records_latencies_and_scores_against_the_simulation(make_tri
     shown = trial.state()["probe"]
     assert shown["phase"] == "question" and shown["question"] == row.question
     assert shown["choices"] == ["I", "II", "III", "IV"]
+    assert shown["subject"] == {"target": target_id}  # the page keeps the box off it
     assert trial.post(f"/probes/{probe['id']}/answer", {"answer": "V"}).status_code == 400
     trial.run_to(second + 10)
     wrong = next(c for c in shown["choices"] if c != row.truth)

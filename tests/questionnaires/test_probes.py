@@ -29,6 +29,18 @@ def test_templates_fill_their_slot() -> None:
         TEMPLATES[ProbeLevel.PROJECTION].fill("II")
 
 
+def test_a_question_gives_back_its_subject() -> None:
+    """The page keeps the probe box off the subject, read back from the stored question."""
+    perception, comprehension = (
+        TEMPLATES[ProbeLevel.PERCEPTION],
+        TEMPLATES[ProbeLevel.COMPREHENSION],
+    )
+    assert perception.subject(perception.fill(17)) == "17"
+    assert comprehension.subject(comprehension.fill("IV")) == "IV"
+    assert TEMPLATES[ProbeLevel.PROJECTION].subject(TEMPLATES[ProbeLevel.PROJECTION].fill()) is None
+    assert perception.subject(comprehension.fill("IV")) is None  # another template's words
+
+
 def test_answer_choices_are_collectives_or_targets() -> None:
     collectives = ("I", "II", "III", "IV")
     perception = TEMPLATES[ProbeLevel.PERCEPTION]

@@ -33,6 +33,7 @@ __all__ = [
     "FilledProbe",
     "fill_probe",
     "probe_plan",
+    "probe_subject",
     "stored_counts",
 ]
 
@@ -114,6 +115,22 @@ def fill_probe(level: int, display: Display, truth: Truth, rng: np.random.Genera
         choices = list(template.answer_choices(names, in_range))
         return FilledProbe(level, template.fill(ROMAN[collective]), choices, str(best))
     return FilledProbe(level, template.fill(), names, None)
+
+
+def probe_subject(level: int, question: str) -> dict[str, int] | None:
+    """What a question asks about, so a page can keep the probe box off it.
+
+    {"collective": index} or {"target": id}, read back from the stored wording
+    (the live page and the replay both show it); None for a question about
+    all collectives.
+    """
+    template = TEMPLATES[ProbeLevel(level)]
+    value = template.subject(question)
+    if value is None:
+        return None
+    if template.slot == "collective":
+        return {"collective": ROMAN.index(value)} if value in ROMAN else None
+    return {"target": int(value)} if value.isdecimal() else None
 
 
 def stored_counts(counts: Mapping[int, int] | None) -> dict[str, int] | None:

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from hcss.platform.live.clock import running_wall_s, trial_time_s
+from hcss.platform.live.probes import probe_subject
 from hcss.platform.models.vocabularies import TrialStatus
 from hcss.questionnaires.probes import ScheduledProbe
 from hcss.simulation import Display, Simulation
@@ -56,6 +57,7 @@ class CurrentProbe:
             "phase": "question" if self.ready else "ready",
             "question": self.question if self.ready else None,
             "choices": self.choices if self.ready else None,
+            "subject": probe_subject(self.level, self.question) if self.ready else None,
             "timeout_s": self.timeout_sim_time,
         }
 

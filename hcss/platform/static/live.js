@@ -123,6 +123,7 @@
     const ground = map.querySelector(".ground");
     for (const [k, v] of Object.entries({ x: extent[0], y: extent[1], width: w, height: h })) ground.setAttribute(k, v);
     if (state.view) drawMap(state.view);
+    placeProbe();
   }
   // A glyph's transform: at its world position, drawn in pixels.
   function placed(x, y) { return `translate(${x},${-y}) scale(${metresPerPx})`; }
@@ -430,7 +431,7 @@
     if (key === state.probeKey) return;
     state.probeKey = key;
     box.hidden = !probe;
-    if (!probe) return;
+    if (!probe) { state.probePlace = null; return; }
     box.dataset.probe = probe.id;
     box.querySelector(".probe-ready").hidden = probe.phase !== "ready";
     box.querySelector(".probe-question").hidden = probe.phase !== "question";
@@ -448,10 +449,62 @@
       // Ready (a double press) must not answer a question that was never read.
       // Focus goes to the question itself, and keys are ignored for a moment.
       state.questionShownAt = performance.now();
+      placeProbe(probe.subject);
       $("probe-text").focus();
     } else {
+      placeProbe(null);
       $("probe-ready").focus();  // a question is waiting: Enter or Space answers "Ready"
     }
+  }
+  // The probe box overlays the map (SPAM) but must not hide what it asks about,
+  // and had better hide no hub at all: of a grid of places in the map panel it
+  // takes the one whose overlap with the glyphs, weighted, is least. The asked
+  // collective or target weighs most, any hub next, any other target least.
+  // It stays where it is unless another place is strictly better, so it moves
+  // only when the question shows (it is taller then) or the window changes.
+  const PROBE_MARGIN = 12, PROBE_GRID = 7;
+  function placeProbe(subject) {
+    const box = $("probe");
+    if (box.hidden) return;
+    if (subject !== undefined) state.probePlace = { subject };
+    const asked = state.probePlace ? state.probePlace.subject : null;
+    const area = box.parentElement.getBoundingClientRect();
+    const width = box.offsetWidth, height = box.offsetHeight;
+    const obstacles = [];
+    for (const g of document.querySelectorAll("#layer-collectives g.collective")) {
+      const mine = asked && asked.collective === Number(g.dataset.collective);
+      obstacles.push([g.getBoundingClientRect(), mine ? 1e6 : 1e3]);
+    }
+    for (const g of document.querySelectorAll("#layer-targets g.target")) {
+      const mine = asked && asked.target === Number(g.dataset.target);
+      obstacles.push([g.getBoundingClientRect(), mine ? 1e6 : 1]);
+    }
+    const cost = (left, top) => {
+      let sum = 0;
+      for (const [r, weight] of obstacles) {
+        const x = Math.min(area.left + left + width, r.right) - Math.max(area.left + left, r.left);
+        const y = Math.min(area.top + top + height, r.bottom) - Math.max(area.top + top, r.top);
+        if (x > 0 && y > 0) sum += weight * x * y;
+      }
+      return sum;
+    };
+    const spanX = Math.max(0, area.width - width - 2 * PROBE_MARGIN);
+    const spanY = Math.max(0, area.height - height - 2 * PROBE_MARGIN);
+    let best = null;
+    if (box.style.left) {
+      const left = parseFloat(box.style.left), top = parseFloat(box.style.top);
+      if (left + width <= area.width && top + height <= area.height) best = [cost(left, top), left, top];
+    }
+    for (let j = 0; j < PROBE_GRID; j++) {
+      for (let i = 0; i < PROBE_GRID; i++) {
+        const left = PROBE_MARGIN + (spanX * i) / (PROBE_GRID - 1);
+        const top = PROBE_MARGIN + (spanY * j) / (PROBE_GRID - 1);
+        const c = cost(left, top);
+        if (best === null || c < best[0]) best = [c, left, top];
+      }
+    }
+    box.style.left = best[1] + "px";
+    box.style.top = best[2] + "px";
   }
   // Keys in the probe box within this time of its question showing are ignored.
   const PROBE_KEY_GUARD_MS = 500;

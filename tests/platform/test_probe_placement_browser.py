@@ -1,0 +1,145 @@
+"""Where the SA probe box sits on the map, measured in Chromium.
+
+The box overlays the map while the trial runs (SPAM), so it must not hide
+the collective or target its question asks about, and it should hide no hub
+at all. Measured as rendered at 1366x768 and 1024x768, with a question about
+collective I (whose hub is the map's top-left one) and one about a target.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import pytest
+
+from hcss.platform.live.session import CurrentProbe
+from hcss.platform.models import Probe
+from hcss.questionnaires.probes import PROBE_TIMEOUT_S, TEMPLATES, ProbeLevel
+from hcss.simulation import ROMAN
+from tests.platform.inprocess_server import StudyServer, study_server
+from tests.platform.test_participant_browser import _start_live_trial, live_trial, wait_for
+
+pytestmark = pytest.mark.browser
+
+#: Pixels of overlap, in both directions, above which the box hides a glyph.
+OVERLAP_PX = 1.0
+
+#: The probe box's rectangle and every hub's and target's (each with its label).
+RECTS = """() => {
+  const rect = (n) => { const r = n.getBoundingClientRect();
+    return [r.left, r.top, r.right, r.bottom]; };
+  const hubs = {}, targets = {};
+  for (const g of document.querySelectorAll("#layer-collectives g.collective")) hubs[g.dataset.collective] = rect(g);
+  for (const g of document.querySelectorAll("#layer-targets g.target")) targets[g.dataset.target] = rect(g);
+  return { box: rect(document.getElementById("probe")), hubs, targets };
+}"""
+
+
+@pytest.fixture
+def demo_server(tmp_path) -> Iterator[StudyServer]:  # type: ignore[no-untyped-def]
+    with study_server(tmp_path, "demo") as server:
+        yield server
+
+
+def _overlaps(box: list[float], glyph: list[float]) -> bool:
+    x = min(box[2], glyph[2]) - max(box[0], glyph[0])
+    y = min(box[3], glyph[3]) - max(box[1], glyph[1])
+    return x > OVERLAP_PX and y > OVERLAP_PX
+
+
+def _ask(server: StudyServer, level: ProbeLevel, subject: str | int, choices: list[str]) -> None:
+    """Put a probe with this question on screen, as the recorder does when one is due."""
+    live = live_trial(server)
+    question = TEMPLATES[level].fill(subject)
+    with server.app.app_context(), server.database.session_scope() as session, live.lock:
+        live.probe_plan = live.probe_plan[: live.probes_shown]  # no scheduled probe interferes
+        now = float(live.sim.time)
+        row = Probe(
+            trial_id=live.trial_id,
+            probe_index=live.probes_shown + 1,
+            level=int(level),
+            question=question,
+            choices=choices,
+            truth=None,
+            shown_step=live.sim.step_count,
+            shown_sim_time=now,
+            timeout_sim_time=now + PROBE_TIMEOUT_S,
+        )
+        session.add(row)
+        session.flush()
+        live.probes_shown += 1
+        live.current_probe = CurrentProbe(
+            id=row.id,
+            probe_index=row.probe_index,
+            level=int(level),
+            question=question,
+            choices=choices,
+            truth=None,
+            shown_sim_time=now,
+            timeout_sim_time=now + PROBE_TIMEOUT_S,
+        )
+        live.touch()
+
+
+def _covered(page) -> dict[str, list[str]]:  # type: ignore[no-untyped-def]
+    rects = page.evaluate(RECTS)
+    return {
+        "hubs": [h for h, r in rects["hubs"].items() if _overlaps(rects["box"], r)],
+        "targets": [t for t, r in rects["targets"].items() if _overlaps(rects["box"], r)],
+    }
+
+
+def test_the_probe_box_hides_no_hub_and_not_what_it_asks_about(
+    browser, demo_server: StudyServer, capsys
+) -> None:  # type: ignore[no-untyped-def]
+    from playwright.sync_api import expect
+
+    token = _start_live_trial(demo_server)
+    page = browser.new_page(viewport={"width": 1366, "height": 768})
+    page.goto(f"{demo_server.url}/live/{token}")
+    expect(page.locator("#connection")).to_have_text("live")
+    drawn = wait_for(
+        demo_server,
+        lambda lv: [t for t in lv.view()["targets"] if t["drawn"]],
+        90,
+    )
+    assert drawn, "no target reported within 90 s"
+    # The target nearest the map's top-left corner, where a box left in place would sit.
+    corner = min(drawn, key=lambda t: t["position"][0] - t["position"][1])["id"]
+    names = [ROMAN[i] for i in range(4)]
+    figures = {}
+    # The study's smallest window (demo.toml's min_width x min_height), then a laptop's.
+    for width, height in [(1024, 700), (1366, 768)]:
+        page.set_viewport_size({"width": width, "height": height})
+        page.wait_for_timeout(200)  # the map refits to the window
+
+        # A question about collective I: the prompt, then the question, hide no hub.
+        _ask(demo_server, ProbeLevel.COMPREHENSION, "I", [str(corner)])
+        expect(page.locator("#probe-ready")).to_be_visible()
+        prompt = _covered(page)
+        assert prompt["hubs"] == [], (width, prompt)
+        page.locator("#probe-ready").click()
+        question = TEMPLATES[ProbeLevel.COMPREHENSION].fill("I")
+        expect(page.locator("#probe-text")).to_have_text(question)
+        asked_collective = _covered(page)
+        assert asked_collective["hubs"] == [], (width, asked_collective)
+        page.locator("#probe-choices button").first.click()
+        expect(page.locator("#probe")).to_be_hidden()
+
+        # A question about the corner's target: that target is never hidden, nor any hub.
+        _ask(demo_server, ProbeLevel.PERCEPTION, corner, names)
+        page.locator("#probe-ready").click()
+        expect(page.locator("#probe-text")).to_contain_text(f"target {corner}?")
+        asked_target = _covered(page)
+        assert str(corner) not in asked_target["targets"], (width, asked_target)
+        assert asked_target["hubs"] == [], (width, asked_target)
+        box = page.evaluate(RECTS)["box"]
+        figures[f"{width}x{height}"] = (box, asked_target)
+        page.locator("#probe-choices button").first.click()
+        expect(page.locator("#probe")).to_be_hidden()
+    with capsys.disabled():
+        for size, (box, covered) in figures.items():
+            print(
+                f"\nprobe box at {size}: {box[2] - box[0]:.0f}x{box[3] - box[1]:.0f} px"
+                f" at ({box[0]:.0f}, {box[1]:.0f}); covers {covered}"
+            )
