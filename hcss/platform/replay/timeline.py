@@ -14,6 +14,7 @@ from typing import Any
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
+from hcss.platform.live.probes import probe_subject
 from hcss.platform.live.rebuild import shown_messages
 from hcss.platform.models import Command, CommandOutcome, Probe, ProbeEvent, Trial
 from hcss.simulation import ROMAN
@@ -65,7 +66,10 @@ def probe_marks(session: Session, trial_id: int) -> list[dict[str, Any]]:
                 "index": probe.probe_index,
                 "level": probe.level,
                 "question": probe.question,
+                "choices": list(probe.choices),
+                "subject": probe_subject(probe.level, probe.question),
                 "shown": probe.shown_sim_time,
+                "timeout": probe.timeout_sim_time,
                 "ready": kinds["ready"].sim_time if "ready" in kinds else None,
                 "closed": closed.sim_time if closed else probe.timeout_sim_time,
                 "answer": answer.answer if answer else None,

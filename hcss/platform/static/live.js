@@ -427,7 +427,7 @@
     const box = $("probe");
     // The countdown moves with every frame; the rest only when the probe changes.
     if (probe) $("probe-countdown").textContent = clock(probe.timeout_s - clockS);
-    const key = probe ? probe.id + ":" + probe.phase : null;
+    const key = probe ? [probe.id, probe.phase, probe.replay ? probe.replay.note : ""].join(":") : null;
     if (key === state.probeKey) return;
     state.probeKey = key;
     box.hidden = !probe;
@@ -443,6 +443,11 @@
         const button = document.createElement("button");
         button.type = "button"; button.textContent = choice; button.dataset.answer = choice;
         button.addEventListener("click", () => answerProbe(probe.id, choice));
+        if (probe.replay) {  // the replay marks what was chosen and what was true
+          button.disabled = true;
+          button.classList.toggle("chosen", choice === probe.replay.answer);
+          button.classList.toggle("truth", choice === probe.replay.truth);
+        }
         choices.appendChild(button);
       }
       // No choice is focused or chosen for the participant: a key pressed for
@@ -450,11 +455,14 @@
       // Focus goes to the question itself, and keys are ignored for a moment.
       state.questionShownAt = performance.now();
       placeProbe(probe.subject);
-      $("probe-text").focus();
+      if (!replaying) $("probe-text").focus();
     } else {
       placeProbe(null);
-      $("probe-ready").focus();  // a question is waiting: Enter or Space answers "Ready"
+      if (!replaying) $("probe-ready").focus();  // a question is waiting: Enter or Space answers "Ready"
     }
+    $("probe-ready").disabled = replaying;
+    $("probe-replay").hidden = !probe.replay;
+    $("probe-replay").textContent = probe.replay ? probe.replay.note : "";
   }
   // The probe box overlays the map (SPAM) but must not hide what it asks about,
   // and had better hide no hub at all: of a grid of places in the map panel it

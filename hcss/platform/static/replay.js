@@ -77,14 +77,25 @@
       add(p.shown, "probe-mark " + verdict, `probe ${p.index} (level ${p.level}): ${p.question} ${answer}; truth ${p.truth ?? "?"}`);
     }
   }
-  function showProbe(t) {
-    const box = $("replay-probe");
-    const probe = state.timeline.probes.find((p) => p.shown <= t && t < p.closed);
-    box.hidden = !probe;
-    if (!probe) return;
-    const answer = probe.timed_out ? "no answer (timed out)" : `answer ${probe.answer}`;
-    const verdict = probe.correct === null ? "" : probe.correct ? " ✓" : " ✗";
-    box.textContent = `Probe ${probe.index} (level ${probe.level}) on screen: ${probe.question} — ${answer}; truth ${probe.truth ?? "?"}${verdict}`;
+  // The probe on screen at time t, in the live page's own shape, so the Collective
+  // Interface draws it in its own box, where the participant saw it. It stays a
+  // moment after it closed, so an answer given at once can be seen.
+  const PROBE_HOLD_S = 2;
+  function probeAt(t) {
+    const p = state.timeline.probes.find((x) => x.shown <= t && t < x.closed + PROBE_HOLD_S);
+    if (!p) return null;
+    const asked = p.ready !== null && t >= p.ready;
+    const verdict = p.correct === null ? "not scored" : p.correct ? "right" : "wrong";
+    const note = p.timed_out
+      ? (asked ? `Ready at ${clock(p.ready)}; no answer: timed out at ${clock(p.closed)}.`
+        : `Ready was not pressed: timed out at ${clock(p.closed)}.`)
+      : `Answered ${p.answer} at ${clock(p.closed)}: ${verdict} (truth ${p.truth ?? "not yet known"}).`;
+    return {
+      id: p.index, index: p.index, level: p.level, phase: asked ? "question" : "ready",
+      question: asked ? p.question : null, choices: asked ? p.choices : null,
+      subject: asked ? p.subject : null, timeout_s: p.timeout,
+      replay: { answer: p.answer, truth: p.truth, note },
+    };
   }
   function showCommands(t) {
     const list = $("replay-commands");
@@ -115,14 +126,13 @@
     const frame = {
       trial: { clock_s: state.t, status: "running", step, duration_s: state.timeline.trial.duration_s },
       messages: fresh,
-      probe: null,
+      probe: probeAt(state.t),
     };
     if (step !== state.shownStep) { frame.view = state.frames[step]; state.shownStep = step; }
     face.onFrame(frame);
     root.dataset.step = String(step);
     $("replay-clock").textContent = `${clock(state.t)} / ${clock(endTime())}`;
     $("replay-cursor").style.left = percent(state.t) + "%";
-    showProbe(state.t);
     showCommands(state.t);
   }
   function seek(time) {
