@@ -57,7 +57,7 @@ def test_the_source_keeps_every_contract() -> None:
     ("module", "line", "broken"),
     [
         (  # a relative import the AST walk skipped (level > 0)
-            "hcss/platform/live/queries.py",
+            "hcss/platform/live/trial_log.py",
             "from ..console import forms",
             "The platform's packages are layered",
         ),
@@ -95,7 +95,7 @@ def test_a_module_imported_by_name_is_refused(tmp_path: Path) -> None:
     """No import graph sees `import_module("hcss.platform...")`; ruff's banned-api refuses it."""
     root = planted(
         tmp_path,
-        "hcss/platform/live/queries.py",
+        "hcss/platform/live/trial_log.py",
         'import importlib\nforms = importlib.import_module("hcss.platform.console.forms")',
     )
     result = subprocess.run(
@@ -106,4 +106,4 @@ def test_a_module_imported_by_name_is_refused(tmp_path: Path) -> None:
         check=False,
     )
     assert result.returncode != 0
-    assert "TID251" in result.stdout and "queries.py" in result.stdout, result.stdout
+    assert "TID251" in result.stdout and "trial_log.py" in result.stdout, result.stdout

@@ -28,6 +28,7 @@ def replay(
     run: int = 0,
     start: Simulation | None = None,
     on_outcome: Callable[[int, RequestOutcome], None] | None = None,
+    on_step: Callable[[Simulation], None] | None = None,
 ) -> Simulation:
     """Run to `until_step`, applying each command before the step it was logged at.
 
@@ -36,6 +37,8 @@ def replay(
     the first `start.commands_applied` commands are already in it.
     `on_outcome(i, outcome)` hears each replayed command's outcome, `i` its
     position in `commands` (the platform records outcomes a crash lost).
+    `on_step(sim)` sees each step reached, the start's included, once the
+    commands logged at it are applied (the console replay draws its frames so).
     """
     sim = start if start is not None else Simulation(scenario, model, params, run=run)
     skipped = sim.commands_applied
@@ -51,6 +54,8 @@ def replay(
             if on_outcome is not None:
                 on_outcome(skipped + i, outcome)
             i += 1
+        if on_step is not None:
+            on_step(sim)
         if sim.step_count >= until_step or sim.finished:
             return sim
         sim.step()

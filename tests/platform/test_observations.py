@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from sqlalchemy import select
 
-from hcss.platform.live.queries import observation_actions
+from hcss.platform.live.trial_log import observation_actions
 from hcss.platform.models import Command, Observation
 
 

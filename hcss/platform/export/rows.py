@@ -16,7 +16,7 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from hcss.platform.export.problems import ProblemLog
-from hcss.platform.live.queries import observation_actions
+from hcss.platform.live.trial_log import observation_actions
 from hcss.platform.models import (
     Command,
     CommandOutcome,

@@ -25,9 +25,9 @@ from hcss.platform.live.outages import (
     stop_clock_for_outage,
 )
 from hcss.platform.live.probes import counts_of, probe_plan
-from hcss.platform.live.queries import newest_snapshot
 from hcss.platform.live.recorder import record_progress, write_snapshot
 from hcss.platform.live.session import CurrentProbe, RunningTrial
+from hcss.platform.live.trial_log import build_simulation, new_simulation, newest_snapshot
 from hcss.platform.models import (
     Command,
     CommandOutcome,
@@ -47,14 +47,10 @@ if TYPE_CHECKING:
 
 
 def load_trial(session: Session, trial: Trial, now: float) -> RunningTrial:
-    from hcss.simulation import Params, Scenario, Simulation
+    from hcss.simulation import Simulation
 
     snapshot = newest_snapshot(session, trial.id)
-    if snapshot is not None:
-        sim = Simulation.restore(snapshot.blob)
-    else:
-        params = Params.from_dict(trial.params) if trial.params else None
-        sim = Simulation(Scenario.from_dict(trial.scenario), model=trial.model, params=params)
+    sim = new_simulation(trial) if snapshot is None else Simulation.restore(snapshot.blob)
     live = RunningTrial(
         trial_id=trial.id,
         participant_id=trial.participant_id,
@@ -76,7 +72,7 @@ def load_trial(session: Session, trial: Trial, now: float) -> RunningTrial:
     seen = last_seen(session, trial.id)  # before this rebuild writes anything
     restore_pauses(session, live)  # the experimenter's pauses stop the trial clock
     live.paused_s += earlier_outages_s(session, trial.id)  # and so did earlier outages
-    replayed = _replay_commands(session, live)
+    replayed = _replay_commands(session, trial, live)
     outage_s = 0.0
     if snapshot is not None:  # it ran in a server that died: the outage stops its clock
         reached = max(last_reached_step(session, trial.id), sim.step_count)
@@ -102,54 +98,31 @@ def load_trial(session: Session, trial: Trial, now: float) -> RunningTrial:
     return live
 
 
-def _replay_commands(session: Session, live: RunningTrial) -> int:
-    """Apply the commands the snapshot does not contain, through the simulation's `replay`.
+def _replay_commands(session: Session, trial: Trial, live: RunningTrial) -> int:
+    """Apply the commands the snapshot does not contain (the trial log's `build_simulation`).
 
-    The log is the trial's whole command log in order; the snapshot knows how
-    many of them it holds (`commands_applied`). An outcome the server logged no
-    row for (it died in between) is written now. Returns the commands replayed.
+    The snapshot knows how many of the log's commands it holds
+    (`commands_applied`). An outcome the server logged no row for (it died in
+    between) is written now. Returns the commands replayed.
     """
-    from hcss.simulation.replay import replay
-
-    commands = list(
-        session.scalars(
-            select(Command).where(Command.trial_id == live.trial_id).order_by(Command.id)
-        )
-    )
-    sim = live.sim
-    if sim.commands_applied > len(commands):
-        raise RuntimeError(
-            f"trial {live.trial_id}: the snapshot holds {sim.commands_applied} commands, "
-            f"the log only {len(commands)}"
-        )
-    pending = commands[sim.commands_applied :]
     decided = set(
         session.scalars(
-            select(CommandOutcome.command_id).where(
-                CommandOutcome.command_id.in_([c.id for c in pending])
-            )
+            select(CommandOutcome.command_id)
+            .join(Command, Command.id == CommandOutcome.command_id)
+            .where(Command.trial_id == trial.id)
         )
     )
+    replayed = 0
 
-    def record(i: int, outcome: RequestOutcome) -> None:
-        command = commands[i]
+    def record(command: Command, outcome: RequestOutcome) -> None:
+        nonlocal replayed
+        replayed += 1
         if command.id not in decided:
             session.add(CommandOutcome.of(command.id, outcome))
         live.last_command_id = command.id
 
-    last_step = max([c.step_applied for c in pending], default=sim.step_count)
-    try:
-        replay(
-            sim.scenario,
-            sim.model,
-            [(c.step_applied, c.operator_command()) for c in commands],
-            max(last_step, sim.step_count),
-            start=sim,
-            on_outcome=record,
-        )
-    except ValueError as error:  # a command logged before the snapshot's step
-        raise RuntimeError(f"trial {live.trial_id}: {error}") from error
-    return len(pending)
+    build_simulation(session, trial, start=live.sim, on_outcome=record)
+    return replayed
 
 
 def _restore_bookkeeping(session: Session, live: RunningTrial) -> None:

@@ -14,7 +14,7 @@ class Observation(CreatedAt, Base):
     Every click is logged when it happens. A left-click that filled the request
     form and was then committed is named in that `Command.selections`; the
     study's observation actions are the clicks no command names
-    (see `hcss.platform.live.queries.observation_actions`).
+    (see `hcss.platform.live.trial_log.observation_actions`).
     """
 
     __tablename__ = "observation"

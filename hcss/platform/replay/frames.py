@@ -1,8 +1,8 @@
 """A recorded trial rebuilt step by step, for watching it again.
 
-The rebuild is the simulation's own deterministic replay
-(`hcss.simulation.replay.replay`) from the trial's scenario, model, parameters
-and command log; nothing is read from snapshots except, for comparison, the
+The rebuild is the trial log's `build_simulation` (the simulation's own
+deterministic replay from the trial's scenario, model, parameters and command
+log); nothing is read from snapshots except, for comparison, the
 digest the live trial recorded at its end. Each step's participant view is
 kept as JSON, so a page that seeks back gets the same frames without
 recomputing. A few rebuilt trials are kept in memory (least recently used
@@ -19,12 +19,11 @@ from dataclasses import dataclass, field
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
-from hcss.platform.live.queries import newest_snapshot
+from hcss.platform.live.trial_log import build_simulation, newest_snapshot
 from hcss.platform.live.trials import latest_status
-from hcss.platform.models import Command, Trial, TrialStatusChange
+from hcss.platform.models import Trial, TrialStatusChange
 from hcss.platform.models.vocabularies import TrialStatus
-from hcss.simulation import Params, Scenario, Simulation
-from hcss.simulation.replay import TimedCommand, replay
+from hcss.simulation import Simulation
 
 MAX_CHUNK = 300  # steps per frames request
 CACHED_TRIALS = 4
@@ -47,30 +46,31 @@ class ReplayRun:
     """One trial being rebuilt: the simulation so far and every step's view."""
 
     trial_id: int
-    scenario: Scenario
-    model: str
-    params: Params | None
     sim: Simulation | None = None
     frames: list[str] = field(default_factory=list)  # frames[k]: the view at step k
     lock: threading.Lock = field(default_factory=threading.Lock)
 
-    def extend(self, commands: list[TimedCommand], until_step: int) -> None:
+    def extend(
+        self, session: Session, trial: Trial, through_command: int | None, until_step: int
+    ) -> None:
         """Frames up to `until_step`; commands at a step are applied before it is drawn."""
-        while len(self.frames) <= until_step:
-            step = len(self.frames)
-            self.sim = replay(
-                self.scenario, self.model, commands, step, params=self.params, start=self.sim
-            )
-            # A simulation that has finished stays as it is; its view is repeated.
-            self.frames.append(json.dumps(self.sim.view(), separators=(",", ":")))
+        if len(self.frames) > until_step:
+            return
 
+        def draw(sim: Simulation) -> None:
+            if sim.step_count == len(self.frames):  # the start's step is drawn already
+                self.frames.append(json.dumps(sim.view(), separators=(",", ":")))
 
-def command_log(session: Session, trial_id: int, last_id: int | None) -> list[TimedCommand]:
-    """The trial's commands in the order they were applied, with their steps."""
-    query = select(Command).where(Command.trial_id == trial_id).order_by(Command.id)
-    if last_id is not None:
-        query = query.where(Command.id <= last_id)
-    return [(c.step_applied, c.operator_command()) for c in session.scalars(query)]
+        self.sim = build_simulation(
+            session,
+            trial,
+            until_step,
+            start=self.sim,
+            through_command=through_command,
+            on_step=draw,
+        )
+        # A simulation that has finished stays as it is; its view is repeated.
+        self.frames.extend(self.frames[-1:] * (until_step + 1 - len(self.frames)))
 
 
 def recording_of(session: Session, trial: Trial) -> Recording:
@@ -118,12 +118,7 @@ class ReplayCache:
         with self._lock:
             run = self._runs.pop(trial.id, None)
             if run is None:
-                run = ReplayRun(
-                    trial_id=trial.id,
-                    scenario=Scenario.from_dict(trial.scenario),
-                    model=trial.model,
-                    params=Params.from_dict(trial.params) if trial.params else None,
-                )
+                run = ReplayRun(trial_id=trial.id)
             self._runs[trial.id] = run
             while len(self._runs) > self.size:
                 self._runs.popitem(last=False)
@@ -143,7 +138,7 @@ class ReplayCache:
         with run.lock:
             frames: list[str] = []
             if start <= recording.horizon:
-                run.extend(command_log(session, trial.id, recording.last_command_id), last)
+                run.extend(session, trial, recording.last_command_id, last)
                 frames = run.frames[start : last + 1]
                 if last == recording.horizon and run.sim is not None:
                     replayed_digest = run.sim.state_digest()

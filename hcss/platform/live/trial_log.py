@@ -1,0 +1,118 @@
+"""The trial log: what a trial's rows say, and the one way to rebuild its Simulation from them.
+
+The live rebuild after a restart, the console's replay and the tests' oracle
+all build a trial's Simulation the same way: the trial row's scenario, model
+and parameters, then its command log applied at the logged steps through the
+simulation's own deterministic `replay`. `build_simulation` is that way; the
+export and the analysis read the log through the other questions here.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+from sqlalchemy import select
+from sqlalchemy.orm import Session
+
+from hcss.platform.models import Command, Observation, Snapshot, Trial
+
+if TYPE_CHECKING:
+    from hcss.simulation import Simulation
+    from hcss.simulation.requests import RequestOutcome
+
+
+def observation_actions(session: Session, trial_id: int) -> list[Observation]:
+    """The study's observation actions: every click no committed request names.
+
+    A left-click that filled the request form is logged when it happens; if
+    the request is then committed, its `Command.selections` names the click,
+    and it counts as part of the request instead.
+    """
+    used: set[int] = set()
+    for selections in session.scalars(
+        select(Command.selections).where(Command.trial_id == trial_id)
+    ):
+        used.update(int(i) for i in selections or [])
+    clicks = session.scalars(
+        select(Observation).where(Observation.trial_id == trial_id).order_by(Observation.id)
+    )
+    return [click for click in clicks if click.id not in used]
+
+
+def newest_snapshot(session: Session, trial_id: int) -> Snapshot | None:
+    """The trial's latest snapshot (a rebuild and a replay both start from it)."""
+    return session.scalars(
+        select(Snapshot)
+        .where(Snapshot.trial_id == trial_id)
+        .order_by(Snapshot.step.desc(), Snapshot.id.desc())
+        .limit(1)
+    ).first()
+
+
+def command_log(session: Session, trial_id: int, through_id: int | None = None) -> list[Command]:
+    """The trial's commands in the order they were applied (those up to `through_id`, if given)."""
+    query = select(Command).where(Command.trial_id == trial_id).order_by(Command.id)
+    if through_id is not None:
+        query = query.where(Command.id <= through_id)
+    return list(session.scalars(query))
+
+
+def new_simulation(trial: Trial) -> Simulation:
+    """The trial's Simulation at step 0, from its row: scenario, model and stored parameters."""
+    from hcss.simulation import Params, Scenario, Simulation
+
+    params = Params.from_dict(trial.params) if trial.params else None
+    return Simulation(Scenario.from_dict(trial.scenario), model=trial.model, params=params)
+
+
+def build_simulation(
+    session: Session,
+    trial: Trial,
+    until_step: int | None = None,
+    *,
+    start: Simulation | None = None,
+    through_command: int | None = None,
+    on_outcome: Callable[[Command, RequestOutcome], None] | None = None,
+    on_step: Callable[[Simulation], None] | None = None,
+) -> Simulation:
+    """The trial's Simulation at `until_step`, its logged commands applied where they were live.
+
+    `start` goes on from a Simulation already built or restored from a
+    snapshot (it is stepped in place and returned); without it the build
+    starts from the trial row at step 0. `until_step` None: up to the step of
+    the last command logged. `through_command` leaves out later commands (a
+    live trial's replay stops at its newest snapshot). `on_outcome` hears each
+    command applied here, with its row; `on_step` sees every step reached.
+    A log that contradicts `start` (fewer commands than it holds, or one
+    logged before its step) raises RuntimeError: the trial cannot be rebuilt.
+    """
+    from hcss.simulation.replay import replay
+
+    commands = command_log(session, trial.id, through_command)
+    sim = start if start is not None else new_simulation(trial)
+    if sim.commands_applied > len(commands):
+        raise RuntimeError(
+            f"trial {trial.id}: the simulation holds {sim.commands_applied} commands, "
+            f"the log only {len(commands)}"
+        )
+    if until_step is None:
+        pending = commands[sim.commands_applied :]
+        until_step = max([c.step_applied for c in pending], default=sim.step_count)
+
+    def heard(i: int, outcome: RequestOutcome) -> None:
+        if on_outcome is not None:
+            on_outcome(commands[i], outcome)
+
+    try:
+        return replay(
+            sim.scenario,
+            sim.model,
+            [(c.step_applied, c.operator_command()) for c in commands],
+            until_step,
+            start=sim,
+            on_outcome=heard,
+            on_step=on_step,
+        )
+    except ValueError as error:  # a command logged before the start's step
+        raise RuntimeError(f"trial {trial.id}: {error}") from error
