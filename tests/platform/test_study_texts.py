@@ -8,22 +8,37 @@ code, as the texts tell participants to quote it to withdraw.
 
 from __future__ import annotations
 
+import dataclasses
 import re
 
 import pytest
 
 from hcss.platform.study.studyfile import load_study
-from hcss.platform.study.texts import duration, fill, length, order_sentence
+from hcss.platform.study.texts import (
+    about,
+    duration,
+    fill,
+    length,
+    order_sentence,
+    session_minutes,
+    timed_minutes,
+)
 from hcss.questionnaires import consent, pages
 from tests.platform.study_fixtures import demo_app, new_participant, visitor  # noqa: F401
 
-# By hand from the bundled study files (hcss/platform/study/bundled/*.toml):
+# By hand from the bundled study files (hcss/platform/study/bundled/*.toml) and the texts:
+#   answers: demographics 6; per model post-trial 6 + NASA-TLX 6 ratings and 15 comparisons
+#            + SART 3 = 30; ranking 3 dimensions x 3 types = 9 -> 105 answers x 10 s = 17.5 min.
+#   reading: consent 413 words, introduction 363 + 327 + 336 + 295 + 327, debrief 267
+#            = 2328 words at 200 a minute = 11.64 min.
 #   original: training 300 s, trial 1200 s, MRT 2 parts x 180 s + one 60 s break,
-#             4 practice items -> 6 + 1 + 1 (instructions) + 2 (practice) = 10 minutes;
-#             session 10 + 10 + 5 + 3 x (5 + 20 + 5) = 115 minutes -> about two hours.
+#             4 practice items -> 7 + 1 (instructions) + 2 (practice) = 10 minutes;
+#             timed 10 + 3 x (5 + 20) = 85; session 85 + 17.5 + 11.64 = 114.1 -> about two hours.
 #   demo:     training 60 s, trial 120 s, MRT 1 part x 60 s, 1 practice item
-#             -> 1 + 1 + 0.5 = 2.5 -> 3 minutes; session 10 + 3 + 5 + 3 x (1 + 2 + 5) = 42
-#             -> about 40 minutes.
+#             -> 1 + 1 + 0.5 = 2.5 -> 3 minutes; timed 3 + 3 x (1 + 2) = 12;
+#             session 12 + 17.5 + 11.64 = 41.1 -> about 40 minutes.
+#   demo without the per-model questionnaires: 12 + (6 + 9) x 10 s + 11.64 = 26.1
+#             -> about 25 minutes.
 EXPECTED = {
     "original": {
         "consent": [
@@ -57,6 +72,20 @@ EXPECTED = {
     },
 }
 WRONG_PLURALS = re.compile(r"\b1 (minutes|seconds|hours)\b|\b(2|3|4|5|10|20) (minute|hour)\b")
+
+
+def test_the_session_estimate_counts_only_the_stages_the_file_lists() -> None:
+    """A study without the questionnaires is promised a shorter session, not a fixed budget."""
+    demo = load_study("demo")
+    assert timed_minutes(demo) == 12
+    assert session_minutes(demo) == pytest.approx(12 + 17.5 + 2328 / 200)
+    trials_only = dataclasses.replace(demo, per_model=("training", "trial"))
+    assert session_minutes(trials_only) == pytest.approx(12 + 15 * 10 / 60 + 2328 / 200)
+    assert about(session_minutes(trials_only)) == "about 25 minutes"
+    consent_text = fill(consent.consent_text(demo.consent_version).markdown, trials_only)
+    assert "takes about 25 minutes" in consent_text
+    original = load_study("original")
+    assert (timed_minutes(original), about(session_minutes(original))) == (85, "about two hours")
 
 
 def _texts(study_name: str) -> dict[str, str]:

@@ -15,6 +15,8 @@ import re
 from collections.abc import Iterable
 from typing import TYPE_CHECKING
 
+from hcss.questionnaires import consent, demographics, pages, post_trial, ranking, sart, tlx
+
 if TYPE_CHECKING:
     from hcss.platform.study.studyfile import Study
 
@@ -27,10 +29,10 @@ MODEL_NAMES = {
     "M2": "the type with added delays",
     "M3": "the type with no deliberation of its own",
 }
-# Minutes budgeted for the untimed parts, for the consent's overall estimate.
-QUESTIONNAIRES_PER_MODEL_MIN = 5
-OTHER_PAGES_MIN = 10  # consent, demographics, ranking, debrief
-INTRODUCTION_MIN = 5
+# The untimed parts are estimated from what they hold: each answer takes about
+# ANSWER_S seconds and each text is read at READING_WPM words a minute.
+ANSWER_S = 10
+READING_WPM = 200
 
 
 def plural(count: float, noun: str) -> str:
@@ -63,9 +65,52 @@ def mrt_minutes(study: Study) -> int:
     return math.ceil(timed / 60 + 1 + 0.5 * mrt.practice_items)
 
 
+def timed_minutes(study: Study) -> float:
+    """The parts whose length the study file fixes: the spatial test, trainings and trials."""
+    stages = set(study.before) | set(study.after) | set(study.per_model)
+    minutes = mrt_minutes(study) if "mental_rotation" in stages else 0.0
+    per_model = (
+        ("training" in stages) * study.training_s + ("trial" in stages) * study.trial_s
+    ) / 60
+    return minutes + len(study.models) * per_model
+
+
+def answers(stage: str, study: Study) -> int:
+    """How many answers a stage asks for (ratings, choices, TLX comparisons, ranks)."""
+    counts = {
+        "demographics": len(demographics.DEMOGRAPHICS.items),
+        "post_trial": len(post_trial.POST_TRIAL.items),
+        "nasa_tlx": len(tlx.RATINGS.items) + tlx.WEIGHT_TOTAL,
+        "sart": len(sart.SART.items),
+        "ranking": len(ranking.DIMENSIONS) * len(study.models),
+    }
+    return counts.get(stage, 0)
+
+
+def words(stage: str, study: Study) -> int:
+    """How many words a stage gives to read (consent, introduction, debrief)."""
+    if stage == "consent":
+        texts = [consent.consent_text(study.consent_version).markdown]
+    elif stage == "introduction":
+        texts = [page.markdown for page in pages.introduction_pages()]
+    elif stage == "debrief":
+        texts = [pages.debrief_text().markdown]
+    else:
+        return 0
+    return sum(len(text.split()) for text in texts)
+
+
 def session_minutes(study: Study) -> float:
-    per_model = (study.training_s + study.trial_s) / 60 + QUESTIONNAIRES_PER_MODEL_MIN
-    return OTHER_PAGES_MIN + mrt_minutes(study) + INTRODUCTION_MIN + len(study.models) * per_model
+    """The whole session as the study file lays it out: its timed parts exactly, and
+    the untimed ones from the answers they ask for and the words they give to read.
+
+    Only the stages the file lists count, so a study without questionnaires,
+    or a demo with short trials, is never promised a longer session than it has.
+    """
+    stages = [*study.before, *study.after] + [s for _ in study.models for s in study.per_model]
+    answering = sum(answers(stage, study) for stage in stages) * ANSWER_S / 60
+    reading = sum(words(stage, study) for stage in dict.fromkeys(stages)) / READING_WPM
+    return timed_minutes(study) + answering + reading
 
 
 def about(minutes: float) -> str:
