@@ -157,6 +157,7 @@ def serve(
     if study is not None:
         config["STUDY"] = _study_file(study).name
     app = create_app(config)
+    _warn_if_the_database_takes_no_writes(app)
     from hcss.platform.live.warmup import warm_simulation
     from hcss.questionnaires.mrt import item_bank, practice_items
 
@@ -251,6 +252,31 @@ def deploy_nginx(
     else:
         Path(output).write_text(text)
         click.echo(f"nginx configuration for {len(members)} process(es) in {output}", err=True)
+
+
+def _warn_if_the_database_takes_no_writes(app: Flask) -> None:
+    """Say at start, loudly, that the database refuses writes (read-only, full, unreachable).
+
+    The server starts all the same: its pool uses the database as soon as it
+    takes writes again, and meanwhile participants get a "please wait" page
+    (503) and live trials stand still, losing nothing. Exiting instead would
+    leave the lab without a server over a fault that may last seconds (a
+    remount, a failover), and without the pages that tell participants to wait.
+    """
+    from sqlalchemy import make_url
+
+    database = app.extensions["hcss_db"]
+    refusal = database.write_refusal()
+    if refusal is None:
+        return
+    where = make_url(database.url).render_as_string(hide_password=True)
+    click.echo(
+        f"hcss: WARNING: the database takes no writes ({refusal}): {where}\n"
+        "hcss: WARNING: participants get a 'please wait' page and live trials stand still "
+        "until it does; make it writable (file permissions, free space, a PostgreSQL "
+        "primary rather than a standby) and the server uses it without a restart.",
+        err=True,
+    )
 
 
 def _warn_about_study_files(app: Flask) -> None:

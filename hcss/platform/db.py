@@ -124,6 +124,33 @@ class Database:
         finally:
             self.engine.dispose()
 
+    def write_refusal(self) -> str | None:
+        """Why the database refuses writes now (the driver's words), or None if it takes them.
+
+        `hcss serve` asks at start, so a read-only, full or unreachable database
+        is said at once rather than met by the first participant. The probe is
+        an UPDATE that matches no row, rolled back: SQLite still takes its write
+        lock and PostgreSQL refuses it in a read-only transaction, and nothing
+        changes. A database without the platform's tables is not a refusal here:
+        the runner says `hcss db upgrade` for that.
+        """
+        from sqlalchemy import text
+        from sqlalchemy.exc import InterfaceError, OperationalError, ProgrammingError
+
+        try:
+            with self.engine.connect() as connection, connection.begin() as transaction:
+                connection.execute(text("UPDATE participant SET id = id WHERE 1 = 0"))
+                transaction.rollback()
+        except (OperationalError, InterfaceError, ProgrammingError) as error:
+            words = str(error.orig).strip().splitlines()[0] if error.orig else str(error)
+            lowered = words.lower()
+            if "no such table" in lowered or (
+                "relation" in lowered and "does not exist" in lowered
+            ):
+                return None
+            return words
+        return None
+
     def create_all(self) -> None:
         """Create every table and the append-only triggers; for tests. Deployments migrate."""
         from hcss.platform.models.append_only import install_triggers
