@@ -76,6 +76,14 @@ def _join_limit() -> tuple[int, float] | None:
     return DEFAULT if configured is None else parse_limit(configured)
 
 
+def _links_limit() -> tuple[int, float] | None:
+    """Participant links one console account may create: (count, seconds), or None."""
+    from hcss.platform.ratelimit import parse_limit
+
+    configured = os.environ.get("HCSS_LINKS_PER_EXPERIMENTER")
+    return (500, 3600.0) if configured is None else parse_limit(configured)
+
+
 def defaults() -> dict[str, object]:
     """The settings `create_app` starts from."""
     return {
@@ -125,6 +133,9 @@ def defaults() -> dict[str, object]:
         # Starts of the public study link one address may send: (count, seconds), or
         # None; HCSS_JOIN_PER_CLIENT="30/600" (hcss.platform.ratelimit).
         "JOIN_PER_CLIENT": _join_limit(),
+        # Participant links one console account may create: (count, seconds), or None;
+        # HCSS_LINKS_PER_EXPERIMENTER="500/3600" (hcss.platform.console.link_limit).
+        "LINKS_PER_EXPERIMENTER": _links_limit(),
         # Bytes of request body (Flask answers 413 past it; `hcss serve` tells waitress too).
         # The largest legitimate body, a questionnaire page, is a few kB.
         "MAX_CONTENT_LENGTH": 256 * 1024,

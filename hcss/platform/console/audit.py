@@ -22,7 +22,7 @@ class AuditEntry:
     action: str
     experimenter: str
     participant_code: str
-    #: Rows the action counted (withdrawn, exported); a lockout's failures.
+    #: Rows the action counted (withdrawn, exported); a lockout's failures; links refused.
     rows: int
 
 
@@ -35,6 +35,8 @@ def audit_entry(record: AuditRecord) -> AuditEntry:
     counts = record.row_counts if isinstance(record.row_counts, dict) else {}
     if record.action == "login_lockout":
         rows = _count(counts.get("failures"))
+    elif record.action == "link_limit":  # the links asked for and refused
+        rows = _count(counts.get("requested"))
     else:
         rows = sum(_count(value) for value in counts.values())
     return AuditEntry(

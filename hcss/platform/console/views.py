@@ -34,6 +34,7 @@ from sqlalchemy.orm import Session
 from hcss.platform.console import eventlog, forms
 from hcss.platform.console.accounts import authenticate
 from hcss.platform.console.audit import audit_entries
+from hcss.platform.console.link_limit import LinkLimitReached, require_allowance
 from hcss.platform.console.lockout import LoginThrottle, allowed, audit_lockout
 from hcss.platform.console.login_sessions import end_sessions, experimenter_for_cookie
 from hcss.platform.console.participants import (
@@ -218,6 +219,18 @@ def create():
         for field, errors in form.errors.items():
             flash(f"{field}: {'; '.join(errors)}")
         return redirect(url_for("console.index")), 303
+    try:
+        require_allowance(
+            get_session(),
+            current_user,
+            form.count.data,
+            _runner().clock(),
+            current_app.config.get("LINKS_PER_EXPERIMENTER"),
+        )
+    except LinkLimitReached as reached:
+        get_session().commit()  # the audit row
+        flash(reached.message)
+        return index(), 429, {"Retry-After": str(reached.retry_after_s)}
     try:
         made = create_participants(
             get_session(),

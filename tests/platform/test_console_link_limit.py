@@ -1,0 +1,70 @@
+"""Participant links one experimenter account may create are rate limited.
+
+An experimenter account, or a session stolen from one, must not make
+participants without bound (each is a link, a row in every export and a row
+of the live table). Past `LINKS_PER_EXPERIMENTER` in the window the console
+answers 429 with a message, creates nothing, and says so in the audit log.
+"""
+
+from __future__ import annotations
+
+from sqlalchemy import func, select
+
+from hcss.platform.console.accounts import create_experimenter
+from hcss.platform.models import AuditRecord, Participant
+from tests.platform import console_support
+from tests.platform.console_support import Console, sign_in
+
+console, experimenter = console_support.console, console_support.experimenter
+
+
+def _participants(app) -> int:  # type: ignore[no-untyped-def]
+    with app.extensions["hcss_db"].session_scope() as session:
+        return int(session.scalar(select(func.count()).select_from(Participant)) or 0)
+
+
+def test_links_past_the_limit_answer_429_create_nothing_and_are_audited(app, console) -> None:
+    app.config["LINKS_PER_EXPERIMENTER"] = (60, 3600.0)
+    assert console.post("/console/participants", {"count": "50"}).status_code == 303
+    refused = console.post("/console/participants", {"count": "11"})
+    assert refused.status_code == 429
+    text = refused.get_data(as_text=True)
+    assert "60 participant links per hour" in text and "10 more" in text
+    assert int(refused.headers["Retry-After"]) > 0
+    assert _participants(app) == 50  # nothing of the refused batch
+    assert console.post("/console/participants", {"count": "10"}).status_code == 303
+    assert console.post("/console/participants", {"count": "1"}).status_code == 429
+    assert _participants(app) == 60
+
+    with app.extensions["hcss_db"].session_scope() as session:
+        audits = session.scalars(
+            select(AuditRecord).where(AuditRecord.action == "link_limit")
+        ).all()
+        assert [(a.experimenter, a.row_counts["requested"]) for a in audits] == [
+            ("alice", 11),
+            ("alice", 1),
+        ]
+    assert "link_limit" in console.get("/console/").get_data(as_text=True)
+
+    # Another account has its own allowance; the window passes for the first.
+    with app.extensions["hcss_db"].session_scope() as session:
+        create_experimenter(session, "bob", "another long password")
+    bob = Console(app=app, client=app.test_client())
+    assert sign_in(bob.client, "bob", "another long password").status_code == 302
+    bob.get("/console/")
+    assert bob.post("/console/participants", {"count": "5"}).status_code == 303
+    app.extensions["hcss_runner"].clock.now += 3601.0
+    assert console.post("/console/participants", {"count": "50"}).status_code == 303
+    assert _participants(app) == 115
+
+
+def test_a_batch_over_the_whole_limit_is_refused_and_no_limit_means_none(app, console) -> None:
+    app.config["LINKS_PER_EXPERIMENTER"] = (3, 60.0)
+    refused = console.post("/console/participants", {"count": "4"})
+    assert refused.status_code == 429 and "3 participant links per minute" in (
+        refused.get_data(as_text=True)
+    )
+    app.config["LINKS_PER_EXPERIMENTER"] = None
+    for _ in range(3):
+        assert console.post("/console/participants", {"count": "50"}).status_code == 303
+    assert _participants(app) == 150
