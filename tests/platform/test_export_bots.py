@@ -26,9 +26,15 @@ def test_a_bot_run_exports_every_table_with_rows(database_url, tmp_path) -> None
     assert result.exit_code == 0, result.output
 
     # Empty in a healthy run: no restart, nothing the export could not read, no
-    # recruitment ids and no screen-outs (bots are enrolled directly, not through a
-    # study link's device check).
-    empty_when_healthy = {"interruptions", "export_problems", "recruitment", "screen_outs"}
+    # recruitment ids, return visits or screen-outs (bots are enrolled directly, not
+    # through a study link and its device check).
+    empty_when_healthy = {
+        "interruptions",
+        "export_problems",
+        "recruitment",
+        "return_visits",
+        "screen_outs",
+    }
     for table, names in dictionary_columns().items():
         header, rows = read_csv(outdir / f"{table}.csv")
         assert header == names and bool(rows) != (table in empty_when_healthy), table

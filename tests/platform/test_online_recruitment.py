@@ -18,6 +18,7 @@ from hcss.platform.models import (
     ConsoleAction,
     Participant,
     Recruitment,
+    ReturnVisit,
     ScreenOut,
     StudyEnrolment,
 )
@@ -185,6 +186,38 @@ def test_the_export_holds_the_ids_and_a_withdrawal_deletes_them(app) -> None:  #
         }
     ]
     assert "recruitment" in {t.name for t in participant_tables()}
+
+
+def test_a_return_visit_keeps_its_new_session_id_beside_the_first(app) -> None:  # type: ignore[no-untyped-def]
+    """Prolific gives a returning person a new SESSION_ID; `recruitment` is append-only."""
+    first = _join(app.test_client(), **PROLIFIC)
+    again = app.test_client().get(f"/join/demo?{urlencode(PROLIFIC | {'SESSION_ID': 'X10'})}")
+    assert again.status_code == 302 and again.location == first.location
+    # Start posted from a first page left open in another tab is a return visit too.
+    third = _join(app.test_client(), **PROLIFIC | {"SESSION_ID": "X11", "STUDY_ID": "S124"})
+    assert third.location == first.location
+    with app.extensions["hcss_db"].session_scope() as session:
+        (recruitment,) = session.scalars(select(Recruitment)).all()
+        assert recruitment.recruiter_session_id == "X9"  # the first visit's, unchanged
+        code = session.scalars(select(Participant.code)).one()
+        exported = collect(session, "demo")
+    assert [
+        {k: v for k, v in row.items() if k != "visited_at"} for row in exported["return_visits"]
+    ] == [
+        {
+            "participant": code,
+            "study": "demo",
+            "source": "prolific",
+            "recruitment_id": PROLIFIC["PROLIFIC_PID"],
+            "recruiter_study_id": study_id,
+            "recruiter_session_id": session_id,
+        }
+        for study_id, session_id in [("S123", "X10"), ("S124", "X11")]
+    ]
+    assert all(row["visited_at"] for row in exported["return_visits"])
+    # Withdrawn with the participant (its triggers: tests/platform/test_append_only.py).
+    assert "return_visit" in {t.name for t in participant_tables()}
+    assert _count(app, ReturnVisit) == 2
 
 
 def _visit_at_once(app, queries: list[dict[str, str]]) -> list[str]:  # type: ignore[no-untyped-def]

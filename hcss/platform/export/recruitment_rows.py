@@ -1,4 +1,5 @@
-"""The `recruitment` and `screen_outs` tables: recruitment-site ids of who came and who was turned away.
+"""The `recruitment`, `return_visits` and `screen_outs` tables: recruitment-site ids of who
+came, who came back and who was turned away.
 
 Kept out of the wide participants table on purpose: these ids link a
 participant code to an account on Prolific, SONA or MTurk, which is needed
@@ -13,7 +14,7 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from hcss.platform.export.rows import iso
-from hcss.platform.models import Participant, Recruitment, ScreenOut
+from hcss.platform.models import Participant, Recruitment, ReturnVisit, ScreenOut
 
 #: A cell starting with one of these is run as a formula by Excel, LibreOffice and Sheets.
 FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
@@ -54,6 +55,28 @@ def recruitment_rows(session: Session) -> list[dict[str, Any]]:
             "enrolled_at": iso(recruitment.created_at),
         }
         for recruitment, code in rows
+    ]
+
+
+def return_visit_rows(session: Session) -> list[dict[str, Any]]:
+    """Later visits through the study link, each with the ids it carried (a new SESSION_ID)."""
+    rows = session.execute(
+        select(ReturnVisit, Recruitment, Participant.code)
+        .join(Participant, Participant.id == ReturnVisit.participant_id)
+        .join(Recruitment, Recruitment.participant_id == ReturnVisit.participant_id)
+        .order_by(ReturnVisit.id)
+    )
+    return [
+        {
+            "participant": code,
+            "study": recruitment.study,
+            "source": recruitment.source,
+            "recruitment_id": exported_id(recruitment.recruitment_id),
+            "recruiter_study_id": exported_id(visit.recruiter_study_id),
+            "recruiter_session_id": exported_id(visit.recruiter_session_id),
+            "visited_at": iso(visit.created_at),
+        }
+        for visit, recruitment, code in rows
     ]
 
 

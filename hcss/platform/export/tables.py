@@ -68,6 +68,15 @@ TABLES: dict[str, tuple[tuple[str, str], ...]] = {
         ("recruiter_session_id", "str"),
         ("enrolled_at", "str"),
     ),
+    "return_visits": (
+        ("participant", "str"),
+        ("study", "str"),
+        ("source", "str"),
+        ("recruitment_id", "str"),
+        ("recruiter_study_id", "str"),
+        ("recruiter_session_id", "str"),
+        ("visited_at", "str"),
+    ),
     "screen_outs": (
         ("study", "str"),
         ("source", "str"),

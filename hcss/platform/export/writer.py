@@ -19,7 +19,11 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from hcss.platform.export.problems import ProblemLog
-from hcss.platform.export.recruitment_rows import recruitment_rows, screen_out_rows
+from hcss.platform.export.recruitment_rows import (
+    recruitment_rows,
+    return_visit_rows,
+    screen_out_rows,
+)
 from hcss.platform.export.rows import TRIAL_ROW_BUILDERS, interruption_rows
 from hcss.platform.export.selection import participants_of
 from hcss.platform.export.study_rows import participant_rows, study_flow_rows
@@ -67,6 +71,8 @@ def collect(session: Session, study: str | None = None) -> dict[str, list[dict[s
     in_study = (lambda row: True) if study is None else (lambda row: row["study"] == study)
     with problems.guard("recruitment", "recruitment table"):
         tables["recruitment"] = [r for r in recruitment_rows(session) if in_study(r)]
+    with problems.guard("return_visits", "return_visits table"):
+        tables["return_visits"] = [r for r in return_visit_rows(session) if in_study(r)]
     with problems.guard("screen_outs", "screen_outs table"):
         tables["screen_outs"] = [r for r in screen_out_rows(session) if in_study(r)]
     trials = select(Trial).order_by(Trial.id)

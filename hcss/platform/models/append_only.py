@@ -47,6 +47,7 @@ APPEND_ONLY_TABLES = (
     "recruitment",  # 0004_o14_online: ids written once, at the first visit
     "command_key",  # 0004_p8_idempotency: a command's first answer
     "screen_out",  # 0007_screen_out: a visitor turned away before consent
+    "return_visit",  # 0010_return_visit: a later visit through the study link
 )
 
 

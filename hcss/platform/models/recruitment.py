@@ -31,6 +31,22 @@ class Recruitment(CreatedAt, Base):
     recruiter_session_id: Mapped[str | None] = mapped_column(String(128))
 
 
+class ReturnVisit(CreatedAt, Base):
+    """A later visit of an enrolled participant through the study link, with what it carried.
+
+    `recruitment` keeps the first visit's ids and is append-only; a recruitment
+    site gives a return visit ids of its own (Prolific a new SESSION_ID), which
+    are needed to match its submissions, so each return is a row here.
+    """
+
+    __tablename__ = "return_visit"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    participant_id: Mapped[int] = mapped_column(ForeignKey("participant.id"), index=True)
+    recruiter_study_id: Mapped[str | None] = mapped_column(String(128))
+    recruiter_session_id: Mapped[str | None] = mapped_column(String(128))
+
+
 class ScreenOut(CreatedAt, Base):
     """A visitor the study link turned away before consent, and why; no participant is made.
 

@@ -22,7 +22,7 @@ from sqlalchemy.orm import Session
 from werkzeug.wrappers import Response
 
 from hcss.platform.db import get_session, session_now
-from hcss.platform.models import Participant, Recruitment
+from hcss.platform.models import Participant, Recruitment, ReturnVisit
 from hcss.platform.study.enrolment import assign_cell, cell_counts, hold_assignment_lock
 from hcss.platform.study.limits import Timeouts
 from hcss.platform.study.online import (
@@ -134,6 +134,18 @@ def returning_participant(session: Session, study: Study, recruit: Recruit) -> P
     ).first()
 
 
+def record_return(session: Session, participant: Participant, recruit: Recruit) -> None:
+    """Keep a return visit's own ids (a new SESSION_ID) beside the first visit's."""
+    session.add(
+        ReturnVisit(
+            participant_id=participant.id,
+            recruiter_study_id=recruit.recruiter_study_id,
+            recruiter_session_id=recruit.recruiter_session_id,
+        )
+    )
+    session.commit()
+
+
 def enrol_or_resume(session: Session, study: Study, recruit: Recruit) -> Participant:
     """The participant this visit belongs to, enrolled and committed.
 
@@ -144,6 +156,7 @@ def enrol_or_resume(session: Session, study: Study, recruit: Recruit) -> Partici
     """
     found = returning_participant(session, study, recruit)
     if found is not None:
+        record_return(session, found, recruit)
         return found
     _check_anonymous(study, recruit)
     # Counted under the assignment lock, so two last arrivals cannot both take the last place.
@@ -192,14 +205,16 @@ def completion_for(session: Session, participant: Participant, study: Study) -> 
 def join(study_name: str) -> Response | tuple[str, int] | str:
     """A returning id resumes; anyone else gets the first page, which checks the device.
 
-    Nothing is written here: a link preview, a crawler or a bare visit enrols
-    no one and takes no cell. Enrolment waits for the first page's Start.
+    Nothing is written for a new visitor: a link preview, a crawler or a bare
+    visit enrols no one and takes no cell; enrolment waits for the first page's
+    Start. A returning id's visit is recorded, with the ids it carried.
     """
     try:
         study = linked_study(study_name)
         recruit = recruit_from(request.args)
         found = returning_participant(get_session(), study, recruit)
         if found is not None:
+            record_return(get_session(), found, recruit)
             return redirect(url_for("study.enter", token=found.token))
         _check_anonymous(study, recruit)
         _check_room(get_session(), study)
