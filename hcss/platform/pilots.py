@@ -9,36 +9,33 @@ history of the flag is kept and the newest mark wins.
 
 from __future__ import annotations
 
-from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from hcss.platform.models import ConsoleAction, Participant
+from hcss.platform.models.latest import latest_per_key, latest_row
 
 PILOT_ACTIONS = ("mark_pilot", "unmark_pilot")
 
 
 def is_pilot(session: Session, participant: Participant) -> bool:
-    latest = session.scalars(
-        select(ConsoleAction.action)
-        .where(
-            ConsoleAction.participant_id == participant.id,
-            ConsoleAction.action.in_(PILOT_ACTIONS),
-        )
-        .order_by(ConsoleAction.id.desc())
-        .limit(1)
-    ).first()
-    return participant.is_pilot if latest is None else latest == "mark_pilot"
+    latest = latest_row(
+        session,
+        ConsoleAction,
+        ConsoleAction.participant_id,
+        participant.id,
+        ConsoleAction.action.in_(PILOT_ACTIONS),
+    )
+    return participant.is_pilot if latest is None else latest.action == "mark_pilot"
 
 
 def _latest_marks(session: Session) -> dict[int, str]:
-    latest: dict[int, str] = {}
-    for participant_id, action in session.execute(
-        select(ConsoleAction.participant_id, ConsoleAction.action)
-        .where(ConsoleAction.action.in_(PILOT_ACTIONS))
-        .order_by(ConsoleAction.id)
-    ):
-        latest[participant_id] = action  # the newest mark wins
-    return latest
+    rows = latest_per_key(
+        session,
+        ConsoleAction,
+        ConsoleAction.participant_id,
+        ConsoleAction.action.in_(PILOT_ACTIONS),
+    )
+    return {pid: row.action for pid, row in rows.items()}
 
 
 def pilot_marks(session: Session) -> tuple[set[int], set[int]]:

@@ -8,10 +8,10 @@ does not count an aborted participant in a cell. All three ask this module.
 
 from __future__ import annotations
 
-from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from hcss.platform.models import ConsoleAction
+from hcss.platform.models.latest import latest_per_key, latest_row
 
 #: The console actions that change a session's state.
 #: `time_out` is written by the server itself (hcss.platform.study.timeouts), never the console.
@@ -27,37 +27,27 @@ _STATE_OF_ACTION = {
 ENDED_STATES = ("aborted", "timed_out")
 
 
-def _latest_state_actions():
-    """Subquery: the newest pause/resume/abort row id per participant."""
-    return (
-        select(func.max(ConsoleAction.id))
-        .where(ConsoleAction.action.in_(STATE_ACTIONS))
-        .group_by(ConsoleAction.participant_id)
-    )
-
-
 def session_state(session: Session, participant_id: int) -> str:
     """``active``, ``paused`` or ``aborted``, from the latest pause/resume/abort row."""
-    latest = session.scalars(
-        select(ConsoleAction.action)
-        .where(
-            ConsoleAction.participant_id == participant_id,
-            ConsoleAction.action.in_(STATE_ACTIONS),
-        )
-        .order_by(ConsoleAction.id.desc())
-        .limit(1)
-    ).first()
-    return _STATE_OF_ACTION.get(latest or "", "active")
+    latest = latest_row(
+        session,
+        ConsoleAction,
+        ConsoleAction.participant_id,
+        participant_id,
+        ConsoleAction.action.in_(STATE_ACTIONS),
+    )
+    return "active" if latest is None else _STATE_OF_ACTION[latest.action]
 
 
 def session_states(session: Session) -> dict[int, str]:
     """`session_state` of every participant with a pause/resume/abort row, in one query."""
-    rows = session.execute(
-        select(ConsoleAction.participant_id, ConsoleAction.action).where(
-            ConsoleAction.id.in_(_latest_state_actions())
-        )
+    rows = latest_per_key(
+        session,
+        ConsoleAction,
+        ConsoleAction.participant_id,
+        ConsoleAction.action.in_(STATE_ACTIONS),
     )
-    return {pid: _STATE_OF_ACTION[action] for pid, action in rows}
+    return {pid: _STATE_OF_ACTION[row.action] for pid, row in rows.items()}
 
 
 def aborted_participants(session: Session) -> set[int]:

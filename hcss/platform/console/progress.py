@@ -21,6 +21,7 @@ from hcss.platform.console.presence import CONNECTED_WITHIN_S, presence_by_parti
 from hcss.platform.console.sessions import available_actions
 from hcss.platform.db import session_now
 from hcss.platform.live.clock import paused_intervals, trial_time_s
+from hcss.platform.live.trials import latest_change
 from hcss.platform.models import (
     Participant,
     ParticipantPresence,
@@ -28,8 +29,8 @@ from hcss.platform.models import (
     StageEvent,
     StudyEnrolment,
     Trial,
-    TrialStatusChange,
 )
+from hcss.platform.models.latest import latest_per_key
 from hcss.platform.models.vocabularies import TrialStatus
 from hcss.platform.pilots import pilot_flags, pilot_marks
 from hcss.platform.session_state import session_states
@@ -73,36 +74,6 @@ def trial_clock_s(session: Session, trial: Trial, now: float) -> float:
     )
 
 
-def _latest_trials(session: Session, ids: list[int]) -> dict[int, Trial]:
-    newest = (
-        select(func.max(Trial.id))
-        .where(Trial.participant_id.in_(ids))
-        .group_by(Trial.participant_id)
-    )
-    return {t.participant_id: t for t in session.scalars(select(Trial).where(Trial.id.in_(newest)))}
-
-
-def _trial_status(session: Session, trial_id: int) -> TrialStatusChange | None:
-    return session.scalars(
-        select(TrialStatusChange)
-        .where(TrialStatusChange.trial_id == trial_id)
-        .order_by(TrialStatusChange.id.desc())
-        .limit(1)
-    ).first()
-
-
-def _latest_stage_events(session: Session, ids: list[int]) -> dict[int, StageEvent]:
-    newest = (
-        select(func.max(StageEvent.id))
-        .where(StageEvent.participant_id.in_(ids))
-        .group_by(StageEvent.participant_id)
-    )
-    return {
-        e.participant_id: e
-        for e in session.scalars(select(StageEvent).where(StageEvent.id.in_(newest)))
-    }
-
-
 def _stage_label(position: Position) -> str:
     """``mental_rotation part_1``, ``post_trial M2``; the status once the study is over."""
     if position.slot is None:
@@ -122,19 +93,6 @@ class _Place:
     stage_count: int | None
     entered: StageEvent | None  # when the current step was entered, if it was
     held: str = ""  # why the participant is held (their study file is missing or changed)
-
-
-def _latest_enrolments(session: Session, ids: list[int]) -> dict[int, StudyEnrolment]:
-    """Each participant's enrolment (the newest row, as `current_enrolment`), in one query."""
-    newest = (
-        select(func.max(StudyEnrolment.id))
-        .where(StudyEnrolment.participant_id.in_(ids))
-        .group_by(StudyEnrolment.participant_id)
-    )
-    return {
-        e.participant_id: e
-        for e in session.scalars(select(StudyEnrolment).where(StudyEnrolment.id.in_(newest)))
-    }
 
 
 def _place(session: Session, participant: Participant, enrolment: StudyEnrolment | None) -> _Place:
@@ -230,11 +188,18 @@ def progress_rows(
     if participants is None:
         participants = list(session.scalars(select(Participant).order_by(Participant.id.desc())))
     ids = [participant.id for participant in participants]
-    trials = _latest_trials(session, ids)
-    last_events = _latest_stage_events(session, ids)
+    trials = latest_per_key(session, Trial, Trial.participant_id, Trial.participant_id.in_(ids))
+    last_events = latest_per_key(
+        session, StageEvent, StageEvent.participant_id, StageEvent.participant_id.in_(ids)
+    )
     presence = presence_by_participant(session, ids)
     states = session_states(session)
-    enrolments = _latest_enrolments(session, ids)
+    enrolments = latest_per_key(
+        session,
+        StudyEnrolment,
+        StudyEnrolment.participant_id,
+        StudyEnrolment.participant_id.in_(ids),
+    )
     recruited = {
         r.participant_id: f"{r.source} {r.recruitment_id}" if r.recruitment_id else r.source
         for r in session.scalars(select(Recruitment).where(Recruitment.participant_id.in_(ids)))
@@ -244,7 +209,7 @@ def progress_rows(
     for participant in participants:
         state = states.get(participant.id, "active")
         trial = trials.get(participant.id)
-        status = None if trial is None else _trial_status(session, trial.id)
+        status = None if trial is None else latest_change(session, trial.id)
         place = _place(session, participant, enrolments.get(participant.id))
         position = place.position
         last = last_events.get(participant.id)

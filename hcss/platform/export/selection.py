@@ -8,10 +8,11 @@ yet and belongs to the study the experimenter chose when creating them.
 
 from __future__ import annotations
 
-from sqlalchemy import func, select
+from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from hcss.platform.models import Participant, StudyEnrolment
+from hcss.platform.models.latest import latest_per_key
 
 
 class UnknownStudy(ValueError):
@@ -20,17 +21,8 @@ class UnknownStudy(ValueError):
 
 def participant_studies(session: Session) -> dict[int, str | None]:
     """Each participant's study: their newest enrolment's, else the one chosen at creation."""
-    newest = (
-        select(StudyEnrolment.participant_id, func.max(StudyEnrolment.id).label("last_id"))
-        .group_by(StudyEnrolment.participant_id)
-        .subquery()
-    )
-    rows = session.execute(
-        select(StudyEnrolment.participant_id, StudyEnrolment.study).join(
-            newest, StudyEnrolment.id == newest.c.last_id
-        )
-    )
-    enrolled = {pid: study for pid, study in rows}
+    newest = latest_per_key(session, StudyEnrolment, StudyEnrolment.participant_id)
+    enrolled = {pid: enrolment.study for pid, enrolment in newest.items()}
     chosen = session.execute(select(Participant.id, Participant.study))
     return {pid: enrolled.get(pid, study) for pid, study in chosen}
 

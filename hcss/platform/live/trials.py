@@ -11,12 +11,13 @@ from collections.abc import Mapping
 from datetime import datetime, timedelta
 from typing import Any
 
-from sqlalchemy import func, select
+from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import session_now
 from hcss.platform.live.probes import stored_counts
 from hcss.platform.models import Participant, Trial, TrialStatusChange
+from hcss.platform.models.latest import latest_row, newest_ids
 from hcss.platform.models.vocabularies import TrialKind, TrialStatus
 from hcss.simulation.params import MODELS
 from hcss.simulation.presets import DEFAULT_PRESET, preset_params
@@ -108,40 +109,35 @@ def start_bot_trial(session: Session, **options: Any) -> tuple[Participant, Tria
     return participant, start_trial(session, participant, **options)
 
 
-def _latest_change(session: Session, trial_id: int) -> TrialStatusChange | None:
-    return session.scalars(
-        select(TrialStatusChange)
-        .where(TrialStatusChange.trial_id == trial_id)
-        .order_by(TrialStatusChange.id.desc())
-        .limit(1)
-    ).first()
+def latest_change(session: Session, trial_id: int) -> TrialStatusChange | None:
+    """The trial's current status row (its status, reason and step); None before it starts."""
+    return latest_row(session, TrialStatusChange, TrialStatusChange.trial_id, trial_id)
 
 
 def latest_status(session: Session, trial_id: int) -> str | None:
-    row = _latest_change(session, trial_id)
+    row = latest_change(session, trial_id)
     return None if row is None else row.status
 
 
 def end_reason(session: Session, trial_id: int) -> str | None:
     """Why an ended trial ended (its last status change's reason); None while it runs."""
-    row = _latest_change(session, trial_id)
+    row = latest_change(session, trial_id)
     return row.reason if row is not None and row.status == TrialStatus.ENDED else None
 
 
 def running_trial_ids(session: Session) -> list[int]:
     """Trials whose most recent status change is ``running``."""
-    latest = (
-        select(TrialStatusChange.trial_id, func.max(TrialStatusChange.id).label("last_id"))
-        .group_by(TrialStatusChange.trial_id)
-        .subquery()
+    newest = newest_ids(TrialStatusChange, TrialStatusChange.trial_id)
+    return list(
+        session.scalars(
+            select(TrialStatusChange.trial_id)
+            .where(
+                TrialStatusChange.id.in_(newest),
+                TrialStatusChange.status == TrialStatus.RUNNING,
+            )
+            .order_by(TrialStatusChange.trial_id)
+        )
     )
-    rows = session.execute(
-        select(TrialStatusChange.trial_id)
-        .join(latest, TrialStatusChange.id == latest.c.last_id)
-        .where(TrialStatusChange.status == TrialStatus.RUNNING)
-        .order_by(TrialStatusChange.trial_id)
-    )
-    return [trial_id for (trial_id,) in rows]
 
 
 def current_trial(session: Session, participant: Participant) -> Trial | None:

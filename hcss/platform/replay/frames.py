@@ -16,12 +16,12 @@ import threading
 from collections import OrderedDict
 from dataclasses import dataclass, field
 
-from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from hcss.platform.live.trial_log import build_simulation, newest_snapshot
 from hcss.platform.live.trials import latest_status
 from hcss.platform.models import Trial, TrialStatusChange
+from hcss.platform.models.latest import latest_row
 from hcss.platform.models.vocabularies import TrialStatus
 from hcss.simulation import Simulation
 
@@ -84,15 +84,14 @@ def recording_of(session: Session, trial: Trial) -> Recording:
     snapshot = newest_snapshot(session, trial.id)
     digest = None if snapshot is None else Simulation.restore(snapshot.blob).state_digest()
     if latest_status(session, trial.id) == TrialStatus.ENDED:
-        end = session.scalars(
-            select(TrialStatusChange)
-            .where(
-                TrialStatusChange.trial_id == trial.id,
-                TrialStatusChange.status == TrialStatus.ENDED,
-            )
-            .order_by(TrialStatusChange.id.desc())
-            .limit(1)
-        ).one()
+        end = latest_row(
+            session,
+            TrialStatusChange,
+            TrialStatusChange.trial_id,
+            trial.id,
+            TrialStatusChange.status == TrialStatus.ENDED,
+        )
+        assert end is not None  # the latest status is ended
         if snapshot is None or snapshot.step != end.step:
             digest = None  # no snapshot was written at the end
         return Recording(end.step, ended=True, recorded_digest=digest, last_command_id=None)

@@ -14,7 +14,7 @@ import secrets
 from collections import Counter
 
 from flask import current_app, has_app_context
-from sqlalchemy import func, select, text
+from sqlalchemy import select, text
 from sqlalchemy.orm import Session, object_session
 
 from hcss.platform.models import (
@@ -23,6 +23,7 @@ from hcss.platform.models import (
     StageEvent,
     StudyEnrolment,
 )
+from hcss.platform.models.latest import latest_row, newest_ids
 from hcss.platform.pilots import is_pilot
 from hcss.platform.session_state import aborted_participants, timed_out_participants
 from hcss.platform.study.stages import sequence
@@ -61,12 +62,7 @@ def time_acceleration_for(participant: Participant, study: Study) -> float:
 
 
 def current_enrolment(session: Session, participant_id: int) -> StudyEnrolment | None:
-    return session.scalars(
-        select(StudyEnrolment)
-        .where(StudyEnrolment.participant_id == participant_id)
-        .order_by(StudyEnrolment.id.desc())
-        .limit(1)
-    ).first()
+    return latest_row(session, StudyEnrolment, StudyEnrolment.participant_id, participant_id)
 
 
 def not_counted(session: Session, study: Study | None = None) -> set[int]:
@@ -85,15 +81,12 @@ def not_counted(session: Session, study: Study | None = None) -> set[int]:
 
 def cell_counts(session: Session, study: Study, pool: str) -> Counter[int]:
     """Participants per cell in one pool who are in progress or completed."""
-    latest = (
-        select(func.max(StudyEnrolment.id).label("last"))
-        .group_by(StudyEnrolment.participant_id)
-        .subquery()
-    )
     rows = session.execute(
-        select(StudyEnrolment.participant_id, StudyEnrolment.cell)
-        .join(latest, StudyEnrolment.id == latest.c.last)
-        .where(StudyEnrolment.study == study.name, StudyEnrolment.pool == pool)
+        select(StudyEnrolment.participant_id, StudyEnrolment.cell).where(
+            StudyEnrolment.id.in_(newest_ids(StudyEnrolment, StudyEnrolment.participant_id)),
+            StudyEnrolment.study == study.name,
+            StudyEnrolment.pool == pool,
+        )
     ).all()
     excluded = not_counted(session, study)
     counts: Counter[int] = Counter({cell.number: 0 for cell in study.cells})

@@ -27,6 +27,7 @@ from hcss.platform.models import (
     StageEvent,
     StudyEnrolment,
 )
+from hcss.platform.models.latest import latest_row
 from hcss.platform.session_state import session_state
 from hcss.platform.study.enrolment import current_enrolment, not_counted
 from hcss.platform.study.stage import Slot
@@ -97,12 +98,9 @@ class Flow:
         """The newest consent record, read once per flow (`record_consent` adds one)."""
         if not self._consent:
             self._consent.append(
-                self.session.scalars(
-                    select(ConsentRecord)
-                    .where(ConsentRecord.participant_id == self.participant.id)
-                    .order_by(ConsentRecord.id.desc())
-                    .limit(1)
-                ).first()
+                latest_row(
+                    self.session, ConsentRecord, ConsentRecord.participant_id, self.participant.id
+                )
             )
         return self._consent[0]
 
@@ -247,13 +245,8 @@ def current_position(session: Session, participant: Participant) -> Position:
 def participant_status(session: Session, participant: Participant) -> str:
     """``in_progress``, ``completed``, ``declined``, ``aborted`` or ``timed_out`` (the export's)."""
     if participant.id in not_counted(session):
-        consent = session.scalars(
-            select(ConsentRecord.decision)
-            .where(ConsentRecord.participant_id == participant.id)
-            .order_by(ConsentRecord.id.desc())
-            .limit(1)
-        ).first()
-        if consent == "decline":
+        consent = latest_row(session, ConsentRecord, ConsentRecord.participant_id, participant.id)
+        if consent is not None and consent.decision == "decline":
             return "declined"
         return "timed_out" if session_state(session, participant.id) == "timed_out" else "aborted"
     status = current_position(session, participant).status

@@ -15,9 +15,8 @@ A running trial is never timed out: it ends at its own limit first.
 from __future__ import annotations
 
 from datetime import datetime
-from typing import Any
 
-from sqlalchemy import func, select
+from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from hcss.platform.live.trials import latest_status
@@ -29,17 +28,11 @@ from hcss.platform.models import (
     StudyEnrolment,
     Trial,
 )
+from hcss.platform.models.latest import latest_per_key
 from hcss.platform.models.vocabularies import TrialStatus
 from hcss.platform.session_state import session_states
 from hcss.platform.study.flow import current_position
 from hcss.platform.study.studyfile import Study, StudyFileError, load_study
-
-
-def _latest(session: Session, model: Any, column: str) -> dict[int, Any]:
-    """Each participant's newest row of `model` (a mapped class with participant_id): `column`."""
-    newest = select(func.max(model.id)).group_by(model.participant_id)
-    rows = session.scalars(select(model).where(model.id.in_(newest)))
-    return {row.participant_id: getattr(row, column) for row in rows}
 
 
 def _studies(names: set[str]) -> dict[str, Study]:
@@ -66,13 +59,10 @@ def time_out_abandoned(
     session: Session, now: datetime, participant_id: int | None = None
 ) -> list[str]:
     """Time out every abandoned participant (or only this one); their codes. The caller commits."""
-    newest = select(func.max(StudyEnrolment.id)).group_by(StudyEnrolment.participant_id)
-    if participant_id is not None:  # a participant's own page: one row, not the table's
-        newest = newest.where(StudyEnrolment.participant_id == participant_id)
-    enrolments: dict[int, StudyEnrolment] = {
-        e.participant_id: e
-        for e in session.scalars(select(StudyEnrolment).where(StudyEnrolment.id.in_(newest)))
-    }
+    only = (  # a participant's own page: one row, not the table's
+        () if participant_id is None else (StudyEnrolment.participant_id == participant_id,)
+    )
+    enrolments = latest_per_key(session, StudyEnrolment, StudyEnrolment.participant_id, *only)
     studies = _studies({e.study for e in enrolments.values()})
     limited = {
         pid: e
@@ -84,8 +74,13 @@ def time_out_abandoned(
     states = session_states(session)
     presence = select(ParticipantPresence.participant_id, ParticipantPresence.last_seen_epoch)
     seen = {pid: last for pid, last in session.execute(presence)}
-    stage_at = _latest(session, StageEvent, "at")
-    trials = _latest(session, Trial, "id")
+    stage_at = {
+        pid: event.at
+        for pid, event in latest_per_key(session, StageEvent, StageEvent.participant_id).items()
+    }
+    trials = {
+        pid: trial.id for pid, trial in latest_per_key(session, Trial, Trial.participant_id).items()
+    }
     epoch = now.timestamp()
     timed_out = []
     for pid, enrolment in limited.items():
