@@ -8,8 +8,12 @@ Retry-After and write nothing. The address is the proxy-corrected one
 (``PROXY_HOPS``). A lab whose participants share one address raises the count.
 
 The windows live in the process, not the database: a restart forgets them,
-which costs an attacker one window, and checking one costs no query. The
-recruitment cap of a study (its file's setting) applies as well, in the view.
+which costs an attacker one window, and checking one costs no query.
+
+The limit composes with a study's recruitment cap (its file's `target`):
+the view checks the cap first, so a Start on a full study gets the "study
+full" page (no wait would help) and, like a returning participant's Start,
+uses none of the allowance, since it creates no one.
 """
 
 from __future__ import annotations
@@ -19,13 +23,13 @@ import time
 from collections import deque
 from collections.abc import Callable
 
-from flask import Flask, current_app, request
+from flask import Flask, Response, current_app, request
+from flask.typing import ResponseReturnValue
 
 from hcss.platform.errors import error_page
 
 #: (Starts, seconds) one address may send; None: no limit.
 DEFAULT = (30, 600.0)
-LIMITED_ENDPOINTS = frozenset({"join.start"})
 
 
 class SlidingWindows:
@@ -59,9 +63,13 @@ def parse_limit(text: str) -> tuple[int, float] | None:
     return int(count), float(seconds or 60)
 
 
-def _limit_enrolment():
-    if request.method != "POST" or request.endpoint not in LIMITED_ENDPOINTS:
-        return None
+def enrolment_refusal() -> ResponseReturnValue | None:
+    """Count one Start that would create a participant; the 429 answer past the limit, else None.
+
+    The study link's view asks only once it knows the Start would create
+    someone: a returning participant or a full study creates no one, so it
+    uses none of the address's allowance and is never told to wait.
+    """
     limit = current_app.config.get("JOIN_PER_CLIENT")
     if not limit:
         return None
@@ -69,10 +77,13 @@ def _limit_enrolment():
     wait_s = windows.take(request.remote_addr or "?", int(limit[0]), float(limit[1]))
     if wait_s <= 0:
         return None
-    page, code = error_page(429)
-    return page, code, {"Retry-After": str(max(1, round(wait_s)))}
+    headers = {"Retry-After": str(max(1, round(wait_s)))}
+    page = error_page(429)
+    if isinstance(page, Response):  # plain text: the request named no host of ours
+        page.headers.update(headers)
+        return page
+    return page[0], page[1], headers
 
 
 def install(app: Flask) -> None:
     app.extensions["hcss_join_windows"] = SlidingWindows()
-    app.before_request(_limit_enrolment)

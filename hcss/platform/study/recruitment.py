@@ -16,6 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from flask import Blueprint, redirect, render_template, request, url_for
+from flask.typing import ResponseReturnValue
 from sqlalchemy import select
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
@@ -23,6 +24,7 @@ from werkzeug.wrappers import Response
 
 from hcss.platform.db import get_session, session_now
 from hcss.platform.models import Participant, Recruitment, ReturnVisit
+from hcss.platform.ratelimit import enrolment_refusal
 from hcss.platform.study.enrolment import assign_cell, cell_counts, hold_assignment_lock
 from hcss.platform.study.limits import Timeouts
 from hcss.platform.study.online import (
@@ -236,7 +238,7 @@ def join(study_name: str) -> Response | tuple[str, int] | str:
 
 
 @bp.post("/<study_name>")
-def start(study_name: str) -> Response | tuple[str, int] | str:
+def start(study_name: str) -> ResponseReturnValue:
     """Start on the first page: enrol and go to consent, or record a screen-out and say why."""
     session = get_session()
     try:
@@ -249,6 +251,15 @@ def start(study_name: str) -> Response | tuple[str, int] | str:
     except RecruitmentError as refusal:
         return render_template("study/join_refused.html", message=str(refusal)), 400
     if returning_participant(session, study, recruit) is None:
+        # The cap before the per-client limit: a full study takes no one, however long one waits.
+        try:
+            _check_room(session, study)
+        except StudyFull as full:
+            session.rollback()
+            return _study_full(study, str(full))
+        refused = enrolment_refusal()
+        if refused is not None:
+            return refused
         reasons = shortfalls(study.requirements, measured)
         if reasons:
             record_screen_out(session, study, recruit, measured, reasons)
