@@ -112,18 +112,86 @@
 
   // ---- scale: the arena fills the panel's shorter side, the ground the rest ----
   // World metres per screen pixel; glyphs are drawn in pixels and scaled by it.
+  // Zoom and pan (buttons, wheel, drag, keys) move the world under the glyphs:
+  // a zoomed map spreads crowded targets apart while every label keeps its size.
   let metresPerPx = 1;
+  const ZOOM_STEP = 1.5, ZOOM_MAX = 4, PAN_PX = 80, DRAG_PX = 4;
+  const camera = { zoom: 1, x: 0, y: 0 };  // the view's centre, in SVG units (y down)
   function fitMap() {
     const map = $("map"), box = map.getBoundingClientRect();
     if (!box.width || !box.height) return;
-    metresPerPx = (2 * ARENA) / Math.min(box.width, box.height);
+    metresPerPx = (2 * ARENA) / Math.min(box.width, box.height) / camera.zoom;
     const w = box.width * metresPerPx, h = box.height * metresPerPx;
-    const extent = [-w / 2, -h / 2, w, h];
+    // The view's centre stays over the arena, so the map cannot be lost off the panel.
+    camera.x = Math.max(-ARENA, Math.min(ARENA, camera.x));
+    camera.y = Math.max(-ARENA, Math.min(ARENA, camera.y));
+    if (camera.zoom === 1) { camera.x = 0; camera.y = 0; }
+    const extent = [camera.x - w / 2, camera.y - h / 2, w, h];
     map.setAttribute("viewBox", extent.join(" "));
     const ground = map.querySelector(".ground");
     for (const [k, v] of Object.entries({ x: extent[0], y: extent[1], width: w, height: h })) ground.setAttribute(k, v);
+    $("zoom-out").disabled = camera.zoom <= 1;
+    $("zoom-in").disabled = camera.zoom >= ZOOM_MAX;
+    $("zoom-reset").disabled = camera.zoom === 1;
+    $("map").dataset.zoom = camera.zoom.toFixed(3);
     if (state.view) drawMap(state.view);
     placeProbe();
+  }
+  // Zoom by `factor`, keeping the map point under (clientX, clientY) where it is;
+  // without a point, about the view's centre.
+  function zoomBy(factor, clientX, clientY) {
+    const zoom = Math.max(1, Math.min(ZOOM_MAX, camera.zoom * factor));
+    if (zoom === camera.zoom) return;
+    const box = $("map").getBoundingClientRect();
+    const dx = clientX === undefined ? 0 : clientX - (box.left + box.width / 2);
+    const dy = clientY === undefined ? 0 : clientY - (box.top + box.height / 2);
+    const before = metresPerPx;
+    const after = before * camera.zoom / zoom;
+    camera.x += dx * (before - after);
+    camera.y += dy * (before - after);
+    camera.zoom = zoom;
+    fitMap();
+  }
+  function panBy(dxPx, dyPx) {
+    if (camera.zoom === 1) return;
+    camera.x -= dxPx * metresPerPx;
+    camera.y -= dyPx * metresPerPx;
+    fitMap();
+  }
+  function resetZoom() { camera.zoom = 1; fitMap(); }
+  // A drag pans; a press that does not move is a click on whatever is under it.
+  let drag = null;
+  function startDrag(e) {
+    if (e.button !== 0 || camera.zoom === 1) return;
+    drag = { x: e.clientX, y: e.clientY, moved: false, id: e.pointerId };
+  }
+  function moveDrag(e) {
+    if (!drag || e.pointerId !== drag.id) return;
+    const dx = e.clientX - drag.x, dy = e.clientY - drag.y;
+    if (!drag.moved && Math.hypot(dx, dy) < DRAG_PX) return;
+    if (!drag.moved) { drag.moved = true; $("map").setPointerCapture(e.pointerId); $("map").classList.add("dragging"); }
+    drag.x = e.clientX; drag.y = e.clientY;
+    panBy(dx, dy);
+  }
+  function endDrag(e) {
+    if (!drag || e.pointerId !== drag.id) return;
+    const moved = drag.moved;
+    drag = null;
+    $("map").classList.remove("dragging");
+    // The click that ends a drag selects nothing and is no observation.
+    if (moved) window.addEventListener("click", (c) => { c.stopPropagation(); c.preventDefault(); }, { capture: true, once: true });
+  }
+  // Keys anywhere on the map (a hub or target focused, or the zoom buttons):
+  // + and - zoom, 0 resets, the arrow keys pan.
+  const PAN_KEYS = { ArrowLeft: [1, 0], ArrowRight: [-1, 0], ArrowUp: [0, 1], ArrowDown: [0, -1] };
+  function mapKeys(e) {
+    if (e.altKey || e.ctrlKey || e.metaKey) return;
+    if (e.key === "+" || e.key === "=") zoomBy(ZOOM_STEP);
+    else if (e.key === "-" || e.key === "_") zoomBy(1 / ZOOM_STEP);
+    else if (e.key === "0") resetZoom();
+    else if (PAN_KEYS[e.key] && camera.zoom > 1) panBy(PAN_KEYS[e.key][0] * PAN_PX, PAN_KEYS[e.key][1] * PAN_PX);
+    else return;
+    e.preventDefault();
   }
   // A glyph's transform: at its world position, drawn in pixels.
   function placed(x, y) { return `translate(${x},${-y}) scale(${metresPerPx})`; }
@@ -253,7 +321,7 @@
       lines = [`Collective ${ROMAN[c.index]}`].concat(
         ["U", "F", "C", "X"].map((k) => `${k}: ${c.counts[k]}`));
     }
-    const key = JSON.stringify([anchor, lines, metresPerPx]);
+    const key = JSON.stringify([anchor, lines, $("map").getAttribute("viewBox")]);
     if (key === state.flagKey) return;
     state.flagKey = key;
     layer.replaceChildren();
@@ -671,6 +739,19 @@
     state.selectedTarget = e.target.value === "" ? null : Number(e.target.value);
     if (state.view) drawMap(state.view);
   });
+  $("zoom-in").addEventListener("click", () => zoomBy(ZOOM_STEP));
+  $("zoom-out").addEventListener("click", () => zoomBy(1 / ZOOM_STEP));
+  $("zoom-reset").addEventListener("click", resetZoom);
+  $("map").addEventListener("wheel", (e) => {
+    e.preventDefault();
+    zoomBy(e.deltaY < 0 ? ZOOM_STEP : 1 / ZOOM_STEP, e.clientX, e.clientY);
+  }, { passive: false });
+  $("map").addEventListener("pointerdown", startDrag);
+  $("map").addEventListener("pointermove", moveDrag);
+  $("map").addEventListener("pointerup", endDrag);
+  $("map").addEventListener("pointercancel", endDrag);
+  $("map-zoom").addEventListener("keydown", mapKeys);
+  $("map").addEventListener("keydown", mapKeys);
   fitMap();
   new ResizeObserver(fitMap).observe($("map"));
   if (replaying) {
