@@ -519,6 +519,43 @@ def test_an_abandoned_participant_is_timed_out_and_frees_the_place(
     assert "timed out after 600 s without activity, their cell freed" in index
 
 
+def test_a_study_that_keeps_the_cell_stays_full_after_a_time_out(
+    app, console, tmp_path, monkeypatch
+) -> None:  # type: ignore[no-untyped-def]
+    """`free_cell = false`: the abandoned participant is timed out, but still counts."""
+    from hcss.platform.study.files import STUDIES_ENV, study_text
+
+    text = study_text("demo")[1].decode().replace('name = "demo"', 'name = "kept"')
+    text = text.replace("[online]\n", "[online]\ntarget = 1\n")
+    text += "\n[timeouts]\ninactivity_s = 600\nfree_cell = false\n"
+    (tmp_path / "studies").mkdir()
+    (tmp_path / "studies" / "kept.toml").write_text(text)
+    monkeypatch.setenv(STUDIES_ENV, str(tmp_path / "studies"))
+    study = load_study("kept")
+    assert study.timeouts.free_cell is False
+    clock = app.extensions["hcss_runner"].clock
+    first = _join(app.test_client(), "kept", PROLIFIC_PID="p1")
+    assert first.status_code == 302
+    assert app.test_client().get(first.location, follow_redirects=True).status_code == 200
+    with app.extensions["hcss_db"].session_scope() as session:
+        held = cell_counts(session, study, "real")
+    assert sum(held.values()) == 1
+
+    clock.now += 601.0  # ten minutes without a sign of life
+    refused = _join(app.test_client(), "kept", PROLIFIC_PID="p2")
+    assert refused.status_code == 200
+    assert 'data-stage="study_full"' in refused.get_data(as_text=True)  # the place is kept
+    assert _count(app, Participant) == 1
+    (code,) = [c for c, row in console.progress().items() if row["state"] == "timed_out"]
+    with app.extensions["hcss_db"].session_scope() as session:
+        assert cell_counts(session, study, "real") == held  # their cell still counts
+        statuses = {row["participant"]: row["status"] for row in collect(session)["participants"]}
+    assert statuses[code] == "timed_out"
+    index = console.get("/console/").get_data(as_text=True)
+    assert "timed out after 600 s without activity" in index
+    assert "their cell freed" not in index
+
+
 def test_the_timeouts_table_is_checked() -> None:
     doc = _study_doc(link=True)
     doc["timeouts"] = {"inactivity_s": -1}
