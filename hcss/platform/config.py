@@ -110,6 +110,9 @@ def defaults() -> dict[str, object]:
         # Streams one client address may hold; None: a quarter of MAX_STREAMS, at least 4
         # (HCSS_STREAMS_PER_CLIENT raises it for a lab whose participants share an address).
         "STREAMS_PER_CLIENT": int(os.environ.get("HCSS_STREAMS_PER_CLIENT", "0") or 0) or None,
+        # Streams the participants of one study may hold; None: three quarters of MAX_STREAMS
+        # (HCSS_STREAMS_PER_STUDY raises it for a server that runs one study at a time).
+        "STREAMS_PER_STUDY": int(os.environ.get("HCSS_STREAMS_PER_STUDY", "0") or 0) or None,
         # Session cookies: not sent on cross-site subrequests; Secure whenever the request
         # came over HTTPS (directly, or as the trusted proxy says), and always with
         # HCSS_SECURE_COOKIES=1.

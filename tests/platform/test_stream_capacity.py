@@ -18,9 +18,10 @@ import pytest
 
 from hcss.platform.cli import upgrade_database
 from hcss.platform.db import Database
-from hcss.platform.live.streams import StreamSlots
+from hcss.platform.live.streams import WANTING_S, StreamSlots
 from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.localserver import LocalServer
+from tests.platform.conftest import STUDY_TRIAL_S, TrialHandle
 
 
 def _stream(trial):  # type: ignore[no-untyped-def]
@@ -82,6 +83,76 @@ def test_one_client_cannot_hold_every_stream(app, make_trial) -> None:
     for response in (*held, admitted):
         response.close()
     assert app.extensions["hcss_streams"].count == 0
+
+
+def _trial_in(app, study: str, seed: int, address: str) -> TrialHandle:  # type: ignore[no-untyped-def]
+    """A participant invited to `study` (as the console's study choice does) in a live trial."""
+    from datetime import UTC, datetime
+
+    from hcss.platform.live.trials import start_trial
+    from hcss.platform.models import Participant
+
+    clock = app.extensions["hcss_runner"].clock
+    with app.extensions["hcss_db"].session_scope() as session:
+        participant = Participant(study=study, is_bot=True)
+        session.add(participant)
+        session.flush()
+        trial = start_trial(
+            session,
+            participant,
+            seed=seed,
+            duration_s=STUDY_TRIAL_S,
+            started_at=datetime.fromtimestamp(clock.now, UTC),
+        )
+        handle = TrialHandle(
+            app=app,
+            client=app.test_client(),
+            token=participant.token,
+            trial_id=trial.id,
+            started_epoch=trial.started_at.timestamp(),
+            acceleration=trial.time_acceleration,
+        )
+    handle.client.environ_base["REMOTE_ADDR"] = address
+    handle.run_to(0.0)
+    handle.open_page()
+    return handle
+
+
+def test_one_study_cannot_hold_every_stream(app) -> None:
+    """Two studies on one server: the participants of one (real or scripted, from many
+    addresses) could hold every stream, and the other study's were refused for as long as
+    they reconnected. Alone, a study may use the whole ceiling; once another study asks,
+    the crowded one keeps at most its share (three quarters by default), so the next
+    place that frees goes to the waiting study."""
+    app.config["MAX_STREAMS"] = 8
+    app.config["STREAMS_PER_CLIENT"] = 8
+    crowded = [_trial_in(app, "demo", seed, f"203.0.113.{seed}") for seed in range(2, 11)]
+    held = [_stream(trial)[0] for trial in crowded[:8]]  # alone: the whole ceiling
+    waiting = _trial_in(app, "original", 11, "198.51.100.4")
+    refused = waiting.client.get(f"{waiting.api}/stream")
+    assert refused.status_code == 503 and refused.headers["Retry-After"] == "5"
+    held[0].close()  # a stream ends (they reconnect every STREAM_MAX_S)
+    crowding = crowded[8].client.get(f"{crowded[8].api}/stream")
+    assert crowding.status_code == 503  # demo holds 7, over its share of 6
+    admitted, _ = _stream(waiting)  # the waiting study's retry gets the place
+    for response in (*held[1:], admitted):
+        response.close()
+    assert app.extensions["hcss_streams"].count == 0
+
+
+def test_a_study_that_stopped_asking_no_longer_limits_another() -> None:
+    now = [0.0]
+    slots = StreamSlots(max_streams=4, per_study=3, clock=lambda: now[0])
+    b = slots.acquire("b1", study="b")
+    assert b is not None
+    assert all(slots.acquire(f"a{n}", study="a") for n in range(3))
+    assert slots.acquire("a3", study="a") is None  # b holds a stream: a keeps to its 3
+    slots.release(b)  # b's participant leaves
+    assert slots.count == 3
+    now[0] += WANTING_S - 1
+    assert slots.acquire("a3", study="a") is None  # b asked recently: it may come back
+    now[0] += 2
+    assert slots.acquire("a3", study="a") is not None  # b gone for good: a may fill up
 
 
 def test_slots_count_takeovers_once() -> None:

@@ -10,7 +10,7 @@ from sqlalchemy import select
 from hcss.platform.db import get_session, hand_back_connection
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.session import RunningTrial
-from hcss.platform.models import Participant, Trial
+from hcss.platform.models import Participant, StudyEnrolment, Trial
 
 
 def participant_for(token: str) -> Participant:
@@ -64,3 +64,20 @@ def held_trial(token: str, trial_id: int) -> RunningTrial | None:
 
 def runner() -> Runner:
     return current_app.extensions["hcss_runner"]
+
+
+def study_of(participant_id: int) -> str:
+    """The study the participant is enrolled in (else invited to; "" for neither), for the
+    stream's per-study share; the connection goes back to the pool, as in `trial_for`."""
+    session = get_session()
+    enrolled = session.scalar(
+        select(StudyEnrolment.study)
+        .where(StudyEnrolment.participant_id == participant_id)
+        .order_by(StudyEnrolment.id.desc())
+        .limit(1)
+    )
+    invited = None
+    if enrolled is None:
+        invited = session.scalar(select(Participant.study).where(Participant.id == participant_id))
+    hand_back_connection()
+    return enrolled or invited or ""

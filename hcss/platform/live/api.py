@@ -15,11 +15,11 @@ from flask import Blueprint, Response, current_app, jsonify, request
 
 from hcss.platform.db import database, get_session, hand_back_connection
 from hcss.platform.live import actions, validation
-from hcss.platform.live.access import held_trial, runner, trial_for
+from hcss.platform.live.access import held_trial, runner, study_of, trial_for
 from hcss.platform.live.idempotency import idempotent, pending_key
 from hcss.platform.live.session import RunningTrial
 from hcss.platform.live.stream import ended_stream, event_stream
-from hcss.platform.live.streams import RETRY_AFTER_S, StreamSlots, client_share
+from hcss.platform.live.streams import RETRY_AFTER_S, StreamSlots, client_share, study_share
 from hcss.platform.live.trials import end_reason
 
 _POSITION = re.compile(r"[0-9]{1,18}")
@@ -39,15 +39,16 @@ def _action_error(error: actions.ActionError):
 
 def stream_slots() -> StreamSlots:
     """The app's stream allowance (made on first use from MAX_STREAMS, STREAMS_PER_TOKEN,
-    STREAMS_PER_CLIENT)."""
+    STREAMS_PER_CLIENT, STREAMS_PER_STUDY)."""
     slots = current_app.extensions.get("hcss_streams")
     if slots is None:
         config = current_app.config
         ceiling = config.get("MAX_STREAMS")
         per_client = config.get("STREAMS_PER_CLIENT") or client_share(ceiling)
+        per_study = config.get("STREAMS_PER_STUDY") or study_share(ceiling)
         slots = current_app.extensions.setdefault(
             "hcss_streams",
-            StreamSlots(ceiling, int(config.get("STREAMS_PER_TOKEN", 1)), per_client),
+            StreamSlots(ceiling, int(config.get("STREAMS_PER_TOKEN", 1)), per_client, per_study),
         )
     return slots
 
@@ -87,7 +88,7 @@ def stream(token: str, trial_id: int) -> Response:
             headers=headers,
         )
     slots = stream_slots()
-    ticket = slots.acquire(token, request.remote_addr or "?")
+    ticket = slots.acquire(token, request.remote_addr or "?", study_of(trial.participant_id))
     if ticket is None:
         raise actions.ActionError(
             "the server has as many live streams as it can hold; retrying shortly",

@@ -1,4 +1,5 @@
-"""Who may hold a stream: one per participant link, a share per client, and a server ceiling.
+"""Who may hold a stream: one per participant link, a share per client and per study, and a
+server ceiling.
 
 Each open Server-Sent Events stream holds one waitress thread for up to
 `STREAM_MAX_S`, so one token opening many streams could take every thread and
@@ -13,7 +14,15 @@ time the console out. Two rules keep threads free:
 - per client address: at most `STREAMS_PER_CLIENT` of them (default a
   quarter of the ceiling, at least 4), so participants scripted from one
   address cannot hold every stream and starve real ones. The address is the
-  proxy-corrected one (``PROXY_HOPS``).
+  proxy-corrected one (``PROXY_HOPS``);
+- per study, while another study wants streams too: at most
+  `STREAMS_PER_STUDY` (default three quarters of the ceiling), so the
+  participants of one study (real, or scripted from many addresses) leave
+  room for another's. A study wants streams while it holds one or has asked
+  within `WANTING_S`; a study alone on the server may use the whole ceiling.
+  A study that found the server full is thereby counted, so the crowded
+  study's next stream (streams reconnect every `STREAM_MAX_S`) is refused
+  and the waiting one's retry gets the place.
 
 A takeover replaces the link's own stream, so it is allowed at the ceiling.
 """
@@ -22,12 +31,16 @@ from __future__ import annotations
 
 import json
 import threading
+import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 TAKEOVER_EVENT = "takeover"
 TAKEOVER_DATA = json.dumps({"reason": "another_tab"})
 #: Seconds a refused stream is asked to wait before it tries again.
 RETRY_AFTER_S = 5
+#: Seconds a study that asked for a stream counts as wanting streams (two stream lifetimes).
+WANTING_S = 600.0
 
 
 def takeover_frame() -> str:
@@ -44,25 +57,41 @@ def client_share(max_streams: int | None) -> int | None:
     return None if max_streams is None else max(4, max_streams // 4)
 
 
+def study_share(max_streams: int | None) -> int | None:
+    """Streams one study may hold by default while another wants some: three quarters
+    of the ceiling, at least 1."""
+    return None if max_streams is None else max(1, max_streams - max_streams // 4)
+
+
 @dataclass(frozen=True)
 class StreamTicket:
     token: str
     number: int
     client: str = "?"
+    study: str = ""
 
 
 class StreamSlots:
     """The server's open streams; thread-safe."""
 
     def __init__(
-        self, max_streams: int | None, per_token: int = 1, per_client: int | None = None
+        self,
+        max_streams: int | None,
+        per_token: int = 1,
+        per_client: int | None = None,
+        per_study: int | None = None,
+        clock: Callable[[], float] = time.monotonic,
     ) -> None:
         self.max_streams = max_streams
         self.per_token = per_token
         self.per_client = per_client
+        self.per_study = per_study
+        self.clock = clock
         self._lock = threading.Lock()
         self._open: dict[str, list[int]] = {}  # token -> ticket numbers, oldest first
         self._clients: dict[str, int] = {}  # address -> open streams
+        self._studies: dict[str, int] = {}  # study name ("" for none) -> open streams
+        self._asked: dict[str, float] = {}  # study name -> when it last asked for a stream
         self._count = 0
         self._next = 0
 
@@ -70,9 +99,9 @@ class StreamSlots:
     def count(self) -> int:
         return self._count
 
-    def acquire(self, token: str, client: str = "?") -> StreamTicket | None:
-        """A ticket for a new stream of `token` from `client`, or None when the server or
-        the client's share is full."""
+    def acquire(self, token: str, client: str = "?", study: str = "") -> StreamTicket | None:
+        """A ticket for a new stream of `token` from `client` in `study`, or None when the
+        server, the client's share or the study's share is full."""
         with self._lock:
             mine = self._open.setdefault(token, [])
             taking_over = len(mine) >= self.per_token
@@ -80,7 +109,8 @@ class StreamSlots:
             over_share = self.per_client is not None and (
                 self._clients.get(client, 0) >= self.per_client
             )
-            if not taking_over and (full or over_share):
+            over_study = self._over_study_share(study)
+            if not taking_over and (full or over_share or over_study):
                 if not mine:
                     del self._open[token]
                 return None
@@ -88,7 +118,17 @@ class StreamSlots:
             mine.append(self._next)
             self._count += 1
             self._clients[client] = self._clients.get(client, 0) + 1
-            return StreamTicket(token, self._next, client)
+            self._studies[study] = self._studies.get(study, 0) + 1
+            return StreamTicket(token, self._next, client, study)
+
+    def _over_study_share(self, study: str) -> bool:
+        """Whether `study` holds its share while another study wants streams (lock held)."""
+        now = self.clock()
+        self._asked = {s: t for s, t in self._asked.items() if t > now - WANTING_S}
+        self._asked[study] = now
+        if self.per_study is None or self._studies.get(study, 0) < self.per_study:
+            return False
+        return any(other != study for other in (*self._studies, *self._asked))
 
     def superseded(self, ticket: StreamTicket) -> bool:
         """True once newer streams of the same link fill its allowance."""
@@ -102,10 +142,15 @@ class StreamSlots:
             if ticket.number in mine:
                 mine.remove(ticket.number)
                 self._count -= 1
-                left = self._clients.get(ticket.client, 1) - 1
-                if left > 0:
-                    self._clients[ticket.client] = left
-                else:
-                    self._clients.pop(ticket.client, None)
+                _count_down(self._clients, ticket.client)
+                _count_down(self._studies, ticket.study)
             if not mine:
                 self._open.pop(ticket.token, None)
+
+
+def _count_down(counts: dict[str, int], key: str) -> None:
+    left = counts.get(key, 1) - 1
+    if left > 0:
+        counts[key] = left
+    else:
+        counts.pop(key, None)
