@@ -8,6 +8,7 @@ a trial the experimenter aborts says so.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterator
 
 import pytest
@@ -16,7 +17,12 @@ from sqlalchemy import select
 from hcss.platform.console.sessions import change_session
 from hcss.platform.models import Participant, ProbeEvent
 from tests.platform.inprocess_server import StudyServer, study_server
-from tests.platform.test_participant_browser import _start_live_trial, live_trial, wait_for
+from tests.platform.test_participant_browser import (
+    _contrast,
+    _start_live_trial,
+    live_trial,
+    wait_for,
+)
 
 pytestmark = pytest.mark.browser
 
@@ -142,3 +148,57 @@ def test_the_map_reads_at_1366_and_1024_and_a_double_enter_answers_no_probe(
     page.reload()  # the ended trial's page, opened again, says the same
     expect(page.locator("#ended-title")).to_have_text("Ended by the experimenter")
     page.close()
+
+
+#: Every drawn target's blue half: its fill-opacity, and the colours it is blended from.
+SUPPORT_HALVES = """() => {
+  const ground = getComputedStyle(document.querySelector("#map .ground")).fill;
+  return Array.from(document.querySelectorAll("#layer-targets g.target"), (g) => {
+    const blue = g.querySelector(".target-blue");
+    return [Number(g.dataset.target), Number(blue.getAttribute("fill-opacity")),
+            getComputedStyle(blue).fill, ground];
+  });
+}"""
+
+
+def _contrast_over(fill: str, ground: str, opacity: float) -> float:
+    """Contrast of `fill` at `opacity` over `ground` against the bare ground (WCAG 2)."""
+    top = [int(v) for v in re.findall(r"\d+", fill)[:3]]
+    under = [int(v) for v in re.findall(r"\d+", ground)[:3]]
+    mixed = [round(opacity * a + (1 - opacity) * b) for a, b in zip(top, under, strict=True)]
+    return _contrast(f"rgb({mixed[0]}, {mixed[1]}, {mixed[2]})", ground)
+
+
+def test_low_support_is_visible_in_the_blue_half(browser, demo_server: StudyServer, capsys) -> None:  # type: ignore[no-untyped-def]
+    """Opacity grows with support (SPEC-study §3) from a floor, so a little support shows."""
+    from playwright.sync_api import expect
+
+    token = _start_live_trial(demo_server)
+    page = browser.new_page(viewport={"width": 1366, "height": 768})
+    page.goto(f"{demo_server.url}/live/{token}")
+    expect(page.locator("#connection")).to_have_text("live")
+    low = wait_for(
+        demo_server,
+        lambda lv: [t for t in lv.view()["targets"] if t["drawn"] and 0 < t["max_support"] < 0.2],
+        90,
+    )
+    assert low, "no target with a little support within 90 s"
+    targets = {t["id"]: t for t in live_trial(demo_server).view()["targets"]}
+    page.wait_for_timeout(400)  # the clock stands still: the next frames show this state
+    halves = page.evaluate(SUPPORT_HALVES)
+    opacity = {target: value for target, value, _, _ in halves}
+    for target, t in targets.items():
+        support = t["max_support"] if t["drawn"] else 0.0
+        assert (opacity[target] > 0) == (support > 0), (target, support, opacity[target])
+    supported = sorted((t["max_support"], opacity[i]) for i, t in targets.items() if t["drawn"])
+    assert [o for _, o in supported] == sorted(o for _, o in supported)  # more support, more blue
+    faintest = min(low, key=lambda t: t["max_support"])
+    _, value, fill, ground = next(h for h in halves if h[0] == faintest["id"])
+    contrast = _contrast_over(fill, ground, value)
+    assert value >= 0.4 and contrast >= 1.7, (faintest["max_support"], value, contrast)
+    with capsys.disabled():
+        print(
+            f"\nsupport {faintest['max_support']:.2f}: blue half opacity {value:.2f},"
+            f" contrast {contrast:.2f}:1 over the ground (drawn at its support:"
+            f" {_contrast_over(fill, ground, faintest['max_support']):.2f}:1)"
+        )

@@ -255,13 +255,22 @@
     if (glyph.root.getAttribute("aria-label") !== label) glyph.root.setAttribute("aria-label", label);
     // Transparent until two agents have reported it.
     glyph.green.setAttribute("fill-opacity", t.drawn ? (t.value ?? 0) : 0);
-    glyph.blue.setAttribute("fill-opacity", t.drawn ? t.max_support : 0);
+    glyph.blue.setAttribute("fill-opacity", t.drawn ? supportOpacity(t.max_support) : 0);
     const inRange = hub && t.in_range_of.includes(hub.index);
     glyph.mark.style.display = inRange ? "" : "none";
     if (inRange) {
       const supported = t.support[hub.index] > 0;
       glyph.mark.setAttribute("class", "range-mark " + (supported ? "supported" : "unsupported"));
     }
+  }
+
+  // The blue half's opacity grows with the highest support, as the spec has it,
+  // but from a floor: support of a few percent drawn at its own opacity (0.05)
+  // is invisible on the ground (contrast 1.07:1). No support stays empty, so
+  // "none" and "some" differ by a clear step; full support is fully opaque.
+  const SUPPORT_FLOOR = 0.4;
+  function supportOpacity(support) {
+    return support > 0 ? SUPPORT_FLOOR + (1 - SUPPORT_FLOOR) * Math.min(1, support) : 0;
   }
 
   function createCollective(c, layer) {
