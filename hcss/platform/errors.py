@@ -104,6 +104,7 @@ def error_page(
         # hostname): no URL can be built, so no page with links; plain text says it.
         return Response(f"{title}\n\n{advice}\n", code, mimetype="text/plain")
     token = participant_token()
+    _user_without_the_database()
     return (
         render_template(
             "error.html",
@@ -116,6 +117,31 @@ def error_page(
         ),
         code,
     )
+
+
+def _user_without_the_database() -> None:
+    """Let the page's templates know who is signed in, or take them for anonymous when the
+    database cannot say: an error page must not need the database that may have failed.
+
+    Flask-Login loads the experimenter for every template (`current_user`); while the
+    database is away that query fails again inside the error handler, and the please-wait
+    page became a 500.
+    """
+    from flask import current_app, g
+    from flask_login import current_user
+
+    manager = getattr(current_app, "login_manager", None)
+    if manager is None or "_login_user" in g:
+        return
+    try:
+        current_user._get_current_object()  # loads it into g._login_user
+    except Exception as error:
+        if not database_away(error):
+            raise
+        from hcss.platform.db import get_session
+
+        get_session().rollback()
+        g._login_user = manager.anonymous_user()
 
 
 def http_error_page(error: HTTPException) -> tuple[str, int] | Response:

@@ -70,3 +70,37 @@ def test_a_postgresql_outage_answers_503_with_retry_after_and_a_please_wait_page
             assert page.status_code == 200  # the same server, no restart
         finally:
             app.extensions["hcss_db"].engine.dispose()
+
+
+def test_a_signed_in_console_page_answers_503_while_the_database_is_unreachable(
+    tmp_path,
+) -> None:
+    """The please-wait page must not need the database that failed: rendering it loaded
+    the signed-in experimenter (for the templates' current_user), that query failed
+    again inside the error handler, and the console answered 500 (found by the
+    PostgreSQL-outage fuzz)."""
+    from hcss.platform.console.accounts import create_experimenter
+    from tests.platform.console_support import sign_in
+
+    with own_disk(tmp_path) as disk:
+        url = f"sqlite:///{disk.path / 'hcss.sqlite3'}"
+        app = _server_app(url)
+        app.extensions["hcss_db"].create_all()
+        with app.extensions["hcss_db"].session_scope() as session:
+            create_experimenter(session, "alice", "correct horse battery")
+        client = app.test_client()
+        assert sign_in(client, "alice", "correct horse battery").status_code == 302
+        assert client.get("/console/").status_code == 200
+        app.extensions["hcss_db"].engine.dispose()
+        disk.read_only()  # no connection can be opened now
+        try:
+            for path in ("/console/", "/console/progress.json"):
+                page = client.get(path)
+                assert page.status_code == 503, (path, page.status_code)
+                assert int(page.headers["Retry-After"]) > 0
+                assert b"database" in page.get_data().lower()
+            assert client.get("/console/no-such-page").status_code == 404  # its page, not a 500
+        finally:
+            disk.writable()
+            app.extensions["hcss_db"].engine.dispose()
+        assert client.get("/console/").status_code == 200  # still signed in
