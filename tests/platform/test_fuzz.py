@@ -10,12 +10,14 @@ test_console_access and test_access) so the fuzz reaches the code behind it.
 Beyond the three route groups: Host headers that are no hostname and hostile
 multipart names on every group; every console page after failed sign-ins
 from several clients with the lockout on; and every group while the disk
-under SQLite is full and the runner ticks (a 503 with Retry-After is the
-right answer then, a 500 never).
+under SQLite is full, or while PostgreSQL comes and goes (its line cut by a
+proxy of the test's own, never the shared server stopped), with the runner
+ticking: a 503 with Retry-After that says the database is away is the right
+answer then, a 500 never, and no unit of work is left half stored.
 
 `make test` runs 500 examples per route group on each database;
-`make fuzz` sets HCSS_FUZZ_EXAMPLES for a long run and prints the tally,
-by status and by route (endpoint).
+`make fuzz` sets HCSS_FUZZ_EXAMPLES for a long run (12,500: over 50,000
+requests per database) and prints the tally by database, status and route.
 """
 
 from __future__ import annotations
@@ -105,6 +107,12 @@ class Target:
     tally: Counter[tuple[str, str]] = field(default_factory=Counter)
     database_away: bool = False  # during an outage a 503 with Retry-After is the answer
 
+    @property
+    def database(self) -> str:
+        """The database kind, for the tally by database."""
+        url = str(self.app.config["DATABASE_URL"])
+        return "postgresql" if url.startswith("postgresql") else "sqlite"
+
 
 def _segment(draw: st.DrawFn, real: Any) -> str:
     value = real if draw(st.integers(0, 9)) < 7 else draw(st.one_of(ints, texts))
@@ -123,7 +131,7 @@ def _write_tally(fuzzed: Target) -> None:
     if TALLY_FILE:
         with open(TALLY_FILE, "a", encoding="utf-8") as handle:
             for (status, route), count in sorted(fuzzed.tally.items()):
-                handle.write(f"{status} {count} {route}\n")
+                handle.write(f"{status} {count} {route} {fuzzed.database}\n")
 
 
 def _make_target(database_url: str, **config: Any) -> Target:
@@ -162,6 +170,7 @@ def _send(target: Target, client: FlaskClient, method: str, path: str, **options
     if target.database_away and response.status_code == 503:
         assert response.headers.get("Retry-After"), (method, path[:200])  # please wait, by design
         assert b"Traceback" not in body
+        assert b"database" in body.lower(), (method, path[:200], body[:300])  # says why
         return
     assert response.status_code < 500, (method, path[:200], repr(options)[:300], body[:300])
 
@@ -486,3 +495,89 @@ def test_fuzz_during_a_database_outage(tmp_path, caplog) -> None:  # type: ignor
             disk.free()
             _write_tally(fuzzed)
             engine.dispose()
+
+
+@pytest.mark.slow
+def test_fuzz_during_a_postgresql_outage(caplog) -> None:  # type: ignore[no-untyped-def]
+    """PostgreSQL comes and goes while a trial runs and every route is fuzzed.
+
+    The database is reached through a proxy whose line the test cuts and
+    restores in stretches (open connections drop mid-use, new ones fail);
+    the shared server is never stopped. While it is cut every answer is a
+    503 with Retry-After that says the database is away, never a 500; once
+    it is back, no unit of work is found half stored.
+    """
+    from sqlalchemy import create_engine
+    from sqlalchemy.engine import make_url
+
+    from hcss.platform.localserver import postgres_schema
+    from tests.platform.conftest import PG_ENV
+    from tests.platform.cut_proxy import CutProxy
+
+    base = os.environ.get(PG_ENV)
+    if not base:
+        pytest.skip(f"PostgreSQL tests need {PG_ENV}")
+    server = make_url(base)
+    with (
+        postgres_schema(base, "hcss_fuzz") as direct,
+        CutProxy(server.host or "127.0.0.1", server.port or 5432) as proxy,
+    ):
+        proxied = make_url(direct).set(host="127.0.0.1", port=proxy.port)
+        fuzzed = _make_target(proxied.render_as_string(hide_password=False))
+        runner = fuzzed.app.extensions["hcss_runner"]
+        fuzzed.database_away = True
+        cuts = [0]
+        try:
+
+            @settings(FUZZ_SETTINGS, max_examples=max(50, EXAMPLES // 5))
+            @given(data=st.data())
+            def fuzz(data: st.DataObject) -> None:
+                if data.draw(st.integers(0, 19)) == 0:  # stretches of about 20 requests
+                    if proxy.cut_now:
+                        proxy.restore()
+                    else:
+                        proxy.cut()
+                        cuts[0] += 1
+                group = data.draw(
+                    st.sampled_from([live_requests, study_requests, console_requests])
+                )
+                client = fuzzed.console if group is console_requests else fuzzed.participant
+                runner.clock.now += 0.5
+                runner.tick()
+                method, path, options = data.draw(group(fuzzed))
+                _send(fuzzed, client, method, path, **options)
+
+            fuzz()
+        finally:
+            proxy.restore()
+            _write_tally(fuzzed)
+            fuzzed.app.extensions["hcss_db"].engine.dispose()
+        assert cuts[0] > 0 and fuzzed.tally  # the line was cut while requests were sent
+        assert any(status == "503" for status, _ in fuzzed.tally)
+        engine = create_engine(direct)
+        try:
+            assert _half_stored(engine) == {}
+        finally:
+            engine.dispose()
+
+
+def _half_stored(engine) -> dict[str, int]:  # type: ignore[no-untyped-def]
+    """Rows whose unit of work is incomplete: a command without its outcome, a participant
+    with no trace of how they were made, a trial without its status."""
+    from sqlalchemy import text
+
+    checks = {
+        "command without outcome": "SELECT count(*) FROM command c WHERE NOT EXISTS "
+        "(SELECT 1 FROM command_outcome o WHERE o.command_id = c.id)",
+        "participant made by nothing": "SELECT count(*) FROM participant p WHERE NOT p.is_bot "
+        "AND NOT EXISTS (SELECT 1 FROM recruitment r WHERE r.participant_id = p.id) "
+        "AND NOT EXISTS (SELECT 1 FROM console_action a WHERE a.participant_id = p.id "
+        "AND a.action = 'create')",
+        "trial without status": "SELECT count(*) FROM trial t WHERE NOT EXISTS "
+        "(SELECT 1 FROM trial_status_change s WHERE s.trial_id = t.id)",
+    }
+    with engine.connect() as connection:
+        found = {
+            name: int(connection.execute(text(sql)).scalar() or 0) for name, sql in checks.items()
+        }
+    return {name: count for name, count in found.items() if count}

@@ -121,7 +121,7 @@ def heartbeat(token: str) -> Response:
         session.rollback()
         current_app.logger.warning("heartbeat not stored (database busy)", exc_info=True)
         return Response(
-            "busy; the next heartbeat will tell",
+            "the database is busy or away; the next heartbeat will tell",
             status=503,
             mimetype="text/plain",
             headers={"Retry-After": str(DATABASE_RETRY_S)},
