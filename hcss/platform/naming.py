@@ -8,7 +8,8 @@ row and skip it instead of failing for everyone.
 
 from __future__ import annotations
 
-from hcss.simulation.params import ROMAN
+from hcss.simulation.messages import collective_name as name_of
+from hcss.simulation.messages import collective_names
 
 
 class Uninterpretable(ValueError):
@@ -24,7 +25,8 @@ def collective_name(index: int | None, n_collectives: int | None = None) -> str 
     """
     if index is None:
         return None
-    limit = len(ROMAN) if n_collectives is None else min(n_collectives, len(ROMAN))
+    named = len(collective_names())
+    limit = named if n_collectives is None else min(n_collectives, named)
     if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < limit:
         raise Uninterpretable(f"collective {index!r} is not a collective any trial has")
-    return ROMAN[index]
+    return name_of(index)

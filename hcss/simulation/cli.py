@@ -16,6 +16,7 @@ from hcss.simulation import experiment as exp
 from hcss.simulation import fidelity as fid
 from hcss.simulation import fit_study as fs
 from hcss.simulation.engine import Simulation
+from hcss.simulation.messages import collective_name, event_text
 from hcss.simulation.operators import OPERATORS
 from hcss.simulation.params import (
     ABANDONMENT_READINGS,
@@ -25,7 +26,6 @@ from hcss.simulation.params import (
     M2_BEYOND_DMAX,
     M2_DISTANCE_BOUNDS,
     MODELS,
-    ROMAN,
     Params,
 )
 from hcss.simulation.presets import DEFAULT_PRESET, PRESETS, preset_params
@@ -144,7 +144,7 @@ def demo(
             while sim.time < min(due, limit) and not sim.finished:
                 sim.step()
             for event in sim.drain_events():
-                bar.write(f"[{_clock(event['time'])}] {event['text']}")
+                bar.write(f"[{_clock(event['time'])}] {event_text(event)}")
             bar.set_postfix_str(_status(sim.display()), refresh=False)
             bar.update(int(sim.time) - bar.n)
             time.sleep(0.05)
@@ -244,7 +244,7 @@ def _status(display: Display) -> str:
     for c in range(display.n_collectives):
         u, f, com, x = display.state_counts[c] / display.n_agents  # states.QUADRANTS
         move = f"→{display.move_target[c]}" if display.move_target[c] else ""
-        parts.append(f"{ROMAN[c]} U{u:.0%} F{f:.0%} C{com:.0%} X{x:.0%}{move}")
+        parts.append(f"{collective_name(c)} U{u:.0%} F{f:.0%} C{com:.0%} X{x:.0%}{move}")
     return f"section {display.section} | " + " | ".join(parts)
 
 

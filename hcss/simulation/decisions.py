@@ -12,7 +12,8 @@ import math
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
-from hcss.simulation.params import ROMAN, Params
+from hcss.simulation.messages import collective_name
+from hcss.simulation.params import Params
 from hcss.simulation.world import World
 
 # The columns of the decisions table (docs/data-dictionary.md), in order.
@@ -111,7 +112,7 @@ class DecisionRecord:
             participant=participant,
             trial_id=trial_id,
             run=run,
-            collective=ROMAN[self.collective],
+            collective=collective_name(self.collective),
             decision_time_s=self.decision_time_s,
             n_requests=self.n_investigate + self.n_abandon + self.n_decide,
         )

@@ -27,7 +27,7 @@ from hcss.simulation import movement, rules
 from hcss.simulation import states as S
 from hcss.simulation.constants import constants_for
 from hcss.simulation.ids import target_id, target_index
-from hcss.simulation.params import MODELS, ROMAN, Params
+from hcss.simulation.params import MODELS, Params
 from hcss.simulation.requests import (
     COMPLETED,
     IN_PROGRESS,
@@ -187,7 +187,7 @@ class Simulation:
         if self.requests:
             self._note_completed()
         for t in scratch.visible[:n_visible].tolist():
-            self._event("discovery", None, t, f"Target {target_id(t)} discovered.")
+            self._event("discovery", None, t)
         if scratch.counts[S.C]:
             self._announce_commitments()
         if scratch.counts[S.X] and (w.executing < 0).any():
@@ -330,7 +330,8 @@ class Simulation:
         return truth_of(self)
 
     def drain_events(self) -> list[dict[str, Any]]:
-        """System messages since the last call: discoveries, commitments, moves, arrivals."""
+        """Events since the last call (discoveries, commitments, moves, arrivals...), typed;
+        `hcss.simulation.messages.event_text` words each as a System Message."""
         events, self.events = self.events, []
         return events
 
@@ -343,18 +344,23 @@ class Simulation:
         """The best available target id for a collective: the truth for level-2 probes."""
         return self.truth().best_for(collective)
 
-    def _event(self, kind: str, collective: int | None, index: int | None, text: str) -> None:
-        """Queue a system message; `index` is the target's array index, stored as its public id."""
+    def _event(
+        self, kind: str, collective: int | None, index: int | None, section: int | None = None
+    ) -> None:
+        """Queue a typed event; `index` is the target's array index, stored as its public id.
+
+        The words are not the model's: `hcss.simulation.messages.event_text` gives them.
+        """
         target = None if index is None else target_id(index)
-        self.events.append(
-            {
-                "time": self.world.time,
-                "kind": kind,
-                "collective": collective,
-                "target": target,
-                "text": text,
-            }
-        )
+        event: dict[str, Any] = {
+            "time": self.world.time,
+            "kind": kind,
+            "collective": collective,
+            "target": target,
+        }
+        if section is not None:
+            event["section"] = section  # 1-based, as the participant counts sections
+        self.events.append(event)
 
     # ------------------------------------------------------------ decisions
     def _start_section(self, section: int) -> None:
@@ -398,12 +404,7 @@ class Simulation:
         for c, t in _leading_targets(self._scratch.committed):
             if w.commit_announced[c] != t:
                 w.commit_announced[c] = t
-                self._event(
-                    "commitment",
-                    int(c),
-                    t,
-                    f"Collective {ROMAN[c]} committed to target {target_id(t)}.",
-                )
+                self._event("commitment", int(c), t)
 
     def _begin_moves(self) -> None:
         """The first X agent of a collective begins its move: reserve the target, judge correctness."""
@@ -428,9 +429,7 @@ class Simulation:
             rival = mine_all & S.COMMITTED_OR_LATER[w.state] & (w.target != t)
             w.send_home(np.flatnonzero(rival))
             rules.enforce_orders(w, p)  # other collectives drop the target at once
-            self._event(
-                "move", int(c), t, f"Collective {ROMAN[c]} is moving to target {target_id(t)}."
-            )
+            self._event("move", int(c), t)
 
     def _end_decision(self, c: int) -> None:
         """The first D(i) quorum: the hub moves to target i and the next decision begins."""
@@ -445,7 +444,7 @@ class Simulation:
         w.reserved_by[t] = -1
         rules.refresh_geometry(w, self.params)
         self._reset_collective(c)
-        self._event("arrival", c, t, f"Collective {ROMAN[c]} arrived at target {target_id(t)}.")
+        self._event("arrival", c, t)
         self._after_decision(c)
 
     def _time_out_decisions(self) -> None:
@@ -459,7 +458,7 @@ class Simulation:
                 if t >= 0:
                     self.world.reserved_by[t] = -1
                 self._reset_collective(c)
-                self._event("timeout", c, None, f"Collective {ROMAN[c]} timed out.")
+                self._event("timeout", c, None)
                 self._after_decision(c)
                 if self.world.finished:
                     return
@@ -481,13 +480,13 @@ class Simulation:
         if w.decisions_in_section < self.params.decisions_per_section:
             self._open_decision(c)
             return
-        self._event("section_end", None, None, f"Section {w.section + 1} complete.")
+        self._event("section_end", None, None, section=w.section + 1)
         if w.section + 1 < len(self.scenario.sections):
             self._start_section(w.section + 1)
         else:
             w.finished = True
             self.open = [None] * w.n_collectives
-            self._event("finished", None, None, "All decisions complete.")
+            self._event("finished", None, None)
 
     def _record(
         self, decision: dec.OpenDecision, t: int, distance: float | None, timed_out: bool

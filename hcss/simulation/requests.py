@@ -21,7 +21,8 @@ import numpy as np
 
 from hcss.simulation import states as S
 from hcss.simulation.ids import target_id
-from hcss.simulation.params import ROMAN, Params
+from hcss.simulation.messages import collective_name
+from hcss.simulation.params import Params
 from hcss.simulation.world import World
 
 KINDS = ("investigate", "abandon", "decide", "cancel")
@@ -148,14 +149,14 @@ def refusal(world: World, params: Params, kind: str, collective: int, target: in
         return "The trial is over."
     if not 0 <= collective < world.n_collectives:
         return f"There is no collective {collective + 1}."
-    name = ROMAN[collective]
+    name = collective_name(collective)
     if not 0 <= target < world.active.size or not world.active[target]:
         return f"There is no target {target_id(target)}."
     if world.report_count[target] < params.visible_reports:
         return f"Target {target_id(target)} has not been discovered yet."
     owner = int(world.reserved_by[target])
     if owner >= 0 and owner != collective:
-        return f"Target {target_id(target)} is taken by collective {ROMAN[owner]}."
+        return f"Target {target_id(target)} is taken by collective {collective_name(owner)}."
     if executing(world, collective):
         return f"Collective {name} is executing a move and cannot take requests."
     support_count = int(

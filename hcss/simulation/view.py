@@ -24,7 +24,7 @@ import numpy as np
 from hcss.simulation import decisions as dec
 from hcss.simulation import states as S
 from hcss.simulation.ids import target_id, target_ids, target_index
-from hcss.simulation.params import ROMAN
+from hcss.simulation.messages import collective_name
 from hcss.simulation.requests import RequestState
 
 if TYPE_CHECKING:
@@ -100,7 +100,7 @@ class Display:
         collectives = [
             {
                 "index": c,
-                "name": ROMAN[c],
+                "name": collective_name(c),
                 "hub": hubs[c],
                 "range_m": self.range_m,
                 "fractions": {q: counts[c][i] / n for i, q in enumerate(S.QUADRANTS)},

@@ -22,6 +22,7 @@ from hcss.platform.bots import ManualClock
 from hcss.platform.live.trials import latest_status, start_bot_trial
 from hcss.platform.models import DecisionRow, Interruption, SimEvent, TrialStatusChange
 from hcss.platform.models.vocabularies import TrialStatus
+from hcss.simulation.messages import event_text
 from tests.platform.own_disk import own_disk
 from tests.platform.own_postgres import own_postgres
 from tests.platform.replaying import replay_trial
@@ -96,7 +97,7 @@ def _run_through_outage(app, begin: Callable[[], None], end: Callable[[], None],
         uninterrupted = replay_trial(session, trial_id, ended.step)
     replayed = [(int(d.collective), d.decision_index, d.end_s) for d in uninterrupted.decisions]
     replayed_events = [
-        (round(float(e["time"]), 6), str(e["kind"]), str(e["text"])[:300])
+        (round(float(e["time"]), 6), str(e["kind"]), event_text(e)[:300])
         for e in uninterrupted.drain_events()
     ]
     assert ended.reason == "time_limit"

@@ -10,6 +10,7 @@ import re
 
 from hcss.simulation import Scenario, Simulation
 from hcss.simulation.ids import target_id, target_index
+from hcss.simulation.messages import event_text
 
 
 def _events_until_discoveries(seed: int = 31, steps: int = 400) -> tuple[Simulation, list[dict]]:
@@ -27,7 +28,7 @@ def test_every_event_names_its_target_by_the_id_in_its_text():
     for event in events:
         if event["target"] is None:
             continue
-        named = re.search(r"[Tt]arget (\d+)", event["text"])
+        named = re.search(r"[Tt]arget (\d+)", event_text(event))
         assert named is not None, event
         assert event["target"] == int(named.group(1)), event
 

@@ -23,9 +23,9 @@ from typing import Any
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
-from hcss.platform.live.rebuild import accepted_text, refusal_text
 from hcss.platform.live.recorder import kept_until_written, record_request_statuses
 from hcss.platform.live.session import RunningTrial
+from hcss.platform.live.trial_log import command_message
 from hcss.platform.models import (
     Command,
     CommandKey,
@@ -92,11 +92,10 @@ def submit_request(
             live.sim = Simulation.restore(before)
             raise
         live.last_command_id = row.id
-        n = sim.scenario.n_collectives
-        if outcome.accepted:
-            live.add_message(sim_time, "accepted", accepted_text(row, outcome.request_id, n))
-        else:
-            live.add_message(sim_time, "refusal", refusal_text(row, outcome.reason, n))
+        kind, text = command_message(
+            row, outcome.accepted, outcome.request_id, outcome.reason, sim.scenario.n_collectives
+        )
+        live.add_message(sim_time, kind, text)
         live.touch()
         return answer
 

@@ -24,12 +24,12 @@ from hcss.questionnaires.probes import (
     ScheduledProbe,
     draw_schedule,
 )
-from hcss.simulation import ROMAN, Display, Truth
+from hcss.simulation import Display, Truth
+from hcss.simulation.messages import collective_name, collective_names
 
 __all__ = [
     "POSTPONE_S",
     "PROBE_TIMEOUT_S",
-    "ROMAN",
     "FilledProbe",
     "fill_probe",
     "probe_plan",
@@ -90,7 +90,7 @@ def fill_probe(level: int, display: Display, truth: Truth, rng: np.random.Genera
     answer is scored against `truth` (`Simulation.truth()`), never shown.
     """
     template = TEMPLATES[ProbeLevel(level)]
-    names = [ROMAN[c] for c in range(display.n_collectives)]
+    names = collective_names(display.n_collectives)
     drawn = np.flatnonzero(display.drawn)
     if level == ProbeLevel.PERCEPTION:
         supported = drawn[display.support[:, drawn].max(axis=0, initial=0.0) > 0]
@@ -99,7 +99,7 @@ def fill_probe(level: int, display: Display, truth: Truth, rng: np.random.Genera
         column = int(supported[int(rng.integers(supported.size))])
         leader = int(np.argmax(display.support[:, column]))
         target = int(display.target_ids[column])
-        return FilledProbe(level, template.fill(target), names, ROMAN[leader])
+        return FilledProbe(level, template.fill(target), names, collective_name(leader))
     if level == ProbeLevel.COMPREHENSION:
         candidates = []
         for c in range(display.n_collectives):
@@ -113,7 +113,7 @@ def fill_probe(level: int, display: Display, truth: Truth, rng: np.random.Genera
             return None
         collective, best, in_range = candidates[int(rng.integers(len(candidates)))]
         choices = list(template.answer_choices(names, in_range))
-        return FilledProbe(level, template.fill(ROMAN[collective]), choices, str(best))
+        return FilledProbe(level, template.fill(collective_name(collective)), choices, str(best))
     return FilledProbe(level, template.fill(), names, None)
 
 
@@ -129,7 +129,8 @@ def probe_subject(level: int, question: str) -> dict[str, int] | None:
     if value is None:
         return None
     if template.slot == "collective":
-        return {"collective": ROMAN.index(value)} if value in ROMAN else None
+        names = collective_names()
+        return {"collective": names.index(value)} if value in names else None
     return {"target": int(value)} if value.isdecimal() else None
 
 

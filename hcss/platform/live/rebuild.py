@@ -11,7 +11,6 @@ state's digest.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 from sqlalchemy import func, select
@@ -27,7 +26,12 @@ from hcss.platform.live.outages import (
 from hcss.platform.live.probes import counts_of, probe_plan
 from hcss.platform.live.recorder import record_progress, write_snapshot
 from hcss.platform.live.session import CurrentProbe, RunningTrial
-from hcss.platform.live.trial_log import build_simulation, new_simulation, newest_snapshot
+from hcss.platform.live.trial_log import (
+    build_simulation,
+    new_simulation,
+    newest_snapshot,
+    shown_messages,
+)
 from hcss.platform.models import (
     Command,
     CommandOutcome,
@@ -40,7 +44,7 @@ from hcss.platform.models import (
     Trial,
     TrialProblem,
 )
-from hcss.platform.naming import Uninterpretable, collective_name
+from hcss.platform.naming import Uninterpretable
 
 if TYPE_CHECKING:
     from hcss.simulation.requests import RequestOutcome
@@ -144,10 +148,6 @@ def _restore_bookkeeping(session: Session, live: RunningTrial) -> None:
     _restore_probes(session, live)
 
 
-#: Where a message falls among those of the same step (`_restore_messages`).
-_STEP_EVENTS, _COMMANDS = 0, 1
-
-
 def _restore_messages(session: Session, live: RunningTrial) -> None:
     """The System Messages in the order the live page had them; a command that
     cannot be worded is recorded as a trial problem instead."""
@@ -165,55 +165,6 @@ def _restore_messages(session: Session, live: RunningTrial) -> None:
     n = live.sim.scenario.n_collectives
     for time, kind, text in shown_messages(session, live.trial_id, n, unworded):
         live.add_message(time, kind, text)
-
-
-def shown_messages(
-    session: Session,
-    trial_id: int,
-    n_collectives: int | None = None,
-    unworded: Callable[[Command, Uninterpretable], None] | None = None,
-) -> list[tuple[float, str, str]]:
-    """(time, kind, text) of every System Message the participant's page showed, in order:
-    the simulation's events, and each command accepted or refused (the replay shows the same).
-
-    Live, the runner records a step's events as soon as it reaches the step,
-    under the trial's lock; a command lands between two steps, so at the time
-    of a step its events come first, then the commands applied there, each
-    kind in the order of its rows. Ids of two tables are never compared.
-    """
-    n = n_collectives
-    events = [
-        (e.sim_time, _STEP_EVENTS, e.id, e.kind, e.text)
-        for e in session.scalars(select(SimEvent).where(SimEvent.trial_id == trial_id))
-    ]
-    outcomes = session.execute(
-        select(Command, CommandOutcome)
-        .join(CommandOutcome, CommandOutcome.command_id == Command.id)
-        .where(Command.trial_id == trial_id)
-    )
-    for command, outcome in outcomes:
-        try:
-            events.append(
-                (
-                    command.sim_time,
-                    _COMMANDS,
-                    command.id,
-                    "accepted",
-                    accepted_text(command, outcome.request_id, n),
-                )
-                if outcome.accepted
-                else (
-                    command.sim_time,
-                    _COMMANDS,
-                    command.id,
-                    "refusal",
-                    refusal_text(command, outcome.reason, n),
-                )
-            )
-        except Uninterpretable as error:
-            if unworded is not None:
-                unworded(command, error)
-    return [(time, kind, text) for time, _rank, _id, kind, text in sorted(events)]
 
 
 def _restore_probes(session: Session, live: RunningTrial) -> None:
@@ -243,25 +194,3 @@ def _restore_probes(session: Session, live: RunningTrial) -> None:
                 timeout_sim_time=probe.timeout_sim_time,
                 ready="ready" in kinds,
             )
-
-
-def _subject(command: Command, n_collectives: int | None) -> str:
-    """What a command was about; Uninterpretable for a collective the trial does not have."""
-    if command.kind == "cancel":
-        return f"cancel of assignment {command.cancel_request_id}"
-    collective = collective_name(command.collective, n_collectives) or "?"
-    return f"{command.kind} by collective {collective} on target {command.target}"
-
-
-def refusal_text(command: Command, reason: str, n_collectives: int | None = None) -> str:
-    """The System Message of a refused command."""
-    return f"Request refused ({_subject(command, n_collectives)}): {reason}"
-
-
-def accepted_text(
-    command: Command, request_id: int | None, n_collectives: int | None = None
-) -> str:
-    """The System Message of a command: accepted requests are logged as well as refusals."""
-    if command.kind == "cancel":
-        return f"Request accepted ({_subject(command, n_collectives)})"
-    return f"Request {request_id} accepted ({_subject(command, n_collectives)})"

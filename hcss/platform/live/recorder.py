@@ -36,6 +36,7 @@ from hcss.platform.models import (
     TrialStatusChange,
 )
 from hcss.platform.models.vocabularies import RequestStatus, TrialStatus
+from hcss.simulation.messages import event_text
 
 #: Decision-table columns the export fills from the trial and participant, not stored per row.
 EXPORT_IDENTITY = ("source", "participant", "trial_id", "run")
@@ -112,7 +113,7 @@ def _take_events(live: RunningTrial) -> None:
         if time <= live.last_event_time:
             continue  # written before an interruption; the replay produced it again
         live.unwritten_events.append(event)
-        live.add_message(time, str(event["kind"]), str(event["text"]))
+        live.add_message(time, str(event["kind"]), event_text(event))
 
 
 def _record_events(live: RunningTrial, session: Session) -> None:
@@ -124,7 +125,7 @@ def _record_events(live: RunningTrial, session: Session) -> None:
                 kind=str(event["kind"]),
                 collective=_int_or_none(event.get("collective")),
                 target=_int_or_none(event.get("target")),
-                text=str(event["text"])[:300],
+                text=event_text(event)[:300],
                 sim_time=float(event["time"]),
             )
         )

@@ -3,8 +3,10 @@
 The live rebuild after a restart, the console's replay and the tests' oracle
 all build a trial's Simulation the same way: the trial row's scenario, model
 and parameters, then its command log applied at the logged steps through the
-simulation's own deterministic `replay`. `build_simulation` is that way; the
-export and the analysis read the log through the other questions here.
+simulation's own deterministic `replay`. `build_simulation` is that way. The
+System Messages a page showed are read back from the log by `shown_messages`
+(the live page's after a restart, the replay's timeline), each command's
+worded by `command_message`, which the live command uses too.
 """
 
 from __future__ import annotations
@@ -15,7 +17,16 @@ from typing import TYPE_CHECKING
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
-from hcss.platform.models import Command, Observation, Snapshot, Trial
+from hcss.platform.models import (
+    Command,
+    CommandOutcome,
+    Observation,
+    SimEvent,
+    Snapshot,
+    Trial,
+)
+from hcss.platform.naming import Uninterpretable, collective_name
+from hcss.simulation.messages import accepted_text, refusal_text, request_subject
 
 if TYPE_CHECKING:
     from hcss.simulation import Simulation
@@ -116,3 +127,63 @@ def build_simulation(
         )
     except ValueError as error:  # a command logged before the start's step
         raise RuntimeError(f"trial {trial.id}: {error}") from error
+
+
+#: Where a message falls among those of the same step (`_restore_messages`).
+_STEP_EVENTS, _COMMANDS = 0, 1
+
+
+def shown_messages(
+    session: Session,
+    trial_id: int,
+    n_collectives: int | None = None,
+    unworded: Callable[[Command, Uninterpretable], None] | None = None,
+) -> list[tuple[float, str, str]]:
+    """(time, kind, text) of every System Message the participant's page showed, in order:
+    the simulation's events, and each command accepted or refused (the replay shows the same).
+
+    Live, the runner records a step's events as soon as it reaches the step,
+    under the trial's lock; a command lands between two steps, so at the time
+    of a step its events come first, then the commands applied there, each
+    kind in the order of its rows. Ids of two tables are never compared.
+    """
+    n = n_collectives
+    events = [
+        (e.sim_time, _STEP_EVENTS, e.id, e.kind, e.text)
+        for e in session.scalars(select(SimEvent).where(SimEvent.trial_id == trial_id))
+    ]
+    outcomes = session.execute(
+        select(Command, CommandOutcome)
+        .join(CommandOutcome, CommandOutcome.command_id == Command.id)
+        .where(Command.trial_id == trial_id)
+    )
+    for command, outcome in outcomes:
+        try:
+            kind, text = command_message(
+                command, outcome.accepted, outcome.request_id, outcome.reason, n
+            )
+            events.append((command.sim_time, _COMMANDS, command.id, kind, text))
+        except Uninterpretable as error:
+            if unworded is not None:
+                unworded(command, error)
+    return [(time, kind, text) for time, _rank, _id, kind, text in sorted(events)]
+
+
+def command_message(
+    command: Command,
+    accepted: bool,
+    request_id: int | None,
+    reason: str,
+    n_collectives: int | None = None,
+) -> tuple[str, str]:
+    """(``accepted`` or ``refusal``, the System Message) of a logged command.
+
+    Uninterpretable for a collective the trial does not have (a row written by hand).
+    """
+    name = None
+    if command.kind != "cancel":
+        name = collective_name(command.collective, n_collectives)
+    subject = request_subject(command.kind, name, command.target, command.cancel_request_id)
+    if accepted:
+        return "accepted", accepted_text(subject, command.kind, request_id)
+    return "refusal", refusal_text(subject, reason)

@@ -8,6 +8,7 @@ from flask.typing import ResponseReturnValue
 from hcss.platform.db import get_session
 from hcss.platform.live.access import participant_for
 from hcss.platform.live.trials import current_trial, latest_status
+from hcss.simulation.messages import collective_names
 
 bp = Blueprint("live", __name__, url_prefix="/live")
 
@@ -24,4 +25,5 @@ def trial_page(token: str) -> ResponseReturnValue:
         token=token,
         trial=trial,
         status=latest_status(get_session(), trial.id),
+        collective_names=collective_names(),
     )

@@ -15,9 +15,9 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from hcss.platform.live.probes import probe_subject
-from hcss.platform.live.rebuild import shown_messages
+from hcss.platform.live.trial_log import shown_messages
 from hcss.platform.models import Command, CommandOutcome, Probe, ProbeEvent, Trial
-from hcss.simulation import ROMAN
+from hcss.simulation.messages import collective_name
 
 
 def command_marks(session: Session, trial_id: int) -> list[dict[str, Any]]:
@@ -32,7 +32,7 @@ def command_marks(session: Session, trial_id: int) -> list[dict[str, Any]]:
         if command.kind == "cancel":
             label = f"cancel assignment {command.cancel_request_id}"
         else:
-            collective = ROMAN[command.collective] if command.collective is not None else "?"
+            collective = "?" if command.collective is None else collective_name(command.collective)
             label = f"{command.kind} {collective} → target {command.target}"
         marks.append(
             {

@@ -21,6 +21,7 @@ from hcss.platform.models import Participant, Trial
 from hcss.platform.replay.frames import MAX_CHUNK, ReplayCache
 from hcss.platform.replay.timeline import timeline
 from hcss.simulation import Params
+from hcss.simulation.messages import collective_names
 
 bp = Blueprint("replay", __name__, url_prefix="/console/trials")
 
@@ -72,6 +73,7 @@ def page(trial_id: int) -> str:
         status="replay",
         speeds=SPEEDS,
         max_chunk=MAX_CHUNK,
+        collective_names=collective_names(),
     )
 
 

@@ -3,13 +3,14 @@
 (function () {
   "use strict";
   const SVG = "http://www.w3.org/2000/svg";
-  const ROMAN = ["I", "II", "III", "IV", "V", "VI"];
   // Glyph sizes in screen pixels: the map scales positions to the window, but a
   // hub, a target and their labels keep a size that can be read and clicked.
   const HUB = 56, TARGET = 30;
   // The arena is 2 x ARENA metres square, centred on the origin.
   const ARENA = 707;
   const root = document.getElementById("interface");
+  // Collective names come from the server (hcss.simulation.messages), as in its System Messages.
+  const NAMES = JSON.parse(root.dataset.collectiveNames);
   // The console's replay page (status "replay") feeds recorded frames to onFrame; nothing is sent.
   const replaying = root.dataset.status === "replay";
   const apiUrl = root.dataset.apiUrl;
@@ -276,7 +277,7 @@
   function createCollective(c, layer) {
     const h = HUB / 2, q = HUB / 2;
     const root = el("g", { "data-collective": c.index }, layer);
-    el("text", { x: 0, y: -h - 6, class: "hub-name" }, root).textContent = ROMAN[c.index];
+    el("text", { x: 0, y: -h - 6, class: "hub-name" }, root).textContent = NAMES[c.index];
     el("rect", { x: -h, y: -h, width: HUB, height: HUB, class: "hub-box" }, root);
     const quads = {};
     for (const [name, qx, qy] of [["U", -h, -h], ["F", 0, -h], ["C", -h, 0], ["X", 0, 0]]) {
@@ -285,7 +286,7 @@
     }
     root.addEventListener("click", () => clickHub(c.index, "left"));
     root.addEventListener("contextmenu", (e) => { e.preventDefault(); clickHub(c.index, "right"); });
-    makeKeyboardButton(root, `Collective ${ROMAN[c.index]} hub`, (button) => clickHub(c.index, button));
+    makeKeyboardButton(root, `Collective ${NAMES[c.index]} hub`, (button) => clickHub(c.index, button));
     return { root, quads };
   }
 
@@ -301,7 +302,7 @@
     const line = el("line", { class: "move-line" }, root);
     const box = el("g", {}, root);
     el("rect", { x: -18, y: -18, width: 36, height: 36, class: "move-box" }, box);
-    el("text", { x: 0, y: 0, class: "quad-label" }, box).textContent = ROMAN[c.index];
+    el("text", { x: 0, y: 0, class: "quad-label" }, box).textContent = NAMES[c.index];
     return { root, line, box };
   }
 
@@ -323,11 +324,11 @@
       if (!t) { state.flag = null; layer.replaceChildren(); state.flagKey = null; return; }
       anchor = t.position;
       lines = [`Target ${t.id}: support`].concat(
-        t.support.map((s, i) => `${ROMAN[i]}: ${Math.round(s * 100)}%`));
+        t.support.map((s, i) => `${NAMES[i]}: ${Math.round(s * 100)}%`));
     } else {
       const c = view.collectives[state.flag.id];
       anchor = c.hub;
-      lines = [`Collective ${ROMAN[c.index]}`].concat(
+      lines = [`Collective ${NAMES[c.index]}`].concat(
         ["U", "F", "C", "X"].map((k) => `${k}: ${c.counts[k]}`));
     }
     const key = JSON.stringify([anchor, lines, $("map").getAttribute("viewBox")]);
@@ -392,7 +393,7 @@
     const select = $("request-collective");
     if (select.options.length - 1 === view.collectives.length) return;
     select.replaceChildren(new Option("–", ""));
-    for (const c of view.collectives) select.add(new Option(ROMAN[c.index], String(c.index)));
+    for (const c of view.collectives) select.add(new Option(NAMES[c.index], String(c.index)));
   }
   function refreshTargetOptions() {
     const select = $("request-target"), keep = select.value;
@@ -456,12 +457,12 @@
       const dot = document.createElement("span");
       dot.className = "dot " + r.status; dot.title = r.status.replace("_", " ");
       const label = document.createElement("span");
-      label.textContent = `${r.kind} · ${ROMAN[r.collective]} → target ${r.target}`;
+      label.textContent = `${r.kind} · ${NAMES[r.collective]} → target ${r.target}`;
       li.append(dot, label);
       li.tabIndex = 0;
       li.setAttribute("role", "button");
       li.setAttribute("aria-pressed", r.id === state.selectedAssignment ? "true" : "false");
-      li.setAttribute("aria-label", `${r.kind}, collective ${ROMAN[r.collective]}, target ${r.target}, ${r.status.replace("_", " ")}`);
+      li.setAttribute("aria-label", `${r.kind}, collective ${NAMES[r.collective]}, target ${r.target}, ${r.status.replace("_", " ")}`);
       const select = () => { state.selectedAssignment = r.id; drawAssignments(state.view || view); };
       li.addEventListener("click", select);
       li.addEventListener("keydown", (e) => { if (e.key === "Enter" || e.key === " ") { e.preventDefault(); select(); } });
