@@ -101,6 +101,7 @@ def expected_pages(study: Study) -> list[tuple[str, str]]:
     mrt_steps = ["instructions"] + [f"practice_{n}" for n in range(1, settings.practice_items + 1)]
     for number in range(1, len(settings.part_items) + 1):
         mrt_steps += [f"break_{number - 1}" if number > 1 else "begin_1", f"part_{number}"]
+        mrt_steps.append(f"done_{number}")  # or time_up_<n>, when the time ran out first
     steps = {
         "mental_rotation": mrt_steps,
         "introduction": intro,
@@ -208,8 +209,12 @@ class ParticipantBot:
                 # Shown only when a part's time ran out (over HTTP, under load or
                 # across a restart), so it is not in the plan: press its Continue. A
                 # part that ran out while the server was down was never seen at all.
+                # It stands in for the part's "done" page, which a part that ran out never shows.
                 part = ("mental_rotation", page.step.replace("time_up_", "part_"))
+                done = ("mental_rotation", page.step.replace("time_up_", "done_"))
                 if position < len(plan) and plan[position] == part:
+                    position += 1
+                if position < len(plan) and plan[position] == done:
                     position += 1
                 html = self.post_form(page, {})
                 report.pages += 1

@@ -106,6 +106,11 @@ def answer_mrt(page, server: StudyServer, walk: bool = False) -> dict[str, str]:
         if walk and number == 1:  # the README's walk shows an answered item
             screenshot(page, "walk-mrt.png", docs_name="walk-3-mrt.png")
         page.get_by_role("button", name="Next").click()
+    # Every item answered in time: a page says the part is done before the test moves on.
+    expect_stage(page, "mental_rotation", "done_1")
+    expect(page.locator("h2#part-done")).to_have_text("Part 1 done")
+    expect(page.locator("main")).to_contain_text("That was the last part of the test.")
+    page.get_by_role("button", name="Continue").click()
     return given
 
 
@@ -161,6 +166,41 @@ def test_mrt_countdown_runs_out_into_a_time_is_up_page(browser, demo_server: Stu
     expect(page.locator("main")).to_contain_text("You answered 1 of its 4 items")
     page.get_by_role("button", name="Continue").click()
     expect_stage(page, "introduction")
+    page.close()
+
+
+def test_the_mrt_timer_stays_in_view_on_a_phone(browser, demo_server: StudyServer) -> None:
+    """Scrolled to an item's last alternative on a 375 x 812 phone, the time left still shows."""
+    from playwright.sync_api import expect
+
+    token = demo_server.participant()
+    page = browser.new_page(viewport={"width": 375, "height": 812}, is_mobile=True)
+    page.goto(f"{demo_server.url}/p/{token}")
+    consent_and_demographics(page)
+    page.get_by_role("button", name="Begin").click()
+    page.locator('input[name="chosen"][value="0"]').check()
+    page.get_by_role("button", name="Check").click()
+    page.get_by_role("button", name="Continue").click()
+    page.get_by_role("button", name="Start part 1").click()
+    expect_stage(page, "mental_rotation", "part_1")
+    page.locator('input[name="chosen"][value="3"]').scroll_into_view_if_needed()
+    page.evaluate("() => window.scrollTo(0, document.documentElement.scrollHeight)")
+    page.wait_for_timeout(100)
+    scrolled = page.evaluate("() => window.scrollY")
+    timer = page.evaluate(
+        """() => { const r = document.getElementById("timer").getBoundingClientRect();
+        return [r.top, r.bottom]; }"""
+    )
+    assert scrolled > 100, scrolled  # the item is taller than the phone's screen
+    assert timer[0] >= 0 and timer[1] <= 80, (scrolled, timer)  # pinned to the top
+    expect(page.get_by_role("timer")).to_be_in_viewport()
+    # Nothing scrolled under it is painted over it: the time left is what shows there.
+    on_top = page.evaluate(
+        """() => { const r = document.getElementById("time-left").getBoundingClientRect();
+        const hit = document.elementFromPoint(r.left + r.width / 2, r.top + r.height / 2);
+        return hit !== null && hit.closest("#timer") !== null; }"""
+    )
+    assert on_top, "the time left is covered by the page scrolled under it"
     page.close()
 
 

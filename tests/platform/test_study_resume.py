@@ -89,6 +89,28 @@ def test_mid_mrt_refresh_and_restart_return_to_the_same_item_and_deadline(databa
     app.extensions["hcss_db"].engine.dispose()
 
 
+def test_a_part_answered_in_time_ends_on_a_part_done_page_before_the_break(database_url) -> None:
+    """Finishing a part early says so; the break follows the participant's Continue."""
+    app = make_app(database_url, "original")
+    token = new_participant(app)
+    v = visitor(app, token)
+    walk_to(v, "mental_rotation", "part_1")
+    for _ in range(12):
+        assert v.submit({"chosen": ["0", "1"]}).status_code == 302
+        v.advance(5.0)
+    page = v.page()
+    assert page.step == "done_1" and "Part 1 done" in v.html
+    assert "You answered all 12 items of part 1 of 2 within its 3 minutes" in v.html
+    assert "A short break comes next, then part 2." in v.html and "Go to the break" in v.html
+    assert v.page().step == "done_1"  # a refresh stays on it; no clock runs here
+    assert 'id="timer"' not in v.html
+    assert v.submit({}).status_code == 302
+    assert v.page().step == "break_1"
+    done = [e for e in events(app, token) if e.step == "done_1" and e.kind == "submitted"]
+    assert len(done) == 1
+    app.extensions["hcss_db"].engine.dispose()
+
+
 def test_every_page_of_the_demo_survives_refresh_and_restart(database_url) -> None:
     """At each step of the whole demo study, including mid-trial, the page and deadline hold."""
     study = load_study("demo")

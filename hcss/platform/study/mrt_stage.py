@@ -67,7 +67,9 @@ class MentalRotation(Stage):
 
     def steps(self, flow: Flow, slot: Slot) -> tuple[str, ...]:
         """Instructions, practice, "Part 1 begins", then each part (after a break from the
-        second on); a part whose time ran out is followed by a page saying so."""
+        second on). Every part ends on a page that says so: "time is up" when its time
+        ran out, "part done" when every item was answered in time, so finishing early
+        never drops a participant into the break or the next stage unannounced."""
         steps = ["instructions"]
         steps += [f"practice_{n}" for n in range(1, flow.study.mrt.practice_items + 1)]
         for number in range(1, len(flow.study.mrt.part_items) + 1):
@@ -75,6 +77,8 @@ class MentalRotation(Stage):
             steps.append(f"part_{number}")
             if flow.event(slot.index, f"part_{number}", "timed_out") is not None:
                 steps.append(f"time_up_{number}")
+            elif flow.event(slot.index, f"part_{number}", "submitted") is not None:
+                steps.append(f"done_{number}")
         return tuple(steps)
 
     def timeout_s(self, flow: Flow, slot: Slot, step: str) -> float | None:
@@ -126,6 +130,16 @@ class MentalRotation(Stage):
                 "next_part": number,
                 "part_count": len(settings.part_items),
                 "items": settings.part_items[number - 1],
+                "limit": duration(settings.part_time_limit_s),
+            }
+        if step.startswith("done_"):
+            number = int(step.removeprefix("done_"))
+            return {
+                "kind": "done",
+                "part": number,
+                "items": settings.part_items[number - 1],
+                "part_count": len(settings.part_items),
+                "last": number == len(settings.part_items),
                 "limit": duration(settings.part_time_limit_s),
             }
         if step.startswith("time_up_"):
