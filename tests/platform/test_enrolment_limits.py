@@ -5,13 +5,21 @@ from __future__ import annotations
 
 import os
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager, nullcontext
 
 from sqlalchemy import event, func, select
 
+from hcss.platform.app import create_app
+from hcss.platform.bots import ManualClock
+from hcss.platform.console.accounts import create_experimenter
 from hcss.platform.console.progress import PER_PAGE
+from hcss.platform.localserver import postgres_schema
 from hcss.platform.models import Participant, StudyEnrolment
 from hcss.platform.study.studyfile import load_study
 from tests.platform import console_support
+from tests.platform.conftest import PG_ENV
+from tests.platform.console_support import Console, sign_in
 from tests.platform.test_online_recruitment import _join as join
 
 console, experimenter = console_support.console, console_support.experimenter
@@ -37,13 +45,13 @@ def test_one_client_cannot_enrol_without_limit_and_another_still_can(app) -> Non
     assert join(other).status_code == 302
 
 
-def _enrol_5000(app) -> None:  # type: ignore[no-untyped-def]
+def _enrol_5000(app, count: int = 5000) -> None:  # type: ignore[no-untyped-def]
     """5,000 participants enrolled in the demo study's cells, as 5,000 link visits leave them."""
     study = load_study("demo")
     cells = study.cells
     with app.extensions["hcss_db"].session_scope() as session:
         people = [
-            Participant(code=f"L{number:07d}", is_bot=number % 500 == 0) for number in range(5000)
+            Participant(code=f"L{number:07d}", is_bot=number % 500 == 0) for number in range(count)
         ]
         session.add_all(people)
         session.flush()
@@ -61,15 +69,40 @@ def _enrol_5000(app) -> None:  # type: ignore[no-untyped-def]
         )
 
 
-def _best_ms(console, path: str) -> tuple[float, object]:  # type: ignore[no-untyped-def]
-    """The fastest of 5 answers: what the page costs, without the shared machine's spikes."""
-    times, response = [], None
+def _best_ms(consoles, path: str) -> list[tuple[float, object]]:  # type: ignore[no-untyped-def]
+    """The fastest of 5 answers of each console, taken in turns: what the page costs on
+    each, without the shared machine's spikes, and under the same load for both."""
+    times: list[list[float]] = [[] for _ in consoles]
+    answers: list[object] = [None for _ in consoles]
     for _ in range(5):
-        started = time.perf_counter()
-        response = console.get(path)
-        times.append((time.perf_counter() - started) * 1000)
-        assert response.status_code == 200
-    return min(times), response
+        for number, console in enumerate(consoles):
+            started = time.perf_counter()
+            answers[number] = response = console.get(path)
+            times[number].append((time.perf_counter() - started) * 1000)
+            assert response.status_code == 200
+    return [(min(t), answer) for t, answer in zip(times, answers, strict=True)]
+
+
+@contextmanager
+def _one_page_console(database_url: str, tmp_path) -> Iterator[Console]:  # type: ignore[no-untyped-def]
+    """A second server, on the same kind of database, holding one page of participants."""
+    if database_url.startswith("postgresql"):
+        schema = postgres_schema(os.environ[PG_ENV], "hcss_test")
+    else:
+        schema = nullcontext(f"sqlite:///{tmp_path / 'one-page.sqlite3'}")
+    with schema as url:
+        app = create_app({"DATABASE_URL": url, "SECRET_KEY": "s", "TESTING": True})
+        app.extensions["hcss_db"].create_all()
+        app.extensions["hcss_runner"].clock = ManualClock(0.0)
+        try:
+            _enrol_5000(app, PER_PAGE)
+            with app.extensions["hcss_db"].session_scope() as session:
+                create_experimenter(session, "alice", "correct horse battery")
+            client = app.test_client()
+            assert sign_in(client, "alice", "correct horse battery").status_code == 302
+            yield Console(app=app, client=client)
+        finally:
+            app.extensions["hcss_db"].engine.dispose()
 
 
 def _queries(app, console, path: str) -> int:  # type: ignore[no-untyped-def]
@@ -87,20 +120,42 @@ def _queries(app, console, path: str) -> int:  # type: ignore[no-untyped-def]
     return count[0]
 
 
-def test_the_live_table_answers_in_under_300_ms_with_5000_participants(app, console) -> None:
+#: How many times the one-page table's cost the 5,000-participant table may take: measured
+#: 0.6 to 1.2 at a load of 4 per core; with each participant's rows read into Python (the
+#: console bar's study list and the time-out sweep did, on every page) it was 7 to 12.
+SCAN_FACTOR = 4
+
+
+def test_the_live_table_answers_in_under_300_ms_with_5000_participants(
+    app, console, database_url, tmp_path
+) -> None:
     """A page costs its own rows: as many queries with 5,000 participants as with one page
-    of them, and under 300 ms (scaled by the machine's load, which is shared)."""
+    of them, and under 300 ms.
+
+    The machine is shared, so the 300 ms stretch only as far as a baseline measured
+    here allows: the same pages of a second server holding one page of participants,
+    timed in turns with the first, so under the same load. The 5,000-participant
+    table may cost at most `SCAN_FACTOR` times the one-page table (the database's
+    counts and sorts over 5,000 rows; per-participant work cost 200 times). While
+    the one-page table answers within 300 ms / `SCAN_FACTOR`, that alone keeps the
+    big one under 300 ms; only a machine slowed past it stretches the budget.
+    """
     _enrol_5000(app)
-    queries = _queries(app, console, "/console/progress.json")
-    assert queries <= 4 * PER_PAGE + 20, queries  # before: several per participant, 5,000 of them
-    json_ms, answer = _best_ms(console, "/console/progress.json")
-    page_ms, page = _best_ms(console, "/console/")
-    busy = max(1.0, os.getloadavg()[0] / (os.cpu_count() or 1))
+    with _one_page_console(database_url, tmp_path) as one_page:
+        queries = _queries(app, console, "/console/progress.json")
+        baseline_queries = _queries(one_page.app, one_page, "/console/progress.json")
+        assert queries <= baseline_queries + 2, (queries, baseline_queries)  # not per participant
+        (json_ms, answer), (base_json_ms, _) = _best_ms(
+            [console, one_page], "/console/progress.json"
+        )
+        (page_ms, page), (base_page_ms, _) = _best_ms([console, one_page], "/console/")
     print(
-        f"5,000 participants: progress.json {json_ms:.0f} ms, index {page_ms:.0f} ms "
-        f"(best of 5), {queries} queries; load per core {busy:.1f}"
+        f"progress.json {json_ms:.0f} ms with 5,000 participants, {base_json_ms:.0f} ms with "
+        f"{PER_PAGE}; index {page_ms:.0f} ms, {base_page_ms:.0f} ms (best of 5, in turns); "
+        f"{queries} queries, {baseline_queries} with one page"
     )
-    assert json_ms < 300 * busy and page_ms < 300 * busy, (json_ms, page_ms, busy)
+    for ms, base_ms in ((json_ms, base_json_ms), (page_ms, base_page_ms)):
+        assert ms < max(300.0, SCAN_FACTOR * base_ms), (ms, base_ms)
     body = answer.get_json()
     assert body["total"] == 5000 and len(body["participants"]) == PER_PAGE
     assert body["pages"] == 5000 // PER_PAGE and len(page.get_data()) < 500_000

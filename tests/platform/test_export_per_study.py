@@ -75,3 +75,27 @@ def test_export_of_one_study(app, database_url, tmp_path) -> None:  # type: igno
         in unknown.output
     )
     assert not (tmp_path / "x").exists()
+
+
+def test_the_console_lists_the_studies_participants_belong_to_now(app) -> None:
+    """The export's study list (every console page) is asked in the database, and names
+    each participant's study as the export assigns it: the newest enrolment's, else the
+    study chosen at creation; a study left by its only participant is not listed."""
+    from hcss.platform.export.selection import participant_studies, present_studies
+
+    def listed(session) -> list[str]:  # type: ignore[no-untyped-def]
+        assigned = sorted({name for name in participant_studies(session).values() if name})
+        assert present_studies(session) == assigned
+        return assigned
+
+    with app.extensions["hcss_db"].session_scope() as session:
+        moved, stayed = Participant(), Participant()
+        session.add_all([moved, stayed])
+        session.flush()
+        assign_cell(session, moved, override=1, study="demo")
+        assign_cell(session, moved, override=1, study="original")  # left demo
+        assign_cell(session, stayed, override=1, study="original")
+        assert listed(session) == ["original"]
+        session.add(Participant(study="demo"))  # invited to demo, link not opened yet
+        session.flush()
+        assert listed(session) == ["demo", "original"]

@@ -85,9 +85,9 @@ def _export_studies() -> dict[str, object]:
     """The console bar's export choice: the studies that have participants (read when shown)."""
 
     def export_studies() -> list[str]:
-        from hcss.platform.export.selection import participant_studies
+        from hcss.platform.export.selection import present_studies
 
-        return sorted({name for name in participant_studies(get_session()).values() if name})
+        return present_studies(get_session())
 
     return {"export_studies": export_studies}
 

@@ -8,11 +8,11 @@ yet and belongs to the study the experimenter chose when creating them.
 
 from __future__ import annotations
 
-from sqlalchemy import select
+from sqlalchemy import exists, select, union
 from sqlalchemy.orm import Session
 
 from hcss.platform.models import Participant, StudyEnrolment
-from hcss.platform.models.latest import latest_per_key
+from hcss.platform.models.latest import latest_per_key, newest_ids
 
 
 class UnknownStudy(ValueError):
@@ -25,6 +25,22 @@ def participant_studies(session: Session) -> dict[int, str | None]:
     enrolled = {pid: enrolment.study for pid, enrolment in newest.items()}
     chosen = session.execute(select(Participant.id, Participant.study))
     return {pid: enrolled.get(pid, study) for pid, study in chosen}
+
+
+def present_studies(session: Session) -> list[str]:
+    """The studies that have participants, as `participant_studies` assigns them, sorted.
+
+    Asked in the database: every console page lists them, and reading each
+    participant's study into Python cost over a second at 5,000 participants.
+    """
+    enrolled = select(StudyEnrolment.study).where(
+        StudyEnrolment.id.in_(newest_ids(StudyEnrolment, StudyEnrolment.participant_id))
+    )
+    chosen = select(Participant.study).where(
+        Participant.study.is_not(None),
+        ~exists().where(StudyEnrolment.participant_id == Participant.id),
+    )
+    return sorted(name for name in session.scalars(union(enrolled, chosen)) if name)
 
 
 def participants_of(session: Session, study: str | None) -> list[Participant]:
