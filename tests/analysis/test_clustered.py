@@ -11,6 +11,7 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
+from statsmodels.regression.mixed_linear_model import MixedLM
 
 from hcss.analysis.clustered import success_gee, time_mixed_model
 
@@ -174,10 +175,15 @@ def test_all_correct_or_separated_success_is_not_fitted(decisions):
     assert model.note.startswith("separation: all 50 decisions with M2, difficult were correct")
 
 
-def test_a_mixed_model_that_does_not_converge_shows_no_numbers(decisions):
-    """Two participants with one decision each per cell: statsmodels says converged=False."""
-    tiny = decisions[decisions["participant"].isin(["P00", "P01"])]
-    tiny = tiny.groupby(["participant", "model", "difficulty"]).head(1)
-    model = time_mixed_model(tiny)
+def test_a_mixed_model_that_does_not_converge_shows_no_numbers(decisions, monkeypatch):
+    """A fit statsmodels itself reports as converged=False shows no numbers.
+
+    Which small data sets fail to converge changes with statsmodels' optimiser
+    (two participants with one decision per cell did under 0.14, not under 0.15),
+    so the fit is cut to one iteration: a real, library-reported non-convergence.
+    """
+    fit = MixedLM.fit
+    monkeypatch.setattr(MixedLM, "fit", lambda self, **options: fit(self, **options, maxiter=1))
+    model = time_mixed_model(decisions)
     assert model.terms == ()
     assert "did not converge" in model.note
