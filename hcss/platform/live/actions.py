@@ -10,7 +10,7 @@ command, so the log (what a rebuild replays) and the trial in memory never
 disagree.
 
 An action sent with an idempotency key gets the key as an unsaved
-`CommandKey` (from `idempotency.pending_key`) and stores it, with the answer
+`CommandKey` (the `idempotent` route decorator hands it to the view) and stores it, with the answer
 it gives, in the same transaction as what it records: the command and its key
 are committed together or not at all, so a retry after a crash or a failed
 write can never carry the command out twice.

@@ -16,11 +16,12 @@ from flask import Blueprint, Response, current_app, jsonify, request
 from hcss.platform.db import database, get_session, hand_back_connection
 from hcss.platform.live import actions, validation
 from hcss.platform.live.access import held_trial, runner, study_of, trial_for
-from hcss.platform.live.idempotency import idempotent, pending_key
+from hcss.platform.live.idempotency import idempotent
 from hcss.platform.live.session import RunningTrial
 from hcss.platform.live.stream import ended_stream, event_stream
 from hcss.platform.live.streams import RETRY_AFTER_S, StreamSlots, client_share, study_share
 from hcss.platform.live.trials import end_reason
+from hcss.platform.models import CommandKey
 
 _POSITION = re.compile(r"[0-9]{1,18}")
 
@@ -122,19 +123,19 @@ def state(token: str, trial_id: int) -> Response:
 
 @bp.post("/requests")
 @idempotent
-def submit_request(token: str, trial_id: int):
+def submit_request(token: str, trial_id: int, key: CommandKey | None):
     live = _live(token, trial_id)
     command, selections = validation.parse_request(
         request.get_json(silent=True), live, get_session(), trial_id
     )
     hand_back_connection()  # the command's unit of work takes its own connection
-    answer = actions.submit_request(database(), live, command, selections, key=pending_key())
+    answer = actions.submit_request(database(), live, command, selections, key=key)
     return jsonify(answer), 200
 
 
 @bp.post("/observations")
 @idempotent
-def observe(token: str, trial_id: int):
+def observe(token: str, trial_id: int, key: CommandKey | None):
     live = _live(token, trial_id)
     body = _body()
     kind, button = body.get("kind"), body.get("button")
@@ -150,7 +151,7 @@ def observe(token: str, trial_id: int):
         collective=_clicked(body, "collective", kind, collectives - 1, low=0),
         target=_clicked(body, "target", kind, targets, low=1),
         button=button,
-        key=pending_key(),
+        key=key,
     )
     return jsonify(answer), 201
 
@@ -165,22 +166,18 @@ def _clicked(body: dict[str, Any], name: str, kind: str, high: int, *, low: int)
 
 @bp.post("/probes/<int:probe_id>/ready")
 @idempotent
-def probe_ready(token: str, trial_id: int, probe_id: int):
+def probe_ready(token: str, trial_id: int, probe_id: int, key: CommandKey | None):
     live = _live(token, trial_id)
-    answer = actions.probe_ready(
-        database(), live, probe_id, now=runner().clock(), key=pending_key()
-    )
+    answer = actions.probe_ready(database(), live, probe_id, now=runner().clock(), key=key)
     return jsonify(answer)
 
 
 @bp.post("/probes/<int:probe_id>/answer")
 @idempotent
-def probe_answer(token: str, trial_id: int, probe_id: int):
+def probe_answer(token: str, trial_id: int, probe_id: int, key: CommandKey | None):
     live = _live(token, trial_id)
     answer = _body().get("answer")
     if not isinstance(answer, str):
         raise actions.ActionError("'answer' must be one of the choices, as a string")
-    reply = actions.probe_answer(
-        database(), live, probe_id, answer, now=runner().clock(), key=pending_key()
-    )
+    reply = actions.probe_answer(database(), live, probe_id, answer, now=runner().clock(), key=key)
     return jsonify(reply)

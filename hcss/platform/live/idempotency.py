@@ -9,7 +9,8 @@ row without touching the trial again. A key sent with a different command
 (another route, probe or body) is refused with 422.
 
 The key of a command that records something is written by the action itself
-(`pending_key`, passed to `hcss.platform.live.actions`), in the transaction
+(the decorator hands the view its `key`, a `CommandKey` not yet stored, and the
+view passes it to `hcss.platform.live.actions`), in the transaction
 that records the command: both are committed or neither is. Were the key
 written afterwards, a server killed (or a write failing) between the two
 commits would leave the command without its key, and the client's retry
@@ -36,7 +37,7 @@ from contextlib import nullcontext
 from functools import wraps
 from typing import Any
 
-from flask import Response, current_app, g, jsonify, request
+from flask import Response, current_app, jsonify, request
 from sqlalchemy import inspect, select
 from sqlalchemy.exc import IntegrityError
 
@@ -97,22 +98,18 @@ def _replay(row: CommandKey, fingerprint: str) -> Response:
     return response
 
 
-def pending_key() -> CommandKey | None:
-    """The request's key, not yet stored, for the action to store with what it records.
-
-    None when the POST carries no key (or the route is not `idempotent`).
-    """
-    return g.get("pending_command_key")
-
-
 def idempotent(view: Callable[..., Any]) -> Callable[..., Any]:
-    """Route decorator: carry out a keyed command once and answer repeats from the store."""
+    """Route decorator: carry out a keyed command once and answer repeats from the store.
+
+    The view is called with `key`: the request's `CommandKey`, not yet stored,
+    for the action to store with what it records; None when the POST has no key.
+    """
 
     @wraps(view)
     def wrapper(token: str, trial_id: int, **kwargs: Any) -> Any:
         key = command_key()
         if key is None:
-            return view(token, trial_id, **kwargs)
+            return view(token, trial_id, key=None, **kwargs)
         if held_trial(token, trial_id) is None:
             trial_for(token, trial_id)  # 404 for another participant's trial
         fingerprint = _fingerprint()
@@ -124,7 +121,6 @@ def idempotent(view: Callable[..., Any]) -> Callable[..., Any]:
             pending = CommandKey(
                 trial_id=trial_id, key=key, endpoint=str(request.endpoint), fingerprint=fingerprint
             )
-            g.pending_command_key = pending
             try:
                 response = _carry_out(view, token, trial_id, kwargs, pending)
             except IntegrityError:
@@ -135,8 +131,6 @@ def idempotent(view: Callable[..., Any]) -> Callable[..., Any]:
                 if row is None:
                     raise
                 return _replay(row, fingerprint)
-            finally:
-                g.pop("pending_command_key", None)
             return response
 
     return wrapper
@@ -147,7 +141,7 @@ def _carry_out(
 ) -> Response:
     """The view's answer; `key` stored with it, by the action or (nothing recorded) here."""
     try:
-        response = current_app.make_response(view(token, trial_id, **kwargs))
+        response = current_app.make_response(view(token, trial_id, key=key, **kwargs))
     except ActionError as error:
         response = jsonify(error=error.code, message=error.message)
         response.status_code = error.status
