@@ -51,11 +51,16 @@ def database_base_url() -> str | None:
 
 @contextmanager
 def group(
-    url: str, processes: int, workdir: Path
+    url: str, processes: int, workdir: Path, extra_env: dict[str, str] | None = None
 ) -> Iterator[tuple[list[LocalServer], LocalNginx]]:
+    """`processes` `--cluster` servers on one database behind one nginx, as operations.md deploys."""
     servers = [
         LocalServer(
-            url, workdir / f"process-{i}", threads=DEFAULT_THREADS, serve_args=["--cluster"]
+            url,
+            workdir / f"process-{i}",
+            threads=DEFAULT_THREADS,
+            serve_args=["--cluster"],
+            extra_env={**BEHIND_NGINX, **(extra_env or {})},
         )
         for i in range(processes)
     ]

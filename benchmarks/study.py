@@ -15,11 +15,15 @@ import resource
 from pathlib import Path
 from tempfile import TemporaryDirectory
 
+from benchmarks.live import _process_cpu_s
+from benchmarks.live_processes import database_base_url, group
 from hcss.platform.bot_http import percentile, run_http_bots
 from hcss.platform.cli import upgrade_database
-from hcss.platform.localserver import LocalServer
+from hcss.platform.localserver import LocalNginx, LocalServer, postgres_schema
 
 BOT_COUNTS = (8, 24)
+#: The issue's figure for several processes: 24 bots through nginx, 1 process against 2.
+CLUSTER_BOTS = 24
 ACCELERATION = 20.0
 TARGET_PAGE_P95_MS = 500.0
 
@@ -54,7 +58,42 @@ def run() -> None:
                 print(f"      slow: {line}")
             for error in figures.errors[:5]:
                 print(f"      failed: {error}")
+    through_nginx()
     print(
         f"(5) study load: concurrent bots through the demo study over HTTP, "
         f"page p95 target < {TARGET_PAGE_P95_MS:.0f} ms, 0 errors"
     )
+
+
+def through_nginx() -> None:
+    """The same walk on PostgreSQL through nginx: one `--cluster` process, then two.
+
+    Both runs differ only in the number of processes (same database server,
+    nginx configuration, bots and acceleration), so their page latencies show
+    what a second process buys on this machine. The bots share its two cores.
+    """
+    base = database_base_url()
+    if base is None or not LocalNginx.available():
+        print("    through nginx: skipped (needs HCSS_BENCH_DATABASE_URL or nginx)")
+        return
+    env = {"HCSS_STUDY": "demo", "HCSS_TIME_ACCELERATION": str(ACCELERATION)}
+    with TemporaryDirectory() as tmp:
+        for processes in (1, 2):
+            with postgres_schema(base, "hcss_bench_study") as url:
+                upgrade_database(url)
+                workdir = Path(tmp) / f"study-{processes}"
+                with group(url, processes, workdir, extra_env=env) as (servers, nginx):
+                    pids = [s.process.pid for s in servers if s.process is not None]
+                    cpu_before = sum(_process_cpu_s(pid) for pid in pids)
+                    figures = run_http_bots(
+                        nginx.url, url, "demo", CLUSTER_BOTS, concurrency=CLUSTER_BOTS
+                    )
+                    server_s = sum(_process_cpu_s(pid) for pid in pids) - cpu_before
+            ok = not figures.errors and percentile(figures.page_ms, 95) < TARGET_PAGE_P95_MS
+            print(
+                f"    PostgreSQL via nginx, {processes} process(es): {figures.summary()}  "
+                f"{'ok' if ok else 'below target'}"
+            )
+            print(f"      CPU: servers {server_s:.1f} s over {figures.wall_s:.1f} s of walking")
+            for error in figures.errors[:5]:
+                print(f"      failed: {error}")
