@@ -22,6 +22,9 @@ def available_studies() -> list[str]:
 class LoginForm(FlaskForm):
     username = StringField("Username", validators=[DataRequired(), Length(max=64)])
     password = PasswordField("Password", validators=[DataRequired(), Length(max=256)])
+    code = StringField(
+        "One-time code (accounts with a second factor)", validators=[Optional(), Length(max=32)]
+    )
 
 
 class CreateParticipantsForm(FlaskForm):

@@ -43,6 +43,12 @@ class Experimenter(UserMixin, CreatedAt, Base):
     # Moves on at every sign-out; cookies of older generations stop working
     # (hcss.platform.console.login_sessions).
     login_generation: Mapped[int] = mapped_column(default=0)
+    # The second factor (hcss.platform.console.second_factor), None until enrolled: the
+    # TOTP secret (base32), the last time step a code was taken for (a code is used
+    # once), and the argon2 hashes of the recovery codes not yet used.
+    totp_secret: Mapped[str | None] = mapped_column(String(64), default=None)
+    totp_last_step: Mapped[int | None] = mapped_column(default=None)
+    recovery_hashes: Mapped[list[Any] | None] = mapped_column(default=None)
 
     def get_id(self) -> str:
         """What Flask-Login puts in the session cookie: the account and its generation."""
