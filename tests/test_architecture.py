@@ -76,6 +76,16 @@ def test_the_source_keeps_every_contract() -> None:
             "from hcss.analysis import measures",
             "No import cycle between the modules of any package",
         ),
+        (  # the console holding a trial in memory instead of asking the live service
+            "hcss/platform/console/sessions.py",
+            "from hcss.platform.live.session import RunningTrial",
+            "The console reaches live trials through the live service",
+        ),
+        (  # the study flow writing the trial log itself
+            "hcss/platform/study/trial_stage.py",
+            "from hcss.platform.live import trial_log",
+            "The console reaches live trials through the live service",
+        ),
         (  # a cycle inside a package, through an import in a function
             "hcss/platform/study/stage.py",
             "def _late():\n    from hcss.platform.study import flow",

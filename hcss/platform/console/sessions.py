@@ -12,14 +12,9 @@ from __future__ import annotations
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
-from hcss.platform.live.control import control_trial
-from hcss.platform.live.leases import HostedElsewhere
-from hcss.platform.live.orders import send_order
 from hcss.platform.live.runner import Runner
-from hcss.platform.live.session import RunningTrial
-from hcss.platform.live.trials import current_trial, latest_status
+from hcss.platform.live.service import OrderUnconfirmed, control_session_trial, running_trial_id
 from hcss.platform.models import ConsoleAction, Experimenter, Participant
-from hcss.platform.models.vocabularies import TrialStatus
 from hcss.platform.pilots import is_pilot
 from hcss.platform.session_state import ENDED_STATES, STATE_ACTIONS, session_state
 from hcss.platform.study.flow import current_position
@@ -57,19 +52,6 @@ def study_status(session: Session, participant: Participant) -> str:
     return current_position(session, participant).status
 
 
-def _live_trial(
-    session: Session, runner: Runner, participant: Participant
-) -> RunningTrial | HostedElsewhere | None:
-    """The participant's running trial if hosted here; `HostedElsewhere` if another process hosts it."""
-    trial = current_trial(session, participant)
-    if trial is None or latest_status(session, trial.id) != TrialStatus.RUNNING:
-        return None
-    try:
-        return runner.get(trial.id)
-    except HostedElsewhere as elsewhere:
-        return elsewhere
-
-
 def _record(
     database: Database,
     participant: Participant,
@@ -104,7 +86,7 @@ def change_session(
         raise ConsoleError(f"unknown session action {action!r}")
     with database.session_scope() as session:
         state = session_state(session, participant.id)
-        live = _live_trial(session, runner, participant)
+        trial_id = running_trial_id(session, participant)
     if action == "time_out":
         raise ConsoleError("only the server times a session out")
     if state in ENDED_STATES:
@@ -124,31 +106,19 @@ def change_session(
             f"{participant.code} has {status} the study; there is nothing to {action}"
         )
     experimenter_id = None if experimenter is None else experimenter.id
-    if isinstance(live, HostedElsewhere):
-        _send_order(database, runner, live.trial_id, action, experimenter_id)
-        return
-    if live is None:
-        _record(database, participant, experimenter, action, runner.clock())
-        return
-    control_trial(
-        runner, live, action, participant_id=participant.id, experimenter_id=experimenter_id
-    )
-
-
-def _send_order(
-    database: Database, runner: Runner, trial_id: int, action: str, experimenter_id: int | None
-) -> None:
-    """Have the process hosting the trial carry the action out; wait for it to confirm."""
-    issued_by = "" if runner.leases is None else runner.leases.owner
-    outcome = send_order(
-        database, trial_id, action, experimenter_id=experimenter_id, issued_by=issued_by
-    )
-    if outcome is None:
-        raise ConsoleError(
-            f"the {action} is sent to the server process hosting trial {trial_id}, which has "
-            "not confirmed it yet; it is carried out as soon as that process (or the one "
-            "taking the trial over) gets to it"
+    try:
+        controlled = trial_id is not None and control_session_trial(
+            database,
+            runner,
+            trial_id,
+            action,
+            participant_id=participant.id,
+            experimenter_id=experimenter_id,
         )
+    except OrderUnconfirmed as pending:
+        raise ConsoleError(str(pending)) from pending
+    if not controlled:  # no trial runs: the row alone holds the session
+        _record(database, participant, experimenter, action, runner.clock())
 
 
 def set_pilot(

@@ -14,8 +14,8 @@ from sqlalchemy import ColumnElement, MetaData, Select, Table, delete, false, or
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
-from hcss.platform.live.leases import HostedElsewhere
 from hcss.platform.live.runner import Runner
+from hcss.platform.live.service import HostedElsewhere, withdrawing
 from hcss.platform.models import AuditRecord, Base, DeletionPermit, Participant, Trial
 
 
@@ -80,7 +80,7 @@ def withdraw(
             session.scalars(select(Trial.id).where(Trial.participant_id == participant_id))
         )
     try:
-        with runner.withdrawing(trial_ids, "withdrawn"):
+        with withdrawing(runner, trial_ids, "withdrawn"):
             return _delete_all(database, participant_id, participant_code, experimenter)
     except HostedElsewhere as elsewhere:
         raise WithdrawalError(
