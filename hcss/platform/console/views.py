@@ -7,7 +7,6 @@ and console URLs name participants by code, never by token.
 from __future__ import annotations
 
 import re
-from math import ceil
 from urllib.parse import urlsplit
 
 from flask import (
@@ -27,15 +26,13 @@ from flask import (
     session as cookie_session,
 )
 from flask.typing import ResponseReturnValue
-from flask_login import LoginManager, current_user, login_required, login_user, logout_user
+from flask_login import LoginManager, current_user, login_required, logout_user
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from hcss.platform.console import eventlog, forms
-from hcss.platform.console.accounts import authenticate
 from hcss.platform.console.audit import audit_entries
 from hcss.platform.console.link_limit import LinkLimitReached, require_allowance
-from hcss.platform.console.lockout import Attempt, LoginThrottle, allowed, audit_lockout
 from hcss.platform.console.login_sessions import end_sessions, experimenter_for_cookie
 from hcss.platform.console.participants import (
     create_participants,
@@ -46,12 +43,6 @@ from hcss.platform.console.participants import (
 )
 from hcss.platform.console.presence import CONNECTED_WITHIN_S
 from hcss.platform.console.progress import FLAGS, progress_json, progress_page
-from hcss.platform.console.second_factor import (
-    CODE_WINDOW_S,
-    CODES_PER_LOCKOUT,
-    has_second_factor,
-)
-from hcss.platform.console.second_factor import verify as verify_second_factor
 from hcss.platform.console.sessions import (
     ConsoleError,
     available_actions,
@@ -59,12 +50,12 @@ from hcss.platform.console.sessions import (
     set_pilot,
     study_status,
 )
+from hcss.platform.console.signin import answer_sign_in
 from hcss.platform.console.skipping import skip_step
 from hcss.platform.console.withdrawal import WithdrawalError, withdraw
 from hcss.platform.db import database, get_session, session_now
 from hcss.platform.models import AuditRecord, ConsoleAction, Experimenter, Participant
 from hcss.platform.pilots import is_pilot
-from hcss.platform.ratelimit import SlidingWindows
 from hcss.platform.session_state import session_state
 from hcss.platform.study.enrolment import current_enrolment
 from hcss.platform.study.files import study_names
@@ -104,30 +95,6 @@ def _load_experimenter(user_id: str) -> Experimenter | None:
     return experimenter_for_cookie(get_session(), user_id)
 
 
-def _throttle() -> LoginThrottle | None:
-    """The app's sign-in throttle; None when LOGIN_RATE_LIMIT is off (the fuzz test) or
-    for an address in CONSOLE_ALLOW (the lab's own network: a way in during a lockout)."""
-    if not current_app.config.get("LOGIN_RATE_LIMIT", True):
-        return None
-    if allowed(request.remote_addr, current_app.config.get("CONSOLE_ALLOW") or ()):
-        return None
-    return current_app.extensions.setdefault("hcss_login_throttle", LoginThrottle(database()))
-
-
-def _code_tries(username: str) -> bool:
-    """Count a one-time code tried through a lockout; False past the account's allowance."""
-    windows = current_app.extensions.setdefault("hcss_code_windows", SlidingWindows())
-    key = username.strip().lower()
-    return windows.take(key, CODES_PER_LOCKOUT, CODE_WINDOW_S) <= 0
-
-
-def _locked_out(form: forms.LoginForm, attempt: Attempt | None):  # type: ignore[no-untyped-def]
-    wait_s = attempt.wait_s if attempt is not None else 60.0
-    flash(f"Too many failed sign-ins; try again in {ceil(wait_s / 60)} minute(s).")
-    page = render_template("console/login.html", form=form)
-    return page, 429, {"Retry-After": str(ceil(wait_s))}
-
-
 def _runner():
     return current_app.extensions["hcss_runner"]
 
@@ -150,31 +117,7 @@ def _safe_next(target: str | None) -> str:
 def login():
     form = forms.LoginForm()
     if form.validate_on_submit():
-        throttle = _throttle()
-        attempt = throttle.begin(form.username.data, request.remote_addr) if throttle else None
-        locked = attempt is not None and attempt.wait_s > 0
-        code = (form.code.data or "").strip()
-        # Through a lockout only a second factor opens the door, and only a few codes a while.
-        if locked and not (code and _code_tries(form.username.data)):
-            return _locked_out(form, attempt)
-        account = authenticate(get_session(), form.username.data, form.password.data)
-        if account is not None and has_second_factor(account):
-            account = account if code and verify_second_factor(account, code) else None
-        elif locked:
-            account = None
-        if account is not None:
-            get_session().commit()  # a code is spent once
-            if throttle and attempt:
-                throttle.succeeded(attempt)
-            cookie_session.clear()  # no session fixation across the sign-in
-            login_user(account)
-            return redirect(_safe_next(request.args.get("next")))
-        if locked:
-            return _locked_out(form, attempt)
-        if attempt is not None:
-            audit_lockout(database(), attempt, form.username.data)
-        flash("Wrong username or password (or one-time code).")
-        return render_template("console/login.html", form=form), 401
+        return answer_sign_in(form, _safe_next(request.args.get("next")))
     return render_template("console/login.html", form=form)
 
 

@@ -1,0 +1,83 @@
+"""The console's sign-in: the throttle, the password, the second factor, in that order.
+
+Every attempt is counted as a failure before its password is checked (the
+throttle, hcss.platform.console.lockout), so a burst of guesses checks few.
+An account with a second factor needs a valid code as well
+(hcss.platform.console.second_factor). While the (account, client) pair is
+locked, the password alone is not checked; the password with a valid code
+opens the lockout, and only a few codes per account may be tried that way.
+"""
+
+from __future__ import annotations
+
+from math import ceil
+
+from flask import current_app, flash, redirect, render_template, request
+from flask import session as cookie_session
+from flask.typing import ResponseReturnValue
+from flask_login import login_user
+
+from hcss.platform.console import forms
+from hcss.platform.console.accounts import authenticate
+from hcss.platform.console.lockout import Attempt, LoginThrottle, allowed, audit_lockout
+from hcss.platform.console.second_factor import (
+    CODE_WINDOW_S,
+    CODES_PER_LOCKOUT,
+    has_second_factor,
+)
+from hcss.platform.console.second_factor import verify as verify_second_factor
+from hcss.platform.db import database, get_session
+from hcss.platform.ratelimit import SlidingWindows
+
+
+def answer_sign_in(form: forms.LoginForm, next_url: str) -> ResponseReturnValue:
+    """Sign the experimenter in and go to `next_url`, or the page that says why not."""
+    throttle = _throttle()
+    attempt = throttle.begin(form.username.data, request.remote_addr) if throttle else None
+    locked = attempt is not None and attempt.wait_s > 0
+    code = (form.code.data or "").strip()
+    # Through a lockout only a second factor opens the door, and only a few codes a while.
+    if locked and not (code and _code_tries(form.username.data)):
+        return _locked_out(form, attempt)
+    account = authenticate(get_session(), form.username.data, form.password.data)
+    if account is not None and has_second_factor(account):
+        account = account if code and verify_second_factor(account, code) else None
+    elif locked:
+        account = None
+    if account is not None:
+        get_session().commit()  # a code is spent once
+        if throttle and attempt:
+            throttle.succeeded(attempt)
+        cookie_session.clear()  # no session fixation across the sign-in
+        login_user(account)
+        return redirect(next_url)
+    if locked:
+        return _locked_out(form, attempt)
+    if attempt is not None:
+        audit_lockout(database(), attempt, form.username.data)
+    flash("Wrong username or password (or one-time code).")
+    return render_template("console/login.html", form=form), 401
+
+
+def _throttle() -> LoginThrottle | None:
+    """The app's sign-in throttle; None when LOGIN_RATE_LIMIT is off (the fuzz test) or
+    for an address in CONSOLE_ALLOW (the lab's own network: a way in during a lockout)."""
+    if not current_app.config.get("LOGIN_RATE_LIMIT", True):
+        return None
+    if allowed(request.remote_addr, current_app.config.get("CONSOLE_ALLOW") or ()):
+        return None
+    return current_app.extensions.setdefault("hcss_login_throttle", LoginThrottle(database()))
+
+
+def _code_tries(username: str) -> bool:
+    """Count a one-time code tried through a lockout; False past the account's allowance."""
+    windows = current_app.extensions.setdefault("hcss_code_windows", SlidingWindows())
+    key = username.strip().lower()
+    return windows.take(key, CODES_PER_LOCKOUT, CODE_WINDOW_S) <= 0
+
+
+def _locked_out(form: forms.LoginForm, attempt: Attempt | None) -> ResponseReturnValue:
+    wait_s = attempt.wait_s if attempt is not None else 60.0
+    flash(f"Too many failed sign-ins; try again in {ceil(wait_s / 60)} minute(s).")
+    page = render_template("console/login.html", form=form)
+    return page, 429, {"Retry-After": str(ceil(wait_s))}
