@@ -135,13 +135,13 @@ class Database:
         the runner says `hcss db upgrade` for that.
         """
         from sqlalchemy import text
-        from sqlalchemy.exc import InterfaceError, OperationalError, ProgrammingError
+        from sqlalchemy.exc import DBAPIError
 
         try:
             with self.engine.connect() as connection, connection.begin() as transaction:
                 connection.execute(text("UPDATE participant SET id = id WHERE 1 = 0"))
                 transaction.rollback()
-        except (OperationalError, InterfaceError, ProgrammingError) as error:
+        except DBAPIError as error:  # PostgreSQL's read-only refusal is an InternalError
             words = str(error.orig).strip().splitlines()[0] if error.orig else str(error)
             lowered = words.lower()
             if "no such table" in lowered or (

@@ -70,13 +70,23 @@ def participant_token() -> str | None:
 DATABASE_RETRY_S = 5
 
 
+#: SQLSTATE of a write in a read-only transaction (a PostgreSQL standby, or
+#: default_transaction_read_only): psycopg raises it as an InternalError.
+READ_ONLY_SQLSTATE = "25006"
+
+
 def database_away(error: BaseException | None) -> bool:
     """Whether an exception means the database cannot be used just now (not a bug):
     unreachable, restarting, read-only, full, locked, or its pool exhausted."""
-    from sqlalchemy.exc import InterfaceError, OperationalError
+    from sqlalchemy.exc import DBAPIError, InterfaceError, OperationalError
     from sqlalchemy.exc import TimeoutError as PoolTimeout
 
-    return isinstance(error, OperationalError | InterfaceError | PoolTimeout)
+    if isinstance(error, OperationalError | InterfaceError | PoolTimeout):
+        return True
+    return (
+        isinstance(error, DBAPIError)
+        and getattr(error.orig, "sqlstate", None) == READ_ONLY_SQLSTATE
+    )
 
 
 def database_unavailable_page() -> ResponseReturnValue:

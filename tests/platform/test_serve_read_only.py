@@ -15,8 +15,10 @@ import sys
 import time
 from pathlib import Path
 
+from hcss.platform.app import create_app
 from hcss.platform.db import Database
 from tests.platform.own_disk import own_disk
+from tests.platform.test_online_recruitment import _join as join
 
 HCSS = str(Path(sys.executable).with_name("hcss"))
 
@@ -76,3 +78,37 @@ def test_serve_warns_at_start_that_a_read_only_database_takes_no_writes(tmp_path
         finally:
             disk.writable()
         assert Database(url).write_refusal() is None  # writable: nothing to say
+
+
+def test_a_read_only_postgresql_is_said_at_start_and_answers_503() -> None:
+    """As on a standby, or with default_transaction_read_only: `hcss serve`'s probe is
+    refused, and a participant's Start answers 503 with Retry-After, not 500 (PostgreSQL
+    raises no OperationalError for it, but ReadOnlySqlTransaction, SQLSTATE 25006)."""
+    import pytest
+
+    from hcss.platform.localserver import postgres_schema
+    from tests.platform.conftest import PG_ENV
+
+    base = os.environ.get(PG_ENV)
+    if not base:
+        pytest.skip(f"PostgreSQL tests need {PG_ENV}")
+    with postgres_schema(base, "hcss_test") as url:
+        writable = Database(url)
+        writable.create_all()
+        assert writable.write_refusal() is None
+        writable.engine.dispose()
+        read_only = Database(
+            url.replace("options=", "options=-cdefault_transaction_read_only%3Don+")
+        )
+        try:
+            refusal = read_only.write_refusal()
+            assert refusal is not None and "read-only transaction" in refusal
+        finally:
+            read_only.engine.dispose()
+        app = create_app({"DATABASE_URL": read_only.url, "SECRET_KEY": "s"})
+        try:
+            refused = join(app.test_client())
+            assert refused.status_code == 503 and int(refused.headers["Retry-After"]) > 0
+            assert "please wait" in refused.get_data(as_text=True).lower()
+        finally:
+            app.extensions["hcss_db"].engine.dispose()
