@@ -19,8 +19,8 @@ from hcss.platform.models import Participant, ProbeEvent
 from tests.platform.inprocess_server import StudyServer, study_server
 from tests.platform.test_participant_browser import (
     _contrast,
-    _start_live_trial,
     live_trial,
+    open_live_trial,
     wait_for,
 )
 
@@ -73,10 +73,7 @@ def test_the_map_reads_at_1366_and_1024_and_a_double_enter_answers_no_probe(
 ) -> None:  # type: ignore[no-untyped-def]
     from playwright.sync_api import expect
 
-    token = _start_live_trial(demo_server)
-    page = browser.new_page(viewport={"width": 1366, "height": 768})
-    page.goto(f"{demo_server.url}/live/{token}")
-    expect(page.locator("#connection")).to_have_text("live")
+    token, page = open_live_trial(browser, demo_server)
     target = wait_for(
         demo_server,
         lambda lv: next((t for t in lv.view()["targets"] if t["drawn"]), None),
@@ -171,12 +168,8 @@ def _contrast_over(fill: str, ground: str, opacity: float) -> float:
 
 def test_low_support_is_visible_in_the_blue_half(browser, demo_server: StudyServer, capsys) -> None:  # type: ignore[no-untyped-def]
     """Opacity grows with support (SPEC-study §3) from a floor, so a little support shows."""
-    from playwright.sync_api import expect
 
-    token = _start_live_trial(demo_server)
-    page = browser.new_page(viewport={"width": 1366, "height": 768})
-    page.goto(f"{demo_server.url}/live/{token}")
-    expect(page.locator("#connection")).to_have_text("live")
+    token, page = open_live_trial(browser, demo_server)
     low = wait_for(
         demo_server,
         lambda lv: [t for t in lv.view()["targets"] if t["drawn"] and 0 < t["max_support"] < 0.2],

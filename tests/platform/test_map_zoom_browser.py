@@ -14,7 +14,7 @@ from sqlalchemy import func, select
 
 from hcss.platform.models import Observation
 from tests.platform.inprocess_server import StudyServer, study_server
-from tests.platform.test_participant_browser import _start_live_trial
+from tests.platform.test_participant_browser import open_live_trial
 
 pytestmark = pytest.mark.browser
 
@@ -46,10 +46,7 @@ def test_the_map_zooms_and_pans_by_button_wheel_drag_and_keyboard(
 ) -> None:  # type: ignore[no-untyped-def]
     from playwright.sync_api import expect
 
-    token = _start_live_trial(demo_server)
-    page = browser.new_page(viewport={"width": 1366, "height": 768})
-    page.goto(f"{demo_server.url}/live/{token}")
-    expect(page.locator("#connection")).to_have_text("live")
+    token, page = open_live_trial(browser, demo_server)
     expect(page.locator("#layer-collectives .hub-box")).to_have_count(4)
     whole = page.evaluate(HUBS)
     expect(page.locator("#zoom-out")).to_be_disabled()  # the whole map is the widest view

@@ -467,6 +467,17 @@ def _start_live_trial(server: StudyServer, seed: int = 2) -> str:
         return participant.token
 
 
+def open_live_trial(browser, server: StudyServer, viewport: dict[str, int] = LAPTOP):  # type: ignore[no-untyped-def]
+    """A demo participant's live trial, started and shown connected: (token, page)."""
+    from playwright.sync_api import expect
+
+    token = _start_live_trial(server)
+    page = browser.new_page(viewport=viewport)
+    page.goto(f"{server.url}/live/{token}")
+    expect(page.locator("#connection")).to_have_text("live")
+    return token, page
+
+
 def _contrast(first: str, second: str) -> float:
     """WCAG 2 contrast ratio of two CSS rgb() colours."""
 
@@ -484,10 +495,8 @@ def test_the_interface_by_keyboard_info_box_messages_and_contrast(
 ) -> None:
     from playwright.sync_api import expect
 
-    token = _start_live_trial(demo_server)
-    page = browser.new_page(viewport={"width": 1024, "height": 700})  # the minimum window
-    page.goto(f"{demo_server.url}/live/{token}")
-    expect(page.locator("#connection")).to_have_text("live")
+    minimum_window = {"width": 1024, "height": 700}
+    token, page = open_live_trial(browser, demo_server, minimum_window)
     live = live_trial(demo_server)
     target = wait_for(
         demo_server,

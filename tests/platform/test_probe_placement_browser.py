@@ -17,7 +17,7 @@ from hcss.platform.models import Probe
 from hcss.questionnaires.probes import PROBE_TIMEOUT_S, TEMPLATES, ProbeLevel
 from hcss.simulation import ROMAN
 from tests.platform.inprocess_server import StudyServer, study_server
-from tests.platform.test_participant_browser import _start_live_trial, live_trial, wait_for
+from tests.platform.test_participant_browser import live_trial, open_live_trial, wait_for
 
 pytestmark = pytest.mark.browser
 
@@ -94,10 +94,7 @@ def test_the_probe_box_hides_no_hub_and_not_what_it_asks_about(
 ) -> None:  # type: ignore[no-untyped-def]
     from playwright.sync_api import expect
 
-    token = _start_live_trial(demo_server)
-    page = browser.new_page(viewport={"width": 1366, "height": 768})
-    page.goto(f"{demo_server.url}/live/{token}")
-    expect(page.locator("#connection")).to_have_text("live")
+    token, page = open_live_trial(browser, demo_server)
     drawn = wait_for(
         demo_server,
         lambda lv: [t for t in lv.view()["targets"] if t["drawn"]],
