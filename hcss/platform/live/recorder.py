@@ -57,18 +57,21 @@ class _Cursors:
         "postponed_until",
         "current_probe",
         "last_snapshot_epoch",
-        "ended",
-        "end_reason",
     )
 
     @classmethod
     def of(cls, live: RunningTrial) -> _Cursors:
         values = {name: getattr(live, name) for name in cls.NAMES}
+        values["ended"] = live.ended
         return cls({k: copy.copy(v) if isinstance(v, set | list) else v for k, v in values.items()})
 
     def restore(self, live: RunningTrial) -> None:
         for name, value in self.fields.items():
-            setattr(live, name, value)
+            if name != "ended":
+                setattr(live, name, value)
+        ended = self.fields["ended"]
+        if live.ended and not ended:
+            live.reopen()  # its end was not written: it runs on
 
 
 @contextmanager
@@ -285,8 +288,7 @@ def end_trial(live: RunningTrial, session: Session, reason: str, now: float) -> 
             step=live.sim.step_count,
         )
     )
-    live.ended = True
-    live.end_reason = reason
+    live.mark_ended(reason)
 
 
 def _int_or_none(value: Any) -> int | None:

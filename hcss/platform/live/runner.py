@@ -211,13 +211,12 @@ class Runner:
                 stack.enter_context(live.lock)
             yield
             for live in held:
-                live.ended = True
-                live.end_reason = reason
+                live.mark_ended(reason)
                 live.touch()
             for trial_id in trial_ids:
                 stale = self.forget(trial_id)
                 if stale is not None:
-                    stale.ended = True
+                    stale.mark_ended(reason)
                 self._release(trial_id)  # held for the deletion, never loaded
 
     def _give_up(self, trial_id: int, error: Exception) -> None:
@@ -323,8 +322,7 @@ class Runner:
                 )
             with self._registry_lock:
                 self._trials.pop(live.trial_id, None)
-            live.moved = True  # its streams close; the page reconnects to the new host
-            live.touch()
+            live.move_away()  # its streams close; the page reconnects to the new host
 
     def _take_hold(self, trial_ids: list[int]) -> None:
         """Make this process the holder of every lease of these trials (for a withdrawal).
@@ -371,9 +369,7 @@ class Runner:
             with self._registry_lock:
                 lost = self._trials.pop(trial_id, None)
             if lost is not None:
-                with lost.lock:
-                    lost.moved = True  # its streams close; the participant reconnects to the host
-                    lost.touch()
+                lost.move_away()  # its streams close; the participant reconnects to the host
 
     def advance(self, live: RunningTrial, now: float) -> None:
         """Step the trial to the step due at `now`, record it, end it at its time limit.

@@ -18,6 +18,7 @@ from hcss.platform.live.probes import probe_subject
 from hcss.platform.models.vocabularies import TrialStatus
 from hcss.questionnaires.probes import ScheduledProbe
 from hcss.simulation import Display, Simulation
+from hcss.simulation.requests import StatusChange
 
 
 @dataclass
@@ -82,11 +83,11 @@ class RunningTrial:
     dt: float
     lock: threading.RLock = field(default_factory=threading.RLock)
     version: int = 0
-    ended: bool = False
-    end_reason: str = ""
-    #: Another process hosts the trial now (this one lost its lease): streams close so
-    #: the page reconnects to the host, and this copy is never written again.
-    moved: bool = False
+    # Its lifecycle: read `ended`, `end_reason` and `moved`; written only by
+    # `mark_ended` and `move_away`, with `lock` held.
+    _ended: bool = field(default=False, init=False)
+    _end_reason: str = field(default="", init=False)
+    _moved: bool = field(default=False, init=False)
     # System Messages so far, oldest first: {"seq", "time", "kind", "text"}.
     messages: list[dict[str, Any]] = field(default_factory=list)
     # (request id, status) pairs already written as RequestStatusChange rows.
@@ -109,7 +110,7 @@ class RunningTrial:
     # written yet; the recorder writes it first, in order, when the database takes
     # writes again (hcss.platform.live.recorder.kept_until_written).
     unwritten_events: list[dict[str, Any]] = field(default_factory=list)
-    unwritten_status_changes: list[Any] = field(default_factory=list)
+    unwritten_status_changes: list[StatusChange] = field(default_factory=list)
     # The wall instant the database stopped taking this trial's rows: the trial
     # clock stands still from then until they are written (hcss.platform.live.runner).
     database_away_since: float | None = None
@@ -117,6 +118,35 @@ class RunningTrial:
 
     def __post_init__(self) -> None:
         self.changed = threading.Condition(self.lock)
+
+    @property
+    def ended(self) -> bool:
+        return self._ended
+
+    @property
+    def end_reason(self) -> str:
+        """Why it ended (``time_limit``, ``aborted``, ``withdrawn``); "" while it runs."""
+        return self._end_reason
+
+    @property
+    def moved(self) -> bool:
+        """Another process hosts the trial now (this one lost its lease): streams close so
+        the page reconnects to the host, and this copy is never written again."""
+        return self._moved
+
+    def mark_ended(self, reason: str) -> None:
+        """The trial is over for `reason`; call with `lock` held (streams wake on `touch`)."""
+        self._ended, self._end_reason = True, reason
+
+    def reopen(self) -> None:
+        """Undo `mark_ended` whose row was not committed (the recorder's rollback)."""
+        self._ended, self._end_reason = False, ""
+
+    def move_away(self) -> None:
+        """Another process hosts the trial from now on; wakes the streams so they close."""
+        with self.lock:
+            self._moved = True
+            self.touch()
 
     @property
     def total_steps(self) -> int:
