@@ -2,7 +2,7 @@
 
 The box overlays the map while the trial runs (SPAM), so it must not hide
 the collective or target its question asks about, and it should hide no hub
-at all. Measured as rendered at 1366x768 and 1024x768, with a question about
+at all, nor the map's zoom buttons. Measured as rendered at 1366x768 and 1024x768, with a question about
 collective I (whose hub is the map's top-left one) and one about a target.
 """
 
@@ -31,7 +31,8 @@ RECTS = """() => {
   const hubs = {}, targets = {};
   for (const g of document.querySelectorAll("#layer-collectives g.collective")) hubs[g.dataset.collective] = rect(g);
   for (const g of document.querySelectorAll("#layer-targets g.target")) targets[g.dataset.target] = rect(g);
-  return { box: rect(document.getElementById("probe")), hubs, targets };
+  return { box: rect(document.getElementById("probe")), hubs, targets,
+           zoom: rect(document.getElementById("map-zoom")) };
 }"""
 
 
@@ -86,6 +87,7 @@ def _covered(page) -> dict[str, list[str]]:  # type: ignore[no-untyped-def]
     return {
         "hubs": [h for h, r in rects["hubs"].items() if _overlaps(rects["box"], r)],
         "targets": [t for t, r in rects["targets"].items() if _overlaps(rects["box"], r)],
+        "controls": ["zoom"] if _overlaps(rects["box"], rects["zoom"]) else [],
     }
 
 
@@ -114,12 +116,15 @@ def test_the_probe_box_hides_no_hub_and_not_what_it_asks_about(
         _ask(demo_server, ProbeLevel.COMPREHENSION, "I", [str(corner)])
         expect(page.locator("#probe-ready")).to_be_visible()
         prompt = _covered(page)
-        assert prompt["hubs"] == [], (width, prompt)
+        assert prompt["hubs"] == prompt["controls"] == [], (width, prompt)
         page.locator("#probe-ready").click()
         question = TEMPLATES[ProbeLevel.COMPREHENSION].fill("I")
         expect(page.locator("#probe-text")).to_have_text(question)
         asked_collective = _covered(page)
-        assert asked_collective["hubs"] == [], (width, asked_collective)
+        assert asked_collective["hubs"] == asked_collective["controls"] == [], (
+            width,
+            asked_collective,
+        )
         page.locator("#probe-choices button").first.click()
         expect(page.locator("#probe")).to_be_hidden()
 
@@ -129,7 +134,7 @@ def test_the_probe_box_hides_no_hub_and_not_what_it_asks_about(
         expect(page.locator("#probe-text")).to_contain_text(f"target {corner}?")
         asked_target = _covered(page)
         assert str(corner) not in asked_target["targets"], (width, asked_target)
-        assert asked_target["hubs"] == [], (width, asked_target)
+        assert asked_target["hubs"] == asked_target["controls"] == [], (width, asked_target)
         box = page.evaluate(RECTS)["box"]
         figures[f"{width}x{height}"] = (box, asked_target)
         page.locator("#probe-choices button").first.click()

@@ -545,7 +545,8 @@
   // The probe box overlays the map (SPAM) but must not hide what it asks about,
   // and had better hide no hub at all: of a grid of places in the map panel it
   // takes the one whose overlap with the glyphs, weighted, is least. The asked
-  // collective or target weighs most, any hub next, any other target least.
+  // collective or target weighs most, any hub (and the zoom buttons) next, any
+  // other target least.
   // It stays where it is unless another place is strictly better, so it moves
   // only when the question shows (it is taller then) or the window changes.
   const PROBE_MARGIN = 12, PROBE_GRID = 7;
@@ -565,6 +566,9 @@
       const mine = asked && asked.target === Number(g.dataset.target);
       obstacles.push([g.getBoundingClientRect(), mine ? 1e6 : 1]);
     }
+    // The zoom buttons sit on the map too: hiding them weighs as much as a hub.
+    const zoom = $("map-zoom");
+    if (zoom && !zoom.hidden) obstacles.push([zoom.getBoundingClientRect(), 1e3]);
     const cost = (left, top) => {
       let sum = 0;
       for (const [r, weight] of obstacles) {
