@@ -25,6 +25,7 @@ from sqlalchemy.exc import DBAPIError, InterfaceError, OperationalError, Program
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
+from hcss.platform.errors import database_away
 from hcss.platform.live.clock import pause_clock, resume_clock
 from hcss.platform.live.control import control_trial
 from hcss.platform.live.leases import LEASE_S, HostedElsewhere, Leases
@@ -374,7 +375,8 @@ class Runner:
     def advance(self, live: RunningTrial, now: float) -> None:
         """Step the trial to the step due at `now`, record it, end it at its time limit.
 
-        While the database is away (`database_away_since`) the trial stands
+        While the database is away or takes no writes (`database_away_since`;
+        `errors.database_away` says which errors mean that) the trial stands
         still and each call tries again to write what it holds.
         """
         with live.lock:
@@ -398,7 +400,9 @@ class Runner:
                         end_trial(live, session, "time_limit", now)
                     elif now - live.last_snapshot_epoch >= self.snapshot_interval_s:
                         write_snapshot(live, session, now)
-            except (OperationalError, InterfaceError):
+            except DBAPIError as error:
+                if not database_away(error):  # a bug, not an outage: the tick logs it
+                    raise
                 if live.database_away_since is None:
                     log.warning(
                         "live trial %s: the database takes no writes; the trial stands "
