@@ -80,6 +80,27 @@ def test_replay_from_a_snapshot_skips_commands_it_already_contains():
     assert len(operated.log) > in_snapshot > 0
 
 
+def test_replay_shows_each_step_once_after_its_commands():
+    """`on_step` (the console replay's frames): every step from the start's, commands applied."""
+    scenario = Scenario.generate(13)
+    operated = OperatedRun(Simulation(scenario, "M1"), InvestigateThenDecide(), interval_s=10)
+    operated.run(until_s=120)
+    seen: list[tuple[int, int]] = []
+
+    def step(sim: Simulation) -> None:
+        seen.append((sim.step_count, sim.commands_applied))
+
+    until = operated.sim.step_count
+    replay(scenario, "M1", operated.log, until_step=until, on_step=step)
+    assert [s for s, _ in seen] == list(range(until + 1))
+    for s, applied in seen:  # every command logged at or before the step is in it
+        assert applied == sum(1 for logged, _ in operated.log if logged <= s)
+    middle = replay(scenario, "M1", operated.log, until_step=until // 2)
+    seen.clear()
+    replay(scenario, "M1", operated.log, until_step=until, start=middle, on_step=step)
+    assert [s for s, _ in seen] == list(range(until // 2, until + 1))
+
+
 def test_garbage_is_not_a_snapshot():
     with pytest.raises(SimulationError):
         Simulation.restore(b"not a pickle")
