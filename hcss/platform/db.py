@@ -203,16 +203,3 @@ def get_session() -> Session:
     if "db_session" not in g:
         g.db_session = database().sessions()
     return g.db_session
-
-
-def hand_back_connection() -> None:
-    """Commit the request's session so its pooled connection returns to the pool.
-
-    Called before a request waits on a trial's lock or opens a unit of work of
-    its own: a request holding one connection while it waits for a second (or
-    for a lock whose holder needs one) can exhaust a bounded pool, and then
-    every such request waits for the pool's timeout. The session reconnects
-    if it is used again.
-    """
-    if "db_session" in g:
-        g.db_session.commit()

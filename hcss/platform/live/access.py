@@ -7,7 +7,7 @@ import hmac
 from flask import abort, current_app, g
 from sqlalchemy import select
 
-from hcss.platform.db import get_session, hand_back_connection
+from hcss.platform.db import database, get_session
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.session import RunningTrial
 from hcss.platform.models import Participant, StudyEnrolment, Trial
@@ -28,22 +28,23 @@ def trial_for(token: str, trial_id: int) -> Trial:
     One query per request, remembered for the request: a keyed command asks
     in the idempotency wrapper and again in its view.
 
-    The check only reads, and its connection goes back to the pool here: the
-    caller then waits for the runner's or the trial's lock, whose holder may
-    need a connection itself, so a caller holding one while it waits could
-    deadlock many streams opened at once until the pool timed out.
+    The check is a read-only unit of work of its own, so its connection is
+    back in the pool before the caller waits for the runner's or the trial's
+    lock, whose holder may need a connection itself (a caller holding one
+    while it waits could deadlock many streams opened at once until the pool
+    timed out). The live API uses no request session at all.
     """
     checked: dict[tuple[str, int], Trial] = g.setdefault("checked_trials", {})
     trial = checked.get((token, trial_id))
     if trial is None:
-        trial = get_session().scalar(
-            select(Trial)
-            .join(Participant, Trial.participant_id == Participant.id)
-            .where(Trial.id == trial_id, Participant.token == token)
-        )
+        with database().session_scope() as session:
+            trial = session.scalar(
+                select(Trial)
+                .join(Participant, Trial.participant_id == Participant.id)
+                .where(Trial.id == trial_id, Participant.token == token)
+            )
         if trial is None:
             abort(404)
-        hand_back_connection()
         checked[(token, trial_id)] = trial
     return trial
 
@@ -68,16 +69,17 @@ def runner() -> Runner:
 
 def study_of(participant_id: int) -> str:
     """The study the participant is enrolled in (else invited to; "" for neither), for the
-    stream's per-study share; the connection goes back to the pool, as in `trial_for`."""
-    session = get_session()
-    enrolled = session.scalar(
-        select(StudyEnrolment.study)
-        .where(StudyEnrolment.participant_id == participant_id)
-        .order_by(StudyEnrolment.id.desc())
-        .limit(1)
-    )
-    invited = None
-    if enrolled is None:
-        invited = session.scalar(select(Participant.study).where(Participant.id == participant_id))
-    hand_back_connection()
+    stream's per-study share; a unit of work of its own, as in `trial_for`."""
+    with database().session_scope() as session:
+        enrolled = session.scalar(
+            select(StudyEnrolment.study)
+            .where(StudyEnrolment.participant_id == participant_id)
+            .order_by(StudyEnrolment.id.desc())
+            .limit(1)
+        )
+        invited = None
+        if enrolled is None:
+            invited = session.scalar(
+                select(Participant.study).where(Participant.id == participant_id)
+            )
     return enrolled or invited or ""

@@ -13,7 +13,7 @@ from typing import Any
 
 from flask import Blueprint, Response, current_app, jsonify, request
 
-from hcss.platform.db import database, get_session, hand_back_connection
+from hcss.platform.db import database
 from hcss.platform.live import actions, validation
 from hcss.platform.live.access import held_trial, runner, study_of, trial_for
 from hcss.platform.live.idempotency import idempotent
@@ -83,8 +83,10 @@ def stream(token: str, trial_id: int) -> Response:
     live = runner().get(trial.id)
     headers = {"Cache-Control": "no-cache", "X-Accel-Buffering": "no"}
     if live is None:
+        with database().session_scope() as session:
+            reason = end_reason(session, trial.id)
         return Response(
-            ended_stream(trial.id, trial.duration_s, end_reason(get_session(), trial.id)),
+            ended_stream(trial.id, trial.duration_s, reason),
             mimetype="text/event-stream",
             headers=headers,
         )
@@ -125,10 +127,10 @@ def state(token: str, trial_id: int) -> Response:
 @idempotent
 def submit_request(token: str, trial_id: int, key: CommandKey | None):
     live = _live(token, trial_id)
-    command, selections = validation.parse_request(
-        request.get_json(silent=True), live, get_session(), trial_id
-    )
-    hand_back_connection()  # the command's unit of work takes its own connection
+    with database().session_scope() as session:  # read-only: back in the pool before the lock
+        command, selections = validation.parse_request(
+            request.get_json(silent=True), live, session, trial_id
+        )
     answer = actions.submit_request(database(), live, command, selections, key=key)
     return jsonify(answer), 200
 

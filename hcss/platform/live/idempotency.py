@@ -41,7 +41,7 @@ from flask import Response, current_app, jsonify, request
 from sqlalchemy import inspect, select
 from sqlalchemy.exc import IntegrityError
 
-from hcss.platform.db import database, hand_back_connection
+from hcss.platform.db import database
 from hcss.platform.live.access import held_trial, runner, trial_for
 from hcss.platform.live.actions import ActionError
 from hcss.platform.models import CommandKey
@@ -154,7 +154,6 @@ def _carry_out(
     if response.status_code < 400:
         raise RuntimeError(f"{request.endpoint} recorded a command without its key")
     key.status, key.response = response.status_code, response.get_json()
-    hand_back_connection()  # the refusal may have read on the request's session
     with database().session_scope() as session:
         session.add(key)  # a refusal: nothing else was written
     return response
