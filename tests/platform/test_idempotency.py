@@ -14,6 +14,7 @@ from sqlalchemy import func, select
 
 from hcss.platform.models import Command, CommandKey, CommandOutcome, Observation, ProbeEvent
 from tests.platform.conftest import csrf_token_of
+from tests.platform.test_console_migration import SECOND_FACTOR_COLUMNS
 from tests.platform.test_probes import _until_probe
 
 
@@ -196,7 +197,7 @@ def test_the_migration_creates_the_key_table_as_modelled_and_removes_it(database
             if table.name in set(inspect(engine).get_table_names()):
                 table.to_metadata(expected)
         assert "command_key" in expected.tables
-        later = {  # columns revisions after 0004_p8_idempotency add to these tables
+        later = SECOND_FACTOR_COLUMNS | {  # columns revisions after 0004_p8_idempotency add
             ("interruption", "outage_s"),  # 0004_h13_hardening
             ("experimenter", "login_generation"),  # 0004_h13_hardening
             ("trial", "probe_counts"),  # 0005_a10_vocabularies

@@ -67,13 +67,16 @@ def test_serve_warns_at_start_that_a_read_only_database_takes_no_writes(tmp_path
                 stderr=subprocess.PIPE,
             )
             try:
-                said = _stderr_until(process, "without a restart", 60)
+                said = _stderr_until(process, "no console login created", 60)
             finally:
                 process.terminate()
                 process.wait(timeout=10)
             assert "WARNING: the database takes no writes" in said, said
             assert "hcss.sqlite3" in said and "please wait" in said
             assert "Traceback" not in said
+            # No first login can be made, and migrating is not what it takes.
+            assert "hcss db upgrade" not in said, said
+            assert "next start on a database that takes writes" in said, said
             assert Database(url).write_refusal()  # the driver's reason
         finally:
             disk.writable()

@@ -13,7 +13,7 @@ from argon2 import PasswordHasher
 from argon2.exceptions import InvalidHashError, VerificationError
 from flask import Flask
 from sqlalchemy import func, select
-from sqlalchemy.exc import OperationalError, ProgrammingError
+from sqlalchemy.exc import InternalError, OperationalError, ProgrammingError
 from sqlalchemy.orm import Session
 
 from hcss.platform.models import Experimenter
@@ -81,11 +81,19 @@ def ensure_first_login(app: Flask) -> tuple[str, str] | None:
                 return None
             password = secrets.token_urlsafe(12)
             create_experimenter(session, FIRST_USERNAME, password)
-    except (OperationalError, ProgrammingError) as error:
-        click.echo(
-            f"no console login created ({error.orig}); run `hcss db upgrade`, then restart",
-            err=True,
-        )
+    except (OperationalError, ProgrammingError, InternalError) as error:
+        refusal = database.write_refusal()
+        if refusal is not None:  # read-only, full or away: migrating would not help
+            click.echo(
+                f"no console login created: the database takes no writes ({refusal}); "
+                "one is made at the next start on a database that takes writes",
+                err=True,
+            )
+        else:
+            click.echo(
+                f"no console login created ({error.orig}); run `hcss db upgrade`, then restart",
+                err=True,
+            )
         return None
     click.echo(
         f"first console login (shown once): {FIRST_USERNAME} / {password}  "
