@@ -9,7 +9,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from flask import Flask, jsonify, request
+from flask import Flask, Response, jsonify, request
 from flask_wtf.csrf import CSRFError, CSRFProtect
 from sqlalchemy.exc import InterfaceError, OperationalError
 from sqlalchemy.exc import TimeoutError as PoolTimeout
@@ -94,9 +94,17 @@ def _register_json_errors(app: Flask) -> None:
     def _http_error(error: HTTPException):
         if database_away(getattr(error, "original_exception", None)):
             return database_unavailable_page()  # the request's commit failed
+        # A 503 that says when to ask again (a trial hosted by another server process,
+        # not yet taken over) keeps its Retry-After, or bots and scripts give up at once.
+        retry = {k: v for k, v in error.get_headers() if k == "Retry-After"}
         if request.path.startswith("/api/"):
             name = error.name.lower().replace(" ", "_")
             # A 503 here is a trial hosted by another server process: the page retries.
             held = {"held_by": "server"} if error.code == 503 else {}
-            return jsonify(error=name, message=error.description, **held), (error.code or 500)
-        return http_error_page(error)
+            body = jsonify(error=name, message=error.description, **held)
+            return body, (error.code or 500), retry
+        page = http_error_page(error)
+        if isinstance(page, Response):
+            page.headers.update(retry)
+            return page
+        return page[0], page[1], retry

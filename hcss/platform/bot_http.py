@@ -112,6 +112,9 @@ def percentile(values: list[float], q: float) -> float:
 #: While a server restarts: retries 0.25 s apart, for up to 60 s from the first try.
 RECONNECT_FOR_S = 60.0
 RECONNECT_WAIT_S = 0.25
+#: A reverse proxy's answers when the process behind it dropped the request (killed
+#: mid-answer) or could not be reached: for the bot, the same as a dropped connection.
+GATEWAY_LOST = (502, 504)
 
 
 class _Response(SimpleNamespace):
@@ -178,7 +181,9 @@ class HttpClient:
         """The answer, and whether the request had to be sent more than once.
 
         A browser retries while the server restarts, and so does this client;
-        it also asks again after a 503's Retry-After (the database is away).
+        it also asks again after a 503's Retry-After (the database is away, or
+        the trial's process died and its lease has not yet run out), and after
+        a proxy's 502 or 504 (nginx in front of a process killed mid-answer).
         A GET is safe to repeat. So is a POST: a command carries its
         Idempotency-Key (the server answers a repeat with the first outcome),
         and a stage form is taken once (a repeat is refused with 409).
@@ -195,6 +200,12 @@ class HttpClient:
                 if time.perf_counter() - started >= RECONNECT_FOR_S:
                     raise
                 time.sleep(RECONNECT_WAIT_S)
+                continue
+            if (
+                answer.status_code in GATEWAY_LOST
+                and time.perf_counter() - started < RECONNECT_FOR_S
+            ):
+                time.sleep(RECONNECT_WAIT_S)  # the proxy lost the process: as a dropped connection
                 continue
             wait_s = _retry_after_s(answer)
             if wait_s is not None and time.perf_counter() - started + wait_s < RECONNECT_FOR_S:

@@ -11,17 +11,37 @@ from __future__ import annotations
 
 import re
 import threading
+import time
+from collections import Counter
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
 import httpx
 import pytest
+from sqlalchemy import select
 
+from hcss.platform.bot_http import LoadFigures, run_http_bots
 from hcss.platform.cli import upgrade_database
 from hcss.platform.db import Database
 from hcss.platform.localserver import LocalNginx, LocalServer
-from hcss.platform.models import Participant
+from hcss.platform.models import (
+    Command,
+    CommandKey,
+    CommandOutcome,
+    DecisionRow,
+    Interruption,
+    Observation,
+    Participant,
+    Probe,
+    ProbeEvent,
+    RequestStatusChange,
+    SimEvent,
+    Snapshot,
+    StageEvent,
+    TrialLease,
+    TrialStatusChange,
+)
 from hcss.platform.study.enrolment import cell_counts
 from hcss.platform.study.studyfile import load_study
 from tests.platform.test_failover import skip_unless_group
@@ -135,3 +155,184 @@ def test_participants_arriving_at_once_on_two_processes_fill_the_cells_exactly(
     assert after_each_wave == [
         {cell.number: wave for cell in study.cells} for wave in range(1, waves + 1)
     ]
+
+
+def test_a_trial_hosted_by_another_process_answers_503_with_retry_after(database_url) -> None:  # type: ignore[no-untyped-def]
+    """Nginx passes the last 503 on when every process said "hosted elsewhere" (the owner is
+    dead, its lease not yet run out); a bot or script then asks again after Retry-After.
+
+    The answer lost the header on its way through the JSON and HTML error handlers, so
+    the HTTP bots gave up mid-trial on a kill -9 (KeyError 'trial' on the 503's JSON).
+    """
+    from hcss.platform.bots import ManualClock
+    from hcss.platform.live.trials import start_bot_trial
+    from tests.platform.test_leases import _process
+
+    clock = ManualClock(1_000_000.0)
+    owner = _process(database_url, "127.0.0.1:5001", clock)
+    owner.extensions["hcss_db"].create_all()
+    other = _process(database_url, "127.0.0.1:5002", clock)
+    try:
+        with owner.extensions["hcss_db"].session_scope() as session:
+            participant, trial = start_bot_trial(session, seed=2, duration_s=600.0)
+            token, trial_id = participant.token, trial.id
+        assert owner.extensions["hcss_runner"].get(trial_id) is not None  # the owner claims it
+        client = other.test_client()
+        answer = client.get(f"/api/live/{token}/trials/{trial_id}/state")
+        assert answer.status_code == 503 and answer.get_json()["held_by"] == "server"
+        assert answer.headers.get("Retry-After") == "1", dict(answer.headers)
+    finally:
+        for app in (owner, other):
+            app.extensions["hcss_db"].engine.dispose()
+
+
+def test_a_host_killed_before_its_first_snapshot_still_leaves_an_honest_clock(database_url) -> None:  # type: ignore[no-untyped-def]
+    """A claims a trial and dies before writing its first snapshot; B takes it over.
+
+    The bots' kill -9 found this: the kill came right after a trial's lease was
+    taken, and B rebuilt the trial from its scenario as if it were new: no
+    interruption, and the trial clock ran on through the outage (a 60 s
+    training at 30x was over before the participant saw it again).
+    """
+    from hcss.platform.bots import ManualClock
+    from hcss.platform.live.trials import start_bot_trial
+    from tests.platform.test_leases import LEASE_S, _process
+
+    clock = ManualClock(time.time())  # the trial's start is the database's now
+    a = _process(database_url, "127.0.0.1:5001", clock)
+    a.extensions["hcss_db"].create_all()
+    b = _process(database_url, "127.0.0.1:5002", clock)
+    database = a.extensions["hcss_db"]
+    try:
+        with database.session_scope() as session:
+            _, trial = start_bot_trial(session, seed=2, duration_s=600.0)
+            trial_id = trial.id
+        assert a.extensions["hcss_runner"].leases.claim(trial_id, clock.now)  # then A dies
+        clock.now += LEASE_S + 2.0
+        live = b.extensions["hcss_runner"].get(trial_id)
+        assert live is not None
+        with database.session_scope() as session:
+            interruptions = session.scalars(select(Interruption)).all()
+        assert [(i.trial_id, i.snapshot_step) for i in interruptions] == [(trial_id, -1)]
+        assert interruptions[0].outage_s > LEASE_S
+        assert live.running_wall_s(clock.now) < 1.0  # the clock stood still for the outage
+    finally:
+        for app in (a, b):
+            app.extensions["hcss_db"].engine.dispose()
+
+
+#: Trial seconds per wall second: the demo study's six live trials take 18 s of a bot's walk.
+ACCELERATION = 30.0
+BOTS = 4
+#: The tables a walk writes to, compared by id before and after the kill.
+WRITTEN = (
+    Command,
+    CommandOutcome,
+    CommandKey,
+    SimEvent,
+    DecisionRow,
+    RequestStatusChange,
+    Observation,
+    Probe,
+    ProbeEvent,
+    Snapshot,
+    TrialStatusChange,
+    StageEvent,
+)
+
+
+def _row_ids(database: Database) -> dict[str, set[int]]:
+    with database.session_scope() as session:
+        return {model.__tablename__: set(session.scalars(select(model.id))) for model in WRITTEN}
+
+
+def _live_trials(database: Database) -> dict[int, str]:
+    """Trial id -> the process hosting it, for every trial that has not ended."""
+    with database.session_scope() as session:
+        ended = select(TrialStatusChange.trial_id).where(TrialStatusChange.status == "ended")
+        rows = session.execute(
+            select(TrialLease.trial_id, TrialLease.owner).where(TrialLease.trial_id.not_in(ended))
+        )
+        return {trial_id: owner for trial_id, owner in rows}
+
+
+@pytest.mark.slow
+def test_bots_walk_the_whole_study_through_a_kill_9_of_the_busiest_process(
+    group_database_url: str, tmp_path
+) -> None:
+    """HTTP bots walk the demo study through nginx; the process hosting most live trials dies.
+
+    The bots do what a browser does after a kill: ask again while nginx
+    answers 503 (nobody hosts the trial until its lease runs out) or the
+    connection drops, a command with its Idempotency-Key. Every bot must
+    still reach the debrief, every row written before the kill must still be
+    there, each command carried out once (one key per command row; a repeat
+    answered from its key), and each trial that was live on the dead
+    process must have its interruption recorded.
+    """
+    database_url = group_database_url
+    upgrade_database(database_url)
+    database = Database(database_url)
+    env = {"HCSS_STUDY": "demo", "HCSS_TIME_ACCELERATION": str(ACCELERATION)}
+    walked: list[LoadFigures] = []
+    with _two_processes(database_url, tmp_path, env) as (servers, nginx):
+        walk = threading.Thread(
+            target=lambda: walked.append(
+                run_http_bots(nginx.url, database_url, "demo", BOTS, concurrency=BOTS)
+            )
+        )
+        walk.start()
+        # Mid-run: the bots are in their live trials, at least two at once.
+        deadline = time.monotonic() + 90
+        while len(live := _live_trials(database)) < 2:
+            assert walk.is_alive() and time.monotonic() < deadline, "no two live trials at once"
+            time.sleep(0.05)
+        hosted = Counter(live.values())
+        victim = max(servers, key=lambda s: hosted[f"{s.host}:{s.port}"])
+        victim.kill()
+        # Read once it is dead: the trials it still hosted, and every row it had written.
+        moved = sorted(
+            t
+            for t, owner in _live_trials(database).items()
+            if owner == f"{victim.host}:{victim.port}"
+        )
+        before = _row_ids(database)
+        killed = time.monotonic()
+        walk.join(timeout=240)
+        walked_s = time.monotonic() - killed
+        assert not walk.is_alive(), "the bots did not finish within 240 s of the kill"
+    figures = walked[0]
+    after = _row_ids(database)
+    with database.session_scope() as session:
+        interrupted = {
+            i.trial_id: i.outage_s
+            for i in session.scalars(select(Interruption).where(Interruption.trial_id.in_(moved)))
+        }
+        command_ids = list(session.scalars(select(Command.id)))
+        answers = session.scalars(select(CommandKey.response))
+        keyed = Counter(a["command_id"] for a in answers if "command_id" in a)
+        ended = Counter(
+            session.scalars(
+                select(TrialStatusChange.reason).where(TrialStatusChange.status == "ended")
+            )
+        )
+    database.engine.dispose()
+    print(
+        f"kill -9 of the process hosting {len(moved)} of {len(live)} live trials; "
+        f"bots done {walked_s:.1f} s later: {figures.summary()}; outages {interrupted}"
+    )
+    assert not figures.errors, (figures.errors, figures.statuses)
+    assert len(figures.reports) == BOTS
+    assert ended == {"time_limit": BOTS * 6}  # 3 models x (training, trial), each to its end
+    lost = {
+        table: sorted(ids - after[table]) for table, ids in before.items() if ids - after[table]
+    }
+    assert not lost, lost
+    # Every command row was carried out for exactly one key (the bots send one with each),
+    # so none was carried out again when its answer was lost in the kill.
+    assert keyed == Counter(command_ids), (keyed, command_ids)
+    assert moved, "the killed process hosted no trial that had not ended"
+    assert set(interrupted) == set(moved) and all(s > 0 for s in interrupted.values()), (
+        interrupted,
+        moved,
+    )

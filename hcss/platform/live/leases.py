@@ -134,6 +134,11 @@ class Leases:
                 )
             )
 
+    def owner_of(self, trial_id: int) -> str | None:
+        """The process named in the trial's lease, whether or not it has run out."""
+        with self.database.session_scope() as session:
+            return session.scalar(select(TrialLease.owner).where(TrialLease.trial_id == trial_id))
+
     def holder(self, trial_id: int, now: float) -> str | None:
         """The process holding the trial's lease now, if any."""
         with self.database.session_scope() as session:

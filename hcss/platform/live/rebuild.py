@@ -50,7 +50,15 @@ if TYPE_CHECKING:
     from hcss.simulation.requests import RequestOutcome
 
 
-def load_trial(session: Session, trial: Trial, now: float) -> RunningTrial:
+def load_trial(
+    session: Session, trial: Trial, now: float, *, host_died: bool = False
+) -> RunningTrial:
+    """The trial in memory; `host_died`: another process hosted it and its lease ran out.
+
+    A trial that ran in a server that died (it has a snapshot, or its host's
+    lease ran out before the host wrote one) gets its clock stopped for the
+    outage and an `Interruption` (`snapshot_step` -1 when there was no snapshot).
+    """
     from hcss.simulation import Simulation
 
     snapshot = newest_snapshot(session, trial.id)
@@ -78,7 +86,8 @@ def load_trial(session: Session, trial: Trial, now: float) -> RunningTrial:
     live.paused_s += earlier_outages_s(session, trial.id)  # and so did earlier outages
     replayed = _replay_commands(session, trial, live)
     outage_s = 0.0
-    if snapshot is not None:  # it ran in a server that died: the outage stops its clock
+    ran_before = snapshot is not None or host_died
+    if ran_before:  # it ran in a server that died: the outage stops its clock
         reached = max(last_reached_step(session, trial.id), sim.step_count)
         outage_s = stop_clock_for_outage(live, seen, reached, now)
     due = live.due_step(now)
@@ -86,11 +95,11 @@ def load_trial(session: Session, trial: Trial, now: float) -> RunningTrial:
         sim.step(due - sim.step_count)
     _restore_bookkeeping(session, live)
     record_progress(live, session)
-    if snapshot is not None:
+    if ran_before:
         session.add(
             Interruption(
                 trial_id=trial.id,
-                snapshot_step=snapshot.step,
+                snapshot_step=-1 if snapshot is None else snapshot.step,
                 resumed_step=sim.step_count,
                 replayed_commands=replayed,
                 state_digest=sim.state_digest(),

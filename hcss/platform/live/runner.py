@@ -102,13 +102,17 @@ class Runner:
             with self.database.session_scope() as session:
                 if latest_status(session, trial_id) != TrialStatus.RUNNING:
                     return None
+            # Another process's lease, run out: it hosted the trial and died, maybe before
+            # its first snapshot; the rebuild must still stop the clock for the outage.
+            earlier = None if self.leases is None else self.leases.owner_of(trial_id)
             if self.leases is not None and not self.leases.claim(trial_id, self.clock()):
                 raise HostedElsewhere(trial_id, self.leases.holder(trial_id, self.clock()) or "")
+            host_died = self.leases is not None and earlier not in (None, self.leases.owner)
             try:
                 with self.database.session_scope() as session:
                     trial = session.get(Trial, trial_id)
                     assert trial is not None  # it has a status, so it exists
-                    live = load_trial(session, trial, self.clock())
+                    live = load_trial(session, trial, self.clock(), host_died=host_died)
             except DBAPIError:
                 self._release(trial_id)
                 raise  # the database is away: try again later, the trial is not at fault
