@@ -17,7 +17,7 @@ from sqlalchemy.exc import OperationalError
 
 from hcss.platform.models import Command
 from tests.platform.inprocess_server import StudyServer, study_server
-from tests.platform.test_participant_browser import _start_live_trial, wait_for
+from tests.platform.test_participant_browser import open_live_trial, wait_for
 
 pytestmark = pytest.mark.browser
 
@@ -30,17 +30,11 @@ def demo_server(tmp_path) -> Iterator[StudyServer]:  # type: ignore[no-untyped-d
         yield server
 
 
-def test_a_command_answered_503_is_retried_with_its_key_and_stored_once(
-    browser, demo_server: StudyServer
-) -> None:
-    from playwright.sync_api import expect
-
-    token = _start_live_trial(demo_server)
-    page = browser.new_page(viewport={"width": 1280, "height": 900})
-    page.goto(f"{demo_server.url}/live/{token}")
-    expect(page.locator("#connection")).to_have_text("live")
+def _request_ready(browser, server: StudyServer):  # type: ignore[no-untyped-def]
+    """A live trial's page with an investigate request chosen, one click from being sent."""
+    _, page = open_live_trial(browser, server, {"width": 1280, "height": 900})
     target = wait_for(
-        demo_server,
+        server,
         lambda lv: next(
             (t for t in lv.view()["targets"] if t["drawn"] and 0 in t["in_range_of"]), None
         ),
@@ -50,6 +44,29 @@ def test_a_command_answered_503_is_retried_with_its_key_and_stored_once(
     page.locator('g.collective[data-collective="0"]').click()
     page.locator(f'g.target[data-target="{target["id"]}"]').click()
     page.select_option("#request-kind", "investigate")
+    return page
+
+
+def _requests_sent(page) -> list[tuple[str | None, int]]:  # type: ignore[no-untyped-def]
+    """(Idempotency-Key, status) of every answer to a request command the page gets."""
+    sent: list[tuple[str | None, int]] = []
+    page.on(
+        "response",
+        lambda r: (
+            sent.append((r.request.headers.get("idempotency-key"), r.status))
+            if r.url.endswith("/requests")
+            else None
+        ),
+    )
+    return sent
+
+
+def test_a_command_answered_503_is_retried_with_its_key_and_stored_once(
+    browser, demo_server: StudyServer
+) -> None:
+    from playwright.sync_api import expect
+
+    page = _request_ready(browser, demo_server)
 
     failed: list[int] = []
 
@@ -60,15 +77,7 @@ def test_a_command_answered_503_is_retried_with_its_key_and_stored_once(
             failed.append(1)
             raise OperationalError("COMMIT", {}, Exception("server closed the connection"))
 
-    sent: list[tuple[str | None, int]] = []
-    page.on(
-        "response",
-        lambda r: (
-            sent.append((r.request.headers.get("idempotency-key"), r.status))
-            if r.url.endswith("/requests")
-            else None
-        ),
-    )
+    sent = _requests_sent(page)
     event.listen(demo_server.database.sessions, "before_commit", drop_the_command)
     try:
         page.locator("#commit").click()
@@ -81,6 +90,38 @@ def test_a_command_answered_503_is_retried_with_its_key_and_stored_once(
     assert [status for _, status in sent] == [503] * FAILED_COMMITS + [200]
     keys = {key for key, _ in sent}
     assert len(keys) == 1 and None not in keys  # one key across every attempt
+    with demo_server.database.session_scope() as session:
+        assert len(session.scalars(select(Command)).all()) == 1
+    expect(page.locator("#messages li.accepted")).to_have_count(1)
+
+
+def test_a_command_whose_answer_the_proxy_lost_is_retried_and_stored_once(
+    browser, demo_server: StudyServer
+) -> None:
+    """nginx answers 502 when the process dies with a request in flight (the cluster
+    failover test saw it): the command may have been stored, its answer lost. The
+    page sends it again with its key, and the server answers the first answer."""
+    from playwright.sync_api import expect
+
+    page = _request_ready(browser, demo_server)
+    lost: list[int] = []
+
+    def lose_the_first_answer(route) -> None:  # type: ignore[no-untyped-def]
+        if lost:
+            route.continue_()
+            return
+        route.fetch()  # the server stores the command ...
+        lost.append(1)
+        route.fulfill(status=502, body="<html>502 Bad Gateway</html>")  # ... its answer is lost
+
+    sent = _requests_sent(page)
+    page.route("**/requests", lose_the_first_answer)
+    page.locator("#commit").click()
+    expect(page.locator("#request-note")).to_contain_text("accepted", timeout=20000)
+
+    assert [status for _, status in sent] == [502, 200]
+    keys = {key for key, _ in sent}
+    assert len(keys) == 1 and None not in keys
     with demo_server.database.session_scope() as session:
         assert len(session.scalars(select(Command)).all()) == 1
     expect(page.locator("#messages li.accepted")).to_have_count(1)

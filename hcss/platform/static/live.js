@@ -48,6 +48,11 @@
     database: "The study's database is not answering just now",
     server: "The trial is moving to another server",
   };
+  // Answers that say "not now", not "no": 503 from the server (database away,
+  // trial moving), 502 and 504 from a proxy whose process died with the request
+  // in flight (the command may be stored, its answer lost). The same
+  // Idempotency-Key again either stores it once or returns the first answer.
+  const PASSING_STATUS = new Set([502, 503, 504]);
   const pause = (ms) => new Promise((resolve) => setTimeout(resolve, ms));
   async function post(path, body) {
     if (replaying) throw new Error("This is a replay: nothing is sent.");
@@ -70,7 +75,7 @@
       try { payload = await response.json(); } catch (e) { /* empty body */ }
       if (response.ok) return payload;
       const waitS = Math.min(0.5 * 2 ** held, retryAfterS(response));
-      if (response.status !== 503 || state.ended || Date.now() - started + waitS * 1000 > HELD_LIMIT_S * 1000) {
+      if (!PASSING_STATUS.has(response.status) || state.ended || Date.now() - started + waitS * 1000 > HELD_LIMIT_S * 1000) {
         throw new Error(payload.message || response.statusText);
       }
       held++;
