@@ -24,6 +24,9 @@ import time
 from pathlib import Path
 from tempfile import TemporaryDirectory
 
+import httpx
+from httpx_sse import SSEError
+
 from hcss.platform.cli import DEFAULT_THREADS, upgrade_database
 from hcss.platform.db import Database
 from hcss.platform.live.client import TrialClient
@@ -60,6 +63,8 @@ class StreamReader(threading.Thread):
         self.sent: list[float] = []  # POST times of refusals not yet seen, oldest first
         self.latencies_ms: list[float] = []
         self.lock = threading.Lock()
+        #: Why this page's stream was refused (the server at its ceiling) or dropped, if it was.
+        self.refused: str | None = None
 
     def run(self) -> None:
         frames = self.client.frames(timeout_s=15.0)
@@ -73,6 +78,10 @@ class StreamReader(threading.Thread):
                             self.latencies_ms.append((now - self.sent.pop(0)) * 1000.0)
                 if self.stop.is_set():
                     break
+        except (SSEError, httpx.HTTPError) as refusal:
+            # A 503 in JSON instead of a stream, or a stream the overloaded server
+            # dropped or let time out: a figure, not a crash.
+            self.refused = str(refusal)
         finally:
             frames.close()
 
@@ -84,7 +93,7 @@ class StreamReader(threading.Thread):
             status, outcome = self.client.post(
                 "/requests", {"kind": "decide", "collective": number % 4, "target": 1}
             )
-        except OSError:  # refused or timed out: counted as unseen, the run goes on
+        except (OSError, httpx.HTTPError):  # refused or timed out: unseen, the run goes on
             return
         if status != 200 or outcome.get("accepted"):
             with self.lock:  # no refusal will be shown for this one
@@ -129,6 +138,7 @@ def drive(base_url: str, tokens: list[str], server_pids: list[int]) -> dict[str,
     time.sleep(2.0)  # let every stream settle
     started = time.perf_counter()
     cpu_started = sum(_process_cpu_s(pid) for pid in server_pids)
+    clients_started = time.process_time()
     number = 0
     while time.perf_counter() - started < MEASURE_S:
         for reader in readers:
@@ -137,6 +147,7 @@ def drive(base_url: str, tokens: list[str], server_pids: list[int]) -> dict[str,
         time.sleep(COMMAND_EVERY_S)
     ended = time.perf_counter()
     server_cpu_s = sum(_process_cpu_s(pid) for pid in server_pids) - cpu_started
+    clients_cpu_s = time.process_time() - clients_started
     time.sleep(1.0)  # the last refusals
     stop.set()
     for reader in readers:
@@ -153,6 +164,9 @@ def drive(base_url: str, tokens: list[str], server_pids: list[int]) -> dict[str,
         "commands": len(latencies) + lost,
         "unseen": lost,
         "server_cpu": server_cpu_s / (ended - started),
+        # The clients share the machine's two cores with the servers.
+        "clients_cpu": clients_cpu_s / (ended - started),
+        "refused": sum(r.refused is not None for r in readers),
     }
 
 
