@@ -220,6 +220,19 @@ def test_a_return_visit_keeps_its_new_session_id_beside_the_first(app) -> None: 
     assert _count(app, ReturnVisit) == 2
 
 
+def test_a_reload_with_ids_on_record_stores_no_return_visit(app) -> None:  # type: ignore[no-untyped-def]
+    """Reopening the link (or a client replaying it) adds rows only for ids not yet seen."""
+    first = _join(app.test_client(), **PROLIFIC)
+    for _ in range(3):  # the first visit's own ids again: nothing new to keep
+        again = app.test_client().get(f"/join/demo?{urlencode(PROLIFIC)}")
+        assert again.status_code == 302 and again.location == first.location
+    assert _count(app, ReturnVisit) == 0
+    for _ in range(3):  # a new SESSION_ID is kept once, however often it comes back
+        again = app.test_client().get(f"/join/demo?{urlencode(PROLIFIC | {'SESSION_ID': 'X10'})}")
+        assert again.status_code == 302 and again.location == first.location
+    assert _count(app, ReturnVisit) == 1
+
+
 def _visit_at_once(app, queries: list[dict[str, str]]) -> list[str]:  # type: ignore[no-untyped-def]
     """Every query in its own thread, released together; the redirect of each."""
     barrier = threading.Barrier(len(queries))

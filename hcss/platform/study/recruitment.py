@@ -137,7 +137,27 @@ def returning_participant(session: Session, study: Study, recruit: Recruit) -> P
 
 
 def record_return(session: Session, participant: Participant, recruit: Recruit) -> None:
-    """Keep a return visit's own ids (a new SESSION_ID) beside the first visit's."""
+    """Keep a return visit's own ids (a new SESSION_ID) beside the first visit's.
+
+    Only ids not yet on record make a row: a reload, or a client replaying the
+    link, carries nothing new, and storing it would let one URL grow the table
+    without bound.
+    """
+    ids = (recruit.recruiter_study_id, recruit.recruiter_session_id)
+    first = session.scalars(
+        select(Recruitment).where(Recruitment.participant_id == participant.id)
+    ).first()
+    if first is not None and (first.recruiter_study_id, first.recruiter_session_id) == ids:
+        return
+    seen = session.scalar(
+        select(ReturnVisit.id).where(
+            ReturnVisit.participant_id == participant.id,
+            ReturnVisit.recruiter_study_id.is_not_distinct_from(ids[0]),
+            ReturnVisit.recruiter_session_id.is_not_distinct_from(ids[1]),
+        )
+    )
+    if seen is not None:
+        return
     session.add(
         ReturnVisit(
             participant_id=participant.id,
