@@ -156,6 +156,9 @@ def test_mrt_countdown_runs_out_into_a_time_is_up_page(browser, demo_server: Stu
     page.get_by_role("button", name="Next").click()
     expect(page.locator("p.muted", has_text="item 2 of 4")).to_be_visible()
     expect(page.get_by_role("timer")).to_contain_text("1:00")
+    # The server renders 1:00 itself; the countdown starts when study.js has run (by
+    # the load event). Moving the clock before that moved nothing (a fresh clone's run).
+    page.wait_for_load_state("load")
     page.clock.run_for(20_000)
     expect(page.get_by_role("timer")).to_contain_text("0:40")  # the countdown is visible
 
