@@ -169,3 +169,15 @@ def play_trial(trial: Any, until_s: float) -> None:  # TrialHandle
             trial.post(f"/probes/{probe['id']}/answer", {"answer": choices[0]})
             answered += 1
     trial.run_to(until_s)  # the time limit ends the trial
+
+
+def open_replay(browser, url: str, code: str, trial_id: int, viewport: dict[str, int]):  # type: ignore[no-untyped-def]
+    """Sign in to the console as the test experimenter and open one trial's replay: the page."""
+    page = browser.new_page(viewport=viewport)
+    page.goto(f"{url}/console/login")
+    page.get_by_label("Username").fill(USERNAME)
+    page.get_by_label("Password").fill(PASSWORD)
+    page.get_by_role("button", name="Sign in").click()
+    page.goto(f"{url}/console/participants/{code}")
+    page.locator(f'tr[data-trial="{trial_id}"] a.replay-link').click()
+    return page

@@ -27,7 +27,7 @@ from hcss.platform.models import Participant, Recruitment, Snapshot
 from hcss.platform.study.studyfile import load_study
 from hcss.simulation import Simulation
 from tests.platform import console_support
-from tests.platform.console_support import PASSWORD, USERNAME, code_of
+from tests.platform.console_support import code_of, open_replay
 from tests.platform.inprocess import serving
 from tests.platform.replay_support import operate
 from tests.platform.screenshots import screenshot
@@ -119,13 +119,7 @@ def test_a_finished_trial_replays_at_20x_to_the_recorded_digest(
     code = code_of(app, trial.token)
 
     with serving(app) as url:
-        page = browser.new_page(viewport={"width": 1400, "height": 950})
-        page.goto(f"{url}/console/login")
-        page.get_by_label("Username").fill(USERNAME)
-        page.get_by_label("Password").fill(PASSWORD)
-        page.get_by_role("button", name="Sign in").click()
-        page.goto(f"{url}/console/participants/{code}")
-        page.locator(f'tr[data-trial="{trial.trial_id}"] a.replay-link').click()
+        page = open_replay(browser, url, code, trial.trial_id, {"width": 1400, "height": 950})
 
         replay = page.locator("#replay")
         expect(replay).to_have_attribute("data-state", "ready")

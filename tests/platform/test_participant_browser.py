@@ -57,6 +57,16 @@ PATTERN = ("correct", "one_right_one_wrong", "correct", "all_four")
 HAND_COUNT = 2
 
 
+def start_mrt_part_1(page) -> None:  # type: ignore[no-untyped-def]
+    """From the MRT's instructions through the practice item to part 1's first item."""
+    page.get_by_role("button", name="Begin").click()
+    page.locator('input[name="chosen"][value="0"]').check()
+    page.get_by_role("button", name="Check").click()
+    page.get_by_role("button", name="Continue").click()
+    page.get_by_role("button", name="Start part 1").click()
+    expect_stage(page, "mental_rotation", "part_1")
+
+
 def chosen_for(item: mrt.MrtItem, how: str) -> list[int]:
     right = sorted(item.correct)
     wrong = sorted(set(range(4)) - item.correct)
@@ -146,12 +156,7 @@ def test_mrt_countdown_runs_out_into_a_time_is_up_page(browser, demo_server: Stu
     page.clock.install()  # the page's timers, moved by the test with the server's clock
     page.goto(f"{demo_server.url}/p/{token}")
     consent_and_demographics(page)
-    page.get_by_role("button", name="Begin").click()
-    page.locator('input[name="chosen"][value="0"]').check()
-    page.get_by_role("button", name="Check").click()
-    page.get_by_role("button", name="Continue").click()
-    page.get_by_role("button", name="Start part 1").click()
-    expect_stage(page, "mental_rotation", "part_1")
+    start_mrt_part_1(page)
     page.locator('input[name="chosen"][value="1"]').check()
     page.get_by_role("button", name="Next").click()
     expect(page.locator("p.muted", has_text="item 2 of 4")).to_be_visible()
@@ -180,12 +185,7 @@ def test_the_mrt_timer_stays_in_view_on_a_phone(browser, demo_server: StudyServe
     page = browser.new_page(viewport={"width": 375, "height": 812}, is_mobile=True)
     page.goto(f"{demo_server.url}/p/{token}")
     consent_and_demographics(page)
-    page.get_by_role("button", name="Begin").click()
-    page.locator('input[name="chosen"][value="0"]').check()
-    page.get_by_role("button", name="Check").click()
-    page.get_by_role("button", name="Continue").click()
-    page.get_by_role("button", name="Start part 1").click()
-    expect_stage(page, "mental_rotation", "part_1")
+    start_mrt_part_1(page)
     page.locator('input[name="chosen"][value="3"]').scroll_into_view_if_needed()
     page.evaluate("() => window.scrollTo(0, document.documentElement.scrollHeight)")
     page.wait_for_timeout(100)

@@ -13,7 +13,7 @@ import re
 import pytest
 
 from tests.platform import console_support
-from tests.platform.console_support import PASSWORD, USERNAME, code_of
+from tests.platform.console_support import code_of, open_replay
 from tests.platform.inprocess import serving
 from tests.platform.replay_support import operate
 
@@ -48,13 +48,7 @@ def test_a_replayed_probe_is_drawn_in_the_live_box_with_its_answer(
     code = code_of(app, trial.token)
 
     with serving(app) as url:
-        page = browser.new_page(viewport={"width": 1366, "height": 768})
-        page.goto(f"{url}/console/login")
-        page.get_by_label("Username").fill(USERNAME)
-        page.get_by_label("Password").fill(PASSWORD)
-        page.get_by_role("button", name="Sign in").click()
-        page.goto(f"{url}/console/participants/{code}")
-        page.locator(f'tr[data-trial="{trial.trial_id}"] a.replay-link').click()
+        page = open_replay(browser, url, code, trial.trial_id, {"width": 1366, "height": 768})
         expect(page.locator("#replay")).to_have_attribute("data-state", "ready")
 
         # The probe's mark on the timeline jumps to its showing: the live page's prompt.
