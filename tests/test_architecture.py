@@ -86,6 +86,16 @@ def test_the_source_keeps_every_contract() -> None:
             "from hcss.platform.live import trial_log",
             "The console reaches live trials through the live service",
         ),
+        (  # the participant's API carrying a command out itself, past the live service
+            "hcss/platform/live/api.py",
+            "from hcss.platform.live import actions",
+            "The console reaches live trials through the live service",
+        ),
+        (  # the participant's API holding the trial in memory
+            "hcss/platform/live/api.py",
+            "from hcss.platform.live.session import RunningTrial",
+            "The console reaches live trials through the live service",
+        ),
         (  # a cycle inside a package, through an import in a function
             "hcss/platform/study/stage.py",
             "def _late():\n    from hcss.platform.study import flow",

@@ -10,7 +10,7 @@ from sqlalchemy import select
 from hcss.platform.db import database, get_session
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.session import RunningTrial
-from hcss.platform.models import Participant, StudyEnrolment, Trial
+from hcss.platform.models import Participant, Trial
 
 
 def participant_for(token: str) -> Participant:
@@ -63,23 +63,11 @@ def held_trial(token: str, trial_id: int) -> RunningTrial | None:
     return live
 
 
+def require_owner(token: str, trial_id: int) -> None:
+    """404 unless the trial is the token's: in memory when this process holds it, else by query."""
+    if held_trial(token, trial_id) is None:
+        trial_for(token, trial_id)
+
+
 def runner() -> Runner:
     return current_app.extensions["hcss_runner"]
-
-
-def study_of(participant_id: int) -> str:
-    """The study the participant is enrolled in (else invited to; "" for neither), for the
-    stream's per-study share; a unit of work of its own, as in `trial_for`."""
-    with database().session_scope() as session:
-        enrolled = session.scalar(
-            select(StudyEnrolment.study)
-            .where(StudyEnrolment.participant_id == participant_id)
-            .order_by(StudyEnrolment.id.desc())
-            .limit(1)
-        )
-        invited = None
-        if enrolled is None:
-            invited = session.scalar(
-                select(Participant.study).where(Participant.id == participant_id)
-            )
-    return enrolled or invited or ""

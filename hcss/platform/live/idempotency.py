@@ -42,7 +42,7 @@ from sqlalchemy import inspect, select
 from sqlalchemy.exc import IntegrityError
 
 from hcss.platform.db import database
-from hcss.platform.live.access import held_trial, runner, trial_for
+from hcss.platform.live.access import require_owner, runner
 from hcss.platform.live.actions import ActionError
 from hcss.platform.models import CommandKey
 
@@ -110,8 +110,7 @@ def idempotent(view: Callable[..., Any]) -> Callable[..., Any]:
         key = command_key()
         if key is None:
             return view(token, trial_id, key=None, **kwargs)
-        if held_trial(token, trial_id) is None:
-            trial_for(token, trial_id)  # 404 for another participant's trial
+        require_owner(token, trial_id)  # 404 for another participant's trial
         fingerprint = _fingerprint()
         live = runner().get(trial_id)
         with live.lock if live is not None else nullcontext():  # repeats wait here

@@ -9,8 +9,10 @@ stored. What is within range but not possible *now* (an undiscovered target,
 a collective executing a move) stays a refusal from the simulation, logged
 and shown in System Messages as before.
 
-`parse_request` is the one entry point: the endpoint calls it first, so the
-idempotency key and anything else the endpoint adds later sit beside it.
+`parse_request`, `parse_observation` and `parse_answer` are the entry points,
+one per command that carries a body; the live service's commands
+(hcss.platform.live.commands) call them once they have found the trial, so a
+trial that has ended or moved is answered as such whatever the body says.
 """
 
 from __future__ import annotations
@@ -29,6 +31,13 @@ from hcss.simulation import OperatorCommand
 MAX_ID = 2**31 - 1
 #: The request form is filled by a handful of clicks; more is not a person's form.
 MAX_SELECTIONS = 32
+
+
+def json_object(body: Any) -> dict[str, Any]:
+    """The parsed POST body if it is a JSON object, else an ActionError that says to send one."""
+    if not isinstance(body, dict):
+        raise ActionError("send a JSON object (Content-Type: application/json)")
+    return body
 
 
 def bounded_int(value: Any, name: str, low: int, high: int) -> int:
@@ -60,8 +69,7 @@ def parse_request(
     ActionError (400) otherwise. The `OperatorCommand` made here is the one
     applied, stored and (rebuilt from its row) replayed.
     """
-    if not isinstance(body, dict):
-        raise ActionError("send a JSON object (Content-Type: application/json)")
+    body = json_object(body)
     kind = body.get("kind")
     if not isinstance(kind, str) or kind not in COMMAND_KINDS:
         raise ActionError(f"'kind' must be one of {', '.join(COMMAND_KINDS)}")
@@ -98,3 +106,36 @@ def parse_selections(ids: Any, session: Session, trial_id: int) -> tuple[int, ..
         if found != set(checked):
             raise ActionError("'selections' names observations of another trial")
     return tuple(checked)
+
+
+def parse_observation(body: Any, live: RunningTrial) -> tuple[str, int | None, int | None, str]:
+    """(kind, collective, target, button) of a click on the map, every field checked.
+
+    Whether the clicked collective or target is on the map now is the
+    action's check, under the trial's lock.
+    """
+    body = json_object(body)
+    kind, button = body.get("kind"), body.get("button")
+    collectives, targets, _ = trial_ranges(live)
+    if kind not in ("collective", "target"):
+        raise ActionError("'kind' must be 'collective' or 'target'")
+    if button not in ("left", "right"):
+        raise ActionError("'button' must be 'left' or 'right'")
+    collective = _clicked(body, "collective", kind, collectives - 1, low=0)
+    return kind, collective, _clicked(body, "target", kind, targets, low=1), button
+
+
+def _clicked(body: dict[str, Any], name: str, kind: str, high: int, *, low: int) -> int | None:
+    """The clicked collective or target: required for its own kind, optional otherwise."""
+    value = body.get(name)
+    if value is None and kind != name:
+        return None
+    return bounded_int(value, name, low, high)
+
+
+def parse_answer(body: Any) -> str:
+    """The probe answer in the POST body; whether it is one of the choices is the action's check."""
+    answer = json_object(body).get("answer")
+    if not isinstance(answer, str):
+        raise ActionError("'answer' must be one of the choices, as a string")
+    return answer
