@@ -115,3 +115,16 @@ def test_refresh_returns_to_the_same_trial_at_its_current_time(make_trial) -> No
     page = trial.client.get(f"/live/{trial.token}").get_data(as_text=True)
     assert f"/trials/{trial.trial_id}/stream" in page
     assert trial.state()["trial"]["step"] == 200
+
+
+def test_an_ended_trial_answers_ended_to_every_command_whatever_its_body(make_trial) -> None:
+    """The live service finds the trial before it reads the body, so a clumsy client's
+    garbage sent to a finished trial is told the trial has ended, not how to fix the body."""
+    trial = make_trial(kind="training", duration_s=60)
+    trial.run_to(500)
+    headers = {"X-CSRFToken": trial.csrf, "Content-Type": "application/json"}
+    for path in ("/requests", "/observations", "/probes/1/ready", "/probes/1/answer"):
+        for body in ("not json", "[1, 2]", '{"kind": "investigate", "collective": 99}', ""):
+            refused = trial.client.post(trial.api + path, data=body, headers=headers)
+            assert refused.status_code == 409, (path, body, refused.get_data(as_text=True))
+            assert refused.get_json()["error"] == "ended", (path, body)
