@@ -21,7 +21,7 @@ from hcss.platform.db import Database
 from hcss.platform.live.leases import UNCLAIMED_GRACE_S, HostedElsewhere, Leases
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.trials import start_bot_trial
-from hcss.platform.models import Interruption, TrialLease
+from hcss.platform.models import Interruption, Observation, TrialLease
 
 LEASE_S = 6.0
 
@@ -155,3 +155,61 @@ def test_two_takeovers_racing_for_one_expired_lease_exactly_one_wins(database_ur
     for leases in contenders:
         leases.database.engine.dispose()
     setup.engine.dispose()
+
+
+@pytest.mark.parametrize("keyed", [False, True], ids=["without key", "with key"])
+def test_a_command_caught_by_a_lost_lease_is_held_back_with_held_by_and_retry_after(
+    database_url: str, keyed: bool
+) -> None:
+    """A's renewal finds the lease gone while a click waits for the trial's lock: A records
+    nothing and holds the click back (503), saying why (`held_by`, so the page shows "The
+    trial is moving to another server") and when to retry, and B carries it out then.
+
+    Without a key the click meets the moved trial under its lock (error "moved"); with one
+    the idempotency wrapper held the lock, so the click looks the trial up again after it
+    and finds it hosted elsewhere."""
+    from tests.platform.conftest import csrf_token_of
+
+    clock = ManualClock(1_000_000.0)
+    a = _process(database_url, "127.0.0.1:5001", clock)
+    a.extensions["hcss_db"].create_all()
+    b = _process(database_url, "127.0.0.1:5002", clock)
+    runner_a, runner_b = a.extensions["hcss_runner"], b.extensions["hcss_runner"]
+    try:
+        with runner_a.database.session_scope() as session:
+            participant, trial = start_bot_trial(session, seed=2, duration_s=600.0)
+            token, trial_id = participant.token, trial.id
+        live = runner_a.get(trial_id)
+        assert live is not None
+        client = a.test_client()
+        csrf = csrf_token_of(client.get(f"/live/{token}").get_data(as_text=True))
+        headers = {"X-CSRFToken": csrf, **({"Idempotency-Key": "click-0001"} if keyed else {})}
+        answers = []
+
+        def click() -> None:
+            answers.append(
+                client.post(
+                    f"/api/live/{token}/trials/{trial_id}/observations",
+                    json={"kind": "collective", "collective": 0, "button": "left"},
+                    headers=headers,
+                )
+            )
+
+        with live.lock:  # A is busy with the trial (a tick) when the click arrives
+            clicking = threading.Thread(target=click)
+            clicking.start()
+            clicking.join(timeout=1.0)  # it found the trial and waits for the lock
+            clock.now += LEASE_S + 0.5  # meanwhile A stalled past its lease
+            assert runner_b.get(trial_id) is not None  # B takes the trial over
+            runner_a.tick()  # A's renewal finds the lease gone: the trial moved
+        clicking.join(timeout=30)
+        (answer,) = answers
+        moved = "service_unavailable" if keyed else "moved"
+        assert answer.status_code == 503 and answer.get_json()["error"] == moved, answer.json
+        assert answer.get_json()["held_by"] == "server"
+        assert int(answer.headers["Retry-After"]) > 0
+        with runner_a.database.session_scope() as session:
+            assert session.scalar(select(func.count()).select_from(Observation)) == 0
+    finally:
+        for app in (a, b):
+            app.extensions["hcss_db"].engine.dispose()
