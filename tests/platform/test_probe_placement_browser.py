@@ -8,11 +8,12 @@ collective I (whose hub is the map's top-left one) and one about a target.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
 
 import pytest
 
-from hcss.platform.live.session import CurrentProbe
+from hcss.platform.live.progress import CurrentProbe
 from hcss.platform.models import Probe
 from hcss.questionnaires.probes import PROBE_TIMEOUT_S, TEMPLATES, ProbeLevel
 from hcss.simulation import ROMAN
@@ -53,7 +54,7 @@ def _ask(server: StudyServer, level: ProbeLevel, subject: str | int, choices: li
     live = live_trial(server)
     question = TEMPLATES[level].fill(subject)
     with server.app.app_context(), server.database.session_scope() as session, live.lock:
-        live.probe_plan = live.probe_plan[: live.probes_shown]  # no scheduled probe interferes
+        live.probe_postponed(math.inf)  # no scheduled probe interferes
         now = float(live.sim.time)
         row = Probe(
             trial_id=live.trial_id,
@@ -68,16 +69,17 @@ def _ask(server: StudyServer, level: ProbeLevel, subject: str | int, choices: li
         )
         session.add(row)
         session.flush()
-        live.probes_shown += 1
-        live.current_probe = CurrentProbe(
-            id=row.id,
-            probe_index=row.probe_index,
-            level=int(level),
-            question=question,
-            choices=choices,
-            truth=None,
-            shown_sim_time=now,
-            timeout_sim_time=now + PROBE_TIMEOUT_S,
+        live.probe_shown(
+            CurrentProbe(
+                id=row.id,
+                probe_index=row.probe_index,
+                level=int(level),
+                question=question,
+                choices=choices,
+                truth=None,
+                shown_sim_time=now,
+                timeout_sim_time=now + PROBE_TIMEOUT_S,
+            )
         )
         live.touch()
 

@@ -33,7 +33,7 @@ from hcss.platform.models import (
     Observation,
     ProbeEvent,
 )
-from hcss.simulation import OperatorCommand, Simulation
+from hcss.simulation import OperatorCommand
 
 
 class ActionError(Exception):
@@ -89,9 +89,9 @@ def submit_request(
                     },
                 )
         except BaseException:
-            live.sim = Simulation.restore(before)
+            live.roll_back_to(before)
             raise
-        live.last_command_id = row.id
+        live.command_applied(row.id)
         kind, text = command_message(
             row, outcome.accepted, outcome.request_id, outcome.reason, sim.scenario.n_collectives
         )
@@ -152,7 +152,7 @@ def probe_ready(
         with database.session_scope() as session:
             session.add(event)
             answer = _answered(session, key, {"ok": True})
-        probe.ready, probe.ready_s = True, running_s
+        probe.ready_pressed(running_s)
         live.touch()
         return answer
 
@@ -186,12 +186,7 @@ def probe_answer(
                 event.truth, event.correct = probe.truth, correct
                 session.add(event)
             reply = _answered(session, key, {"ok": True})
-        if probe.level == 3:
-            live.pending_projection = [
-                (pid, shown, answer if pid == probe_id else previous)
-                for pid, shown, previous in live.pending_projection
-            ]
-        live.current_probe = None
+        live.probe_answered(answer)
         live.touch()
         return reply
 

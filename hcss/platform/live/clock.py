@@ -12,15 +12,12 @@ restart stands still (or has caught up) exactly as before.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
+from dataclasses import dataclass, field
 
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from hcss.platform.models import ConsoleAction
-
-if TYPE_CHECKING:
-    from hcss.platform.live.session import RunningTrial
 
 
 def running_wall_s(
@@ -65,21 +62,72 @@ def paused_intervals(session: Session, trial_id: int) -> tuple[float, float | No
     return total, open_since
 
 
-def restore_pauses(session: Session, live: RunningTrial) -> None:
-    """Give a trial loaded from the database the pauses it had; call before stepping it."""
-    live.paused_s, live.paused_since = paused_intervals(session, live.trial_id)
+@dataclass
+class TrialClock:
+    """A live trial's clock, changed only by what stops and restarts it.
 
+    It stands still while the experimenter pauses the trial, while the
+    database takes none of its rows, and for every server outage (added
+    whole, on a rebuild: hcss.platform.live.outages).
+    """
 
-def pause_clock(live: RunningTrial, now: float) -> None:
-    """Stop the clock at `now`; call with the trial's lock held, after advancing it to `now`."""
-    if live.paused_since is None:
-        live.paused_since = now
-        live.touch()
+    started_epoch: float  # wall clock, seconds since the epoch
+    acceleration: float
+    duration_s: float
+    # Wall seconds the clock stood still, and the start of the stop under way, if any.
+    _paused_s: float = field(default=0.0, init=False)
+    _paused_since: float | None = field(default=None, init=False)
+    # The wall instant the database stopped taking the trial's rows, if it is away now.
+    _database_away_since: float | None = field(default=None, init=False)
 
+    @property
+    def paused_since(self) -> float | None:
+        return self._paused_since
 
-def resume_clock(live: RunningTrial, now: float) -> None:
-    """Restart the clock; the paused wall time never counts towards the trial."""
-    if live.paused_since is not None:
-        live.paused_s += max(0.0, now - live.paused_since)
-        live.paused_since = None
-        live.touch()
+    @property
+    def database_away_since(self) -> float | None:
+        return self._database_away_since
+
+    def running_wall_s(self, now: float) -> float:
+        return running_wall_s(self.started_epoch, self._paused_s, self._paused_since, now)
+
+    def trial_time_s(self, now: float) -> float:
+        return trial_time_s(
+            self.started_epoch,
+            self._paused_s,
+            self._paused_since,
+            now,
+            acceleration=self.acceleration,
+            duration_s=self.duration_s,
+        )
+
+    def pauses_restored(self, paused_s: float, paused_since: float | None) -> None:
+        """The pauses the action log holds (`paused_intervals`), for a trial loaded from it."""
+        self._paused_s, self._paused_since = paused_s, paused_since
+
+    def stood_still(self, wall_s: float) -> None:
+        """An outage that is over: the clock stood still for `wall_s` more seconds."""
+        self._paused_s += wall_s
+
+    def pause(self, now: float) -> bool:
+        """Stop the clock at `now`; whether it ran until now."""
+        if self._paused_since is not None:
+            return False
+        self._paused_since = now
+        return True
+
+    def resume(self, now: float) -> bool:
+        """Run the clock again; the stopped wall time never counts. Whether it stood still."""
+        if self._paused_since is None:
+            return False
+        self._paused_s += max(0.0, now - self._paused_since)
+        self._paused_since = None
+        return True
+
+    def database_away(self, now: float) -> bool:
+        self._database_away_since = now
+        return self.pause(now)
+
+    def database_back(self, now: float) -> bool:
+        self._database_away_since = None
+        return self.resume(now)

@@ -14,7 +14,7 @@ for how long. At most one snapshot interval of steps the dead server had
 computed but not written is replayed again after the restart.
 
 The database going away while the server lives stops the clock the same way
-(`database_went_away` .. `database_came_back`), with an `Interruption` too.
+(`RunningTrial.database_away` .. `database_back`), with an `Interruption` too.
 """
 
 from __future__ import annotations
@@ -24,7 +24,6 @@ from datetime import UTC, datetime
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
-from hcss.platform.live.clock import pause_clock, resume_clock
 from hcss.platform.live.session import RunningTrial
 from hcss.platform.models import (
     Command,
@@ -97,19 +96,8 @@ def stop_clock_for_outage(
         seen_epoch = (seen if seen.tzinfo else seen.replace(tzinfo=UTC)).timestamp()
         alive_wall_s = max(alive_wall_s, live.running_wall_s(min(now, seen_epoch)))
     outage_s = max(0.0, live.running_wall_s(now) - alive_wall_s)
-    live.paused_s += outage_s
+    live.stood_still(outage_s)
     return outage_s
-
-
-def database_went_away(live: RunningTrial, now: float) -> None:
-    """The database refused the trial's rows: stop its clock here, as an outage stops it.
-
-    The participant can neither command nor have anything recorded, so the
-    trial must not run on; the rows of the batch that failed wait in memory
-    (one batch at most, since the simulation steps no further).
-    """
-    live.database_away_since = now
-    pause_clock(live, now)
 
 
 def record_database_outage(live: RunningTrial, session: Session, now: float) -> None:
@@ -130,9 +118,3 @@ def record_database_outage(live: RunningTrial, session: Session, now: float) -> 
             outage_s=max(0.0, now - live.database_away_since),
         )
     )
-
-
-def database_came_back(live: RunningTrial, now: float) -> None:
-    """The held rows are written: the clock runs again from where it stood."""
-    live.database_away_since = None
-    resume_clock(live, now)

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
-from hcss.platform.live.clock import restore_pauses
+from hcss.platform.live.clock import paused_intervals
 from hcss.platform.live.outages import (
     earlier_outages_s,
     last_reached_step,
@@ -24,8 +24,9 @@ from hcss.platform.live.outages import (
     stop_clock_for_outage,
 )
 from hcss.platform.live.probes import counts_of, probe_plan
+from hcss.platform.live.progress import CurrentProbe, Projection
 from hcss.platform.live.recorder import record_progress, write_snapshot
-from hcss.platform.live.session import CurrentProbe, RunningTrial
+from hcss.platform.live.session import RunningTrial
 from hcss.platform.live.trial_log import (
     build_simulation,
     new_simulation,
@@ -79,11 +80,12 @@ def load_trial(
         duration_s=trial.duration_s,
         dt=float(sim.params.dt_s),
         probe_plan=probe_plan(trial.seed, trial.duration_s, counts_of(trial.probe_counts)),
+        last_command_id=None if snapshot is None else snapshot.last_command_id,
     )
-    live.last_command_id = None if snapshot is None else snapshot.last_command_id
     seen = last_seen(session, trial.id)  # before this rebuild writes anything
-    restore_pauses(session, live)  # the experimenter's pauses stop the trial clock
-    live.paused_s += earlier_outages_s(session, trial.id)  # and so did earlier outages
+    # The experimenter's pauses stop the trial clock, and so did earlier outages.
+    live.pauses_restored(*paused_intervals(session, trial.id))
+    live.stood_still(earlier_outages_s(session, trial.id))
     replayed = _replay_commands(session, trial, live)
     outage_s = 0.0
     ran_before = snapshot is not None or host_died
@@ -132,7 +134,7 @@ def _replay_commands(session: Session, trial: Trial, live: RunningTrial) -> int:
         replayed += 1
         if command.id not in decided:
             session.add(CommandOutcome.of(command.id, outcome))
-        live.last_command_id = command.id
+        live.command_applied(command.id)
 
     build_simulation(session, trial, start=live.sim, on_outcome=record)
     return replayed
@@ -141,10 +143,10 @@ def _replay_commands(session: Session, trial: Trial, live: RunningTrial) -> int:
 def _restore_bookkeeping(session: Session, live: RunningTrial) -> None:
     """What was already written, so the recorder writes only what is new."""
     tid = live.trial_id
-    live.last_event_time = session.execute(
+    last_event_time = session.execute(
         select(func.coalesce(func.max(SimEvent.sim_time), -1.0)).where(SimEvent.trial_id == tid)
     ).scalar_one()
-    live.decisions_recorded = session.execute(
+    decisions = session.execute(
         select(func.count()).select_from(DecisionRow).where(DecisionRow.trial_id == tid)
     ).scalar_one()
     written = session.execute(
@@ -152,7 +154,8 @@ def _restore_bookkeeping(session: Session, live: RunningTrial) -> None:
             RequestStatusChange.trial_id == tid
         )
     )
-    live.request_statuses_written = {(request_id, status) for request_id, status in written}
+    statuses = {(request_id, status) for request_id, status in written}
+    live.log_restored(last_event_time, decisions, statuses)
     _restore_messages(session, live)
     _restore_probes(session, live)
 
@@ -180,19 +183,20 @@ def _restore_probes(session: Session, live: RunningTrial) -> None:
     probes = list(
         session.scalars(select(Probe).where(Probe.trial_id == live.trial_id).order_by(Probe.id))
     )
-    live.probes_shown = len(probes)
     events: dict[int, list[ProbeEvent]] = {p.id: [] for p in probes}
     for event in session.scalars(
         select(ProbeEvent).where(ProbeEvent.probe_id.in_(list(events))).order_by(ProbeEvent.id)
     ):
         events[event.probe_id].append(event)
+    projections: list[Projection] = []
+    current = None
     for probe in probes:
         kinds = {e.kind: e for e in events[probe.id]}
         if probe.level == 3 and "scored" not in kinds:
             answer = kinds["answer"].answer if "answer" in kinds else None
-            live.pending_projection.append((probe.id, probe.shown_sim_time, answer))
+            projections.append((probe.id, probe.shown_sim_time, answer))
         if "answer" not in kinds and "timeout" not in kinds:
-            live.current_probe = CurrentProbe(
+            current = CurrentProbe(
                 id=probe.id,
                 probe_index=probe.probe_index,
                 level=probe.level,
@@ -203,3 +207,4 @@ def _restore_probes(session: Session, live: RunningTrial) -> None:
                 timeout_sim_time=probe.timeout_sim_time,
                 ready="ready" in kinds,
             )
+    live.probes_restored(len(probes), current, projections)

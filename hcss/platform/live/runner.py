@@ -26,15 +26,10 @@ from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
 from hcss.platform.errors import database_away
-from hcss.platform.live.clock import pause_clock, resume_clock
 from hcss.platform.live.control import control_trial
 from hcss.platform.live.leases import LEASE_S, HostedElsewhere, Leases
 from hcss.platform.live.orders import HAND_OVER, POLL_S, PendingOrder, pending_orders, send_order
-from hcss.platform.live.outages import (
-    database_came_back,
-    database_went_away,
-    record_database_outage,
-)
+from hcss.platform.live.outages import record_database_outage
 from hcss.platform.live.rebuild import load_trial
 from hcss.platform.live.recorder import (
     end_trial,
@@ -172,11 +167,11 @@ class Runner:
 
     def pause(self, live: RunningTrial, now: float) -> None:
         """Stop the trial clock at `now` (call inside `holding`)."""
-        pause_clock(live, now)
+        live.paused(now)
 
     def resume(self, live: RunningTrial, now: float) -> None:
         """Restart the trial clock; the paused wall time never counts (call inside `holding`)."""
-        resume_clock(live, now)
+        live.resumed(now)
 
     def end(self, live: RunningTrial, session: Session, reason: str, now: float) -> None:
         """End the trial with `reason`, written in `session` (call inside `holding`)."""
@@ -414,11 +409,11 @@ class Runner:
                         live.trial_id,
                         exc_info=True,
                     )
-                    database_went_away(live, now)
+                    live.database_away(now)
                     live.touch()
                 return
             if live.database_away_since is not None:
-                database_came_back(live, now)
+                live.database_back(now)
                 log.warning("live trial %s: the database is back; the trial goes on", live.trial_id)
             live.touch()
 

@@ -3,6 +3,13 @@
 Everything that touches the simulation holds `lock`: the runner's steps, the
 commands between them, and the stream reading a frame. `changed` wakes the
 streams whenever the state moved, so a command's effect is sent at once.
+
+Its state changes only through its methods, named for what happened (a
+pause, a command applied, a probe shown, rows written), so the rules that
+keep it consistent (the recorder's cursors move only with a commit, the clock
+stands still while the database is away) have one place each. The clock, the
+probes and the trial log's cursors are small classes of their own
+(`clock.TrialClock`, `progress.ProbeSchedule`, `progress.LogCursors`).
 """
 
 from __future__ import annotations
@@ -10,114 +17,113 @@ from __future__ import annotations
 import json
 import math
 import threading
-from dataclasses import dataclass, field
 from typing import Any
 
-from hcss.platform.live.clock import running_wall_s, trial_time_s
-from hcss.platform.live.probes import probe_subject
+from hcss.platform.live.clock import TrialClock
+from hcss.platform.live.progress import (
+    CurrentProbe,
+    LogCursors,
+    ProbeSchedule,
+    ProgressMark,
+    Projection,
+)
 from hcss.platform.models.vocabularies import TrialStatus
 from hcss.questionnaires.probes import ScheduledProbe
 from hcss.simulation import Display, Simulation
 from hcss.simulation.requests import StatusChange
 
 
-@dataclass
-class CurrentProbe:
-    """The probe on screen now (its `Probe` row id and what the page needs)."""
-
-    id: int
-    probe_index: int
-    level: int
-    question: str
-    choices: list[str]
-    truth: str | None
-    shown_sim_time: float
-    timeout_sim_time: float
-    ready: bool = False
-    # Running wall seconds (RunningTrial.running_wall_s) when the prompt, then the
-    # question, was first sent to the page, and when Ready was pressed: the
-    # latencies are measured from these. Lost in a restart: the first frame
-    # after it delivers again.
-    delivered_s: float | None = None
-    question_delivered_s: float | None = None
-    ready_s: float | None = None
-
-    def delivered(self, running_s: float) -> None:
-        """A frame carrying this probe is being sent."""
-        if self.delivered_s is None:
-            self.delivered_s = running_s
-        if self.ready and self.question_delivered_s is None:
-            self.question_delivered_s = running_s
-
-    def public(self) -> dict[str, Any]:
-        """What the browser sees: never the truth."""
-        return {
-            "id": self.id,
-            "index": self.probe_index,
-            "level": self.level,
-            "phase": "question" if self.ready else "ready",
-            "question": self.question if self.ready else None,
-            "choices": self.choices if self.ready else None,
-            "subject": probe_subject(self.level, self.question) if self.ready else None,
-            "timeout_s": self.timeout_sim_time,
-        }
-
-
-@dataclass
 class RunningTrial:
     """A trial being run in this server (the database row is `models.Trial`)."""
 
-    trial_id: int
-    participant_id: int
-    participant_code: str
-    participant_token: str  # the link's secret: commands for a held trial are checked against it
-    kind: str
-    model: str
-    seed: int
-    scenario_id: str
-    first_section: str | None
-    sim: Simulation
-    started_epoch: float  # wall clock, seconds since the epoch
-    acceleration: float
-    duration_s: float
-    dt: float
-    lock: threading.RLock = field(default_factory=threading.RLock)
-    version: int = 0
-    # Its lifecycle: read `ended`, `end_reason` and `moved`; written only by
-    # `mark_ended` and `move_away`, with `lock` held.
-    _ended: bool = field(default=False, init=False)
-    _end_reason: str = field(default="", init=False)
-    _moved: bool = field(default=False, init=False)
-    # System Messages so far, oldest first: {"seq", "time", "kind", "text"}.
-    messages: list[dict[str, Any]] = field(default_factory=list)
-    # (request id, status) pairs already written as RequestStatusChange rows.
-    request_statuses_written: set[tuple[int, str]] = field(default_factory=set)
-    decisions_recorded: int = 0
-    last_event_time: float = -math.inf
-    last_command_id: int | None = None
-    last_snapshot_epoch: float = 0.0
-    probe_plan: list[ScheduledProbe] = field(default_factory=list)
-    probes_shown: int = 0
-    postponed_until: float = 0.0
-    current_probe: CurrentProbe | None = None
-    # Level-3 probes waiting for the next decision: (probe id, shown time, answer or None).
-    pending_projection: list[tuple[int, float, str | None]] = field(default_factory=list)
-    # Experimenter pauses (hcss.platform.live.clock): wall seconds the
-    # trial clock stood still, and the start of the pause under way, if any.
-    paused_s: float = 0.0
-    paused_since: float | None = None
-    # What the simulation handed over (and the page was shown) that no commit has
-    # written yet; the recorder writes it first, in order, when the database takes
-    # writes again (hcss.platform.live.recorder.kept_until_written).
-    unwritten_events: list[dict[str, Any]] = field(default_factory=list)
-    unwritten_status_changes: list[StatusChange] = field(default_factory=list)
-    # The wall instant the database stopped taking this trial's rows: the trial
-    # clock stands still from then until they are written (hcss.platform.live.runner).
-    database_away_since: float | None = None
-    _view_cache: tuple[int, Display, dict[str, Any], str] | None = None
-
-    def __post_init__(self) -> None:
+    def __init__(
+        self,
+        *,
+        trial_id: int,
+        participant_id: int,
+        participant_code: str,
+        participant_token: str,
+        kind: str,
+        model: str,
+        seed: int,
+        scenario_id: str,
+        first_section: str | None,
+        sim: Simulation,
+        started_epoch: float,
+        acceleration: float,
+        duration_s: float,
+        dt: float,
+        probe_plan: list[ScheduledProbe],
+        last_command_id: int | None = None,
+    ) -> None:
+        self.trial_id = trial_id
+        self.participant_id = participant_id
+        self.participant_code = participant_code
+        # The link's secret: commands for a held trial are checked against it.
+        self.participant_token = participant_token
+        self.kind = kind
+        self.model = model
+        self.seed = seed
+        self.scenario_id = scenario_id
+        self.first_section = first_section
+        self.dt = dt
+        self.lock = threading.RLock()
         self.changed = threading.Condition(self.lock)
+        self._sim = sim
+        # The newest command the simulation holds (a snapshot names it).
+        self._last_command_id = last_command_id
+        self._clock = TrialClock(started_epoch, acceleration, duration_s)
+        self._probes = ProbeSchedule(probe_plan)
+        self._log = LogCursors()
+        self._version = 0
+        # Its lifecycle: read `ended`, `end_reason` and `moved`; written only by
+        # `mark_ended` and `move_away`, with `lock` held.
+        self._ended = False
+        self._end_reason = ""
+        self._moved = False
+        # System Messages so far, oldest first: {"seq", "time", "kind", "text"}.
+        self._messages: list[dict[str, Any]] = []
+        # What the simulation handed over (and the page was shown) that no commit has
+        # written yet; the recorder writes it first, in order, when the database takes
+        # writes again (hcss.platform.live.recorder.kept_until_written).
+        self._unwritten_events: list[dict[str, Any]] = []
+        self._unwritten_status_changes: list[StatusChange] = []
+        self._view_cache: tuple[int, Display, dict[str, Any], str] | None = None
+
+    # --- what it is -----------------------------------------------------------
+
+    @property
+    def sim(self) -> Simulation:
+        """The simulation; step it and apply commands to it with `lock` held."""
+        return self._sim
+
+    @property
+    def started_epoch(self) -> float:
+        return self._clock.started_epoch
+
+    @property
+    def acceleration(self) -> float:
+        return self._clock.acceleration
+
+    @property
+    def duration_s(self) -> float:
+        return self._clock.duration_s
+
+    @property
+    def version(self) -> int:
+        """How often the state changed (`touch`): a stream sends a frame when it moved."""
+        return self._version
+
+    @property
+    def messages(self) -> list[dict[str, Any]]:
+        """The System Messages so far, oldest first; read-only (`add_message` adds one)."""
+        return self._messages
+
+    @property
+    def last_command_id(self) -> int | None:
+        return self._last_command_id
+
+    # --- its lifecycle ----------------------------------------------------------
 
     @property
     def ended(self) -> bool:
@@ -148,6 +154,8 @@ class RunningTrial:
             self._moved = True
             self.touch()
 
+    # --- its clock (hcss.platform.live.clock) -----------------------------------
+
     @property
     def total_steps(self) -> int:
         return int(round(self.duration_s / self.dt))
@@ -159,29 +167,197 @@ class RunningTrial:
 
     def running_wall_s(self, now: float) -> float:
         """Wall seconds the trial clock has run: pauses do not count (live/clock.py)."""
-        return running_wall_s(self.started_epoch, self.paused_s, self.paused_since, now)
+        return self._clock.running_wall_s(now)
 
     def clock(self, now: float) -> float:
         """Trial time by the wall clock, for the page's timer (runs between steps)."""
         if self.ended:
             return self.duration_s
-        return trial_time_s(
-            self.started_epoch,
-            self.paused_s,
-            self.paused_since,
-            now,
-            acceleration=self.acceleration,
-            duration_s=self.duration_s,
+        return self._clock.trial_time_s(now)
+
+    @property
+    def paused_since(self) -> float | None:
+        """When its clock stopped (a pause, or the database away); None while it runs."""
+        return self._clock.paused_since
+
+    @property
+    def database_away_since(self) -> float | None:
+        """When the database stopped taking its rows; None while it takes them."""
+        return self._clock.database_away_since
+
+    def pauses_restored(self, paused_s: float, paused_since: float | None) -> None:
+        """The experimenter's pauses from the action log; call before stepping a loaded trial."""
+        self._clock.pauses_restored(paused_s, paused_since)
+
+    def stood_still(self, outage_s: float) -> None:
+        """A server outage of `outage_s` wall seconds is over: the clock did not run in it."""
+        self._clock.stood_still(outage_s)
+
+    def paused(self, now: float) -> None:
+        """The experimenter paused the trial at `now`; call with `lock` held, advanced to `now`."""
+        if self._clock.pause(now):
+            self.touch()
+
+    def resumed(self, now: float) -> None:
+        """The experimenter resumed it: the paused wall time never counts towards the trial."""
+        if self._clock.resume(now):
+            self.touch()
+
+    def database_away(self, now: float) -> None:
+        """The database refused the trial's rows: its clock stops here, as an outage stops it.
+
+        The participant can neither command nor have anything recorded, so the
+        trial must not run on; the rows of the batch that failed wait in memory
+        (one batch at most, since the simulation steps no further).
+        """
+        if self._clock.database_away(now):
+            self.touch()
+
+    def database_back(self, now: float) -> None:
+        """The held rows are written: the clock runs again from where it stood."""
+        if self._clock.database_back(now):
+            self.touch()
+
+    # --- what the participant did -------------------------------------------------
+
+    def command_applied(self, command_id: int) -> None:
+        """The simulation holds the logged command `command_id` (the next snapshot says so)."""
+        self._last_command_id = command_id
+
+    def roll_back_to(self, snapshot: bytes) -> None:
+        """Put the simulation back to `snapshot`: what changed it since was never logged."""
+        self._sim = Simulation.restore(snapshot)
+
+    # --- its probes (hcss.platform.live.progress.ProbeSchedule) ---------------------
+
+    @property
+    def probe_plan(self) -> list[ScheduledProbe]:
+        return self._probes.plan
+
+    @property
+    def probes_shown(self) -> int:
+        return self._probes.shown
+
+    @property
+    def current_probe(self) -> CurrentProbe | None:
+        """The probe on screen; None when none is."""
+        return self._probes.current
+
+    def probe_due(self, time: float) -> tuple[int, ScheduledProbe] | None:
+        """The next planned probe (its 1-based index) if it is due at sim `time`."""
+        return self._probes.due(time)
+
+    def probe_postponed(self, until: float) -> None:
+        """No probe is shown before sim time `until` (the due one has no sensible subject yet)."""
+        self._probes.postponed(until)
+
+    def probe_shown(self, probe: CurrentProbe) -> None:
+        """`probe` (its row written) is on screen from the next frame on."""
+        self._probes.put_on_screen(probe)
+
+    def probe_cleared(self) -> CurrentProbe | None:
+        """The probe on screen (returned, if any) timed out or the trial ended under it."""
+        return self._probes.taken_off_screen()
+
+    def probe_answered(self, answer: str) -> None:
+        """The probe on screen is answered; a level-3 answer waits for the next decision."""
+        self._probes.answered(answer)
+
+    def projections_ended_by(self, end_s: float) -> list[Projection]:
+        """The level-3 probes asked before a decision that ended at `end_s`, to score now."""
+        return self._probes.projections_ended_by(end_s)
+
+    def probes_restored(
+        self, shown: int, current: CurrentProbe | None, projections: list[Projection]
+    ) -> None:
+        """The probes as their rows say, for a trial rebuilt after a restart."""
+        self._probes.restored(shown, current, projections)
+
+    # --- what is written to the trial log (hcss.platform.live.recorder) --------------
+
+    @property
+    def decisions_recorded(self) -> int:
+        return self._log.decisions
+
+    @property
+    def last_snapshot_epoch(self) -> float:
+        return self._log.last_snapshot_epoch
+
+    @property
+    def unwritten_events(self) -> list[dict[str, Any]]:
+        """The events handed over that no commit wrote yet, oldest first; read-only."""
+        return self._unwritten_events
+
+    def events_handed_over(self, events: list[dict[str, Any]]) -> list[dict[str, Any]]:
+        """The simulation's new events wait to be written; returns those not written before
+        (a rebuild replays the steps of events written before the interruption)."""
+        fresh = [e for e in events if self._log.unwritten_event(float(e["time"]))]
+        self._unwritten_events.extend(fresh)
+        return fresh
+
+    def events_written_up_to(self, time: float) -> None:
+        """Every event up to sim `time` is in the unit of work that writes the log."""
+        self._log.events_written_up_to(time)
+
+    def decisions_written(self, count: int) -> None:
+        """The simulation's first `count` decision records are in the unit of work."""
+        self._log.decisions_written(count)
+
+    def status_changes_to_write(self, handed_over: list[StatusChange]) -> list[StatusChange]:
+        """The request status changes the simulation handed over wait with the unwritten
+        ones; returns those with no row yet, counted written from now on."""
+        self._unwritten_status_changes.extend(handed_over)
+        return self._log.statuses_to_write(self._unwritten_status_changes)
+
+    def snapshot_written(self, now: float) -> None:
+        """A snapshot is in the unit of work; the next is due a snapshot interval after `now`."""
+        self._log.snapshot_written(now)
+
+    def log_restored(
+        self, last_event_time: float, decisions: int, request_statuses: set[tuple[int, str]]
+    ) -> None:
+        """How far the rows are written, for a trial rebuilt after a restart."""
+        self._log.restored(last_event_time, decisions, request_statuses)
+
+    def progress_mark(self) -> ProgressMark:
+        """What is counted written now, to go back to if the unit of work does not commit."""
+        return ProgressMark(
+            log=self._log.saved(),
+            probes=self._probes.saved(),
+            ended=self._ended,
+            unwritten_events=len(self._unwritten_events),
+            unwritten_status_changes=len(self._unwritten_status_changes),
         )
+
+    def progress_lost(self, mark: ProgressMark, *, handed_over_dropped: bool) -> None:
+        """The unit of work begun at `mark` did not commit: the cursors go back to `mark`.
+
+        What the simulation handed over stays queued for the next attempt,
+        unless the simulation itself went back (`handed_over_dropped`: a
+        command that was not logged), when it never happened.
+        """
+        self._log, self._probes = mark.log, mark.probes
+        if self._ended and not mark.ended:
+            self.reopen()  # its end was not written: it runs on
+        if handed_over_dropped:
+            del self._unwritten_events[mark.unwritten_events :]
+            del self._unwritten_status_changes[mark.unwritten_status_changes :]
+
+    def progress_written(self) -> None:
+        """The unit of work committed: nothing it held waits any longer."""
+        self._unwritten_events.clear()
+        self._unwritten_status_changes.clear()
+
+    # --- what the page sees ---------------------------------------------------------
 
     def touch(self) -> None:
         """Mark the state as changed and wake every stream; call with `lock` held."""
-        self.version += 1
+        self._version += 1
         self.changed.notify_all()
 
     def add_message(self, time: float, kind: str, text: str) -> None:
-        seq = self.messages[-1]["seq"] + 1 if self.messages else 1
-        self.messages.append(
+        seq = self._messages[-1]["seq"] + 1 if self._messages else 1
+        self._messages.append(
             {"seq": seq, "time": round(float(time), 1), "kind": kind, "text": text}
         )
 
@@ -197,11 +373,11 @@ class RunningTrial:
         return self._cached_view()[2]
 
     def _cached_view(self) -> tuple[Display, dict[str, Any], str]:
-        if self._view_cache is None or self._view_cache[0] != self.version:
+        if self._view_cache is None or self._view_cache[0] != self._version:
             display = self.sim.display()
             view = display.to_json()
             self._view_cache = (
-                self.version,
+                self._version,
                 display,
                 view,
                 json.dumps(view, separators=(",", ":")),
@@ -212,7 +388,7 @@ class RunningTrial:
         """One stream frame (JSON text) and the newest message seq it carries."""
         if self.current_probe is not None:
             self.current_probe.delivered(self.running_wall_s(now))
-        new_messages = [m for m in self.messages if m["seq"] > after_seq]
+        new_messages = [m for m in self._messages if m["seq"] > after_seq]
         last_seq = new_messages[-1]["seq"] if new_messages else after_seq
         head = {
             "trial": {

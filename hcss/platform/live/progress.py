@@ -1,0 +1,203 @@
+"""What a `RunningTrial` knows of its probes and of its trial log, each changed only by its methods.
+
+Both are cursors of the recorder (hcss.platform.live.recorder): they say how
+far the trial's rows are written, so they move only with the commit that
+wrote them. A `RunningTrial` copies them (`saved`) before a unit of work and
+takes the copy back when its commit fails; nothing else writes them.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+from hcss.platform.live.probes import probe_subject
+from hcss.questionnaires.probes import ScheduledProbe
+from hcss.simulation.requests import StatusChange
+
+#: A level-3 probe waiting for the next decision: (probe id, shown sim time, answer or None).
+Projection = tuple[int, float, str | None]
+
+
+@dataclass
+class CurrentProbe:
+    """The probe on screen now (its `Probe` row id and what the page needs)."""
+
+    id: int
+    probe_index: int
+    level: int
+    question: str
+    choices: list[str]
+    truth: str | None
+    shown_sim_time: float
+    timeout_sim_time: float
+    ready: bool = False
+    # Running wall seconds (RunningTrial.running_wall_s) when the prompt, then the
+    # question, was first sent to the page, and when Ready was pressed: the
+    # latencies are measured from these. Lost in a restart: the first frame
+    # after it delivers again.
+    delivered_s: float | None = None
+    question_delivered_s: float | None = None
+    ready_s: float | None = None
+
+    def delivered(self, running_s: float) -> None:
+        """A frame carrying this probe is being sent."""
+        if self.delivered_s is None:
+            self.delivered_s = running_s
+        if self.ready and self.question_delivered_s is None:
+            self.question_delivered_s = running_s
+
+    def ready_pressed(self, running_s: float | None) -> None:
+        """The participant pressed Ready: the question shows from the next frame on."""
+        self.ready, self.ready_s = True, running_s
+
+    def public(self) -> dict[str, Any]:
+        """What the browser sees: never the truth."""
+        return {
+            "id": self.id,
+            "index": self.probe_index,
+            "level": self.level,
+            "phase": "question" if self.ready else "ready",
+            "question": self.question if self.ready else None,
+            "choices": self.choices if self.ready else None,
+            "subject": probe_subject(self.level, self.question) if self.ready else None,
+            "timeout_s": self.timeout_sim_time,
+        }
+
+
+@dataclass
+class ProbeSchedule:
+    """The trial's planned probes, how many were shown, the one on screen and the
+    level-3 answers still to be scored by the next decision."""
+
+    plan: list[ScheduledProbe]
+    _shown: int = field(default=0, init=False)
+    _postponed_until: float = field(default=0.0, init=False)
+    _current: CurrentProbe | None = field(default=None, init=False)
+    _projections: list[Projection] = field(default_factory=list, init=False)
+
+    @property
+    def shown(self) -> int:
+        return self._shown
+
+    @property
+    def current(self) -> CurrentProbe | None:
+        return self._current
+
+    def due(self, time: float) -> tuple[int, ScheduledProbe] | None:
+        """The next planned probe (1-based index) if it is due at sim `time` and none is on screen."""
+        if self._current is not None or self._shown >= len(self.plan):
+            return None
+        planned = self.plan[self._shown]
+        if time < planned.at_s or time < self._postponed_until:
+            return None
+        return self._shown + 1, planned
+
+    def postponed(self, until: float) -> None:
+        self._postponed_until = until
+
+    def put_on_screen(self, probe: CurrentProbe) -> None:
+        self._shown, self._current = probe.probe_index, probe
+        if probe.level == 3:
+            self._projections.append((probe.id, probe.shown_sim_time, None))
+
+    def taken_off_screen(self) -> CurrentProbe | None:
+        probe, self._current = self._current, None
+        return probe
+
+    def answered(self, answer: str) -> None:
+        """The probe on screen is answered; a projection keeps the answer until it is scored."""
+        probe = self._current
+        assert probe is not None
+        if probe.level == 3:
+            self._projections = [
+                (pid, shown, answer if pid == probe.id else previous)
+                for pid, shown, previous in self._projections
+            ]
+        self._current = None
+
+    def projections_ended_by(self, end_s: float) -> list[Projection]:
+        """The projections asked before a decision that ended at `end_s`: they are scored now."""
+        scored = [p for p in self._projections if p[1] < end_s]
+        self._projections = [p for p in self._projections if p[1] >= end_s]
+        return scored
+
+    def restored(
+        self, shown: int, current: CurrentProbe | None, projections: list[Projection]
+    ) -> None:
+        self._shown, self._current, self._projections = shown, current, list(projections)
+
+    def saved(self) -> ProbeSchedule:
+        """A copy the later changes leave as it is (the probe on screen is shared)."""
+        kept = ProbeSchedule(self.plan)
+        kept.restored(self._shown, self._current, self._projections)
+        kept.postponed(self._postponed_until)
+        return kept
+
+
+@dataclass
+class LogCursors:
+    """How far the trial log is written: events, decisions, request statuses, snapshots."""
+
+    _last_event_time: float = field(default=-math.inf, init=False)
+    _decisions: int = field(default=0, init=False)
+    # (request id, status) pairs already written as RequestStatusChange rows.
+    _request_statuses: set[tuple[int, str]] = field(default_factory=set, init=False)
+    _last_snapshot_epoch: float = field(default=0.0, init=False)
+
+    @property
+    def decisions(self) -> int:
+        return self._decisions
+
+    @property
+    def last_snapshot_epoch(self) -> float:
+        return self._last_snapshot_epoch
+
+    def unwritten_event(self, time: float) -> bool:
+        """Whether an event at `time` is new: one written before an interruption comes again
+        when the rebuild replays its step."""
+        return time > self._last_event_time
+
+    def events_written_up_to(self, time: float) -> None:
+        self._last_event_time = max(self._last_event_time, time)
+
+    def decisions_written(self, count: int) -> None:
+        self._decisions = count
+
+    def statuses_to_write(self, changes: list[StatusChange]) -> list[StatusChange]:
+        """The changes whose (request, status) has no row yet; they count as written now."""
+        fresh = []
+        for change in changes:
+            key = (change.request_id, change.status)
+            if key not in self._request_statuses:
+                self._request_statuses.add(key)
+                fresh.append(change)
+        return fresh
+
+    def snapshot_written(self, now: float) -> None:
+        self._last_snapshot_epoch = now
+
+    def restored(
+        self, last_event_time: float, decisions: int, request_statuses: set[tuple[int, str]]
+    ) -> None:
+        self._last_event_time, self._decisions = last_event_time, decisions
+        self._request_statuses = set(request_statuses)
+
+    def saved(self) -> LogCursors:
+        kept = LogCursors()
+        kept.restored(self._last_event_time, self._decisions, self._request_statuses)
+        kept.snapshot_written(self._last_snapshot_epoch)
+        return kept
+
+
+@dataclass(frozen=True)
+class ProgressMark:
+    """What a `RunningTrial` counted written before a unit of work (`progress_mark`): copies of
+    its cursors, whether it had ended, and how many handed-over rows were waiting."""
+
+    log: LogCursors
+    probes: ProbeSchedule
+    ended: bool
+    unwritten_events: int
+    unwritten_status_changes: int
