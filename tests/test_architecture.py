@@ -1,4 +1,5 @@
-"""The dependency rule of docs/architecture.md, checked by import-linter's contracts.
+"""The dependency rule of docs/architecture.md, checked by import-linter's contracts,
+and the rule that a `RunningTrial`'s state changes only through its methods.
 
 The contracts live in pyproject.toml (`[tool.importlinter]`) and `make lint`
 runs them. Here the suite runs them too, on the source, and on copies of the
@@ -7,10 +8,17 @@ import forms a walk over absolute `import hcss...` statements missed (a
 relative import, `from hcss import platform`), an edge between leaves, a
 cycle, and a module imported by name (refused by ruff's banned-api rule,
 since no import graph sees a name in a string).
+
+No tool checks who writes an object's attributes, so `state_writes` reads
+the platform's syntax trees: an attribute of a `RunningTrial` or of the state
+classes it is made of is assigned, deleted or has its container mutated only
+by that class's own methods (through `self`), and their private attributes
+are touched by nothing else. Planted writes must be found.
 """
 
 from __future__ import annotations
 
+import ast
 import os
 import shutil
 import subprocess
@@ -127,3 +135,168 @@ def test_a_module_imported_by_name_is_refused(tmp_path: Path) -> None:
     )
     assert result.returncode != 0
     assert "TID251" in result.stdout and "trial_log.py" in result.stdout, result.stdout
+
+
+#: Where a live trial's state is defined, and the classes that hold it.
+STATE_MODULES = (
+    "hcss/platform/live/session.py",
+    "hcss/platform/live/clock.py",
+    "hcss/platform/live/progress.py",
+)
+STATE_CLASSES = {"RunningTrial", "TrialClock", "ProbeSchedule", "LogCursors"}
+
+#: Methods of list, set and dict that change the container.
+MUTATORS = {
+    "append",
+    "extend",
+    "insert",
+    "remove",
+    "pop",
+    "clear",
+    "add",
+    "discard",
+    "update",
+    "sort",
+    "reverse",
+    "setdefault",
+    "popitem",
+    "difference_update",
+    "intersection_update",
+    "symmetric_difference_update",
+    "__setitem__",
+    "__delitem__",
+}
+
+
+def state_names(root: Path) -> set[str]:
+    """Every attribute and property of the state classes: fields, `self.x = ...`, properties."""
+    names: set[str] = set()
+    for module in STATE_MODULES:
+        tree = ast.parse((root / module).read_text())
+        for cls in ast.walk(tree):
+            if not (isinstance(cls, ast.ClassDef) and cls.name in STATE_CLASSES):
+                continue
+            for node in ast.walk(cls):
+                if isinstance(node, ast.AnnAssign) and isinstance(node.target, ast.Name):
+                    names.add(node.target.id)
+                elif isinstance(node, ast.FunctionDef) and any(
+                    isinstance(d, ast.Name) and d.id == "property" for d in node.decorator_list
+                ):
+                    names.add(node.name)
+                elif (
+                    isinstance(node, ast.Attribute)
+                    and isinstance(node.ctx, ast.Store)
+                    and _on_self(node)
+                ):
+                    names.add(node.attr)
+    return names
+
+
+def _on_self(node: ast.Attribute) -> bool:
+    return isinstance(node.value, ast.Name) and node.value.id == "self"
+
+
+def _written_attribute(target: ast.expr) -> ast.Attribute | None:
+    """The attribute a target writes: `x.a`, `x.a[i]`, `x.a[i:j]`, or None."""
+    while isinstance(target, ast.Subscript):
+        target = target.value
+    return target if isinstance(target, ast.Attribute) else None
+
+
+def _sets_by_name(node: ast.AST, names: set[str]) -> bool:
+    """`setattr(x, name, ...)` (or `delattr`, `object.__setattr__`) with a state name or any
+    name computed at run time."""
+    if not isinstance(node, ast.Call) or len(node.args) < 2:
+        return False
+    func = node.func
+    if not (
+        (isinstance(func, ast.Name) and func.id in ("setattr", "delattr"))
+        or (isinstance(func, ast.Attribute) and func.attr in ("__setattr__", "__delattr__"))
+    ):
+        return False
+    name = node.args[1]
+    return not isinstance(name, ast.Constant) or name.value in names
+
+
+def state_writes(root: Path) -> list[str]:
+    """Each place under hcss/platform that writes a live trial's state other than through `self`."""
+    names = state_names(root)
+    found = []
+    for path in sorted((root / "hcss/platform").rglob("*.py")):
+        where = path.relative_to(root)
+        for node in ast.walk(ast.parse(path.read_text())):
+            targets: list[ast.expr] = []
+            if isinstance(node, ast.Assign | ast.Delete):
+                targets = list(node.targets)
+            elif isinstance(node, ast.AugAssign | ast.AnnAssign):
+                targets = [node.target]
+            elif (
+                isinstance(node, ast.Call)
+                and isinstance(node.func, ast.Attribute)
+                and node.func.attr in MUTATORS
+            ):
+                targets = [node.func.value]
+            if _sets_by_name(node, names):
+                found.append(f"{where}:{node.lineno}: sets an attribute by name")
+            for target in targets:
+                for item in target.elts if isinstance(target, ast.Tuple) else [target]:
+                    written = _written_attribute(item)
+                    if written is not None and written.attr in names and not _on_self(written):
+                        found.append(f"{where}:{node.lineno}: writes .{written.attr}")
+            if (
+                isinstance(node, ast.Attribute)
+                and node.attr.startswith("_")
+                and node.attr in names
+                and not _on_self(node)
+            ):
+                found.append(f"{where}:{node.lineno}: reaches into .{node.attr}")
+    return found
+
+
+def test_a_running_trial_changes_only_through_its_methods() -> None:
+    assert state_writes(CHECKOUT) == []
+
+
+@pytest.mark.parametrize(
+    ("module", "line", "found"),
+    [
+        (  # a field assigned from outside (it is a read-only property now)
+            "hcss/platform/live/actions.py",
+            "def _planted(live):\n    live.paused_since = None",
+            "writes .paused_since",
+        ),
+        (  # a container of the trial changed in place
+            "hcss/platform/live/recorder.py",
+            "def _planted(live):\n    live.messages.append({})",
+            "writes .messages",
+        ),
+        (  # a slice of a queue deleted
+            "hcss/platform/live/runner.py",
+            "def _planted(live):\n    del live.unwritten_events[1:]",
+            "writes .unwritten_events",
+        ),
+        (  # one of a tuple's targets
+            "hcss/platform/live/rebuild.py",
+            "def _planted(live, sim):\n    n, live.sim = 0, sim",
+            "writes .sim",
+        ),
+        (  # a private part of the trial reached into, even to call its method
+            "hcss/platform/live/outages.py",
+            "def _planted(live):\n    live._clock.stood_still(1.0)",
+            "reaches into ._clock",
+        ),
+        (  # the state class's own private field written from its owner, not itself
+            "hcss/platform/live/session.py",
+            "def _planted(live):\n    live._probes._shown = 0",
+            "writes ._shown",
+        ),
+        (  # an attribute set by name
+            "hcss/platform/live/control.py",
+            'def _planted(live):\n    setattr(live, "version", 0)',
+            "sets an attribute by name",
+        ),
+    ],
+)
+def test_a_planted_state_write_is_found(tmp_path: Path, module: str, line: str, found: str) -> None:
+    writes = state_writes(planted(tmp_path, module, line))
+    assert any(w.startswith(module) and found in w for w in writes), writes
