@@ -10,10 +10,14 @@ cycle, and a module imported by name (refused by ruff's banned-api rule,
 since no import graph sees a name in a string).
 
 No tool checks who writes an object's attributes, so `state_writes` reads
-the platform's syntax trees: an attribute of a `RunningTrial` or of the state
-classes it is made of is assigned, deleted or has its container mutated only
-by that class's own methods (through `self`), and their private attributes
-are touched by nothing else. Planted writes must be found.
+the live package's syntax trees: an attribute of a `RunningTrial` or of the
+state classes it is made of is assigned, deleted or has its container mutated
+only by that class's own methods (through `self`), and their private
+attributes are touched by nothing else. Planted writes must be found. Only
+hcss/platform/live is read: the contracts above keep every other package from
+holding a `RunningTrial`, and elsewhere the state's plain names (`kind`,
+`model`, `seed`, `lock`) are columns and fields of other objects, which may
+be written.
 """
 
 from __future__ import annotations
@@ -219,10 +223,10 @@ def _sets_by_name(node: ast.AST, names: set[str]) -> bool:
 
 
 def state_writes(root: Path) -> list[str]:
-    """Each place under hcss/platform that writes a live trial's state other than through `self`."""
+    """Each place in the live package that writes a live trial's state other than through `self`."""
     names = state_names(root)
     found = []
-    for path in sorted((root / "hcss/platform").rglob("*.py")):
+    for path in sorted((root / "hcss/platform/live").rglob("*.py")):
         where = path.relative_to(root)
         for node in ast.walk(ast.parse(path.read_text())):
             targets: list[ast.expr] = []
@@ -300,3 +304,12 @@ def test_a_running_trial_changes_only_through_its_methods() -> None:
 def test_a_planted_state_write_is_found(tmp_path: Path, module: str, line: str, found: str) -> None:
     writes = state_writes(planted(tmp_path, module, line))
     assert any(w.startswith(module) and found in w for w in writes), writes
+
+
+def test_another_objects_field_of_the_same_name_is_not_a_state_write(tmp_path: Path) -> None:
+    """A study row's `kind` or `model` outside live is not the trial's (false alarms teach
+    people to silence a check)."""
+    root = planted(
+        tmp_path, "hcss/platform/export/__init__.py", "def _planted(row):\n    row.model = 'M1'"
+    )
+    assert state_writes(root) == []
