@@ -5,6 +5,13 @@ succeeds and rolled back when it fails or answers with an error status, so a
 refused request changes nothing. Code outside a request (the live runner, the
 CLI) uses `session_scope()`, which has the same all-or-nothing contract.
 
+A request holds at most one pooled connection at a time. A unit of work
+opened during a request (a console action, the live runner loading a trial,
+an export) first ends the request session's read-only transaction, which
+hands its connection back; a request session with unsaved writes may not
+open one (`RequestHoldsWrites`). Two connections per request let a bounded
+pool deadlock: enough requests each held one and waited for a second.
+
 The database also owns the clock that stamps rows (`Database.clock`, epoch
 seconds): every `created_at` is set from it when the row is flushed, and the
 live runner and the study flow read the same clock, so a trial's rows, its
@@ -20,9 +27,9 @@ from contextlib import contextmanager
 from datetime import UTC, datetime
 from typing import Any
 
-from flask import Flask, current_app, g
+from flask import Flask, current_app, g, has_app_context
 from sqlalchemy import Engine, create_engine, event
-from sqlalchemy.orm import Session, sessionmaker
+from sqlalchemy.orm import ORMExecuteState, Session, sessionmaker
 
 from hcss.platform.models import Base, CreatedAt
 
@@ -30,18 +37,22 @@ from hcss.platform.models import Base, CreatedAt
 SQLITE_REOPEN_ON = ("readonly database", "disk i/o error", "unable to open database")
 
 
+#: The pool, on SQLite and PostgreSQL alike: waitress' threads queue for these.
+#: A request holds one connection at a time (see the module docstring), so a
+#: full pool makes requests wait for each other's, never deadlock; a request
+#: still waiting after `pool_timeout` seconds fails instead of hanging.
+POOL = {"pool_size": 20, "max_overflow": 40, "pool_timeout": 30}
+
+
+class RequestHoldsWrites(RuntimeError):
+    """A unit of work was opened while the request's session held unsaved writes."""
+
+
 def make_engine(url: str) -> Engine:
     """An engine fit for several threads writing at once."""
     if url.startswith("sqlite"):
         engine = create_engine(
-            url,
-            connect_args={"check_same_thread": False, "timeout": 30},
-            pool_size=20,
-            # No ceiling: a request may hold two connections (its own session and
-            # a unit of work), and with a bounded pool 60 such requests waited for
-            # each other's second connection until the pool timed out (30 s).
-            # Waitress' threads bound the count; an SQLite connection is a file handle.
-            max_overflow=-1,
+            url, connect_args={"check_same_thread": False, "timeout": 30}, **POOL
         )
 
         @event.listens_for(engine, "handle_error")
@@ -64,7 +75,7 @@ def make_engine(url: str) -> Engine:
             cursor.close()
 
         return engine
-    return create_engine(url, pool_size=20, max_overflow=40, pool_pre_ping=True)
+    return create_engine(url, pool_pre_ping=True, **POOL)
 
 
 class Database:
@@ -77,6 +88,9 @@ class Database:
         self.clock = clock
         self.sessions = sessionmaker(self.engine, expire_on_commit=False, info={"database": self})
         event.listen(self.sessions, "before_flush", self._stamp_new_rows)
+        event.listen(self.sessions, "after_flush", _note_writes)
+        event.listen(self.sessions, "do_orm_execute", _note_statement_writes)
+        event.listen(self.sessions, "after_transaction_end", _forget_writes)
 
     def now(self) -> datetime:
         """The clock's instant as an aware UTC datetime, for the rows' time columns."""
@@ -92,7 +106,12 @@ class Database:
 
     @contextmanager
     def session_scope(self) -> Iterator[Session]:
-        """One unit of work: commit on success, roll back on any exception."""
+        """One unit of work: commit on success, roll back on any exception.
+
+        In a request, the request's session first gives its connection back
+        (`_hand_back_request_connection`), so the request never holds two.
+        """
+        _hand_back_request_connection()
         session = self.sessions()
         try:
             yield session
@@ -187,6 +206,45 @@ def init_app(app: Flask) -> Database:
             session.close()
 
     return database
+
+
+def _note_writes(session: Session, _context: Any) -> None:
+    session.info["unsaved_writes"] = True
+
+
+def _note_statement_writes(state: ORMExecuteState) -> None:
+    """An INSERT, UPDATE or DELETE statement (`session.execute`) writes without a flush."""
+    if state.is_insert or state.is_update or state.is_delete:
+        state.session.info["unsaved_writes"] = True
+
+
+def _forget_writes(session: Session, transaction: Any) -> None:
+    if transaction.parent is None:  # the outermost transaction: committed or rolled back
+        session.info.pop("unsaved_writes", None)
+
+
+def _hand_back_request_connection() -> None:
+    """End the request session's transaction if it only read, so its connection is free.
+
+    Ending it commits nothing: the session wrote nothing, and with
+    `expire_on_commit=False` what it loaded (the signed-in experimenter, the
+    participant) stays loaded; its next query takes a connection again. A
+    session that wrote may not be ended here (that would commit half a
+    request) nor kept open beside a unit of work (two connections, and on
+    SQLite a unit of work that writes would wait for the request's own
+    write lock): the caller must open its unit of work before it writes.
+    """
+    if not has_app_context():
+        return
+    session: Session | None = g.get("db_session")
+    if session is None or not session.in_transaction():
+        return
+    if session.info.get("unsaved_writes") or session.new or session.dirty or session.deleted:
+        raise RequestHoldsWrites(
+            "a unit of work was opened while this request's session holds unsaved "
+            "writes; open it before the request writes"
+        )
+    session.commit()
 
 
 def database() -> Database:

@@ -14,7 +14,6 @@ import threading
 import time
 
 import hcss.platform.live.runner as runner_module
-from hcss.platform.db import make_engine
 
 
 def _wait_until(predicate, timeout_s: float = 10.0) -> None:  # type: ignore[no-untyped-def]
@@ -88,16 +87,6 @@ def test_streams_waiting_for_a_trial_to_load_hold_no_connection(
 
     assert held == 1  # the loader's own unit of work, nothing else
     assert statuses == [200, 200]
-
-
-def test_an_sqlite_engine_gives_every_thread_its_connections(tmp_path) -> None:
-    """Waitress' threads, not the pool, bound the connections: 2 per thread never blocks."""
-    engine = make_engine(f"sqlite:///{tmp_path / 'pool.sqlite3'}")
-    engine.pool._timeout = 2  # fail in 2 s rather than the 30 s a server waits
-    connections = [engine.connect() for _ in range(2 * 64)]
-    for connection in connections:
-        connection.close()
-    engine.dispose()
 
 
 def test_the_stream_keeps_its_rate_when_each_frame_takes_time_to_send(app, make_trial) -> None:
