@@ -5,9 +5,12 @@ on the request's session, kept that connection, then opened a unit of work
 (a pause, a skip, a withdrawal, the export) on a second one. With the pool
 bounded, enough such requests at once each held one connection and waited
 for a second until the pool timed out, so the SQLite pool had no ceiling.
-Now a unit of work opened in a request first hands the request session's
-connection back (it may not have written), and the pool is bounded on SQLite
-as on PostgreSQL.
+The study flow ended an overdue trial from inside its own unit of work,
+committing the request's session mid-way so the runner's unit of work did
+not wait for its SQLite write lock. Now a unit of work opened in a request
+first hands the request session's connection back (it may not have written),
+the live service ends an overdue trial before the flow begins, and the pool
+is bounded on SQLite as on PostgreSQL.
 """
 
 from __future__ import annotations
@@ -28,8 +31,12 @@ from hcss.platform.bots import ManualClock
 from hcss.platform.live.trials import latest_status
 from hcss.platform.models import Participant
 from hcss.platform.models.vocabularies import TrialStatus
+from hcss.platform.study.enrolment import current_enrolment
+from hcss.platform.study.flow import Flow
 from tests.platform import console_support
 from tests.platform.console_support import code_of
+from tests.platform.study_fixtures import demo_app, events, new_participant, visitor  # noqa: F401
+from tests.platform.test_study_resume import walk_to
 
 console, experimenter = console_support.console, console_support.experimenter
 
@@ -77,6 +84,40 @@ class MostHeld:
     @property
     def most(self) -> int:
         return max(self.counts)
+
+
+def test_settling_the_flow_leaves_an_overdue_trial_to_the_live_service(demo_app) -> None:  # noqa: F811
+    token = new_participant(demo_app, is_bot=True)
+    v = visitor(demo_app, token)
+    walk_to(v, "training", "ready")
+    assert v.submit({}).status_code == 302
+    (run,) = [e for e in events(demo_app, token) if e.step == "run" and e.kind == "entered"]
+    trial_id = run.detail["trial_id"]
+    v.clock.now = run.deadline.timestamp() + 3600  # the browser closed; nobody stepped it
+
+    database = demo_app.extensions["hcss_db"]
+    commits: list[object] = []
+    with demo_app.app_context(), database.session_scope() as session:
+        event.listen(session, "after_commit", commits.append)
+        participant = session.scalars(select(Participant).where(Participant.token == token)).one()
+        enrolment = current_enrolment(session, participant.id)
+        assert enrolment is not None
+        position = Flow(session, participant, enrolment, database.now()).settle()
+        # The flow only reads the trial: it neither commits its caller's session
+        # nor has the runner write the trial's end.
+        assert commits == []
+        assert (position.slot and position.slot.name, position.step) == ("training", "run")
+        assert latest_status(session, trial_id) == TrialStatus.RUNNING
+        session.rollback()
+
+    # The participant's page: the live service ends the trial first, then the flow moves on,
+    # one connection at a time.
+    with MostHeld(demo_app) as held:
+        page = v.page()
+    assert (page.stage, page.step) == ("trial", "ready")
+    (done,) = [e for e in events(demo_app, token) if e.step == "run" and e.kind == "submitted"]
+    assert done.at == run.deadline
+    assert held.most == 1, held.counts
 
 
 def test_no_console_request_holds_two_connections(app, make_trial, console) -> None:
@@ -198,6 +239,9 @@ def test_many_requests_at_once_on_a_small_pool_all_answer(app, make_trial, conso
     slowest = max(seconds for _, _, seconds in answers.values())
     # Under the pool's timeout: no request waited for a connection that never came.
     assert slowest < SMALL_POOL["pool_timeout"], (slowest, elapsed)
+    with app.extensions["hcss_db"].session_scope() as session:
+        for trial in overdue:  # ended by the live service before the page or the skip
+            assert latest_status(session, trial.trial_id) == TrialStatus.ENDED
 
 
 def test_the_sqlite_pool_is_bounded(tmp_path) -> None:

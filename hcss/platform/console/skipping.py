@@ -16,6 +16,8 @@ from __future__ import annotations
 
 from hcss.platform.console.sessions import ConsoleError
 from hcss.platform.db import Database, session_now
+from hcss.platform.live.runner import Runner
+from hcss.platform.live.service import finish_overdue_trial
 from hcss.platform.live.trials import latest_status
 from hcss.platform.models import ConsoleAction, Experimenter, Participant
 from hcss.platform.models.vocabularies import TrialStatus
@@ -28,9 +30,17 @@ NEVER_SKIPPED = ("consent",)
 
 
 def skip_step(
-    database: Database, participant: Participant, experimenter: Experimenter | None
+    database: Database,
+    runner: Runner,
+    participant: Participant,
+    experimenter: Experimenter | None,
 ) -> str:
-    """Mark the participant's current step skipped; returns it (``stage 4 introduction page_2``)."""
+    """Mark the participant's current step skipped; returns it (``stage 4 introduction page_2``).
+
+    A trial past its deadline is ended first, as the participant's own page
+    would (`finish_overdue_trial`), so the step skipped is the one after it.
+    """
+    finish_overdue_trial(runner, participant)
     with database.session_scope() as session:
         if session_state(session, participant.id) in ENDED_STATES:
             raise ConsoleError(f"{participant.code}'s session has ended; nothing to skip")

@@ -359,7 +359,7 @@ def act(code: str, action: str):
         if action in ("mark_pilot", "unmark_pilot"):
             set_pilot(database(), _runner(), found, current_user, action == "mark_pilot")
         elif action == "skip_stage":
-            skipped = skip_step(database(), found, current_user)
+            skipped = skip_step(database(), _runner(), found, current_user)
             flash(f"{code}: skipped {skipped}")
             return redirect(back), 303
         else:

@@ -29,6 +29,7 @@ __all__ = [
     "HostedElsewhere",
     "OrderUnconfirmed",
     "control_session_trial",
+    "finish_overdue_trial",
     "running_trial_id",
     "withdrawing",
 ]
@@ -93,3 +94,27 @@ def withdrawing(runner: Runner, trial_ids: list[int], reason: str) -> Iterator[N
     """No process writes a row for these trials while the block deletes them (`Runner.withdrawing`)."""
     with runner.withdrawing(trial_ids, reason):
         yield
+
+
+def finish_overdue_trial(runner: Runner, participant: Participant) -> None:
+    """Bring the participant's trial to its end if its deadline passed while nobody stepped it.
+
+    A trial outlives its deadline only when no runner stepped it (a closed
+    browser during a restart, or tests). The study flow only reads a trial's
+    status, so its caller runs this first, before the caller's session
+    writes anything: the runner writes the trial's end in units of work of
+    its own, which on SQLite would wait for a write lock held by the caller,
+    and beside an open session would hold a second connection. Only the
+    trial's host ends it (`Runner.finish_overdue`); elsewhere the flow sees
+    it running until its host has.
+    """
+    with runner.database.session_scope() as session:
+        trial = current_trial(session, participant)
+        overdue = (
+            trial is not None
+            and runner.database.now() >= trial.deadline
+            and latest_status(session, trial.id) == TrialStatus.RUNNING
+        )
+    if overdue:
+        assert trial is not None
+        runner.finish_overdue(trial.id)

@@ -3,9 +3,15 @@
 The participant presses Start; the stage starts a trial through the live
 engineer's `start_trial` on the study clock and hands over to the Collective
 Interface (`/live/<token>`), whose Continue link leads back to `/p/<token>`.
-The step ends when the trial has ended. A trial whose deadline passed while
-no runner was stepping it (a closed browser during a restart, or tests) is
-brought to its end here first, by the runner itself, so nothing is skipped.
+The step ends when the trial has ended. The stage only reads the trial's
+status: a trial whose deadline passed while no runner was stepping it (a
+closed browser during a restart, or tests) is brought to its end by the
+live service (`finish_overdue_trial`, the runner stepping it to its end, so
+nothing is skipped) before the flow's unit of work begins: the participant's
+pages and the console's skip run it first. Ending it from inside the flow
+would need the flow's session committed mid-way (on SQLite the runner's own
+unit of work waits for that session's write lock) or a second connection
+beside it, which let a bounded pool deadlock.
 """
 
 from __future__ import annotations
@@ -13,7 +19,7 @@ from __future__ import annotations
 from datetime import datetime
 from typing import TYPE_CHECKING, Any
 
-from flask import current_app, url_for
+from flask import url_for
 from flask_wtf import FlaskForm
 
 from hcss.platform.live.trials import latest_status, start_trial
@@ -79,22 +85,9 @@ class LiveStage(Stage):
             return None
         trial = flow.session.get(TrialRow, int((entered.detail or {})["trial_id"]))
         assert trial is not None
-        if (
-            latest_status(flow.session, trial.id) == TrialStatus.RUNNING
-            and flow.now >= trial.deadline
-        ):
-            # The runner writes in its own unit of work; on SQLite it would wait
-            # for this request's write lock, so what is settled so far is kept now.
-            flow.session.commit()
-            self._finish_overdue(trial.id)
-            flow.session.expire_all()
         if latest_status(flow.session, trial.id) != TrialStatus.ENDED:
             return None
         return ("submitted", min(flow.now, trial.deadline))
-
-    def _finish_overdue(self, trial_id: int) -> None:
-        """Let the runner step an overdue trial to its end, recording everything on the way."""
-        current_app.extensions["hcss_runner"].finish_overdue(trial_id)
 
 
 class TrainingStage(LiveStage):

@@ -12,13 +12,14 @@ from __future__ import annotations
 
 from typing import Any
 
-from flask import Blueprint, Flask, g, redirect, render_template, request, url_for
+from flask import Blueprint, Flask, current_app, g, redirect, render_template, request, url_for
 from sqlalchemy import select
 from sqlalchemy.exc import IntegrityError, SQLAlchemyError
 from werkzeug.exceptions import NotFound
 from werkzeug.wrappers import Response
 
 from hcss.platform.db import get_session
+from hcss.platform.live.service import finish_overdue_trial
 from hcss.platform.models import Participant
 from hcss.platform.session_state import session_state
 from hcss.platform.study.enrolment import current_enrolment, first_enrolment
@@ -74,6 +75,9 @@ def _participant(token: str) -> Participant:
 def _flow(token: str) -> Flow:
     session = get_session()
     participant = _participant(token)
+    # Before the flow writes: the live service ends a trial past its deadline in
+    # units of work of its own (see trial_stage), and the flow then reads it ended.
+    finish_overdue_trial(current_app.extensions["hcss_runner"], participant)
     enrolment = current_enrolment(session, participant.id)
     if enrolment is None:
         enrolment = first_enrolment(session, participant)
