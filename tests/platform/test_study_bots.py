@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import pytest
 from click.testing import CliRunner
 from sqlalchemy import select
 
@@ -12,6 +13,7 @@ from hcss.platform.study import participant_status
 from tests.platform.study_fixtures import demo_app, new_participant, visitor  # noqa: F401
 
 
+@pytest.mark.slow
 def test_hcss_bots_fills_a_database_with_flagged_completed_bots(tmp_path) -> None:
     url = f"sqlite:///{tmp_path / 'bots.sqlite3'}"
     result = CliRunner().invoke(

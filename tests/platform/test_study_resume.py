@@ -7,6 +7,7 @@ the deadline, when the participant comes back.
 
 from __future__ import annotations
 
+import pytest
 from flask import Flask
 from sqlalchemy import select
 
@@ -111,6 +112,7 @@ def test_a_part_answered_in_time_ends_on_a_part_done_page_before_the_break(datab
     app.extensions["hcss_db"].engine.dispose()
 
 
+@pytest.mark.slow
 def test_every_page_of_the_demo_survives_refresh_and_restart(database_url) -> None:
     """At each step of the whole demo study, including mid-trial, the page and deadline hold."""
     study = load_study("demo")
