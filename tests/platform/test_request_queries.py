@@ -16,6 +16,7 @@ from contextlib import contextmanager
 
 from sqlalchemy import event
 
+from hcss.platform.bots import parse_page
 from tests.platform.study_fixtures import demo_app, new_participant  # noqa: F401
 from tests.platform.test_idempotency import _investigate
 
@@ -87,3 +88,64 @@ def test_a_stage_page_reads_the_participant_and_the_consent_once(demo_app) -> No
         page = client.get(f"/p/{token}/stage")  # a reload
     assert page.status_code == 200 and 'data-stage="consent"' in page.get_data(as_text=True)
     assert (counts["participant"], counts["consent_record"], counts["stage_event"]) == (1, 1, 1)
+
+
+@contextmanager
+def statements_sent(app) -> Iterator[Counter[str]]:  # type: ignore[no-untyped-def]
+    """Every SQL statement sent while the block runs, by its first word, and the COMMITs."""
+    counts: Counter[str] = Counter()
+
+    def statement(_conn, _cursor, text: str, *_args) -> None:  # type: ignore[no-untyped-def]
+        counts[text.split(None, 1)[0].upper()] += 1
+
+    def commit(_conn) -> None:  # type: ignore[no-untyped-def]
+        counts["COMMIT"] += 1
+
+    engine = app.extensions["hcss_db"].engine
+    event.listen(engine, "before_cursor_execute", statement)
+    event.listen(engine, "commit", commit)
+    try:
+        yield counts
+    finally:
+        event.remove(engine, "before_cursor_execute", statement)
+        event.remove(engine, "commit", commit)
+
+
+def test_the_personal_link_reads_the_participant_and_enrolment_only(demo_app) -> None:  # noqa: F811
+    """It redirects to the stage page, which locates the step: no stage event to read.
+
+    The demo study has no [timeouts], so there is no one to time out either. The
+    live service looks for an overdue trial in a unit of work of its own, after
+    the request's hands its connection back: two of the three commits.
+    """
+    token = new_participant(demo_app)
+    client = demo_app.test_client()
+    with tables_read(demo_app) as tables, statements_sent(demo_app) as sent:
+        answer = client.get(f"/p/{token}")
+    assert answer.status_code == 302 and answer.location.endswith(f"/p/{token}/stage")
+    assert set(tables) == {"participant", "study_enrolment", "trial"}
+    assert sent == Counter({"SELECT": 3, "COMMIT": 3})
+
+
+def test_a_stage_page_commits_once_when_it_records_the_entry(demo_app) -> None:  # noqa: F811
+    token = new_participant(demo_app)
+    client = demo_app.test_client()
+    with statements_sent(demo_app) as sent:
+        page = client.get(f"/p/{token}/stage")  # consent: its entry recorded, then shown
+    assert page.status_code == 200 and 'data-stage="consent"' in page.get_data(as_text=True)
+    assert (sent["SELECT"], sent["INSERT"], sent["COMMIT"]) == (6, 1, 3)
+    with statements_sent(demo_app) as sent:
+        page = client.get(f"/p/{token}/stage")  # a reload: read only
+    assert page.status_code == 200 and 'data-stage="consent"' in page.get_data(as_text=True)
+    assert (sent["SELECT"], sent["INSERT"], sent["COMMIT"]) == (6, 0, 3)
+
+
+def test_an_answer_is_written_in_one_commit(demo_app) -> None:  # noqa: F811
+    token = new_participant(demo_app)
+    client = demo_app.test_client()
+    page = parse_page(client.get(f"/p/{token}/stage").get_data(as_text=True))
+    assert page.stage == "consent"
+    with statements_sent(demo_app) as sent:
+        answer = client.post(page.action, data={"decision": "agree", **page.hidden})
+    assert answer.status_code == 302
+    assert (sent["SELECT"], sent["INSERT"], sent["COMMIT"]) == (6, 2, 3)  # consent, submitted

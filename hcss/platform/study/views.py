@@ -10,6 +10,7 @@ rest of the request does.
 
 from __future__ import annotations
 
+from datetime import datetime
 from typing import Any
 
 from flask import Blueprint, Flask, current_app, g, redirect, render_template, request, url_for
@@ -20,7 +21,7 @@ from werkzeug.wrappers import Response
 
 from hcss.platform.db import get_session
 from hcss.platform.live.service import finish_overdue_trial
-from hcss.platform.models import Participant
+from hcss.platform.models import Participant, StudyEnrolment
 from hcss.platform.session_state import session_state
 from hcss.platform.study.enrolment import current_enrolment, first_enrolment
 from hcss.platform.study.flow import Flow, Position, study_now
@@ -72,33 +73,48 @@ def _participant(token: str) -> Participant:
     return participant
 
 
-def _flow(token: str) -> Flow:
+def _enrolled(token: str) -> tuple[Participant, StudyEnrolment, datetime]:
+    """The participant, enrolled if not yet, and timed out if they come back too late."""
     session = get_session()
     participant = _participant(token)
     # Before the flow writes: the live service ends a trial past its deadline in
     # units of work of its own (see trial_stage), and the flow then reads it ended.
     finish_overdue_trial(current_app.extensions["hcss_runner"], participant)
     enrolment = current_enrolment(session, participant.id)
-    if enrolment is None:
+    if enrolment is None:  # kept whatever the request does next, and the cell lock let go
         enrolment = first_enrolment(session, participant)
-    enrolled_study(enrolment)  # a missing or changed study file holds the participant (503)
-    now = study_now()
-    if time_out_abandoned(session, now, participant.id):  # back after the study's [timeouts]
         session.commit()
-    return Flow(session, participant, enrolment, now)
+    # A missing or changed study file holds the participant (503).
+    study = enrolled_study(enrolment)
+    now = study_now()
+    # Only the current enrolment's study can time the participant out: without
+    # [timeouts] there is nothing to look up on every page load.
+    if study.timeouts.active and time_out_abandoned(session, now, participant.id):
+        session.commit()
+    return participant, enrolment, now
+
+
+def _flow(token: str) -> Flow:
+    return Flow(get_session(), *_enrolled(token))
 
 
 def _settled(flow: Flow) -> Position:
+    """Settle, and commit what that recorded so it holds whatever the request does next.
+
+    A settle that recorded nothing (most page loads) leaves nothing to commit:
+    the request's own commit ends its transaction.
+    """
+    recorded = len(flow.events)
     position = flow.settle()
-    flow.session.commit()
+    if len(flow.events) > recorded:
+        flow.session.commit()
     return position
 
 
 @bp.get("/<token>")
 def enter(token: str) -> Response:
-    """The personal link: straight to wherever the participant is."""
-    _flow(token)
-    get_session().commit()
+    """The personal link: straight to wherever the participant is (the next page locates it)."""
+    _enrolled(token)
     return redirect(url_for("study.stage", token=token))
 
 
