@@ -108,6 +108,11 @@ def test_the_source_keeps_every_contract() -> None:
             "from hcss.platform.live.session import RunningTrial",
             "The console reaches live trials through the live service",
         ),
+        (  # the API's idempotency decorator writing keys beside the actions
+            "hcss/platform/live/idempotency.py",
+            "from hcss.platform.live.actions import submit_request",
+            "The console reaches live trials through the live service",
+        ),
         (  # a cycle inside a package, through an import in a function
             "hcss/platform/study/stage.py",
             "def _late():\n    from hcss.platform.study import flow",

@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-import hmac
-
 from flask import abort, current_app, g
 from sqlalchemy import select
 
 from hcss.platform.db import database, get_session
+from hcss.platform.live import commands
 from hcss.platform.live.runner import Runner
-from hcss.platform.live.session import RunningTrial
 from hcss.platform.models import Participant, Trial
 
 
@@ -49,23 +47,10 @@ def trial_for(token: str, trial_id: int) -> Trial:
     return trial
 
 
-def held_trial(token: str, trial_id: int) -> RunningTrial | None:
-    """The trial this process holds in memory, if it is the token's; None: ask `trial_for`.
-
-    The live API's looks and commands come several times a second per trial;
-    checking a held trial's owner in memory spares each of them a query and a
-    transaction. A trial not held, or held for another token, goes the
-    database's way, so every answer (404, 409) is the same either way.
-    """
-    live = runner().loaded(trial_id)
-    if live is None or not hmac.compare_digest(live.participant_token.encode(), token.encode()):
-        return None
-    return live
-
-
 def require_owner(token: str, trial_id: int) -> None:
-    """404 unless the trial is the token's: in memory when this process holds it, else by query."""
-    if held_trial(token, trial_id) is None:
+    """404 unless the trial is the token's: in memory when this process holds it
+    (`commands.holds_for`, no query), else by `trial_for`."""
+    if not commands.holds_for(runner(), token, trial_id):
         trial_for(token, trial_id)
 
 

@@ -12,7 +12,7 @@ checks, the lock and the writes stay inside live.
 
 That the token owns the trial is the caller's check (`access.require_owner`,
 which answers 404 for another participant's trial before anything here
-runs). The console's and the study flow's commands are in
+runs; `holds_for` answers it in memory for a trial held here). The console's and the study flow's commands are in
 hcss.platform.live.service; the participant's are a module of their own so
 that neither grows past a screenful. The import-linter contract "The console
 reaches live trials through the live service" (pyproject.toml) keeps the API
@@ -21,6 +21,7 @@ on this side of the trial.
 
 from __future__ import annotations
 
+import hmac
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from typing import Any
@@ -41,12 +42,25 @@ __all__ = [
     "ActionError",
     "Stream",
     "frame",
+    "holds_for",
     "observe",
     "open_stream",
     "probe_answer",
     "probe_ready",
     "submit_request",
 ]
+
+
+def holds_for(runner: Runner, token: str, trial_id: int) -> bool:
+    """Whether this process holds the trial in memory for this token; False: ask the database.
+
+    The live API's looks and commands come several times a second per trial;
+    checking a held trial's owner in memory spares each of them a query and a
+    transaction. A trial not held, or held for another token, goes the
+    database's way, so every answer (404, 409) is the same either way.
+    """
+    live = runner.loaded(trial_id)
+    return live is not None and hmac.compare_digest(live.participant_token.encode(), token.encode())
 
 
 def _running(runner: Runner, trial_id: int) -> RunningTrial:
