@@ -318,3 +318,74 @@ def test_another_objects_field_of_the_same_name_is_not_a_state_write(tmp_path: P
         tmp_path, "hcss/platform/export/__init__.py", "def _planted(row):\n    row.model = 'M1'"
     )
     assert state_writes(root) == []
+
+
+#: The participant's HTTP side of live: it passes plain values to the live service
+#: (live/commands.py, live/command_keys.py), which holds the trial.
+API_MODULES = (
+    "hcss/platform/live/api.py",
+    "hcss/platform/live/idempotency.py",
+    "hcss/platform/live/access.py",
+    "hcss/platform/live/views.py",
+)
+#: What only a holder of the trial touches: its lock, its condition, its wake-up.
+TRIAL_HANDLES = {"lock", "changed", "touch"}
+#: The routes and their decorator open no session (access's read-only owner check does).
+SESSIONLESS = {"hcss/platform/live/api.py", "hcss/platform/live/idempotency.py"}
+
+
+def trial_handles(root: Path) -> list[str]:
+    """Where the API modules hold a trial (its lock, `runner().get`) or open a session.
+
+    No import graph sees these: the runner hands out a `RunningTrial` without
+    its module being imported.
+    """
+    found = []
+    for module in API_MODULES:
+        for node in ast.walk(ast.parse((root / module).read_text())):
+            if not isinstance(node, ast.Attribute):
+                continue
+            where = f"{module}:{node.lineno}"
+            if node.attr in TRIAL_HANDLES:
+                found.append(f"{where}: touches .{node.attr}")
+            elif (
+                node.attr in ("get", "loaded")
+                and isinstance(node.value, ast.Call)
+                and isinstance(node.value.func, ast.Name)
+                and node.value.func.id == "runner"
+            ):
+                found.append(f"{where}: holds runner().{node.attr}")
+            elif node.attr == "session_scope" and module in SESSIONLESS:
+                found.append(f"{where}: opens a session")
+    return found
+
+
+def test_the_participants_api_holds_no_trial_lock_or_session() -> None:
+    assert trial_handles(CHECKOUT) == []
+
+
+@pytest.mark.parametrize(
+    ("module", "line", "found"),
+    [
+        (  # a route taking the trial's lock itself
+            "hcss/platform/live/api.py",
+            "def _planted(live):\n    with live.lock:\n        pass",
+            "touches .lock",
+        ),
+        (  # the idempotency decorator fetching the trial to wait on it
+            "hcss/platform/live/idempotency.py",
+            "def _planted():\n    return runner().get(1)",
+            "holds runner().get",
+        ),
+        (  # a route opening its own session to validate
+            "hcss/platform/live/api.py",
+            "def _planted():\n    with database().session_scope():\n        pass",
+            "opens a session",
+        ),
+    ],
+)
+def test_a_planted_trial_handle_in_the_api_is_found(
+    tmp_path: Path, module: str, line: str, found: str
+) -> None:
+    handles = trial_handles(planted(tmp_path, module, line))
+    assert any(h.startswith(module) and found in h for h in handles), handles
