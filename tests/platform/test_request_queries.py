@@ -112,32 +112,33 @@ def statements_sent(app) -> Iterator[Counter[str]]:  # type: ignore[no-untyped-d
 
 
 def test_the_personal_link_reads_the_participant_and_enrolment_only(demo_app) -> None:  # noqa: F811
-    """It redirects to the stage page, which locates the step: no stage event to read.
+    """It redirects to the stage page, which locates the step: nothing else to read or write.
 
-    The demo study has no [timeouts], so there is no one to time out either. The
-    live service looks for an overdue trial in a unit of work of its own, after
-    the request's hands its connection back: two of the three commits.
+    The demo study has no [timeouts], so there is no one to time out either, and
+    no trial to end (the stage page looks for one only past a step's deadline).
     """
     token = new_participant(demo_app)
     client = demo_app.test_client()
     with tables_read(demo_app) as tables, statements_sent(demo_app) as sent:
         answer = client.get(f"/p/{token}")
     assert answer.status_code == 302 and answer.location.endswith(f"/p/{token}/stage")
-    assert set(tables) == {"participant", "study_enrolment", "trial"}
-    assert sent == Counter({"SELECT": 3, "COMMIT": 3})
+    assert set(tables) == {"participant", "study_enrolment"}
+    assert sent == Counter({"SELECT": 2, "COMMIT": 1})
 
 
 def test_a_stage_page_commits_once_when_it_records_the_entry(demo_app) -> None:  # noqa: F811
+    """No step's deadline has passed, so no trial can be overdue: the live service's
+    unit of work (and the request's connection handed back for it) is not needed."""
     token = new_participant(demo_app)
     client = demo_app.test_client()
     with statements_sent(demo_app) as sent:
         page = client.get(f"/p/{token}/stage")  # consent: its entry recorded, then shown
     assert page.status_code == 200 and 'data-stage="consent"' in page.get_data(as_text=True)
-    assert (sent["SELECT"], sent["INSERT"], sent["COMMIT"]) == (6, 1, 3)
+    assert (sent["SELECT"], sent["INSERT"], sent["COMMIT"]) == (5, 1, 1)
     with statements_sent(demo_app) as sent:
         page = client.get(f"/p/{token}/stage")  # a reload: read only
     assert page.status_code == 200 and 'data-stage="consent"' in page.get_data(as_text=True)
-    assert (sent["SELECT"], sent["INSERT"], sent["COMMIT"]) == (6, 0, 3)
+    assert (sent["SELECT"], sent["INSERT"], sent["COMMIT"]) == (5, 0, 1)
 
 
 def test_an_answer_is_written_in_one_commit(demo_app) -> None:  # noqa: F811
@@ -148,4 +149,4 @@ def test_an_answer_is_written_in_one_commit(demo_app) -> None:  # noqa: F811
     with statements_sent(demo_app) as sent:
         answer = client.post(page.action, data={"decision": "agree", **page.hidden})
     assert answer.status_code == 302
-    assert (sent["SELECT"], sent["INSERT"], sent["COMMIT"]) == (6, 2, 3)  # consent, submitted
+    assert (sent["SELECT"], sent["INSERT"], sent["COMMIT"]) == (5, 2, 1)  # consent, submitted

@@ -77,9 +77,6 @@ def _enrolled(token: str) -> tuple[Participant, StudyEnrolment, datetime]:
     """The participant, enrolled if not yet, and timed out if they come back too late."""
     session = get_session()
     participant = _participant(token)
-    # Before the flow writes: the live service ends a trial past its deadline in
-    # units of work of its own (see trial_stage), and the flow then reads it ended.
-    finish_overdue_trial(current_app.extensions["hcss_runner"], participant)
     enrolment = current_enrolment(session, participant.id)
     if enrolment is None:  # kept whatever the request does next, and the cell lock let go
         enrolment = first_enrolment(session, participant)
@@ -95,7 +92,26 @@ def _enrolled(token: str) -> tuple[Participant, StudyEnrolment, datetime]:
 
 
 def _flow(token: str) -> Flow:
-    return Flow(get_session(), *_enrolled(token))
+    flow = Flow(get_session(), *_enrolled(token))
+    if _past_deadline(flow):
+        # Before the flow writes: the live service ends a trial past its deadline in
+        # units of work of its own (see trial_stage), and the flow then reads it ended.
+        finish_overdue_trial(current_app.extensions["hcss_runner"], flow.participant)
+    return flow
+
+
+def _past_deadline(flow: Flow) -> bool:
+    """Whether the current step's deadline has passed, as read from its entry.
+
+    A trial's run step holds its trial's deadline, so only then can a trial be
+    overdue: other page loads skip the live service's look (a unit of work of
+    its own, after the request's hands its connection back).
+    """
+    position = flow.locate()
+    if position.slot is None:
+        return False
+    deadline = flow.deadline_of(position.slot, position.step)
+    return deadline is not None and flow.now >= deadline
 
 
 def _settled(flow: Flow) -> Position:
