@@ -14,11 +14,13 @@ from collections import Counter
 from collections.abc import Iterator
 from contextlib import contextmanager
 
-from sqlalchemy import event
+from sqlalchemy import event, select
 
 from hcss.platform.bots import parse_page
-from tests.platform.study_fixtures import demo_app, new_participant  # noqa: F401
+from hcss.platform.models import QuestionnaireItem
+from tests.platform.study_fixtures import demo_app, new_participant, visitor  # noqa: F401
 from tests.platform.test_idempotency import _investigate
+from tests.platform.test_study_resume import walk_to
 
 CLICK = {"kind": "collective", "collective": 0, "button": "left"}
 
@@ -150,3 +152,22 @@ def test_an_answer_is_written_in_one_commit(demo_app) -> None:  # noqa: F811
         answer = client.post(page.action, data={"decision": "agree", **page.hidden})
     assert answer.status_code == 302
     assert (sent["SELECT"], sent["INSERT"], sent["COMMIT"]) == (5, 2, 1)  # consent, submitted
+
+
+def test_an_mrt_answer_reads_the_answers_so_far_once(demo_app) -> None:  # noqa: F811
+    """Which item is current, whether this is it, and whether the part is done are all
+    read from the stage's answers: one SELECT, kept up to date as the answer is written."""
+    v = visitor(demo_app, new_participant(demo_app, is_bot=True))
+    page = walk_to(v, "mental_rotation", "part_1")
+    first = page.mrt_item
+    with tables_read(demo_app) as counts:
+        answer = v.client.post(page.action, data={**page.hidden, "chosen": ["0", "1"]})
+    assert answer.status_code == 302
+    assert counts["questionnaire_item"] == 1
+    after = v.page()  # the next item, or the part's end when this was its last
+    assert (after.step, after.mrt_item) != ("part_1", first)
+    with demo_app.app_context(), demo_app.extensions["hcss_db"].session_scope() as session:
+        stored = session.scalars(
+            select(QuestionnaireItem.value).where(QuestionnaireItem.item == first)
+        )
+        assert list(stored) == ["0,1"]

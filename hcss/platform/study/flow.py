@@ -80,6 +80,9 @@ class Flow:
         ):
             self._remember(event)
         self._consent: list[ConsentRecord | None] = []  # read on first use, kept up to date
+        # (stage index, instrument) -> answers, read on first use and kept up to date by
+        # `record_answers`: an MRT answer's page asked for them up to five times.
+        self._answers: dict[tuple[int, str], dict[str, str]] = {}
 
     def _remember(self, event: StageEvent) -> None:
         self.events.append(event)
@@ -117,16 +120,18 @@ class Flow:
 
     def answers(self, index: int, instrument: str) -> dict[str, str]:
         """The answers given at one stage, item -> value (the newest row wins)."""
-        rows = self.session.scalars(
-            select(QuestionnaireItem)
-            .where(
-                QuestionnaireItem.participant_id == self.participant.id,
-                QuestionnaireItem.stage_index == index,
-                QuestionnaireItem.instrument == instrument,
+        if (index, instrument) not in self._answers:
+            rows = self.session.scalars(
+                select(QuestionnaireItem)
+                .where(
+                    QuestionnaireItem.participant_id == self.participant.id,
+                    QuestionnaireItem.stage_index == index,
+                    QuestionnaireItem.instrument == instrument,
+                )
+                .order_by(QuestionnaireItem.id)
             )
-            .order_by(QuestionnaireItem.id)
-        )
-        return {row.item: row.value for row in rows}
+            self._answers[(index, instrument)] = {row.item: row.value for row in rows}
+        return dict(self._answers[(index, instrument)])
 
     def deadline_of(self, slot: Slot, step: str) -> datetime | None:
         entered = self.event(slot.index, step, "entered")
@@ -185,19 +190,23 @@ class Flow:
     def record_answers(
         self, slot: Slot, instrument: str, answers: Mapping[str, object], model: str = ""
     ) -> None:
-        for item, value in answers.items():
-            self.session.add(
-                QuestionnaireItem(
-                    participant_id=self.participant.id,
-                    stage_index=slot.index,
-                    instrument=instrument,
-                    model=model,
-                    item=item,
-                    value="" if value is None else str(value),
-                    at=self.now,
-                )
+        rows = [
+            QuestionnaireItem(
+                participant_id=self.participant.id,
+                stage_index=slot.index,
+                instrument=instrument,
+                model=model,
+                item=item,
+                value="" if value is None else str(value),
+                at=self.now,
             )
+            for item, value in answers.items()
+        ]
+        self.session.add_all(rows)
         self.session.flush()
+        known = self._answers.get((slot.index, instrument))
+        if known is not None:
+            known.update((row.item, row.value) for row in rows)
 
     def record_scores(self, rows: tuple[ScoreRow, ...]) -> None:
         for row in rows:
