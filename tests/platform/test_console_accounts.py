@@ -71,3 +71,31 @@ def test_first_serve_prints_one_login_and_later_serves_none(app, capsys) -> None
     assert ensure_first_login(app) is None
     assert capsys.readouterr().out == ""
     assert _usernames(app) == [FIRST_USERNAME]
+
+
+def test_two_processes_starting_at_once_make_one_first_login(app, monkeypatch, capsys) -> None:
+    """`--cluster` processes on several hosts start together on a new database: both count
+    no experimenter, both make the first login, and the slower one must serve on (the
+    other printed the login), not die of the unique username at start."""
+    import threading
+    from concurrent.futures import ThreadPoolExecutor
+
+    from hcss.platform.console import accounts
+
+    both_counted = threading.Barrier(2, timeout=10)
+    make = accounts.create_experimenter
+
+    def make_after_both_counted(*args, **kwargs):  # type: ignore[no-untyped-def]
+        both_counted.wait()
+        return make(*args, **kwargs)
+
+    monkeypatch.setattr(accounts, "create_experimenter", make_after_both_counted)
+    with ThreadPoolExecutor(2) as starts:  # .result() raises what would end a process
+        both = [starts.submit(ensure_first_login, app) for _ in range(2)]
+        made = [start.result(timeout=30) for start in both]
+    logins = [m for m in made if m is not None]
+    assert len(made) == 2 and len(logins) == 1
+    assert _usernames(app) == [FIRST_USERNAME]
+    out, err = capsys.readouterr()
+    assert out.count("first console login") == 1
+    assert "hcss db upgrade" not in err  # the loser has nothing to fix

@@ -13,7 +13,7 @@ from argon2 import PasswordHasher
 from argon2.exceptions import InvalidHashError, VerificationError
 from flask import Flask
 from sqlalchemy import func, select
-from sqlalchemy.exc import InternalError, OperationalError, ProgrammingError
+from sqlalchemy.exc import IntegrityError, InternalError, OperationalError, ProgrammingError
 from sqlalchemy.orm import Session
 
 from hcss.platform.models import Experimenter
@@ -71,8 +71,9 @@ def ensure_first_login(app: Flask) -> tuple[str, str] | None:
     """On a server with no experimenter yet, make one and print its login once.
 
     The password is random and printed only here; nothing stores it in clear.
-    Returns the (username, password) made, or None when accounts already exist
-    (or the database has not been migrated, which `hcss db upgrade` fixes).
+    Returns the (username, password) made, or None when accounts already exist,
+    another process starting at the same time made the first one, or the
+    database has not been migrated (which `hcss db upgrade` fixes).
     """
     database = app.extensions["hcss_db"]
     try:
@@ -81,6 +82,10 @@ def ensure_first_login(app: Flask) -> tuple[str, str] | None:
                 return None
             password = secrets.token_urlsafe(12)
             create_experimenter(session, FIRST_USERNAME, password)
+    except IntegrityError:
+        # Processes of a group (on one host or several) starting together on a new
+        # database all counted none; the first to commit made the login and printed it.
+        return None
     except (OperationalError, ProgrammingError, InternalError) as error:
         refusal = database.write_refusal()
         if refusal is not None:  # read-only, full or away: migrating would not help
