@@ -1,9 +1,16 @@
 """A loopback TCP proxy whose line the test can cut and restore: a database outage of
 the test's own, without stopping the PostgreSQL server other people share.
 
-While cut, every relayed connection is closed at once and each new one is
-accepted and closed without a byte, as a server that went away mid-answer
+While cut, every relayed connection is shut down at once and each new one
+is accepted and closed without a byte, as a server that went away mid-answer
 does: the client's driver sees its connection lost, never a hang.
+
+A relayed socket is closed only by the last of its two pump threads, once
+neither can touch it again. Closing it from another thread (as `cut` did)
+freed its descriptor number while a pump could still be about to send on it:
+the process's next socket, often another PostgreSQL connection of the same
+test process, could get that number and receive the relayed bytes, which the
+server refused as "invalid frontend message type" in a later test.
 """
 
 from __future__ import annotations
@@ -29,8 +36,7 @@ class CutProxy:
         with self._lock:
             self.cut_now = True
             for end in self._open:
-                _close(end)
-            self._open.clear()
+                _shut_down(end)  # wakes its pumps, which close it
 
     def restore(self) -> None:
         with self._lock:
@@ -38,7 +44,7 @@ class CutProxy:
 
     def close(self) -> None:
         self.cut()
-        _close(self._listener)
+        _shut_down(self._listener)  # wakes `_serve`'s accept, which closes it
 
     def __enter__(self) -> CutProxy:
         return self
@@ -53,6 +59,7 @@ class CutProxy:
             try:
                 client, _ = self._listener.accept()
             except OSError:
+                self._listener.close()
                 return
             with self._lock:
                 refused = self.cut_now
@@ -67,24 +74,39 @@ class CutProxy:
             upstream.settimeout(None)
             with self._lock:
                 self._open.update((client, upstream))
+            pumps_left = [2]
             for source, sink in ((client, upstream), (upstream, client)):
-                threading.Thread(target=self._pump, args=(source, sink), daemon=True).start()
+                threading.Thread(
+                    target=self._pump, args=(source, sink, pumps_left), daemon=True
+                ).start()
 
-    def _pump(self, source: socket.socket, sink: socket.socket) -> None:
+    def _pump(self, source: socket.socket, sink: socket.socket, pumps_left: list[int]) -> None:
+        """Relay one direction; the last of the pair's two pumps to stop closes both ends."""
         try:
             while chunk := source.recv(65536):
                 sink.sendall(chunk)
         except OSError:
             pass
         finally:
+            _shut_down(source)  # the other direction stops too
+            _shut_down(sink)
             with self._lock:
-                self._open.discard(source)
-                self._open.discard(sink)
-            _close(source)
-            _close(sink)
+                pumps_left[0] -= 1
+                last = pumps_left[0] == 0
+                if last:
+                    self._open.discard(source)
+                    self._open.discard(sink)
+            if last:
+                source.close()
+                sink.close()
+
+
+def _shut_down(end: socket.socket) -> None:
+    with contextlib.suppress(OSError):  # already shut down, or the other end went first
+        end.shutdown(socket.SHUT_RDWR)
 
 
 def _close(end: socket.socket) -> None:
-    with contextlib.suppress(OSError):  # already closed by the other end
-        end.shutdown(socket.SHUT_RDWR)
+    """Close a socket no other thread uses (a refused client)."""
+    _shut_down(end)
     end.close()
