@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from hcss.platform.live.probes import probe_subject
+from hcss.platform.models import Probe
 from hcss.questionnaires.probes import ScheduledProbe
 from hcss.simulation.requests import StatusChange
 
@@ -40,6 +41,21 @@ class CurrentProbe:
     delivered_s: float | None = None
     question_delivered_s: float | None = None
     ready_s: float | None = None
+
+    @classmethod
+    def of(cls, row: Probe, *, ready: bool = False) -> CurrentProbe:
+        """The probe on screen as its stored row says (shown now, or found again in a rebuild)."""
+        return cls(
+            id=row.id,
+            probe_index=row.probe_index,
+            level=row.level,
+            question=row.question,
+            choices=list(row.choices),
+            truth=row.truth,
+            shown_sim_time=row.shown_sim_time,
+            timeout_sim_time=row.timeout_sim_time,
+            ready=ready,
+        )
 
     def delivered(self, running_s: float) -> None:
         """A frame carrying this probe is being sent."""

@@ -196,15 +196,5 @@ def _restore_probes(session: Session, live: RunningTrial) -> None:
             answer = kinds["answer"].answer if "answer" in kinds else None
             projections.append((probe.id, probe.shown_sim_time, answer))
         if "answer" not in kinds and "timeout" not in kinds:
-            current = CurrentProbe(
-                id=probe.id,
-                probe_index=probe.probe_index,
-                level=probe.level,
-                question=probe.question,
-                choices=list(probe.choices),
-                truth=probe.truth,
-                shown_sim_time=probe.shown_sim_time,
-                timeout_sim_time=probe.timeout_sim_time,
-                ready="ready" in kinds,
-            )
+            current = CurrentProbe.of(probe, ready="ready" in kinds)
     live.probes_restored(len(probes), current, projections)

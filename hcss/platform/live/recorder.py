@@ -186,18 +186,7 @@ def _show_probe(live: RunningTrial, session: Session, time: float) -> None:
     )
     session.add(row)
     session.flush()
-    live.probe_shown(
-        CurrentProbe(
-            id=row.id,
-            probe_index=probe_index,
-            level=filled.level,
-            question=filled.question,
-            choices=filled.choices,
-            truth=filled.truth,
-            shown_sim_time=row.shown_sim_time,
-            timeout_sim_time=row.timeout_sim_time,
-        )
-    )
+    live.probe_shown(CurrentProbe.of(row))
 
 
 def write_snapshot(live: RunningTrial, session: Session, now: float) -> None:
