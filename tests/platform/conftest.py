@@ -156,9 +156,9 @@ CHROMIUM_ARGS = [
 ]
 
 
-@pytest.fixture(scope="session")
-def chromium():  # type: ignore[no-untyped-def]
-    """One headless Chromium per test process: a launch costs seconds, a context milliseconds."""
+@pytest.fixture
+def browser():  # type: ignore[no-untyped-def]
+    """A headless Chromium for the browser tests; skipped when it is not installed."""
     if not os.path.exists(CHROMIUM):
         pytest.skip(f"browser tests need {CHROMIUM} (make browser installs it)")
     sync_api = pytest.importorskip("playwright.sync_api")
@@ -166,16 +166,3 @@ def chromium():  # type: ignore[no-untyped-def]
         browser = playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
         yield browser
         browser.close()
-
-
-@pytest.fixture
-def browser(chromium):  # type: ignore[no-untyped-def]
-    """The browser tests' Chromium; skipped when it is not installed.
-
-    Each test's pages live in contexts of their own (`new_page` and `new_context`
-    make one: cookies, storage and cache are not shared), and any context a test
-    leaves open is closed after it, so no test sees another's pages.
-    """
-    yield chromium
-    for context in chromium.contexts:
-        context.close()
