@@ -10,7 +10,16 @@ and so its module-scoped fixtures, stay as they are.
 
 from __future__ import annotations
 
+import csv
+from pathlib import Path
+
 import pytest
+
+#: Every run writes each test's time here (setup, call and teardown summed), longest first,
+#: so the suite's slow tests are known from a file, not from commit messages.
+DURATIONS_FILE = Path(__file__).resolve().parents[1] / "test-artifacts" / "durations.csv"
+_seconds: dict[str, float] = {}
+_outcome: dict[str, str] = {}
 
 
 def _rank(item: pytest.Item) -> int:
@@ -28,3 +37,21 @@ def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
         module = item.nodeid.split("::")[0]
         rank[module] = min(rank.get(module, 2), _rank(item))
     items.sort(key=lambda item: rank[item.nodeid.split("::")[0]])  # stable: file order within
+
+
+def pytest_runtest_logreport(report: pytest.TestReport) -> None:
+    """Sum a test's phases; under xdist the controller receives every worker's reports."""
+    _seconds[report.nodeid] = _seconds.get(report.nodeid, 0.0) + report.duration
+    if report.when == "call" or report.outcome != "passed":
+        _outcome[report.nodeid] = report.outcome
+
+
+def pytest_sessionfinish(session: pytest.Session) -> None:
+    if hasattr(session.config, "workerinput") or not _seconds:
+        return  # an xdist worker: the controller writes the file
+    DURATIONS_FILE.parent.mkdir(exist_ok=True)
+    with DURATIONS_FILE.open("w", newline="") as out:
+        table = csv.writer(out)
+        table.writerow(["seconds", "outcome", "test"])
+        for nodeid, seconds in sorted(_seconds.items(), key=lambda kv: -kv[1]):
+            table.writerow([f"{seconds:.3f}", _outcome.get(nodeid, "passed"), nodeid])
