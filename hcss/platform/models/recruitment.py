@@ -29,6 +29,8 @@ class Recruitment(CreatedAt, Base):
     # The site's own study and session (Prolific STUDY_ID, SESSION_ID; MTurk hitId, assignmentId).
     recruiter_study_id: Mapped[str | None] = mapped_column(String(128))
     recruiter_session_id: Mapped[str | None] = mapped_column(String(128))
+    # MTurk's turkSubmitTo (an origin the study file accepts): where the debrief posts the HIT.
+    submit_to: Mapped[str | None] = mapped_column(String(128))
 
 
 class ReturnVisit(CreatedAt, Base):
