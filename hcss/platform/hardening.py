@@ -22,9 +22,8 @@ link is framed by MTurk, and its debrief posts the assignment to MTurk.
 
 from __future__ import annotations
 
-from typing import Any
-
 from collections.abc import Iterable
+from typing import Any
 
 from flask import Flask, Response, abort, current_app, g, request
 from flask.json.provider import DefaultJSONProvider

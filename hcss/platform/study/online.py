@@ -126,9 +126,7 @@ PLACEHOLDERS = tuple(name for source in SOURCES for name in source.parameters())
 def placeholder_problem(url: str) -> str | None:
     """Why a URL's `{placeholders}` cannot be filled, or None; `{{` and `}}` are literal braces."""
     try:
-        fields = [
-            (name, spec, conversion) for _, name, spec, conversion in Formatter().parse(url)
-        ]
+        fields = [(name, spec, conversion) for _, name, spec, conversion in Formatter().parse(url)]
     except ValueError as error:
         return f"has unbalanced braces ({error}); write a literal brace as {{{{ or }}}}"
     for name, spec, conversion in fields:
@@ -200,7 +198,7 @@ class OnlineSettings:
         problem = placeholder_problem(url)
         if problem:
             raise ValueError(problem)
-        if url and "{" in urlsplit(fill_placeholders(url, {})).netloc:
+        if "{" in urlsplit(url).netloc:
             raise ValueError("may hold placeholders only after the host")
         return url
 
@@ -333,4 +331,3 @@ def recruitment_parameters(recruit: Recruit) -> dict[str, str]:
     if recruit.submit_to:
         values[MTURK_SUBMIT_TO] = recruit.submit_to
     return {name: value for name, value in values.items() if name and value}
-

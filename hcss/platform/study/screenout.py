@@ -153,9 +153,7 @@ def recruit_of(session: Session, participant: Participant) -> Recruit | None:
     )
 
 
-def leave_for(
-    session: Session, participant: Participant, study: Study, why: str
-) -> Leave | None:
+def leave_for(session: Session, participant: Participant, study: Study, why: str) -> Leave | None:
     """The way back for a participant of the study link who stops: `why` is the session's
     state or status (declined, aborted, timed_out); None for one created in the console."""
     recruit = recruit_of(session, participant)
