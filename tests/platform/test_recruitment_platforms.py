@@ -126,6 +126,12 @@ def test_prolific_outcomes_full_timed_out_and_ended_each_get_their_own_code(
     name = demo_variant(tmp_path / "studies", monkeypatch, "outcomes", {"target": "2"})
     path = tmp_path / "studies" / "outcomes.toml"
     path.write_text(path.read_text() + "\n[timeouts]\ninactivity_s = 600\n")
+    phone = {"width": "375", "height": "812", "mobile": "1", "missing": ""}
+    browser = app.test_client()
+    first_page = browser.get(f"/join/{name}?PROLIFIC_PID=p0")
+    fields = dict(HIDDEN.findall(first_page.get_data(as_text=True)))
+    screened = browser.post(f"/join/{name}", data=fields | phone)
+    assert 'data-stage="screened_out"' in screened.get_data(as_text=True)
     first = _start(app.test_client(), name, PROLIFIC_PID="p1", STUDY_ID="s", SESSION_ID="x1")
     second = _start(app.test_client(), name, PROLIFIC_PID="p2", STUDY_ID="s", SESSION_ID="x2")
     assert first.status_code == second.status_code == 302
@@ -134,6 +140,7 @@ def test_prolific_outcomes_full_timed_out_and_ended_each_get_their_own_code(
     assert 'data-stage="study_full"' in full and "return your submission" in full
     assert 'id="return-code" class="code">DEMORETURN<' in full
     assert "DEMOSCREEN" not in full
+    _start(app.test_client(), name, PROLIFIC_PID="p3")  # again: one visitor, counted once
     # Ended by the experimenter: asked to return the submission.
     code_of = {}
     with app.extensions["hcss_db"].session_scope() as session:
@@ -151,6 +158,23 @@ def test_prolific_outcomes_full_timed_out_and_ended_each_get_their_own_code(
     assert 'id="screen-out-code" class="code">DEMOTIMEOUT<' in timed
     assert 'href="https://app.prolific.com/submissions/complete?cc=DEMOTIMEOUT"' in timed
     assert f'id="timed-out-code">{code_of["p1"]}<' in timed
+    # The console counts each outcome of the study link.
+    index = console.get("/console/").get_data(as_text=True)
+    summary = re.search(r'<p class="link-outcomes" data-study="outcomes">(.*?)</p>', index, re.S)
+    counts = dict(
+        (outcome, int(n))
+        for outcome, n in re.findall(r'data-outcome="(\w+)">(\d+)', summary.group(1))
+    )
+    assert counts == {
+        "completed": 0,
+        "in_progress": 0,
+        "screened_out": 1,
+        "returned": 2,
+        "full": 1,
+        "declined": 0,
+        "ended": 1,
+        "timed_out": 1,
+    }
 
 
 def _csp(response) -> dict[str, str]:  # type: ignore[no-untyped-def]

@@ -45,6 +45,7 @@ from hcss.platform.study.online import (
     recruit_from,
     recruitment_parameters,
 )
+from hcss.platform.study.outcomes import record_turned_away
 from hcss.platform.study.screenout import (
     measurement_from,
     record_screen_out,
@@ -350,12 +351,14 @@ def _study_full(study: Study, message: str, recruit: Recruit) -> str:
     place to someone else, so they are asked to return the submission (Prolific's
     word), with the study's return code and URL; a screen-out would count against them.
     """
+    session = get_session()
+    record_turned_away(session, study.name, recruit)
+    session.commit()
     return render_template(
         "study/join_full.html",
         study=study,
         message=message,
         leave=return_link(study, recruit),
-        source=recruit.source,
     )
 
 
