@@ -18,8 +18,9 @@ from dataclasses import dataclass
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
-from hcss.platform.models import Participant, Recruitment, ScreenOut, TurnedAway
-from hcss.platform.study.flow import participant_status
+from hcss.platform.models import ConsentRecord, Participant, Recruitment, ScreenOut, TurnedAway
+from hcss.platform.session_state import aborted_participants, timed_out_participants
+from hcss.platform.study.flow import current_position
 from hcss.platform.study.online import Recruit
 
 
@@ -48,7 +49,24 @@ def outcomes(session: Session, study: str) -> Outcomes:
         .join(Recruitment, Recruitment.participant_id == Participant.id)
         .where(Recruitment.study == study)
     ).all()
-    statuses = Counter(participant_status(session, p) for p in participants)
+    # participant_status's answer, with the ended sets read once rather than per participant.
+    declined = set(
+        session.scalars(
+            select(ConsentRecord.participant_id).where(ConsentRecord.decision == "decline")
+        )
+    )
+    timed_out, aborted = timed_out_participants(session), aborted_participants(session)
+    statuses: Counter[str] = Counter()
+    for participant in participants:
+        if participant.id in declined:
+            statuses["declined"] += 1
+        elif participant.id in timed_out:
+            statuses["timed_out"] += 1
+        elif participant.id in aborted:
+            statuses["aborted"] += 1
+        else:
+            status = current_position(session, participant).status
+            statuses["in_progress" if status == "not_enrolled" else status] += 1
 
     def rows(model: type[ScreenOut] | type[TurnedAway]) -> int:
         count = select(func.count()).select_from(model).where(model.study == study)
