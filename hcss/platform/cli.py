@@ -13,6 +13,8 @@ from hcss.simulation.params import MODELS
 if TYPE_CHECKING:
     from flask import Flask
 
+    from hcss.platform.live.warmup import Warmup
+
 #: The Alembic environment, package data (Alembic's "package:directory" form).
 MIGRATIONS = "hcss.platform:migrations"
 DEFAULT_PORT = 5000
@@ -158,16 +160,18 @@ def serve(
         config["STUDY"] = _study_file(study).name
     app = create_app(config)
     _warn_if_the_database_takes_no_writes(app)
-    from hcss.platform.live.warmup import warm_simulation
-    from hcss.questionnaires.mrt import item_bank, practice_items
+    from hcss.platform.live.warmup import Warmup
 
-    # Compile the simulation's kernels now, not in the first participant's trial.
-    click.echo("hcss: compiling the simulation (up to 30 s after an install or upgrade)…")
-    warm_s = warm_simulation()
-
-    # Build the MRT figures and draw them now, not in the first participants' requests.
-    for item in (*practice_items(), *item_bank()):
-        item.target_svg()
+    # Compile the simulation's kernels now, not in the first participant's trial, but
+    # while serving: pages that need no simulation answer meanwhile, trials wait for it.
+    warmup = Warmup(_warm_up)
+    warmup.install(app)
+    warmup.start(_say_warm)
+    click.echo(
+        "hcss: preparing the simulation in the background (numba compiles its kernels "
+        "after an install or upgrade: a minute or more; from its cache: seconds); "
+        "pages are served meanwhile, trials start once it is ready"
+    )
     ensure_first_login(app)  # prints a console login once, on a server with no experimenter
     _warn_about_study_files(app)
     url = f"http://{host}:{port}/"
@@ -176,8 +180,7 @@ def serve(
     local = host if host not in ("0.0.0.0", "::", "") else "127.0.0.1"
     write_serving_file(f"http://{local}:{port}", study or "original")
     click.echo(
-        f"hcss serving on {url}  (Ctrl-C stops); new participants: study {study or 'original'}; "
-        f"simulation ready ({warm_s:.1f} s)"
+        f"hcss serving on {url}  (Ctrl-C stops); new participants: study {study or 'original'}"
     )
     click.echo(f"console: {url}console/   a demo trial:  hcss demo-trial --port {port}")
     proxied = int(app.config.get("PROXY_HOPS") or 0) > 0
@@ -197,6 +200,27 @@ def serve(
         per_client=0 if proxied else connections_per_client,
     )
     server.run()
+
+
+def _warm_up() -> None:
+    """The simulation's kernels, then the MRT figures, before the first participants need them."""
+    from hcss.platform.live.warmup import warm_simulation
+    from hcss.questionnaires.mrt import item_bank, practice_items
+
+    warm_simulation()
+    for item in (*practice_items(), *item_bank()):
+        item.target_svg()
+
+
+def _say_warm(warmup: Warmup) -> None:
+    if warmup.error is not None:
+        click.echo(
+            f"hcss: preparing the simulation failed ({warmup.error!r}); "
+            "each trial compiles what it needs when it starts",
+            err=True,
+        )
+        return
+    click.echo(f"hcss: simulation ready ({warmup.seconds:.1f} s); trials can start")
 
 
 @click.group("deploy")

@@ -14,14 +14,18 @@ with a 4xx and no database work:
   pages take forms.
 
 Every answer also carries the security headers (CSP, frame-ancestors, nosniff),
-and every answer but a static file ``Cache-Control: no-store``.
+and every answer but a static file ``Cache-Control: no-store``. A page refuses
+to be framed and posts forms only to this origin, unless its view widens that
+for this one answer (`allow_framing_by`, `allow_form_action_to`): an MTurk study's
+link is framed by MTurk, and its debrief posts the assignment to MTurk.
 """
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from typing import Any
 
-from flask import Flask, Response, abort, current_app, request
+from flask import Flask, Response, abort, current_app, g, request
 from flask.json.provider import DefaultJSONProvider
 from flask.sessions import SecureCookieSessionInterface
 from werkzeug.routing import IntegerConverter
@@ -94,13 +98,21 @@ def _refuse_nul_bytes() -> None:
                 abort(400, description="A field contains a NUL byte.")
 
 
-#: Everything from this origin only: no inline script or style (the pages have none),
-#: no framing (clickjacking), no plugins, forms post only here.
-CONTENT_SECURITY_POLICY = (
-    "default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data:; "
-    "connect-src 'self'; form-action 'self'; frame-ancestors 'none'; base-uri 'none'; "
-    "object-src 'none'"
-)
+def content_security_policy(
+    frame_ancestors: Iterable[str] = (), form_action: Iterable[str] = ()
+) -> str:
+    """Everything from this origin only: no inline script or style (the pages have none),
+    no plugins; framed by no one and forms posted only here unless origins are given."""
+    ancestors = " ".join(frame_ancestors) or "'none'"
+    actions = " ".join(("'self'", *form_action))
+    return (
+        "default-src 'self'; script-src 'self'; style-src 'self'; img-src 'self' data:; "
+        f"connect-src 'self'; form-action {actions}; frame-ancestors {ancestors}; "
+        "base-uri 'none'; object-src 'none'"
+    )
+
+
+CONTENT_SECURITY_POLICY = content_security_policy()
 SECURITY_HEADERS = {
     "Content-Security-Policy": CONTENT_SECURITY_POLICY,
     "X-Content-Type-Options": "nosniff",
@@ -110,8 +122,24 @@ SECURITY_HEADERS = {
 }
 
 
+def allow_framing_by(origins: Iterable[str]) -> None:
+    """This answer may be shown in a frame of these origins (and no other), not DENY."""
+    g.frame_ancestors = tuple(origins)
+
+
+def allow_form_action_to(origins: Iterable[str]) -> None:
+    """This answer's forms may post to these origins besides this one."""
+    g.form_action = tuple(origins)
+
+
 def _security_headers(response: Response) -> Response:
+    ancestors = g.get("frame_ancestors", ())
+    actions = g.get("form_action", ())
     for name, value in SECURITY_HEADERS.items():
+        if name == "X-Frame-Options" and ancestors:
+            continue  # it cannot name origins (ALLOW-FROM is gone); frame-ancestors does
+        if name == "Content-Security-Policy" and (ancestors or actions):
+            value = content_security_policy(ancestors, actions)
         response.headers.setdefault(name, value)
     if not (request.endpoint or "").endswith("static"):
         # Console pages list participant links and participant pages carry a token:

@@ -20,6 +20,7 @@ pytestmark = pytest.mark.browser
 
 PROLIFIC = {"PROLIFIC_PID": "5f8a1b2c3d4e5f6a7b8c9d01", "STUDY_ID": "S1", "SESSION_ID": "X1"}
 SCREEN_OUT_URL = "https://app.prolific.com/submissions/complete?cc=DEMOSCREEN"
+RETURN_URL = "https://app.prolific.com/submissions/complete?cc=DEMORETURN"
 
 
 def _count(app, model) -> int:  # type: ignore[no-untyped-def]
@@ -54,26 +55,33 @@ def test_a_phone_is_screened_out_before_consent_and_a_small_window_is_asked_to_g
                 375,
             )
 
-        # A laptop with a small window: asked to enlarge it; Start once it is large enough.
-        page = browser.new_page(viewport={"width": 900, "height": 600})
+        # A laptop's window too small (a 1280 x 720 screen with a bookmarks bar): asked to
+        # maximise, go full screen or zoom out; Start once it is large enough, checked live.
+        page = browser.new_page(viewport={"width": 1280, "height": 590})
         page.goto(link)
         expect(page.locator("#window-too-small")).to_be_visible()
-        expect(page.locator("#window-too-small")).to_contain_text("900 x 600")
+        expect(page.locator("#window-too-small")).to_contain_text("1280 x 590")
+        expect(page.locator("#window-too-small")).to_contain_text("F11")
+        expect(page.locator("#window-too-small")).to_contain_text("zoom out")
         expect(page.locator("#join-start")).to_be_disabled()
         assert _count(demo_app, Participant) == 0
-        page.set_viewport_size({"width": 1366, "height": 768})
-        expect(page.locator("#device-ok")).to_be_visible()
+        # Maximised on a 1366 x 768 laptop (1366 x 657), or 1280 x 800 (1280 x 690): admitted.
+        for width, height in ((1280, 690), (1366, 625), (1366, 657)):
+            page.set_viewport_size({"width": width, "height": height})
+            expect(page.locator("#device-ok")).to_be_visible()
+            expect(page.locator("#window-too-small")).to_be_hidden()
         page.locator("#join-start").click()
         expect(page.locator("main.study")).to_have_attribute("data-stage", "consent")
         assert _count(demo_app, Participant) == 1
 
-        # Declining consent ends with the same way back to the recruitment site.
+        # Declining consent: asked to return the submission, with the study's return code.
         page.get_by_label("I do not agree").check()
         page.get_by_role("button", name="Continue").click()
         page.get_by_role("button", name="Confirm").click()
         expect(page.locator("main.study")).to_have_attribute("data-stage", "declined")
-        expect(page.locator("#screen-out-code")).to_have_text("DEMOSCREEN")
-        expect(page.locator("#screen-out-link")).to_have_attribute("href", SCREEN_OUT_URL)
+        expect(page.locator("#return-submission")).to_contain_text("return your submission")
+        expect(page.locator("#return-code")).to_have_text("DEMORETURN")
+        expect(page.locator("#return-link")).to_have_attribute("href", RETURN_URL)
         assert _count(demo_app, ConsentRecord) == 1
         assert _count(demo_app, ScreenOut) == 1  # the phone's; a decline is its own record
         page.close()

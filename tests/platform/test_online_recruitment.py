@@ -81,7 +81,12 @@ def test_two_visits_with_one_prolific_id_give_one_participant(app) -> None:  # t
 def test_sona_and_mturk_ids_and_anonymous_visits(app) -> None:  # type: ignore[no-untyped-def]
     client = app.test_client()
     assert _join(client, id="41234").location == _join(client, id="41234").location
-    mturk = {"workerId": "A1B2C3", "assignmentId": "ASG", "hitId": "HIT"}
+    mturk = {
+        "workerId": "A1B2C3",
+        "assignmentId": "ASG",
+        "hitId": "HIT",
+        "turkSubmitTo": "https://workersandbox.mturk.com",
+    }
     assert _join(client, **mturk).location == _join(client, **mturk).location
     anonymous = {_join(client).location for _ in range(2)}  # demo allows them: two people
     assert len(anonymous) == 2

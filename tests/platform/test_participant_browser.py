@@ -24,6 +24,18 @@ pytestmark = pytest.mark.browser
 VIEWPORT = {"width": 1280, "height": 900}
 #: The README's walk of the demo study is taken on a common laptop's window.
 LAPTOP = {"width": 1366, "height": 768}
+#: A maximised browser's window on a 1366 x 768 laptop: the README's walk is taken at it.
+MAXIMISED = {"width": 1366, "height": 657}
+
+#: How far the MRT item's figures reach past the page's column, the footer's (px; 0 or less:
+#: inside it), on either side.
+MRT_OVERHANG = """() => {
+  const column = document.querySelector('.page-footer').getBoundingClientRect();
+  const parts = Array.from(document.querySelectorAll('.mrt-item, .mrt-target, .mrt-alternative'),
+    (n) => n.getBoundingClientRect());
+  return Math.max(column.left - Math.min(...parts.map((r) => r.left)),
+                  Math.max(...parts.map((r) => r.right)) - column.right);
+}"""
 
 
 @pytest.fixture
@@ -114,6 +126,8 @@ def answer_mrt(page, server: StudyServer, walk: bool = False) -> dict[str, str]:
             box.check()
         given[item.key] = mrt.format_selection(chosen)
         if walk and number == 1:  # the README's walk shows an answered item
+            overhang = page.evaluate(MRT_OVERHANG)
+            assert overhang <= 0, f"the MRT item reaches {overhang:.0f} px past the page column"
             screenshot(page, "walk-mrt.png", docs_name="walk-3-mrt.png")
         page.get_by_role("button", name="Next").click()
     # Every item answered in time: a page says the part is done before the test moves on.
@@ -336,8 +350,9 @@ def test_the_demo_study_from_the_link_to_the_debrief(browser, demo_server: Study
 
     from hcss.platform.models import Command, CommandKey, ProbeEvent
 
-    # From the study link (anonymous in the demo), as an online participant arrives.
-    page = browser.new_page(viewport=LAPTOP)
+    # From the study link (anonymous in the demo), as an online participant arrives,
+    # in a maximised browser on a 1366 x 768 laptop.
+    page = browser.new_page(viewport=MAXIMISED)
     page.goto(f"{demo_server.url}/join/demo")
     expect(page.locator("#device-ok")).to_be_visible()
     screenshot(page, "walk-first-page.png", docs_name="walk-1-first-page.png")
@@ -361,7 +376,7 @@ def test_the_demo_study_from_the_link_to_the_debrief(browser, demo_server: Study
     expect(page.locator("#screen-too-small")).to_be_visible()
     expect(page.locator("#screen-size")).to_have_text("900 x 600")
     expect(page.locator("#screen-continue")).to_be_disabled()
-    page.set_viewport_size(LAPTOP)
+    page.set_viewport_size(MAXIMISED)
     expect(page.locator("#screen-too-small")).to_be_hidden()
     expect(page.locator("#screen-ok")).to_be_visible()
     page.locator("#screen-continue").click()
@@ -397,7 +412,9 @@ def test_the_demo_study_from_the_link_to_the_debrief(browser, demo_server: Study
         for stage in ("post_trial", "nasa_tlx", "nasa_tlx", "sart"):
             expect_stage(page, stage)
             if stage == "post_trial" and round_ == 0:
-                # The 1-7 points line up from question to question.
+                # The 1-7 points line up from question to question (measured with
+                # study.css applied: under load the page can be in the DOM before it).
+                page.wait_for_load_state("load")
                 columns = page.evaluate(
                     """() => Array.from(document.querySelectorAll('fieldset.question'), (q) =>
                         Array.from(q.querySelectorAll('input[type=radio]'),

@@ -96,10 +96,10 @@ def test_the_screen_check_refuses_a_small_or_bogus_window_on_the_server(demo_app
 
     guest = visitor(demo_app, new_participant(demo_app))
     page = walk_to(guest, "screen_check", "form")
-    assert "at least\n1024 x 700 pixels" in guest.html
+    assert "at least\n1024 x 620 pixels" in guest.html
     for width, height in (
         ("800", "600"),
-        ("1024", "699"),
+        ("1024", "619"),
         ("abc", "900"),
         ("", ""),
         ("1" * 40, "900"),

@@ -59,6 +59,7 @@ from hcss.platform.pilots import is_pilot
 from hcss.platform.session_state import session_state
 from hcss.platform.study.enrolment import current_enrolment
 from hcss.platform.study.files import study_names
+from hcss.platform.study.outcomes import Outcomes, outcomes
 from hcss.platform.study.recruitment import Enrolled, enrolled
 from hcss.platform.study.studyfile import StudyFileError, load_study
 from hcss.platform.study.timeouts import time_out_abandoned
@@ -145,6 +146,7 @@ def index() -> str:
         action_form=forms.ActionForm(),
         audits=audit_entries(audits),
         recruitment=recruitment_targets(session),
+        outcomes=link_outcomes(session),
         bulk_actions=BULK_ACTIONS,
         action_labels=ACTION_LABELS,
         connected_within_s=CONNECTED_WITHIN_S,
@@ -164,6 +166,27 @@ def recruitment_targets(session: Session) -> list[Enrolled]:
         if study.online.link and limits:
             studies.append(enrolled(session, study))
     return studies
+
+
+def link_outcomes(session: Session) -> list[Outcomes]:
+    """Each study with a study link that someone has come through: its visitors by outcome."""
+    found = []
+    for name in study_names():
+        try:
+            study = load_study(name)
+        except StudyFileError:
+            continue
+        if study.online.link:
+            counted = outcomes(session, name)
+            if (
+                counted.completed
+                + counted.in_progress
+                + counted.screened_out
+                + counted.returned
+                + counted.timed_out
+            ):
+                found.append(counted)
+    return found
 
 
 @bp.get("/progress.json")

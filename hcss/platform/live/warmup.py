@@ -2,16 +2,24 @@
 
 Numba compiles a kernel on its first call and keeps the result in its disk
 cache (hcss/simulation/jit.py). After an install or an upgrade that cache is
-empty, and without this the first live trial would wait for the compile (about
-10 to 25 s) with a blank map and a stopped clock, while its deadline runs on.
-`hcss serve` calls `warm_simulation` before it listens, so the cost is paid at
-start-up, in front of the experimenter, and every trial's first frame comes at
-once. With a filled cache the same calls take well under a second.
+empty, and without this the first live trial would wait for the compile with a
+blank map and a stopped clock, while its deadline runs on. The compile took 94 s
+on a busy 2-core machine, far too long to keep the server from answering: a
+reverse proxy gives every visitor a 502 meanwhile. So `hcss serve` listens at
+once and runs `warm_simulation` in a background thread (`Warmup`): pages that
+need no simulation (the study link, consent, questionnaires, the console) are
+served during the compile, and a training or trial page waits with a notice,
+its Start refused, until the simulation is ready. With a filled cache the
+same calls take well under a second.
 """
 
 from __future__ import annotations
 
+import threading
 import time
+from collections.abc import Callable
+
+from flask import Flask, current_app
 
 #: Steps each warm-up simulation runs: enough to pass through the start and a request.
 WARM_STEPS = 3
@@ -45,3 +53,46 @@ def warm_simulation() -> float:
             sim.drain_status_changes()
             Simulation.restore(sim.snapshot()).state_digest()
     return time.perf_counter() - started
+
+
+class Warmup:
+    """The server's warm-up, run once in a background thread; `ready` once it has finished.
+
+    Stored in `app.extensions["hcss_warmup"]` by `hcss serve`; an app without one
+    (tests, bots, the CLI's commands) has nothing to wait for.
+    """
+
+    def __init__(self, work: Callable[[], object]) -> None:
+        self._work = work
+        self._done = threading.Event()
+        self.seconds: float | None = None
+        self.error: BaseException | None = None
+
+    def start(self, on_done: Callable[[Warmup], None] | None = None) -> threading.Thread:
+        def run() -> None:
+            started = time.perf_counter()
+            try:
+                self._work()
+            except BaseException as error:  # noqa: BLE001 - said by on_done; trials compile lazily
+                self.error = error
+            self.seconds = time.perf_counter() - started
+            self._done.set()  # a failed warm-up leaves the first trial to compile, as before
+            if on_done is not None:
+                on_done(self)
+
+        thread = threading.Thread(target=run, name="hcss-warmup", daemon=True)
+        thread.start()
+        return thread
+
+    @property
+    def ready(self) -> bool:
+        return self._done.is_set()
+
+    def install(self, app: Flask) -> None:
+        app.extensions["hcss_warmup"] = self
+
+
+def simulation_ready() -> bool:
+    """Whether this server's simulation is warm (always, for an app without a warm-up)."""
+    warmup = current_app.extensions.get("hcss_warmup")
+    return warmup is None or warmup.ready

@@ -11,7 +11,7 @@ from hcss.platform.models.outcome import DecisionRow, SimEvent
 from hcss.platform.models.participant import Participant, new_code, new_token
 from hcss.platform.models.presence import ParticipantPresence
 from hcss.platform.models.probe import Probe, ProbeEvent
-from hcss.platform.models.recruitment import Recruitment, ReturnVisit, ScreenOut
+from hcss.platform.models.recruitment import Recruitment, ReturnVisit, ScreenOut, TurnedAway
 from hcss.platform.models.requests import (
     COMMAND_KINDS,
     Command,
@@ -58,6 +58,7 @@ __all__ = [
     "Recruitment",
     "RequestStatusChange",
     "ReturnVisit",
+    "TurnedAway",
     "Score",
     "ScreenOut",
     "SimEvent",

@@ -48,6 +48,7 @@ APPEND_ONLY_TABLES = (
     "command_key",  # 0004_p8_idempotency: a command's first answer
     "screen_out",  # 0007_screen_out: a visitor turned away before consent
     "return_visit",  # 0010_return_visit: a later visit through the study link
+    "turned_away",  # i31a_mturk_submit_to: a visitor the full study turned away
 )
 
 

@@ -29,6 +29,8 @@ class Recruitment(CreatedAt, Base):
     # The site's own study and session (Prolific STUDY_ID, SESSION_ID; MTurk hitId, assignmentId).
     recruiter_study_id: Mapped[str | None] = mapped_column(String(128))
     recruiter_session_id: Mapped[str | None] = mapped_column(String(128))
+    # MTurk's turkSubmitTo (an origin the study file accepts): where the debrief posts the HIT.
+    submit_to: Mapped[str | None] = mapped_column(String(128))
 
 
 class ReturnVisit(CreatedAt, Base):
@@ -66,3 +68,19 @@ class ScreenOut(CreatedAt, Base):
     mobile: Mapped[bool] = mapped_column()
     missing: Mapped[str] = mapped_column(String(128))  # browser features, comma-separated
     reasons: Mapped[str] = mapped_column(String(1000))
+
+
+class TurnedAway(CreatedAt, Base):
+    """A visitor with a recruitment id whom the study link turned away as full; no one enrolled.
+
+    Kept once per (study, source, recruitment_id), so the console can count the
+    visitors asked to return their submission; the page they saw said nothing
+    about them was recorded beyond that they came while the study was full.
+    """
+
+    __tablename__ = "turned_away"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    study: Mapped[str] = mapped_column(String(64), index=True)
+    source: Mapped[str] = mapped_column(String(16))
+    recruitment_id: Mapped[str] = mapped_column(String(128))

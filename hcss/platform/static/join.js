@@ -3,9 +3,17 @@
 // that can never run the study (a phone, a browser without the features) is
 // sent on at once, to the page with the screen-out code; a window that is only
 // too small can be enlarged first. The server decides from what is posted.
+// In a frame (MTurk shows a HIT in one) the study opens in its own window instead:
+// the server says so when the browser tells it (Sec-Fetch-Dest), this when not.
 (function () {
   "use strict";
   const box = document.getElementById("device-check");
+  if (window.self !== window.top) {
+    document.getElementById("join-framed").hidden = false;
+    document.getElementById("join-form").hidden = true;
+    box.hidden = true;
+    return;
+  }
   const minW = Number(box.dataset.minWidth), minH = Number(box.dataset.minHeight);
   const desktopOnly = box.dataset.desktopOnly === "true";
   const wanted = box.dataset.features.split(",").filter(Boolean);
@@ -36,5 +44,6 @@
   }
   check();
   if ((desktopOnly && mobile) || missing.length) { form.submit(); return; }
+  // Maximising, full screen and zooming out all fire resize (zoom changes the CSS pixels).
   window.addEventListener("resize", check);
 })();

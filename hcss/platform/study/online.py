@@ -10,10 +10,13 @@ database.
 
 from __future__ import annotations
 
+import ipaddress
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass
+from string import Formatter
 from typing import Annotated
-from urllib.parse import urlsplit
+from urllib.parse import quote, urlsplit
 
 from pydantic import (
     ConfigDict,
@@ -45,6 +48,18 @@ class HitPreview(RecruitmentError):
 
 #: What MTurk puts in `assignmentId` while a worker previews a HIT.
 MTURK_PREVIEW = "ASSIGNMENT_ID_NOT_AVAILABLE"
+#: The parameter naming the MTurk server a HIT's answer is posted to (its `/mturk/externalSubmit`).
+MTURK_SUBMIT_TO = "turkSubmitTo"
+#: MTurk's two servers, production and sandbox: the only values `turkSubmitTo` takes
+#: ("Mechanical Turk appends ... turkSubmitTo=https://www.mturk.com/", How Mechanical
+#: Turk tasks are rendered; the sandbox's is https://workersandbox.mturk.com).
+MTURK_SUBMIT_ORIGINS = ("https://www.mturk.com", "https://workersandbox.mturk.com")
+#: The pages that show a HIT's iframe: the worker site, the older www site and the sandbox.
+MTURK_FRAME_ORIGINS = (
+    "https://worker.mturk.com",
+    "https://www.mturk.com",
+    "https://workersandbox.mturk.com",
+)
 
 
 @dataclass(frozen=True)
@@ -81,6 +96,56 @@ class Recruit:
     recruitment_id: str | None
     recruiter_study_id: str | None = None
     recruiter_session_id: str | None = None
+    #: MTurk's `turkSubmitTo`, an origin of the study's `mturk_origins` (else None).
+    submit_to: str | None = None
+
+
+def origin_of(url: str) -> str | None:
+    """`scheme://host[:port]` of an http(s) URL with nothing after it but `/`, else None."""
+    parts = urlsplit(url)
+    if parts.scheme not in ("https", "http") or not parts.netloc or "@" in parts.netloc:
+        return None
+    if parts.path not in ("", "/") or parts.query or parts.fragment:
+        return None
+    return f"{parts.scheme}://{parts.netloc}".lower()
+
+
+def _loopback(host: str) -> bool:
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+#: The recruitment ids a completion, screen-out or return URL may name as `{placeholder}`.
+PLACEHOLDERS = tuple(name for source in SOURCES for name in source.parameters())
+
+
+def placeholder_problem(url: str) -> str | None:
+    """Why a URL's `{placeholders}` cannot be filled, or None; `{{` and `}}` are literal braces."""
+    try:
+        fields = [(name, spec, conversion) for _, name, spec, conversion in Formatter().parse(url)]
+    except ValueError as error:
+        return f"has unbalanced braces ({error}); write a literal brace as {{{{ or }}}}"
+    for name, spec, conversion in fields:
+        if name is None:
+            continue
+        if name not in PLACEHOLDERS:
+            known = ", ".join("{" + known + "}" for known in PLACEHOLDERS)
+            return f"has the unknown placeholder {{{name}}}; the known ones are {known}"
+        if spec or conversion:
+            return f"gives the placeholder {{{name}}} a format; write it bare"
+    return None
+
+
+def fill_placeholders(url: str, ids: Mapping[str, str]) -> str:
+    """The URL with each `{placeholder}` replaced by that id, URL-encoded ("" when absent)."""
+    return "".join(
+        literal + ("" if name is None else quote(ids.get(name, ""), safe=""))
+        for literal, name, _, _ in Formatter().parse(url)
+    )
 
 
 @pydantic_dataclass(frozen=True, config=ConfigDict(extra="forbid"))
@@ -99,25 +164,71 @@ class OnlineSettings:
     # For a visitor turned away by `[requirements]` or who declines consent.
     screenout_code: StrictStr = ""
     screenout_url: StrictStr = ""
+    # For a visitor who should return the submission rather than be screened out or paid:
+    # the study was full, they declined consent, or the experimenter ended their session.
+    return_code: StrictStr = ""
+    return_url: StrictStr = ""
+    # For a participant timed out by `[timeouts]`.
+    timeout_code: StrictStr = ""
+    timeout_url: StrictStr = ""
+    # MTurk (ExternalQuestion): the join page may be framed by MTurk, and the debrief
+    # posts the assignment to `turkSubmitTo`/mturk/externalSubmit. `mturk_origins`
+    # replaces MTurk's origins (both for framing and for turkSubmitTo) with others,
+    # such as a stand-in for MTurk on this machine in a test: https, or http on loopback.
+    mturk: StrictBool = False
+    mturk_origins: list[StrictStr] = Field(default_factory=list)
     # The recruitment target: the link closes ("study full") once this many real
     # participants are in progress or completed (0: no target), or once every
     # counterbalancing cell holds `cell_target` of them.
     target: Annotated[StrictInt, Field(ge=0)] = 0
     cell_target: Annotated[StrictInt, Field(ge=0)] = 0
 
-    @field_validator("completion_code", "screenout_code")
+    @field_validator("completion_code", "screenout_code", "return_code", "timeout_code")
     @classmethod
     def _printable_code(cls, code: str) -> str:
         if code and not (code.isascii() and code.isprintable() and len(code) <= 64):
             raise ValueError("is up to 64 printable ASCII characters")
         return code
 
-    @field_validator("completion_url", "screenout_url")
+    @field_validator("completion_url", "screenout_url", "return_url", "timeout_url")
     @classmethod
     def _web_address(cls, url: str) -> str:
         if url and (urlsplit(url).scheme not in ("https", "http") or not urlsplit(url).netloc):
             raise ValueError("must be an http(s) URL")
+        problem = placeholder_problem(url)
+        if problem:
+            raise ValueError(problem)
+        if "{" in urlsplit(url).netloc:
+            raise ValueError("may hold placeholders only after the host")
         return url
+
+    @field_validator("mturk_origins")
+    @classmethod
+    def _mturk_stand_in(cls, origins: list[str]) -> list[str]:
+        normal = []
+        for url in origins:
+            origin = origin_of(url)
+            if origin is None:
+                raise ValueError(f"{url!r} is not an origin (scheme://host[:port])")
+            parts = urlsplit(origin)
+            if parts.scheme != "https" and not _loopback(parts.hostname or ""):
+                raise ValueError(f"{url!r}: an origin off this machine must be https")
+            normal.append(origin)
+        return normal
+
+    @property
+    def mturk_frame_origins(self) -> tuple[str, ...]:
+        """Who may frame the study link: MTurk's pages (or the stand-ins); none without MTurk."""
+        if not self.mturk:
+            return ()
+        return tuple(self.mturk_origins) or MTURK_FRAME_ORIGINS
+
+    @property
+    def mturk_submit_origins(self) -> tuple[str, ...]:
+        """The `turkSubmitTo` values accepted: MTurk's two servers (or the stand-ins)."""
+        if not self.mturk:
+            return ()
+        return tuple(self.mturk_origins) or MTURK_SUBMIT_ORIGINS
 
     @field_validator("redirect")
     @classmethod
@@ -173,8 +284,38 @@ def recruit_from(args: MultiDict[str, str]) -> Recruit:
                 recruitment_id=values[source.id_parameter],
                 recruiter_study_id=values.get(source.study_parameter or ""),
                 recruiter_session_id=values.get(source.session_parameter or ""),
+                submit_to=_submit_to(args) if source.name == "mturk" else None,
             )
     return Recruit(source=ANONYMOUS, recruitment_id=None)
+
+
+def _submit_to(args: MultiDict[str, str]) -> str | None:
+    """MTurk's `turkSubmitTo` as an origin; which origins a study accepts is checked by the caller."""
+    values = args.getlist(MTURK_SUBMIT_TO)
+    if not values:
+        return None
+    if len(values) > 1:
+        raise RecruitmentError(f"The link gives {MTURK_SUBMIT_TO} more than once.")
+    origin = origin_of(values[0]) if len(values[0]) <= MAX_VALUE_LENGTH else None
+    if origin is None:
+        raise RecruitmentError(f"The link's {MTURK_SUBMIT_TO} is not a web address.")
+    return origin
+
+
+def check_submit_to(recruit: Recruit, accepted: tuple[str, ...]) -> None:
+    """RecruitmentError unless an MTurk visit's `turkSubmitTo` is one of the study's MTurk servers.
+
+    The debrief posts the assignment there, so it is never taken from the link
+    unchecked: an address of anyone's choosing would receive the worker's ids.
+    """
+    if recruit.source != "mturk":
+        return
+    if not accepted:
+        raise RecruitmentError("This study does not take part in MTurk.")
+    if recruit.submit_to is None:
+        raise RecruitmentError(f"The link lacks MTurk's {MTURK_SUBMIT_TO}; open the HIT on MTurk.")
+    if recruit.submit_to not in accepted:
+        raise RecruitmentError(f"The link's {MTURK_SUBMIT_TO} is not MTurk ({recruit.submit_to}).")
 
 
 def recruitment_parameters(recruit: Recruit) -> dict[str, str]:
@@ -187,4 +328,6 @@ def recruitment_parameters(recruit: Recruit) -> dict[str, str]:
         source.study_parameter: recruit.recruiter_study_id,
         source.session_parameter: recruit.recruiter_session_id,
     }
+    if recruit.submit_to:
+        values[MTURK_SUBMIT_TO] = recruit.submit_to
     return {name: value for name, value in values.items() if name and value}

@@ -8,7 +8,15 @@ Start creates a participant, stores the recruiter's ids and enrols them
 through the study engine's own `assign_cell` (least-filled cell, the same
 lock), all in one transaction; a device that falls short gets a screen-out
 row and a page with the study's screen-out code instead. The completion code and URL for the debrief come from the study
-file's `[online]` table.
+file's `[online]` table, their `{placeholders}` filled with the participant's ids.
+
+MTurk shows the link in an iframe on its own site (an ExternalQuestion). For a
+study with `[online] mturk = true` the join page may be framed by MTurk's
+origins only; in the frame it offers to open the study in its own window (a
+first-party window: a browser sends no cookies to a cross-site frame, so no
+form could be posted there, and a HIT's frame is smaller than the trials need),
+and that window's debrief posts the assignment to `turkSubmitTo`, checked to be
+one of MTurk's servers when the worker starts.
 """
 
 from __future__ import annotations
@@ -23,6 +31,7 @@ from sqlalchemy.orm import Session
 from werkzeug.wrappers import Response
 
 from hcss.platform.db import get_session, session_now
+from hcss.platform.hardening import allow_form_action_to, allow_framing_by
 from hcss.platform.models import Participant, Recruitment, ReturnVisit
 from hcss.platform.ratelimit import enrolment_refusal
 from hcss.platform.study.enrolment import assign_cell, cell_counts, hold_assignment_lock
@@ -31,12 +40,17 @@ from hcss.platform.study.online import (
     HitPreview,
     Recruit,
     RecruitmentError,
+    check_submit_to,
+    fill_placeholders,
     recruit_from,
     recruitment_parameters,
 )
+from hcss.platform.study.outcomes import record_turned_away
 from hcss.platform.study.screenout import (
     measurement_from,
     record_screen_out,
+    recruit_of,
+    return_link,
     screen_out_link,
     shortfalls,
 )
@@ -101,12 +115,21 @@ def _check_room(session: Session, study: Study) -> None:
 
 
 @dataclass(frozen=True)
+class MTurkSubmission:
+    """The form the debrief posts to MTurk: its externalSubmit and the assignment's fields."""
+
+    action: str
+    fields: dict[str, str]
+
+
+@dataclass(frozen=True)
 class Completion:
     """What the debrief gives an online participant to prove they finished."""
 
     code: str
     url: str
     redirect: bool
+    mturk: MTurkSubmission | None = None
 
 
 def linked_study(name: str) -> Study:
@@ -196,6 +219,7 @@ def enrol_or_resume(session: Session, study: Study, recruit: Recruit) -> Partici
                 recruitment_id=recruit.recruitment_id,
                 recruiter_study_id=recruit.recruiter_study_id,
                 recruiter_session_id=recruit.recruiter_session_id,
+                submit_to=recruit.submit_to,
             )
         )
         session.flush()
@@ -210,17 +234,35 @@ def enrol_or_resume(session: Session, study: Study, recruit: Recruit) -> Partici
     return participant
 
 
+def mturk_submission(study: Study, recruit: Recruit) -> MTurkSubmission | None:
+    """The externalSubmit form for an MTurk worker; the answer may post there (form-action).
+
+    `submit_to` was checked when the worker started; it is checked again against
+    the study file as it is now, so a file that stops naming a server stops the posts.
+    """
+    submit_to, assignment = recruit.submit_to, recruit.recruiter_session_id
+    if recruit.source != "mturk" or not submit_to or not assignment:
+        return None
+    if submit_to not in study.online.mturk_submit_origins:
+        return None
+    allow_form_action_to([submit_to])
+    fields = {"assignmentId": assignment}
+    if study.online.completion_code:
+        fields["completionCode"] = study.online.completion_code
+    return MTurkSubmission(f"{submit_to}/mturk/externalSubmit", fields)
+
+
 def completion_for(session: Session, participant: Participant, study: Study) -> Completion | None:
-    """The completion code and URL for a participant who came through the study link."""
+    """The completion code and URL (and MTurk's form) for a participant of the study link."""
     online = study.online
-    if not (online.completion_code or online.completion_url):
+    recruit = recruit_of(session, participant)
+    if recruit is None:
         return None
-    came_online = session.scalar(
-        select(Recruitment.id).where(Recruitment.participant_id == participant.id)
-    )
-    if came_online is None:
+    mturk = mturk_submission(study, recruit)
+    if not (online.completion_code or online.completion_url or mturk):
         return None
-    return Completion(online.completion_code, online.completion_url, online.redirect)
+    url = fill_placeholders(online.completion_url, recruitment_parameters(recruit))
+    return Completion(online.completion_code, url, online.redirect and mturk is None, mturk)
 
 
 @bp.get("/<study_name>")
@@ -231,17 +273,21 @@ def join(study_name: str) -> Response | tuple[str, int] | str:
     visit enrols no one and takes no cell; enrolment waits for the first page's
     Start. A returning id's visit is recorded, with the ids it carried.
     """
+    framed = request.headers.get("Sec-Fetch-Dest") == "iframe"
     try:
         study = linked_study(study_name)
+        allow_framing_by(study.online.mturk_frame_origins)
         recruit = recruit_from(request.args)
+        check_submit_to(recruit, study.online.mturk_submit_origins)
         found = returning_participant(get_session(), study, recruit)
-        if found is not None:
+        if found is not None and not framed:
             record_return(get_session(), found, recruit)
             return redirect(url_for("study.enter", token=found.token))
         _check_anonymous(study, recruit)
-        _check_room(get_session(), study)
+        if found is None:
+            _check_room(get_session(), study)
     except StudyFull as full:
-        return _study_full(study, str(full))
+        return _study_full(study, str(full), recruit)
     except HitPreview as preview:
         return render_template("study/join_preview.html", message=str(preview), study=study)
     except NoStudyLink as refusal:
@@ -254,6 +300,8 @@ def join(study_name: str) -> Response | tuple[str, int] | str:
         requirements=study.requirements,
         parameters=recruitment_parameters(recruit),
         action=url_for("join.start", study_name=study.name),
+        framed=framed,
+        own_window=request.full_path,
     )
 
 
@@ -264,6 +312,7 @@ def start(study_name: str) -> ResponseReturnValue:
     try:
         study = linked_study(study_name)
         recruit = recruit_from(request.form)
+        check_submit_to(recruit, study.online.mturk_submit_origins)
         _check_anonymous(study, recruit)
         measured = measurement_from(request.form)
     except NoStudyLink as refusal:
@@ -276,7 +325,7 @@ def start(study_name: str) -> ResponseReturnValue:
             _check_room(session, study)
         except StudyFull as full:
             session.rollback()
-            return _study_full(study, str(full))
+            return _study_full(study, str(full), recruit)
         refused = enrolment_refusal()
         if refused is not None:
             return refused
@@ -285,20 +334,31 @@ def start(study_name: str) -> ResponseReturnValue:
             record_screen_out(session, study, recruit, measured, reasons)
             session.commit()
             return render_template(
-                "study/screened_out.html", reasons=reasons, leave=screen_out_link(study)
+                "study/screened_out.html", reasons=reasons, leave=screen_out_link(study, recruit)
             )
     try:
         participant = enrol_or_resume(session, study, recruit)
     except StudyFull as full:
         session.rollback()
-        return _study_full(study, str(full))
+        return _study_full(study, str(full), recruit)
     return redirect(url_for("study.enter", token=participant.token))
 
 
-def _study_full(study: Study, message: str) -> str:
-    """The page for a new visitor once the study has reached its target; nothing recorded."""
+def _study_full(study: Study, message: str, recruit: Recruit) -> str:
+    """The page for a new visitor once the study has reached its target; nothing recorded.
+
+    They did nothing wrong and took no place: the recruitment site should give the
+    place to someone else, so they are asked to return the submission (Prolific's
+    word), with the study's return code and URL; a screen-out would count against them.
+    """
+    session = get_session()
+    record_turned_away(session, study.name, recruit)
+    session.commit()
     return render_template(
-        "study/join_full.html", study=study, message=message, leave=screen_out_link(study)
+        "study/join_full.html",
+        study=study,
+        message=message,
+        leave=return_link(study, recruit),
     )
 
 

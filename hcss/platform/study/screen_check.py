@@ -1,7 +1,7 @@
 """The screen and browser check before the first training.
 
 The Collective Interface needs a window of at least the study file's
-`[requirements]` size (1024 x 700 CSS pixels by default) and a browser with
+`[requirements]` size (1024 x 620 CSS pixels by default) and a browser with
 EventSource, fetch and SVG. The study link's first page checked the device
 before consent; this check is for a window made smaller since. The page measures the window
 as it is now and again whenever it changes: too small, it says so and keeps

@@ -1,40 +1,70 @@
 """Turning a visitor away: what the first page measured, the screen-out row, the way back.
 
-An online participant who cannot take part (a device that falls short of
-`[requirements]`, or declining consent) should not be left on a dead end: the
-recruitment site expects a screen-out code or a return link, and the study
-file's `[online] screenout_code` and `screenout_url` give them.
+An online participant who cannot take part should not be left on a dead end:
+the recruitment site expects a code or a link back, and which one says what
+happened (Prolific sorts submissions by the code they end with). The study
+file's `[online]` table gives one per outcome besides completion:
+
+- screened out (a device short of `[requirements]`): `screenout_code`, `screenout_url`;
+- returned (the study was full, consent declined, the session ended by the
+  experimenter): `return_code`, `return_url`; the visitor is asked to return the
+  submission. A declined consent falls back to the screen-out's when a study
+  gives no return code or URL, as studies did before there was one;
+- timed out (`[timeouts]`): `timeout_code`, `timeout_url`.
+
+Each URL's `{placeholders}` are filled with the visitor's recruitment ids.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 from werkzeug.datastructures import MultiDict
 
 from hcss.platform.models import Participant, Recruitment, ScreenOut
-from hcss.platform.study.online import Recruit, RecruitmentError
+from hcss.platform.study.online import (
+    Recruit,
+    RecruitmentError,
+    fill_placeholders,
+    recruitment_parameters,
+)
 from hcss.platform.study.requirements import FEATURES, MAX_PIXELS, Measurement, shortfalls
 from hcss.platform.study.studyfile import Study
 
 __all__ = [
     "Leave",
+    "leave_for",
     "measurement_from",
+    "recruit_of",
     "record_screen_out",
+    "return_link",
     "screen_out_for",
     "screen_out_link",
     "shortfalls",
 ]
 
+#: Why a visitor leaves without completing; each has its own code and URL.
+Outcome = Literal["screened_out", "returned", "timed_out"]
+
 
 @dataclass(frozen=True)
 class Leave:
-    """The screen-out code to enter at the recruitment site, and its return address."""
+    """The code to enter at the recruitment site and its address, for one outcome.
+
+    `return_submission`: the visitor is asked to return the submission (the study
+    was full, they declined, their session was ended) rather than to submit it.
+    """
 
     code: str
     url: str
+    outcome: Outcome = "screened_out"
+
+    @property
+    def return_submission(self) -> bool:
+        return self.outcome == "returned"
 
 
 def _pixels(form: MultiDict[str, str], name: str) -> int:
@@ -82,17 +112,61 @@ def record_screen_out(
     return row
 
 
-def screen_out_link(study: Study) -> Leave | None:
+def _leave(code: str, url: str, outcome: Outcome, recruit: Recruit) -> Leave | None:
+    if not (code or url):
+        return None
+    filled = fill_placeholders(url, recruitment_parameters(recruit)) if url else ""
+    return Leave(code, filled, outcome)
+
+
+def screen_out_link(study: Study, recruit: Recruit) -> Leave | None:
     """The study's screen-out code and URL, when its file gives either."""
     online = study.online
-    if not (online.screenout_code or online.screenout_url):
+    return _leave(online.screenout_code, online.screenout_url, "screened_out", recruit)
+
+
+def return_link(study: Study, recruit: Recruit) -> Leave:
+    """The study's return code and URL; always a Leave, for the request to return."""
+    online = study.online
+    found = _leave(online.return_code, online.return_url, "returned", recruit)
+    return found or Leave("", "", "returned")
+
+
+def timeout_link(study: Study, recruit: Recruit) -> Leave | None:
+    online = study.online
+    return _leave(online.timeout_code, online.timeout_url, "timed_out", recruit)
+
+
+def recruit_of(session: Session, participant: Participant) -> Recruit | None:
+    """The ids a participant came through the study link with (None: made in the console)."""
+    row = session.scalars(
+        select(Recruitment).where(Recruitment.participant_id == participant.id)
+    ).first()
+    if row is None:
         return None
-    return Leave(online.screenout_code, online.screenout_url)
+    return Recruit(
+        row.source,
+        row.recruitment_id,
+        row.recruiter_study_id,
+        row.recruiter_session_id,
+        submit_to=row.submit_to,
+    )
+
+
+def leave_for(session: Session, participant: Participant, study: Study, why: str) -> Leave | None:
+    """The way back for a participant of the study link who stops: `why` is the session's
+    state or status (declined, aborted, timed_out); None for one created in the console."""
+    recruit = recruit_of(session, participant)
+    if recruit is None:
+        return None
+    online = study.online
+    if why == "timed_out":
+        return timeout_link(study, recruit)
+    if why == "declined" and not (online.return_code or online.return_url):
+        return screen_out_link(study, recruit)
+    return return_link(study, recruit)
 
 
 def screen_out_for(session: Session, participant: Participant, study: Study) -> Leave | None:
-    """The screen-out code and URL for a participant who came through the study link."""
-    came_online = session.scalar(
-        select(Recruitment.id).where(Recruitment.participant_id == participant.id)
-    )
-    return None if came_online is None else screen_out_link(study)
+    """The way back for a participant of the study link who declined consent."""
+    return leave_for(session, participant, study, "declined")

@@ -23,6 +23,7 @@ from flask import url_for
 from flask_wtf import FlaskForm
 
 from hcss.platform.live.trials import latest_status, start_trial
+from hcss.platform.live.warmup import simulation_ready
 from hcss.platform.models import StageEvent
 from hcss.platform.models import Trial as TrialRow
 from hcss.platform.models.vocabularies import TrialStatus
@@ -51,11 +52,14 @@ class LiveStage(Stage):
             "kind": self.kind,
             "type_name": f"{slot.order_label} collective type",
             "duration": duration(self.duration_s(flow)),
+            "simulation_ready": simulation_ready(),
         }
 
     def submit(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> bool:
         if step != "ready":
             raise Refused("The trial is already under way.")
+        if not simulation_ready():  # its clock would run while the server compiles
+            raise Refused("The simulation is still being prepared; please wait a moment.")
         trial = start_trial(
             flow.session,
             flow.participant,

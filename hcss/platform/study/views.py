@@ -27,7 +27,7 @@ from hcss.platform.study.enrolment import current_enrolment, first_enrolment
 from hcss.platform.study.flow import Flow, Position, study_now
 from hcss.platform.study.markdown import render_markdown
 from hcss.platform.study.recruitment import completion_for
-from hcss.platform.study.screenout import screen_out_for
+from hcss.platform.study.screenout import leave_for, screen_out_for
 from hcss.platform.study.stage import Refused
 from hcss.platform.study.texts import fill
 from hcss.platform.study.timeouts import time_out_abandoned
@@ -225,7 +225,10 @@ def _held(flow: Flow) -> str | None:
     state = session_state(flow.session, flow.participant.id)
     if state == "active":
         return None
-    return render_template("study/held.html", state=state, token=flow.participant.token)
+    leave = leave_for(flow.session, flow.participant, flow.study, state)
+    return render_template(
+        "study/held.html", state=state, token=flow.participant.token, leave=leave
+    )
 
 
 def _refused(token: str, message: str) -> str:

@@ -1,0 +1,125 @@
+"""MTurk end to end in Chromium, with a stand-in for MTurk playing its side.
+
+MTurk shows an ExternalQuestion in an iframe on its own site and takes the
+answer as a form posted to `turkSubmitTo` + `/mturk/externalSubmit`
+(docs.aws.amazon.com, "How Mechanical Turk tasks are rendered"). The stand-in
+(tests/platform/mturk_standin.py) is on another site than the study, named by
+the study file's `mturk_origins` as a real study names MTurk by `mturk = true`:
+
+1. the HIT's preview (assignmentId=ASSIGNMENT_ID_NOT_AVAILABLE) shows in the
+   frame and records nothing;
+2. an origin the study does not name cannot frame the link, and MTurk's own
+   origin cannot frame any other page (the console);
+3. the accepted HIT shows in the frame, opens the study in its own window; the
+   worker walks it (a participant bot, as in test_online_browser) and the
+   debrief posts the assignment id and the completion code to the stand-in.
+"""
+
+from __future__ import annotations
+
+from urllib.parse import urlencode
+
+import pytest
+from sqlalchemy import func, select
+
+from hcss.platform.bots import ParticipantBot, bot_app
+from hcss.platform.models import Participant, Recruitment
+from hcss.platform.study.studyfile import load_study
+from tests.platform.inprocess import serving
+from tests.platform.mturk_standin import mturk_standin
+from tests.platform.recruitment_support import demo_variant
+from tests.platform.screenshots import screenshot
+
+pytestmark = pytest.mark.browser
+
+HIT = {"workerId": "A2WORKER7", "hitId": "3HITXYZ", "assignmentId": "3ASSIGN42"}
+
+
+def _count(app, model) -> int:  # type: ignore[no-untyped-def]
+    with app.extensions["hcss_db"].session_scope() as session:
+        return int(session.scalar(select(func.count()).select_from(model)) or 0)
+
+
+def _refused(frame) -> bool:  # type: ignore[no-untyped-def]
+    """Chromium shows a refused frame as its error page, with none of the study's page."""
+    return frame.url.startswith("chrome-error://") or frame.locator("main").count() == 0
+
+
+@pytest.mark.slow
+def test_an_mturk_worker_previews_accepts_walks_and_submits_the_assignment(
+    browser, database_url, tmp_path, monkeypatch
+) -> None:  # type: ignore[no-untyped-def]
+    from playwright.sync_api import expect
+
+    with mturk_standin() as mturk, mturk_standin() as stranger:
+        name = demo_variant(
+            tmp_path / "studies",
+            monkeypatch,
+            "hitstudy",
+            {"mturk": "true", "mturk_origins": f'["{mturk.origin}"]'},
+        )
+        app = bot_app(database_url, name)
+        app.extensions["hcss_db"].create_all()
+        with serving(app) as url:
+            context = browser.new_context(viewport={"width": 1366, "height": 657})
+            worker = context.new_page()
+
+            # 1. The preview: shown in MTurk's frame, nothing recorded.
+            preview = HIT | {"assignmentId": "ASSIGNMENT_ID_NOT_AVAILABLE"}
+            mturk.hit_url = (
+                f"{url}/join/{name}?{urlencode(preview | {'turkSubmitTo': mturk.origin})}"
+            )
+            worker.goto(mturk.worker_page())
+            frame = worker.frame_locator("#hit")
+            expect(frame.locator("main")).to_contain_text("accept the HIT")
+            assert _count(app, Participant) == 0 and _count(app, Recruitment) == 0
+
+            # 2. Another site may not frame the link; MTurk may not frame the console.
+            accepted = f"{url}/join/{name}?{urlencode(HIT | {'turkSubmitTo': mturk.origin})}"
+            stranger.hit_url = accepted
+            worker.goto(stranger.worker_page())
+            worker.wait_for_load_state("load")
+            assert _refused(worker.frames[1])
+            mturk.hit_url = f"{url}/console/login"
+            worker.goto(mturk.worker_page())
+            worker.wait_for_load_state("load")
+            assert _refused(worker.frames[1])
+
+            # 3. The accepted HIT: the frame offers the study in its own window.
+            mturk.hit_url = accepted
+            worker.goto(mturk.worker_page())
+            expect(frame.locator("#join-framed")).to_be_visible()
+            expect(frame.locator("#join-form")).to_be_hidden()
+            screenshot(worker, "mturk-frame.png")
+            with context.expect_page() as opened:
+                frame.locator("#join-own-window").click()
+            study = opened.value
+            expect(study.locator("#device-ok")).to_be_visible()
+            study.locator("#join-start").click()
+            expect(study.locator("main.study")).to_have_attribute("data-stage", "consent")
+
+            with app.extensions["hcss_db"].session_scope() as session:
+                row = session.scalars(select(Recruitment)).one()
+                assert (row.source, row.recruitment_id, row.recruiter_session_id) == (
+                    "mturk",
+                    HIT["workerId"],
+                    HIT["assignmentId"],
+                )
+                assert row.submit_to == mturk.origin
+                token = session.get(Participant, row.participant_id).token
+            ParticipantBot(app, token).run(load_study(name))
+
+            study.reload()
+            expect(study.locator("main.study")).to_have_attribute("data-stage", "debrief")
+            expect(study.locator("#mturk-submit")).to_have_attribute(
+                "action", f"{mturk.origin}/mturk/externalSubmit"
+            )
+            screenshot(study, "mturk-debrief.png")
+            study.locator("#mturk-submit-button").click()
+            expect(study.locator("#submitted")).to_have_text("HIT submitted")
+            assert mturk.submissions == [
+                {"assignmentId": [HIT["assignmentId"]], "completionCode": ["DEMO2026"]}
+            ]
+            assert stranger.submissions == []
+            context.close()
+        app.extensions["hcss_db"].engine.dispose()

@@ -1,0 +1,78 @@
+"""Serving while the simulation warms up: pages answer, a trial's Start waits for it.
+
+`hcss serve` compiles the simulation's kernels in a background thread
+(hcss.platform.live.warmup.Warmup); a real compile on an empty cache is in
+test_warm_start_browser. Here the warm-up is one the test holds, over HTTP:
+the study link and consent answer meanwhile, the training's page says the
+simulation is being prepared and reloads itself, a Start posted anyway starts
+no trial, and once the warm-up is done the same page starts the training.
+"""
+
+from __future__ import annotations
+
+import re
+import threading
+from urllib.parse import urlencode
+
+from sqlalchemy import func, select
+
+from hcss.platform.bots import parse_page
+from hcss.platform.live.warmup import Warmup
+from hcss.platform.models import Trial
+from tests.platform.recruitment_support import demo_variant
+
+LAPTOP = {"width": "1366", "height": "657", "mobile": "0", "missing": ""}
+HIDDEN = re.compile(r'<input type="hidden" name="([^"]+)" value="([^"]*)"')
+
+
+def _trials(app) -> int:  # type: ignore[no-untyped-def]
+    with app.extensions["hcss_db"].session_scope() as session:
+        return int(session.scalar(select(func.count()).select_from(Trial)) or 0)
+
+
+def test_pages_answer_during_the_warm_up_and_a_training_waits_for_it(
+    app, tmp_path, monkeypatch
+) -> None:  # type: ignore[no-untyped-def]
+    name = demo_variant(tmp_path / "studies", monkeypatch, "warming", {})
+    path = tmp_path / "studies" / "warming.toml"
+    text = re.sub(r"before = \[[^\]]*\]", 'before = ["consent"]', path.read_text(), count=1)
+    path.write_text(re.sub(r"per_model = \[[^\]]*\]", 'per_model = ["training"]', text, count=1))
+    compiling = threading.Event()
+    warmup = Warmup(compiling.wait)
+    warmup.install(app)
+    warmup.start()
+
+    client = app.test_client()
+    first = client.get(f"/join/{name}?{urlencode({'PROLIFIC_PID': 'w1'})}")
+    assert first.status_code == 200
+    joined = client.post(
+        f"/join/{name}", data=dict(HIDDEN.findall(first.get_data(as_text=True))) | LAPTOP
+    )
+    consent = parse_page(client.get(joined.location, follow_redirects=True).get_data(as_text=True))
+    assert consent.stage == "consent"
+    client.post(consent.action, data=consent.hidden | {"decision": "agree"})
+    waiting = client.get(joined.location, follow_redirects=True).get_data(as_text=True)
+    assert 'id="simulation-warming"' in waiting and 'http-equiv="refresh"' in waiting
+    assert 'id="stage-form"' not in waiting
+    training = parse_page(waiting)
+    assert training.stage == "training"
+    # A Start posted anyway (a page opened in another tab, a script) starts nothing.
+    token = joined.location.rsplit("/", 1)[-1]
+    csrf = re.search(r'name="csrf-token" content="([^"]+)"', waiting).group(1)
+    refused = client.post(f"/p/{token}/stage/1/ready", data={"csrf_token": csrf})
+    assert refused.status_code == 409, refused.status_code
+    assert "still being prepared" in refused.get_data(as_text=True)
+    assert _trials(app) == 0
+
+    compiling.set()  # the warm-up ends: the same page starts the training
+    for _ in range(200):
+        if warmup.ready:
+            break
+        threading.Event().wait(0.01)
+    ready = parse_page(client.get(joined.location, follow_redirects=True).get_data(as_text=True))
+    assert ready.stage == "training" and "simulation-warming" not in client.get(
+        joined.location, follow_redirects=True
+    ).get_data(as_text=True)
+    started = client.post(ready.action, data=ready.hidden)
+    assert started.status_code == 302 and _trials(app) == 1
+    assert "/live/" in client.get(started.location).location  # on to the live interface
