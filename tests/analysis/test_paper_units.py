@@ -163,3 +163,25 @@ def test_loss_counts_every_fitted_published_number_once() -> None:
     off[("M2", "easy", "success_pct")] = su.Summary(s.n, s.mean - 20, s.sd, s.median, 0, 100)
     assert su.loss(off) == pytest.approx(4.0)  # 20 points = two bands, squared
     assert su.numbers_met(off) == 37
+
+
+def test_hcss_analyze_puts_the_unit_tables_in_the_simulation_section(tmp_path: Path) -> None:
+    from click.testing import CliRunner
+
+    from hcss.analysis.cli import analyze
+    from tests.analysis.synthetic import simulation_decisions, write_table
+
+    decisions = simulation_decisions(scenarios=4, runs=2)
+    write_table(decisions, tmp_path / "decisions.csv")
+    result = CliRunner().invoke(
+        analyze, [str(tmp_path / "decisions.csv"), "--out", str(tmp_path / "report")]
+    )
+    assert result.exit_code == 0, result.output
+    written = pd.read_csv(tmp_path / "report" / "tables" / "paper_units_success.csv")
+    ours = written[(written["source"] == "this run") & (written["split"] == "overall")]
+    # One unit per (scenario, slot): 4 scenarios × the slots of the longest run.
+    slots = decisions.groupby(["model", "scenario_id", "run"]).size().groupby("model").max()
+    assert dict(zip(ours["model"], ours["n"], strict=True)) == {
+        model: 4 * int(n) for model, n in slots.items()
+    }
+    assert "decision slot" in (tmp_path / "report" / "report.html").read_text()
