@@ -198,13 +198,41 @@ def open_study(out: Path, settings: Settings) -> Any:
     else:
         manifest.write_text(json.dumps(wanted, indent=2), encoding="utf-8")
     optuna.logging.set_verbosity(optuna.logging.WARNING)
-    return optuna.create_study(
+    study = optuna.create_study(
         study_name=STUDY_NAME,
         storage=f"sqlite:///{out / 'calibration.db'}",
         sampler=optuna.samplers.TPESampler(seed=settings.seed),
         direction="minimize",
         load_if_exists=True,
     )
+    if not study.trials:
+        for values in starting_points():
+            study.enqueue_trial(values)
+    return study
+
+
+def starting_points() -> list[dict[str, Any]]:
+    """The presets' values, each under both labels: the search's first trials.
+
+    A small budget then starts from what is known; TPE takes over after them.
+    """
+    from hcss.simulation.presets import PRESETS
+
+    points = []
+    for params in PRESETS.values():
+        values = {name: getattr(params, name) for name in SEARCH_SPACE}
+        values["fitted_d_max_m"] = params.m2_d_max_m
+        for label in DIFFICULTY_LABELS:
+            points.append(
+                values
+                | {"difficulty_label": label}
+                | (
+                    {"easy_layout_others": "strictly_farther", "label_distances": "ring"}
+                    if label == "best_not_furthest"
+                    else {}
+                )
+            )
+    return points
 
 
 def _jsonable(space: dict[str, tuple[Any, ...]]) -> dict[str, list[Any]]:
