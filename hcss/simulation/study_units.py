@@ -131,9 +131,9 @@ def units(rows: Iterable[Mapping[str, object]]) -> list[Unit]:
         for slot, (_s, _e, _c, kind, correct, minutes) in enumerate(sorted(decisions), start=1):
             slots.setdefault((model, scenario, slot), []).append((kind, correct, minutes))
     out = []
-    for (model, scenario, slot), decisions in sorted(slots.items()):
+    for (model, scenario, slot), in_slot in sorted(slots.items()):
         for split in SPLITS:
-            chosen = [d for d in decisions if split == "overall" or d[0] == split]
+            chosen = [d for d in in_slot if split == "overall" or d[0] == split]
             if chosen:
                 out.append(
                     Unit(
