@@ -410,7 +410,8 @@ def report(result: Calibration, settings: Settings) -> str:
         f"{len(SEARCH_SPACE)} ({sum(s[0] == 'categorical' for s in SEARCH_SPACE.values())} "
         f"readings, {sum(s[0] == 'float' for s in SEARCH_SPACE.values())} continuous) against "
         f"{n_numbers} published numbers under the study's unit (means, SDs and medians of "
-        f"both tables, units per split). Wall time {result.wall_s / 60:.1f} min.",
+        f"both tables, units per split). Wall time of this invocation (a resumed search "
+        f"counts only its own trials) {result.wall_s / 60:.1f} min.",
         "",
         "## The fit",
         "",
@@ -420,7 +421,7 @@ def report(result: Calibration, settings: Settings) -> str:
         f"time, 30 units); {fit.met} of {n_numbers} published numbers within their band; "
         f"M2's time cost {fit.m2_time_cost:+.2f} min.",
         "",
-        su.comparison_markdown(fit.units),
+        su.comparison_markdown(fit.units, fit.scenarios),
         "",
         "Per decision (for reference; not fitted):",
         "",

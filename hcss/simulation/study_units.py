@@ -254,8 +254,11 @@ def cell_text(summary: Summary | None, digits: int) -> str:
     )
 
 
-def comparison_markdown(summaries: Mapping[tuple[str, str, str], Summary]) -> str:
-    """Both tables as Markdown, the study's row beside each model's, and N per split."""
+def comparison_markdown(
+    summaries: Mapping[tuple[str, str, str], Summary], scenarios: int = STUDY_SCENARIOS
+) -> str:
+    """Both tables as Markdown, the study's row beside each model's, and N per split
+    (also scaled to the study's 28 scenarios when the run had another number)."""
     lines = [UNIT_RULE, ""]
     models = sorted({m for m, _, _ in summaries} | {m for m, _, _ in PUBLISHED})
     for measure, digits in (("success_pct", 1), ("time_min", 2)):
@@ -285,6 +288,13 @@ def comparison_markdown(summaries: Mapping[tuple[str, str, str], Summary]) -> st
     lines.append(
         "Units with an easy / a difficult decision, both models: "
         f"{counts['easy']} / {counts['difficult']} (study "
-        f"{PUBLISHED_UNITS['easy']} / {PUBLISHED_UNITS['difficult']})."
+        f"{PUBLISHED_UNITS['easy']} / {PUBLISHED_UNITS['difficult']})"
+        + (
+            f"; scaled to {STUDY_SCENARIOS} scenarios: "
+            f"{counts['easy'] * STUDY_SCENARIOS / scenarios:.0f} / "
+            f"{counts['difficult'] * STUDY_SCENARIOS / scenarios:.0f}."
+            if scenarios != STUDY_SCENARIOS
+            else "."
+        )
     )
     return "\n".join(lines)
