@@ -58,13 +58,13 @@ def test_loss_is_squared_distance_in_bands_and_counts_cells_within_them() -> Non
 
 
 def test_presets_are_named_in_the_params_they_give_and_share_every_value_across_models() -> None:
-    assert set(PRESETS) == {"literal", "study-calibrated"}
+    assert set(PRESETS) == {"literal", "study-calibrated", "study-units"}
     assert preset_params("literal") == Params()
     for name, params in PRESETS.items():
         assert params.preset == name
         assert Params.from_dict(json.loads(json.dumps(params.to_dict()))) == params
     assert DEFAULT_PRESET in PRESETS
-    with pytest.raises(ValueError, match="literal, study-calibrated"):
+    with pytest.raises(ValueError, match="literal, study-calibrated, study-units"):
         preset_params("bogus")
 
 
