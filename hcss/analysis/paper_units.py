@@ -1,7 +1,7 @@
 """The study's simulation tables under the study's own unit, beside the study's rows.
 
 The study printed its simulation-only tables per (trial scenario, decision
-slot), not per decision or per scenario (`hcss.simulation.study_units` states
+slot), not per decision or per scenario (`hcss.study_units` states
 and computes the rule; spec §10). These tables put a run's numbers in that
 layout, with the study's row beside each model's, so a simulation can be
 compared with the paper on the paper's terms. The per-decision and
@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import pandas as pd
 
+from hcss import study_units as su
 from hcss.analysis.tables import Table
-from hcss.simulation import study_units as su
 
 _DIGITS = {"success_pct": 1, "time_min": 2}
 _NAMES = {"success_pct": "paper_units_success", "time_min": "paper_units_time"}

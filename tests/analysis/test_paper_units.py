@@ -16,10 +16,10 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from hcss import study_units as su
 from hcss.analysis.load import load_inputs
 from hcss.analysis.paper_units import paper_unit_tables
 from hcss.analysis.summary import summarise_decisions
-from hcss.simulation import study_units as su
 from hcss.simulation.decisions import DECISION_COLUMNS
 
 # (model, scenario, run, section, end_s, collective, difficulty, correct, decision_time_s)

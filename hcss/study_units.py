@@ -9,9 +9,11 @@ decision in that slot, with the mean over those decisions only. The printed
 test sizes fix it: 336 units per model overall (28 × 12), and, both models
 together, 578 units with an easy decision and 456 with a difficult one.
 
-This module computes those tables from decisions-table rows (it serves the
-calibration, which may not import the analysis) and holds the published
-numbers; `hcss.analysis.paper_units` lays them out beside the study's rows.
+This module computes those tables from decisions-table rows and holds the
+published numbers; `hcss.analysis.paper_units` lays them out beside the
+study's rows, and the calibration (`hcss.simulation.fit_study`) fits them. It
+imports nothing from hcss, so both packages may use it (the simulation may
+not import the analysis).
 """
 
 from __future__ import annotations
