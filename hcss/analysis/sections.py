@@ -36,6 +36,7 @@ from hcss.analysis.load import StudyTables
 from hcss.analysis.measures import MRT_MEASURE
 from hcss.analysis.paired import RepeatedComparison, repeated_comparisons
 from hcss.analysis.paper_tables import family_table, pvalue_matrix
+from hcss.analysis.paper_units import paper_unit_tables
 from hcss.analysis.sample import (
     attrition_table,
     counterbalancing_table,
@@ -167,7 +168,7 @@ def build_sections(
     if not others.empty:
         sections.append(Section("other", "Other measures", "", tuple(descriptive_tables(others))))
     sections += _test_sections(tables, measures, omnibus, repeated)
-    sections += _simulation_sections(measures, mann_whitney_method, continuity)
+    sections += _simulation_sections(measures, tables.decisions, mann_whitney_method, continuity)
     decision_correlations = [c for c in correlation_results if c.x != MRT_MEASURE]
     if decision_correlations:  # the MRT's are in its own section
         sections.append(
@@ -235,12 +236,22 @@ def _test_sections(
 
 
 def _simulation_sections(
-    measures: pd.DataFrame, mann_whitney_method: MannWhitneyMethod, continuity: bool
+    measures: pd.DataFrame,
+    decisions: pd.DataFrame,
+    mann_whitney_method: MannWhitneyMethod,
+    continuity: bool,
 ) -> list[Section]:
     two_sample = simulation_comparisons(measures, mann_whitney_method, continuity)
     if not two_sample:
         return []
-    return [Section("simulation", "Simulation-only models", "", (mann_whitney_table(two_sample),))]
+    return [
+        Section(
+            "simulation",
+            "Simulation-only models",
+            "",
+            (mann_whitney_table(two_sample), *paper_unit_tables(decisions)),
+        )
+    ]
 
 
 def _renamed(table: Table, name: str) -> Table:

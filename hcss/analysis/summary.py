@@ -15,6 +15,7 @@ import pandas as pd
 from hcss.analysis.decision_measures import SPLITS, decision_measures
 from hcss.analysis.descriptive import descriptive_frame
 from hcss.analysis.load import load_inputs
+from hcss.analysis.paper_units import paper_unit_tables
 from hcss.analysis.tables import Table, format_number, to_markdown, write_table
 
 SUMMARY_MEASURES = ("success_rate", "decision_time_min")
@@ -74,5 +75,13 @@ def write_simulation_summary(decisions_path: Path, directory: Path) -> Table:
 
 
 def summarise_decisions(decisions_path: Path) -> str:
-    """The summary as Markdown, its tables also written beside the decisions file."""
-    return to_markdown(write_simulation_summary(decisions_path, decisions_path.parent))
+    """The summary as Markdown, its tables also written beside the decisions file.
+
+    The study's tables under its own unit (`paper_units`) follow the summary.
+    """
+    text = to_markdown(write_simulation_summary(decisions_path, decisions_path.parent))
+    decisions = load_inputs([decisions_path], include_pilot=True).decisions
+    for table in paper_unit_tables(decisions):
+        write_table(table, decisions_path.parent)
+        text += "\n" + to_markdown(table)
+    return text

@@ -126,7 +126,7 @@ def m1_decision_time(
     params: Params, scenarios: int, runs: int, workers: int, seed: int = 20_150_000
 ) -> tuple[float, float]:
     """M1's mean decision time (minutes) and its standard error over trials, no operator."""
-    jobs = exp.jobs_for(exp.experiment_scenarios(scenarios, seed), ["M1"], runs)
+    jobs = exp.jobs_for(exp.experiment_scenarios(scenarios, seed, params), ["M1"], runs)
     rows = exp.run_jobs(jobs, workers, params=params)
     minutes = np.array([r["decision_time_s"] / 60.0 for r in rows])
     per_trial: dict[str, list[float]] = {}

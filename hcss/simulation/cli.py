@@ -20,9 +20,12 @@ from hcss.simulation.messages import collective_name, event_text
 from hcss.simulation.operators import OPERATORS
 from hcss.simulation.params import (
     ABANDONMENT_READINGS,
+    DIFFICULTY_LABELS,
     DISCOVERY_READINGS,
+    EASY_LAYOUT_OTHERS,
     FOREIGN_TARGETS,
     G_READINGS,
+    LABEL_DISTANCES,
     M2_BEYOND_DMAX,
     M2_DISTANCE_BOUNDS,
     MODELS,
@@ -130,7 +133,8 @@ def demo(
 ) -> None:
     """A four-collective trial, paced against the wall clock, with a live text summary."""
     params = preset_params(preset)
-    sim = Simulation(Scenario.generate(seed, first_section=first_section), model, params)
+    scenario = Scenario.generate(seed, first_section=first_section, params=params)
+    sim = Simulation(scenario, model, params)
     limit = minutes * 60.0
     click.echo(
         f"{model} trial ({preset}), seed {seed}, {first_section} section first, "
@@ -208,7 +212,8 @@ def experiment(
         raise click.BadParameter(
             f"models must be among {', '.join(MODELS)}; got {models!r}", param_hint="--models"
         )
-    jobs = exp.jobs_for(exp.experiment_scenarios(scenarios, seed), chosen, runs, operator)
+    params = preset_params(preset)
+    jobs = exp.jobs_for(exp.experiment_scenarios(scenarios, seed, params), chosen, runs, operator)
     where = f"Dask ({dask_address})" if dask_address else f"{workers} local process(es)"
     click.echo(
         f"{len(jobs)} runs ({scenarios} scenarios × {runs} runs × {', '.join(chosen)}) "
@@ -216,9 +221,7 @@ def experiment(
     )
     started = time.perf_counter()
     with tqdm(total=len(jobs), unit="run", desc="experiment", dynamic_ncols=True) as bar:
-        rows = exp.run_jobs(
-            jobs, workers, dask_address, on_done=bar.update, params=preset_params(preset)
-        )
+        rows = exp.run_jobs(jobs, workers, dask_address, on_done=bar.update, params=params)
     elapsed = time.perf_counter() - started
     out.mkdir(parents=True, exist_ok=True)
     exp.write_decisions(rows, out / "decisions.csv")
@@ -258,6 +261,9 @@ def _reading_options(command: F) -> F:
             ("foreign-targets", FOREIGN_TARGETS),
             ("abandonment", ABANDONMENT_READINGS),
             ("m2-g-reading", G_READINGS),
+            ("easy-layout-others", EASY_LAYOUT_OTHERS),
+            ("difficulty-label", DIFFICULTY_LABELS),
+            ("label-distances", LABEL_DISTANCES),
         )
     ):
         command = click.option(
@@ -286,7 +292,8 @@ def _params_with(preset: str = DEFAULT_PRESET, **readings: Any) -> Params:
 )
 @_size_options(
     runs=2,
-    runs_help="Runs per scenario for each r_msg tried, or each search trial.",
+    runs_help="Runs per scenario for each r_msg tried, or each search trial (--to study: "
+    "give the study's 10, a unit's value is its mean over runs).",
     min_scenarios=2,
 )
 @click.option("--iterations", type=click.IntRange(min=2, max=20), default=4, show_default=True)
@@ -298,7 +305,8 @@ def _params_with(preset: str = DEFAULT_PRESET, **readings: Any) -> Params:
     default="published",
     show_default=True,
     help="published: the sensing radius to g(d) and r_msg to M1's 2.46 min, one at a time; "
-    "study: readings and unstated values jointly to the study's eight split cells.",
+    "study: readings and unstated values jointly to the study's tables in full, under "
+    "its unit (scenario, decision slot).",
 )
 @click.option(
     "--budget",
@@ -355,7 +363,7 @@ def calibrate(
     experiment is 2.46 min. Copy the printed values into params.py.
 
     --to study: the readings and the values the paper does not state, fitted
-    jointly for M1 and M2 to the study's eight published split cells (optuna
+    jointly for M1 and M2 to the study's tables in full under its unit (optuna
     over reduced experiments, then the finalists on the full one). Resumes an
     interrupted run in the same --out. Copy fit.json into presets.py.
     """
@@ -417,7 +425,7 @@ def _calibrate_to_study(
     settings: fs.Settings, workers: int, dask_address: str | None, out: Path
 ) -> None:
     click.echo(
-        f"Calibrating to the study's eight split cells: {settings.budget} search trials of "
+        f"Calibrating to the study's tables under its unit: {settings.budget} search trials of "
         f"{settings.scenarios} scenarios × {settings.runs} run(s), then {settings.finalists} "
         f"finalist(s) × {settings.final_runs} runs; trials kept in {out}."
     )
@@ -432,7 +440,7 @@ def _calibrate_to_study(
 
         def on_trial(number: int, e: fs.Evaluation) -> None:
             bar.update(1)
-            bar.set_postfix_str(f"loss {e.loss:.2f}, {e.met}/8", refresh=False)
+            bar.set_postfix_str(f"loss {e.loss:.2f}, {e.met} met", refresh=False)
 
         result = fs.calibrate(
             out,
@@ -440,7 +448,7 @@ def _calibrate_to_study(
             workers,
             dask_address,
             on_trial=on_trial,
-            on_finalist=lambda e: bar.write(f"finalist: loss {e.loss:.2f}, {e.met} of 8"),
+            on_finalist=lambda e: bar.write(f"finalist: loss {e.loss:.2f}, {e.met} met"),
         )
     click.echo(fs.report(result, settings))
     click.echo(f"Written: {out / 'report.md'}, {out / 'fit.json'}, {out / 'trials.csv'}.")

@@ -159,18 +159,39 @@ def best_available(world: World, collective: int, params: Params) -> int:
 NEARER_TOLERANCE_M = 0.01  # target coordinates are stored to the millimetre
 
 
-def difficulty(world: World, collective: int, params: Params) -> str:
-    """Difficult if a lower-valued target in range is strictly nearer than the best one.
+def label_distance(distance_m: float, params: Params) -> float:
+    """A hub-to-target distance as the label compares it: exact, or its ring's index."""
+    if params.label_distances == "ring":
+        # to the millimetre first, so a site placed on a ring's edge keeps its ring
+        return float(math.floor(round(distance_m, 3) / params.label_ring_m))
+    return distance_m
 
-    "Strictly" allows for rounding: two targets placed at the same nominal
-    distance are equally near.
+
+def difficulty(
+    world: World, collective: int, params: Params, layout_kind: str | None = None
+) -> str:
+    """Easy or difficult, fixed at the decision's start, under the chosen label.
+
+    "best_nearest": difficult if a lower-valued target in range is strictly
+    nearer than the best one. "best_not_furthest": difficult only when,
+    besides, no other target in range is strictly farther than the best; a
+    section's first decision (`layout_kind` given) keeps its layout's kind.
+    Distances are exact or by ring (`params.label_distances`); "strictly"
+    allows for the millimetre rounding of stored coordinates.
     """
+    if layout_kind is not None and params.difficulty_label == "best_not_furthest":
+        return layout_kind
     best = best_available(world, collective, params)
     if best < 0:
         return "easy"
-    value, distance = world.target_value.tolist(), world.hub_distance[collective].tolist()
+    value = world.target_value.tolist()
+    distance = [label_distance(d, params) for d in world.hub_distance[collective].tolist()]
+    tolerance = NEARER_TOLERANCE_M if params.label_distances == "exact" else 0.0
+    others = [t for t in in_range_targets(world, collective, params) if t != best]
     lower_nearer = any(
-        value[t] < value[best] and distance[t] < distance[best] - NEARER_TOLERANCE_M
-        for t in in_range_targets(world, collective, params)
+        value[t] < value[best] and distance[t] < distance[best] - tolerance for t in others
     )
+    if params.difficulty_label == "best_not_furthest" and lower_nearer:
+        farther = any(distance[t] > distance[best] + tolerance for t in others)
+        return "easy" if farther else "difficult"
     return "difficult" if lower_nearer else "easy"

@@ -385,16 +385,17 @@ class Simulation:
         for request in list(self.requests):
             self._remove_request(request)
         for c in range(w.n_collectives):
-            self._open_decision(c)
+            self._open_decision(c, self.scenario.sections[section].kinds[c])
 
-    def _open_decision(self, c: int) -> None:
+    def _open_decision(self, c: int, layout_kind: str | None = None) -> None:
+        """A new decision of collective c; `layout_kind` for a section's first decisions."""
         self.decision_counts[c] += 1
         self.open[c] = dec.OpenDecision(
             collective=c,
             section=self.world.section,
             index=self.decision_counts[c],
             start_s=self.world.time,
-            difficulty=dec.difficulty(self.world, c, self.params),
+            difficulty=dec.difficulty(self.world, c, self.params, layout_kind),
         )
 
     def _announce_commitments(self) -> None:

@@ -87,6 +87,12 @@ PRE_CHANGE_PARAMS: dict[str, object] = {
     "m2_g_reading": "distance_only",
     "fitted_d_max_m": 500.0,
     "preset": "literal",
+    # The readings of issue 28 (layout, label, F_D wait): the pre-change rules.
+    "m2_discovery_wait_scale": 1.0,
+    "easy_layout_others": "anywhere",
+    "difficulty_label": "best_nearest",
+    "label_distances": "exact",
+    "label_ring_m": 100.0,
 }
 
 REFERENCE_SCENARIOS = 28

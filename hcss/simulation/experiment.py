@@ -46,13 +46,20 @@ class Job:
         return f"simop-{self.operator}-{self.scenario['scenario_id']}-r{self.run}"
 
 
-def experiment_scenarios(n: int = 28, base_seed: int = DEFAULT_SCENARIO_SEED) -> list[Scenario]:
-    """n scenarios with fixed seeds, alternating easy-first and difficult-first."""
+def experiment_scenarios(
+    n: int = 28, base_seed: int = DEFAULT_SCENARIO_SEED, params: Params | None = None
+) -> list[Scenario]:
+    """n scenarios with fixed seeds, alternating easy-first and difficult-first.
+
+    `params` are the run's (a preset's): the layout readings among them
+    (`easy_layout_others`) shape the scenarios.
+    """
     return [
         Scenario.generate(
             base_seed + i,
             first_section="easy" if i % 2 == 0 else "difficult",
             scenario_id=f"exp{i + 1:02d}",
+            params=params,
         )
         for i in range(n)
     ]

@@ -102,7 +102,9 @@ def variant_rows(
     for label, model, variant_params in variants(params, ablations):
         if on_variant is not None:
             on_variant(label)
-        jobs = exp.jobs_for(exp.experiment_scenarios(scenarios, seed), [model], runs)
+        jobs = exp.jobs_for(
+            exp.experiment_scenarios(scenarios, seed, variant_params), [model], runs
+        )
         out.append((label, exp.run_jobs(jobs, workers, params=variant_params)))
     return out
 

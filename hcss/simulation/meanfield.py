@@ -87,7 +87,7 @@ class Rates:
                 discovery, v, d / params.speed_mps, abandon, abandon_rate, inf, inf, np.ones(d.size)
             )
         dm = params.m2_distance(d)
-        gap_d = 1.0 / params.discovery_rate(params.m2_d_max_m) - 1.0 / params.discovery_rate(dm)
+        gap_d = params.discovery_wait_gap_s(dm)
         gap_r = params.round_trip_s(params.m2_d_max_m) - params.round_trip_s(dm)
         if params.m2_g_reading == "value_inside":
             gap_d = gap_d / v

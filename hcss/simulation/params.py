@@ -23,6 +23,9 @@ FOREIGN_TARGETS = ("eligible", "own_only")
 M2_MECHANISMS = ("discovery_delay", "reassessment_delay", "modulation")
 ABANDONMENT_READINGS = ("per_visit", "rate")
 G_READINGS = ("distance_only", "value_inside")
+EASY_LAYOUT_OTHERS = ("anywhere", "strictly_farther")
+DIFFICULTY_LABELS = ("best_nearest", "best_not_furthest")
+LABEL_DISTANCES = ("exact", "ring")
 
 
 @dataclass(frozen=True)
@@ -136,6 +139,29 @@ class Params:
     #     divided by v̂ and P_D(i) = v̂²/(1/g(d_max) − 1/g(d_i)): poorer sites wait longer.
     #   Per-agent discovery is v̂·g(d) under both (P_γ = v·g(d) with g as fitted).
     m2_g_reading: str = "distance_only"
+    # A scale on M2's discovery wait (F_D): P_D = v̂/(scale·(1/g(d_max) − 1/g(d_i))).
+    # The unit of d inside g is printed as 100 m, but the paper's g was fitted to its
+    # own discovery data; a longer unit shortens the wait by about a constant
+    # factor, which this scale stands for. 1 is the printed reading.
+    m2_discovery_wait_scale: float = 1.0
+    # Where an easy layout's other three sites lie (spec §2). The paper "placed the
+    # optimal site value closest".
+    #   "anywhere": at any of the distances, so they may tie the best at 150 m.
+    #   "strictly_farther": strictly farther than the best (250 or 350 m).
+    # The difficult layout is strict under both (the best alone at 350 m).
+    easy_layout_others: str = "anywhere"
+    # A decision's easy/difficult label, fixed at its start (spec §2).
+    #   "best_nearest": difficult when some lower-valued site is strictly nearer
+    #     than the best (easy only when the best is the nearest).
+    #   "best_not_furthest": difficult only when, besides that, the best is the
+    #     furthest (no other site strictly farther): the layouts' own definitions,
+    #     easy = optimal closest, difficult = optimal furthest. A section's first
+    #     decisions keep their layout's kind.
+    difficulty_label: str = "best_nearest"
+    # How the label compares distances from the collective's current hub:
+    # "exact" (to the millimetre) or "ring" (by label_ring_m rings: 0-100 m, 100-200 m, ...).
+    label_distances: str = "exact"
+    label_ring_m: float = 100.0
     # The named preset these values came from (presets.py), stored with every
     # trial's params. Values changed after choosing a preset are stored beside it.
     preset: str = "literal"
@@ -161,6 +187,9 @@ class Params:
             ("foreign_targets", FOREIGN_TARGETS),
             ("abandonment", ABANDONMENT_READINGS),
             ("m2_g_reading", G_READINGS),
+            ("easy_layout_others", EASY_LAYOUT_OTHERS),
+            ("difficulty_label", DIFFICULTY_LABELS),
+            ("label_distances", LABEL_DISTANCES),
         ):
             if getattr(self, name) not in allowed:
                 raise ValueError(
@@ -173,6 +202,8 @@ class Params:
             )
         if not self.sensing_radius_m > 0 or not self.message_rate > 0:
             raise ValueError("sensing_radius_m and message_rate must be positive")
+        if not self.m2_discovery_wait_scale > 0 or not self.label_ring_m > 0:
+            raise ValueError("m2_discovery_wait_scale and label_ring_m must be positive")
         if not self.abandon_scale > 0 or not self.turn_sd_rad >= 0:
             raise ValueError("abandon_scale must be positive and turn_sd_rad not negative")
         if not self.site_d_min_m < self.fitted_d_max_m <= self.exploration_range_m:
@@ -229,6 +260,12 @@ class Params:
         """g(d) = μ·e^(ξ·d)/d per second, d in 100 m units (works on arrays)."""
         d = np.asarray(distance_m, dtype=float) / self.discovery_unit_m
         return self.discovery_mu * np.exp(self.discovery_xi * d) / d
+
+    def discovery_wait_gap_s(self, distance_m: np.ndarray) -> np.ndarray:
+        """M2's discovery wait gap, scale·(1/g(d_max) − 1/g(d)), at M2's distance d (already
+        clamped or guarded by the caller); P_D = v̂ divided by it."""
+        gap = 1.0 / self.discovery_rate(self.m2_d_max_m) - 1.0 / self.discovery_rate(distance_m)
+        return np.asarray(self.m2_discovery_wait_scale * gap)
 
     def round_trip_s(self, distance_m: float | np.ndarray) -> float | np.ndarray:
         """τ_i = 2·d_i/speed."""

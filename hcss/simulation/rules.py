@@ -68,7 +68,7 @@ def abandon_probability_one(w: Arrays, k: Constants, i: int) -> float:
 
 
 def discovery_gap(distance_m: np.ndarray, params: Params) -> np.ndarray:
-    """1/g(d_max) − 1/g(d_i): the extra wait that equalises discovery times.
+    """scale·(1/g(d_max) − 1/g(d_i)): the extra wait that equalises discovery times.
 
     d_max and the treatment of sites beyond it follow the chosen reading
     (`params.m2_distance_bounds`, `params.m2_beyond_dmax`).
@@ -77,9 +77,7 @@ def discovery_gap(distance_m: np.ndarray, params: Params) -> np.ndarray:
 
 
 def _discovery_gap(d: np.ndarray, params: Params) -> np.ndarray:
-    return np.asarray(
-        1.0 / params.discovery_rate(params.m2_d_max_m) - 1.0 / params.discovery_rate(d)
-    )
+    return params.discovery_wait_gap_s(d)
 
 
 def round_trip_gap(distance_m: np.ndarray, params: Params) -> np.ndarray:

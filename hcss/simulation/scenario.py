@@ -199,7 +199,11 @@ def _place_section(
     params: Params,
     first_id: int,
 ) -> list[PlacedTarget]:
-    """Four targets around each hub: values 0.7–1.0, the best near (easy) or far (difficult)."""
+    """Four targets around each hub: values 0.7–1.0, the best near (easy) or far (difficult).
+
+    In an easy layout the others lie anywhere or strictly farther than the best
+    (`params.easy_layout_others`); in a difficult one always strictly nearer.
+    """
     placed: list[tuple[float, float]] = []
     targets: list[PlacedTarget] = []
     distances = np.array(params.target_distances_m)
@@ -210,6 +214,8 @@ def _place_section(
                 choices = distances[[0]] if kind == "easy" else distances[[-1]]
             elif kind == "difficult":
                 choices = distances[distances < distances[-1]]
+            elif params.easy_layout_others == "strictly_farther":
+                choices = distances[distances > distances[0]]
             else:
                 choices = distances
             x, y = _draw_position(rng, hub, choices, hubs, placed, params)

@@ -137,9 +137,12 @@ class Sweep:
     def cells(self) -> list[dict[str, object]]:
         return grid(list(self.axes))
 
-    def jobs(self) -> list[exp.Job]:
+    def jobs(self, cell: dict[str, object] | None = None) -> list[exp.Job]:
+        """The runs of one cell (the same number for every cell): its scenarios are drawn
+        under the cell's params, whose layout readings may shape them."""
+        params = preset_params(self.preset).with_changes(**(cell or {}))
         return exp.jobs_for(
-            exp.experiment_scenarios(self.scenarios, self.seed), self.models, self.runs
+            exp.experiment_scenarios(self.scenarios, self.seed, params), self.models, self.runs
         )
 
     @property
@@ -184,7 +187,7 @@ def run_sweep(
     skipped = len(sweep.cells) - len(pending)
     if on_done is not None and skipped:
         on_done(skipped * len(jobs))
-    tasks = [(job, cell) for cell in pending for job in jobs]
+    tasks = [(job, cell) for cell in pending for job in sweep.jobs(cell)]
     finished: dict[str, dict[int, list[dict[str, Any]]]] = {cell_name(c): {} for c in pending}
     for index, rows in _execute(tasks, workers, dask_address, sweep.preset):
         cell = tasks[index][1]

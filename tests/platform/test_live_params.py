@@ -54,3 +54,18 @@ def test_a_study_file_names_a_preset_or_is_refused_naming_the_presets() -> None:
         doc["simulation"] = bad
         with pytest.raises(StudyFileError, match=r"simulation"):
             parse_study(doc, source="t")
+
+
+def test_a_live_trials_scenario_is_drawn_under_its_presets_layout_reading(
+    make_trial,  # type: ignore[no-untyped-def]
+) -> None:
+    from hcss.simulation import Scenario
+
+    handle = make_trial(model="M1", preset="study-units", seed=11)
+    params = preset_params("study-units")
+    assert params.easy_layout_others == "strictly_farther"
+    database = handle.app.extensions["hcss_db"]
+    with database.session_scope() as session:
+        stored = session.get(Trial, handle.trial_id).scenario
+    assert stored == Scenario.generate(11, first_section="easy", params=params).to_dict()
+    assert stored != Scenario.generate(11, first_section="easy").to_dict()

@@ -72,3 +72,18 @@ def visible_target(sim: Simulation, collective: int = 0) -> int:
     w.report_count[t] = max(2, int(w.report_count[t]))
     w.report_sum[t] = w.report_count[t] * w.target_value[t]
     return t
+
+
+def lay_out(sim: Simulation, collective: int, targets: list[tuple[float, float]]) -> None:
+    """Replace the active targets by hand: [(distance from the hub, value)] along the x axis.
+
+    Uses the first targets of the trial, which were placed around collective 0.
+    """
+    w = sim.world
+    w.active[:] = False
+    hub = w.hub[collective]
+    for i, (distance, value) in enumerate(targets):
+        w.active[i] = True
+        w.target_pos[i] = hub + [distance, 0.0]
+        w.target_value[i] = value
+    w.refresh_hub_distance()

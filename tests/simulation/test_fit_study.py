@@ -58,13 +58,13 @@ def test_loss_is_squared_distance_in_bands_and_counts_cells_within_them() -> Non
 
 
 def test_presets_are_named_in_the_params_they_give_and_share_every_value_across_models() -> None:
-    assert set(PRESETS) == {"literal", "study-calibrated"}
+    assert set(PRESETS) == {"literal", "study-calibrated", "study-units"}
     assert preset_params("literal") == Params()
     for name, params in PRESETS.items():
         assert params.preset == name
         assert Params.from_dict(json.loads(json.dumps(params.to_dict()))) == params
     assert DEFAULT_PRESET in PRESETS
-    with pytest.raises(ValueError, match="literal, study-calibrated"):
+    with pytest.raises(ValueError, match="literal, study-calibrated, study-units"):
         preset_params("bogus")
 
 
@@ -102,3 +102,39 @@ def test_calibrate_to_study_writes_a_fit_a_front_and_importances_and_resumes(
     assert refused.exit_code == 2
     assert "another experiment" in refused.output
     assert "Traceback" not in refused.output
+
+
+def test_the_front_keeps_trials_no_other_beats_on_m1_easy_down_and_m2_easy_up() -> None:
+    import optuna
+
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    study = optuna.create_study(direction="minimize")
+    # (M1 easy %, M2 easy %): b beats a on both; c and d trade one for the other.
+    points = {"a": (90, 50), "b": (85, 55), "c": (95, 70), "d": (70, 40), "e": (96, 69)}
+    for name, (m1, m2) in points.items():
+        study.add_trial(
+            optuna.trial.create_trial(
+                params={"r": 1.0},
+                distributions={"r": optuna.distributions.FloatDistribution(0, 2)},
+                value=1.0,
+                user_attrs={"name": name, "m1_easy_success": m1, "m2_easy_success": m2},
+            )
+        )
+    front = [t.user_attrs["name"] for t in fs.pareto_front(study)]
+    assert front == ["d", "b", "c"]  # by M1's easy success; a is beaten by b, e by c
+
+
+def test_a_new_calibration_starts_from_the_presets_under_both_labels(tmp_path: Path) -> None:
+    study = fs.open_study(tmp_path / "cal", fs.Settings(budget=1, scenarios=2, runs=1))
+    queued = [t.system_attrs["fixed_params"] for t in study.trials]  # enqueued, not yet run
+    assert len(queued) == 2 * len(PRESETS)
+    for params in PRESETS.values():
+        mine = [q for q in queued if q["message_rate"] == params.message_rate]
+        assert {q["difficulty_label"] for q in mine} == {"best_nearest", "best_not_furthest"}
+        for q in mine:
+            assert set(q) == set(fs.SEARCH_SPACE)
+            assert fs.params_for(q).m2_d_max_m == q["fitted_d_max_m"]  # valid shared params
+    # Reopening does not queue them again.
+    assert len(
+        fs.open_study(tmp_path / "cal", fs.Settings(budget=1, scenarios=2, runs=1)).trials
+    ) == len(queued)

@@ -63,10 +63,13 @@ def start_trial(
         raise ValueError("time_acceleration must be positive")
     if seed is None:
         seed = secrets.randbelow(2**31)
+    # The layout is drawn under the preset's readings (e.g. `easy_layout_others`),
+    # the same as the batch experiment's scenarios.
+    params = preset_params(preset).with_changes(decision_timeout_s=None)
     if kind == "training":
-        scenario = Scenario.training(seed)
+        scenario = Scenario.training(seed, params=params)
     else:
-        scenario = Scenario.generate(seed, first_section=first_section)
+        scenario = Scenario.generate(seed, first_section=first_section, params=params)
     scenario_dict = scenario.to_dict()
     duration = float(duration_s)
     if duration <= 0:
@@ -81,7 +84,7 @@ def start_trial(
         seed=int(seed),
         first_section=None if kind == "training" else first_section,
         # A live trial has no per-decision cap, only its own time limit (spec §2).
-        params=preset_params(preset).with_changes(decision_timeout_s=None).to_dict(),
+        params=params.to_dict(),
         probe_counts=stored_counts(probe_counts),
         time_acceleration=time_acceleration,
         duration_s=duration,
