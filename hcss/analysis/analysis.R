@@ -112,7 +112,7 @@ for (row in seq_len(nrow(mw))) {
 
 # Spearman correlations with success rate: per model, and over participants' M1-M3 means
 units <- measures[measures$split == "overall" & measures$group != "All", ]
-mrt <- measures[measures$measure == "mrt.overall" & measures$group == "All", ]
+mrt <- measures[measures$measure == "mrt.total" & measures$group == "All", ]
 spearman <- read_table("spearman")
 mrt_table <- read_table("spearman_mrt")
 if (nrow(mrt_table)) spearman <- unique(rbind(spearman, mrt_table))
@@ -124,7 +124,7 @@ for (row in seq_len(nrow(spearman))) {
   d <- units[units$group %in% groups, ]
   if (pooled) d$unit <- d$participant
   y <- tapply(d$value[d$measure == r$y], d$unit[d$measure == r$y], mean)
-  if (r$x == "mrt.overall") {
+  if (r$x == "mrt.total") {
     people <- tapply(d$participant[d$measure == r$y], d$unit[d$measure == r$y], `[`, 1)
     x <- tapply(mrt$value, mrt$participant, mean)[people[names(y)]]
   } else {

@@ -8,7 +8,13 @@ from hcss.analysis.builders import SPLIT_LABELS
 from hcss.analysis.clustered import ClusteredModel
 from hcss.analysis.measures import measure_label
 from hcss.analysis.paired import RepeatedComparison
-from hcss.analysis.tables import Table, effect_record, format_effect, format_number, format_p
+from hcss.analysis.tables import (
+    Table,
+    effect_cell,
+    effect_record,
+    format_number,
+    format_p,
+)
 
 
 def friedman_table(comparisons: list[RepeatedComparison]) -> Table:
@@ -29,7 +35,7 @@ def friedman_table(comparisons: list[RepeatedComparison]) -> Table:
                 SPLIT_LABELS[comparison.split],
                 statistic,
                 format_p(result.p),
-                format_effect(result.effect_size, result.effect_lower, result.effect_upper),
+                effect_cell(result),
                 result.method,
                 comparison.note,
             )
@@ -72,7 +78,7 @@ def paired_wilcoxon_table(comparisons: list[RepeatedComparison]) -> Table:
                     format_number(result.statistic, 1),
                     format_p(result.p),
                     format_p(pair.p_holm),
-                    format_effect(result.effect_size, result.effect_lower, result.effect_upper),
+                    effect_cell(result),
                     result.method or result.note,
                 )
             )

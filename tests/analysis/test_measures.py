@@ -150,8 +150,12 @@ def tiny_export(tmp_path: Path) -> Path:
             ("P1", "nasa_tlx", "M1", "effort_weighted", 12.0),
             ("P1", "sart", "M1", "overall", 7.0),
             ("P1", "ranking", "M1", "responsiveness", 2.0),
-            ("P1", "mrt", "", "overall", 17.0),
-            ("P2", "mrt", "", "overall", 9.0),
+            # the export's MRT rows: the total and each part; the part's row comes last
+            ("P1", "mrt", "", "total", 17.0),
+            ("P1", "mrt", "", "part_1", 9.0),
+            ("P1", "mrt", "", "part_2", 8.0),
+            ("P2", "mrt", "", "part_1", 4.0),  # no total row: the parts are summed
+            ("P2", "mrt", "", "part_2", 5.0),
         ],
         columns=["participant", "instrument", "model", "scale", "score"],
     )
@@ -261,7 +265,16 @@ def test_questionnaires_from_scores_and_items(measures):
     assert value(measures, "ranking.responsiveness", "P1") == 2.0
     # no post_trial scores in this export: the raw Likert items are used
     assert value(measures, "post_trial.responsiveness", "P2") == 3.0
-    assert value(measures, "mrt.overall", "P1") == 17.0
+    assert value(measures, "mrt.total", "P1") == 17.0
+
+
+def test_the_mrt_score_is_the_whole_test_one_row_per_participant(measures):
+    mrt = measures[measures["measure"].str.startswith("mrt.")]
+    assert set(mrt["measure"]) == {"mrt.total"}  # never a part, never a second "overall"
+    assert sorted(mrt["participant"]) == ["P1", "P2"]
+    assert value(measures, "mrt.total", "P1") == 17.0  # not part 2's 8
+    assert value(measures, "mrt.total", "P2") == 9.0  # 4 + 5
+    assert measure_label("mrt.total") == "MRT score: total of both parts (0–24)"
     assert measure_label("nasa_tlx.effort_weighted") == "NASA-TLX: effort weighted"
 
 
