@@ -94,7 +94,10 @@ def decision_measures(decisions: pd.DataFrame) -> pd.DataFrame:
     simulation units, ``value`` is the mean over the scenario's runs and
     ``participant`` is empty. Each value is snapped to its exact fraction
     (:mod:`hcss.analysis.exact`), so quantities equal in exact arithmetic are
-    equal floats and rank tests see the ties R sees.
+    equal floats and rank tests see the ties of the exact values: R's answer
+    given the exact values, and R's ``wilcox.test(digits.rank = 7)`` given
+    the same doubles (its default ``digits.rank = Inf`` sees no tie between
+    doubles that differ in the last bit).
     """
     rows = []
     for (group, source, participant, scenario, trial), trial_decisions in decisions.groupby(

@@ -129,28 +129,38 @@ def model_table(name: str, model: ClusteredModel) -> Table:
     ]
     if not rows:
         rows = [("not fitted", "–", "–", model.note or "–")]
-    order = (
-        f" + order ({', '.join(COVARIATE_LABELS[name] for name in model.covariates)})"
-        if model.covariates
-        else " (order did not vary: no order term)"
-    )
-    caption = (
-        f"{model.outcome.capitalize()} by model × difficulty{order}: {model.method}; "
-        f"p from {model.p_method}; "
-        f"{model.n_decisions} decisions of {model.n_participants} participants"
-        + (f" ({model.note})" if model.note and model.terms else "")
-    )
-    frame = pd.DataFrame(
-        [
-            {"term": t.term, model.ratio_name.replace(" ", "_"): t.ratio, "lower": t.lower}
-            | {"upper": t.upper, "p": t.p, "p_method": model.p_method}
-            for t in model.terms
+    if not model.terms:  # no fit: no order term to describe, only the reason
+        caption = (
+            f"{model.outcome.capitalize()} by model × difficulty: not fitted ({model.note}); "
+            f"{model.n_decisions} decisions of {model.n_participants} participants"
+        )
+    else:
+        order = (
+            f" + order ({', '.join(COVARIATE_LABELS[name] for name in model.covariates)})"
+            if model.covariates
+            else " (order did not vary: no order term)"
+        )
+        caption = (
+            f"{model.outcome.capitalize()} by model × difficulty{order}: {model.method}; "
+            f"p from {model.p_method}; "
+            f"{model.n_decisions} decisions of {model.n_participants} participants"
+            + (f" ({model.note})" if model.note else "")
+        )
+    ratio = model.ratio_name.replace(" ", "_")
+    records = [
+        {"term": t.term, ratio: t.ratio, "lower": t.lower}
+        | {"upper": t.upper, "p": t.p, "p_method": model.p_method, "note": model.note}
+        for t in model.terms
+    ] + [
+        {"term": f"variance: {component.name}", "variance": component.variance}
+        for component in model.variance
+    ]
+    if not model.terms:  # the reason, under the same header, so a reader of the CSV sees it
+        records = [
+            {"term": "not fitted", "p": None, "p_method": model.p_method, "note": model.note}
         ]
-        + [
-            {"term": f"variance: {component.name}", "variance": component.variance}
-            for component in model.variance
-        ]
-    )
+    columns = ["term", ratio, "lower", "upper", "p", "p_method", "note", "variance"]
+    frame = pd.DataFrame(records, columns=columns)
     return Table(
         name,
         caption,

@@ -102,7 +102,8 @@ def paired_wilcoxon(first: Sequence[float], second: Sequence[float]) -> TestResu
     The statistic is R's V, the sum of the ranks of positive differences.
     Differences are taken on the exact values (:func:`exact_differences`),
     so two pairs whose differences are equal in exact arithmetic tie, as
-    they do when R is given the same values.
+    they do in R given the exact values (or ``digits.rank = 7`` on the same
+    doubles; R's default ``digits.rank = Inf`` can split such a tie).
     Pairs with a missing value are dropped; ``n`` is the number of pairs
     with a non-zero difference (the pairs the test uses).
     """

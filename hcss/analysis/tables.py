@@ -161,5 +161,8 @@ def write_table(table: Table, directory: Path) -> list[Path]:
     paths = [directory / f"{table.name}.{suffix}" for suffix in ("md", "tex", "csv")]
     paths[0].write_text(to_markdown(table), encoding="utf-8")
     paths[1].write_text(to_latex(table), encoding="utf-8")
-    table.frame.to_csv(paths[2], index=False)
+    frame = table.frame
+    if frame.columns.empty:  # never a file without a header: say why there are no rows
+        frame = pd.DataFrame({"note": [f"no rows: {table.caption}"]})
+    frame.to_csv(paths[2], index=False)
     return paths

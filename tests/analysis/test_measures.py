@@ -11,9 +11,10 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from hcss.analysis.comparisons import correlations
 from hcss.analysis.load import load_inputs
 from hcss.analysis.measures import all_measures, measure_label
-from tests.analysis.synthetic import DECISION_COLUMNS, decision_row, write_table
+from tests.analysis.synthetic import DECISION_COLUMNS, decision_row, study_export, write_table
 
 
 def _study_decisions() -> list[dict]:
@@ -285,3 +286,20 @@ def test_bot_participants_are_excluded_unless_asked(tiny_export):
     assert value(included, "success_rate", "BOT") == 0.0
     # nor does its trial reach any other measure
     assert "BOT" not in set(default[default["measure"] == "request_frequency"]["unit"])
+
+
+def test_the_mrt_correlation_uses_the_total_as_r_does(tmp_path):
+    """The export's last MRT row is part 2, which the correlation used (ρ −0.372, p .364).
+
+    R 4.2, the 8 participants' MRT totals and M1 success rates of this export:
+    mrt <- c(6, 10, 4, 11, 18, 10, 15, 17); s <- c(10, 4, 9, 9, 7, 9, 6, 9) / 12
+    cor.test(mrt, s, method = "spearman")   # rho -0.4019348353313, p 0.3236049344748
+    cor.test(mrt - mrt %/% 2, s, method = "spearman")   # part 2: -0.3722847203232, 0.3637808929652
+    """
+    tables = load_inputs([study_export(tmp_path / "export", participants=8)])
+    measures = all_measures(tables)
+    totals = measures[measures["measure"] == "mrt.total"].set_index("participant")["value"]
+    assert totals.tolist() == [6, 10, 4, 11, 18, 10, 15, 17]
+    (m1,) = [c for c in correlations(measures) if c.x == "mrt.total" and c.group == "M1"]
+    assert m1.result.statistic == pytest.approx(-0.4019348353313, rel=1e-9)
+    assert m1.result.p == pytest.approx(0.3236049344748, rel=1e-9)
