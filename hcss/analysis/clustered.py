@@ -49,6 +49,7 @@ from __future__ import annotations
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -352,9 +353,7 @@ def jackknife_errors(formula: str, data: pd.DataFrame, params: pd.Series) -> pd.
         model = _gee(formula, rest)
         if list(model.exog_names) != list(params.index):
             raise ValueError(f"leaving out {cluster} removes a term of the model")
-        refit, caught = _fitted(
-            lambda model=model: model.fit(ddof_scale=0, start_params=params.to_numpy())
-        )
+        refit, caught = _fitted(partial(model.fit, ddof_scale=0, start_params=params.to_numpy()))
         if "IterationLimitWarning" in caught or not np.all(np.isfinite(refit.params)):
             raise ValueError(f"the GEE without participant {cluster} did not converge")
         deviations.append(refit.params.to_numpy() - params.to_numpy())

@@ -95,7 +95,7 @@ def _reml_deviance(groups: _Groups, ratio: float, n: int, p: int) -> float:
     """lme4's profiled REML deviance of a random-intercept model at θ."""
     _, residual, log_v, log_xvx = _gls(groups, ratio)
     dof = n - p
-    return log_v + log_xvx + dof * (1.0 + np.log(2.0 * np.pi * residual / dof))
+    return log_v + log_xvx + dof * (1.0 + float(np.log(2.0 * np.pi * residual / dof)))
 
 
 def refine_intercept_fit(model: Any, result: Any | None) -> InterceptFit:
