@@ -34,8 +34,14 @@ class SourceError(ValueError):
 def _check_lines(source: io.BytesIO | Path, where: str, table: str) -> None:
     """Refuse a CSV with a line longer than :data:`MAX_LINE_BYTES` before pandas reads it.
 
-    The scan reads fixed-size blocks, so its memory is bounded whatever the file holds.
+    The scan reads fixed-size blocks, so its memory is bounded whatever the file holds;
+    a file larger than a study export can be (:data:`MAX_MEMBER_BYTES`) is refused first.
     """
+    if isinstance(source, Path) and source.stat().st_size > MAX_MEMBER_BYTES:
+        raise SourceError(
+            f"{where}: the {table} table is larger than a study export can be "
+            f"({source.stat().st_size / 1e6:.0f} MB; at most {MAX_MEMBER_BYTES // 2**20} MiB)"
+        )
     stream = source if isinstance(source, io.BytesIO) else source.open("rb")
     try:
         line, current = 1, 0

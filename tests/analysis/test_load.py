@@ -261,3 +261,13 @@ def test_a_file_without_line_breaks_is_refused_in_bounded_memory(tmp_path: Path)
     finally:
         tracemalloc.stop()
     assert peak < 16 * 1024 * 1024 and time.perf_counter() - started < 5
+
+
+def test_a_table_larger_than_an_export_can_be_is_refused_unread(tmp_path: Path, monkeypatch):
+    from hcss.analysis import sources
+
+    path = tmp_path / "decisions.csv"
+    path.write_bytes(b"source\n" + b"study\n" * 200)
+    monkeypatch.setattr(sources, "MAX_MEMBER_BYTES", 1024)
+    with pytest.raises(AnalysisInputError, match="larger than a study export can be"):
+        load_inputs([path])
