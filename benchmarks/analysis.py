@@ -59,15 +59,17 @@ def large_decisions_file(scenarios: int = 420, runs: int = 10) -> None:
         base = Path(scratch)
         decisions = simulation_decisions(scenarios=scenarios, runs=runs)
         path = write_table(decisions, base / "decisions.csv")
+        megabytes = path.stat().st_size / 1e6
         command = [sys.executable, "-c", "from hcss.cli import main; main()", "analyze"]
         command += [str(path), "--out", str(base / "report")]
         wall = time.perf_counter()
         completed = subprocess.run(command, capture_output=True, text=True, check=False)
         wall = time.perf_counter() - wall
         peak_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
-    status = "ok" if completed.returncode == 0 else f"exit {completed.returncode}"
+        tables = len(list((base / "report" / "tables").glob("*.csv")))
+    status = f"{tables} tables" if completed.returncode == 0 else f"exit {completed.returncode}"
     print(
-        f"(3) hcss analyze, {len(decisions):,} decisions ({path.stat().st_size / 1e6:.1f} MB CSV): "
+        f"(3) hcss analyze, {len(decisions):,} decisions ({megabytes:.1f} MB CSV): "
         f"{wall:.1f} s wall, peak {peak_mb:.0f} MB resident ({status})"
     )
     if completed.returncode != 0:
