@@ -5,6 +5,9 @@ Figures are printed, never asserted.
 
 from __future__ import annotations
 
+import resource
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -46,6 +49,34 @@ def full_report(participants: int = 36) -> None:
     )
 
 
+def large_decisions_file(scenarios: int = 420, runs: int = 10) -> None:
+    """(3) `hcss analyze` as a user runs it, on one decisions CSV of 100,800 decisions.
+
+    The command runs in its own process, so its peak resident memory is the
+    child's (``ru_maxrss``) and its time includes start-up and writing the report.
+    """
+    with tempfile.TemporaryDirectory() as scratch:
+        base = Path(scratch)
+        decisions = simulation_decisions(scenarios=scenarios, runs=runs)
+        path = write_table(decisions, base / "decisions.csv")
+        megabytes = path.stat().st_size / 1e6
+        command = [sys.executable, "-c", "from hcss.cli import main; main()", "analyze"]
+        command += [str(path), "--out", str(base / "report")]
+        wall = time.perf_counter()
+        completed = subprocess.run(command, capture_output=True, text=True, check=False)
+        wall = time.perf_counter() - wall
+        peak_mb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
+        tables = len(list((base / "report" / "tables").glob("*.csv")))
+    status = f"{tables} tables" if completed.returncode == 0 else f"exit {completed.returncode}"
+    print(
+        f"(3) hcss analyze, {len(decisions):,} decisions ({megabytes:.1f} MB CSV): "
+        f"{wall:.1f} s wall, peak {peak_mb:.0f} MB resident ({status})"
+    )
+    if completed.returncode != 0:
+        print(completed.stderr[-2000:])
+
+
 def run() -> None:
     studentized_range_p()
     full_report()
+    large_decisions_file()

@@ -4,7 +4,8 @@ The report opens with this, so a reader sees the N behind every table before
 the tables, and a test the data cannot support is named once, with its
 reason, instead of appearing as rows of n = 1. The thresholds are the ones
 the tests themselves apply (:data:`~hcss.analysis.comparisons.MIN_UNITS`,
-:data:`~hcss.analysis.comparisons.MIN_PAIRS`), so the banner and the tables
+:data:`~hcss.analysis.comparisons.MIN_PAIRS`,
+:data:`~hcss.analysis.clustered.MIN_PARTICIPANTS`), so the banner and the tables
 cannot disagree.
 """
 
@@ -14,6 +15,7 @@ from dataclasses import dataclass
 
 import pandas as pd
 
+from hcss.analysis.clustered import MIN_PARTICIPANTS
 from hcss.analysis.comparisons import HUMAN_GROUPS, MIN_PAIRS, MIN_UNITS, SIMULATION_PAIR
 from hcss.analysis.load import STUDY, StudyTables
 
@@ -94,8 +96,11 @@ def _not_run(units: dict[str, int], complete: int, people: int) -> list[str]:
             f"Spearman correlations per model: they need {MIN_PAIRS} or more participants "
             f"in a model ({sizes})"
         )
-    if human and people < 2:
-        reasons.append("Decision-level GEE and mixed model: they need two or more participants")
+    if human and people < MIN_PARTICIPANTS:
+        reasons.append(
+            f"Decision-level GEE and mixed model: they need {MIN_PARTICIPANTS} or more "
+            f"participants ({people}); robust errors from fewer clusters are not trustworthy"
+        )
     simulation = {group: units[group] for group in SIMULATION_PAIR if group in units}
     if len(simulation) == 2 and min(simulation.values()) < MIN_UNITS:
         reasons.append(

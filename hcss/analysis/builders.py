@@ -17,7 +17,14 @@ from hcss.analysis.decision_measures import SPLITS
 from hcss.analysis.load import GROUP_ORDER
 from hcss.analysis.measures import measure_label, measure_order
 from hcss.analysis.stats import mann_whitney_u
-from hcss.analysis.tables import Table, effect_record, format_effect, format_number, format_p
+from hcss.analysis.tables import (
+    Table,
+    effect_cell,
+    effect_record,
+    format_effect,
+    format_number,
+    format_p,
+)
 
 SPLIT_LABELS = {"overall": "Overall", "easy": "Easy", "difficult": "Difficult"}
 POSTHOC_TITLES = {
@@ -99,7 +106,7 @@ def kruskal_table(comparisons: list[OmnibusComparison]) -> Table:
         else:
             text = f"χ²({result.df:g}, N = {result.n}) = {format_number(result.statistic)}"
             p = format_p(result.p)
-            effect = format_effect(result.effect_size, result.effect_lower, result.effect_upper)
+            effect = effect_cell(result)
             variant = result.method
         rows.append(
             (
@@ -228,9 +235,7 @@ def mann_whitney_table(comparisons: list[TwoSampleComparison]) -> Table:
                 format_number(u, 1) if result else "–",
                 format_number(result.statistic, 1) if result else "–",
                 format_p(result.p) if result else "–",
-                format_effect(result.effect_size, result.effect_lower, result.effect_upper)
-                if result
-                else "–",
+                effect_cell(result) if result else "–",
                 result.method if result else "",
                 comparison.note,
             )
@@ -283,7 +288,12 @@ def spearman_table(results: list[Correlation]) -> Table:
             (
                 f"{measure_label(correlation.x)} vs {measure_label(correlation.y)}",
                 correlation.group,
-                format_effect(result.statistic, result.effect_lower, result.effect_upper)
+                format_effect(
+                    result.statistic,
+                    result.effect_lower,
+                    result.effect_upper,
+                    result.interval_method,
+                )
                 if result
                 else "–",
                 f"{result.df:g}" if result else "–",

@@ -8,7 +8,13 @@ from hcss.analysis.builders import SPLIT_LABELS
 from hcss.analysis.clustered import ClusteredModel
 from hcss.analysis.measures import measure_label
 from hcss.analysis.paired import RepeatedComparison
-from hcss.analysis.tables import Table, effect_record, format_effect, format_number, format_p
+from hcss.analysis.tables import (
+    Table,
+    effect_cell,
+    effect_record,
+    format_number,
+    format_p,
+)
 
 
 def friedman_table(comparisons: list[RepeatedComparison]) -> Table:
@@ -29,7 +35,7 @@ def friedman_table(comparisons: list[RepeatedComparison]) -> Table:
                 SPLIT_LABELS[comparison.split],
                 statistic,
                 format_p(result.p),
-                format_effect(result.effect_size, result.effect_lower, result.effect_upper),
+                effect_cell(result),
                 result.method,
                 comparison.note,
             )
@@ -72,7 +78,7 @@ def paired_wilcoxon_table(comparisons: list[RepeatedComparison]) -> Table:
                     format_number(result.statistic, 1),
                     format_p(result.p),
                     format_p(pair.p_holm),
-                    format_effect(result.effect_size, result.effect_lower, result.effect_upper),
+                    effect_cell(result),
                     result.method or result.note,
                 )
             )
@@ -123,28 +129,38 @@ def model_table(name: str, model: ClusteredModel) -> Table:
     ]
     if not rows:
         rows = [("not fitted", "–", "–", model.note or "–")]
-    order = (
-        f" + order ({', '.join(COVARIATE_LABELS[name] for name in model.covariates)})"
-        if model.covariates
-        else " (order did not vary: no order term)"
-    )
-    caption = (
-        f"{model.outcome.capitalize()} by model × difficulty{order}: {model.method}; "
-        f"p from {model.p_method}; "
-        f"{model.n_decisions} decisions of {model.n_participants} participants"
-        + (f" ({model.note})" if model.note and model.terms else "")
-    )
-    frame = pd.DataFrame(
-        [
-            {"term": t.term, model.ratio_name.replace(" ", "_"): t.ratio, "lower": t.lower}
-            | {"upper": t.upper, "p": t.p, "p_method": model.p_method}
-            for t in model.terms
+    if not model.terms:  # no fit: no order term to describe, only the reason
+        caption = (
+            f"{model.outcome.capitalize()} by model × difficulty: not fitted ({model.note}); "
+            f"{model.n_decisions} decisions of {model.n_participants} participants"
+        )
+    else:
+        order = (
+            f" + order ({', '.join(COVARIATE_LABELS[name] for name in model.covariates)})"
+            if model.covariates
+            else " (order did not vary: no order term)"
+        )
+        caption = (
+            f"{model.outcome.capitalize()} by model × difficulty{order}: {model.method}; "
+            f"p from {model.p_method}; "
+            f"{model.n_decisions} decisions of {model.n_participants} participants"
+            + (f" ({model.note})" if model.note else "")
+        )
+    ratio = model.ratio_name.replace(" ", "_")
+    records = [
+        {"term": t.term, ratio: t.ratio, "lower": t.lower}
+        | {"upper": t.upper, "p": t.p, "p_method": model.p_method, "note": model.note}
+        for t in model.terms
+    ] + [
+        {"term": f"variance: {component.name}", "variance": component.variance}
+        for component in model.variance
+    ]
+    if not model.terms:  # the reason, under the same header, so a reader of the CSV sees it
+        records = [
+            {"term": "not fitted", "p": None, "p_method": model.p_method, "note": model.note}
         ]
-        + [
-            {"term": f"variance: {component.name}", "variance": component.variance}
-            for component in model.variance
-        ]
-    )
+    columns = ["term", ratio, "lower", "upper", "p", "p_method", "note", "variance"]
+    frame = pd.DataFrame(records, columns=columns)
     return Table(
         name,
         caption,

@@ -12,7 +12,9 @@ Probes are scored per trial:
 
 Questionnaires come from the export's ``scores`` table (the instruments'
 own scoring: TLX weighting, SART's SU − (DAR − SAR), MRT's item rule), so the
-analysis never re-implements scoring. An instrument with no scores falls
+analysis never re-implements scoring. The MRT is one measure per participant,
+its total over both parts (:func:`mrt_scores`); the export's per-part rows are
+halves of the test, not scores. An instrument with no scores falls
 back to its raw numeric ``questionnaire_items`` (e.g. the 1–7 post-trial
 Likert answers, or ranks), one measure per item. The export never
 overwrites, so a corrected answer is a later row: the last row wins.
@@ -92,16 +94,16 @@ def _tlx_ratings(items: pd.DataFrame) -> pd.DataFrame:
 
 
 def questionnaire_measures(scores: pd.DataFrame, items: pd.DataFrame) -> pd.DataFrame:
-    """NASA-TLX, SART, post-trial, ranking and MRT, from scores or raw items."""
+    """NASA-TLX, SART, post-trial and ranking, from scores or raw items (the MRT: :func:`mrt_scores`)."""
     scores = _latest(scores, ["participant", "instrument", "model", "scale"])
     items = _latest(items, ["participant", "instrument", "model", "item"])
     frames = []
-    for instrument in (*MODEL_INSTRUMENTS, "mrt"):
+    for instrument in MODEL_INSTRUMENTS:
         if (scores["instrument"] == instrument).any():
             frames.append(_item_rows(scores, instrument, "scale", "score"))
             if instrument == "nasa_tlx":
                 frames.append(_tlx_ratings(items))
-        elif instrument != "mrt" and (items["instrument"] == instrument).any():
+        elif (items["instrument"] == instrument).any():
             frames.append(_item_rows(items, instrument, "item", "value"))
     frames = [frame for frame in frames if not frame.empty]
     if not frames:
@@ -110,19 +112,34 @@ def questionnaire_measures(scores: pd.DataFrame, items: pd.DataFrame) -> pd.Data
 
 
 def mrt_scores(scores: pd.DataFrame, participants: pd.DataFrame) -> pd.Series:
-    """Each participant's MRT score (0–24), indexed by participant code.
+    """Each participant's MRT score: the total over both parts (0–24), by participant code.
 
-    The ``scores`` table is preferred (scale ``overall``, or its only scale);
-    the participants table's ``mrt_score`` is the fallback, since both come
-    from the same scoring.
+    The export's ``scores`` rows are ``total``, ``part_1`` and ``part_2``; the
+    score is ``total`` (``overall`` in older exports), else the sum of the
+    parts a participant has, never one part alone. The participants table's
+    ``mrt_score`` (the stored total) is the fallback for a participant with
+    no score rows.
     """
-    mrt = scores[scores["instrument"] == "mrt"]
-    if not mrt.empty:
-        if (mrt["scale"] == "overall").any():
-            mrt = mrt[mrt["scale"] == "overall"]
-        mrt = _latest(mrt, ["participant"])
-        return pd.to_numeric(mrt.set_index("participant")["score"], errors="coerce").dropna()
+    mrt = _latest(scores[scores["instrument"] == "mrt"], ["participant", "scale"]).assign(
+        score=lambda frame: pd.to_numeric(frame["score"], errors="coerce")
+    )
+    mrt = mrt.dropna(subset=["score"])
+    mrt = mrt.assign(participant=mrt["participant"].astype(str))
+    totals = {}
+    for participant, rows in mrt.groupby("participant", sort=True):
+        by_scale = dict(zip(rows["scale"].astype(str), rows["score"], strict=True))
+        parts = [score for scale, score in by_scale.items() if scale.startswith("part_")]
+        for whole in ("total", "overall"):
+            if whole in by_scale:
+                totals[participant] = float(by_scale[whole])
+                break
+        else:
+            if parts:
+                totals[participant] = float(sum(parts))
+    found = pd.Series(totals, dtype=float)
     if "mrt_score" in participants.columns and len(participants):
-        table = participants.set_index("participant")["mrt_score"]
-        return pd.to_numeric(table, errors="coerce").dropna()
-    return pd.Series(dtype=float)
+        stored = participants.assign(participant=participants["participant"].astype(str))
+        stored = pd.to_numeric(stored.set_index("participant")["mrt_score"], errors="coerce")
+        stored = stored.dropna()
+        found = pd.concat([found, stored[~stored.index.isin(found.index)]])
+    return found.sort_index()

@@ -79,6 +79,19 @@ NUMERIC_DECISION_COLUMNS = (
     "n_decide",
     "n_interventions",
 )
+#: The longest plausible decision, in seconds: a decision cannot outlast its trial, and the
+#: bundled study's trials are 20 min and the simulation's decisions time out at 30 min.
+MAX_DECISION_S = 3600.0
+#: Per-decision counts are whole numbers; no decision of a trial can hold more than this.
+MAX_COUNT = 100_000
+#: Plausible (lowest, highest, whole) per numeric decision column.
+DECISION_RANGES: dict[str, tuple[float, float, bool]] = {
+    "decision_time_s": (0.0, MAX_DECISION_S, False),
+    **{
+        name: (0.0, float(MAX_COUNT), True)
+        for name in ("n_requests", "n_investigate", "n_abandon", "n_decide", "n_interventions")
+    },
+}
 TEXT_COLUMNS = frozenset(
     {"source", "model", "participant", "trial_id", "scenario_id", "collective", "difficulty"}
 )
@@ -153,11 +166,29 @@ def parse_bool(column: pd.Series) -> pd.Series:
     return mapped.astype("boolean")
 
 
+def _delimiter_hint(frame: pd.DataFrame) -> str:
+    """Why every column seems missing, when the file is not comma-separated."""
+    if len(frame.columns) != 1:
+        return ""
+    header = str(frame.columns[0])
+    for delimiter, name in ((";", "semicolons"), ("\t", "tabs"), ("|", "bars")):
+        if delimiter in header:
+            return (
+                f"; its header is one column separated by {name} ({header[:60]!r}): "
+                "the export's tables are comma-separated CSV (a spreadsheet saving in a "
+                "locale with decimal commas writes semicolons; save as CSV with commas)"
+            )
+    return ""
+
+
 def _checked(frame: pd.DataFrame, where: str, table: str, required: Sequence[str]) -> pd.DataFrame:
     """The raw table with its required columns present and booleans parsed."""
     missing = [name for name in required if name not in frame.columns]
     if missing:
-        raise AnalysisInputError(f"{where}: the {table} table lacks column(s) {', '.join(missing)}")
+        raise AnalysisInputError(
+            f"{where}: the {table} table lacks column(s) {', '.join(missing)}"
+            + _delimiter_hint(frame)
+        )
     for name in BOOLEAN_COLUMNS.intersection(frame.columns):
         try:
             frame[name] = parse_bool(frame[name])
@@ -167,19 +198,33 @@ def _checked(frame: pd.DataFrame, where: str, table: str, required: Sequence[str
 
 
 def _numeric(frame: pd.DataFrame, where: str, columns: Sequence[str]) -> None:
-    """Parse ``columns`` as numbers in place; text, infinity or a negative value is refused.
+    """Parse ``columns`` as numbers in place; text, infinity or a value out of range is refused.
 
-    The CSV row number is counted as a spreadsheet shows it (header = row 1).
+    The range is :data:`DECISION_RANGES`' (a time within a trial, whole
+    counts), so a decision time of 1e300 s is named with its row instead of
+    becoming a 300-digit mean. The CSV row number is counted as a spreadsheet
+    shows it (header = row 1).
     """
     for name in columns:
         raw = frame[name]
         values = pd.to_numeric(raw, errors="coerce").astype(float)
-        bad = (raw.notna() & values.isna()) | np.isinf(values) | (values < 0)
+        lowest, highest, whole = DECISION_RANGES[name]
+        with np.errstate(invalid="ignore"):
+            bad = (raw.notna() & values.isna()) | ~np.isfinite(values) & values.notna()
+            bad |= (values < lowest) | (values > highest)
+            if whole:
+                bad |= values.notna() & (values != np.floor(values))
         if bad.any():
             position = int(np.flatnonzero(bad.to_numpy())[0])
+            kind = "a whole number" if whole else "a number"
             raise AnalysisInputError(
                 f"{where}: column {name!r} holds {str(raw.iloc[position])!r} in row "
-                f"{position + 2}, expected a finite number ≥ 0"
+                f"{position + 2}, expected {kind} from {lowest:g} to {highest:g}"
+                + (
+                    " (seconds; no decision outlasts its trial)"
+                    if name == "decision_time_s"
+                    else ""
+                )
             )
         frame[name] = values
 

@@ -38,6 +38,7 @@ MEASURE_LABELS = {
     "nasa_tlx.overall": "NASA-TLX: weighted total",
     "nasa_tlx.raw_tlx": "NASA-TLX: raw total",
     "sart.overall": "SART: total SU − (DAR − SAR)",
+    "mrt.total": "MRT score: total of both parts (0–24)",
 }
 
 INSTRUMENT_LABELS = {
@@ -48,7 +49,8 @@ INSTRUMENT_LABELS = {
     "mrt": "MRT score",
 }
 
-MRT_MEASURE = "mrt.overall"
+#: The MRT's one measure: the total of both parts (0–24), per participant.
+MRT_MEASURE = "mrt.total"
 
 
 def measure_label(measure: str) -> str:
@@ -72,10 +74,8 @@ def measure_order(measure: str) -> tuple[int, str]:
     return (len(fixed) + rank, measure)
 
 
-def _mrt_fallback(tables: StudyTables, present: pd.DataFrame) -> pd.DataFrame:
-    """MRT scores from participants.csv when the scores table has none."""
-    if not present.empty and (present["measure"] == MRT_MEASURE).any():
-        return pd.DataFrame(columns=MEASURE_COLUMNS)
+def _mrt(tables: StudyTables) -> pd.DataFrame:
+    """One MRT row per participant: the total (scores table, else participants.csv)."""
     scores = mrt_scores(tables.scores, tables.participants)
     return pd.DataFrame(
         {
@@ -99,7 +99,7 @@ def all_measures(tables: StudyTables) -> pd.DataFrame:
         observation_measures(tables.requests, tables.observations),
         probe_measures(tables.probes),
         questionnaires,
-        _mrt_fallback(tables, questionnaires),
+        _mrt(tables),
     ]
     frames = [frame for frame in frames if not frame.empty]
     if not frames:

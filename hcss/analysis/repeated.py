@@ -13,8 +13,8 @@ R's conventions so a check in R agrees:
   zeros, else the normal approximation with tie and continuity corrections;
   effect size the matched-pairs rank-biserial r = (T₊ − T₋) / (T₊ + T₋),
   signed like the difference, with its Fisher-z interval, as
-  ``effectsize::rank_biserial(x, y, paired = TRUE)``: zeros are dropped from
-  r, while its standard error counts every complete pair.
+  ``effectsize::rank_biserial(Pair(x, y) ~ 1)``: zero differences are
+  dropped from r and from its standard error alike.
 """
 
 from __future__ import annotations
@@ -28,8 +28,6 @@ import pandas as pd
 from scipy import stats
 
 from hcss.analysis.effect_intervals import (
-    BOOTSTRAP,
-    FISHER,
     kendalls_w_interval,
     paired_rank_biserial_interval,
 )
@@ -60,7 +58,7 @@ def friedman(blocks: pd.DataFrame) -> TestResult:
     sums = ranks.sum(axis=0)
     statistic = 12.0 * float(((sums - n * (k + 1) / 2.0) ** 2).sum()) / denominator
     p = float(stats.chi2.sf(statistic, df))
-    lower, upper = kendalls_w_interval(complete)
+    interval = kendalls_w_interval(complete)
     return TestResult(
         "friedman",
         "χ²",
@@ -71,9 +69,9 @@ def friedman(blocks: pd.DataFrame) -> TestResult:
         "Kendall's W",
         statistic / (n * df),
         FRIEDMAN_METHOD,
-        effect_lower=lower,
-        effect_upper=upper,
-        interval_method=BOOTSTRAP if not math.isnan(lower) else "",
+        effect_lower=interval.lower,
+        effect_upper=interval.upper,
+        interval_method=interval.method,
     )
 
 
@@ -104,7 +102,8 @@ def paired_wilcoxon(first: Sequence[float], second: Sequence[float]) -> TestResu
     The statistic is R's V, the sum of the ranks of positive differences.
     Differences are taken on the exact values (:func:`exact_differences`),
     so two pairs whose differences are equal in exact arithmetic tie, as
-    they do when R is given the same values.
+    they do in R given the exact values (or ``digits.rank = 7`` on the same
+    doubles; R's default ``digits.rank = Inf`` can split such a tie).
     Pairs with a missing value are dropped; ``n`` is the number of pairs
     with a non-zero difference (the pairs the test uses).
     """
@@ -150,7 +149,7 @@ def paired_wilcoxon(first: Sequence[float], second: Sequence[float]) -> TestResu
             method += " (n ≥ 50)"
     total = n * (n + 1) / 2.0
     effect = (v - (total - v)) / total
-    lower, upper = paired_rank_biserial_interval(effect, int(keep.sum()))
+    interval = paired_rank_biserial_interval(effect, n)
     return TestResult(
         "wilcoxon_paired",
         "V",
@@ -161,7 +160,7 @@ def paired_wilcoxon(first: Sequence[float], second: Sequence[float]) -> TestResu
         PAIRED_EFFECT,
         effect,
         method,
-        effect_lower=lower,
-        effect_upper=upper,
-        interval_method=FISHER if not math.isnan(lower) else "",
+        effect_lower=interval.lower,
+        effect_upper=interval.upper,
+        interval_method=interval.method,
     )

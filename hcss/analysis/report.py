@@ -211,7 +211,7 @@ def run_analysis(
         for name, draw in section.figures:
             write_figure(draw(), directory / "figures", name)
             figures.setdefault(section.key, []).append(name)
-    write_r_script(directory, tables.decisions, tables.participants)
+    write_r_script(directory, tables.decisions, tables.participants, tables.scores)
     html_path = write_html(directory, sections, figures, tables, include_pilot)
     steps.update()
     steps.close()

@@ -3,8 +3,10 @@
 A reviewer should not have to trust Python: ``analysis.R`` (a package
 resource, so it reads as R) reruns every test of the report with R's own
 functions, from the CSV files in the report's folder, and writes R's p beside
-hcss's in ``r_pvalues.csv``. ``model_decisions.csv`` holds the decisions the
-models were fitted to, with the counterbalancing columns they used.
+hcss's in ``r_pvalues.csv`` (and statistics and effect sizes), after
+recomputing the measures it can from the export into ``r_measures.csv``.
+``model_decisions.csv`` holds the decisions the models were fitted to, with
+the counterbalancing columns they used.
 """
 
 from __future__ import annotations
@@ -18,8 +20,10 @@ from hcss.analysis.clustered import human_decisions
 
 SCRIPT = "analysis.R"
 MODEL_DECISIONS = "model_decisions.csv"
+MRT_SCORES = "mrt_scores.csv"
 MODEL_COLUMNS = (
     "participant",
+    "trial_id",
     "model",
     "difficulty",
     "correct",
@@ -30,9 +34,17 @@ MODEL_COLUMNS = (
 
 
 def write_r_script(
-    directory: Path, decisions: pd.DataFrame, participants: pd.DataFrame
+    directory: Path,
+    decisions: pd.DataFrame,
+    participants: pd.DataFrame,
+    scores: pd.DataFrame | None = None,
 ) -> list[Path]:
-    """Write analysis.R and, when there are human decisions, model_decisions.csv."""
+    """Write analysis.R, model_decisions.csv (human decisions) and mrt_scores.csv.
+
+    mrt_scores.csv is the export's own MRT rows (total and parts, as
+    scored), not hcss's measure, so the script recomputes the MRT score
+    from the export and a wrong measure shows in r_measures.csv.
+    """
     script = directory / SCRIPT
     script.write_text(files("hcss.analysis").joinpath(SCRIPT).read_text(encoding="utf-8"))
     written = [script]
@@ -42,4 +54,8 @@ def write_r_script(
         table["correct"] = table["correct"].fillna(False).astype(bool).astype(int)
         table.to_csv(directory / MODEL_DECISIONS, index=False)
         written.append(directory / MODEL_DECISIONS)
+    if scores is not None and (scores["instrument"] == "mrt").any():
+        mrt = scores.loc[scores["instrument"] == "mrt", ["participant", "scale", "score"]]
+        mrt.to_csv(directory / MRT_SCORES, index=False)
+        written.append(directory / MRT_SCORES)
     return written

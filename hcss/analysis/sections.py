@@ -217,7 +217,7 @@ def _test_sections(
             ("gee_success", success_gee(tables.decisions, tables.participants)),
             ("mixedlm_time", time_mixed_model(tables.decisions, tables.participants)),
         ):
-            if model.terms or not model.note.startswith("needs"):  # too small: in the banner
+            if model.terms or not model.too_small:  # too small: listed in the banner
                 design.append(model_table(name, model))
     design = [table for table in design if table.rows]
     if design:

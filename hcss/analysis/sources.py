@@ -19,16 +19,60 @@ import pandas as pd
 #: A zip member larger than this is refused (the export of a whole study is
 #: a few MB; this stops a zip bomb before pandas inflates it).
 MAX_MEMBER_BYTES = 512 * 1024 * 1024
+#: The longest line a CSV table may hold. The export's longest rows (a free-text answer)
+#: are well under 1 KiB; a file without line breaks would otherwise be parsed as one
+#: ever-growing field (a 50 MB such file ran past 2 GB of memory).
+MAX_LINE_BYTES = 64 * 1024
+#: Bytes scanned at a time when checking line lengths.
+_SCAN_BYTES = 1024 * 1024
 
 
 class SourceError(ValueError):
     """An INPUT that is not a table, folder or zip the analysis can read."""
 
 
+def _check_lines(source: io.BytesIO | Path, where: str, table: str) -> None:
+    """Refuse a CSV with a line longer than :data:`MAX_LINE_BYTES` before pandas reads it.
+
+    The scan reads fixed-size blocks, so its memory is bounded whatever the file holds;
+    a file larger than a study export can be (:data:`MAX_MEMBER_BYTES`) is refused first.
+    """
+    if isinstance(source, Path) and source.stat().st_size > MAX_MEMBER_BYTES:
+        raise SourceError(
+            f"{where}: the {table} table is larger than a study export can be "
+            f"({source.stat().st_size / 1e6:.0f} MB; at most {MAX_MEMBER_BYTES // 2**20} MiB)"
+        )
+    stream = source if isinstance(source, io.BytesIO) else source.open("rb")
+    try:
+        line, current = 1, 0
+        while block := stream.read(_SCAN_BYTES):
+            start = 0
+            while (newline := block.find(b"\n", start)) >= 0:
+                current += newline - start
+                if current > MAX_LINE_BYTES:
+                    break
+                line, current, start = line + 1, 0, newline + 1
+            else:
+                current += len(block) - start
+            if current > MAX_LINE_BYTES:
+                raise SourceError(
+                    f"{where}: line {line} of the {table} table is longer than "
+                    f"{MAX_LINE_BYTES // 1024} KiB: not a table of the export "
+                    "(a file without line breaks?)"
+                )
+    finally:
+        if isinstance(source, io.BytesIO):
+            source.seek(0)
+        else:
+            stream.close()
+
+
 def _read(
     source: io.BytesIO | Path, suffix: str, text_columns: frozenset[str], where: str, table: str
 ) -> pd.DataFrame:
     """One table, with any reading error explained for the command line."""
+    if suffix != ".parquet":
+        _check_lines(source, where, table)
     try:
         if suffix == ".parquet":
             frame = pd.read_parquet(source)

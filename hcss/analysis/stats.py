@@ -18,8 +18,6 @@ import numpy as np
 from scipy import stats
 
 from hcss.analysis.effect_intervals import (
-    BOOTSTRAP,
-    FISHER,
     epsilon_squared_interval,
     rank_biserial_interval,
     spearman_interval,
@@ -107,7 +105,7 @@ def kruskal_wallis(groups: Mapping[str, Sequence[float]]) -> TestResult:
         nan = float("nan")
         return TestResult("kruskal_wallis", "H", nan, df, nan, n, "ε²", nan, note=ALL_EQUAL)
     statistic, p = stats.kruskal(*samples)
-    lower, upper = epsilon_squared_interval(samples)
+    interval = epsilon_squared_interval(samples)
     return TestResult(
         "kruskal_wallis",
         "H",
@@ -118,9 +116,9 @@ def kruskal_wallis(groups: Mapping[str, Sequence[float]]) -> TestResult:
         "ε²",
         float(statistic) / (n - 1),
         KRUSKAL_METHOD if _has_ties(np.concatenate(samples)) else KRUSKAL_METHOD_UNTIED,
-        effect_lower=lower,
-        effect_upper=upper,
-        interval_method=BOOTSTRAP if not math.isnan(lower) else "",
+        effect_lower=interval.lower,
+        effect_upper=interval.upper,
+        interval_method=interval.method,
     )
 
 
@@ -187,7 +185,7 @@ def mann_whitney(
     )
     u = float(result.statistic)
     r = 2.0 * u / (len(x) * len(y)) - 1.0
-    lower, upper = rank_biserial_interval(r, len(x), len(y))
+    interval = rank_biserial_interval(r, len(x), len(y))
     return TestResult(
         "mann_whitney",
         "W",
@@ -199,9 +197,9 @@ def mann_whitney(
         r,
         description,
         note,
-        lower,
-        upper,
-        FISHER if not math.isnan(lower) else "",
+        interval.lower,
+        interval.upper,
+        interval.method,
     )
 
 
@@ -231,8 +229,5 @@ def spearman(first: Sequence[float], second: Sequence[float]) -> TestResult:
         return TestResult("spearman", "ρ", nan, float(n - 2), nan, n, "ρ", nan, note=ALL_EQUAL)
     rho = float(stats.spearmanr(x, y).statistic)
     p, method = spearman_p(rho, n, _has_ties(x) or _has_ties(y))
-    lower, upper = spearman_interval(rho, n)
-    interval = "Fisher z, Bonett-Wright SE" if not math.isnan(lower) else ""
-    return TestResult(
-        "spearman", "ρ", rho, float(n - 2), p, n, "ρ", rho, method, "", lower, upper, interval
-    )
+    interval = spearman_interval(rho, n)
+    return TestResult("spearman", "ρ", rho, float(n - 2), p, n, "ρ", rho, method, "", *interval)

@@ -45,13 +45,24 @@ def format_p(p: float) -> str:
     return f"{p:.3f}".replace("0.", ".", 1) if p < 1 else "1.000"
 
 
-def format_effect(estimate: float, lower: float, upper: float) -> str:
-    """An effect size with its 95% interval, ``0.42 [0.10, 0.66]``; bare when none exists."""
+def format_effect(estimate: float, lower: float, upper: float, method: str = "") -> str:
+    """An effect size with its 95% interval, ``0.42 [0.10, 0.66]``.
+
+    Without an interval the estimate is followed by why there is none
+    (``method``, e.g. ``1.00 (no CI: r = +1, …)``), never printed bare.
+    """
     if estimate is None or math.isnan(estimate):
         return "–"
     if lower is None or upper is None or math.isnan(lower) or math.isnan(upper):
-        return format_number(estimate)
+        return f"{format_number(estimate)} ({method or 'no CI'})"
     return f"{format_number(estimate)} [{format_number(lower)}, {format_number(upper)}]"
+
+
+def effect_cell(result: TestResult) -> str:
+    """The effect size cell of a test: estimate, interval or the reason it has none."""
+    return format_effect(
+        result.effect_size, result.effect_lower, result.effect_upper, result.interval_method
+    )
 
 
 def effect_record(result: TestResult | None, column: str) -> dict[str, object]:
@@ -150,5 +161,8 @@ def write_table(table: Table, directory: Path) -> list[Path]:
     paths = [directory / f"{table.name}.{suffix}" for suffix in ("md", "tex", "csv")]
     paths[0].write_text(to_markdown(table), encoding="utf-8")
     paths[1].write_text(to_latex(table), encoding="utf-8")
-    table.frame.to_csv(paths[2], index=False)
+    frame = table.frame
+    if frame.columns.empty:  # never a file without a header: say why there are no rows
+        frame = pd.DataFrame({"note": [f"no rows: {table.caption}"]})
+    frame.to_csv(paths[2], index=False)
     return paths

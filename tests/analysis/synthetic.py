@@ -181,15 +181,22 @@ def study_export(directory: Path, participants: int = 6, seed: int = 11) -> Path
                 "sart_M3": 5.0,
             }
         )
-        scores.append(
-            {
-                "participant": code,
-                "instrument": "mrt",
-                "model": "",
-                "scale": "overall",
-                "score": people[-1]["mrt_score"],
-            }
-        )
+        total = people[-1]["mrt_score"]
+        for scale, score in (
+            ("total", total),
+            ("part_1", total // 2),
+            ("part_2", total - total // 2),
+        ):
+            # the export's MRT rows: the total, then each part (the last row is a half)
+            scores.append(
+                {
+                    "participant": code,
+                    "instrument": "mrt",
+                    "model": "",
+                    "scale": scale,
+                    "score": score,
+                }
+            )
         for stage_index, stage in enumerate(("consent", "demographics", "mrt")):
             timings.append(
                 {

@@ -30,9 +30,12 @@ def test_one_participant_gets_counts_and_one_line_per_test_not_run(tmp_path: Pat
     assert "design" in keys
 
 
-def test_enough_participants_run_every_test_and_list_none(tmp_path: Path):
+def test_six_participants_run_every_rank_test_and_list_only_the_models(tmp_path: Path):
     tables = load_inputs([study_export(tmp_path / "export", participants=6)])
-    assert sample_banner(tables).not_run == ()
+    assert sample_banner(tables).not_run == (
+        "Decision-level GEE and mixed model: they need 10 or more participants (6); "
+        "robust errors from fewer clusters are not trustworthy",
+    )
     keys = [section.key for section in build_sections(tables, all_measures(tables))]
     assert {"independent", "repeated", "correlations", "design"} <= set(keys)
 
@@ -111,11 +114,9 @@ def test_a_measure_met_once_per_participant_is_drawn():
     """The MRT (group "All") drew an empty panel: only model groups were drawn."""
     from hcss.analysis.figures import family_figure
 
-    rows = [
-        ("mrt.overall", "overall", "All", "study", f"P{i}", f"P{i}", 10.0 + i) for i in range(5)
-    ]
+    rows = [("mrt.total", "overall", "All", "study", f"P{i}", f"P{i}", 10.0 + i) for i in range(5)]
     measures = pd.DataFrame(
         rows, columns=["measure", "split", "group", "source", "unit", "participant", "value"]
     )
-    figure = family_figure(measures, ["mrt.overall"], "Mental Rotations Test")
+    figure = family_figure(measures, ["mrt.total"], "Mental Rotations Test")
     assert len(figure.axes[0].patches) == 1  # the box of the five scores

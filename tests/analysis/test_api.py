@@ -48,7 +48,8 @@ def test_friedman_and_paired_wilcoxon_from_long_format():
     )
     last = pairs.iloc[2]
     assert (last["effect_size"], last["effect_lower"], last["effect_upper"]) == pytest.approx(
-        (0.75, 0.1928996600157, 0.9414395798715), rel=REL
+        (0.75, 0.1437172025638, 0.9469292144544),
+        rel=REL,  # test_r_agreement: effectsize by hand
     )
 
 

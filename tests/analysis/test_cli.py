@@ -104,7 +104,7 @@ def test_study_export_gives_every_table(study_report):
         "descriptive_sart_su",
         "descriptive_post_trial_responsiveness",
         "descriptive_ranking_performance",
-        "descriptive_mrt_overall",
+        "descriptive_mrt_total",
         "kruskal_wallis",
         "tukey_kramer_ranks",
         "dunn_holm",
@@ -137,9 +137,9 @@ def test_study_tests_cover_models_and_exclude_bots(study_report):
         "abandon_frequency",
     } <= set(spearman["x"])
     # the MRT's correlations are shown once, in the MRT section
-    assert "mrt.overall" not in set(spearman["x"])
+    assert "mrt.total" not in set(spearman["x"])
     mrt = pd.read_csv(report / "tables" / "spearman_mrt.csv")
-    assert set(mrt["x"]) == {"mrt.overall"}
+    assert set(mrt["x"]) == {"mrt.total"}
     measures = pd.read_csv(report / "measures.csv")
     assert not measures["participant"].astype(str).str.startswith(("BOT", "PILOT")).any()
 
@@ -215,7 +215,7 @@ def test_one_simulation_model_and_bare_study_export_still_report(tmp_path):
     assert tests["U"].isna().all()
     assert tests["note"].str.contains("both samples").all()
     names = {path.stem for path in (out / "tables").glob("*.csv")}
-    assert {"descriptive_request_frequency", "descriptive_mrt_overall", "kruskal_wallis"} <= names
+    assert {"descriptive_request_frequency", "descriptive_mrt_total", "kruskal_wallis"} <= names
     assert "descriptive_sa_overall" not in names  # no probes exported, no probe table
 
 

@@ -214,3 +214,60 @@ def test_damaged_zip_members_are_clear_errors(tmp_path: Path, damage: str):
     (tmp_path / "export.zip").write_bytes(content)
     with pytest.raises(AnalysisInputError, match="export.zip: cannot read it"):
         load_inputs([tmp_path / "export.zip"])
+
+
+@pytest.mark.parametrize(
+    ("column", "value", "message"),
+    [
+        # 1e300 s was accepted and printed as a 300-digit mean with SD "(inf)"
+        ("decision_time_s", "1e300", "holds '1e+300' in row 3, expected a number from 0 to 3600"),
+        ("decision_time_s", "3600.5", "holds '3600.5' in row 3, expected a number from 0 to 3600"),
+        ("n_requests", "2.5", "holds '2.5' in row 3, expected a whole number from 0 to 100000"),
+    ],
+)
+def test_values_outside_a_columns_plausible_range_are_refused(
+    tmp_path: Path, column: str, value: str, message: str
+):
+    rows = [decision_row(source="simulation", trial_id=f"t{i}") for i in range(3)]
+    frame = pd.DataFrame(rows, columns=DECISION_COLUMNS).astype({column: object})
+    frame.loc[1, column] = value
+    write_table(frame, tmp_path / "decisions.csv")
+    with pytest.raises(AnalysisInputError, match=re_escape(message)):
+        load_inputs([tmp_path / "decisions.csv"])
+
+
+def test_a_semicolon_file_gets_a_delimiter_hint(tmp_path: Path):
+    """A semicolon CSV reported all 17 columns missing and nothing else."""
+    rows = [decision_row(source="simulation", trial_id="t1")]
+    path = tmp_path / "decisions.csv"
+    pd.DataFrame(rows, columns=DECISION_COLUMNS).to_csv(path, sep=";", index=False)
+    with pytest.raises(AnalysisInputError, match="one column separated by semicolons"):
+        load_inputs([path])
+
+
+def test_a_file_without_line_breaks_is_refused_in_bounded_memory(tmp_path: Path):
+    """A 50 MB file with no line break ran 15 min past 2 GB before it was stopped."""
+    import time
+    import tracemalloc
+
+    path = tmp_path / "decisions.csv"
+    path.write_bytes(b"source," * (8 * 1024 * 1024))  # 56 MB, one line
+    tracemalloc.start()
+    started = time.perf_counter()
+    try:
+        with pytest.raises(AnalysisInputError, match="line 1 of the decisions table is longer"):
+            load_inputs([path])
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 16 * 1024 * 1024 and time.perf_counter() - started < 5
+
+
+def test_a_table_larger_than_an_export_can_be_is_refused_unread(tmp_path: Path, monkeypatch):
+    from hcss.analysis import sources
+
+    path = tmp_path / "decisions.csv"
+    path.write_bytes(b"source\n" + b"study\n" * 200)
+    monkeypatch.setattr(sources, "MAX_MEMBER_BYTES", 1024)
+    with pytest.raises(AnalysisInputError, match="larger than a study export can be"):
+        load_inputs([path])

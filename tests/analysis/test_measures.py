@@ -11,9 +11,10 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from hcss.analysis.comparisons import correlations
 from hcss.analysis.load import load_inputs
 from hcss.analysis.measures import all_measures, measure_label
-from tests.analysis.synthetic import DECISION_COLUMNS, decision_row, write_table
+from tests.analysis.synthetic import DECISION_COLUMNS, decision_row, study_export, write_table
 
 
 def _study_decisions() -> list[dict]:
@@ -150,8 +151,12 @@ def tiny_export(tmp_path: Path) -> Path:
             ("P1", "nasa_tlx", "M1", "effort_weighted", 12.0),
             ("P1", "sart", "M1", "overall", 7.0),
             ("P1", "ranking", "M1", "responsiveness", 2.0),
-            ("P1", "mrt", "", "overall", 17.0),
-            ("P2", "mrt", "", "overall", 9.0),
+            # the export's MRT rows: the total and each part; the part's row comes last
+            ("P1", "mrt", "", "total", 17.0),
+            ("P1", "mrt", "", "part_1", 9.0),
+            ("P1", "mrt", "", "part_2", 8.0),
+            ("P2", "mrt", "", "part_1", 4.0),  # no total row: the parts are summed
+            ("P2", "mrt", "", "part_2", 5.0),
         ],
         columns=["participant", "instrument", "model", "scale", "score"],
     )
@@ -261,7 +266,16 @@ def test_questionnaires_from_scores_and_items(measures):
     assert value(measures, "ranking.responsiveness", "P1") == 2.0
     # no post_trial scores in this export: the raw Likert items are used
     assert value(measures, "post_trial.responsiveness", "P2") == 3.0
-    assert value(measures, "mrt.overall", "P1") == 17.0
+    assert value(measures, "mrt.total", "P1") == 17.0
+
+
+def test_the_mrt_score_is_the_whole_test_one_row_per_participant(measures):
+    mrt = measures[measures["measure"].str.startswith("mrt.")]
+    assert set(mrt["measure"]) == {"mrt.total"}  # never a part, never a second "overall"
+    assert sorted(mrt["participant"]) == ["P1", "P2"]
+    assert value(measures, "mrt.total", "P1") == 17.0  # not part 2's 8
+    assert value(measures, "mrt.total", "P2") == 9.0  # 4 + 5
+    assert measure_label("mrt.total") == "MRT score: total of both parts (0–24)"
     assert measure_label("nasa_tlx.effort_weighted") == "NASA-TLX: effort weighted"
 
 
@@ -272,3 +286,20 @@ def test_bot_participants_are_excluded_unless_asked(tiny_export):
     assert value(included, "success_rate", "BOT") == 0.0
     # nor does its trial reach any other measure
     assert "BOT" not in set(default[default["measure"] == "request_frequency"]["unit"])
+
+
+def test_the_mrt_correlation_uses_the_total_as_r_does(tmp_path):
+    """The export's last MRT row is part 2, which the correlation used (ρ −0.372, p .364).
+
+    R 4.2, the 8 participants' MRT totals and M1 success rates of this export:
+    mrt <- c(6, 10, 4, 11, 18, 10, 15, 17); s <- c(10, 4, 9, 9, 7, 9, 6, 9) / 12
+    cor.test(mrt, s, method = "spearman")   # rho -0.4019348353313, p 0.3236049344748
+    cor.test(mrt - mrt %/% 2, s, method = "spearman")   # part 2: -0.3722847203232, 0.3637808929652
+    """
+    tables = load_inputs([study_export(tmp_path / "export", participants=8)])
+    measures = all_measures(tables)
+    totals = measures[measures["measure"] == "mrt.total"].set_index("participant")["value"]
+    assert totals.tolist() == [6, 10, 4, 11, 18, 10, 15, 17]
+    (m1,) = [c for c in correlations(measures) if c.x == "mrt.total" and c.group == "M1"]
+    assert m1.result.statistic == pytest.approx(-0.4019348353313, rel=1e-9)
+    assert m1.result.p == pytest.approx(0.3236049344748, rel=1e-9)

@@ -197,12 +197,33 @@ def test_paired_wilcoxon_with_ties_and_zeros_matches_r(a, b, v, p, n):
 
 
 def test_paired_rank_biserial_with_a_zero_difference_matches_effectsize():
-    # effectsize::rank_biserial(m[,2], m[,3], paired = TRUE)
-    #   0.75, 95% CI [0.1928996600157, 0.9414395798715] (r without the zero, SE with it)
+    """The interval's SE counts the non-zero differences, as r does (was [0.1929, 0.9414]).
+
+    effectsize is not in Debian; its published code (R/rank_diff.R,
+    ``rank_biserial(Pair(x, y) ~ 1)``) computed by hand in R 4.2:
+    d <- m[,2] - m[,3]; nz <- d[d != 0]; r <- rank(abs(nz)) * sign(nz); n <- length(r)
+    rb <- (sum(r[r > 0]) + sum(r[r < 0])) / (n * (n + 1) / 2)
+    nd <- sum(d != 0); maxw <- (nd^2 + nd) / 2
+    se <- sqrt((2 * nd^3 + 3 * nd^2 + nd) / 6) / maxw
+    tanh(atanh(rb) + c(-1, 1) * qnorm(0.975) * se)
+      # rb 0.75, 95% CI [0.1437172025638, 0.9469292144544]
+    """
     result = repeated.paired_wilcoxon(SCORES["M2"], SCORES["M3"])
     assert result.effect_size == pytest.approx(0.75, rel=REL)
-    assert result.effect_lower == pytest.approx(0.1928996600157, rel=REL)
-    assert result.effect_upper == pytest.approx(0.9414395798715, rel=REL)
+    assert result.effect_lower == pytest.approx(0.1437172025638, rel=REL)
+    assert result.effect_upper == pytest.approx(0.9469292144544, rel=REL)
+    assert result.interval_method == "Fisher z"
+
+
+def test_an_effect_of_one_says_why_it_has_no_interval():
+    """r = 1 printed a bare "1.00"; effectsize's tanh(atanh(1) ± …) is the zero-width [1, 1]."""
+    result = repeated.paired_wilcoxon(SCORES["M2"], SCORES["M1"].where(SCORES.index != 4, 55))
+    assert result.effect_size == 1.0
+    assert math.isnan(result.effect_lower) and math.isnan(result.effect_upper)
+    assert result.interval_method.startswith("no CI: r = +1, Fisher's z is infinite")
+    from hcss.analysis.tables import effect_cell
+
+    assert effect_cell(result).startswith("1.00 (no CI: r = +1")
 
 
 def test_spearman_interval_matches_the_bonett_wright_formula_in_r():
@@ -242,8 +263,11 @@ def test_a_degenerate_bootstrap_gives_no_interval_and_no_warning():
 
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        lower, upper = kendalls_w_interval(np.array([[0, 0, 0]] * 9 + [[0, 0, 1]], dtype=float))
-    assert math.isnan(lower) and math.isnan(upper)
+        interval = kendalls_w_interval(np.array([[0, 0, 0]] * 9 + [[0, 0, 1]], dtype=float))
+    assert interval.missing
+    assert interval.method == (
+        "no CI: bootstrap degenerate: the resampled statistic is constant or undefined"
+    )
 
 
 def test_paired_wilcoxon_holm_matches_r():

@@ -15,7 +15,10 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from hcss.analysis.clustered import success_gee
+from hcss.analysis.design_tables import model_table
 from hcss.analysis.report import run_analysis
+from hcss.analysis.tables import write_table as write_table_files
 from tests.analysis.synthetic import simulation_decisions, study_export, write_table
 
 
@@ -59,6 +62,7 @@ def r_pvalues(tmp_path_factory) -> tuple[pd.DataFrame, Path]:
     )
     assert completed.returncode == 0, completed.stderr
     assert "Logistic mixed model (glmer" in completed.stdout
+    assert "R error" not in completed.stdout
     return pd.read_csv(report.directory / "r_pvalues.csv"), report.directory
 
 
@@ -81,3 +85,43 @@ def test_every_p_value_of_the_report_is_reproduced_by_r(r_pvalues):
     spearman = _hcss_p_count(directory, "spearman")
     assert (table["table"] == "spearman").sum() >= spearman
     print(f"\nRscript analysis.R reproduced {len(table)} p-values")
+
+
+def test_statistics_and_effect_sizes_are_reproduced_too(r_pvalues):
+    """R's H, χ², V, W, ρ, ε², Kendall's W, rank-biserial r and exp(β) beside hcss's."""
+    table, _ = r_pvalues
+    for column, name in (("stat", "statistics"), ("effect", "effect sizes")):
+        rows = table[table[f"{column}_hcss"].notna() & table[f"{column}_r"].notna()]
+        assert len(rows) > 100, name
+        tolerance = rows["table"].map({"gee_success": 1e-5, "mixedlm_time": 1e-6}).fillna(1e-9)
+        relative = (rows[f"{column}_r"] - rows[f"{column}_hcss"]).abs() / rows[
+            f"{column}_hcss"
+        ].abs().clip(lower=1e-12)
+        assert (relative <= tolerance).all(), rows[relative > tolerance].to_string()
+    with_effects = set(table.loc[table["effect_hcss"].notna(), "table"])
+    assert {"kruskal_wallis", "friedman", "wilcoxon_paired", "mann_whitney"} <= with_effects
+
+
+def test_measures_are_recomputed_from_the_export(r_pvalues):
+    """Success rates, decision times and the MRT total from the export's own rows, in R."""
+    _, directory = r_pvalues
+    measures = pd.read_csv(directory / "r_measures.csv")
+    assert {"success_rate", "decision_time_min", "mrt.total"} <= set(measures["measure"])
+    assert (measures["value_r"] - measures["value_hcss"]).abs().max() <= 1e-9
+    assert len(measures[measures["measure"] == "mrt.total"]) == 12
+
+
+def test_the_script_never_stops_on_a_model_that_was_not_fitted(r_pvalues, tmp_path):
+    """An unfitted model's empty table stopped analysis.R at read.csv: no r_pvalues.csv at all."""
+    _, directory = r_pvalues
+    copy = shutil.copytree(directory, tmp_path / "report")
+    decisions = pd.read_csv(copy / "model_decisions.csv", dtype={"participant": str})
+    separated = decisions.assign(source="study", correct=True)
+    write_table_files(model_table("gee_success", success_gee(separated)), copy / "tables")
+    (copy / "tables" / "mixedlm_time.csv").write_text("")  # as older reports wrote it
+    (copy / "r_pvalues.csv").unlink()
+    completed = subprocess.run(["Rscript", "analysis.R"], cwd=copy, capture_output=True, text=True)
+    assert completed.returncode == 0, completed.stderr
+    table = pd.read_csv(copy / "r_pvalues.csv")
+    assert not table["table"].isin(["gee_success", "mixedlm_time"]).any()
+    assert table["table"].isin(["kruskal_wallis", "friedman"]).any()
