@@ -23,6 +23,7 @@ from typing import Any
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
+from hcss.platform.live.leases import trial_transaction
 from hcss.platform.live.recorder import kept_until_written, record_request_statuses
 from hcss.platform.live.session import RunningTrial
 from hcss.platform.live.trial_log import command_message
@@ -63,7 +64,7 @@ def submit_request(
         try:
             with (
                 kept_until_written(live, simulation_restored=True),
-                database.session_scope() as session,
+                trial_transaction(database, live) as session,
             ):
                 row = Command.applied(
                     live.trial_id,
@@ -128,7 +129,7 @@ def record_observation(
             step=live.sim.step_count,
             sim_time=float(live.sim.time),
         )
-        with database.session_scope() as session:
+        with trial_transaction(database, live) as session:
             session.add(row)
             session.flush()
             return _answered(session, key, {"observation_id": row.id}, status=201)
@@ -149,7 +150,7 @@ def probe_ready(
         running_s = None if now is None else live.running_wall_s(now)
         event = _probe_event(live, probe_id, "ready")
         event.latency_ms = _latency_ms(probe.delivered_s, running_s)
-        with database.session_scope() as session:
+        with trial_transaction(database, live) as session:
             session.add(event)
             answer = _answered(session, key, {"ok": True})
         probe.ready_pressed(running_s)
@@ -179,7 +180,7 @@ def probe_answer(
         )
         answered = _probe_event(live, probe_id, "answer", answer=answer)
         answered.latency_ms = _latency_ms(asked_s, running_s)
-        with database.session_scope() as session:
+        with trial_transaction(database, live) as session:
             session.add(answered)
             if probe.truth is not None:
                 event = _probe_event(live, probe_id, "scored", answer=answer)

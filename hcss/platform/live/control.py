@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 from sqlalchemy import update
 
+from hcss.platform.live.leases import trial_transaction
 from hcss.platform.live.recorder import kept_until_written, record_progress
 from hcss.platform.models import ConsoleAction, TrialOrder
 from hcss.platform.session_state import STATE_ACTIONS
@@ -52,7 +53,7 @@ def control_trial(
     now = runner.clock()
     # Advanced to `now` first: the clock stops (or the trial ends) at this instant.
     with runner.holding(live, now, advance=action != "resume"):
-        with kept_until_written(live), runner.database.session_scope() as session:
+        with kept_until_written(live), trial_transaction(runner.database, live) as session:
             if not live.ended:
                 record_progress(live, session)
             if order_id is not None:
