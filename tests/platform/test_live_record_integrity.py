@@ -1,0 +1,134 @@
+"""A trial's record stays one record: loaded once, rebuilt by identity, committed once.
+
+Two apps on one database stand for two server processes (as in test_leases.py);
+the clock is a `ManualClock`, so grace periods and leases pass at once.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import pytest
+from flask import Flask
+from sqlalchemy import func, select
+
+from hcss.platform.app import create_app
+from hcss.platform.bots import ManualClock
+from hcss.platform.live import actions
+from hcss.platform.live.leases import UNCLAIMED_GRACE_S
+from hcss.platform.live.runner import Runner
+from hcss.platform.live.trials import latest_status, start_bot_trial
+from hcss.platform.models import Command, CommandOutcome, Interruption, SimEvent, TrialProblem
+from hcss.simulation import OperatorCommand
+
+
+def _process(database_url: str, name: str | None, clock: ManualClock) -> Flask:
+    app = create_app(
+        {
+            "DATABASE_URL": database_url,
+            "SECRET_KEY": "test-secret",
+            "TESTING": True,
+            "LIVE_RUNNER": False,
+            "SNAPSHOT_INTERVAL_S": 1.0,
+            "PROCESS_NAME": name,
+            "LEASE_S": 6.0,
+        }
+    )
+    app.extensions["hcss_runner"].clock = clock
+    return app
+
+
+@pytest.fixture
+def group(database_url: str) -> Iterator[tuple[Runner, Runner, ManualClock]]:
+    clock = ManualClock(1_000_000.0)
+    a = _process(database_url, "127.0.0.1:5001/a", clock)
+    a.extensions["hcss_db"].create_all()
+    b = _process(database_url, "127.0.0.1:5002/b", clock)
+    yield a.extensions["hcss_runner"], b.extensions["hcss_runner"], clock
+    for app in (a, b):
+        app.extensions["hcss_db"].engine.dispose()
+
+
+def _start(runner: Runner) -> int:
+    with runner.database.session_scope() as session:
+        _, trial = start_bot_trial(session, seed=2, duration_s=600.0, time_acceleration=4.0)
+        return trial.id
+
+
+def _events(runner: Runner, trial_id: int) -> list[tuple[str, float, str]]:
+    with runner.database.session_scope() as session:
+        rows = session.execute(
+            select(SimEvent.kind, SimEvent.sim_time, SimEvent.text).where(
+                SimEvent.trial_id == trial_id
+            )
+        )
+        return [tuple(row) for row in rows]
+
+
+def test_a_trial_claimed_after_the_grace_writes_the_events_of_its_load_once(group) -> None:
+    """Nobody opened the trial within the grace: a runner takes it, steps it to the due step
+    (events happen on the way) and goes on. Each event is one row, not one per write."""
+    _a, b, clock = group
+    trial_id = _start(b)
+    clock.now += UNCLAIMED_GRACE_S + 5.0
+    b.tick()  # the runner loads it: 35 s of wall time, 140 s of trial time to catch up
+    assert trial_id in b.loaded_ids()
+    for _ in range(3):
+        clock.now += 0.5
+        b.tick()
+    events = _events(b, trial_id)
+    assert any(kind == "discovery" for kind, _, _ in events), events
+    twice = {event for event in events if events.count(event) > 1}
+    assert twice == set()
+
+
+def _command(runner: Runner, trial_id: int) -> OperatorCommand:
+    live = runner.get(trial_id)
+    assert live is not None
+    target = int(live.display().target_ids[0])
+    return OperatorCommand("investigate", 0, target)
+
+
+def test_the_rebuild_replays_the_commands_after_the_snapshots_last_one_by_identity(
+    group,
+) -> None:
+    """The log holds a command the live trial never applied (its commit's answer was lost,
+    the trial rolled back): the snapshots after it name the last command they hold, and a
+    rebuild replays what follows that command, not the log's tail by count."""
+    a, b, clock = group
+    trial_id = _start(a)
+    live = a.get(trial_id)
+    assert live is not None
+    for _ in range(20):
+        clock.now += 1.0
+        a.tick()
+    command = _command(a, trial_id)
+    actions.submit_request(a.database, live, command)
+    with a.database.session_scope() as session:  # a command in the log, not in memory
+        stray = session.scalars(select(Command).where(Command.trial_id == trial_id)).one()
+        session.add(
+            Command(
+                trial_id=trial_id,
+                kind=stray.kind,
+                collective=1,
+                target=stray.target,
+                step_applied=live.sim.step_count,
+                sim_time=float(live.sim.time),
+                selections=[],
+            )
+        )
+    clock.now += 1.0
+    a.tick()
+    actions.submit_request(a.database, live, OperatorCommand("investigate", 2, command.target))
+    for _ in range(2):
+        clock.now += 1.0
+        a.tick()  # a snapshot holding the two commands applied
+    clock.now += 7.0  # A dies; B takes the trial over
+    rebuilt = b.get(trial_id)
+    with b.database.session_scope() as session:
+        problems = session.scalars(select(TrialProblem.problem)).all()
+        status = latest_status(session, trial_id)
+        interruptions = session.scalar(select(func.count()).select_from(Interruption))
+    assert problems == [] and status == "running", problems
+    assert rebuilt is not None and interruptions == 1
+    assert rebuilt.sim.state_digest() != ""
