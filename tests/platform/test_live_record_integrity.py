@@ -132,3 +132,46 @@ def test_the_rebuild_replays_the_commands_after_the_snapshots_last_one_by_identi
     assert problems == [] and status == "running", problems
     assert rebuilt is not None and interruptions == 1
     assert rebuilt.sim.state_digest() != ""
+
+
+def _answer_lost_after_commit(database, monkeypatch, times: int = 1) -> None:  # type: ignore[no-untyped-def]
+    """The next `times` commits reach the database and commit; their answer never arrives
+    (the connection drops after the server sent it): the driver raises as for a lost line."""
+    dialect = database.engine.dialect
+    commit = dialect.do_commit
+    left = [times]
+
+    def lost(dbapi_connection) -> None:  # type: ignore[no-untyped-def]
+        commit(dbapi_connection)
+        if left[0] > 0:
+            left[0] -= 1
+            raise dialect.loaded_dbapi.OperationalError("server closed the connection")
+
+    monkeypatch.setattr(dialect, "do_commit", lost)
+
+
+def test_a_command_whose_commit_answer_is_lost_stays_applied_as_logged(group, monkeypatch) -> None:
+    """The command's transaction committed but its answer was lost: the service asks the
+    database, finds the command logged and keeps it applied in memory, so the trial in
+    memory and its log agree (before, it was rolled back while its row stayed logged)."""
+    a, b, clock = group
+    trial_id = _start(a)
+    live = a.get(trial_id)
+    assert live is not None
+    for _ in range(20):
+        clock.now += 1.0
+        a.tick()
+    command = _command(a, trial_id)
+    _answer_lost_after_commit(a.database, monkeypatch)
+    answer = actions.submit_request(a.database, live, command)
+    with a.database.session_scope() as session:
+        logged = session.scalars(select(Command.id).where(Command.trial_id == trial_id)).all()
+        outcomes = session.scalar(select(func.count()).select_from(CommandOutcome))
+    assert logged == [answer["command_id"]] and outcomes == 1
+    assert live.last_command_id == logged[0] and live.sim.commands_applied == 1
+    for _ in range(2):
+        clock.now += 1.0
+        a.tick()
+    clock.now += 7.0  # A dies; B's rebuild agrees with what A held
+    rebuilt = b.get(trial_id)
+    assert rebuilt is not None and rebuilt.sim.commands_applied == 1

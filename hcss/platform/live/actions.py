@@ -18,8 +18,10 @@ write can never carry the command out twice.
 
 from __future__ import annotations
 
+import logging
 from typing import Any
 
+from sqlalchemy.exc import DBAPIError
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
@@ -35,6 +37,9 @@ from hcss.platform.models import (
     ProbeEvent,
 )
 from hcss.simulation import OperatorCommand
+from hcss.simulation.requests import RequestOutcome
+
+log = logging.getLogger(__name__)
 
 
 class ActionError(Exception):
@@ -61,6 +66,7 @@ def submit_request(
         step, sim_time = sim.step_count, float(sim.time)
         before = sim.snapshot()
         outcome = sim.apply(command)
+        row: Command | None = None
         try:
             with (
                 kept_until_written(live, simulation_restored=True),
@@ -78,17 +84,15 @@ def submit_request(
                 session.flush()
                 session.add(CommandOutcome.of(row.id, outcome))
                 record_request_statuses(live, session)
-                answer = _answered(
-                    session,
-                    key,
-                    {
-                        "command_id": row.id,
-                        "accepted": outcome.accepted,
-                        "request_id": outcome.request_id if outcome.accepted else None,
-                        "reason": outcome.reason,
-                        "step": step,
-                    },
-                )
+                answer = _answered(session, key, _committed_answer(row, outcome, step))
+        except DBAPIError:
+            if row is None or not _was_committed(database, row):
+                live.roll_back_to(before)
+                raise
+            # The commit's answer was lost after the database committed (a dropped line, a
+            # failover): the command is in the log, so it stays applied in memory too.
+            log.warning("trial %s: command %s committed, its answer lost", live.trial_id, row.id)
+            answer = _committed_answer(row, outcome, step)
         except BaseException:
             live.roll_back_to(before)
             raise
@@ -190,6 +194,32 @@ def probe_answer(
         live.probe_answered(answer)
         live.touch()
         return reply
+
+
+def _was_committed(database: Database, row: Command) -> bool:
+    """Whether the command's row is in the database after its commit failed: asked, not guessed.
+
+    A row flushed before the failed commit has its id; the database says whether
+    the transaction that wrote it committed. If it cannot say (it is still away),
+    the question is raised again (`DBAPIError`): the trial in memory is then
+    rolled back as before, and the command's key tells the page's retry.
+    """
+    try:
+        with database.session_scope() as session:
+            return session.get(Command, row.id) is not None
+    except DBAPIError:
+        log.warning("trial %s: cannot tell whether command %s committed", row.trial_id, row.id)
+        return False
+
+
+def _committed_answer(row: Command, outcome: RequestOutcome, step: int) -> dict[str, Any]:
+    return {
+        "command_id": row.id,
+        "accepted": outcome.accepted,
+        "request_id": outcome.request_id if outcome.accepted else None,
+        "reason": outcome.reason,
+        "step": step,
+    }
 
 
 def _answered(
