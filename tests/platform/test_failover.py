@@ -23,7 +23,7 @@ import uuid
 
 import httpx
 import pytest
-from sqlalchemy import select
+from sqlalchemy import func, select
 
 from hcss.platform.cli import upgrade_database
 from hcss.platform.console.accounts import create_experimenter
@@ -186,5 +186,108 @@ def test_kill_9_of_the_host_moves_the_trial_to_the_other_process(
     finally:
         nginx.stop()
         for server in servers.values():
+            server.stop()
+        database.engine.dispose()
+
+
+@pytest.mark.slow
+def test_a_host_stopped_past_its_lease_writes_nothing_it_held_when_it_resumes(
+    database_url: str, tmp_path
+) -> None:
+    """SIGSTOP of the trial's host for longer than a lease: the other process takes the trial
+    over; a click that waited in the stopped host's socket is answered 503 when it resumes
+    (the page retries it where the trial is now), and no row is written by the stopped
+    host after the takeover: every observation, decision and event is stored once."""
+    import os
+    import signal
+    import threading
+
+    from hcss.platform.models import DecisionRow, Observation, SimEvent
+
+    if not database_url.startswith("postgresql"):
+        pytest.skip("several server processes share PostgreSQL; SQLite serves one process")
+    upgrade_database(database_url)
+    database = Database(database_url)
+    servers = [
+        LocalServer(
+            database_url,
+            tmp_path / name,
+            snapshot_interval_s=1.0,
+            serve_args=["--cluster"],
+            host=address,
+        )
+        for name, address in (("a", "127.0.0.2"), ("b", "127.0.0.3"))
+    ]
+    try:
+        for server in servers:
+            server.start(timeout_s=120)
+        with database.session_scope() as session:
+            participant, trial = start_bot_trial(
+                session, seed=2, duration_s=STUDY_TRIAL_S, time_acceleration=ACCELERATION
+            )
+            token, trial_id = participant.token, trial.id
+        client = TrialClient(servers[0].url, token)
+        client.open_page()  # A's page: A claims the trial
+        _wait_for(lambda: client.state()["trial"]["step"] > 20, 30, "the trial to run")
+        host, other = servers
+        assert (_lease_owner(database, trial_id) or "").startswith(f"{host.host}:{host.port}/")
+        assert host.process is not None
+        client.http.timeout = httpx.Timeout(60.0)
+        answers: list[tuple[int, dict]] = []
+
+        def click() -> None:
+            answers.append(
+                client.post(
+                    "/observations",
+                    {"kind": "collective", "collective": 0, "button": "left"},
+                    key=str(uuid.uuid4()),
+                )
+            )
+
+        os.kill(host.process.pid, signal.SIGSTOP)
+        stopped = time.monotonic()
+        clicking = threading.Thread(target=click)
+        try:
+            clicking.start()
+            elsewhere = TrialClient(other.url, token)
+            elsewhere.open_page()  # the participant's page reaches the other process
+            _wait_for(
+                lambda: (_lease_owner(database, trial_id) or "").startswith(
+                    f"{other.host}:{other.port}/"
+                )
+                and elsewhere.state()["trial"]["step"] > 0,
+                20,
+                "the other process to take the trial over",
+            )
+            takeover_s = time.monotonic() - stopped
+            time.sleep(2.0)
+        finally:
+            os.kill(host.process.pid, signal.SIGCONT)
+        clicking.join(timeout=60)
+        (answer,) = answers
+        assert answer[0] == 503, answer
+        time.sleep(3.0)  # the resumed host's runner had its chance to write
+        with database.session_scope() as session:
+            observations = session.scalar(
+                select(func.count()).select_from(Observation).where(Observation.trial_id == trial_id)
+            )
+            decisions = session.execute(
+                select(DecisionRow.collective, DecisionRow.decision_index).where(
+                    DecisionRow.trial_id == trial_id
+                )
+            ).all()
+            events = session.execute(
+                select(SimEvent.kind, SimEvent.sim_time, SimEvent.text).where(
+                    SimEvent.trial_id == trial_id
+                )
+            ).all()
+        assert observations == 0
+        assert len(decisions) == len(set(decisions))
+        assert len(events) == len(set(events))
+        print(f"SIGSTOP: the other process hosted the trial {takeover_s:.1f} s after the stop")
+    finally:
+        for server in servers:
+            if server.process is not None:
+                os.kill(server.process.pid, signal.SIGCONT)
             server.stop()
         database.engine.dispose()
