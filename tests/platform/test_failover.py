@@ -252,10 +252,12 @@ def test_a_host_stopped_past_its_lease_writes_nothing_it_held_when_it_resumes(
             elsewhere = TrialClient(other.url, token)
             elsewhere.open_page()  # the participant's page reaches the other process
             _wait_for(
-                lambda: (_lease_owner(database, trial_id) or "").startswith(
-                    f"{other.host}:{other.port}/"
-                )
-                and elsewhere.state()["trial"]["step"] > 0,
+                lambda: (
+                    (_lease_owner(database, trial_id) or "").startswith(
+                        f"{other.host}:{other.port}/"
+                    )
+                    and elsewhere.state()["trial"]["step"] > 0
+                ),
                 20,
                 "the other process to take the trial over",
             )
@@ -269,7 +271,9 @@ def test_a_host_stopped_past_its_lease_writes_nothing_it_held_when_it_resumes(
         time.sleep(3.0)  # the resumed host's runner had its chance to write
         with database.session_scope() as session:
             observations = session.scalar(
-                select(func.count()).select_from(Observation).where(Observation.trial_id == trial_id)
+                select(func.count())
+                .select_from(Observation)
+                .where(Observation.trial_id == trial_id)
             )
             decisions = session.execute(
                 select(DecisionRow.collective, DecisionRow.decision_index).where(

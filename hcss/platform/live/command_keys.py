@@ -115,8 +115,6 @@ def _first(
     if answer.status < 400:
         raise RuntimeError(f"{key.endpoint} recorded a command without its key")
     key.status, key.response = answer.status, answer.body
-    with (
-        database.session_scope() if live is None else trial_transaction(database, live)
-    ) as session:
+    with database.session_scope() if live is None else trial_transaction(database, live) as session:
         session.add(key)  # a refusal: nothing else was written
     return answer

@@ -112,8 +112,7 @@ def build_simulation(
         held = sim.commands_applied
     if held > len(commands):
         raise RuntimeError(
-            f"trial {trial.id}: the simulation holds {held} commands, "
-            f"the log only {len(commands)}"
+            f"trial {trial.id}: the simulation holds {held} commands, the log only {len(commands)}"
         )
     if until_step is None:
         pending = commands[held:]
