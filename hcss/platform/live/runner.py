@@ -138,7 +138,7 @@ class Runner:
                 trial = session.get(Trial, trial_id)
                 assert trial is not None  # it has a status, so it exists
                 live = load_trial(session, trial, self.clock(), host_died=host_died)
-                live.fence = fence
+                live.leased(fence)
         except LeaseLost:
             raise  # taken by another process while this one rebuilt it: nothing written
         except DBAPIError:

@@ -146,6 +146,10 @@ class RunningTrial:
         the page reconnects to the host, and this copy is never written again."""
         return self._moved
 
+    def leased(self, fence: Fence | None) -> None:
+        """The trial is hosted under this lease (claimed for it); every write proves it."""
+        self.fence = fence
+
     def mark_ended(self, reason: str) -> None:
         """The trial is over for `reason`; call with `lock` held (streams wake on `touch`)."""
         self._ended, self._end_reason = True, reason
