@@ -11,6 +11,7 @@ from collections.abc import Iterator
 import pytest
 from flask import Flask
 from sqlalchemy import func, select
+from sqlalchemy.exc import DBAPIError
 
 from hcss.platform.app import create_app
 from hcss.platform.bots import ManualClock
@@ -134,16 +135,18 @@ def test_the_rebuild_replays_the_commands_after_the_snapshots_last_one_by_identi
     assert rebuilt.sim.state_digest() != ""
 
 
-def _answer_lost_after_commit(database, monkeypatch, times: int = 1) -> None:  # type: ignore[no-untyped-def]
-    """The next `times` commits reach the database and commit; their answer never arrives
-    (the connection drops after the server sent it): the driver raises as for a lost line."""
+def _answer_lost_after_commit(database, monkeypatch, times: int = 1, every: int = 1) -> None:  # type: ignore[no-untyped-def]
+    """Of the next commits, every `every`-th (`times` in all) reaches the database and
+    commits, and its answer never arrives (the connection drops after the server sent
+    it): the driver raises as for a lost line."""
     dialect = database.engine.dialect
     commit = dialect.do_commit
-    left = [times]
+    left, seen = [times], [0]
 
     def lost(dbapi_connection) -> None:  # type: ignore[no-untyped-def]
         commit(dbapi_connection)
-        if left[0] > 0:
+        seen[0] += 1
+        if left[0] > 0 and seen[0] % every == 0:
             left[0] -= 1
             raise dialect.loaded_dbapi.OperationalError("server closed the connection")
 
@@ -175,3 +178,48 @@ def test_a_command_whose_commit_answer_is_lost_stays_applied_as_logged(group, mo
     clock.now += 7.0  # A dies; B's rebuild agrees with what A held
     rebuilt = b.get(trial_id)
     assert rebuilt is not None and rebuilt.sim.commands_applied == 1
+
+
+def test_runner_steps_whose_commit_answers_are_lost_store_every_row_once(
+    group, monkeypatch
+) -> None:
+    """The runner's units of work commit but their answers are lost until a decision is
+    made: each is taken for failed and written again by the next, which must find its
+    rows. Every event, decision, request status and probe is stored once."""
+    from hcss.platform.models import DecisionRow, Probe, ProbeEvent, RequestStatusChange
+
+    a, _b, clock = group
+    trial_id = _start(a)
+    live = a.get(trial_id)
+    assert live is not None
+    for _ in range(10):
+        clock.now += 1.0
+        a.tick()
+    actions.submit_request(a.database, live, _command(a, trial_id))
+    _answer_lost_after_commit(a.database, monkeypatch, times=10_000, every=2)
+    for _ in range(600):  # every other answer lost until the first decisions are made
+        clock.now += 1.0
+        try:
+            a.tick()
+        except DBAPIError:
+            pass  # a lost answer outside the trial's units (its thread logs and goes on)
+        if len(live.sim.decisions) >= 2:
+            break
+    assert len(live.sim.decisions) >= 2
+    monkeypatch.undo()
+    clock.now += 1.0
+    a.tick()
+    assert live.database_away_since is None and live.decisions_recorded == len(live.sim.decisions)
+    with a.database.session_scope() as session:
+
+        def rows(*columns):  # type: ignore[no-untyped-def]
+            return [tuple(r) for r in session.execute(select(*columns))]
+
+        decisions = rows(DecisionRow.collective, DecisionRow.decision_index)
+        events = rows(SimEvent.kind, SimEvent.sim_time, SimEvent.text)
+        statuses = rows(RequestStatusChange.request_id, RequestStatusChange.status)
+        probes = rows(Probe.probe_index)
+        probe_events = rows(ProbeEvent.probe_id, ProbeEvent.kind)
+    assert len(decisions) == len(live.sim.decisions)
+    for stored in (decisions, events, statuses, probes, probe_events):
+        assert len(stored) == len(set(stored)), stored
