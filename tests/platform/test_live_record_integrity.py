@@ -222,3 +222,44 @@ def test_runner_steps_whose_commit_answers_are_lost_store_every_row_once(
     assert len(decisions) == len(live.sim.decisions)
     for stored in (decisions, events, statuses, probes, probe_events):
         assert len(stored) == len(set(stored)), stored
+
+
+def test_two_concurrent_pauses_write_one_console_action(group) -> None:
+    """Two experimenters pause one trial at once; both consoles saw it running. The state is
+    checked under the trial's lock: the first pauses it, the second finds it paused and
+    writes nothing, so the session's history holds one pause."""
+    import threading
+
+    from hcss.platform.live.service import control_session_trial
+    from hcss.platform.models import ConsoleAction, Trial
+
+    a, _b, clock = group
+    trial_id = _start(a)
+    live = a.get(trial_id)
+    assert live is not None
+    with a.database.session_scope() as session:
+        participant_id = session.get(Trial, trial_id).participant_id
+    clock.now += 1.0
+    start = threading.Barrier(2)
+
+    def pause() -> None:
+        start.wait()
+        control_session_trial(
+            a.database,
+            a,
+            trial_id,
+            "pause",
+            participant_id=participant_id,
+            experimenter_id=None,
+        )
+
+    threads = [threading.Thread(target=pause) for _ in range(2)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join(timeout=30)
+    with a.database.session_scope() as session:
+        pauses = session.scalar(
+            select(func.count()).select_from(ConsoleAction).where(ConsoleAction.action == "pause")
+        )
+    assert pauses == 1 and live.paused_since is not None
