@@ -295,3 +295,122 @@ def test_a_host_stopped_past_its_lease_writes_nothing_it_held_when_it_resumes(
                 os.kill(server.process.pid, signal.SIGCONT)
             server.stop()
         database.engine.dispose()
+
+
+@pytest.mark.slow
+def test_a_host_cut_off_from_the_database_writes_nothing_after_the_takeover(
+    database_url: str, tmp_path
+) -> None:
+    """A partition: the host's link to PostgreSQL goes silent (a relay that holds every
+    byte) for longer than a lease, the server itself untouched. The other process takes
+    the trial over; a click queued at the cut-off host, answered after the heal, is 503,
+    and nothing the cut-off host held is written after the heal: no decision, event or
+    request status stored twice."""
+    import threading
+
+    from sqlalchemy.engine import make_url
+
+    from hcss.platform.models import DecisionRow, Observation, RequestStatusChange, SimEvent
+    from tests.platform.cut_proxy import CutProxy
+
+    if not database_url.startswith("postgresql"):
+        pytest.skip("several server processes share PostgreSQL; SQLite serves one process")
+    upgrade_database(database_url)
+    database = Database(database_url)
+    url = make_url(database_url)
+    relay = CutProxy(url.host or "127.0.0.1", url.port or 5432)
+    relayed = url.set(host="127.0.0.1", port=relay.port).render_as_string(hide_password=False)
+    host, other = (
+        LocalServer(
+            db_url,
+            tmp_path / name,
+            snapshot_interval_s=1.0,
+            serve_args=["--cluster"],
+            host=address,
+        )
+        for name, address, db_url in (
+            ("a", "127.0.0.2", relayed),
+            ("b", "127.0.0.3", database_url),
+        )
+    )
+    try:
+        host.start(timeout_s=120)
+        other.start(timeout_s=120)
+        with database.session_scope() as session:
+            participant, trial = start_bot_trial(
+                session, seed=2, duration_s=STUDY_TRIAL_S, time_acceleration=ACCELERATION
+            )
+            token, trial_id = participant.token, trial.id
+        client = TrialClient(host.url, token)
+        client.open_page()  # the host claims the trial
+        view = _wait_for(lambda: client.state()["view"]["targets"], 30, "a visible target")
+        assert (
+            client.post(
+                "/requests", {"kind": "investigate", "collective": 0, "target": view[0]["id"]}
+            )[0]
+            == 200
+        )
+        _wait_for(lambda: client.state()["trial"]["step"] > 40, 30, "the trial to run on")
+        client.http.timeout = httpx.Timeout(90.0)
+        answers: list[tuple[int, dict]] = []
+
+        def click() -> None:
+            answers.append(
+                client.post(
+                    "/observations",
+                    {"kind": "collective", "collective": 0, "button": "left"},
+                    key=str(uuid.uuid4()),
+                )
+            )
+
+        relay.stall()
+        cut = time.monotonic()
+        clicking = threading.Thread(target=click)
+        clicking.start()
+        elsewhere = TrialClient(other.url, token)
+        elsewhere.open_page()
+        _wait_for(
+            lambda: (
+                (_lease_owner(database, trial_id) or "").startswith(f"{other.host}:{other.port}/")
+                and elsewhere.state()["trial"]["step"] > 0
+            ),
+            20,
+            "the other process to take the trial over",
+        )
+        takeover_s = time.monotonic() - cut
+        time.sleep(max(0.0, 15.0 - takeover_s))  # the cut lasts 15 s in all
+        relay.heal()
+        clicking.join(timeout=60)
+        (answer,) = answers
+        time.sleep(3.0)  # the healed host had its chance to write what it held
+        with database.session_scope() as session:
+
+            def rows(*columns):  # type: ignore[no-untyped-def]
+                query = select(*columns).where(columns[0].table.c.trial_id == trial_id)
+                return [tuple(r) for r in session.execute(query)]
+
+            decisions = rows(
+                DecisionRow.trial_id, DecisionRow.collective, DecisionRow.decision_index
+            )
+            events = rows(SimEvent.trial_id, SimEvent.kind, SimEvent.sim_time, SimEvent.text)
+            statuses = rows(
+                RequestStatusChange.trial_id,
+                RequestStatusChange.request_id,
+                RequestStatusChange.status,
+            )
+            observations = session.scalar(
+                select(func.count())
+                .select_from(Observation)
+                .where(Observation.trial_id == trial_id)
+            )
+        assert answer[0] == 503, answer
+        assert observations == 0
+        for stored in (decisions, events, statuses):
+            assert len(stored) == len(set(stored)), stored
+        print(f"partition: the other process hosted the trial {takeover_s:.1f} s after the cut")
+    finally:
+        relay.heal()
+        for server in (host, other):
+            server.stop()
+        relay.close()
+        database.engine.dispose()
