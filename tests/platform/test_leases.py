@@ -71,10 +71,10 @@ def _start(runner: Runner, duration_s: float = 600.0) -> int:
 def test_a_trial_is_hosted_by_one_process_and_taken_over_when_its_lease_runs_out(pair) -> None:
     a, b, clock = pair
     trial_id = _start(a)
-    live = a.get(trial_id)  # the participant's first request reaches A: A claims it
+    live = a.host(trial_id)  # the participant's first request reaches A: A claims it
     assert live is not None
     with pytest.raises(HostedElsewhere):
-        b.get(trial_id)
+        b.host(trial_id)
     for _ in range(10):  # A keeps it on time and renews its lease
         clock.now += 1.0
         a.tick()
@@ -85,7 +85,7 @@ def test_a_trial_is_hosted_by_one_process_and_taken_over_when_its_lease_runs_out
     assert step_before > 0
 
     clock.now += LEASE_S + 0.5  # A stops (it died): its lease runs out
-    taken = b.get(trial_id)
+    taken = b.host(trial_id)
     assert taken is not None and taken is not live
     assert taken.sim.step_count >= step_before - 10  # from the newest snapshot, not from 0
     with b.database.session_scope() as session:
@@ -98,13 +98,13 @@ def test_a_trial_is_hosted_by_one_process_and_taken_over_when_its_lease_runs_out
     assert live.fence is not None and a.leases is not None
     assert a.leases.renew({trial_id: live.fence.epoch}, clock.now) == set()
     with pytest.raises(HostedElsewhere):
-        a.get(trial_id)
+        a.host(trial_id)
 
 
 def test_a_runner_takes_over_only_trials_nobody_hosts(pair) -> None:
     a, b, clock = pair
     hosted = _start(a)
-    a.get(hosted)
+    a.host(hosted)
     fresh = _start(a)  # started by a page on A, not yet opened: no lease yet
     b.tick()
     assert b.loaded_ids() == set()  # neither the hosted nor the just-started one
@@ -119,7 +119,7 @@ def test_a_runner_takes_over_only_trials_nobody_hosts(pair) -> None:
 def test_only_the_host_finishes_an_overdue_trial(pair) -> None:
     a, b, clock = pair
     trial_id = _start(a, duration_s=18.0)
-    live = a.get(trial_id)
+    live = a.host(trial_id)
     assert live is not None
     for _ in range(3):  # A renews its lease, then stalls: the trial is overdue
         clock.now += 5.0
@@ -189,7 +189,7 @@ def test_a_command_caught_by_a_lost_lease_is_held_back_with_held_by_and_retry_af
         with runner_a.database.session_scope() as session:
             participant, trial = start_bot_trial(session, seed=2, duration_s=600.0)
             token, trial_id = participant.token, trial.id
-        live = runner_a.get(trial_id)
+        live = runner_a.host(trial_id)
         assert live is not None
         client = a.test_client()
         csrf = csrf_token_of(client.get(f"/live/{token}").get_data(as_text=True))
@@ -210,7 +210,7 @@ def test_a_command_caught_by_a_lost_lease_is_held_back_with_held_by_and_retry_af
             clicking.start()
             clicking.join(timeout=1.0)  # it found the trial and waits for the lock
             clock.now += LEASE_S + 0.5  # meanwhile A stalled past its lease
-            assert runner_b.get(trial_id) is not None  # B takes the trial over
+            assert runner_b.host(trial_id) is not None  # B takes the trial over
             runner_a.tick()  # A's renewal finds the lease gone: the trial moved
         clicking.join(timeout=30)
         (answer,) = answers
@@ -252,7 +252,7 @@ def test_a_host_that_stalled_past_its_lease_writes_nothing_when_it_wakes(databas
         with runner_a.database.session_scope() as session:
             participant, trial = start_bot_trial(session, seed=2, duration_s=600.0)
             token, trial_id = participant.token, trial.id
-        live = runner_a.get(trial_id)
+        live = runner_a.host(trial_id)
         assert live is not None
         client = a.test_client()
         csrf = csrf_token_of(client.get(f"/live/{token}").get_data(as_text=True))
@@ -260,7 +260,7 @@ def test_a_host_that_stalled_past_its_lease_writes_nothing_when_it_wakes(databas
             clock.now += 1.0
             runner_a.tick()
         clock.now += LEASE_S + 1.0  # A is stopped; its lease runs out
-        assert runner_b.get(trial_id) is not None  # B takes the trial over
+        assert runner_b.host(trial_id) is not None  # B takes the trial over
         written = _rows_written(runner_b, trial_id)
 
         clock.now += 2.0  # A wakes: a click waited in its socket, its runner steps on
@@ -285,7 +285,7 @@ def test_a_holder_stops_writing_on_its_own_deadline_until_a_renewal_answers(pair
     trial by its own clock, without asking the database, and goes on once one answers."""
     a, _b, clock = pair
     trial_id = _start(a)
-    live = a.get(trial_id)
+    live = a.host(trial_id)
     assert live is not None and live.fence is not None
     clock.now += 1.0
     a.advance(live, clock.now)

@@ -85,7 +85,7 @@ def test_a_trial_claimed_after_the_grace_writes_the_events_of_its_load_once(grou
 
 
 def _command(runner: Runner, trial_id: int) -> OperatorCommand:
-    live = runner.get(trial_id)
+    live = runner.host(trial_id)
     assert live is not None
     target = int(live.display().target_ids[0])
     return OperatorCommand("investigate", 0, target)
@@ -99,7 +99,7 @@ def test_the_rebuild_replays_the_commands_after_the_snapshots_last_one_by_identi
     rebuild replays what follows that command, not the log's tail by count."""
     a, b, clock = group
     trial_id = _start(a)
-    live = a.get(trial_id)
+    live = a.host(trial_id)
     assert live is not None
     for _ in range(20):
         clock.now += 1.0
@@ -126,7 +126,7 @@ def test_the_rebuild_replays_the_commands_after_the_snapshots_last_one_by_identi
         clock.now += 1.0
         a.tick()  # a snapshot holding the two commands applied
     clock.now += 7.0  # A dies; B takes the trial over
-    rebuilt = b.get(trial_id)
+    rebuilt = b.host(trial_id)
     with b.database.session_scope() as session:
         problems = session.scalars(select(TrialProblem.problem)).all()
         status = latest_status(session, trial_id)
@@ -160,7 +160,7 @@ def test_a_command_whose_commit_answer_is_lost_stays_applied_as_logged(group, mo
     memory and its log agree (before, it was rolled back while its row stayed logged)."""
     a, b, clock = group
     trial_id = _start(a)
-    live = a.get(trial_id)
+    live = a.host(trial_id)
     assert live is not None
     for _ in range(20):
         clock.now += 1.0
@@ -177,7 +177,7 @@ def test_a_command_whose_commit_answer_is_lost_stays_applied_as_logged(group, mo
         clock.now += 1.0
         a.tick()
     clock.now += 7.0  # A dies; B's rebuild agrees with what A held
-    rebuilt = b.get(trial_id)
+    rebuilt = b.host(trial_id)
     assert rebuilt is not None and rebuilt.sim.commands_applied == 1
 
 
@@ -191,7 +191,7 @@ def test_runner_steps_whose_commit_answers_are_lost_store_every_row_once(
 
     a, _b, clock = group
     trial_id = _start(a)
-    live = a.get(trial_id)
+    live = a.host(trial_id)
     assert live is not None
     for _ in range(10):
         clock.now += 1.0
@@ -235,7 +235,7 @@ def test_two_concurrent_pauses_write_one_console_action(group) -> None:
 
     a, _b, clock = group
     trial_id = _start(a)
-    live = a.get(trial_id)
+    live = a.host(trial_id)
     assert live is not None
     with a.database.session_scope() as session:
         participant_id = session.get(Trial, trial_id).participant_id

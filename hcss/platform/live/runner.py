@@ -5,7 +5,7 @@ CLI, or before a restart), advances each to the step the wall clock says is
 due, records what happened and wakes the streams. Commands do not wait for a
 tick: they take the trial's lock and apply between two steps.
 
-Blueprints use only the public methods below (get, loaded, holding, pause,
+Blueprints use only the public methods below (host, loaded, holding, pause,
 resume, end, finish_overdue, forget, withdrawing); the registry and its lock are
 private. The thread is started only where trials are served (`hcss serve`, the
 test server); an app built for a script or a check has a runner without one.
@@ -90,12 +90,13 @@ class Runner:
 
     # --- finding trials -------------------------------------------------------
 
-    def get(self, trial_id: int) -> RunningTrial | None:
-        """The live trial, loading it first if the database says it is running.
+    def host(self, trial_id: int) -> RunningTrial | None:
+        """Host the trial here: the trial in memory, claimed and rebuilt first if the
+        database says it is running and it is not in memory (None: it is not running).
 
-        With leases, loading means taking the trial's lease first (a takeover
+        With leases, hosting means taking the trial's lease first (a takeover
         when its owner died); `HostedElsewhere` (503) when another live
-        process holds it.
+        process holds it. `loaded` only looks.
         """
         live = self._trials.get(trial_id)
         if live is not None:
@@ -115,7 +116,7 @@ class Runner:
             return live
 
     def _load(self, trial_id: int) -> RunningTrial | None:
-        """Claim and rebuild the trial (`get` holds its loader); None if it is not running."""
+        """Claim and rebuild the trial (`host` holds its loader); None if it is not running."""
         with self.database.session_scope() as session:
             if latest_status(session, trial_id) != TrialStatus.RUNNING:
                 return None
@@ -154,7 +155,7 @@ class Runner:
     def hosts(self, trial_id: int) -> bool:
         """Whether this process may host the trial now (always, without leases)."""
         try:
-            return self.get(trial_id) is not None
+            return self.host(trial_id) is not None
         except HostedElsewhere:
             return False
 
@@ -169,7 +170,7 @@ class Runner:
             return set(self._trials)
 
     def forget(self, trial_id: int) -> RunningTrial | None:
-        """Drop a trial from memory; the next `get` rebuilds it from the database if running."""
+        """Drop a trial from memory; the next `host` rebuilds it from the database if running."""
         with self._registry_lock:
             live = self._trials.pop(trial_id, None)
         if live is not None:
@@ -216,7 +217,7 @@ class Runner:
         Only its host does: a trial hosted by another process ends there.
         """
         try:
-            live = self.get(trial_id)
+            live = self.host(trial_id)
         except HostedElsewhere:
             return
         if live is None:
@@ -295,7 +296,7 @@ class Runner:
                 break  # the rest at the next sync
             if trial_id not in self._trials:
                 try:
-                    self.get(trial_id)
+                    self.host(trial_id)
                 except Exception:
                     log.exception("could not load live trial %s", trial_id)
 
