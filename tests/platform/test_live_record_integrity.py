@@ -263,3 +263,41 @@ def test_two_concurrent_pauses_write_one_console_action(group) -> None:
             select(func.count()).select_from(ConsoleAction).where(ConsoleAction.action == "pause")
         )
     assert pauses == 1 and live.paused_since is not None
+
+
+def test_a_command_nobody_can_say_was_committed_is_settled_by_a_rebuild(group, monkeypatch) -> None:
+    """The command's commit answer is lost and the database cannot be asked at once (the
+    line is still down): the trial in memory is not guessed at. The runner drops it and
+    the next request rebuilds it from the log, which holds the command."""
+    a, _b, clock = group
+    trial_id = _start(a)
+    live = a.host(trial_id)
+    assert live is not None
+    for _ in range(20):
+        clock.now += 1.0
+        a.tick()
+    command = _command(a, trial_id)
+    _answer_lost_after_commit(a.database, monkeypatch)
+    dialect = a.database.engine.dialect
+    execute = dialect.do_execute
+    asked = [0]
+
+    def still_down(cursor, statement, parameters, context=None):  # type: ignore[no-untyped-def]
+        if statement.lstrip().upper().startswith("SELECT") and "FROM command" in statement:
+            asked[0] += 1
+            if asked[0] == 1:  # the question right after the lost answer
+                raise dialect.loaded_dbapi.OperationalError("no route to host")
+        return execute(cursor, statement, parameters, context)
+
+    monkeypatch.setattr(dialect, "do_execute", still_down)
+    with pytest.raises(DBAPIError):
+        actions.submit_request(a.database, live, command)
+    monkeypatch.undo()
+    clock.now += 1.0
+    a.tick()
+    rebuilt = a.host(trial_id)
+    assert rebuilt is not None and rebuilt is not live
+    with a.database.session_scope() as session:
+        logged = session.scalars(select(Command.id).where(Command.trial_id == trial_id)).all()
+    assert len(logged) == 1
+    assert rebuilt.sim.commands_applied == 1 and rebuilt.last_command_id == logged[0]

@@ -86,8 +86,14 @@ def submit_request(
                 record_request_statuses(live, session)
                 answer = _answered(session, key, _committed_answer(row, outcome, step))
         except DBAPIError:
-            if row is None or not _was_committed(database, row):
+            committed = None if row is None else _was_committed(database, row)
+            if not committed:
                 live.roll_back_to(before)
+                if committed is None and row is not None:
+                    # Nobody can say whether the command is logged: the trial in memory is
+                    # not trusted any longer; the runner drops it and the next request
+                    # rebuilds it from what the database holds.
+                    live.move_away()
                 raise
             # The commit's answer was lost after the database committed (a dropped line, a
             # failover): the command is in the log, so it stays applied in memory too.
@@ -196,20 +202,19 @@ def probe_answer(
         return reply
 
 
-def _was_committed(database: Database, row: Command) -> bool:
-    """Whether the command's row is in the database after its commit failed: asked, not guessed.
+def _was_committed(database: Database, row: Command) -> bool | None:
+    """Whether the command's row is in the database after its commit failed: asked, not
+    guessed. None: the database cannot say (it is still away).
 
     A row flushed before the failed commit has its id; the database says whether
-    the transaction that wrote it committed. If it cannot say (it is still away),
-    the question is raised again (`DBAPIError`): the trial in memory is then
-    rolled back as before, and the command's key tells the page's retry.
+    the transaction that wrote it committed.
     """
     try:
         with database.session_scope() as session:
             return session.get(Command, row.id) is not None
     except DBAPIError:
         log.warning("trial %s: cannot tell whether command %s committed", row.trial_id, row.id)
-        return False
+        return None
 
 
 def _committed_answer(row: Command, outcome: RequestOutcome, step: int) -> dict[str, Any]:

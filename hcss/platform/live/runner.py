@@ -332,7 +332,9 @@ class Runner:
                 self.advance(live, now)
             except Exception:
                 log.exception("live trial %s failed to advance", live.trial_id)
-            if live.ended:
+            if live.ended or live.moved:
+                # Moved without leaving the registry: its memory is not to be trusted (a
+                # command's commit that nobody can say landed); the next `host` rebuilds it.
                 self.forget(live.trial_id)
 
     def carry_out_orders(self) -> None:
