@@ -87,7 +87,7 @@ def submit_request(
                 answer = _answered(session, key, _committed_answer(row, outcome, step))
         except DBAPIError:
             committed = None if row is None else _was_committed(database, row)
-            if not committed:
+            if row is None or not committed:
                 live.roll_back_to(before)
                 if committed is None and row is not None:
                     # Nobody can say whether the command is logged: the trial in memory is
