@@ -14,8 +14,8 @@ Why a row and not a PostgreSQL advisory lock on a dedicated connection:
 the lock is released the instant the owner's connection drops, but so it is
 when the connection merely breaks (a database restart, a network blip), and
 the owner learns that only on its next query, while another process already
-hosts the trial; a lease expires on the clock both sides read, so the owner
-knows when to stop (`lost`) before anyone else may start. Rows work on
+hosts the trial; a lease expires by one clock (the database's), and the
+owner stops on its own deadline before anyone else may start. Rows work on
 SQLite too (the tests race takeovers there as well), need no connection per
 process outside the pool, and are visible to the console. The price is the
 failover delay (at most one lease length) and one UPDATE per renewal for
@@ -36,7 +36,7 @@ a 503 the page retries). Times are the database's clock on PostgreSQL
 (`clock_timestamp()`), so two hosts' clocks never meet; on SQLite (one
 host) and under a test's `ManualClock` they are the process clock.
 
-The holder also stops on its own clock: each trial's `lease_deadline` is the
+The holder also stops on its own clock: each trial's `Fence.deadline` is the
 monotonic instant of the last renewal that succeeded plus the lease less a
 margin; past it, nothing is written for the trial until a renewal confirms
 the lease again, whatever the database answers (or does not).

@@ -4,8 +4,9 @@ With several processes on one PostgreSQL database a trial must live in
 exactly one of them: the one holding its lease. The row is the one mutable
 record of the live wing (ownership changes hands, it is not a fact of the
 study), so it is not append-only and not exported. Times are epoch seconds
-of the processes' clocks (`Database.clock`), which must agree to well
-within a lease's length (NTP does).
+of PostgreSQL's clock (`clock_timestamp()`) in a server, so the hosts'
+clocks never meet; on SQLite and under a test's `ManualClock`, of the
+process clock (`Database.clock`).
 """
 
 from __future__ import annotations
