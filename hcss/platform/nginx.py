@@ -17,7 +17,7 @@ first outcome.
 A process can also hang without closing anything (stopped, swapping, cut off
 from its database): nginx connects, and waits for an answer. So the read
 timeouts are short, and a timeout passes a request on to the next process
-like an error: 15 s for pages and commands, and 5 s for the stream, which
+like an error: 15 s for pages and commands, and 3 s for the stream, which
 sends a frame every half second while its trial runs (a silent stream is a
 hung host; the page's watchdog opens a new one, which nginx sends on).
 """
@@ -65,14 +65,14 @@ server {{
 
         # Server-Sent Events: every frame at once. A read timeout is the silence between
         # two reads, not a stream's length: a stream's frames come every half second, so
-        # 5 s of silence is a hung process (pages and commands get 15 s).
+        # 3 s of silence is a hung process (pages and commands get 15 s).
         proxy_buffering off;
         proxy_cache off;
         proxy_read_timeout 15s;
         proxy_send_timeout 15s;
         location ~ ^/api/live/[^/]+/trials/[0-9]+/stream$ {{
             proxy_pass http://{UPSTREAM};
-            proxy_read_timeout 5s;
+            proxy_read_timeout 3s;
         }}
 
         # A process that is down (or does not host the trial: 503) passes to the next.

@@ -699,7 +699,7 @@
   // connection open and sends nothing, and EventSource waits forever. Frames come several
   // times a second, so a stream silent for STALLED_MS is dropped and opened again; the
   // proxy sends the new one to a process that answers.
-  const STALLED_MS = 4000;
+  const STALLED_MS = 3000;
   let lastFrameAt = Date.now();
   setInterval(() => {
     if (state.ended || !stream || stream.readyState === EventSource.CLOSED) return;
