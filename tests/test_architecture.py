@@ -349,7 +349,7 @@ def trial_handles(root: Path) -> list[str]:
             if node.attr in TRIAL_HANDLES:
                 found.append(f"{where}: touches .{node.attr}")
             elif (
-                node.attr in ("get", "loaded")
+                node.attr in ("host", "loaded")
                 and isinstance(node.value, ast.Call)
                 and isinstance(node.value.func, ast.Name)
                 and node.value.func.id == "runner"
@@ -374,8 +374,8 @@ def test_the_participants_api_holds_no_trial_lock_or_session() -> None:
         ),
         (  # the idempotency decorator fetching the trial to wait on it
             "hcss/platform/live/idempotency.py",
-            "def _planted():\n    return runner().get(1)",
-            "holds runner().get",
+            "def _planted():\n    return runner().host(1)",
+            "holds runner().host",
         ),
         (  # a route opening its own session to validate
             "hcss/platform/live/api.py",

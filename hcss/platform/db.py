@@ -44,6 +44,24 @@ SQLITE_REOPEN_ON = ("readonly database", "disk i/o error", "unable to open datab
 POOL = {"pool_size": 20, "max_overflow": 40, "pool_timeout": 30}
 
 
+#: PostgreSQL connections notice a dead or black-holed link in seconds, not in the kernel's
+#: retransmission time (about 15 minutes): a lease renewal or a write that hangs longer than
+#: a lease is as good as lost, and the live runner must learn so while it can still stop.
+#: connect_timeout: a connection attempt; keepalives: an idle link's silence (probes after
+#: 5 s, every 2 s, 3 lost: dead); tcp_user_timeout: unacknowledged data (ms); the statement
+#: timeout: one statement (ms), far above any the server runs.
+POSTGRESQL_LINK = {
+    "connect_timeout": 5,
+    "keepalives": 1,
+    "keepalives_idle": 5,
+    "keepalives_interval": 2,
+    "keepalives_count": 3,
+    "tcp_user_timeout": 10_000,
+}
+#: Milliseconds; set on each new connection (a URL's own `options`, the schema, stay).
+STATEMENT_TIMEOUT_MS = 15_000
+
+
 class RequestHoldsWrites(RuntimeError):
     """A unit of work was opened while the request's session held unsaved writes."""
 
@@ -75,7 +93,15 @@ def make_engine(url: str) -> Engine:
             cursor.close()
 
         return engine
-    return create_engine(url, pool_pre_ping=True, **POOL)
+    engine = create_engine(url, pool_pre_ping=True, connect_args=POSTGRESQL_LINK, **POOL)
+
+    @event.listens_for(engine, "connect")
+    def _statement_timeout(dbapi_connection, _record) -> None:
+        with dbapi_connection.cursor() as cursor:
+            cursor.execute(f"SET statement_timeout = {STATEMENT_TIMEOUT_MS}")
+        dbapi_connection.commit()
+
+    return engine
 
 
 class Database:

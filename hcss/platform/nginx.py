@@ -12,7 +12,14 @@ When a process is down, or answers 503 because another process hosts the
 trial (`HostedElsewhere`), nginx tries the next one. Commands are POSTs, so
 `non_idempotent` lets nginx retry them too: a command carries an
 Idempotency-Key, and a process that did it once answers a repeat with the
-first outcome. The stream needs no buffering and long read timeouts.
+first outcome.
+
+A process can also hang without closing anything (stopped, swapping, cut off
+from its database): nginx connects, and waits for an answer. So the read
+timeouts are short, and a timeout passes a request on to the next process
+like an error: 15 s for pages and commands, and 3 s for the stream, which
+sends a frame every half second while its trial runs (a silent stream is a
+hung host; the page's watchdog opens a new one, which nginx sends on).
 """
 
 from __future__ import annotations
@@ -56,11 +63,17 @@ server {{
         proxy_set_header X-Forwarded-For $proxy_add_x_forwarded_for;
         proxy_set_header X-Forwarded-Proto $scheme;
 
-        # Server-Sent Events: every frame at once, and a stream may stay open for an hour.
+        # Server-Sent Events: every frame at once. A read timeout is the silence between
+        # two reads, not a stream's length: a stream's frames come every half second, so
+        # 3 s of silence is a hung process (pages and commands get 15 s).
         proxy_buffering off;
         proxy_cache off;
-        proxy_read_timeout 3600s;
-        proxy_send_timeout 3600s;
+        proxy_read_timeout 15s;
+        proxy_send_timeout 15s;
+        location ~ ^/api/live/[^/]+/trials/[0-9]+/stream$ {{
+            proxy_pass http://{UPSTREAM};
+            proxy_read_timeout 3s;
+        }}
 
         # A process that is down (or does not host the trial: 503) passes to the next.
         proxy_connect_timeout 2s;

@@ -35,16 +35,22 @@ def require_shared_database(database_url: str) -> None:
 
 
 def process_name(host: str, port: int) -> str:
-    """The name a worker leases trials under: its address, unique while it listens there.
+    """The name a worker leases trials under: its address and a token new at every start.
 
-    A process restarted on the same address takes its own leases back at once:
-    no other live process can listen there.
+    The address says where it listens (the console shows it); the token makes
+    the name unique per start, so two processes that share an address (cloned
+    hosts, `--host 127.0.0.1` on two machines) or a process restarted on its
+    old address never take each other for the holder of a lease. A restarted
+    process waits for its predecessor's leases to run out like any other.
     """
+    import os
+    import secrets
+
     if host in ("0.0.0.0", "::", ""):
         import socket
 
         host = socket.gethostname()
-    return f"{host}:{port}"
+    return f"{host}:{port}/{os.getpid()}-{secrets.token_hex(4)}"
 
 
 def run_group(processes: int, host: str, port: int, worker_args: Sequence[str]) -> int:

@@ -27,6 +27,7 @@ def replay(
     params: Params | None = None,
     run: int = 0,
     start: Simulation | None = None,
+    held: int | None = None,
     on_outcome: Callable[[int, RequestOutcome], None] | None = None,
     on_step: Callable[[Simulation], None] | None = None,
 ) -> Simulation:
@@ -34,14 +35,17 @@ def replay(
 
     `commands` is the whole log in the order the commands were applied.
     `start` continues from a restored snapshot instead of the trial's start:
-    the first `start.commands_applied` commands are already in it.
+    the first `held` commands are already in it (default: as many as it
+    counts applied, `start.commands_applied`; a caller that knows which
+    logged command a snapshot holds last says so, so that a logged command
+    the snapshot's simulation never applied does not shift the rest).
     `on_outcome(i, outcome)` hears each replayed command's outcome, `i` its
     position in `commands` (the platform records outcomes a crash lost).
     `on_step(sim)` sees each step reached, the start's included, once the
     commands logged at it are applied (the console replay draws its frames so).
     """
     sim = start if start is not None else Simulation(scenario, model, params, run=run)
-    skipped = sim.commands_applied
+    skipped = sim.commands_applied if held is None else held
     pending = [(int(step), command) for step, command in commands][skipped:]
     if any(step < sim.step_count for step, _ in pending):
         raise ValueError(

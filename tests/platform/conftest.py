@@ -115,7 +115,7 @@ class TrialHandle:
         return response.get_json()
 
     def live(self):  # type: ignore[no-untyped-def]
-        return self.runner.get(self.trial_id)
+        return self.runner.host(self.trial_id)
 
 
 @pytest.fixture

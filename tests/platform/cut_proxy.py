@@ -25,6 +25,9 @@ class CutProxy:
     def __init__(self, upstream_host: str, upstream_port: int) -> None:
         self.upstream = (upstream_host, upstream_port)
         self.cut_now = False
+        #: A partition (`stall`): bytes are taken in and held, not passed on, until `heal`.
+        self._passing = threading.Event()
+        self._passing.set()
         self._lock = threading.Lock()
         self._open: set[socket.socket] = set()
         self._listener = socket.create_server(("127.0.0.1", 0))
@@ -37,6 +40,15 @@ class CutProxy:
             self.cut_now = True
             for end in self._open:
                 _shut_down(end)  # wakes its pumps, which close it
+
+    def stall(self) -> None:
+        """The line goes silent (a partition, not a refusal): nothing is closed, every byte
+        is held, so the client's driver waits as on a black-holed link."""
+        self._passing.clear()
+
+    def heal(self) -> None:
+        """The held bytes pass on, in order, and the line carries on."""
+        self._passing.set()
 
     def restore(self) -> None:
         with self._lock:
@@ -84,6 +96,7 @@ class CutProxy:
         """Relay one direction; the last of the pair's two pumps to stop closes both ends."""
         try:
             while chunk := source.recv(65536):
+                self._passing.wait()
                 sink.sendall(chunk)
         except OSError:
             pass

@@ -119,7 +119,7 @@ def test_after_the_issues_post_export_and_restart_still_work(
 
     restarted = _restart(database_url, trial.started_epoch + 90)
     try:
-        rebuilt = restarted.extensions["hcss_runner"].get(trial.trial_id)
+        rebuilt = restarted.extensions["hcss_runner"].host(trial.trial_id)
         assert rebuilt is not None and rebuilt.sim.step_count == 60  # the outage stops the clock
         client = restarted.test_client()
         assert client.get(f"{trial.api}/state").status_code == 200

@@ -49,7 +49,7 @@ def host_and_console(database_url: str) -> Iterator[tuple[Flask, Flask]]:
 def _hosted_trial_and_console(host: Flask, console: Flask):  # type: ignore[no-untyped-def]
     """A trial the host holds, its participant's code, and an experimenter signed in on the other."""
     runner = host.extensions["hcss_runner"]
-    live = runner.get(_start(runner))
+    live = runner.host(_start(runner))
     assert live is not None
     with host.extensions["hcss_db"].session_scope() as session:
         create_experimenter(session, "alice", "correct horse battery")

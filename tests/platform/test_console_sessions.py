@@ -73,7 +73,7 @@ def test_a_restart_during_a_pause_keeps_the_trial_paused(
     # The new server comes up 300 wall seconds later, still inside the pause.
     restarted.extensions["hcss_runner"].clock = ManualClock(trial.started_epoch + 300.0)
     try:
-        rebuilt = restarted.extensions["hcss_runner"].get(trial.trial_id)
+        rebuilt = restarted.extensions["hcss_runner"].host(trial.trial_id)
         assert rebuilt.sim.step_count == paused_step
         assert rebuilt.paused_since == trial.started_epoch + 30.0
     finally:

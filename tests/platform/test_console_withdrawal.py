@@ -71,7 +71,7 @@ def test_withdrawal_deletes_every_row_of_the_participant_and_audits_it(
             code,
         )
         assert audit.row_counts == {table: n for table, n in before.items() if n}
-    assert leaving.runner.get(leaving.trial_id) is None
+    assert leaving.runner.host(leaving.trial_id) is None
     assert console.get(f"/console/participants/{code}").status_code == 404
     assert code not in console.progress() and other in console.progress()
     assert leaving.client.get(f"/live/{leaving.token}").status_code == 404

@@ -57,7 +57,7 @@ def _run_through_outage(app, begin: Callable[[], None], end: Callable[[], None],
 
     for _ in range(int(TRIAL_S / 3 / TICK_S)):
         tick()
-    live = runner.get(trial_id)
+    live = runner.host(trial_id)
     assert live is not None and not live.ended
     shown_before = len(live.messages)
     begin()

@@ -18,10 +18,19 @@ from sqlalchemy import func, select
 from hcss.platform.app import create_app
 from hcss.platform.bots import ManualClock
 from hcss.platform.db import Database
-from hcss.platform.live.leases import UNCLAIMED_GRACE_S, HostedElsewhere, Leases
+from hcss.platform.live.leases import UNCLAIMED_GRACE_S, HostedElsewhere, LeaseLost, Leases
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.trials import start_bot_trial
-from hcss.platform.models import Interruption, Observation, TrialLease
+from hcss.platform.models import (
+    Command,
+    CommandKey,
+    DecisionRow,
+    Interruption,
+    Observation,
+    SimEvent,
+    Snapshot,
+    TrialLease,
+)
 
 LEASE_S = 6.0
 
@@ -62,10 +71,10 @@ def _start(runner: Runner, duration_s: float = 600.0) -> int:
 def test_a_trial_is_hosted_by_one_process_and_taken_over_when_its_lease_runs_out(pair) -> None:
     a, b, clock = pair
     trial_id = _start(a)
-    live = a.get(trial_id)  # the participant's first request reaches A: A claims it
+    live = a.host(trial_id)  # the participant's first request reaches A: A claims it
     assert live is not None
     with pytest.raises(HostedElsewhere):
-        b.get(trial_id)
+        b.host(trial_id)
     for _ in range(10):  # A keeps it on time and renews its lease
         clock.now += 1.0
         a.tick()
@@ -76,7 +85,7 @@ def test_a_trial_is_hosted_by_one_process_and_taken_over_when_its_lease_runs_out
     assert step_before > 0
 
     clock.now += LEASE_S + 0.5  # A stops (it died): its lease runs out
-    taken = b.get(trial_id)
+    taken = b.host(trial_id)
     assert taken is not None and taken is not live
     assert taken.sim.step_count >= step_before - 10  # from the newest snapshot, not from 0
     with b.database.session_scope() as session:
@@ -86,15 +95,16 @@ def test_a_trial_is_hosted_by_one_process_and_taken_over_when_its_lease_runs_out
 
     a.tick()  # A comes back: its renewal finds the lease gone, so it stops hosting
     assert trial_id not in a.loaded_ids() and live.moved
-    assert a.leases is not None and a.leases.renew([trial_id], clock.now) == set()
+    assert live.fence is not None and a.leases is not None
+    assert a.leases.renew({trial_id: live.fence.epoch}, clock.now) == set()
     with pytest.raises(HostedElsewhere):
-        a.get(trial_id)
+        a.host(trial_id)
 
 
 def test_a_runner_takes_over_only_trials_nobody_hosts(pair) -> None:
     a, b, clock = pair
     hosted = _start(a)
-    a.get(hosted)
+    a.host(hosted)
     fresh = _start(a)  # started by a page on A, not yet opened: no lease yet
     b.tick()
     assert b.loaded_ids() == set()  # neither the hosted nor the just-started one
@@ -108,13 +118,13 @@ def test_a_runner_takes_over_only_trials_nobody_hosts(pair) -> None:
 
 def test_only_the_host_finishes_an_overdue_trial(pair) -> None:
     a, b, clock = pair
-    trial_id = _start(a, duration_s=20.0)
-    live = a.get(trial_id)
+    trial_id = _start(a, duration_s=18.0)
+    live = a.host(trial_id)
     assert live is not None
     for _ in range(3):  # A renews its lease, then stalls: the trial is overdue
         clock.now += 5.0
         a.tick()
-    clock.now += 5.5  # 20.5 s: past the deadline, within A's lease
+    clock.now += 3.5  # 18.5 s: past the deadline, within A's lease
     b.finish_overdue(trial_id)  # the study page on B: not B's to end
     assert trial_id not in b.loaded_ids() and not live.ended
     a.finish_overdue(trial_id)
@@ -179,7 +189,7 @@ def test_a_command_caught_by_a_lost_lease_is_held_back_with_held_by_and_retry_af
         with runner_a.database.session_scope() as session:
             participant, trial = start_bot_trial(session, seed=2, duration_s=600.0)
             token, trial_id = participant.token, trial.id
-        live = runner_a.get(trial_id)
+        live = runner_a.host(trial_id)
         assert live is not None
         client = a.test_client()
         csrf = csrf_token_of(client.get(f"/live/{token}").get_data(as_text=True))
@@ -200,7 +210,7 @@ def test_a_command_caught_by_a_lost_lease_is_held_back_with_held_by_and_retry_af
             clicking.start()
             clicking.join(timeout=1.0)  # it found the trial and waits for the lock
             clock.now += LEASE_S + 0.5  # meanwhile A stalled past its lease
-            assert runner_b.get(trial_id) is not None  # B takes the trial over
+            assert runner_b.host(trial_id) is not None  # B takes the trial over
             runner_a.tick()  # A's renewal finds the lease gone: the trial moved
         clicking.join(timeout=30)
         (answer,) = answers
@@ -213,3 +223,109 @@ def test_a_command_caught_by_a_lost_lease_is_held_back_with_held_by_and_retry_af
     finally:
         for app in (a, b):
             app.extensions["hcss_db"].engine.dispose()
+
+
+def _rows_written(runner: Runner, trial_id: int) -> dict[str, int]:
+    """How many rows of each kind the trial has (every table a trial's host writes)."""
+    counts = {}
+    with runner.database.session_scope() as session:
+        for table in (SimEvent, DecisionRow, Snapshot, Observation, Command, Interruption):
+            counts[table.__tablename__] = session.scalar(
+                select(func.count()).select_from(table).where(table.trial_id == trial_id)
+            )
+    return counts
+
+
+def test_a_host_that_stalled_past_its_lease_writes_nothing_when_it_wakes(database_url) -> None:
+    """SIGSTOP in one process: A stops longer than a lease, B takes the trial over, then A
+    wakes with a participant's click and its own runner step in hand before any renewal
+    of its has answered. The click is held back (503, retried by the page) and nothing A
+    holds is written: only B, the lease's holder, writes for the trial."""
+    from tests.platform.conftest import csrf_token_of
+
+    clock = ManualClock(1_000_000.0)
+    a = _process(database_url, "127.0.0.1:5001", clock)
+    a.extensions["hcss_db"].create_all()
+    b = _process(database_url, "127.0.0.1:5002", clock)
+    runner_a, runner_b = a.extensions["hcss_runner"], b.extensions["hcss_runner"]
+    try:
+        with runner_a.database.session_scope() as session:
+            participant, trial = start_bot_trial(session, seed=2, duration_s=600.0)
+            token, trial_id = participant.token, trial.id
+        live = runner_a.host(trial_id)
+        assert live is not None
+        client = a.test_client()
+        csrf = csrf_token_of(client.get(f"/live/{token}").get_data(as_text=True))
+        for _ in range(4):
+            clock.now += 1.0
+            runner_a.tick()
+        clock.now += LEASE_S + 1.0  # A is stopped; its lease runs out
+        assert runner_b.host(trial_id) is not None  # B takes the trial over
+        written = _rows_written(runner_b, trial_id)
+
+        clock.now += 2.0  # A wakes: a click waited in its socket, its runner steps on
+        answer = client.post(
+            f"/api/live/{token}/trials/{trial_id}/observations",
+            json={"kind": "collective", "collective": 0, "button": "left"},
+            headers={"X-CSRFToken": csrf, "Idempotency-Key": "click-after-stall"},
+        )
+        runner_a.advance(live, clock.now)
+        assert answer.status_code == 503, answer.get_json()
+        assert int(answer.headers["Retry-After"]) > 0
+        assert _rows_written(runner_b, trial_id) == written
+        with runner_b.database.session_scope() as session:
+            assert session.scalar(select(func.count()).select_from(CommandKey)) == 0
+    finally:
+        for app in (a, b):
+            app.extensions["hcss_db"].engine.dispose()
+
+
+def test_a_holder_stops_writing_on_its_own_deadline_until_a_renewal_answers(pair) -> None:
+    """No renewal answered for a lease less its margin (a partition): the holder stops its
+    trial by its own clock, without asking the database, and goes on once one answers."""
+    a, _b, clock = pair
+    trial_id = _start(a)
+    live = a.host(trial_id)
+    assert live is not None and live.fence is not None
+    clock.now += 1.0
+    a.advance(live, clock.now)
+    written = _rows_written(a, trial_id)
+    step = live.sim.step_count
+
+    clock.now += LEASE_S - 1.5  # the lease is still A's in the database, not by A's own clock
+    assert not live.fence.holds()
+    a.advance(live, clock.now)
+    assert live.sim.step_count == step and live.database_away_since is not None
+    assert _rows_written(a, trial_id) == written
+
+    a.tick()  # a renewal answers: the lease was A's all along, and the trial goes on
+    clock.now += 1.0
+    a.tick()
+    assert live.fence.holds() and live.database_away_since is None
+    assert live.sim.step_count > step
+    assert _rows_written(a, trial_id)["sim_event"] >= written["sim_event"]
+
+
+def test_every_claim_takes_a_new_epoch_and_an_old_one_proves_nothing(database_url) -> None:
+    """A claim of one's own lease raises the epoch too: a transaction fenced with the
+    epoch the trial was held under before is refused, so a holder that lost the lease and
+    claimed it back cannot write with what it held in between."""
+    clock = ManualClock(1_000_000.0)
+    database = Database(database_url, clock=clock)
+    database.create_all()
+    try:
+        with database.session_scope() as session:
+            _, trial = start_bot_trial(session, seed=2, duration_s=600.0)
+        leases = Leases(database, "p1")
+        first = leases.claim(trial.id, clock.now)
+        second = leases.claim(trial.id, clock.now)
+        assert first is not None and second == first + 1
+        with database.session_scope() as session:
+            leases.prove(session, trial.id, second, clock.now)
+        with pytest.raises(LeaseLost), database.session_scope() as session:
+            leases.prove(session, trial.id, first, clock.now)
+        clock.now += LEASE_S + 0.1
+        with pytest.raises(LeaseLost), database.session_scope() as session:
+            leases.prove(session, trial.id, second, clock.now)
+    finally:
+        database.engine.dispose()

@@ -43,7 +43,7 @@ def test_an_outage_stops_the_trial_clock_and_moves_its_end(
     restarted = _restart(database_url, crash_wall + 8.8)  # 8.8 s later, 35 trial s at 4x
     try:
         runner = restarted.extensions["hcss_runner"]
-        live = runner.get(trial.trial_id)
+        live = runner.host(trial.trial_id)
         assert live.sim.step_count == reached  # not 40 + 35
         with restarted.extensions["hcss_db"].session_scope() as session:
             (interruption,) = session.scalars(select(Interruption)).all()
@@ -61,7 +61,7 @@ def test_an_outage_stops_the_trial_clock_and_moves_its_end(
 
         # Another restart later: the earlier outage still counts, the new one adds to it.
         restarted_again = _restart(database_url, end_wall + 20)
-        assert restarted_again.extensions["hcss_runner"].get(trial.trial_id) is None  # ended
+        assert restarted_again.extensions["hcss_runner"].host(trial.trial_id) is None  # ended
         restarted_again.extensions["hcss_db"].engine.dispose()
     finally:
         restarted.extensions["hcss_db"].engine.dispose()
@@ -86,15 +86,15 @@ def test_two_outages_both_stop_the_clock(app, make_trial, database_url) -> None:
     first = _restart(database_url, trial.started_epoch + 30.0 + 5.0)
     try:
         runner = first.extensions["hcss_runner"]
-        assert runner.get(trial.trial_id).sim.step_count == 30
+        assert runner.host(trial.trial_id).sim.step_count == 30
         runner.clock.now = trial.started_epoch + 30.0 + 5.0 + 20.0  # 20 s of running
         runner.tick()
-        assert runner.get(trial.trial_id).sim.step_count == 50
+        assert runner.host(trial.trial_id).sim.step_count == 50
     finally:
         first.extensions["hcss_db"].engine.dispose()
     second = _restart(database_url, trial.started_epoch + 55.0 + 7.0)  # down another 7 s
     try:
-        live = second.extensions["hcss_runner"].get(trial.trial_id)
+        live = second.extensions["hcss_runner"].host(trial.trial_id)
         assert live.sim.step_count == 50
         with second.extensions["hcss_db"].session_scope() as session:
             outages = [
@@ -130,7 +130,7 @@ def test_a_trial_whose_simulation_finished_early_loses_only_the_outage(
 
     restarted = _restart(database_url, crash_wall + 6.0)
     try:
-        live = restarted.extensions["hcss_runner"].get(trial.trial_id)
+        live = restarted.extensions["hcss_runner"].host(trial.trial_id)
         assert live is not None
         assert live.clock(crash_wall + 6.0) == pytest.approx(clock_at_crash, abs=0.5)
         with restarted.extensions["hcss_db"].session_scope() as session:

@@ -221,12 +221,12 @@ def test_the_study_files_probe_counts_reach_the_runner_and_survive_a_rebuild(
     """A study asking 2/0/1 probes per 20 minutes gets exactly that, before and after a restart."""
     trial = make_trial(seed=11, duration_s=1200.0, probe_counts={1: 2, 2: 0, 3: 1})
     runner = app.extensions["hcss_runner"]
-    levels = [p.level for p in runner.get(trial.trial_id).probe_plan]
+    levels = [p.level for p in runner.host(trial.trial_id).probe_plan]
     assert sorted(levels) == [1, 1, 3]
     runner.forget(trial.trial_id)  # rebuilt from the database: the trial row keeps the counts
-    assert [p.level for p in runner.get(trial.trial_id).probe_plan] == levels
+    assert [p.level for p in runner.host(trial.trial_id).probe_plan] == levels
     default = make_trial(seed=11, duration_s=1200.0)
-    assert len(runner.get(default.trial_id).probe_plan) == 12
+    assert len(runner.host(default.trial_id).probe_plan) == 12
 
 
 def test_a_study_file_with_other_probe_counts_is_accepted_and_bad_ones_refused() -> None:

@@ -28,7 +28,8 @@ def test_deploy_nginx_routes_every_participant_path_by_token(tmp_path) -> None:
     assert "~^/(?:p|live|api/live)/(?<token>[^/]+) $token;" in text
     assert "hash $hcss_token consistent;" in text
     assert "server 10.0.0.2:5000" in text and "server 10.0.0.3:5000" in text
-    assert "proxy_buffering off;" in text and "proxy_read_timeout 3600s;" in text
+    assert "proxy_buffering off;" in text and "3600s" not in text  # a hung process times out
+    assert "proxy_read_timeout 3s;" in text and "proxy_read_timeout 15s;" in text
     assert "proxy_next_upstream error timeout http_502 http_503 non_idempotent;" in text
 
 

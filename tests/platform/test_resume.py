@@ -35,7 +35,7 @@ def test_rebuild_after_a_crash_equals_an_uninterrupted_run(app, make_trial, data
     restarted.extensions["hcss_runner"].clock = ManualClock(trial.started_epoch + 150)
     try:
         runner = restarted.extensions["hcss_runner"]
-        rebuilt = runner.get(trial.trial_id)
+        rebuilt = runner.host(trial.trial_id)
         reached = crashed.sim.step_count  # 97: the dead server's last rows are at step 97
         assert rebuilt is not crashed and rebuilt.sim.step_count == reached
         assert rebuilt.sim.state_digest() == crashed.sim.state_digest()
@@ -93,7 +93,7 @@ def test_a_rebuilt_trial_shows_the_system_messages_in_the_live_order(
     )
     restarted.extensions["hcss_runner"].clock = ManualClock(trial.runner.clock())
     try:
-        rebuilt = restarted.extensions["hcss_runner"].get(trial.trial_id)
+        rebuilt = restarted.extensions["hcss_runner"].host(trial.trial_id)
         assert rebuilt is not live and rebuilt.sim.step_count == live.sim.step_count
         assert [(m["time"], m["kind"], m["text"]) for m in rebuilt.messages] == before
         assert [m["seq"] for m in rebuilt.messages] == [m["seq"] for m in live.messages]

@@ -18,11 +18,14 @@ write can never carry the command out twice.
 
 from __future__ import annotations
 
+import logging
 from typing import Any
 
+from sqlalchemy.exc import DBAPIError
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
+from hcss.platform.live.leases import trial_transaction
 from hcss.platform.live.recorder import kept_until_written, record_request_statuses
 from hcss.platform.live.session import RunningTrial
 from hcss.platform.live.trial_log import command_message
@@ -34,6 +37,9 @@ from hcss.platform.models import (
     ProbeEvent,
 )
 from hcss.simulation import OperatorCommand
+from hcss.simulation.requests import RequestOutcome
+
+log = logging.getLogger(__name__)
 
 
 class ActionError(Exception):
@@ -60,10 +66,11 @@ def submit_request(
         step, sim_time = sim.step_count, float(sim.time)
         before = sim.snapshot()
         outcome = sim.apply(command)
+        row: Command | None = None
         try:
             with (
                 kept_until_written(live, simulation_restored=True),
-                database.session_scope() as session,
+                trial_transaction(database, live) as session,
             ):
                 row = Command.applied(
                     live.trial_id,
@@ -77,17 +84,21 @@ def submit_request(
                 session.flush()
                 session.add(CommandOutcome.of(row.id, outcome))
                 record_request_statuses(live, session)
-                answer = _answered(
-                    session,
-                    key,
-                    {
-                        "command_id": row.id,
-                        "accepted": outcome.accepted,
-                        "request_id": outcome.request_id if outcome.accepted else None,
-                        "reason": outcome.reason,
-                        "step": step,
-                    },
-                )
+                answer = _answered(session, key, _committed_answer(row, outcome, step))
+        except DBAPIError:
+            committed = None if row is None else _was_committed(database, row)
+            if row is None or not committed:
+                live.roll_back_to(before)
+                if committed is None and row is not None:
+                    # Nobody can say whether the command is logged: the trial in memory is
+                    # not trusted any longer; the runner drops it and the next request
+                    # rebuilds it from what the database holds.
+                    live.move_away()
+                raise
+            # The commit's answer was lost after the database committed (a dropped line, a
+            # failover): the command is in the log, so it stays applied in memory too.
+            log.warning("trial %s: command %s committed, its answer lost", live.trial_id, row.id)
+            answer = _committed_answer(row, outcome, step)
         except BaseException:
             live.roll_back_to(before)
             raise
@@ -128,7 +139,7 @@ def record_observation(
             step=live.sim.step_count,
             sim_time=float(live.sim.time),
         )
-        with database.session_scope() as session:
+        with trial_transaction(database, live) as session:
             session.add(row)
             session.flush()
             return _answered(session, key, {"observation_id": row.id}, status=201)
@@ -149,7 +160,7 @@ def probe_ready(
         running_s = None if now is None else live.running_wall_s(now)
         event = _probe_event(live, probe_id, "ready")
         event.latency_ms = _latency_ms(probe.delivered_s, running_s)
-        with database.session_scope() as session:
+        with trial_transaction(database, live) as session:
             session.add(event)
             answer = _answered(session, key, {"ok": True})
         probe.ready_pressed(running_s)
@@ -179,7 +190,7 @@ def probe_answer(
         )
         answered = _probe_event(live, probe_id, "answer", answer=answer)
         answered.latency_ms = _latency_ms(asked_s, running_s)
-        with database.session_scope() as session:
+        with trial_transaction(database, live) as session:
             session.add(answered)
             if probe.truth is not None:
                 event = _probe_event(live, probe_id, "scored", answer=answer)
@@ -189,6 +200,31 @@ def probe_answer(
         live.probe_answered(answer)
         live.touch()
         return reply
+
+
+def _was_committed(database: Database, row: Command) -> bool | None:
+    """Whether the command's row is in the database after its commit failed: asked, not
+    guessed. None: the database cannot say (it is still away).
+
+    A row flushed before the failed commit has its id; the database says whether
+    the transaction that wrote it committed.
+    """
+    try:
+        with database.session_scope() as session:
+            return session.get(Command, row.id) is not None
+    except DBAPIError:
+        log.warning("trial %s: cannot tell whether command %s committed", row.trial_id, row.id)
+        return None
+
+
+def _committed_answer(row: Command, outcome: RequestOutcome, step: int) -> dict[str, Any]:
+    return {
+        "command_id": row.id,
+        "accepted": outcome.accepted,
+        "request_id": outcome.request_id if outcome.accepted else None,
+        "reason": outcome.reason,
+        "step": step,
+    }
 
 
 def _answered(

@@ -36,7 +36,9 @@ from sqlalchemy.exc import IntegrityError
 
 from hcss.platform.db import Database
 from hcss.platform.live.actions import ActionError
+from hcss.platform.live.leases import trial_transaction
 from hcss.platform.live.runner import Runner
+from hcss.platform.live.session import RunningTrial
 from hcss.platform.models import CommandKey
 
 
@@ -59,13 +61,13 @@ def once(
 
     `carry_out` hands the key to the action, which stores it with what it records.
     """
-    live = runner.get(key.trial_id)
+    live = runner.host(key.trial_id)
     with live.lock if live is not None else nullcontext():  # repeats wait here
         row = _stored(database, key)
         if row is not None:
             return _replayed(row, key)
         try:
-            return _first(database, key, carry_out)
+            return _first(database, key, carry_out, live)
         except IntegrityError:
             # Only reachable if two processes served one trial (one server never
             # does: the lock above serialises its repeats); the stored answer wins,
@@ -97,7 +99,10 @@ def _replayed(row: CommandKey, key: CommandKey) -> Answer:
 
 
 def _first(
-    database: Database, key: CommandKey, carry_out: Callable[[CommandKey], Answer]
+    database: Database,
+    key: CommandKey,
+    carry_out: Callable[[CommandKey], Answer],
+    live: RunningTrial | None,
 ) -> Answer:
     """The command's answer; `key` stored with it, by the action or (nothing recorded) here."""
     answer = carry_out(key)
@@ -110,6 +115,6 @@ def _first(
     if answer.status < 400:
         raise RuntimeError(f"{key.endpoint} recorded a command without its key")
     key.status, key.response = answer.status, answer.body
-    with database.session_scope() as session:
+    with database.session_scope() if live is None else trial_transaction(database, live) as session:
         session.add(key)  # a refusal: nothing else was written
     return answer

@@ -64,7 +64,7 @@ def holds_for(runner: Runner, token: str, trial_id: int) -> bool:
 
 
 def _running(runner: Runner, trial_id: int) -> RunningTrial:
-    live = runner.get(trial_id)
+    live = runner.host(trial_id)
     if live is None:
         raise ActionError("the trial has ended", 409, "ended")
     return live
@@ -153,7 +153,7 @@ def open_stream(
     none is free, released when the connection closes) and wakes the link's
     older stream, which sees it is superseded and hands over.
     """
-    live = runner.get(trial.id)
+    live = runner.host(trial.id)
     if live is None:
         with database.session_scope() as session:
             reason = end_reason(session, trial.id)

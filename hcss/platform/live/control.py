@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING
 
 from sqlalchemy import update
 
+from hcss.platform.live.leases import trial_transaction
 from hcss.platform.live.recorder import kept_until_written, record_progress
 from hcss.platform.models import ConsoleAction, TrialOrder
 from hcss.platform.session_state import STATE_ACTIONS
@@ -24,6 +25,9 @@ if TYPE_CHECKING:
 #: What `control_trial` answers: carried out, or the trial had just reached its end.
 DONE = "done"
 ENDED = "ended"
+#: The trial was already as asked (a second pause of a paused trial, racing the first):
+#: nothing is written, so two concurrent pauses leave one console action.
+ALREADY = "already"
 
 
 def control_trial(
@@ -35,7 +39,8 @@ def control_trial(
     experimenter_id: int | None,
     order_id: int | None = None,
 ) -> str:
-    """Pause, resume or abort the trial now; `ENDED` if it ended first (then only logged).
+    """Pause, resume or abort the trial now; `ENDED` if it ended first (then only logged);
+    `ALREADY` if it is paused (resumed) already, when nothing is written.
 
     `order_id`: the `TrialOrder` this carries out, marked done in the same
     transaction as the action's row, so a host that dies in between leaves
@@ -52,7 +57,21 @@ def control_trial(
     now = runner.clock()
     # Advanced to `now` first: the clock stops (or the trial ends) at this instant.
     with runner.holding(live, now, advance=action != "resume"):
-        with kept_until_written(live), runner.database.session_scope() as session:
+        # The state is checked here, under the lock, not by the caller before it: two
+        # consoles pausing at once both saw a running trial, only the first pauses it.
+        paused = live.paused_since is not None
+        if not live.ended and (
+            (action == "pause" and paused) or (action == "resume" and not paused)
+        ):
+            if order_id is not None:
+                with trial_transaction(runner.database, live) as session:
+                    session.execute(
+                        update(TrialOrder)
+                        .where(TrialOrder.id == order_id)
+                        .values(done_epoch=now, outcome=DONE)
+                    )
+            return ALREADY
+        with kept_until_written(live), trial_transaction(runner.database, live) as session:
             if not live.ended:
                 record_progress(live, session)
             if order_id is not None:

@@ -14,12 +14,32 @@ Why a row and not a PostgreSQL advisory lock on a dedicated connection:
 the lock is released the instant the owner's connection drops, but so it is
 when the connection merely breaks (a database restart, a network blip), and
 the owner learns that only on its next query, while another process already
-hosts the trial; a lease expires on the clock both sides read, so the owner
-knows when to stop (`lost`) before anyone else may start. Rows work on
+hosts the trial; a lease expires by one clock (the database's), and the
+owner stops on its own deadline before anyone else may start. Rows work on
 SQLite too (the tests race takeovers there as well), need no connection per
 process outside the pool, and are visible to the console. The price is the
 failover delay (at most one lease length) and one UPDATE per renewal for
 all of a process's trials.
+
+Fencing. A holder that stalled (SIGSTOP, a long GC, a swap storm) or lost
+its database link learns of it only later; meanwhile another process may
+have taken the trial. So a lease is not only held but proved: every claim
+raises the row's `epoch`, the trial in memory carries the epoch it was
+claimed with, and every transaction that writes for the trial first runs
+`prove` in the same transaction: an UPDATE of the lease row that matches
+only while owner, epoch and an unexpired `expires_epoch` all hold. On
+PostgreSQL that UPDATE also locks the row until the commit, so a claimant's
+UPDATE waits for the writer and then sees the lease as the writer left it:
+a write lands either before the takeover (and the new host's rebuild reads
+it) or not at all. A failed proof rolls the transaction back (`LeaseLost`,
+a 503 the page retries). Times are the database's clock on PostgreSQL
+(`clock_timestamp()`), so two hosts' clocks never meet; on SQLite (one
+host) and under a test's `ManualClock` they are the process clock.
+
+The holder also stops on its own clock: each trial's `Fence.deadline` is the
+monotonic instant of the last renewal that succeeded plus the lease less a
+margin; past it, nothing is written for the trial until a renewal confirms
+the lease again, whatever the database answers (or does not).
 
 Only processes started as part of a group (`hcss serve --processes N`, or
 `--cluster`) lease; a lone server hosts every trial, as before.
@@ -27,16 +47,24 @@ Only processes started as part of a group (`hcss serve --processes N`, or
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+import time
+from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-from sqlalchemy import delete, or_, select, update
+from sqlalchemy import Double, and_, cast, delete, func, literal, or_, select, update
 from sqlalchemy.dialects.postgresql import insert as pg_insert
 from sqlalchemy.dialects.sqlite import insert as sqlite_insert
 from sqlalchemy.orm import Session
+from sqlalchemy.sql.elements import ColumnElement
 from werkzeug.exceptions import ServiceUnavailable
 
 from hcss.platform.db import Database
 from hcss.platform.models import Trial, TrialLease
+
+if TYPE_CHECKING:
+    from hcss.platform.live.session import RunningTrial
 
 #: Seconds a lease lasts unless renewed; failover takes at most this long plus a sync.
 LEASE_S = 6.0
@@ -45,6 +73,9 @@ LEASE_S = 6.0
 UNCLAIMED_GRACE_S = 30.0
 #: Renewals per lease length: a renewal may be late twice before the lease is at risk.
 RENEWALS_PER_LEASE = 3
+#: Seconds before its lease runs out (by its own monotonic clock) that a holder stops writing:
+#: room for a transaction begun just before the deadline and for clock rate differences.
+STOP_MARGIN_S = 1.0
 
 
 class HostedElsewhere(ServiceUnavailable):
@@ -54,6 +85,16 @@ class HostedElsewhere(ServiceUnavailable):
         super().__init__(f"trial {trial_id} is hosted by another server process", retry_after=1)
         self.trial_id = trial_id
         self.owner = owner
+
+
+class LeaseLost(HostedElsewhere):
+    """This process cannot prove it holds the trial's lease: nothing was written (503)."""
+
+    def __init__(self, trial_id: int) -> None:
+        super().__init__(trial_id, "")
+        self.description = (
+            f"trial {trial_id} is moving to another server process; try again in a moment"
+        )
 
 
 class Leases:
@@ -68,61 +109,132 @@ class Leases:
     def renew_every_s(self) -> float:
         return self.lease_s / RENEWALS_PER_LEASE
 
-    def claim(self, trial_id: int, now: float) -> bool:
-        """Take the trial's lease if nobody holds it, it ran out, or it is already ours.
+    @property
+    def monotonic(self) -> Callable[[], float]:
+        """The holder's own clock for its deadlines: monotonic in a server; a test's
+        `ManualClock` (the database's clock) when one is in place, so tests move it."""
+        return time.monotonic if self._wall_clock else self.database.clock
+
+    def deadline_after(self, renewal_started: float) -> float:
+        """The monotonic instant a lease renewed (or claimed) at `renewal_started` stops
+        counting as held here: its length less `STOP_MARGIN_S`."""
+        return renewal_started + self.lease_s - min(STOP_MARGIN_S, self.lease_s / 3)
+
+    @property
+    def _wall_clock(self) -> bool:
+        return self.database.clock is time.time
+
+    def _now(self, session: Session, now: float) -> ColumnElement[float]:
+        """Now by the database's clock on PostgreSQL in a server; else the given clock reading."""
+        if self._wall_clock and session.get_bind().dialect.name == "postgresql":
+            return cast(func.extract("epoch", func.clock_timestamp()), Double)
+        return literal(now, Double)
+
+    def prove(self, session: Session, trial_id: int, epoch: int, now: float) -> None:
+        """Prove in `session`'s transaction that this process holds the trial's lease at
+        `epoch`, and keep the row locked until the commit; else `LeaseLost`.
+
+        Call it first in every transaction that writes for the trial.
+        """
+        proved = session.execute(
+            update(TrialLease)
+            .where(
+                TrialLease.trial_id == trial_id,
+                TrialLease.owner == self.owner,
+                TrialLease.epoch == epoch,
+                TrialLease.expires_epoch > self._now(session, now),
+            )
+            .values(owner=TrialLease.owner)
+            .returning(TrialLease.trial_id)
+            .execution_options(synchronize_session=False)
+        ).first()
+        if proved is None:
+            raise LeaseLost(trial_id)
+
+    def claim(self, trial_id: int, now: float) -> int | None:
+        """Take the trial's lease if nobody holds it, it ran out, or it is already ours;
+        the lease's new epoch, or None when another process holds it.
 
         One transaction with two statements, each atomic on the row: an insert
         that does nothing when a row exists, and an update whose condition is
         checked again on the row as committed by any racing claimant
         (PostgreSQL re-reads a row it waited for; SQLite writes one at a time).
-        So of two processes claiming one expired lease, exactly one wins.
+        So of two processes claiming one expired lease, exactly one wins. Each
+        claim raises the epoch, even a claim of our own lease: what this
+        process held under the old epoch can no longer write.
         """
-        expires = now + self.lease_s
         with self.database.session_scope() as session:
             dialect = session.get_bind().dialect.name
             insert = pg_insert if dialect == "postgresql" else sqlite_insert
+            db_now = self._now(session, now)
             inserted = session.execute(
                 insert(TrialLease)
-                .values(trial_id=trial_id, owner=self.owner, expires_epoch=expires, taken_epoch=now)
+                .values(
+                    trial_id=trial_id,
+                    owner=self.owner,
+                    epoch=1,
+                    expires_epoch=db_now + self.lease_s,
+                    taken_epoch=db_now,
+                )
                 .on_conflict_do_nothing(index_elements=["trial_id"])
             )
             # An INSERT/UPDATE answers a CursorResult; Session.execute is typed as any Result.
             if inserted.rowcount == 1:  # type: ignore[attr-defined]
-                return True
-            taken = session.execute(
+                return 1
+            return session.scalar(
                 update(TrialLease)
                 .where(
                     TrialLease.trial_id == trial_id,
-                    or_(TrialLease.owner == self.owner, TrialLease.expires_epoch < now),
+                    or_(TrialLease.owner == self.owner, TrialLease.expires_epoch < db_now),
                 )
-                .values(owner=self.owner, expires_epoch=expires, taken_epoch=now)
+                .values(
+                    owner=self.owner,
+                    epoch=TrialLease.epoch + 1,
+                    expires_epoch=db_now + self.lease_s,
+                    taken_epoch=db_now,
+                )
+                .returning(TrialLease.epoch)
+                .execution_options(synchronize_session=False)
             )
-            return taken.rowcount == 1  # type: ignore[attr-defined]  # a CursorResult, as above
 
-    def renew(self, trial_ids: Iterable[int], now: float) -> set[int]:
-        """Extend our leases of these trials in one statement; the ids still ours."""
-        wanted = list(trial_ids)
-        if not wanted:
+    def renew(self, held: dict[int, int], now: float) -> set[int]:
+        """Extend our leases of these trials (id: epoch) in one statement; the ids still ours."""
+        if not held:
             return set()
         with self.database.session_scope() as session:
+            db_now = self._now(session, now)
             rows = session.execute(
                 update(TrialLease)
                 .where(
-                    TrialLease.trial_id.in_(wanted),
+                    or_(
+                        *(
+                            and_(TrialLease.trial_id == trial_id, TrialLease.epoch == epoch)
+                            for trial_id, epoch in held.items()
+                        )
+                    ),
                     TrialLease.owner == self.owner,
-                    TrialLease.expires_epoch >= now,
+                    TrialLease.expires_epoch >= db_now,
                 )
-                .values(expires_epoch=now + self.lease_s)
+                .values(expires_epoch=db_now + self.lease_s)
                 .returning(TrialLease.trial_id)
+                .execution_options(synchronize_session=False)
             )
             return {trial_id for (trial_id,) in rows}
 
     def pass_on(self, session: Session, trial_id: int, heir: str, now: float) -> None:
-        """Give our lease of the trial to `heir`, in the caller's transaction."""
+        """Give our lease of the trial to `heir`, in the caller's transaction (which proved
+        it); the epoch rises, so nothing this process still holds can write."""
+        db_now = self._now(session, now)
         session.execute(
             update(TrialLease)
             .where(TrialLease.trial_id == trial_id, TrialLease.owner == self.owner)
-            .values(owner=heir, expires_epoch=now + self.lease_s, taken_epoch=now)
+            .values(
+                owner=heir,
+                epoch=TrialLease.epoch + 1,
+                expires_epoch=db_now + self.lease_s,
+                taken_epoch=db_now,
+            )
+            .execution_options(synchronize_session=False)
         )
 
     def release(self, trial_id: int) -> None:
@@ -144,7 +256,8 @@ class Leases:
         with self.database.session_scope() as session:
             return session.scalar(
                 select(TrialLease.owner).where(
-                    TrialLease.trial_id == trial_id, TrialLease.expires_epoch >= now
+                    TrialLease.trial_id == trial_id,
+                    TrialLease.expires_epoch >= self._now(session, now),
                 )
             )
 
@@ -166,10 +279,46 @@ class Leases:
                 select(Trial.id, Trial.started_at, TrialLease.expires_epoch)
                 .outerjoin(TrialLease, TrialLease.trial_id == Trial.id)
                 .where(Trial.id.in_(wanted))
-                .where(or_(TrialLease.expires_epoch < now, TrialLease.trial_id.is_(None)))
+                .where(
+                    or_(
+                        TrialLease.expires_epoch < self._now(session, now),
+                        TrialLease.trial_id.is_(None),
+                    )
+                )
             )
             return sorted(
                 trial_id
                 for trial_id, started_at, expires in rows
                 if expires is not None or started_at.timestamp() <= now - UNCLAIMED_GRACE_S
             )
+
+
+@dataclass
+class Fence:
+    """The lease a trial in memory was claimed with: what its writes must prove."""
+
+    leases: Leases
+    trial_id: int
+    epoch: int
+    #: The holder's monotonic instant after which it no longer counts the lease as held.
+    deadline: float
+
+    def holds(self) -> bool:
+        """Whether the lease still counts as held by this process's own clock (no I/O)."""
+        return self.leases.monotonic() < self.deadline
+
+    def prove(self, session: Session, now: float) -> None:
+        """`Leases.prove` in `session`, unless the holder's own deadline passed already."""
+        if not self.holds():
+            raise LeaseLost(self.trial_id)
+        self.leases.prove(session, self.trial_id, self.epoch, now)
+
+
+@contextmanager
+def trial_transaction(database: Database, live: RunningTrial) -> Iterator[Session]:
+    """A unit of work that writes for the trial: with leases it proves the lease first,
+    in the same transaction, and rolls back with `LeaseLost` if it cannot."""
+    with database.session_scope() as session:
+        if live.fence is not None:
+            live.fence.prove(session, database.clock())
+        yield session

@@ -25,7 +25,7 @@ from hcss.platform.live.outages import (
 )
 from hcss.platform.live.probes import counts_of, probe_plan
 from hcss.platform.live.progress import CurrentProbe, Projection
-from hcss.platform.live.recorder import record_progress, write_snapshot
+from hcss.platform.live.recorder import kept_until_written, record_progress, write_snapshot
 from hcss.platform.live.session import RunningTrial
 from hcss.platform.live.trial_log import (
     build_simulation,
@@ -96,7 +96,10 @@ def load_trial(
     if sim.step_count < due:
         sim.step(due - sim.step_count)
     _restore_bookkeeping(session, live)
-    record_progress(live, session)
+    # A unit of work of the recorder like any other: what it hands over counts as written
+    # with this transaction, so the first `advance` does not write the load's events again.
+    with kept_until_written(live):
+        record_progress(live, session)
     if ran_before:
         session.add(
             Interruption(
@@ -116,8 +119,10 @@ def load_trial(
 def _replay_commands(session: Session, trial: Trial, live: RunningTrial) -> int:
     """Apply the commands the snapshot does not contain (the trial log's `build_simulation`).
 
-    The snapshot knows how many of the log's commands it holds
-    (`commands_applied`). An outcome the server logged no row for (it died in
+    The snapshot names the last logged command it holds (`last_command_id`):
+    the commands after it are replayed, by identity, not by how many the
+    snapshot counts, so a row the live trial never applied cannot shift every
+    later rebuild. An outcome the server logged no row for (it died in
     between) is written now. Returns the commands replayed.
     """
     decided = set(
@@ -136,7 +141,9 @@ def _replay_commands(session: Session, trial: Trial, live: RunningTrial) -> int:
             session.add(CommandOutcome.of(command.id, outcome))
         live.command_applied(command.id)
 
-    build_simulation(session, trial, start=live.sim, on_outcome=record)
+    build_simulation(
+        session, trial, start=live.sim, after_command=live.last_command_id or 0, on_outcome=record
+    )
     return replayed
 
 

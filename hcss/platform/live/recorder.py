@@ -4,6 +4,14 @@ Called by the runner after each batch of steps, and once after a rebuild, with
 the trial's lock held. Everything is derived from the simulation's state, so a
 rebuild that replays the same steps writes only what had not been written.
 
+Every row is written if absent: a unit of work whose commit reached the
+database but whose answer was lost (a dropped line, a failover) is taken for
+failed and written again by the next, which then finds its rows (an event
+by kind, time and text; a decision by collective and index; a status by
+request and status; a probe by its index; a probe event by its kind) and
+skips them. Only the lease's holder writes (`leases.trial_transaction`), so
+the check and the insert cannot race another writer.
+
 The cursors that say "written up to here" (the last event time, the decisions
 recorded, the request statuses, the probes shown) move only with the commit:
 `kept_until_written` puts them back when the commit fails (the trial's
@@ -20,6 +28,7 @@ from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
+from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from hcss.platform.live.probes import POSTPONE_S, PROBE_TIMEOUT_S, fill_probe
@@ -79,7 +88,10 @@ def _take_events(live: RunningTrial) -> None:
 
 def _record_events(live: RunningTrial, session: Session) -> None:
     _take_events(live)
+    stored = _stored_events(live, session)
     for event in live.unwritten_events:
+        if (str(event["kind"]), float(event["time"]), event_text(event)[:300]) in stored:
+            continue  # written by a commit whose answer was lost: never twice
         session.add(
             SimEvent(
                 trial_id=live.trial_id,
@@ -95,11 +107,37 @@ def _record_events(live: RunningTrial, session: Session) -> None:
     live.events_written_up_to(float(live.sim.time) - 1e-9)
 
 
+def _stored_events(live: RunningTrial, session: Session) -> set[tuple[str, float, str]]:
+    """The events of the unwritten ones' times already stored (kind, time, text)."""
+    if not live.unwritten_events:
+        return set()
+    since = min(float(event["time"]) for event in live.unwritten_events)
+    rows = session.execute(
+        select(SimEvent.kind, SimEvent.sim_time, SimEvent.text).where(
+            SimEvent.trial_id == live.trial_id, SimEvent.sim_time >= since
+        )
+    )
+    return {(kind, float(time), text) for kind, time, text in rows}
+
+
 def _record_decisions(live: RunningTrial, session: Session) -> None:
     records = live.sim.decisions
-    for record in records[live.decisions_recorded :]:
+    fresh = records[live.decisions_recorded :]
+    stored: set[tuple[int, int]] = set()
+    if fresh:
+        stored = {
+            (collective, index)
+            for collective, index in session.execute(
+                select(DecisionRow.collective, DecisionRow.decision_index).where(
+                    DecisionRow.trial_id == live.trial_id
+                )
+            )
+        }
+    for record in fresh:
         # The record itself; who and where (source, participant, trial, run) the export adds.
         row = {k: v for k, v in record.as_row().items() if k not in EXPORT_IDENTITY}
+        if (int(record.collective), int(row["decision_index"])) in stored:
+            continue  # written by a commit whose answer was lost, with its probes' scores
         session.add(
             DecisionRow(
                 trial_id=live.trial_id,
@@ -117,6 +155,8 @@ def _record_decisions(live: RunningTrial, session: Session) -> None:
 def _score_projections(live: RunningTrial, session: Session, collective: str, end_s: float) -> None:
     """Level-3 probes asked before this decision ended are scored by it."""
     for probe_id, _shown_at, answer in live.projections_ended_by(end_s):
+        if _probe_event_stored(session, probe_id, "scored"):
+            continue
         session.add(
             ProbeEvent(
                 probe_id=probe_id,
@@ -136,7 +176,21 @@ def record_request_statuses(live: RunningTrial, session: Session) -> None:
     A rebuild replays changes that were written before the interruption;
     the written ones (restored from the rows) are skipped.
     """
-    for change in live.status_changes_to_write(live.sim.drain_status_changes()):
+    changes = live.status_changes_to_write(live.sim.drain_status_changes())
+    stored: set[tuple[int, str]] = set()
+    if changes:
+        stored = {
+            (request_id, status)
+            for request_id, status in session.execute(
+                select(RequestStatusChange.request_id, RequestStatusChange.status).where(
+                    RequestStatusChange.trial_id == live.trial_id,
+                    RequestStatusChange.request_id.in_({c.request_id for c in changes}),
+                )
+            )
+        }
+    for change in changes:
+        if (change.request_id, str(RequestStatus(change.status))) in stored:
+            continue  # written by a commit whose answer was lost
         session.add(
             RequestStatusChange(
                 trial_id=live.trial_id,
@@ -153,6 +207,8 @@ def _expire_probe(live: RunningTrial, session: Session, time: float) -> None:
     if probe is None or time < probe.timeout_sim_time:
         return
     live.probe_cleared()
+    if _probe_event_stored(session, probe.id, "timeout"):
+        return
     session.add(
         ProbeEvent(
             probe_id=probe.id,
@@ -173,6 +229,12 @@ def _show_probe(live: RunningTrial, session: Session, time: float) -> None:
     if filled is None:
         live.probe_postponed(time + POSTPONE_S)
         return
+    stored = session.scalars(
+        select(Probe).where(Probe.trial_id == live.trial_id, Probe.probe_index == probe_index)
+    ).first()
+    if stored is not None:  # shown by a commit whose answer was lost: the same probe
+        live.probe_shown(CurrentProbe.of(stored))
+        return
     row = Probe(
         trial_id=live.trial_id,
         probe_index=probe_index,
@@ -187,6 +249,17 @@ def _show_probe(live: RunningTrial, session: Session, time: float) -> None:
     session.add(row)
     session.flush()
     live.probe_shown(CurrentProbe.of(row))
+
+
+def _probe_event_stored(session: Session, probe_id: int, kind: str) -> bool:
+    return (
+        session.scalar(
+            select(ProbeEvent.id)
+            .where(ProbeEvent.probe_id == probe_id, ProbeEvent.kind == kind)
+            .limit(1)
+        )
+        is not None
+    )
 
 
 def write_snapshot(live: RunningTrial, session: Session, now: float) -> None:
@@ -206,21 +279,30 @@ def write_snapshot(live: RunningTrial, session: Session, now: float) -> None:
 def end_trial(live: RunningTrial, session: Session, reason: str, now: float) -> None:
     """The time limit is reached: close the open probe, snapshot, and mark it ended."""
     probe = live.probe_cleared()
-    if probe is not None:
+    if probe is not None and not _probe_event_stored(session, probe.id, "timeout"):
         session.add(
             ProbeEvent(
                 probe_id=probe.id, kind="timeout", step=live.sim.step_count, sim_time=live.sim.time
             )
         )
     write_snapshot(live, session, now)
-    session.add(
-        TrialStatusChange(
-            trial_id=live.trial_id,
-            status=TrialStatus.ENDED,
-            reason=reason,
-            step=live.sim.step_count,
+    ended = session.scalar(
+        select(TrialStatusChange.id)
+        .where(
+            TrialStatusChange.trial_id == live.trial_id,
+            TrialStatusChange.status == TrialStatus.ENDED,
         )
+        .limit(1)
     )
+    if ended is None:  # else a commit whose answer was lost ended it already
+        session.add(
+            TrialStatusChange(
+                trial_id=live.trial_id,
+                status=TrialStatus.ENDED,
+                reason=reason,
+                step=live.sim.step_count,
+            )
+        )
     live.mark_ended(reason)
 
 

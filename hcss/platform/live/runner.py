@@ -5,7 +5,7 @@ CLI, or before a restart), advances each to the step the wall clock says is
 due, records what happened and wakes the streams. Commands do not wait for a
 tick: they take the trial's lock and apply between two steps.
 
-Blueprints use only the public methods below (get, loaded, holding, pause,
+Blueprints use only the public methods below (host, loaded, holding, pause,
 resume, end, finish_overdue, forget, withdrawing); the registry and its lock are
 private. The thread is started only where trials are served (`hcss serve`, the
 test server); an app built for a script or a check has a runner without one.
@@ -27,7 +27,14 @@ from sqlalchemy.orm import Session
 from hcss.platform.db import Database
 from hcss.platform.errors import database_away
 from hcss.platform.live.control import control_trial
-from hcss.platform.live.leases import LEASE_S, HostedElsewhere, Leases
+from hcss.platform.live.leases import (
+    LEASE_S,
+    Fence,
+    HostedElsewhere,
+    LeaseLost,
+    Leases,
+    trial_transaction,
+)
 from hcss.platform.live.orders import HAND_OVER, POLL_S, PendingOrder, pending_orders, send_order
 from hcss.platform.live.outages import record_database_outage
 from hcss.platform.live.rebuild import load_trial
@@ -64,8 +71,11 @@ class Runner:
         self.snapshot_interval_s = snapshot_interval_s
         self._trials: dict[int, RunningTrial] = {}
         self._registry_lock = threading.RLock()
+        self._loading: dict[int, threading.Lock] = {}
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
+        #: Renews the leases on its own thread, so no rebuild or slow write delays a renewal.
+        self._keeper: threading.Thread | None = None
         self._last_sync = -float("inf")
         self._told_unmigrated = False
 
@@ -80,49 +90,72 @@ class Runner:
 
     # --- finding trials -------------------------------------------------------
 
-    def get(self, trial_id: int) -> RunningTrial | None:
-        """The live trial, loading it first if the database says it is running.
+    def host(self, trial_id: int) -> RunningTrial | None:
+        """Host the trial here: the trial in memory, claimed and rebuilt first if the
+        database says it is running and it is not in memory (None: it is not running).
 
-        With leases, loading means taking the trial's lease first (a takeover
+        With leases, hosting means taking the trial's lease first (a takeover
         when its owner died); `HostedElsewhere` (503) when another live
-        process holds it.
+        process holds it. `loaded` only looks.
         """
         live = self._trials.get(trial_id)
         if live is not None:
             return live
+        # One loader per trial, not one for the registry: a rebuild of one trial never
+        # holds up the streams, commands and lease renewals of the others.
         with self._registry_lock:
+            loading = self._loading.setdefault(trial_id, threading.Lock())
+        with loading:
             live = self._trials.get(trial_id)
             if live is not None:
                 return live
-            with self.database.session_scope() as session:
-                if latest_status(session, trial_id) != TrialStatus.RUNNING:
-                    return None
-            # Another process's lease, run out: it hosted the trial and died, maybe before
-            # its first snapshot; the rebuild must still stop the clock for the outage.
-            earlier = None if self.leases is None else self.leases.owner_of(trial_id)
-            if self.leases is not None and not self.leases.claim(trial_id, self.clock()):
-                raise HostedElsewhere(trial_id, self.leases.holder(trial_id, self.clock()) or "")
-            host_died = self.leases is not None and earlier not in (None, self.leases.owner)
-            try:
-                with self.database.session_scope() as session:
-                    trial = session.get(Trial, trial_id)
-                    assert trial is not None  # it has a status, so it exists
-                    live = load_trial(session, trial, self.clock(), host_died=host_died)
-            except DBAPIError:
-                self._release(trial_id)
-                raise  # the database is away: try again later, the trial is not at fault
-            except Exception as error:
-                log.exception("live trial %s cannot be rebuilt; ending it", trial_id)
-                self._give_up(trial_id, error)
-                self._release(trial_id)
-                return None
-            self._trials[trial_id] = live
+            live = self._load(trial_id)
+            if live is not None:
+                with self._registry_lock:
+                    self._trials[trial_id] = live
             return live
+
+    def _load(self, trial_id: int) -> RunningTrial | None:
+        """Claim and rebuild the trial (`host` holds its loader); None if it is not running."""
+        with self.database.session_scope() as session:
+            if latest_status(session, trial_id) != TrialStatus.RUNNING:
+                return None
+        # Another process's lease, run out: it hosted the trial and died, maybe before
+        # its first snapshot; the rebuild must still stop the clock for the outage.
+        earlier = None if self.leases is None else self.leases.owner_of(trial_id)
+        fence = None
+        if self.leases is not None:
+            claimed_at = self.leases.monotonic()
+            epoch = self.leases.claim(trial_id, self.clock())
+            if epoch is None:
+                holder = self.leases.holder(trial_id, self.clock())
+                raise HostedElsewhere(trial_id, holder or "")
+            fence = Fence(self.leases, trial_id, epoch, self.leases.deadline_after(claimed_at))
+        host_died = self.leases is not None and earlier not in (None, self.leases.owner)
+        try:
+            with self.database.session_scope() as session:
+                if fence is not None:
+                    fence.prove(session, self.clock())
+                trial = session.get(Trial, trial_id)
+                assert trial is not None  # it has a status, so it exists
+                live = load_trial(session, trial, self.clock(), host_died=host_died)
+                live.leased(fence)
+        except LeaseLost:
+            raise  # taken by another process while this one rebuilt it: nothing written
+        except DBAPIError:
+            self._release(trial_id)
+            raise  # the database is away: try again later, the trial is not at fault
+        except Exception as error:
+            log.exception("live trial %s cannot be rebuilt; ending it", trial_id)
+            self._give_up(trial_id, error, fence)
+            self._release(trial_id)
+            return None
+        return live
 
     def hosts(self, trial_id: int) -> bool:
         """Whether this process may host the trial now (always, without leases)."""
         try:
-            return self.get(trial_id) is not None
+            return self.host(trial_id) is not None
         except HostedElsewhere:
             return False
 
@@ -137,7 +170,7 @@ class Runner:
             return set(self._trials)
 
     def forget(self, trial_id: int) -> RunningTrial | None:
-        """Drop a trial from memory; the next `get` rebuilds it from the database if running."""
+        """Drop a trial from memory; the next `host` rebuilds it from the database if running."""
         with self._registry_lock:
             live = self._trials.pop(trial_id, None)
         if live is not None:
@@ -184,7 +217,7 @@ class Runner:
         Only its host does: a trial hosted by another process ends there.
         """
         try:
-            live = self.get(trial_id)
+            live = self.host(trial_id)
         except HostedElsewhere:
             return
         if live is None:
@@ -219,7 +252,7 @@ class Runner:
                     stale.mark_ended(reason)
                 self._release(trial_id)  # held for the deletion, never loaded
 
-    def _give_up(self, trial_id: int, error: Exception) -> None:
+    def _give_up(self, trial_id: int, error: Exception, fence: Fence | None) -> None:
         """End a trial whose records cannot be rebuilt, saying why, instead of failing forever.
 
         Without this, every tick would retry and log a traceback, and the
@@ -228,6 +261,8 @@ class Runner:
         `TrialProblem` row tells the analyst the trial stopped here and why.
         """
         with self.database.session_scope() as session:
+            if fence is not None:
+                fence.prove(session, self.clock())
             session.add(
                 TrialProblem(
                     trial_id=trial_id,
@@ -248,12 +283,20 @@ class Runner:
             running = running_trial_ids(session)
         self._told_unmigrated = False  # the tables are there (again)
         missing = [t for t in running if t not in self._trials]
+        budget_s = float("inf")
         if self.leases is not None:  # take over only what nobody hosts
             missing = self.leases.unhosted(missing, self.clock())
+            # In batches shorter than a renewal period: the trials held here advance between
+            # two batches, so a survivor taking over many trials never stops its own clocks
+            # for long (the leases are renewed on their own thread meanwhile).
+            budget_s = self.leases.renew_every_s
+        started = wallclock.monotonic()
         for trial_id in missing:
+            if wallclock.monotonic() - started >= budget_s:
+                break  # the rest at the next sync
             if trial_id not in self._trials:
                 try:
-                    self.get(trial_id)
+                    self.host(trial_id)
                 except Exception:
                     log.exception("could not load live trial %s", trial_id)
 
@@ -262,7 +305,12 @@ class Runner:
     def tick(self) -> None:
         """Bring every live trial up to the wall clock; the thread calls this in a loop."""
         now = self.clock()
-        if self.leases is not None and now - self._last_renewal >= self.leases.renew_every_s:
+        renewing_here = self._keeper is None  # else the lease keeper's thread renews
+        if (
+            self.leases is not None
+            and renewing_here
+            and now - self._last_renewal >= self.leases.renew_every_s
+        ):
             self._renew(now)
         if now - self._last_sync >= SYNC_EVERY_S:
             self._last_sync = now
@@ -284,7 +332,9 @@ class Runner:
                 self.advance(live, now)
             except Exception:
                 log.exception("live trial %s failed to advance", live.trial_id)
-            if live.ended:
+            if live.ended or live.moved:
+                # Moved without leaving the registry: its memory is not to be trusted (a
+                # command's commit that nobody can say landed); the next `host` rebuilds it.
                 self.forget(live.trial_id)
 
     def carry_out_orders(self) -> None:
@@ -312,7 +362,7 @@ class Runner:
         """Stop hosting the trial and pass its lease to the process that asked for it."""
         assert self.leases is not None
         with live.lock:
-            with self.database.session_scope() as session:
+            with trial_transaction(self.database, live) as session:
                 now = self.clock()
                 self.leases.pass_on(session, live.trial_id, order.issued_by, now)
                 session.execute(
@@ -333,7 +383,7 @@ class Runner:
         """
         assert self.leases is not None
         for trial_id in trial_ids:
-            if trial_id in self._trials or self.leases.claim(trial_id, self.clock()):
+            if trial_id in self._trials or self.leases.claim(trial_id, self.clock()) is not None:
                 continue
             outcome = send_order(
                 self.database,
@@ -351,12 +401,19 @@ class Runner:
         A lease is lost when this process could not renew it in time (a stall,
         or a database outage longer than the lease), and another process may
         host the trial now: writing for it from here would fork its record.
+        Until a renewal answers, each trial's own deadline (`Fence.holds`)
+        keeps it from writing once the lease may have run out.
         """
         assert self.leases is not None
         with self._registry_lock:
-            held = set(self._trials)
+            held = {
+                trial_id: live.fence
+                for trial_id, live in self._trials.items()
+                if live.fence is not None
+            }
+        started = self.leases.monotonic()
         try:
-            kept = self.leases.renew(held, now)
+            kept = self.leases.renew({t: f.epoch for t, f in held.items()}, now)
         except DBAPIError:
             if now - self._last_renewal < self.leases.lease_s:
                 log.debug("lease renewal failed; the next tick tries again", exc_info=True)
@@ -364,10 +421,17 @@ class Runner:
             kept = set()  # the database was away longer than a lease: another may host them
         else:
             self._last_renewal = now
-        for trial_id in held - kept:
+        deadline = self.leases.deadline_after(started)
+        for trial_id in kept:
+            held[trial_id].deadline = max(held[trial_id].deadline, deadline)
+        for trial_id in set(held) - kept:
             log.warning("lost the lease of live trial %s; another process hosts it", trial_id)
             with self._registry_lock:
-                lost = self._trials.pop(trial_id, None)
+                lost = self._trials.get(trial_id)
+                if lost is not None and lost.fence is held[trial_id]:
+                    del self._trials[trial_id]
+                else:
+                    lost = None  # claimed again meanwhile, under a new epoch
             if lost is not None:
                 lost.move_away()  # its streams close; the participant reconnects to the host
 
@@ -382,6 +446,12 @@ class Runner:
             if live.ended or live.moved:
                 return
             due = live.due_step(now)
+            if live.database_away_since is None and live.fence and not live.fence.holds():
+                # The holder's own deadline passed with no renewal answered (a stall, a
+                # partition): it stops before anyone else may start, without asking.
+                live.database_away(now)
+                live.touch()
+                return
             if live.database_away_since is None:
                 if due <= live.sim.step_count and due < live.total_steps:
                     return
@@ -391,7 +461,7 @@ class Runner:
                 live.sim.step(due - live.sim.step_count)
                 live.touch()
             try:
-                with kept_until_written(live), self.database.session_scope() as session:
+                with kept_until_written(live), trial_transaction(self.database, live) as session:
                     record_progress(live, session)
                     if live.database_away_since is not None:
                         record_database_outage(live, session, now)
@@ -399,9 +469,11 @@ class Runner:
                         end_trial(live, session, "time_limit", now)
                     elif now - live.last_snapshot_epoch >= self.snapshot_interval_s:
                         write_snapshot(live, session, now)
-            except DBAPIError as error:
-                if not database_away(error):  # a bug, not an outage: the tick logs it
-                    raise
+            except (DBAPIError, LeaseLost) as error:
+                if isinstance(error, DBAPIError) and not database_away(error):
+                    raise  # a bug, not an outage: the tick logs it
+                # Away, or the lease is not proved (its deadline passed before a renewal
+                # answered): the trial stands still until a renewal or a takeover decides.
                 if live.database_away_since is None:
                     log.warning(
                         "live trial %s: the database takes no writes; the trial stands "
@@ -422,14 +494,30 @@ class Runner:
     def start(self) -> None:
         if self._thread is not None:
             return
+        if self.leases is not None:
+            self._keeper = threading.Thread(
+                target=self._keep_leases, name="hcss-lease-keeper", daemon=True
+            )
+            self._keeper.start()
         self._thread = threading.Thread(target=self._run, name="hcss-live-runner", daemon=True)
         self._thread.start()
 
     def stop(self) -> None:
         self._stop.set()
-        if self._thread is not None:
-            self._thread.join(timeout=5)
-            self._thread = None
+        for thread in (self._thread, self._keeper):
+            if thread is not None:
+                thread.join(timeout=5)
+        self._thread = self._keeper = None
+
+    def _keep_leases(self) -> None:
+        """Renew the held leases a few times per lease length, whatever the runner is doing."""
+        assert self.leases is not None
+        while not self._stop.is_set():
+            try:
+                self._renew(self.clock())
+            except Exception:
+                log.exception("lease renewal failed")
+            self._stop.wait(self.leases.renew_every_s)
 
     def _run(self) -> None:
         while not self._stop.is_set():

@@ -72,7 +72,7 @@ def control_session_trial(
     else `OrderUnconfirmed` (the order stays and is carried out later).
     """
     try:
-        live = runner.get(trial_id)
+        live = runner.host(trial_id)
     except HostedElsewhere:
         issued_by = "" if runner.leases is None else runner.leases.owner
         outcome = send_order(

@@ -17,7 +17,7 @@ from __future__ import annotations
 import json
 import math
 import threading
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from hcss.platform.live.clock import TrialClock
 from hcss.platform.live.progress import (
@@ -31,6 +31,9 @@ from hcss.platform.models.vocabularies import TrialStatus
 from hcss.questionnaires.probes import ScheduledProbe
 from hcss.simulation import Display, Simulation
 from hcss.simulation.requests import StatusChange
+
+if TYPE_CHECKING:
+    from hcss.platform.live.leases import Fence
 
 
 class RunningTrial:
@@ -81,6 +84,9 @@ class RunningTrial:
         self._ended = False
         self._end_reason = ""
         self._moved = False
+        #: With leases, the lease this trial was claimed with (`leases.Fence`): every unit of
+        #: work that writes for it proves it first; None for a lone server.
+        self.fence: Fence | None = None
         # System Messages so far, oldest first: {"seq", "time", "kind", "text"}.
         self._messages: list[dict[str, Any]] = []
         # What the simulation handed over (and the page was shown) that no commit has
@@ -139,6 +145,10 @@ class RunningTrial:
         """Another process hosts the trial now (this one lost its lease): streams close so
         the page reconnects to the host, and this copy is never written again."""
         return self._moved
+
+    def leased(self, fence: Fence | None) -> None:
+        """The trial is hosted under this lease (claimed for it); every write proves it."""
+        self.fence = fence
 
     def mark_ended(self, reason: str) -> None:
         """The trial is over for `reason`; call with `lock` held (streams wake on `touch`)."""

@@ -84,6 +84,7 @@ def build_simulation(
     *,
     start: Simulation | None = None,
     through_command: int | None = None,
+    after_command: int | None = None,
     on_outcome: Callable[[Command, RequestOutcome], None] | None = None,
     on_step: Callable[[Simulation], None] | None = None,
 ) -> Simulation:
@@ -93,7 +94,10 @@ def build_simulation(
     snapshot (it is stepped in place and returned); without it the build
     starts from the trial row at step 0. `until_step` None: up to the step of
     the last command logged. `through_command` leaves out later commands (a
-    live trial's replay stops at its newest snapshot). `on_outcome` hears each
+    live trial's replay stops at its newest snapshot). `after_command`: `start`
+    holds every logged command up to this id (a snapshot's `last_command_id`,
+    0 for none) and only later ones are applied; without it, `start`'s count
+    of applied commands says how many of the log it holds. `on_outcome` hears each
     command applied here, with its row; `on_step` sees every step reached.
     A log that contradicts `start` (fewer commands than it holds, or one
     logged before its step) raises RuntimeError: the trial cannot be rebuilt.
@@ -102,13 +106,16 @@ def build_simulation(
 
     commands = command_log(session, trial.id, through_command)
     sim = start if start is not None else new_simulation(trial)
-    if sim.commands_applied > len(commands):
+    if after_command is not None:
+        held = sum(1 for c in commands if c.id <= after_command)
+    else:
+        held = sim.commands_applied
+    if held > len(commands):
         raise RuntimeError(
-            f"trial {trial.id}: the simulation holds {sim.commands_applied} commands, "
-            f"the log only {len(commands)}"
+            f"trial {trial.id}: the simulation holds {held} commands, the log only {len(commands)}"
         )
     if until_step is None:
-        pending = commands[sim.commands_applied :]
+        pending = commands[held:]
         until_step = max([c.step_applied for c in pending], default=sim.step_count)
 
     def heard(i: int, outcome: RequestOutcome) -> None:
@@ -122,6 +129,7 @@ def build_simulation(
             [(c.step_applied, c.operator_command()) for c in commands],
             until_step,
             start=sim,
+            held=held,
             on_outcome=heard,
             on_step=on_step,
         )

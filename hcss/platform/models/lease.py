@@ -4,13 +4,14 @@ With several processes on one PostgreSQL database a trial must live in
 exactly one of them: the one holding its lease. The row is the one mutable
 record of the live wing (ownership changes hands, it is not a fact of the
 study), so it is not append-only and not exported. Times are epoch seconds
-of the processes' clocks (`Database.clock`), which must agree to well
-within a lease's length (NTP does).
+of PostgreSQL's clock (`clock_timestamp()`) in a server, so the hosts'
+clocks never meet; on SQLite and under a test's `ManualClock`, of the
+process clock (`Database.clock`).
 """
 
 from __future__ import annotations
 
-from sqlalchemy import Double, String
+from sqlalchemy import Double, Integer, String
 from sqlalchemy.orm import Mapped, mapped_column
 
 from hcss.platform.models.base import Base
@@ -22,7 +23,11 @@ class TrialLease(Base):
     #: No foreign key: a withdrawal deletes the trial, and a leftover lease of a
     #: trial that is not running is never read.
     trial_id: Mapped[int] = mapped_column(primary_key=True, autoincrement=False)
-    #: The process ("host:port"), see `hcss.platform.live.leases`.
+    #: The process ("host:port/start"), unique per start, see `hcss.platform.live.leases`.
     owner: Mapped[str] = mapped_column(String(128))
+    #: Raised by every claim: the fencing token a holder proves in each transaction that
+    #: writes for the trial, so a holder that lost the lease (a stall, a partition) and
+    #: took it back later still cannot write with what it held before.
+    epoch: Mapped[int] = mapped_column(Integer, default=1, server_default="1")
     expires_epoch: Mapped[float] = mapped_column(Double)
     taken_epoch: Mapped[float] = mapped_column(Double)

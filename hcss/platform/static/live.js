@@ -20,6 +20,7 @@
     view: null, probe: null, selectedHub: null, selectedTarget: null,
     selectedAssignment: null, selections: { collective: null, target: null },
     flag: null, ended: false, paused: false, committing: false, seenMessages: new Set(),
+    shownClockS: -Infinity,  // the newest trial clock shown; a frame behind it is held
   };
 
   function el(name, attrs, parent) {
@@ -634,10 +635,16 @@
   function onFrame(frame) {
     if (connectingTimer !== null) { clearTimeout(connectingTimer); connectingTimer = null; }
     $("connecting").hidden = true;
-    $("clock").textContent = clock(frame.trial.clock_s);
+    // After a takeover the new host resumes from its newest row, which may be a little
+    // behind what this page showed: hold the clock and the map until it catches up.
+    const behind = frame.trial.status !== "ended" && frame.trial.clock_s < state.shownClockS;
+    if (!behind) {
+      state.shownClockS = frame.trial.clock_s;
+      $("clock").textContent = clock(frame.trial.clock_s);
+    }
     showPause(frame.trial.status === "paused");
     if (frame.messages) addMessages(frame.messages);
-    if (frame.view) {
+    if (frame.view && !behind) {
       state.view = frame.view;
       refreshCollectiveOptions(frame.view);
       refreshTargetOptions();
@@ -688,7 +695,22 @@
     if (lastEventId) url.searchParams.set("after", lastEventId);
     return url.toString();
   }
+  // The watchdog: a host that hangs (stopped, or cut off from its database) keeps the
+  // connection open and sends nothing, and EventSource waits forever. Frames come several
+  // times a second, so a stream silent for STALLED_MS is dropped and opened again; the
+  // proxy sends the new one to a process that answers.
+  const STALLED_MS = 3000;
+  let lastFrameAt = Date.now();
+  setInterval(() => {
+    if (state.ended || !stream || stream.readyState === EventSource.CLOSED) return;
+    if (Date.now() - lastFrameAt < STALLED_MS) return;
+    $("connection").textContent = "reconnecting…";
+    $("connection").className = "connection";
+    stream.close();
+    connect();
+  }, 1000);
   function connect() {
+    lastFrameAt = Date.now();
     stream = new EventSource(streamUrl());
     stream.onopen = () => { $("connection").textContent = "live"; $("connection").className = "connection ok"; };
     stream.onerror = () => {
@@ -698,6 +720,7 @@
       if (stream.readyState === EventSource.CLOSED) retryLater(stream);
     };
     stream.onmessage = (event) => {
+      lastFrameAt = Date.now();
       if (event.lastEventId) lastEventId = event.lastEventId;
       onFrame(JSON.parse(event.data));
     };

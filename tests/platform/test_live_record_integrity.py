@@ -1,0 +1,303 @@
+"""A trial's record stays one record: loaded once, rebuilt by identity, committed once.
+
+Two apps on one database stand for two server processes (as in test_leases.py);
+the clock is a `ManualClock`, so grace periods and leases pass at once.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from contextlib import suppress
+
+import pytest
+from flask import Flask
+from sqlalchemy import func, select
+from sqlalchemy.exc import DBAPIError
+
+from hcss.platform.app import create_app
+from hcss.platform.bots import ManualClock
+from hcss.platform.live import actions
+from hcss.platform.live.leases import UNCLAIMED_GRACE_S
+from hcss.platform.live.runner import Runner
+from hcss.platform.live.trials import latest_status, start_bot_trial
+from hcss.platform.models import Command, CommandOutcome, Interruption, SimEvent, TrialProblem
+from hcss.simulation import OperatorCommand
+
+
+def _process(database_url: str, name: str | None, clock: ManualClock) -> Flask:
+    app = create_app(
+        {
+            "DATABASE_URL": database_url,
+            "SECRET_KEY": "test-secret",
+            "TESTING": True,
+            "LIVE_RUNNER": False,
+            "SNAPSHOT_INTERVAL_S": 1.0,
+            "PROCESS_NAME": name,
+            "LEASE_S": 6.0,
+        }
+    )
+    app.extensions["hcss_runner"].clock = clock
+    return app
+
+
+@pytest.fixture
+def group(database_url: str) -> Iterator[tuple[Runner, Runner, ManualClock]]:
+    clock = ManualClock(1_000_000.0)
+    a = _process(database_url, "127.0.0.1:5001/a", clock)
+    a.extensions["hcss_db"].create_all()
+    b = _process(database_url, "127.0.0.1:5002/b", clock)
+    yield a.extensions["hcss_runner"], b.extensions["hcss_runner"], clock
+    for app in (a, b):
+        app.extensions["hcss_db"].engine.dispose()
+
+
+def _start(runner: Runner) -> int:
+    with runner.database.session_scope() as session:
+        _, trial = start_bot_trial(session, seed=2, duration_s=600.0, time_acceleration=4.0)
+        return trial.id
+
+
+def _events(runner: Runner, trial_id: int) -> list[tuple[str, float, str]]:
+    with runner.database.session_scope() as session:
+        rows = session.execute(
+            select(SimEvent.kind, SimEvent.sim_time, SimEvent.text).where(
+                SimEvent.trial_id == trial_id
+            )
+        )
+        return [tuple(row) for row in rows]
+
+
+def test_a_trial_claimed_after_the_grace_writes_the_events_of_its_load_once(group) -> None:
+    """Nobody opened the trial within the grace: a runner takes it, steps it to the due step
+    (events happen on the way) and goes on. Each event is one row, not one per write."""
+    _a, b, clock = group
+    trial_id = _start(b)
+    clock.now += UNCLAIMED_GRACE_S + 5.0
+    b.tick()  # the runner loads it: 35 s of wall time, 140 s of trial time to catch up
+    assert trial_id in b.loaded_ids()
+    for _ in range(3):
+        clock.now += 0.5
+        b.tick()
+    events = _events(b, trial_id)
+    assert any(kind == "discovery" for kind, _, _ in events), events
+    twice = {event for event in events if events.count(event) > 1}
+    assert twice == set()
+
+
+def _command(runner: Runner, trial_id: int) -> OperatorCommand:
+    live = runner.host(trial_id)
+    assert live is not None
+    target = int(live.display().target_ids[0])
+    return OperatorCommand("investigate", 0, target)
+
+
+def test_the_rebuild_replays_the_commands_after_the_snapshots_last_one_by_identity(
+    group,
+) -> None:
+    """The log holds a command the live trial never applied (its commit's answer was lost,
+    the trial rolled back): the snapshots after it name the last command they hold, and a
+    rebuild replays what follows that command, not the log's tail by count."""
+    a, b, clock = group
+    trial_id = _start(a)
+    live = a.host(trial_id)
+    assert live is not None
+    for _ in range(20):
+        clock.now += 1.0
+        a.tick()
+    command = _command(a, trial_id)
+    actions.submit_request(a.database, live, command)
+    with a.database.session_scope() as session:  # a command in the log, not in memory
+        stray = session.scalars(select(Command).where(Command.trial_id == trial_id)).one()
+        session.add(
+            Command(
+                trial_id=trial_id,
+                kind=stray.kind,
+                collective=1,
+                target=stray.target,
+                step_applied=live.sim.step_count,
+                sim_time=float(live.sim.time),
+                selections=[],
+            )
+        )
+    clock.now += 1.0
+    a.tick()
+    actions.submit_request(a.database, live, OperatorCommand("investigate", 2, command.target))
+    for _ in range(2):
+        clock.now += 1.0
+        a.tick()  # a snapshot holding the two commands applied
+    clock.now += 7.0  # A dies; B takes the trial over
+    rebuilt = b.host(trial_id)
+    with b.database.session_scope() as session:
+        problems = session.scalars(select(TrialProblem.problem)).all()
+        status = latest_status(session, trial_id)
+        interruptions = session.scalar(select(func.count()).select_from(Interruption))
+    assert problems == [] and status == "running", problems
+    assert rebuilt is not None and interruptions == 1
+    assert rebuilt.sim.state_digest() != ""
+
+
+def _answer_lost_after_commit(database, monkeypatch, times: int = 1, every: int = 1) -> None:  # type: ignore[no-untyped-def]
+    """Of the next commits, every `every`-th (`times` in all) reaches the database and
+    commits, and its answer never arrives (the connection drops after the server sent
+    it): the driver raises as for a lost line."""
+    dialect = database.engine.dialect
+    commit = dialect.do_commit
+    left, seen = [times], [0]
+
+    def lost(dbapi_connection) -> None:  # type: ignore[no-untyped-def]
+        commit(dbapi_connection)
+        seen[0] += 1
+        if left[0] > 0 and seen[0] % every == 0:
+            left[0] -= 1
+            raise dialect.loaded_dbapi.OperationalError("server closed the connection")
+
+    monkeypatch.setattr(dialect, "do_commit", lost)
+
+
+def test_a_command_whose_commit_answer_is_lost_stays_applied_as_logged(group, monkeypatch) -> None:
+    """The command's transaction committed but its answer was lost: the service asks the
+    database, finds the command logged and keeps it applied in memory, so the trial in
+    memory and its log agree (before, it was rolled back while its row stayed logged)."""
+    a, b, clock = group
+    trial_id = _start(a)
+    live = a.host(trial_id)
+    assert live is not None
+    for _ in range(20):
+        clock.now += 1.0
+        a.tick()
+    command = _command(a, trial_id)
+    _answer_lost_after_commit(a.database, monkeypatch)
+    answer = actions.submit_request(a.database, live, command)
+    with a.database.session_scope() as session:
+        logged = session.scalars(select(Command.id).where(Command.trial_id == trial_id)).all()
+        outcomes = session.scalar(select(func.count()).select_from(CommandOutcome))
+    assert logged == [answer["command_id"]] and outcomes == 1
+    assert live.last_command_id == logged[0] and live.sim.commands_applied == 1
+    for _ in range(2):
+        clock.now += 1.0
+        a.tick()
+    clock.now += 7.0  # A dies; B's rebuild agrees with what A held
+    rebuilt = b.host(trial_id)
+    assert rebuilt is not None and rebuilt.sim.commands_applied == 1
+
+
+def test_runner_steps_whose_commit_answers_are_lost_store_every_row_once(
+    group, monkeypatch
+) -> None:
+    """The runner's units of work commit but their answers are lost until a decision is
+    made: each is taken for failed and written again by the next, which must find its
+    rows. Every event, decision, request status and probe is stored once."""
+    from hcss.platform.models import DecisionRow, Probe, ProbeEvent, RequestStatusChange
+
+    a, _b, clock = group
+    trial_id = _start(a)
+    live = a.host(trial_id)
+    assert live is not None
+    for _ in range(10):
+        clock.now += 1.0
+        a.tick()
+    actions.submit_request(a.database, live, _command(a, trial_id))
+    _answer_lost_after_commit(a.database, monkeypatch, times=10_000, every=2)
+    for _ in range(600):  # every other answer lost until the first decisions are made
+        clock.now += 1.0
+        with suppress(DBAPIError):  # a lost answer outside the trial's units: the thread
+            a.tick()  # logs it and goes on
+        if len(live.sim.decisions) >= 2:
+            break
+    assert len(live.sim.decisions) >= 2
+    monkeypatch.undo()
+    clock.now += 1.0
+    a.tick()
+    assert live.database_away_since is None and live.decisions_recorded == len(live.sim.decisions)
+    with a.database.session_scope() as session:
+
+        def rows(*columns):  # type: ignore[no-untyped-def]
+            return [tuple(r) for r in session.execute(select(*columns))]
+
+        decisions = rows(DecisionRow.collective, DecisionRow.decision_index)
+        events = rows(SimEvent.kind, SimEvent.sim_time, SimEvent.text)
+        statuses = rows(RequestStatusChange.request_id, RequestStatusChange.status)
+        probes = rows(Probe.probe_index)
+        probe_events = rows(ProbeEvent.probe_id, ProbeEvent.kind)
+    assert len(decisions) == len(live.sim.decisions)
+    for stored in (decisions, events, statuses, probes, probe_events):
+        assert len(stored) == len(set(stored)), stored
+
+
+def test_two_concurrent_pauses_write_one_console_action(group) -> None:
+    """Two experimenters pause one trial at once; both consoles saw it running. The state is
+    checked under the trial's lock: the first pauses it, the second finds it paused and
+    writes nothing, so the session's history holds one pause."""
+    import threading
+
+    from hcss.platform.live.service import control_session_trial
+    from hcss.platform.models import ConsoleAction, Trial
+
+    a, _b, clock = group
+    trial_id = _start(a)
+    live = a.host(trial_id)
+    assert live is not None
+    with a.database.session_scope() as session:
+        participant_id = session.get(Trial, trial_id).participant_id
+    clock.now += 1.0
+    start = threading.Barrier(2)
+
+    def pause() -> None:
+        start.wait()
+        control_session_trial(
+            a.database,
+            a,
+            trial_id,
+            "pause",
+            participant_id=participant_id,
+            experimenter_id=None,
+        )
+
+    threads = [threading.Thread(target=pause) for _ in range(2)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join(timeout=30)
+    with a.database.session_scope() as session:
+        pauses = session.scalar(
+            select(func.count()).select_from(ConsoleAction).where(ConsoleAction.action == "pause")
+        )
+    assert pauses == 1 and live.paused_since is not None
+
+
+def test_a_command_nobody_can_say_was_committed_is_settled_by_a_rebuild(group, monkeypatch) -> None:
+    """The command's commit answer is lost and the database cannot be asked at once (the
+    line is still down): the trial in memory is not guessed at. The runner drops it and
+    the next request rebuilds it from the log, which holds the command."""
+    a, _b, clock = group
+    trial_id = _start(a)
+    live = a.host(trial_id)
+    assert live is not None
+    for _ in range(20):
+        clock.now += 1.0
+        a.tick()
+    command = _command(a, trial_id)
+    _answer_lost_after_commit(a.database, monkeypatch)
+    dialect = a.database.engine.dialect
+    execute = dialect.do_execute
+    asked = [0]
+
+    def still_down(cursor, statement, parameters, context=None):  # type: ignore[no-untyped-def]
+        if statement.lstrip().upper().startswith("SELECT") and "FROM command" in statement:
+            asked[0] += 1
+            if asked[0] == 1:  # the question right after the lost answer
+                raise dialect.loaded_dbapi.OperationalError("no route to host")
+        return execute(cursor, statement, parameters, context)
+
+    monkeypatch.setattr(dialect, "do_execute", still_down)
+    with pytest.raises(DBAPIError):
+        actions.submit_request(a.database, live, command)
+    monkeypatch.undo()
+    clock.now += 1.0
+    a.tick()
+    rebuilt = a.host(trial_id)
+    assert rebuilt is not None and rebuilt is not live
+    with a.database.session_scope() as session:
+        logged = session.scalars(select(Command.id).where(Command.trial_id == trial_id)).all()
+    assert len(logged) == 1
+    assert rebuilt.sim.commands_applied == 1 and rebuilt.last_command_id == logged[0]
