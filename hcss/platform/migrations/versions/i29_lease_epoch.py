@@ -4,7 +4,7 @@ Written by hand to match `TrialLease` in hcss/platform/models/lease.py.
 Existing leases start at epoch 1; `trial_lease` is not append-only.
 
 Revision ID: i29_lease_epoch
-Revises: 0011_second_factor
+Revises: i31a_mturk_submit_to
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ import sqlalchemy as sa
 from alembic import op
 
 revision = "i29_lease_epoch"
-down_revision = "0011_second_factor"
+down_revision = "i31a_mturk_submit_to"
 branch_labels = None
 depends_on = None
 
