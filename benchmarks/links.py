@@ -36,8 +36,13 @@ def build(url: str):  # type: ignore[no-untyped-def]
         create_experimenter(session, "bench", "bench-password-1")
     with app.test_request_context(), database.session_scope() as session:
         made = create_participants(
-            session, count=UNUSED + ENROLLED + WALKED, pilot=False, cell=None,
-            experimenter=None, now=clock(), study="demo",
+            session,
+            count=UNUSED + ENROLLED + WALKED,
+            pilot=False,
+            cell=None,
+            experimenter=None,
+            now=clock(),
+            study="demo",
         )
         tokens = [p.token for p in made[UNUSED:]]
     client = app.test_client()

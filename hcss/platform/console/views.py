@@ -27,6 +27,7 @@ from flask import (
 )
 from flask.typing import ResponseReturnValue
 from flask_login import LoginManager, current_user, login_required, logout_user
+from markupsafe import Markup, escape
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
@@ -35,6 +36,8 @@ from hcss.platform.console.audit import audit_entries
 from hcss.platform.console.link_limit import LinkLimitReached, require_allowance
 from hcss.platform.console.login_sessions import end_sessions, experimenter_for_cookie
 from hcss.platform.console.participants import (
+    USABLE,
+    batches,
     create_participants,
     link_rows,
     links_csv,
@@ -88,6 +91,20 @@ def _export_studies() -> dict[str, object]:
         return present_studies(get_session())
 
     return {"export_studies": export_studies}
+
+
+@bp.app_template_filter("highlight")
+def _highlight(text: str | None, search: str) -> Markup:
+    """`text` escaped, each search word found in it marked (<mark>), case aside."""
+    text = text or ""
+    words = [re.escape(word) for word in search.split() if word]
+    if not words:
+        return escape(text)
+    pieces = re.split(f"({'|'.join(words)})", text, flags=re.IGNORECASE)
+    return Markup("").join(
+        Markup("<mark>{}</mark>").format(piece) if index % 2 else escape(piece)
+        for index, piece in enumerate(pieces)
+    )
 
 
 @login_manager.user_loader
@@ -173,14 +190,16 @@ def progress() -> Response:
 
 
 def _table_page():
-    """The page of the live table that ``?page=N&hide=pilot,bot,demo`` asks for."""
+    """The page of the live table that ``?page=N&hide=pilot,bot,demo&q=SEARCH`` asks for."""
     page = request.args.get("page", "1")
     hide = frozenset(flag for flag in request.args.get("hide", "").split(",") if flag in FLAGS)
     number = int(page) if page.isascii() and page.isdigit() and len(page) < 7 else 1
     session = get_session()
     if time_out_abandoned(session, session_now(session)):  # the study files' [timeouts]
         session.commit()
-    return progress_page(session, _runner().clock(), page=number, hide=hide)
+    return progress_page(
+        session, _runner().clock(), page=number, hide=hide, search=request.args.get("q", "")
+    )
 
 
 @bp.post("/participants")
@@ -251,6 +270,9 @@ def links() -> str:
     return render_template(
         "console/links.html",
         rows=rows,
+        batches=[] if request.args.get("codes") else batches(get_session()),
+        usable=sum(row["status"] in USABLE for row in rows),
+        usable_statuses=USABLE,
         csv_url=url_for("console.links_csv_download", codes=request.args.get("codes", "")),
     )
 
@@ -306,7 +328,7 @@ ACTION_LABELS = {
 
 
 #: What the table's "Selected rows" form applies to every participant ticked.
-BULK_ACTIONS = ("mark_pilot", "unmark_pilot", "abort")
+BULK_ACTIONS = ("pause", "resume", "mark_pilot", "unmark_pilot", "abort")
 
 
 @bp.post("/bulk")
@@ -329,8 +351,8 @@ def bulk():  # type: ignore[no-untyped-def]
     done, refused = [], []
     for found in chosen:
         try:
-            if action == "abort":
-                change_session(database(), _runner(), found, current_user, "abort")
+            if action in ("pause", "resume", "abort"):
+                change_session(database(), _runner(), found, current_user, action)
             else:
                 set_pilot(database(), _runner(), found, current_user, action == "mark_pilot")
             done.append(found.code)

@@ -282,33 +282,44 @@ def participant_status(session: Session, participant: Participant) -> str:
     return participant_statuses(session, [participant])[participant.id]
 
 
+#: Up to this many participants, `participant_statuses` asks for their rows by id.
+FEW = 500
+
+
 def participant_statuses(session: Session, participants: list[Participant]) -> dict[int, str]:
     """Each participant's status, by id, in a few queries whatever their number.
 
-    ``not_started``: the link was never opened, so the participant ran no
-    study file and is no participant of any study yet. A participant outside
+    ``not_started``: the link was never opened (no page of the study was
+    shown), so the participant ran no study file and is no participant of any
+    study yet. A participant outside
     the study flow (`hcss demo-trial`) is ``in_progress`` while a trial runs
     and ``completed`` once their trials ended.
     """
     ids = {participant.id for participant in participants}
     if not ids:
         return {}
-    one = len(ids) == 1  # one participant: ask for their rows only
-    (only,) = ids if one else (None,)
+    # A few participants (a batch of links, one row): their rows only; many: every row
+    # (an IN list of thousands of ids is slower, and SQLite caps its parameters).
+    few = len(ids) <= FEW
 
-    def of(model: Any, *where: Any) -> dict[int, Any]:
-        scope = (model.participant_id == only,) if one else ()
-        return latest_per_key(session, model, model.participant_id, *scope, *where)
+    def scope(column: Any) -> tuple[Any, ...]:
+        return (column.in_(ids),) if few else ()
 
     ended = not_counted(session)
     states = session_states(session)
-    consents = of(ConsentRecord)
-    enrolments = of(StudyEnrolment)
-    events: dict[int, list[StageEvent]] = {pid: [] for pid in ids}
-    scope = StageEvent.participant_id == only if one else StageEvent.participant_id.in_(
-        select(StudyEnrolment.participant_id)
+    consents = latest_per_key(
+        session, ConsentRecord, ConsentRecord.participant_id, *scope(ConsentRecord.participant_id)
     )
-    for event in session.scalars(select(StageEvent).where(scope).order_by(StageEvent.id)):
+    enrolments = latest_per_key(
+        session,
+        StudyEnrolment,
+        StudyEnrolment.participant_id,
+        *scope(StudyEnrolment.participant_id),
+    )
+    events: dict[int, list[StageEvent]] = {pid: [] for pid in ids}
+    for event in session.scalars(
+        select(StageEvent).where(*scope(StageEvent.participant_id)).order_by(StageEvent.id)
+    ):
         if event.participant_id in events:
             events[event.participant_id].append(event)
     outside = [p.id for p in participants if p.id not in enrolments and p.id not in ended]
@@ -320,11 +331,16 @@ def participant_statuses(session: Session, participants: list[Participant]) -> d
         if pid in ended:
             declined = consent is not None and consent.decision == "decline"
             statuses[pid] = (
-                "declined" if declined else "timed_out" if states.get(pid) == "timed_out"
+                "declined"
+                if declined
+                else "timed_out"
+                if states.get(pid) == "timed_out"
                 else "aborted"
             )
         elif pid not in enrolments:
             statuses[pid] = running.get(pid, "not_started")
+        elif not events[pid]:  # enrolled when created (a cell override), never shown a page
+            statuses[pid] = "not_started"
         else:
             known = KnownRecords(events[pid], consent)
             flow = Flow(session, participant, enrolments[pid], now, known=known)
@@ -335,11 +351,14 @@ def participant_statuses(session: Session, participants: list[Participant]) -> d
 def _trial_states(session: Session, participant_ids: list[int]) -> dict[int, str]:
     """Participants with trials outside the study flow: ``in_progress`` while one runs,
     else ``completed``."""
-    if not participant_ids:
+    wanted = set(participant_ids)
+    if not wanted:
         return {}
-    trials = session.execute(
-        select(Trial.participant_id, Trial.id).where(Trial.participant_id.in_(participant_ids))
-    ).all()
+    trials = [
+        (pid, trial_id)
+        for pid, trial_id in session.execute(select(Trial.participant_id, Trial.id))
+        if pid in wanted
+    ]
     if not trials:
         return {}
     changes = latest_per_key(
