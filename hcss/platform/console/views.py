@@ -50,11 +50,12 @@ from hcss.platform.console.sessions import (
     ConsoleError,
     available_actions,
     change_session,
+    reinstate,
     set_pilot,
     study_status,
 )
 from hcss.platform.console.signin import answer_sign_in
-from hcss.platform.console.skipping import skip_step
+from hcss.platform.console.skipping import skip_step, skip_targets
 from hcss.platform.console.withdrawal import WithdrawalError, withdraw
 from hcss.platform.db import database, get_session, session_now
 from hcss.platform.models import AuditRecord, ConsoleAction, Experimenter, Participant
@@ -309,6 +310,7 @@ def participant(code: str) -> str:
         status=status,
         enrolment=current_enrolment(session, found.id),
         offered=available_actions(state, status, pilot),
+        skip_targets=skip_targets(session, found) if status == "in_progress" else [],
         action_labels=ACTION_LABELS,
         actions=actions,
         action_form=forms.ActionForm(),
@@ -316,7 +318,15 @@ def participant(code: str) -> str:
     )
 
 
-SESSION_ACTIONS = {"pause", "resume", "abort", "mark_pilot", "unmark_pilot", "skip_stage"}
+SESSION_ACTIONS = {
+    "pause",
+    "resume",
+    "abort",
+    "mark_pilot",
+    "unmark_pilot",
+    "skip_stage",
+    "reinstate",
+}
 ACTION_LABELS = {
     "pause": "Pause",
     "resume": "Resume",
@@ -324,6 +334,7 @@ ACTION_LABELS = {
     "mark_pilot": "Mark pilot",
     "unmark_pilot": "Unmark pilot",
     "skip_stage": "Skip stage",
+    "reinstate": "Reinstate",
 }
 
 
@@ -381,9 +392,11 @@ def act(code: str, action: str):
         if action in ("mark_pilot", "unmark_pilot"):
             set_pilot(database(), _runner(), found, current_user, action == "mark_pilot")
         elif action == "skip_stage":
-            skipped = skip_step(database(), _runner(), found, current_user)
+            skipped = skip_step(database(), _runner(), found, current_user, _to_stage())
             flash(f"{code}: skipped {skipped}")
             return redirect(back), 303
+        elif action == "reinstate":
+            reinstate(database(), _runner(), found, current_user)
         else:
             change_session(database(), _runner(), found, current_user, action)
     except ConsoleError as error:
@@ -391,6 +404,16 @@ def act(code: str, action: str):
         return redirect(back), 303
     flash(f"{code}: {action.replace('_', ' ')} done")
     return redirect(back), 303
+
+
+def _to_stage() -> int | None:
+    """The stage a skip moves the participant to (``to_stage``, 1-based); None: the next step."""
+    raw = request.form.get("to_stage", "")
+    if not raw:
+        return None
+    if not (raw.isascii() and raw.isdigit() and len(raw) < 4):
+        abort(400, "to_stage is a stage number")
+    return int(raw)
 
 
 @bp.post("/participants/<code>/withdraw")
