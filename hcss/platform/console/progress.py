@@ -316,20 +316,24 @@ def progress_rows(
     for participant in participants:
         state = states.get(participant.id, "active")
         trial = trials.get(participant.id)
-        status = None if trial is None else latest_change(session, trial.id)
+        status_row = None if trial is None else latest_change(session, trial.id)
         place = _place(session, participant, enrolments.get(participant.id))
         position = place.position
         last = last_events.get(participant.id)
         clock = duration = None
         since = participant.created_at.timestamp() if last is None else last.at.timestamp()
-        if trial is not None and status is not None and status.status == TrialStatus.RUNNING:
+        if (
+            trial is not None
+            and status_row is not None
+            and status_row.status == TrialStatus.RUNNING
+        ):
             stage, since = f"{trial.kind} {trial.model}", trial.started_at.timestamp()
             clock, duration = trial_clock_s(session, trial, now), trial.duration_s
         elif position.status == "not_enrolled" and trial is not None:
             # A participant outside the study flow (`hcss demo-trial`).
-            reason = "" if status is None else f" ({status.reason})"
+            reason = "" if status_row is None else f" ({status_row.reason})"
             stage = f"{trial.kind} {trial.model} ended{reason}"
-            since = (trial.started_at if status is None else status.created_at).timestamp()
+            since = (trial.started_at if status_row is None else status_row.created_at).timestamp()
         elif place.held:
             stage = f"held: {place.held}"
         else:
@@ -337,11 +341,16 @@ def progress_rows(
             if place.entered is not None:
                 since = place.entered.at.timestamp()
         last_seen, connected, hidden = _presence(presence.get(participant.id), now)
+        status = position.status
+        outside = status == "not_enrolled" and trial is not None  # `hcss demo-trial`
+        if outside:  # its real status: in progress while the trial runs, then completed
+            running = status_row is not None and status_row.status == TrialStatus.RUNNING
+            status = "in_progress" if running else "completed"
         rows.append(
             ProgressRow(
                 code=participant.code,
                 state=state,
-                status=position.status,
+                status=status,
                 study=place.study,
                 cell=place.cell,
                 stage=stage,
@@ -358,7 +367,9 @@ def progress_rows(
                 is_pilot=pilots[participant.id],
                 is_bot=participant.is_bot,
                 is_demo=participant.is_demo,
-                actions=available_actions(state, position.status, pilots[participant.id]),
+                actions=available_actions(
+                    state, status, pilots[participant.id], in_flow=not outside
+                ),
                 recruitment=recruited.get(participant.id),
             )
         )

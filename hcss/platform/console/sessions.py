@@ -17,7 +17,7 @@ from hcss.platform.live.service import OrderUnconfirmed, control_session_trial, 
 from hcss.platform.models import AuditRecord, ConsoleAction, Experimenter, Participant
 from hcss.platform.pilots import is_pilot
 from hcss.platform.session_state import ENDED_STATES, STATE_ACTIONS, session_state
-from hcss.platform.study.flow import current_position
+from hcss.platform.study.flow import current_position, trial_states
 from hcss.platform.study.timeouts import REINSTATED
 
 
@@ -29,7 +29,9 @@ class ConsoleError(ValueError):
 FINISHED = ("completed", "declined")
 
 
-def available_actions(state: str, status: str, is_pilot: bool) -> list[str]:
+def available_actions(
+    state: str, status: str, is_pilot: bool, *, in_flow: bool = True
+) -> list[str]:
     """The actions that apply now, in the order the console offers them.
 
     `state` is `session_state`; `status` the study engine's (``in_progress``,
@@ -42,7 +44,7 @@ def available_actions(state: str, status: str, is_pilot: bool) -> list[str]:
         if status != "not_enrolled":  # nothing runs yet that a pause could hold
             actions += ["resume"] if state == "paused" else ["pause"]
         actions.append("abort")  # for a link not yet opened: it will not open
-        if status == "in_progress":
+        if status == "in_progress" and in_flow:  # a demo trial has no stages to skip
             actions.append("skip_stage")  # hcss.platform.console.skipping
     if state == "timed_out" and status not in FINISHED:
         actions.append("reinstate")  # a power cut, a lost connection: let them go on
@@ -51,8 +53,12 @@ def available_actions(state: str, status: str, is_pilot: bool) -> list[str]:
 
 
 def study_status(session: Session, participant: Participant) -> str:
-    """The study engine's status of the participant (see `available_actions`)."""
-    return current_position(session, participant).status
+    """The study engine's status of the participant (see `available_actions`); one outside
+    the study flow (`hcss demo-trial`) is in progress while their trial runs, then completed."""
+    status = current_position(session, participant).status
+    if status == "not_enrolled":
+        return trial_states(session, [participant.id]).get(participant.id, status)
+    return status
 
 
 def _record(

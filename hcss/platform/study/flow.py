@@ -323,7 +323,7 @@ def participant_statuses(session: Session, participants: list[Participant]) -> d
         if event.participant_id in events:
             events[event.participant_id].append(event)
     outside = [p.id for p in participants if p.id not in enrolments and p.id not in ended]
-    running = _trial_states(session, outside)
+    running = trial_states(session, outside)
     now = session_now(session)
     statuses = {}
     for participant in participants:
@@ -348,9 +348,9 @@ def participant_statuses(session: Session, participants: list[Participant]) -> d
     return statuses
 
 
-def _trial_states(session: Session, participant_ids: list[int]) -> dict[int, str]:
-    """Participants with trials outside the study flow: ``in_progress`` while one runs,
-    else ``completed``."""
+def trial_states(session: Session, participant_ids: list[int]) -> dict[int, str]:
+    """Participants with trials outside the study flow (`hcss demo-trial`): ``in_progress``
+    while one runs, else ``completed``; participants without trials are left out."""
     wanted = set(participant_ids)
     if not wanted:
         return {}
