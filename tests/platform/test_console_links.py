@@ -7,32 +7,12 @@ from __future__ import annotations
 import csv
 import io
 import re
-from collections import Counter
-from collections.abc import Iterator
-from contextlib import contextmanager
-
-from sqlalchemy import event
 
 from tests.platform import console_support
+from tests.platform.console_support import statements
 
 console, experimenter = console_support.console, console_support.experimenter
 LINK = re.compile(r'data-copy="(http://localhost/p/[A-Za-z0-9_-]+)" data-usable="([01])"')
-
-
-@contextmanager
-def statements(app) -> Iterator[Counter[str]]:  # type: ignore[no-untyped-def]
-    """SQL statements sent while the block runs, counted under "all"."""
-    counts: Counter[str] = Counter()
-
-    def count(*_args) -> None:  # type: ignore[no-untyped-def]
-        counts["all"] += 1
-
-    engine = app.extensions["hcss_db"].engine
-    event.listen(engine, "before_cursor_execute", count)
-    try:
-        yield counts
-    finally:
-        event.remove(engine, "before_cursor_execute", count)
 
 
 def _batch(console, count: int) -> list[str]:  # type: ignore[no-untyped-def]
