@@ -5,7 +5,7 @@ from __future__ import annotations
 import importlib
 import sys
 
-SUITES = ("simulation", "live", "live_processes", "console", "analysis", "study")
+SUITES = ("simulation", "live", "live_processes", "console", "links", "analysis", "study")
 
 
 def main(argv: list[str]) -> None:

@@ -25,6 +25,7 @@ from hcss.analysis.studies import (
     StudyPoolingError,
     in_study,
     refuse_pooling,
+    set_aside_never_opened,
     study_files,
 )
 
@@ -137,6 +138,7 @@ class StudyTables:
     inputs: tuple[InputSummary, ...] = ()
     warnings: tuple[str, ...] = ()
     studies: tuple[StudyFile, ...] = ()  # the study files of the analysed participants
+    never_opened: int = 0  # links in the inputs nobody opened (set aside, not participants)
 
     @property
     def groups(self) -> list[str]:
@@ -366,6 +368,7 @@ def load_inputs(
         else _empty(table)
         for table in ("decisions", *STUDY_TABLES)
     }
+    combined["participants"], never_opened = set_aside_never_opened(combined["participants"])
     if study is not None:
         _keep_study(combined, study)
     all_participants = combined["participants"].reset_index(drop=True)
@@ -410,4 +413,5 @@ def load_inputs(
         inputs=summaries,
         warnings=warnings,
         studies=studies,
+        never_opened=never_opened,
     )

@@ -21,6 +21,7 @@ from hcss.analysis.measures import all_measures
 from hcss.analysis.rscript import write_r_script
 from hcss.analysis.sections import Section, build_sections
 from hcss.analysis.stats import MannWhitneyMethod
+from hcss.analysis.studies import studies_line
 from hcss.analysis.tables import Table, to_html, write_table
 
 STYLE = """
@@ -63,9 +64,9 @@ def _inputs_html(tables: StudyTables) -> str:
         f"<p class='warning'>Warning: {html.escape(_without_paths(text, tables))}</p>"
         for text in tables.warnings
     )
-    studies = "; ".join(study.label() for study in tables.studies)
+    studies = studies_line(tables.studies, tables.never_opened)
     if studies:
-        warnings += f"<p id='studies'>Study files analysed: {html.escape(studies)}.</p>"
+        warnings += f"<p id='studies'>{html.escape(studies)}</p>"
     groups = tables.decisions.groupby("group").size()
     decided = ", ".join(
         f"{group}: {groups[group]} decision{'' if groups[group] == 1 else 's'}"

@@ -7,6 +7,13 @@ unnoticed. The export's participants table names each participant's study
 and the digest of its file; the analysis keeps one study when asked
 (`--study`), refuses to pool different files unless asked (`--pool-studies`),
 and the report names every study it includes.
+
+A link that was never opened ran no study file: the export lists it as
+``not_started`` (older exports as ``in_progress`` with neither digest nor
+cell), with the study it was created for. Such a link is no participant of
+any study: it is set aside before anything is counted (`set_aside_never_opened`),
+so it neither counts as a second study file nor enters the sample, and the
+report says how many there were.
 """
 
 from __future__ import annotations
@@ -29,8 +36,56 @@ class StudyFile:
     participants: int
 
     def label(self) -> str:
-        digest = self.digest[:12] if self.digest else "digest not exported"
-        return f"{self.name} ({digest}): {self.participants} participant(s)"
+        """``demo (file 7dbeb0c2a4f1…): 4 participants``: the study's name, the start of
+        the sha256 of the file they ran (two digests: the file was changed mid-study)."""
+        digest = (
+            f"file {self.digest[:12]}…" if self.digest else "file not identified by this export"
+        )
+        plural = "" if self.participants == 1 else "s"
+        return f"{self.name} ({digest}): {self.participants} participant{plural}"
+
+
+#: The export's status of a participant whose link was never opened.
+NOT_STARTED = "not_started"
+
+
+def never_opened(participants: pd.DataFrame) -> pd.Series:
+    """True for each row that is a link nobody opened: status ``not_started``, or, in an
+    export from before that status, ``in_progress`` with no study digest and no cell."""
+    status = _column(participants, "status")
+    older = (
+        (status == "in_progress")
+        & (_column(participants, "study_digest") == "")
+        & (_column(participants, "cell") == "")
+        & ("study_digest" in participants.columns)
+        & (_column(participants, "model_order") == "")
+    )
+    return (status == NOT_STARTED) | older
+
+
+def set_aside_never_opened(participants: pd.DataFrame) -> tuple[pd.DataFrame, int]:
+    """The participants who opened their link, and how many links were never opened."""
+    if participants.empty:
+        return participants, 0
+    unopened = never_opened(participants)
+    return participants[~unopened], int(unopened.sum())
+
+
+def studies_line(files: tuple[StudyFile, ...], unopened: int) -> str:
+    """The report's "Study files analysed" sentence (empty when there is nothing to say)."""
+    parts = []
+    if files:
+        parts.append(
+            "Study files analysed (the study's name and the start of the sha256 digest of "
+            "the file its participants ran): " + "; ".join(file.label() for file in files) + "."
+        )
+    if unopened:
+        links = "link was" if unopened == 1 else "links were"
+        parts.append(
+            f"{unopened} participant {links} never opened (not started): no study file was "
+            "run on them and they are not counted in the sample."
+        )
+    return " ".join(parts)
 
 
 def _column(participants: pd.DataFrame, name: str) -> pd.Series:

@@ -7,14 +7,16 @@ Import the fixtures into a test module to use them:
 from __future__ import annotations
 
 import re
+from collections import Counter
 from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any
 
 import pytest
 from flask import Flask
 from flask.testing import FlaskClient
-from sqlalchemy import Table, select
+from sqlalchemy import Table, event, select
 
 from hcss.platform.console.accounts import create_experimenter
 from hcss.platform.models import Base, Participant
@@ -181,3 +183,19 @@ def open_replay(browser, url: str, code: str, trial_id: int, viewport: dict[str,
     page.goto(f"{url}/console/participants/{code}")
     page.locator(f'tr[data-trial="{trial_id}"] a.replay-link').click()
     return page
+
+
+@contextmanager
+def statements(app) -> Iterator[Counter[str]]:  # type: ignore[no-untyped-def]
+    """SQL statements sent while the block runs, counted under "all"."""
+    counts: Counter[str] = Counter()
+
+    def count(*_args) -> None:  # type: ignore[no-untyped-def]
+        counts["all"] += 1
+
+    engine = app.extensions["hcss_db"].engine
+    event.listen(engine, "before_cursor_execute", count)
+    try:
+        yield counts
+    finally:
+        event.remove(engine, "before_cursor_execute", count)

@@ -8,6 +8,8 @@ answers 429 with a message, creates nothing, and says so in the audit log.
 
 from __future__ import annotations
 
+import threading
+
 from sqlalchemy import func, select
 
 from hcss.platform.console.accounts import create_experimenter
@@ -68,3 +70,32 @@ def test_a_batch_over_the_whole_limit_is_refused_and_no_limit_means_none(app, co
     for _ in range(3):
         assert console.post("/console/participants", {"count": "50"}).status_code == 303
     assert _participants(app) == 150
+
+
+def test_twenty_batches_at_once_never_pass_the_limit(app, console) -> None:
+    """20 batches of 50 sent together against a limit of 500: exactly 500 links, each batch
+    whole or refused whole (the count and the inserts are one step per account)."""
+    app.config["LINKS_PER_EXPERIMENTER"] = (500, 3600.0)
+    clients = []
+    for _ in range(20):
+        client = app.test_client()
+        for cookie in console.client._cookies.values():  # the same signed-in session
+            client.set_cookie(cookie.key, cookie.value, domain=cookie.domain)
+        clients.append(client)
+    start = threading.Barrier(len(clients))
+    answers: list[int] = []
+
+    def create(client) -> None:  # type: ignore[no-untyped-def]
+        start.wait()
+        answer = client.post(
+            "/console/participants", data={"csrf_token": console.csrf, "count": "50"}
+        )
+        answers.append(answer.status_code)
+
+    threads = [threading.Thread(target=create, args=(client,)) for client in clients]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join(60)
+    assert sorted(answers) == [303] * 10 + [429] * 10, answers
+    assert _participants(app) == 500

@@ -106,7 +106,7 @@ def test_pause_and_resume_without_a_trial_and_refusals(app, console) -> None:
     console.post("/console/participants", {"count": "1"})
     (code,) = console.progress()
     assert console.act(code, "resume").status_code == 303  # not paused: refused
-    assert _actions(app, code) == [("create", None, "")]
+    assert _actions(app, code) == [("create", None, f"batch {code} of 1")]
     console.act(code, "pause")
     console.act(code, "pause")  # already paused: refused
     assert console.progress()[code]["state"] == "paused"

@@ -63,13 +63,21 @@ def test_the_console_exports_one_study(browser, console_app) -> None:  # type: i
     expect(page.locator(f'#progress tr[data-code="{original[0]}"] .session')).to_have_text(
         "not started"
     )
-    page.fill("#search", "5F8A1B")  # any case, part of the id
+    page.fill("#search", "5F8A1B")  # any case, part of the id: the server searches every page
     expect(page.locator("#progress tbody tr:visible")).to_have_count(1)
     expect(row).to_be_visible()
+    expect(row.locator(".recruitment mark")).to_have_text("5f8a1b")  # the match, marked
+    expect(page.locator("#page-of")).to_contain_text("1 participants matching “5f8a1b”")
     page.fill("#search", "demo not started")
     expect(page.locator("#progress tbody tr:visible")).to_have_count(1)  # demo[1]; demo[0] opened
     page.fill("#search", "")
     expect(page.locator("#progress tbody tr:visible")).to_have_count(5)
+    page.check("#select-all")  # every row of the page, for the bulk actions
+    expect(page.locator("#progress tbody input.select:checked")).to_have_count(5)
+    expect(page.locator("#bulk-action option")).to_have_text(
+        ["Pause", "Resume", "Mark pilot", "Unmark pilot", "Abort"]
+    )
+    page.uncheck("#select-all")
     page.set_viewport_size({"width": 1024, "height": 768})
     width = page.evaluate("document.documentElement.scrollWidth")
     assert width <= 1024, f"the console is {width} px wide at 1024"

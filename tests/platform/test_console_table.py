@@ -257,3 +257,20 @@ def test_bulk_actions_on_ticked_rows_are_audited_one_by_one(app, console) -> Non
     assert console.progress()[second]["state"] == "active"
     index = console.get("/console/").get_data(as_text=True)
     assert index.count('form="bulk-form"') == 3 and 'id="bulk-apply"' in index
+
+
+def test_bulk_pause_and_resume(app, console) -> None:
+    console.post("/console/participants", {"count": "2", "study": "demo"})
+    links = LINK.findall(console.get("/console/links").get_data(as_text=True))
+    for link in links:
+        assert app.test_client().get(link, follow_redirects=True).status_code == 200
+    codes = sorted(console.progress())
+    for action, state in (("pause", "paused"), ("resume", "active")):
+        answer = console.client.post(
+            "/console/bulk", data={"csrf_token": console.csrf, "action": action, "codes": codes}
+        )
+        assert answer.status_code == 303
+        assert {row["state"] for row in console.progress().values()} == {state}
+    with app.extensions["hcss_db"].session_scope() as session:
+        kinds = [a.action for a in session.scalars(select(ConsoleAction)) if a.action != "create"]
+    assert sorted(kinds) == ["pause", "pause", "resume", "resume"]

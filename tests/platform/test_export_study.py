@@ -154,7 +154,7 @@ def test_declined_and_aborted_participants_are_told_apart(
         session.add(
             study.ConsentRecord(participant_id=declined.id, version="v1", decision="decline", at=T0)
         )
-        codes = {declined.code: "declined", aborted.code: "aborted", waiting.code: "in_progress"}
+        codes = {declined.code: "declined", aborted.code: "aborted", waiting.code: "not_started"}
     assert console.act(aborted.code, "abort").status_code == 303
     outdir = tmp_path / "export"
     result = CliRunner().invoke(main, ["export", str(outdir), "--database-url", database_url])

@@ -95,7 +95,8 @@ def test_export_rows_carry_the_recorded_trial(exported, app) -> None:  # type: i
     _, participants = read_csv(outdir / "participants.csv")
     row = next(p for p in participants if p["participant"] == code)
     assert (row["is_bot"], row["is_pilot"], row["is_demo"]) == ("true", "false", "false")
-    assert row["model_order"] == "M1" and row["status"] == "in_progress"
+    # Outside the study flow (no enrolment): completed once the participant's trials ended.
+    assert row["model_order"] == "M1" and row["status"] == "completed"
     # The training trial is kept, apart: never in the tables the analysis reads.
     _, training_decisions = read_csv(outdir / "training" / "decisions.csv")
     _, training_probes = read_csv(outdir / "training" / "probes.csv")

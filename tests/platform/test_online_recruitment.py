@@ -532,9 +532,21 @@ def test_an_abandoned_participant_is_timed_out_and_frees_the_place(
     back = _join(app.test_client(), "timed", PROLIFIC_PID="p1")
     page = app.test_client().get(back.location, follow_redirects=True).get_data(as_text=True)
     assert "Your session has timed out" in page
-    assert console.progress()[code]["actions"] == ["mark_pilot"]
+    assert console.progress()[code]["actions"] == ["reinstate", "mark_pilot"]
     index = console.get("/console/").get_data(as_text=True)
     assert "timed out after 600 s without activity, their cell freed" in index
+    # They had a power cut: the experimenter reinstates them (audited), and they go on,
+    # with a fresh ten minutes before the next time-out.
+    assert console.act(code, "reinstate").status_code == 303
+    assert console.progress()[code]["state"] == "active"
+    page = app.test_client().get(back.location, follow_redirects=True).get_data(as_text=True)
+    assert "Your session has timed out" not in page and 'data-stage="consent"' in page
+    audit = console.get("/console/").get_data(as_text=True)
+    assert re.search(rf"<td>reinstate</td>\s*<td>alice</td><td>{code}</td>", audit), audit
+    assert console.act(code, "reinstate").status_code == 303  # not timed out now: refused
+    assert "was not timed out" in console.get("/console/").get_data(as_text=True)
+    clock.now += 599.0
+    assert console.progress()[code]["state"] == "active"
 
 
 def test_a_study_that_keeps_the_cell_stays_full_after_a_time_out(

@@ -8,21 +8,25 @@ an account creates in any such window; a batch that would pass it is refused
 whole (429), creates nothing, and is written to the audit log.
 
 The count is read from the `create` rows of `ConsoleAction`, so it holds
-across restarts and server processes without a store of its own. Two batches
-sent at the same instant may both pass; the bound is then exceeded by at
-most one batch (50 links).
+across restarts and server processes without a store of its own. The count
+and the batch's inserts are one step per account (`_one_batch_at_a_time`):
+20 batches of 50 sent at once against a limit of 500 create exactly 500
+(before, every batch counted the same rows and all 1,000 were created).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
-from sqlalchemy import func, select
+from sqlalchemy import func, select, text
 from sqlalchemy.orm import Session
 
 from hcss.platform.models import AuditRecord, ConsoleAction, Experimenter
 
 AUDIT_ACTION = "link_limit"
+#: First key of the link limit's PostgreSQL advisory locks ("LINK" in ASCII); the second
+#: is the account's id.
+LOCK_SPACE = 0x4C494E4B
 
 
 @dataclass(frozen=True)
@@ -62,6 +66,7 @@ def require_allowance(
     """Raise `LinkLimitReached` (after auditing it in `session`) if the batch would pass the limit."""
     if not limit:
         return
+    _one_batch_at_a_time(session, experimenter)
     count, seconds = limit
     since = now - seconds
     created = (
@@ -89,6 +94,23 @@ def require_allowance(
         )
     )
     raise LinkLimitReached(requested, made, (count, seconds), wait_s)
+
+
+def _one_batch_at_a_time(session: Session, experimenter: Experimenter) -> None:
+    """The account's batches are counted and created in turn, until the request commits.
+
+    PostgreSQL: a transaction-scoped advisory lock on the account (the other
+    accounts do not wait). SQLite: a write that changes nothing takes the
+    database's write lock before the count is read (as sign-in's lockout does).
+    """
+    dialect = session.get_bind().dialect.name
+    if dialect == "postgresql":
+        session.execute(
+            text("SELECT pg_advisory_xact_lock(:space, :account)"),
+            {"space": LOCK_SPACE, "account": experimenter.id},
+        )
+    elif dialect == "sqlite":
+        session.execute(text("UPDATE console_action SET action = action WHERE 0 = 1"))
 
 
 def _wait(seconds: int) -> str:

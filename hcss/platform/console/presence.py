@@ -22,7 +22,7 @@ import re
 from collections.abc import Callable
 from typing import Any
 
-from flask import Blueprint, Response, abort, current_app, request
+from flask import Blueprint, Response, abort, current_app, jsonify, request
 from sqlalchemy import select
 from sqlalchemy.dialects import postgresql, sqlite
 from sqlalchemy.exc import SQLAlchemyError
@@ -31,13 +31,14 @@ from sqlalchemy.orm import Session
 from hcss.platform.db import get_session
 from hcss.platform.errors import DATABASE_RETRY_S
 from hcss.platform.hardening import takes_json
-from hcss.platform.models import Participant, ParticipantPresence
+from hcss.platform.models import Participant, ParticipantPresence, StageEvent
 
 HEARTBEAT_EVERY_S = 10.0
 CONNECTED_WITHIN_S = 3 * HEARTBEAT_EVERY_S
 PAGES = ("study", "trial")
 MAX_BODY_BYTES = 256
 TOKEN = re.compile(r"[A-Za-z0-9_-]{1,64}")
+STEP = re.compile(r"[a-z0-9_]{1,32}")
 
 bp = Blueprint("presence", __name__, url_prefix="/p")
 
@@ -57,17 +58,33 @@ def _body() -> dict[str, Any]:
     if len(raw) > MAX_BODY_BYTES:
         abort(413)
     if not raw.strip():
-        return {"page": "study", "hidden": False}
+        return {"page": "study", "hidden": False, "stage": None, "step": None}
     try:
         body = json.loads(raw)
     except (ValueError, RecursionError):
         abort(400, "the heartbeat body is not JSON")
-    if not isinstance(body, dict) or set(body) - {"page", "hidden"}:
-        abort(400, 'the heartbeat body is {"page": "study"|"trial", "hidden": true|false}')
+    shape = (
+        'the heartbeat body is {"page": "study"|"trial", "hidden": true|false}, and on a '
+        'study page the step it shows: "stage": 0-999, "step": "page_2"'
+    )
+    if not isinstance(body, dict) or set(body) - {"page", "hidden", "stage", "step"}:
+        abort(400, shape)
     page, hidden = body.get("page", "study"), body.get("hidden", False)
     if page not in PAGES or not isinstance(hidden, bool):
-        abort(400, 'the heartbeat body is {"page": "study"|"trial", "hidden": true|false}')
-    return {"page": page, "hidden": hidden}
+        abort(400, shape)
+    stage, step = body.get("stage"), body.get("step")
+    if (stage is None) != (step is None) or (
+        stage is not None
+        and not (
+            isinstance(stage, int)
+            and not isinstance(stage, bool)
+            and 0 <= stage < 1000
+            and isinstance(step, str)
+            and STEP.fullmatch(step)
+        )
+    ):
+        abort(400, shape)
+    return {"page": page, "hidden": hidden, "stage": stage, "step": step}
 
 
 def record_heartbeat(
@@ -117,6 +134,9 @@ def heartbeat(token: str) -> Response:
         now = current_app.extensions["hcss_runner"].clock()
         record_heartbeat(session, participant_id, now, body["page"], body["hidden"])
         session.commit()
+        moved = body["stage"] is not None and _skipped(
+            session, participant_id, body["stage"], body["step"]
+        )
     except SQLAlchemyError:
         session.rollback()
         current_app.logger.warning("heartbeat not stored (database busy)", exc_info=True)
@@ -126,7 +146,24 @@ def heartbeat(token: str) -> Response:
             mimetype="text/plain",
             headers={"Retry-After": str(DATABASE_RETRY_S)},
         )
+    if moved:  # the page shows a step the experimenter skipped: it moves on (heartbeat.js)
+        return jsonify({"moved_on": True})
     return Response(status=204)
+
+
+def _skipped(session: Session, participant_id: int, stage: int, step: str) -> bool:
+    """Whether the experimenter skipped this step (hcss.platform.console.skipping)."""
+    return (
+        session.scalar(
+            select(StageEvent.id).where(
+                StageEvent.participant_id == participant_id,
+                StageEvent.stage_index == stage,
+                StageEvent.step == step,
+                StageEvent.kind == "skipped",
+            )
+        )
+        is not None
+    )
 
 
 def presence_by_participant(

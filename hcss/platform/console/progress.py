@@ -26,6 +26,7 @@ from hcss.platform.models import (
     Participant,
     ParticipantPresence,
     Recruitment,
+    ReturnVisit,
     StageEvent,
     StudyEnrolment,
     Trial,
@@ -35,7 +36,7 @@ from hcss.platform.models.vocabularies import TrialStatus
 from hcss.platform.pilots import pilot_flags, pilot_marks
 from hcss.platform.session_state import session_states
 from hcss.platform.study.enrolment import default_study_name
-from hcss.platform.study.flow import Flow, Position
+from hcss.platform.study.flow import Flow, Position, participant_statuses
 from hcss.platform.study.versions import StudyHeld, enrolled_study
 
 
@@ -134,6 +135,7 @@ class ProgressPage:
     pages: int
     total: int  # participants the filters let through
     everyone: int = 0  # participants before the filters ("showing N of everyone")
+    search: str = ""  # what the search asked for, as it was read
 
 
 def _shown(session: Session, hide: frozenset[str]) -> ColumnElement[bool]:
@@ -150,29 +152,134 @@ def _shown(session: Session, hide: frozenset[str]) -> ColumnElement[bool]:
     return and_(*conditions)
 
 
-def progress_page(
-    session: Session, now: float, *, page: int = 1, hide: frozenset[str] = frozenset()
-) -> ProgressPage:
-    """One page of the table, newest first, with the hidden flags filtered out in SQL."""
-    shown = _shown(session, hide)
-    total = int(session.scalar(select(func.count()).select_from(Participant).where(shown)) or 0)
-    pages = max(1, -(-total // PER_PAGE))
-    page = min(max(1, page), pages)
-    participants = list(
-        session.scalars(
-            select(Participant)
-            .where(shown)
-            .order_by(Participant.id.desc())
-            .limit(PER_PAGE)
-            .offset((page - 1) * PER_PAGE)
+#: What a search for a session's status finds: the table's words for it (`table_status`).
+STATUS_SEARCH = {
+    "not started": {"not started"},
+    "active": {"active"},
+    "in progress": {"active", "paused"},
+    "paused": {"paused"},
+    "completed": {"completed"},
+    "declined": {"declined"},
+    "aborted": {"aborted"},
+    "timed out": {"timed_out"},
+}
+#: The longest search the table takes (a recruitment id is at most 128 characters).
+MAX_SEARCH = 200
+
+
+def table_status(state: str, status: str) -> str:
+    """The table's Session column: what the study says once it is over, the hold otherwise.
+
+    `status` is the study engine's (`participant_statuses` or a position's);
+    `state` the experimenter's hold (active, paused, aborted, timed_out).
+    """
+    if status in ("completed", "declined"):
+        return status
+    if state == "active" and status in ("not_enrolled", "not_started"):
+        return "not started"
+    return state
+
+
+def _search_words(search: str) -> str:
+    return " ".join(search.lower().replace("_", " ").split())[:MAX_SEARCH]
+
+
+def _matching(search: str) -> ColumnElement[bool]:
+    """Participants whose code, study, recruitment site or id, recruiter study or session id
+    holds every word (as the table shows them: ``prolific 5f8a…``)."""
+    conditions: list[ColumnElement[bool]] = [true()]
+    for word in search.split():
+        ids = [
+            select(column.table.c.participant_id).where(column.icontains(word, autoescape=True))
+            for column in (
+                Recruitment.source,
+                Recruitment.recruitment_id,
+                Recruitment.recruiter_session_id,
+                Recruitment.recruiter_study_id,
+                ReturnVisit.recruiter_session_id,
+            )
+        ]
+        ids.append(
+            select(StudyEnrolment.participant_id).where(
+                StudyEnrolment.study.icontains(word, autoescape=True)
+            )
         )
+        conditions.append(
+            or_(
+                Participant.code.icontains(word, autoescape=True),
+                Participant.study.icontains(word, autoescape=True),
+                *(Participant.id.in_(select_ids) for select_ids in ids),
+            )
+        )
+    return and_(*conditions)
+
+
+def progress_page(
+    session: Session,
+    now: float,
+    *,
+    page: int = 1,
+    hide: frozenset[str] = frozenset(),
+    search: str = "",
+) -> ProgressPage:
+    """One page of the table, newest first, with the hidden flags filtered out in SQL.
+
+    `search` looks through every participant, not the page shown: a code,
+    a study, a recruitment id (PROLIFIC_PID, SONA id, workerId), a recruiter
+    session id (in SQL), and a status as the table shows it ("not started",
+    "paused", "completed", ...), which the study engine answers for each
+    participant: ``demo not started`` finds the demo links nobody opened.
+    """
+    shown = _shown(session, hide)
+    words = _search_words(search)
+    status, rest = _status_in(words)
+    if rest:
+        shown = and_(shown, _matching(rest))
+    everyone = int(session.scalar(select(func.count()).select_from(Participant)) or 0)
+    if status:
+        found = _with_status(session, shown, STATUS_SEARCH[status])
+        total = len(found)
+        pages = max(1, -(-total // PER_PAGE))
+        page = min(max(1, page), pages)
+        participants = found[(page - 1) * PER_PAGE : page * PER_PAGE]
+    else:
+        total = int(session.scalar(select(func.count()).select_from(Participant).where(shown)) or 0)
+        pages = max(1, -(-total // PER_PAGE))
+        page = min(max(1, page), pages)
+        participants = list(
+            session.scalars(
+                select(Participant)
+                .where(shown)
+                .order_by(Participant.id.desc())
+                .limit(PER_PAGE)
+                .offset((page - 1) * PER_PAGE)
+            )
+        )
+    rows = progress_rows(session, now, participants)
+    return ProgressPage(rows, page, pages, total, everyone, words)
+
+
+def _status_in(words: str) -> tuple[str, str]:
+    """The status a search names (``demo not started``: ``not started``) and its other words."""
+    for status in sorted(STATUS_SEARCH, key=len, reverse=True):
+        padded = f" {words} "
+        if f" {status} " in padded:
+            return status, " ".join(padded.replace(f" {status} ", " ", 1).split())
+    return "", words
+
+
+def _with_status(
+    session: Session, shown: ColumnElement[bool], wanted: set[str]
+) -> list[Participant]:
+    """The participants shown whose table status is one of `wanted`, newest first."""
+    candidates = list(
+        session.scalars(select(Participant).where(shown).order_by(Participant.id.desc()))
     )
-    everyone = (
-        total
-        if not hide
-        else int(session.scalar(select(func.count()).select_from(Participant)) or 0)
-    )
-    return ProgressPage(progress_rows(session, now, participants), page, pages, total, everyone)
+    statuses = participant_statuses(session, candidates)
+    states = session_states(session)
+    return [
+        p for p in candidates if table_status(states.get(p.id, "active"), statuses[p.id]) in wanted
+    ]
 
 
 def progress_rows(
@@ -209,20 +316,24 @@ def progress_rows(
     for participant in participants:
         state = states.get(participant.id, "active")
         trial = trials.get(participant.id)
-        status = None if trial is None else latest_change(session, trial.id)
+        status_row = None if trial is None else latest_change(session, trial.id)
         place = _place(session, participant, enrolments.get(participant.id))
         position = place.position
         last = last_events.get(participant.id)
         clock = duration = None
         since = participant.created_at.timestamp() if last is None else last.at.timestamp()
-        if trial is not None and status is not None and status.status == TrialStatus.RUNNING:
+        if (
+            trial is not None
+            and status_row is not None
+            and status_row.status == TrialStatus.RUNNING
+        ):
             stage, since = f"{trial.kind} {trial.model}", trial.started_at.timestamp()
             clock, duration = trial_clock_s(session, trial, now), trial.duration_s
         elif position.status == "not_enrolled" and trial is not None:
             # A participant outside the study flow (`hcss demo-trial`).
-            reason = "" if status is None else f" ({status.reason})"
+            reason = "" if status_row is None else f" ({status_row.reason})"
             stage = f"{trial.kind} {trial.model} ended{reason}"
-            since = (trial.started_at if status is None else status.created_at).timestamp()
+            since = (trial.started_at if status_row is None else status_row.created_at).timestamp()
         elif place.held:
             stage = f"held: {place.held}"
         else:
@@ -230,11 +341,16 @@ def progress_rows(
             if place.entered is not None:
                 since = place.entered.at.timestamp()
         last_seen, connected, hidden = _presence(presence.get(participant.id), now)
+        status = position.status
+        outside = status == "not_enrolled" and trial is not None  # `hcss demo-trial`
+        if outside:  # its real status: in progress while the trial runs, then completed
+            running = status_row is not None and status_row.status == TrialStatus.RUNNING
+            status = "in_progress" if running else "completed"
         rows.append(
             ProgressRow(
                 code=participant.code,
                 state=state,
-                status=position.status,
+                status=status,
                 study=place.study,
                 cell=place.cell,
                 stage=stage,
@@ -251,7 +367,9 @@ def progress_rows(
                 is_pilot=pilots[participant.id],
                 is_bot=participant.is_bot,
                 is_demo=participant.is_demo,
-                actions=available_actions(state, position.status, pilots[participant.id]),
+                actions=available_actions(
+                    state, status, pilots[participant.id], in_flow=not outside
+                ),
                 recruitment=recruited.get(participant.id),
             )
         )
@@ -265,4 +383,5 @@ def progress_json(page: ProgressPage) -> dict[str, Any]:
         "pages": page.pages,
         "total": page.total,
         "everyone": page.everyone,
+        "search": page.search,
     }

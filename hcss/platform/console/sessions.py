@@ -14,10 +14,11 @@ from sqlalchemy.orm import Session
 from hcss.platform.db import Database
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.service import OrderUnconfirmed, control_session_trial, running_trial_id
-from hcss.platform.models import ConsoleAction, Experimenter, Participant
+from hcss.platform.models import AuditRecord, ConsoleAction, Experimenter, Participant
 from hcss.platform.pilots import is_pilot
 from hcss.platform.session_state import ENDED_STATES, STATE_ACTIONS, session_state
-from hcss.platform.study.flow import current_position
+from hcss.platform.study.flow import current_position, trial_states
+from hcss.platform.study.timeouts import REINSTATED
 
 
 class ConsoleError(ValueError):
@@ -28,7 +29,9 @@ class ConsoleError(ValueError):
 FINISHED = ("completed", "declined")
 
 
-def available_actions(state: str, status: str, is_pilot: bool) -> list[str]:
+def available_actions(
+    state: str, status: str, is_pilot: bool, *, in_flow: bool = True
+) -> list[str]:
     """The actions that apply now, in the order the console offers them.
 
     `state` is `session_state`; `status` the study engine's (``in_progress``,
@@ -41,15 +44,21 @@ def available_actions(state: str, status: str, is_pilot: bool) -> list[str]:
         if status != "not_enrolled":  # nothing runs yet that a pause could hold
             actions += ["resume"] if state == "paused" else ["pause"]
         actions.append("abort")  # for a link not yet opened: it will not open
-        if status == "in_progress":
+        if status == "in_progress" and in_flow:  # a demo trial has no stages to skip
             actions.append("skip_stage")  # hcss.platform.console.skipping
+    if state == "timed_out" and status not in FINISHED:
+        actions.append("reinstate")  # a power cut, a lost connection: let them go on
     actions.append("unmark_pilot" if is_pilot else "mark_pilot")
     return actions
 
 
 def study_status(session: Session, participant: Participant) -> str:
-    """The study engine's status of the participant (see `available_actions`)."""
-    return current_position(session, participant).status
+    """The study engine's status of the participant (see `available_actions`); one outside
+    the study flow (`hcss demo-trial`) is in progress while their trial runs, then completed."""
+    status = current_position(session, participant).status
+    if status == "not_enrolled":
+        return trial_states(session, [participant.id]).get(participant.id, status)
+    return status
 
 
 def _record(
@@ -141,5 +150,36 @@ def set_pilot(
                 experimenter_id=None if experimenter is None else experimenter.id,
                 action="mark_pilot" if pilot else "unmark_pilot",
                 at_epoch=runner.clock(),
+            )
+        )
+
+
+def reinstate(
+    database: Database, runner: Runner, participant: Participant, experimenter: Experimenter
+) -> None:
+    """Let a timed-out participant go on (a power cut, a lost connection): a `resume` row,
+    from which the study's time-outs count afresh, and an audit row in the console's log."""
+    with database.session_scope() as session:
+        if session_state(session, participant.id) != "timed_out":
+            raise ConsoleError(f"{participant.code} was not timed out; nothing to reinstate")
+        row = session.get(Participant, participant.id)
+        assert row is not None
+        if study_status(session, row) in FINISHED:
+            raise ConsoleError(f"{participant.code} has finished the study")
+        session.add(
+            ConsoleAction(
+                participant_id=participant.id,
+                experimenter_id=experimenter.id,
+                action="resume",
+                at_epoch=runner.clock(),
+                detail=REINSTATED,
+            )
+        )
+        session.add(
+            AuditRecord(
+                action="reinstate",
+                experimenter=experimenter.username,
+                participant_code=participant.code,
+                row_counts={},
             )
         )

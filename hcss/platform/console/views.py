@@ -27,6 +27,7 @@ from flask import (
 )
 from flask.typing import ResponseReturnValue
 from flask_login import LoginManager, current_user, login_required, logout_user
+from markupsafe import Markup, escape
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
@@ -35,6 +36,8 @@ from hcss.platform.console.audit import audit_entries
 from hcss.platform.console.link_limit import LinkLimitReached, require_allowance
 from hcss.platform.console.login_sessions import end_sessions, experimenter_for_cookie
 from hcss.platform.console.participants import (
+    USABLE,
+    batches,
     create_participants,
     link_rows,
     links_csv,
@@ -47,11 +50,12 @@ from hcss.platform.console.sessions import (
     ConsoleError,
     available_actions,
     change_session,
+    reinstate,
     set_pilot,
     study_status,
 )
 from hcss.platform.console.signin import answer_sign_in
-from hcss.platform.console.skipping import skip_step
+from hcss.platform.console.skipping import skip_step, skip_targets
 from hcss.platform.console.withdrawal import WithdrawalError, withdraw
 from hcss.platform.db import database, get_session, session_now
 from hcss.platform.models import AuditRecord, ConsoleAction, Experimenter, Participant
@@ -89,6 +93,20 @@ def _export_studies() -> dict[str, object]:
         return present_studies(get_session())
 
     return {"export_studies": export_studies}
+
+
+@bp.app_template_filter("highlight")
+def _highlight(text: str | None, search: str) -> Markup:
+    """`text` escaped, each search word found in it marked (<mark>), case aside."""
+    text = text or ""
+    words = [re.escape(word) for word in search.split() if word]
+    if not words:
+        return escape(text)
+    pieces = re.split(f"({'|'.join(words)})", text, flags=re.IGNORECASE)
+    return Markup("").join(
+        Markup("<mark>{}</mark>").format(piece) if index % 2 else escape(piece)
+        for index, piece in enumerate(pieces)
+    )
 
 
 @login_manager.user_loader
@@ -196,14 +214,16 @@ def progress() -> Response:
 
 
 def _table_page():
-    """The page of the live table that ``?page=N&hide=pilot,bot,demo`` asks for."""
+    """The page of the live table that ``?page=N&hide=pilot,bot,demo&q=SEARCH`` asks for."""
     page = request.args.get("page", "1")
     hide = frozenset(flag for flag in request.args.get("hide", "").split(",") if flag in FLAGS)
     number = int(page) if page.isascii() and page.isdigit() and len(page) < 7 else 1
     session = get_session()
     if time_out_abandoned(session, session_now(session)):  # the study files' [timeouts]
         session.commit()
-    return progress_page(session, _runner().clock(), page=number, hide=hide)
+    return progress_page(
+        session, _runner().clock(), page=number, hide=hide, search=request.args.get("q", "")
+    )
 
 
 @bp.post("/participants")
@@ -274,6 +294,9 @@ def links() -> str:
     return render_template(
         "console/links.html",
         rows=rows,
+        batches=[] if request.args.get("codes") else batches(get_session()),
+        usable=sum(row["status"] in USABLE for row in rows),
+        usable_statuses=USABLE,
         csv_url=url_for("console.links_csv_download", codes=request.args.get("codes", "")),
     )
 
@@ -310,6 +333,7 @@ def participant(code: str) -> str:
         status=status,
         enrolment=current_enrolment(session, found.id),
         offered=available_actions(state, status, pilot),
+        skip_targets=skip_targets(session, found) if status == "in_progress" else [],
         action_labels=ACTION_LABELS,
         actions=actions,
         action_form=forms.ActionForm(),
@@ -317,7 +341,15 @@ def participant(code: str) -> str:
     )
 
 
-SESSION_ACTIONS = {"pause", "resume", "abort", "mark_pilot", "unmark_pilot", "skip_stage"}
+SESSION_ACTIONS = {
+    "pause",
+    "resume",
+    "abort",
+    "mark_pilot",
+    "unmark_pilot",
+    "skip_stage",
+    "reinstate",
+}
 ACTION_LABELS = {
     "pause": "Pause",
     "resume": "Resume",
@@ -325,11 +357,12 @@ ACTION_LABELS = {
     "mark_pilot": "Mark pilot",
     "unmark_pilot": "Unmark pilot",
     "skip_stage": "Skip stage",
+    "reinstate": "Reinstate",
 }
 
 
 #: What the table's "Selected rows" form applies to every participant ticked.
-BULK_ACTIONS = ("mark_pilot", "unmark_pilot", "abort")
+BULK_ACTIONS = ("pause", "resume", "mark_pilot", "unmark_pilot", "abort")
 
 
 @bp.post("/bulk")
@@ -352,8 +385,8 @@ def bulk():  # type: ignore[no-untyped-def]
     done, refused = [], []
     for found in chosen:
         try:
-            if action == "abort":
-                change_session(database(), _runner(), found, current_user, "abort")
+            if action in ("pause", "resume", "abort"):
+                change_session(database(), _runner(), found, current_user, action)
             else:
                 set_pilot(database(), _runner(), found, current_user, action == "mark_pilot")
             done.append(found.code)
@@ -382,9 +415,11 @@ def act(code: str, action: str):
         if action in ("mark_pilot", "unmark_pilot"):
             set_pilot(database(), _runner(), found, current_user, action == "mark_pilot")
         elif action == "skip_stage":
-            skipped = skip_step(database(), _runner(), found, current_user)
+            skipped = skip_step(database(), _runner(), found, current_user, _to_stage())
             flash(f"{code}: skipped {skipped}")
             return redirect(back), 303
+        elif action == "reinstate":
+            reinstate(database(), _runner(), found, current_user)
         else:
             change_session(database(), _runner(), found, current_user, action)
     except ConsoleError as error:
@@ -392,6 +427,16 @@ def act(code: str, action: str):
         return redirect(back), 303
     flash(f"{code}: {action.replace('_', ' ')} done")
     return redirect(back), 303
+
+
+def _to_stage() -> int | None:
+    """The stage a skip moves the participant to (``to_stage``, 1-based); None: the next step."""
+    raw = request.form.get("to_stage", "")
+    if not raw:
+        return None
+    if not (raw.isascii() and raw.isdigit() and len(raw) < 4):
+        abort(400, "to_stage is a stage number")
+    return int(raw)
 
 
 @bp.post("/participants/<code>/withdraw")

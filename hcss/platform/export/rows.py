@@ -141,7 +141,15 @@ def probe_rows(session: Session, trial: Trial, code: str, problems: ProblemLog) 
 
 
 def fast_answer_ms(session: Session, participant_id: int) -> int:
-    """The participant's study's `[probes] fast_answer_ms` (the default without a study)."""
+    """The participant's study's `[probes] fast_answer_ms` (the default without a study);
+    asked once per participant and database session (`session.info`: an export), not per trial."""
+    known: dict[int, int] = session.info.setdefault("hcss_fast_answer_ms", {})
+    if participant_id not in known:
+        known[participant_id] = _fast_answer_ms(session, participant_id)
+    return known[participant_id]
+
+
+def _fast_answer_ms(session: Session, participant_id: int) -> int:
     enrolment = current_enrolment(session, participant_id)
     try:
         return load_study(enrolment.study).fast_answer_ms if enrolment else DEFAULT_FAST_MS

@@ -21,8 +21,9 @@ from sqlalchemy.orm import Mapped, mapped_column
 
 from hcss.platform.models.base import Base, CreatedAt
 
-#: `skipped`: the experimenter moved the participant past the step (hcss.platform.console.skipping).
-STAGE_EVENT_KINDS = ("entered", "submitted", "timed_out", "skipped")
+#: `skipped`: the experimenter moved the participant past the step (hcss.platform.console.skipping);
+#: `late_answer`: answers sent from a page after its step was skipped, kept apart (detail).
+STAGE_EVENT_KINDS = ("entered", "submitted", "timed_out", "skipped", "late_answer")
 CONSENT_DECISIONS = ("agree", "decline")
 
 

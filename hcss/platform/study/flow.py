@@ -26,9 +26,12 @@ from hcss.platform.models import (
     Score,
     StageEvent,
     StudyEnrolment,
+    Trial,
+    TrialStatusChange,
 )
-from hcss.platform.models.latest import latest_row
-from hcss.platform.session_state import session_state
+from hcss.platform.models.latest import latest_per_key, latest_row
+from hcss.platform.models.vocabularies import TrialStatus
+from hcss.platform.session_state import session_states
 from hcss.platform.study.enrolment import current_enrolment, not_counted
 from hcss.platform.study.stage import Slot
 from hcss.platform.study.stages import sequence
@@ -50,6 +53,14 @@ DONE_KINDS = ("submitted", "timed_out", "skipped")
 
 
 @dataclass(frozen=True)
+class KnownRecords:
+    """A participant's stage events (in id order) and newest consent record, read beforehand."""
+
+    events: list[StageEvent]
+    consent: ConsentRecord | None
+
+
+@dataclass(frozen=True)
 class Position:
     slot: Slot | None  # None: the study is over for this participant
     step: str = ""
@@ -60,8 +71,16 @@ class Flow:
     """The study as it stands for one participant, within one unit of work."""
 
     def __init__(
-        self, session: Session, participant: Participant, enrolment: StudyEnrolment, now: datetime
+        self,
+        session: Session,
+        participant: Participant,
+        enrolment: StudyEnrolment,
+        now: datetime,
+        *,
+        known: KnownRecords | None = None,
     ) -> None:
+        """`known`: the participant's stage events and newest consent, already read (the
+        export reads them for every participant at once instead of two queries each)."""
         self.session = session
         self.participant = participant
         self.enrolment = enrolment
@@ -73,13 +92,19 @@ class Flow:
         # step of every stage, and a scan of the list each time made a page load's
         # work grow with the square of the participant's progress.
         self._first_event: dict[tuple[int, str, str], StageEvent] = {}
-        for event in session.scalars(
-            select(StageEvent)
-            .where(StageEvent.participant_id == participant.id)
-            .order_by(StageEvent.id)
-        ):
+        events = (
+            known.events
+            if known is not None
+            else session.scalars(
+                select(StageEvent)
+                .where(StageEvent.participant_id == participant.id)
+                .order_by(StageEvent.id)
+            )
+        )
+        for event in events:
             self._remember(event)
-        self._consent: list[ConsentRecord | None] = []  # read on first use, kept up to date
+        # The newest consent record: read on first use, kept up to date.
+        self._consent: list[ConsentRecord | None] = [] if known is None else [known.consent]
         # (stage index, instrument) -> answers, read on first use and kept up to date by
         # `record_answers`: an MRT answer's page asked for them up to five times.
         self._answers: dict[tuple[int, str], dict[str, str]] = {}
@@ -252,11 +277,101 @@ def current_position(session: Session, participant: Participant) -> Position:
 
 
 def participant_status(session: Session, participant: Participant) -> str:
-    """``in_progress``, ``completed``, ``declined``, ``aborted`` or ``timed_out`` (the export's)."""
-    if participant.id in not_counted(session):
-        consent = latest_row(session, ConsentRecord, ConsentRecord.participant_id, participant.id)
-        if consent is not None and consent.decision == "decline":
-            return "declined"
-        return "timed_out" if session_state(session, participant.id) == "timed_out" else "aborted"
-    status = current_position(session, participant).status
-    return "in_progress" if status == "not_enrolled" else status
+    """``not_started``, ``in_progress``, ``completed``, ``declined``, ``aborted`` or
+    ``timed_out`` (the export's); see `participant_statuses`."""
+    return participant_statuses(session, [participant])[participant.id]
+
+
+#: Up to this many participants, `participant_statuses` asks for their rows by id.
+FEW = 500
+
+
+def participant_statuses(session: Session, participants: list[Participant]) -> dict[int, str]:
+    """Each participant's status, by id, in a few queries whatever their number.
+
+    ``not_started``: the link was never opened (no page of the study was
+    shown), so the participant ran no study file and is no participant of any
+    study yet. A participant outside
+    the study flow (`hcss demo-trial`) is ``in_progress`` while a trial runs
+    and ``completed`` once their trials ended.
+    """
+    ids = {participant.id for participant in participants}
+    if not ids:
+        return {}
+    # A few participants (a batch of links, one row): their rows only; many: every row
+    # (an IN list of thousands of ids is slower, and SQLite caps its parameters).
+    few = len(ids) <= FEW
+
+    def scope(column: Any) -> tuple[Any, ...]:
+        return (column.in_(ids),) if few else ()
+
+    ended = not_counted(session)
+    states = session_states(session)
+    consents = latest_per_key(
+        session, ConsentRecord, ConsentRecord.participant_id, *scope(ConsentRecord.participant_id)
+    )
+    enrolments = latest_per_key(
+        session,
+        StudyEnrolment,
+        StudyEnrolment.participant_id,
+        *scope(StudyEnrolment.participant_id),
+    )
+    events: dict[int, list[StageEvent]] = {pid: [] for pid in ids}
+    for event in session.scalars(
+        select(StageEvent).where(*scope(StageEvent.participant_id)).order_by(StageEvent.id)
+    ):
+        if event.participant_id in events:
+            events[event.participant_id].append(event)
+    outside = [p.id for p in participants if p.id not in enrolments and p.id not in ended]
+    running = trial_states(session, outside)
+    now = session_now(session)
+    statuses = {}
+    for participant in participants:
+        pid, consent = participant.id, consents.get(participant.id)
+        if pid in ended:
+            declined = consent is not None and consent.decision == "decline"
+            statuses[pid] = (
+                "declined"
+                if declined
+                else "timed_out"
+                if states.get(pid) == "timed_out"
+                else "aborted"
+            )
+        elif pid not in enrolments:
+            statuses[pid] = running.get(pid, "not_started")
+        elif not events[pid]:  # enrolled when created (a cell override), never shown a page
+            statuses[pid] = "not_started"
+        else:
+            known = KnownRecords(events[pid], consent)
+            flow = Flow(session, participant, enrolments[pid], now, known=known)
+            statuses[pid] = flow.locate().status
+    return statuses
+
+
+def trial_states(session: Session, participant_ids: list[int]) -> dict[int, str]:
+    """Participants with trials outside the study flow (`hcss demo-trial`): ``in_progress``
+    while one runs, else ``completed``; participants without trials are left out."""
+    wanted = set(participant_ids)
+    if not wanted:
+        return {}
+    trials = [
+        (pid, trial_id)
+        for pid, trial_id in session.execute(select(Trial.participant_id, Trial.id))
+        if pid in wanted
+    ]
+    if not trials:
+        return {}
+    changes = latest_per_key(
+        session,
+        TrialStatusChange,
+        TrialStatusChange.trial_id,
+        TrialStatusChange.trial_id.in_([trial_id for _, trial_id in trials]),
+    )
+    states: dict[int, str] = {}
+    for pid, trial_id in trials:
+        change = changes.get(trial_id)
+        if change is None or change.status == TrialStatus.RUNNING:
+            states[pid] = "in_progress"
+        else:
+            states.setdefault(pid, "completed")
+    return states

@@ -34,6 +34,10 @@ from hcss.platform.session_state import session_states
 from hcss.platform.study.flow import current_position
 from hcss.platform.study.studyfile import Study, StudyFileError, load_study
 
+#: The detail of the console's `resume` that reinstates a timed-out participant
+#: (hcss.platform.console.sessions.reinstate).
+REINSTATED = "reinstated after a time-out"
+
 
 def _studies(names: set[str]) -> dict[str, Study]:
     studies = {}
@@ -85,6 +89,18 @@ def time_out_abandoned(
     trials = {
         pid: trial.id for pid, trial in latest_per_key(session, Trial, Trial.participant_id).items()
     }
+    # An experimenter who reinstated a timed-out participant (a `resume` after the time-out)
+    # gave them a fresh start: both limits count from then.
+    resumed = {
+        pid: row.at_epoch
+        for pid, row in latest_per_key(
+            session,
+            ConsoleAction,
+            ConsoleAction.participant_id,
+            ConsoleAction.action == "resume",
+            ConsoleAction.detail == REINSTATED,
+        ).items()
+    }
     epoch = now.timestamp()
     timed_out = []
     for pid, enrolment in limited.items():
@@ -93,12 +109,11 @@ def time_out_abandoned(
         trial_id = trials.get(pid)
         if trial_id is not None and latest_status(session, int(trial_id)) == TrialStatus.RUNNING:
             continue
-        signs = [enrolment.created_at.timestamp(), float(seen.get(pid, 0.0))]
+        started = max(enrolment.created_at.timestamp(), resumed.get(pid, 0.0))
+        signs = [started, float(seen.get(pid, 0.0))]
         if pid in stage_at:
             signs.append(stage_at[pid].timestamp())  # type: ignore[attr-defined]
-        reason = overdue_reason(
-            studies[enrolment.study], enrolment.created_at.timestamp(), max(signs), epoch
-        )
+        reason = overdue_reason(studies[enrolment.study], started, max(signs), epoch)
         if reason is None:
             continue
         participant = session.get(Participant, pid)

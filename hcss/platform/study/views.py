@@ -21,7 +21,7 @@ from werkzeug.wrappers import Response
 
 from hcss.platform.db import get_session
 from hcss.platform.live.service import finish_overdue_trial
-from hcss.platform.models import Participant, StudyEnrolment
+from hcss.platform.models import Participant, StageEvent, StudyEnrolment
 from hcss.platform.session_state import session_state
 from hcss.platform.study.enrolment import current_enrolment, first_enrolment
 from hcss.platform.study.flow import Flow, Position, study_now
@@ -178,6 +178,10 @@ def submit(token: str, index: int, step: str) -> Response | tuple[str, int] | st
     if held is not None:
         return held, 409
     position = _settled(flow)
+    if flow.event(index, step, "skipped") is not None and (
+        position.slot is None or (position.slot.index, position.step) != (index, step)
+    ):
+        return _moved_on(flow, index, step)
     try:
         _check_current(flow, position, index, step)
         assert position.slot is not None
@@ -204,6 +208,45 @@ def submit_address(token: str, index: int, step: str) -> Response:
     """A form's POST address opened as a page (a bookmark, a reload): go to the stage."""
     _participant(token)
     return redirect(url_for("study.stage", token=token))
+
+
+#: The most fields, and characters per answer, a late answer keeps (a form has far fewer).
+LATE_FIELDS, LATE_CHARACTERS = 200, 200
+
+
+def _moved_on(flow: Flow, index: int, step: str) -> str:
+    """A submit of a step the experimenter skipped: the answers given are kept, apart.
+
+    They are a ``late_answer`` stage event of the step (its detail holds them),
+    never the step's answers: the step was closed without them, and the
+    analysis reads only answers given while a step was open. A second submit of
+    the same page keeps nothing more (one late answer per step).
+    """
+    answers = {
+        name: [value[:LATE_CHARACTERS] for value in request.form.getlist(name)]
+        for name in list(request.form)[:LATE_FIELDS]
+        if name != "csrf_token"
+    }
+    skipped = flow.event(index, step, "skipped")
+    assert skipped is not None
+    if answers and flow.event(index, step, "late_answer") is None:
+        try:
+            flow.session.add(
+                StageEvent(
+                    participant_id=flow.participant.id,
+                    stage_index=index,
+                    stage=skipped.stage,
+                    step=step,
+                    model=skipped.model,
+                    kind="late_answer",
+                    at=flow.now,
+                    detail={"answers": answers},
+                )
+            )
+            flow.session.commit()
+        except IntegrityError:  # the same page sent twice at once: one is kept
+            flow.session.rollback()
+    return render_template("study/moved_on.html", token=flow.participant.token, kept=bool(answers))
 
 
 def _check_current(flow: Flow, position: Position, index: int, step: str) -> None:

@@ -16,6 +16,27 @@
   const filters = Array.from(document.querySelectorAll("#filters input[data-flag]"));
   const shownCount = document.getElementById("shown-count");
   const COLUMNS = 10;
+  const search = document.getElementById("search");
+  // The search's words, marked where they appear in a cell (the server found the rows).
+  function marked(text) {
+    const words = (search ? search.value : "").trim().split(/\s+/).filter(Boolean)
+      .map((word) => word.replace(/[.*+?^${}()|[\]\\]/g, "\\$&"));
+    const span = document.createElement("span");
+    if (!words.length) {
+      span.textContent = text;
+      return span;
+    }
+    text.split(new RegExp("(" + words.join("|") + ")", "i")).forEach((piece, index) => {
+      if (index % 2) {
+        const mark = document.createElement("mark");
+        mark.textContent = piece;
+        span.append(mark);
+      } else if (piece) {
+        span.append(piece);
+      }
+    });
+    return span;
+  }
   const minutes = (s) => Math.floor(s / 60) + ":" + String(Math.floor(s % 60)).padStart(2, "0");
 
   function cell(text, className) {
@@ -90,18 +111,17 @@
     tr.dataset.demo = p.is_demo ? "1" : "0";
     const link = document.createElement("a");
     link.href = table.dataset.participantUrl.replace("CODE", encodeURIComponent(p.code));
-    link.textContent = p.code;
+    link.append(...marked(p.code).childNodes);
     const first = document.createElement("td");
     first.append(link);
     if (p.recruitment) {
       const id = document.createElement("span");
       id.className = "recruitment muted";
-      id.textContent = p.recruitment;
+      id.append(...marked(p.recruitment).childNodes);
       first.append(id);
     }
     const shown = p.status === "not_enrolled" && p.state === "active" ? "not started"
       : p.status === "completed" || p.status === "declined" ? p.status : p.state;
-    tr.dataset.search = [p.code, p.recruitment || "", p.study, shown, p.stage].join(" ").toLowerCase();
     const clock = p.trial_clock_s === null ? "–"
       : minutes(p.trial_clock_s) + " / " + Math.floor(p.trial_duration_s / 60) + " min";
     const flags = [p.is_pilot && "pilot", p.is_bot && "bot", p.is_demo && "demo"].filter(Boolean);
@@ -119,7 +139,11 @@
       pick,
       first,
       cell(p.study + " · " + (p.cell === null ? "cell at first visit" : "cell " + p.cell), "study"),
-      cell(shown, "session state-" + shown),
+      (() => {
+        const td = cell("", "session state-" + shown);
+        td.append(...marked(shown).childNodes);
+        return td;
+      })(),
       stageCell(p),
       cell(p.time_in_stage_s === null ? "–" : minutes(p.time_in_stage_s)),
       cell(clock),
@@ -130,30 +154,25 @@
     return tr;
   }
 
-  // The search box: every word must appear in the row's code, recruitment id, study, session or stage.
-  const search = document.getElementById("search");
-  // Participants before any filter, as the server last counted them (the rows here are one
-  // page, and the server leaves out the hidden): "showing N of everyone".
+  // The search box asks the server, which looks through every participant (code, recruitment
+  // or session id, status): "N of everyone" are the participants it found.
+  // Participants before any filter, and those found, as the server last counted them.
   let everyone = null;
+  let found = null;
   function applyFilters() {
     const hidden = filters.filter((box) => box.checked).map((box) => box.dataset.flag);
-    const words = search ? search.value.toLowerCase().split(/\s+/).filter(Boolean) : [];
-    let total = 0;
-    let shown = 0;
     for (const tr of body.querySelectorAll("tr[data-code]")) {
-      total += 1;
-      tr.hidden = hidden.some((flag) => tr.dataset[flag] === "1")
-        || words.some((word) => !(tr.dataset.search || "").includes(word));
-      if (!tr.hidden) shown += 1;
+      tr.hidden = hidden.some((flag) => tr.dataset[flag] === "1");
     }
-    if (everyone !== null) total = Math.max(everyone, total);
-    if (shownCount) shownCount.textContent = "showing " + shown + " of " + total;
+    if (shownCount && everyone !== null) {
+      shownCount.textContent = "showing " + found + " of " + everyone;
+    }
   }
 
   // Cells are replaced only where their content changed, so a button (and the click on it)
   // survives the refresh of everything around it.
   function sync(tr, fresh) {
-    for (const flag of ["pilot", "bot", "demo", "search"]) tr.dataset[flag] = fresh.dataset[flag];
+    for (const flag of ["pilot", "bot", "demo"]) tr.dataset[flag] = fresh.dataset[flag];
     const old = Array.from(tr.children);
     const now = Array.from(fresh.children);
     if (old.length !== now.length) {
@@ -177,6 +196,7 @@
       const tr = document.createElement("tr");
       const td = cell("No participants yet.");
       td.colSpan = COLUMNS;
+      if (search && search.value.trim()) td.textContent = "No participant matches the search.";
       tr.append(td);
       body.append(tr);
     }
@@ -200,7 +220,8 @@
     const hidden = filters.filter((box) => box.checked).map((box) => box.dataset.flag);
     const page = pager ? pager.dataset.page : "1";
     return table.dataset.url + "?page=" + encodeURIComponent(page)
-      + "&hide=" + encodeURIComponent(hidden.join(","));
+      + "&hide=" + encodeURIComponent(hidden.join(","))
+      + "&q=" + encodeURIComponent(search ? search.value.trim() : "");
   }
 
   async function poll() {
@@ -209,11 +230,14 @@
       if (response.ok) {
         const answer = await response.json();
         if (typeof answer.everyone === "number") everyone = answer.everyone;
+        found = answer.total;
+        if (pager) pager.dataset.page = String(answer.page);
         render(answer.participants);
         if (pageOf) {
           pageOf.textContent = "page " + answer.page + " of " + answer.pages + " · "
-            + answer.total + " participants";
+            + answer.total + " participants" + (answer.search ? " matching “" + answer.search + "”" : "");
         }
+        pagerLinks(answer);
       }
     } catch (error) {
       // A dropped poll is retried by the next one.
@@ -234,7 +258,54 @@
       poll();
     });
   }
-  if (search) search.addEventListener("input", applyFilters);
+  // Newer/older links that keep the search.
+  function pagerLinks(answer) {
+    for (const [id, page, label, shown] of [
+      ["newer", answer.page - 1, "newer", answer.page > 1],
+      ["older", answer.page + 1, "older", answer.page < answer.pages],
+    ]) {
+      let link = document.getElementById(id);
+      if (!shown) {
+        if (link) link.remove();
+        continue;
+      }
+      if (!link) {
+        link = document.createElement("a");
+        link.id = id;
+        link.textContent = label;
+        if (id === "newer") pager.prepend(link, " ");
+        else pager.append(" ", link);
+      }
+      const query = new URLSearchParams({ page: String(page) });
+      if (answer.search) query.set("q", answer.search);
+      link.href = table.dataset.indexUrl + "?" + query.toString();
+    }
+  }
+  let typing = null;
+  if (search) {
+    search.addEventListener("input", () => {
+      clearTimeout(typing);
+      typing = setTimeout(() => {
+        if (pager) pager.dataset.page = "1";
+        const query = new URLSearchParams(window.location.search);
+        if (search.value.trim()) query.set("q", search.value.trim());
+        else query.delete("q");
+        query.delete("page");
+        history.replaceState(null, "", "?" + query.toString());
+        poll();
+      }, 250);
+    });
+  }
+  // Select every row of this page for the bulk form.
+  const all = document.getElementById("select-all");
+  if (all) {
+    all.addEventListener("change", () => {
+      for (const box of body.querySelectorAll("tr:not([hidden]) input.select")) {
+        box.checked = all.checked;
+      }
+    });
+  }
   applyFilters();
+  poll();
   setInterval(poll, Number(table.dataset.pollMs) || 2000);
 })();

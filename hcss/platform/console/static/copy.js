@@ -1,4 +1,5 @@
-// Copy buttons of the batch links page: one link, or every link one per line.
+// Copy buttons of the batch links page: one link, or every link still usable one per line
+// (a completed, aborted, declined or timed-out participant's link leads nowhere new).
 (function () {
   "use strict";
 
@@ -29,7 +30,8 @@
   const all = document.getElementById("copy-all");
   if (all) {
     all.addEventListener("click", () => {
-      const links = Array.from(document.querySelectorAll("button.copy"), (b) => b.dataset.copy);
+      const links = Array.from(
+        document.querySelectorAll('button.copy[data-usable="1"]'), (b) => b.dataset.copy);
       copy(links.join("\n"), all);
     });
   }
