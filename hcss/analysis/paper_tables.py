@@ -49,7 +49,7 @@ def family_table(
         "Measure",
         "Split",
         *(f"{group} M (SD)" for group in groups),
-        "n per model",
+        f"n ({'/'.join(groups)})",
         "KW p",
         "Friedman p",
     )
@@ -91,7 +91,10 @@ def family_table(
     header, rows = _without_untested(header, rows)
     return Table(
         f"family_{family.key}",
-        f"{family.title}: mean (SD) per model",
+        f"{family.title}: mean (SD) per model. n: participants (simulation scenarios for "
+        "simulated rows) with a value in that split, one number when every model has the same, "
+        "else one per model in the order of the header; a split has fewer when some trials had "
+        "no decision of that kind.",
         header,
         tuple(rows),
         pd.DataFrame(records),

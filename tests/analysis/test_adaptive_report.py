@@ -105,9 +105,19 @@ def test_family_tables_drop_p_columns_of_tests_not_run(tmp_path: Path):
         "M1 M (SD)",
         "M2 M (SD)",
         "M3 M (SD)",
-        "n per model",
+        "n (M1/M2/M3)",
     )
     assert family.rows[0][-1] == "1"  # one participant per model, not N = 3
+
+
+def test_a_family_tables_n_column_names_its_models_and_says_what_it_counts(tmp_path: Path):
+    """ "n per model 3/1" named neither the models nor what was counted."""
+    tables = load_inputs([study_export(tmp_path / "export", participants=3)])
+    sections = {s.key: s for s in build_sections(tables, all_measures(tables))}
+    family = sections["performance"].tables[0]
+    assert "n (M1/M2/M3)" in family.header
+    assert "n: participants" in family.caption
+    assert "in the order of the header" in family.caption
 
 
 def test_a_measure_met_once_per_participant_is_drawn():
