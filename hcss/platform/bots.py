@@ -32,6 +32,11 @@ from hcss.questionnaires import mrt, pages, ranking
 from hcss.simulation import Display
 from hcss.simulation.operators import InvestigateThenDecide
 
+#: How often a bot asks again for a page that waits for the server's warm-up, and for how
+#: long at most (a first compile on a busy machine has taken about 100 s).
+WARMING_RECHECK_S = 1.0
+WARMING_PATIENCE_S = 600.0
+
 
 class BotError(AssertionError):
     """The bot reached a page it did not expect, or the platform refused it."""
@@ -65,6 +70,7 @@ class PageParser(HTMLParser):
         self.mrt_item = ""
         self.interface: dict[str, str] = {}
         self.csrf = ""
+        self.warming = False  # a training or trial page waiting for the server's warm-up
 
     def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
         a = {k: v or "" for k, v in attrs}
@@ -74,6 +80,8 @@ class PageParser(HTMLParser):
             self.csrf = a.get("content", "")
         elif tag == "form" and a.get("id") == "stage-form":
             self.action = a.get("action", "")
+        elif a.get("id") == "simulation-warming":
+            self.warming = True
         elif tag == "div" and a.get("id") == "interface":
             self.interface = a
         elif tag == "div" and "data-item" in a:
@@ -225,10 +233,24 @@ class ParticipantBot:
             if position >= len(plan) or (page.stage, page.step) != plan[position]:
                 wanted = plan[position] if position < len(plan) else "the end"
                 raise BotError(f"expected {wanted}, reached {page.stage}/{page.step}")
+            if page.warming:
+                html = self.wait_for_warm_up()
+                continue
             html, finished = self.act(page, report)
             if finished:
                 position += 1
                 report.pages += 1
+
+    def wait_for_warm_up(self) -> str:
+        """Ask for the page again until the server's simulation is ready, as the page's
+        own refresh does; the stage's Start is refused until then."""
+        deadline = time.monotonic() + WARMING_PATIENCE_S
+        while time.monotonic() < deadline:
+            time.sleep(WARMING_RECHECK_S)
+            html = self.get(f"/p/{self.token}/stage")[1]
+            if not parse_page(html).warming:
+                return html
+        raise BotError(f"the server's simulation was not ready after {WARMING_PATIENCE_S:g} s")
 
     def _ran_out_unseen(self, plan: list[tuple[str, str]], position: int, page: PageParser) -> bool:
         """Over HTTP: the trial of `plan[position]` ended before its page reached the bot.

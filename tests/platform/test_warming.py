@@ -76,3 +76,43 @@ def test_pages_answer_during_the_warm_up_and_a_training_waits_for_it(
     started = client.post(ready.action, data=ready.hidden)
     assert started.status_code == 302 and _trials(app) == 1
     assert "/live/" in client.get(started.location).location  # on to the live interface
+
+
+class _HeldWarmup(Warmup):
+    """A warm-up that ends once a page has asked whether it is ready twice.
+
+    The first look renders the training's waiting page; a second look is the
+    page asked for again, as the participant's browser does every 5 s. A bot
+    that posted the waiting page's missing form instead never looks again.
+    """
+
+    def __init__(self) -> None:
+        self.released = threading.Event()
+        super().__init__(lambda: self.released.wait(120))
+        self.looks = 0
+
+    @property
+    def ready(self) -> bool:
+        done = super().ready
+        if not done:
+            self.looks += 1
+            if self.looks >= 2:
+                self.released.set()
+        return done
+
+
+def test_a_bot_that_meets_the_waiting_page_waits_and_walks_on(database_url) -> None:  # type: ignore[no-untyped-def]
+    """`hcss bots` against a server still compiling: every bot failed 'POST  answered 405'
+    on the training's waiting page, which has no form (seen on a fresh install and under load)."""
+    from hcss.platform.bots import bot_app, run_bots
+
+    app = bot_app(database_url, "demo")
+    app.extensions["hcss_db"].create_all()
+    warmup = _HeldWarmup()
+    warmup.install(app)
+    warmup.start()
+    [report] = run_bots(app, 1)
+    assert warmup.looks >= 2 and warmup.ready
+    assert len(report.trials) == 6  # then every training and trial ran (3 models)
+    app.extensions["hcss_runner"].stop()
+    app.extensions["hcss_db"].engine.dispose()
