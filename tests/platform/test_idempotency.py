@@ -201,6 +201,7 @@ def test_the_migration_creates_the_key_table_as_modelled_and_removes_it(database
             ("interruption", "outage_s"),  # 0004_h13_hardening
             ("experimenter", "login_generation"),  # 0004_h13_hardening
             ("trial", "probe_counts"),  # 0005_a10_vocabularies
+            ("recruitment", "submit_to"),  # i31a_mturk_submit_to
         }
 
         def not_later(obj, name, type_, reflected, compare_to) -> bool:  # type: ignore[no-untyped-def]
