@@ -53,14 +53,17 @@ def test_a_command_waiting_for_its_trial_holds_no_connection(app, make_trial) ->
 def test_streams_waiting_for_a_trial_to_load_hold_no_connection(
     app, make_trial, monkeypatch
 ) -> None:
-    first, second = make_trial(), make_trial(seed=3)
-    runner = first.runner
-    runner.forget(first.trial_id)
-    runner.forget(second.trial_id)
+    """Two pages of one trial open its stream while the trial is being loaded: the second
+    waits for the first's load (each trial has its loader; other trials load meanwhile)."""
+    trial = make_trial()
+    runner = trial.runner
+    runner.forget(trial.trial_id)
     loading, finish = threading.Event(), threading.Event()
     real_load = runner_module.load_trial
+    loads: list[int] = []
 
     def slow_load(*args, **kwargs):  # type: ignore[no-untyped-def]
+        loads.append(1)
         loading.set()
         assert finish.wait(timeout=10)
         return real_load(*args, **kwargs)
@@ -69,17 +72,17 @@ def test_streams_waiting_for_a_trial_to_load_hold_no_connection(
     pool = app.extensions["hcss_db"].engine.pool
     statuses: list[int] = []
 
-    def open_stream(trial) -> None:  # type: ignore[no-untyped-def]
-        response = trial.client.get(f"{trial.api}/stream", buffered=False)
+    def open_stream() -> None:
+        response = app.test_client().get(f"{trial.api}/stream", buffered=False)
         statuses.append(response.status_code)
         response.close()
 
-    loader = threading.Thread(target=open_stream, args=(first,))
+    loader = threading.Thread(target=open_stream)
     loader.start()
-    assert loading.wait(timeout=10)  # the first stream loads its trial, holding the runner
-    waiter = threading.Thread(target=open_stream, args=(second,))
+    assert loading.wait(timeout=10)  # the first stream loads the trial
+    waiter = threading.Thread(target=open_stream)
     waiter.start()
-    time.sleep(0.3)  # the second waits for the runner
+    time.sleep(0.3)  # the second waits for that load
     held = pool.checkedout()
     finish.set()
     loader.join(timeout=10)
@@ -87,6 +90,7 @@ def test_streams_waiting_for_a_trial_to_load_hold_no_connection(
 
     assert held == 1  # the loader's own unit of work, nothing else
     assert statuses == [200, 200]
+    assert loads == [1]  # loaded once, for both
 
 
 def test_the_stream_keeps_its_rate_when_each_frame_takes_time_to_send(app, make_trial) -> None:
