@@ -202,6 +202,7 @@ def serve(
         asyncore_use_poll=True,
         # Behind the proxy every visitor has its address: the proxy caps clients.
         per_client=0 if proxied else connections_per_client,
+        ipv4_bits=int(app.config["CLIENT_PREFIX_V4"]),
         # Waitress passes X-Forwarded-* on only from the proxy it is told of.
         **proxy_adjustments(hops, str(app.config["TRUSTED_PROXY"])),
     )

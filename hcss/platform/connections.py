@@ -33,10 +33,13 @@ fresh PostgreSQL connection read it as "invalid frontend message type 120").
 from __future__ import annotations
 
 import contextlib
+import ipaddress
 import logging
 import signal
 import threading
 import time
+import types
+from collections import Counter
 from typing import Any
 
 from waitress import wasyncore
@@ -51,25 +54,45 @@ IDLE_S = 60
 PER_CLIENT = 64
 
 
+#: IPv4 addresses are counted by this prefix (HCSS_CLIENT_PREFIX_V4: 32, or 24 where one
+#: holder gets a whole /24); IPv6 by its /64, the block one subscriber gets.
+IPV4_PREFIX, IPV6_PREFIX = 32, 64
+#: Share of `connection_limit` past which only clients holding fewer than `FEW` get more.
+CROWDED = 0.8
+FEW = 4
+
+
+def client_prefix(address: str | None, ipv4_bits: int = IPV4_PREFIX) -> str:
+    """The network an address is counted in by every per-client limit.
+
+    One holder of an IPv6 /64 has 2^64 addresses, so a limit per address
+    would bound nothing there; an IPv4-mapped IPv6 address is its IPv4 one.
+    Anything that is not an address (a test's "?") is its own client.
+    """
+    if not address:
+        return "?"
+    try:
+        ip = ipaddress.ip_address(address.strip("[]"))
+    except ValueError:
+        return address
+    if ip.version == 6 and ip.ipv4_mapped is not None:
+        ip = ip.ipv4_mapped
+    bits = ipv4_bits if ip.version == 4 else IPV6_PREFIX
+    return str(ipaddress.ip_network(f"{ip}/{bits}", strict=False))
+
+
+def _host(addr: Any) -> str:
+    return str(addr[0] if isinstance(addr, tuple) else addr)
+
+
 class BoundedChannel(HTTPChannel):
     """A connection that must send each request whole in time, one of a capped few per client."""
 
     request_s: float = REQUEST_S
     per_client: int = PER_CLIENT
+    ipv4_bits: int = IPV4_PREFIX
     request_started: float | None = None
-
-    def __init__(self, server: Any, sock: Any, addr: Any, adj: Any, map: Any = None) -> None:  # noqa: A002 - waitress' name
-        super().__init__(server, sock, addr, adj, map=map)
-        if self.per_client and self._connections_from(addr) > self.per_client:
-            self.will_close = True  # closed by the next loop turn; never read
-
-    def _connections_from(self, addr: Any) -> int:
-        host = addr[0] if isinstance(addr, tuple) else addr
-        return sum(
-            1
-            for channel in list(self.server.active_channels.values())
-            if (channel.addr[0] if isinstance(channel.addr, tuple) else channel.addr) == host
-        )
+    client: str = "?"
 
     def received(self, data: bytes) -> bool:
         if self.request is None and data:
@@ -142,16 +165,73 @@ def say_untrusted_headers_once() -> UntrustedHeadersOnce:
 
 
 def bounded_server(
-    app: Any, *, request_s: float = REQUEST_S, per_client: int = PER_CLIENT, **adjustments: Any
+    app: Any,
+    *,
+    request_s: float = REQUEST_S,
+    per_client: int = PER_CLIENT,
+    ipv4_bits: int = IPV4_PREFIX,
+    **adjustments: Any,
 ) -> Any:
     """`waitress.create_server` whose connections are `BoundedChannel`s; `per_client` 0: no cap."""
     server = create_server(app, channel_timeout=IDLE_S, **adjustments)
     server.channel_class = type(
         "ConfiguredChannel",
         (BoundedChannel,),
-        {"request_s": float(request_s), "per_client": int(per_client)},
+        {"request_s": float(request_s), "per_client": int(per_client), "ipv4_bits": ipv4_bits},
     )
+    server.handle_accept = types.MethodType(_accept_waiting, server)
     return server
+
+
+#: Connections taken from the listen queue in one turn of waitress' loop.
+ACCEPTS_PER_TURN = 1024
+
+
+def _accept_waiting(server: Any) -> None:
+    """Waitress' `handle_accept`, taking every waiting connection, not one per loop turn.
+
+    Sockets that reconnect as fast as they are closed queue in the kernel's
+    listen backlog; taken one per turn of a loop over a thousand connections,
+    a bystander waited behind all of them (seconds). A connection is closed
+    here, before it costs a channel, when its client holds its cap, or when
+    the server is crowded (past `CROWDED` of its connections) and the client
+    holds `FEW` already: the last fifth is kept for clients with few
+    connections (a bystander's page), so a few prefixes each under its cap
+    (30 x 60 idle sockets) no longer fill the server together; filling the
+    fifth takes a fifth of `connection_limit` / `FEW` prefixes (55 at 1,088).
+    """
+    channel_class = server.channel_class
+    counts = Counter(channel.client for channel in _channels(server))
+    crowded_at = CROWDED * server.adj.connection_limit
+    for _ in range(ACCEPTS_PER_TURN):
+        if len(server._map) >= server.adj.connection_limit:
+            break
+        try:
+            pair = server.accept()
+        except OSError:
+            break
+        if pair is None:
+            break  # nothing more waiting
+        conn, addr = pair
+        addr = server.fix_addr(addr)
+        client = client_prefix(_host(addr), channel_class.ipv4_bits)
+        held = counts[client]
+        over_cap = bool(channel_class.per_client) and held >= channel_class.per_client
+        if over_cap or (len(server._map) >= crowded_at and held >= FEW):
+            conn.close()  # never read
+            continue
+        try:
+            server.set_socket_options(conn)
+        except OSError:
+            conn.close()  # the remote had gone already
+            continue
+        counts[client] += 1
+        channel = channel_class(server, conn, addr, server.adj, map=server._map)
+        channel.client = client
+
+
+def _channels(server: Any) -> list[Any]:
+    return [c for c in list(server.active_channels.values()) if isinstance(c, BoundedChannel)]
 
 
 def close_server(

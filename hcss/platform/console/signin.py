@@ -41,21 +41,23 @@ from hcss.platform.console.second_factor import (
 )
 from hcss.platform.console.second_factor import verify as verify_second_factor
 from hcss.platform.db import database, get_session
+from hcss.platform.ratelimit import request_client
 
 
 def answer_sign_in(form: forms.LoginForm, next_url: str) -> ResponseReturnValue:
     """Sign the experimenter in and go to `next_url`, or the page that says why not."""
     throttle = _throttle()
     # One (account, client)'s sign-ins in turn, each seeing the last one's outcome.
-    turn = throttle.in_turn(form.username.data, request.remote_addr) if throttle else nullcontext()
+    client = request_client()
+    turn = throttle.in_turn(form.username.data, client) if throttle else nullcontext()
     with turn:
-        return _sign_in(throttle, form, next_url)
+        return _sign_in(throttle, form, next_url, client)
 
 
 def _sign_in(
-    throttle: LoginThrottle | None, form: forms.LoginForm, next_url: str
+    throttle: LoginThrottle | None, form: forms.LoginForm, next_url: str, client: str
 ) -> ResponseReturnValue:
-    attempt = throttle.begin(form.username.data, request.remote_addr) if throttle else None
+    attempt = throttle.begin(form.username.data, client) if throttle else None
     locked = attempt is not None and attempt.wait_s > 0
     code = (form.code.data or "").strip()
     # Through a lockout only a second factor opens the door, and only a few codes a while.

@@ -22,6 +22,7 @@ from hcss.platform.live.access import require_owner, runner, trial_for
 from hcss.platform.live.idempotency import idempotent
 from hcss.platform.live.streams import RETRY_AFTER_S, StreamSlots, client_share, study_share
 from hcss.platform.models import CommandKey
+from hcss.platform.ratelimit import request_client
 
 _POSITION = re.compile(r"[0-9]{1,18}")
 
@@ -73,7 +74,7 @@ def stream(token: str, trial_id: int) -> Response:
         stream_slots(),
         trial,
         token=token,
-        client=request.remote_addr or "?",
+        client=request_client(),  # the address's prefix: an IPv6 /64 is one client
         after_seq=stream_position(last),
         interval_s=float(current_app.config["STREAM_INTERVAL_S"]),
         max_s=float(current_app.config["STREAM_MAX_S"]),
