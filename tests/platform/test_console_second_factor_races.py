@@ -15,6 +15,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import httpx
 import pyotp
+import pytest
 from click.testing import CliRunner
 
 from hcss.platform.console import second_factor
@@ -25,6 +26,8 @@ from tests.platform.console_support import PASSWORD, USERNAME
 from tests.platform.inprocess import serving
 
 console, experimenter = console_support.console, console_support.experimenter
+
+pytestmark = pytest.mark.slow  # sign-ins at once: each checks an argon2 password
 
 
 def _enrol(app, monkeypatch) -> tuple[pyotp.TOTP, list[str]]:  # type: ignore[no-untyped-def]
