@@ -50,7 +50,14 @@ def stream_slots() -> StreamSlots:
         per_study = config.get("STREAMS_PER_STUDY") or study_share(ceiling)
         slots = current_app.extensions.setdefault(
             "hcss_streams",
-            StreamSlots(ceiling, int(config.get("STREAMS_PER_TOKEN", 1)), per_client, per_study),
+            StreamSlots(
+                ceiling,
+                int(config.get("STREAMS_PER_TOKEN", 1)),
+                per_client,
+                per_study,
+                # A share set by hand (a lab on one address) keeps no reserve for the few.
+                reserve_for_few=not config.get("STREAMS_PER_CLIENT"),
+            ),
         )
     return slots
 
