@@ -120,7 +120,12 @@ def serve(
     """Serve the study platform with waitress; one line per participant event on stderr."""
     from hcss.platform.app import create_app
     from hcss.platform.config import database_url
-    from hcss.platform.connections import bounded_server
+    from hcss.platform.connections import (
+        bounded_server,
+        proxy_adjustments,
+        say_untrusted_headers_once,
+        serve_until_stopped,
+    )
     from hcss.platform.console.accounts import ensure_first_login
     from hcss.platform.live.streams import reserve_for_pages
     from hcss.platform.serving import log_events_to_stderr, write_serving_file
@@ -183,7 +188,9 @@ def serve(
         f"hcss serving on {url}  (Ctrl-C stops); new participants: study {study or 'original'}"
     )
     click.echo(f"console: {url}console/   a demo trial:  hcss demo-trial --port {port}")
-    proxied = int(app.config.get("PROXY_HOPS") or 0) > 0
+    hops = int(app.config.get("PROXY_HOPS") or 0)
+    proxied = hops > 0
+    say_untrusted_headers_once()
     server = bounded_server(
         app,
         host=host,
@@ -198,8 +205,15 @@ def serve(
         asyncore_use_poll=True,
         # Behind the proxy every visitor has its address: the proxy caps clients.
         per_client=0 if proxied else connections_per_client,
+        ipv4_bits=int(app.config["CLIENT_PREFIX_V4"]),
+        # Waitress passes X-Forwarded-* on only from the proxy it is told of.
+        **proxy_adjustments(hops, str(app.config["TRUSTED_PROXY"])),
     )
-    server.run()
+    # Ctrl-C and SIGTERM end the streams and wait for their threads before the
+    # server's wake-up pipe closes (hcss.platform.connections.close_server).
+    if not serve_until_stopped(server):
+        click.echo("hcss: stopped with requests still running", err=True)
+    click.echo("hcss: stopped", err=True)
 
 
 def _warm_up() -> None:

@@ -126,6 +126,17 @@ def defaults() -> dict[str, object]:
         # (werkzeug's ProxyFix trusts that many hops); 0: the headers are ignored, so a
         # visitor cannot forge their address. Behind the README's nginx set HCSS_PROXY_HOPS=1.
         "PROXY_HOPS": int(os.environ.get("HCSS_PROXY_HOPS", "0") or 0),
+        # The address the nearest proxy connects from (waitress trusts its headers only
+        # from there; "*": any peer); `hcss deploy nginx` on this host is 127.0.0.1.
+        # Every per-client limit counts an IPv4 address by this prefix (32: each address;
+        # 24: its /24) and an IPv6 address by its /64 (hcss.platform.connections).
+        "CLIENT_PREFIX_V4": int(os.environ.get("HCSS_CLIENT_PREFIX_V4", "32") or 32),
+        # Pages send no Referer (Referrer-Policy: no-referrer: links carry tokens), so
+        # Flask-WTF's HTTPS-only Referer check would refuse every form behind a TLS proxy
+        # now that the proxy's scheme reaches the app; the CSRF token and SameSite=Lax
+        # cookies are the protection.
+        "WTF_CSRF_SSL_STRICT": False,
+        "TRUSTED_PROXY": os.environ.get("HCSS_TRUSTED_PROXY", "127.0.0.1").strip() or "127.0.0.1",
         # Networks (CIDR, comma-separated in HCSS_CONSOLE_ALLOW) whose console sign-ins are
         # never throttled: the lab's own way in while a guesser is locked out.
         "CONSOLE_ALLOW": [

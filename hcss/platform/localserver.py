@@ -69,6 +69,7 @@ class LocalServer:
         python: str = sys.executable,
         serve_args: Sequence[str] = (),
         host: str = "127.0.0.1",
+        lift_client_limits: bool = True,
     ) -> None:
         self.database_url = database_url
         self.instance_path = Path(instance_path)
@@ -82,6 +83,9 @@ class LocalServer:
         #: More `serve` options (`--cluster` for a process of a group).
         self.serve_args = list(serve_args)
         self.host = host
+        #: The per-address caps off, for tests and benchmarks that drive many
+        #: participants from this one address; False keeps the server's defaults.
+        self.lift_client_limits = lift_client_limits
         self.process: subprocess.Popen[bytes] | None = None
         self.log_path = self.instance_path / f"server-{self.port}.log"
 
@@ -92,16 +96,16 @@ class LocalServer:
     def start(self, timeout_s: float = 120.0) -> LocalServer:
         """Start and wait until it answers; `hcss serve` compiles the simulation first
         (up to about 25 s on an empty kernel cache), hence the long default wait."""
+        # The tests and the benchmark drive hundreds of pages and streams from this
+        # one address; a test of a per-client cap sets it in extra_env.
+        lifted = {"HCSS_CONNECTIONS_PER_CLIENT": "0", "HCSS_STREAMS_PER_CLIENT": "1000000"}
         env = {
             **os.environ,
             "DATABASE_URL": self.database_url,
             "HCSS_INSTANCE_PATH": str(self.instance_path),
             "HCSS_SECRET_KEY": "local-server-secret",
             "HCSS_SNAPSHOT_INTERVAL_S": str(self.snapshot_interval_s),
-            # The tests and the benchmark drive hundreds of pages and streams from this
-            # one address; a test of a per-client cap sets it in extra_env.
-            "HCSS_CONNECTIONS_PER_CLIENT": "0",
-            "HCSS_STREAMS_PER_CLIENT": "1000000",
+            **(lifted if self.lift_client_limits else {}),
             **self.extra_env,
         }
         command = [
@@ -170,10 +174,19 @@ class LocalNginx:
 
     BINARY = "/usr/sbin/nginx"
 
-    def __init__(self, servers: Sequence[str], prefix: Path, *, port: int | None = None) -> None:
+    def __init__(
+        self,
+        servers: Sequence[str],
+        prefix: Path,
+        *,
+        port: int | None = None,
+        tls: tuple[Path, Path] | None = None,
+    ) -> None:
         self.servers = list(servers)
         self.prefix = Path(prefix)
         self.port = port or free_port()
+        #: (certificate, key): nginx speaks HTTPS and tells the servers so (X-Forwarded-Proto).
+        self.tls = tls
         self.process: subprocess.Popen[bytes] | None = None
 
     @classmethod
@@ -182,7 +195,7 @@ class LocalNginx:
 
     @property
     def url(self) -> str:
-        return f"http://127.0.0.1:{self.port}"
+        return f"{'https' if self.tls else 'http'}://127.0.0.1:{self.port}"
 
     def start(self, timeout_s: float = 10.0) -> LocalNginx:
         from hcss.platform.nginx import standalone_config
@@ -190,9 +203,16 @@ class LocalNginx:
         for folder in ("body", "proxy", "fastcgi", "uwsgi", "scgi"):
             (self.prefix / "temp" / folder).mkdir(parents=True, exist_ok=True)
         config = self.prefix / "nginx.conf"
-        config.write_text(
-            standalone_config(self.servers, listen=f"127.0.0.1:{self.port}", prefix=self.prefix)
-        )
+        listen = f"127.0.0.1:{self.port}"
+        text = standalone_config(self.servers, listen=listen, prefix=self.prefix)
+        if self.tls is not None:
+            certificate, key = self.tls
+            text = text.replace(
+                f"listen {listen};",
+                f"listen {listen} ssl;\n        ssl_certificate {certificate};"
+                f"\n        ssl_certificate_key {key};",
+            )
+        config.write_text(text)
         log = (self.prefix / "nginx.out").open("ab")
         self.process = subprocess.Popen(
             [self.BINARY, "-p", str(self.prefix), "-c", str(config)],

@@ -10,9 +10,11 @@ links, static files) have an empty key, which nginx spreads round-robin.
 
 When a process is down, or answers 503 because another process hosts the
 trial (`HostedElsewhere`), nginx tries the next one. Commands are POSTs, so
-`non_idempotent` lets nginx retry them too: a command carries an
-Idempotency-Key, and a process that did it once answers a repeat with the
-first outcome.
+`non_idempotent` lets nginx retry them too, but only those that carry an
+Idempotency-Key: a process that did it once answers a repeat with the first
+outcome. A POST without a key (a study page's form) goes through a location
+that retries only what never reached a process (`error` before sending):
+a form that committed on a dying process is not applied twice.
 
 A process can also hang without closing anything (stopped, swapping, cut off
 from its database): nginx connects, and waits for an answer. So the read
@@ -20,6 +22,10 @@ timeouts are short, and a timeout passes a request on to the next process
 like an error: 15 s for pages and commands, and 3 s for the stream, which
 sends a frame every half second while its trial runs (a silent stream is a
 hung host; the page's watchdog opens a new one, which nginx sends on).
+
+The servers trust X-Forwarded-For and -Proto from this proxy only when told
+(``HCSS_PROXY_HOPS=1`` and ``HCSS_TRUSTED_PROXY``, the address nginx connects
+from; hcss.platform.connections.proxy_adjustments).
 """
 
 from __future__ import annotations
@@ -45,6 +51,12 @@ map $uri $hcss_token {{
     default "";
 }}
 
+# A request nginx must not send twice: a non-idempotent method without an Idempotency-Key.
+map "$request_method:$http_idempotency_key" $hcss_unkeyed {{
+    ~^(?:POST|PATCH|LOCK):$ 1;
+    default "";
+}}
+
 upstream {UPSTREAM} {{
     hash $hcss_token consistent;
 {members}
@@ -56,6 +68,35 @@ server {{
     client_max_body_size 256k;
 
     location / {{
+        if ($hcss_unkeyed) {{
+            return 418;
+        }}
+        error_page 418 = @unkeyed;
+{_PROXY}
+        location ~ ^/api/live/[^/]+/trials/[0-9]+/stream$ {{
+            proxy_pass http://{UPSTREAM};
+            proxy_read_timeout 3s;
+        }}
+        # A process that is down (or does not host the trial: 503) passes to the next;
+        # a keyed command too, as its key makes a repeat harmless.
+        proxy_next_upstream error timeout http_502 http_503 non_idempotent;
+        proxy_next_upstream_tries {len(servers)};
+        proxy_next_upstream_timeout 15s;
+    }}
+
+    location @unkeyed {{
+{_PROXY}
+        # Passed on only if no process got it (nginx never resends an unkeyed POST).
+        proxy_next_upstream error timeout http_502 http_503;
+        proxy_next_upstream_tries {len(servers)};
+        proxy_next_upstream_timeout 15s;
+    }}
+}}
+"""
+
+
+#: The proxy settings of both locations.
+_PROXY = f"""\
         proxy_pass http://{UPSTREAM};
         proxy_http_version 1.1;
         proxy_set_header Connection "";
@@ -70,19 +111,7 @@ server {{
         proxy_cache off;
         proxy_read_timeout 15s;
         proxy_send_timeout 15s;
-        location ~ ^/api/live/[^/]+/trials/[0-9]+/stream$ {{
-            proxy_pass http://{UPSTREAM};
-            proxy_read_timeout 3s;
-        }}
-
-        # A process that is down (or does not host the trial: 503) passes to the next.
-        proxy_connect_timeout 2s;
-        proxy_next_upstream error timeout http_502 http_503 non_idempotent;
-        proxy_next_upstream_tries {len(servers)};
-        proxy_next_upstream_timeout 15s;
-    }}
-}}
-"""
+        proxy_connect_timeout 2s;"""
 
 
 def standalone_config(servers: Sequence[str], *, listen: str, prefix: Path) -> str:

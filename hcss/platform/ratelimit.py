@@ -3,12 +3,16 @@
 Anyone with the link can press Start, and each Start of a new visitor makes a
 participant: one client made 4,500 in 73 s, and each counted in its cell.
 `JOIN_PER_CLIENT` (count, seconds; ``HCSS_JOIN_PER_CLIENT=30/600``) bounds the
-Starts one address may send in a sliding window; more answer 429 with
-Retry-After and write nothing. The address is the proxy-corrected one
-(``PROXY_HOPS``). A lab whose participants share one address raises the count.
+Starts one client may send in a sliding window; more answer 429 with
+Retry-After and write nothing. The client is the proxy-corrected address
+(``PROXY_HOPS``) counted by its prefix (`request_client`: an IPv6 /64, an IPv4
+address or its /24 as ``HCSS_CLIENT_PREFIX_V4`` says). A lab whose
+participants share one address raises the count.
 
 The windows live in the process, not the database: a restart forgets them,
-which costs an attacker one window, and checking one costs no query.
+which costs an attacker one window, and checking one costs no query. With
+``hcss serve --processes N`` each process keeps its own windows, so a client
+may start up to N times the count (docs/operations.md).
 
 The limit composes with a study's recruitment cap (its file's `target`):
 the view checks the cap first, so a Start on a full study gets the "study
@@ -26,6 +30,7 @@ from collections.abc import Callable
 from flask import Flask, Response, current_app, request
 from flask.typing import ResponseReturnValue
 
+from hcss.platform.connections import client_prefix
 from hcss.platform.errors import error_page
 
 #: (Starts, seconds) one address may send; None: no limit.
@@ -74,7 +79,7 @@ def enrolment_refusal() -> ResponseReturnValue | None:
     if not limit:
         return None
     windows: SlidingWindows = current_app.extensions["hcss_join_windows"]
-    wait_s = windows.take(request.remote_addr or "?", int(limit[0]), float(limit[1]))
+    wait_s = windows.take(request_client(), int(limit[0]), float(limit[1]))
     if wait_s <= 0:
         return None
     headers = {"Retry-After": str(max(1, round(wait_s)))}
@@ -83,6 +88,11 @@ def enrolment_refusal() -> ResponseReturnValue | None:
         page.headers.update(headers)
         return page
     return page[0], page[1], headers
+
+
+def request_client() -> str:
+    """The client every per-client limit counts this request under: its address's prefix."""
+    return client_prefix(request.remote_addr, int(current_app.config.get("CLIENT_PREFIX_V4", 32)))
 
 
 def install(app: Flask) -> None:

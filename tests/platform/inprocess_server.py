@@ -14,12 +14,14 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from flask import Flask
 from waitress.server import create_server
 
 from hcss.platform.bots import ManualClock, bot_app
 from hcss.platform.cli import upgrade_database
+from hcss.platform.connections import close_server
 from hcss.platform.db import Database
 from hcss.platform.live.runner import Runner
 from hcss.platform.models import Participant
@@ -31,6 +33,8 @@ class StudyServer:
     url: str
     app: Flask
     database: Database
+    #: The waitress server itself (its trigger, its task threads), for the harness's own tests.
+    waitress: Any = None
 
     @property
     def runner(self) -> Runner:
@@ -57,7 +61,7 @@ class StudyServer:
 
 
 @contextmanager
-def study_server(tmp_path: Path, study: str = "demo") -> Iterator[StudyServer]:
+def study_server(tmp_path: Path, study: str = "demo", **config: Any) -> Iterator[StudyServer]:
     """The named study on a loopback port, its database built by the migrations."""
     url = f"sqlite:///{tmp_path / 'participant-browser.sqlite3'}"
     upgrade_database(url)
@@ -67,16 +71,17 @@ def study_server(tmp_path: Path, study: str = "demo") -> Iterator[StudyServer]:
         SECRET_KEY="test-secret",
         TIME_ACCELERATION=1.0,  # the manual clock is the acceleration
         STREAM_INTERVAL_S=0.1,
+        **config,
     )
     server = create_server(app, host="127.0.0.1", port=0, threads=16)
     thread = threading.Thread(target=server.run, name="waitress-test", daemon=True)
     thread.start()
     try:
         yield StudyServer(
-            f"http://127.0.0.1:{server.effective_port}", app, app.extensions["hcss_db"]
+            f"http://127.0.0.1:{server.effective_port}", app, app.extensions["hcss_db"], server
         )
     finally:
-        server.close()
-        server.task_dispatcher.shutdown(timeout=2)
-        thread.join(timeout=5)
+        close_server(
+            server, thread
+        )  # tasks first, then the trigger pipe: hcss.platform.connections
         app.extensions["hcss_db"].engine.dispose()

@@ -24,6 +24,7 @@ from waitress.server import create_server
 
 from hcss.platform.bot_http import HttpClient, LoadFigures
 from hcss.platform.bots import PageParser
+from hcss.platform.connections import close_server
 from hcss.platform.models import Command, StageEvent
 from tests.platform.conftest import csrf_token_of
 from tests.platform.inprocess_server import study_server
@@ -38,9 +39,7 @@ def _served(app) -> Iterator[int]:  # type: ignore[no-untyped-def]
     try:
         yield server.effective_port
     finally:
-        server.close()
-        server.task_dispatcher.shutdown(timeout=2)
-        thread.join(timeout=5)
+        close_server(server, thread)
 
 
 def test_a_command_whose_answer_is_lost_is_repeated_with_its_key_and_stored_once(

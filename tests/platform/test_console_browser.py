@@ -22,6 +22,7 @@ from waitress.server import create_server
 
 from hcss.platform.bots import ParticipantBot, bot_app
 from hcss.platform.cli import upgrade_database
+from hcss.platform.connections import close_server
 from hcss.platform.console.accounts import create_experimenter
 from hcss.platform.models import ConsoleAction, Participant, StudyEnrolment
 from hcss.platform.study.studyfile import load_study
@@ -45,9 +46,7 @@ def console_app(tmp_path):  # type: ignore[no-untyped-def]
     thread = threading.Thread(target=server.run, daemon=True)
     thread.start()
     yield app, f"http://127.0.0.1:{server.effective_port}"
-    server.close()
-    server.task_dispatcher.shutdown()
-    thread.join(timeout=5)
+    close_server(server, thread)
     app.extensions["hcss_db"].engine.dispose()
 
 

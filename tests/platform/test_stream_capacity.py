@@ -85,6 +85,36 @@ def test_one_client_cannot_hold_every_stream(app, make_trial) -> None:
     assert app.extensions["hcss_streams"].count == 0
 
 
+def test_scripted_participants_from_a_few_addresses_leave_a_stream_for_a_real_one(
+    app, make_trial
+) -> None:
+    """Issue 30 §4: 32 scripted participants from 4 addresses took all 32 streams of a
+    server, each address within its share; the next real participant got 503. Past three
+    quarters of the ceiling, an address already holding 2 gets no more."""
+    app.config["MAX_STREAMS"] = 8  # the default share: a quarter, at least 4
+    trials = [make_trial(seed=seed) for seed in range(2, 12)]
+    for number, trial in enumerate(trials[:8]):
+        trial.client.environ_base["REMOTE_ADDR"] = f"203.0.113.{number % 2}"  # 2 x 4
+    statuses, held = [], []
+    for trial in trials[:8]:
+        answer = trial.client.get(f"{trial.api}/stream")
+        statuses.append(answer.status_code)
+        if answer.status_code == 200:
+            held.append(answer)
+        else:
+            answer.close()
+    real = []
+    for number, trial in enumerate(trials[8:]):
+        trial.client.environ_base["REMOTE_ADDR"] = f"198.51.100.{number}"
+        admitted, _ = _stream(trial)
+        real.append(admitted)
+    for response in (*held, *real):
+        response.close()
+    assert statuses.count(503) >= 2  # the scripted ones stopped short of the ceiling
+    assert len(real) == 2  # and both real participants got theirs
+    assert app.extensions["hcss_streams"].count == 0
+
+
 def _trial_in(app, study: str, seed: int, address: str) -> TrialHandle:  # type: ignore[no-untyped-def]
     """A participant invited to `study` (as the console's study choice does) in a live trial."""
     from datetime import UTC, datetime

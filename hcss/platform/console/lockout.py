@@ -24,7 +24,8 @@ from __future__ import annotations
 import hashlib
 import ipaddress
 import threading
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 from sqlalchemy import ColumnElement, and_, delete, func, or_, select, text
@@ -36,6 +37,8 @@ from hcss.platform.models import AuditRecord, LoginFailure
 WINDOW_S = 15 * 60.0
 LOCKOUT_S = 5 * 60.0
 CLIENT_FAILURES = 5
+#: Seconds a sign-in waits for the one before it of the same (account, client).
+TURN_WAIT_S = 10.0
 SCOPE = "client"
 _NAME_CHARS = 47  # key = 16 hex digits of the address's hash, ":", the name: 64 at most
 
@@ -45,6 +48,11 @@ def client_key(username: str, address: str | None) -> str:
     so `unlock` can find every client's rows of one account."""
     digest = hashlib.sha256((address or "?").encode()).hexdigest()[:16]
     return f"{digest}:{_name(username)}"
+
+
+def account_key(username: str) -> str:
+    """The account part of a key (the name as typed, folded), for per-account counts."""
+    return _name(username)
 
 
 def _name(username: str) -> str:
@@ -88,6 +96,31 @@ class LoginThrottle:
         self.database = database
         self._clock = clock
         self._lock = threading.Lock()  # this process's half of the serialisation
+        self._turns: dict[str, tuple[threading.Lock, list[int]]] = {}
+        self._turns_lock = threading.Lock()
+
+    @contextmanager
+    def in_turn(self, username: str, address: str | None) -> Iterator[None]:
+        """Hold this process's turn of one (account, client)'s sign-ins (from `begin` to
+        `succeeded`), so each is counted after the one before it was decided.
+
+        A turn not had in `TURN_WAIT_S` is gone on without: the count still
+        bounds the passwords checked, as it did before turns.
+        """
+        key = client_key(username, address)
+        with self._turns_lock:
+            lock, waiting = self._turns.setdefault(key, (threading.Lock(), [0]))
+            waiting[0] += 1
+        had = lock.acquire(timeout=TURN_WAIT_S)
+        try:
+            yield
+        finally:
+            if had:
+                lock.release()
+            with self._turns_lock:
+                waiting[0] -= 1
+                if not waiting[0]:
+                    self._turns.pop(key, None)
 
     def clock(self) -> float:
         return (self._clock or self.database.clock)()
@@ -138,13 +171,51 @@ class LoginThrottle:
         with self._lock, self.database.session_scope() as session:
             session.execute(delete(LoginFailure).where(_of(attempt.key)))
 
+    def take(self, scope: str, key: str, count: int, window_s: float) -> bool:
+        """Count one event of (`scope`, `key`); False, counting nothing, when `count` of them
+        lie within the last `window_s` already.
+
+        For limits that must hold on every process sharing the database (the second
+        factor's codes per account): the rows are the `begin` count's, in turn per key.
+        """
+        now = self.clock()
+        with self._lock, self.database.session_scope() as session:
+            _one_count_at_a_time(session, f"{scope}:{key}")
+            taken = session.scalar(
+                select(func.count()).where(
+                    LoginFailure.scope == scope,
+                    LoginFailure.key == key,
+                    LoginFailure.at_epoch >= now - window_s,
+                )
+            )
+            if int(taken or 0) >= count:
+                return False
+            session.add(LoginFailure(scope=scope, key=key, at_epoch=now, locked_until=None))
+        return True
+
+    def forget(self, scope: str, key: str) -> None:
+        """Drop the events of (`scope`, `key`): the right code was never a wrong one."""
+        with self._lock, self.database.session_scope() as session:
+            session.execute(
+                delete(LoginFailure).where(LoginFailure.scope == scope, LoginFailure.key == key)
+            )
+
     def unlock(self, username: str) -> int:
         """Clear an account's failures and lockouts from every client; returns the rows."""
         with self._lock, self.database.session_scope() as session:
             result = session.execute(
                 delete(LoginFailure).where(
-                    LoginFailure.scope == SCOPE,
-                    LoginFailure.key.endswith(":" + _name(username), autoescape=True),
+                    or_(
+                        and_(
+                            LoginFailure.scope == SCOPE,
+                            LoginFailure.key.endswith(":" + _name(username), autoescape=True),
+                        ),
+                        # the second factor's counts of the account (second_factor.CODE_SCOPES)
+                        and_(
+                            LoginFailure.scope.in_(("code", "lockcode")),
+                            LoginFailure.key == _name(username),
+                        ),
+                    )
                 )
             )
             # A DELETE answers a CursorResult; Session.execute is typed as any Result.

@@ -2,6 +2,9 @@
 
 Every attempt is counted as a failure before its password is checked (the
 throttle, hcss.platform.console.lockout), so a burst of guesses checks few.
+One (account, client)'s attempts are checked in turn in a process, each after
+the last one's outcome: ten right passwords sent at once all sign in, where
+counting all ten before any was checked locked the fifth out.
 An account with a second factor needs a valid code as well
 (hcss.platform.console.second_factor). While the (account, client) pair is
 locked, the password alone is not checked; the password with a valid code
@@ -10,6 +13,7 @@ opens the lockout, and only a few codes per account may be tried that way.
 
 from __future__ import annotations
 
+from contextlib import nullcontext
 from math import ceil
 
 from flask import current_app, flash, redirect, render_template, request
@@ -19,33 +23,55 @@ from flask_login import login_user
 
 from hcss.platform.console import forms
 from hcss.platform.console.accounts import authenticate
-from hcss.platform.console.lockout import Attempt, LoginThrottle, allowed, audit_lockout
+from hcss.platform.console.lockout import (
+    Attempt,
+    LoginThrottle,
+    account_key,
+    allowed,
+    audit_lockout,
+)
 from hcss.platform.console.second_factor import (
+    CODE_FAILURES,
     CODE_WINDOW_S,
     CODES_PER_LOCKOUT,
+    FAILURE_SCOPE,
+    LOCKOUT_SCOPE,
+    check_nothing,
     has_second_factor,
 )
 from hcss.platform.console.second_factor import verify as verify_second_factor
 from hcss.platform.db import database, get_session
-from hcss.platform.ratelimit import SlidingWindows
+from hcss.platform.ratelimit import request_client
 
 
 def answer_sign_in(form: forms.LoginForm, next_url: str) -> ResponseReturnValue:
     """Sign the experimenter in and go to `next_url`, or the page that says why not."""
     throttle = _throttle()
-    attempt = throttle.begin(form.username.data, request.remote_addr) if throttle else None
+    # One (account, client)'s sign-ins in turn, each seeing the last one's outcome.
+    client = request_client()
+    turn = throttle.in_turn(form.username.data, client) if throttle else nullcontext()
+    with turn:
+        return _sign_in(throttle, form, next_url, client)
+
+
+def _sign_in(
+    throttle: LoginThrottle | None, form: forms.LoginForm, next_url: str, client: str
+) -> ResponseReturnValue:
+    attempt = throttle.begin(form.username.data, client) if throttle else None
     locked = attempt is not None and attempt.wait_s > 0
     code = (form.code.data or "").strip()
     # Through a lockout only a second factor opens the door, and only a few codes a while.
-    if locked and not (code and _code_tries(form.username.data)):
+    if locked and not (code and _code_tries(LOCKOUT_SCOPE, form.username.data)):
         return _locked_out(form, attempt)
     account = authenticate(get_session(), form.username.data, form.password.data)
     if account is not None and has_second_factor(account):
-        account = account if code and verify_second_factor(account, code) else None
-    elif locked:
-        account = None
+        account = account if code and _code_is_right(account, code) else None
+    else:
+        if code:
+            check_nothing(code)  # as long as checking it would take: time tells nothing
+        if locked:
+            account = None
     if account is not None:
-        get_session().commit()  # a code is spent once
         if throttle and attempt:
             throttle.succeeded(attempt)
         cookie_session.clear()  # no session fixation across the sign-in
@@ -59,6 +85,19 @@ def answer_sign_in(form: forms.LoginForm, next_url: str) -> ResponseReturnValue:
     return render_template("console/login.html", form=form), 401
 
 
+def _code_is_right(account, code: str) -> bool:  # type: ignore[no-untyped-def]
+    """Check a code of an account whose password was right, within the account's allowance
+    of wrong codes (from every address, on every process); past it no code is checked,
+    and the answer is the one a wrong code gets."""
+    if not _code_tries(FAILURE_SCOPE, account.username):
+        check_nothing(code)
+        return False
+    if not verify_second_factor(database(), account, code):
+        return False
+    _throttle_of_app().forget(FAILURE_SCOPE, account_key(account.username))
+    return True
+
+
 def _throttle() -> LoginThrottle | None:
     """The app's sign-in throttle; None when LOGIN_RATE_LIMIT is off (the fuzz test) or
     for an address in CONSOLE_ALLOW (the lab's own network: a way in during a lockout)."""
@@ -66,14 +105,24 @@ def _throttle() -> LoginThrottle | None:
         return None
     if allowed(request.remote_addr, current_app.config.get("CONSOLE_ALLOW") or ()):
         return None
+    return _throttle_of_app()
+
+
+def _throttle_of_app() -> LoginThrottle:
     return current_app.extensions.setdefault("hcss_login_throttle", LoginThrottle(database()))
 
 
-def _code_tries(username: str) -> bool:
-    """Count a one-time code tried through a lockout; False past the account's allowance."""
-    windows = current_app.extensions.setdefault("hcss_code_windows", SlidingWindows())
-    key = username.strip().lower()
-    return windows.take(key, CODES_PER_LOCKOUT, CODE_WINDOW_S) <= 0
+def _code_tries(scope: str, username: str) -> bool:
+    """Count a one-time code tried for the account; False past its allowance.
+
+    LOCKOUT_SCOPE: every code tried through a lockout; FAILURE_SCOPE: the wrong
+    ones (a right code clears them). Kept in the database, so the allowance is
+    the account's on every server process.
+    """
+    if not current_app.config.get("LOGIN_RATE_LIMIT", True):
+        return True
+    count = CODES_PER_LOCKOUT if scope == LOCKOUT_SCOPE else CODE_FAILURES
+    return _throttle_of_app().take(scope, account_key(username), count, CODE_WINDOW_S)
 
 
 def _locked_out(form: forms.LoginForm, attempt: Attempt | None) -> ResponseReturnValue:

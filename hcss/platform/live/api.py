@@ -22,6 +22,7 @@ from hcss.platform.live.access import require_owner, runner, trial_for
 from hcss.platform.live.idempotency import idempotent
 from hcss.platform.live.streams import RETRY_AFTER_S, StreamSlots, client_share, study_share
 from hcss.platform.models import CommandKey
+from hcss.platform.ratelimit import request_client
 
 _POSITION = re.compile(r"[0-9]{1,18}")
 
@@ -49,7 +50,14 @@ def stream_slots() -> StreamSlots:
         per_study = config.get("STREAMS_PER_STUDY") or study_share(ceiling)
         slots = current_app.extensions.setdefault(
             "hcss_streams",
-            StreamSlots(ceiling, int(config.get("STREAMS_PER_TOKEN", 1)), per_client, per_study),
+            StreamSlots(
+                ceiling,
+                int(config.get("STREAMS_PER_TOKEN", 1)),
+                per_client,
+                per_study,
+                # A share set by hand (a lab on one address) keeps no reserve for the few.
+                reserve_for_few=not config.get("STREAMS_PER_CLIENT"),
+            ),
         )
     return slots
 
@@ -73,7 +81,7 @@ def stream(token: str, trial_id: int) -> Response:
         stream_slots(),
         trial,
         token=token,
-        client=request.remote_addr or "?",
+        client=request_client(),  # the address's prefix: an IPv6 /64 is one client
         after_seq=stream_position(last),
         interval_s=float(current_app.config["STREAM_INTERVAL_S"]),
         max_s=float(current_app.config["STREAM_MAX_S"]),

@@ -24,7 +24,15 @@ time the console out. Two rules keep threads free:
   study's next stream (streams reconnect every `STREAM_MAX_S`) is refused
   and the waiting one's retry gets the place.
 
+- when the server is crowded (`CROWDED` of the ceiling open) and the share
+  is the default one, a client holding `FEW` streams gets no more: the last
+  quarter stays for clients with few, so scripted participants from a few
+  addresses (4 x 8 of a 32-stream server) cannot hold every stream before
+  the next real participant comes. A lab that sets ``HCSS_STREAMS_PER_CLIENT``
+  (its participants share an address) has no reserve.
+
 A takeover replaces the link's own stream, so it is allowed at the ceiling.
+The shares are per process, as the threads they protect are.
 """
 
 from __future__ import annotations
@@ -41,6 +49,8 @@ TAKEOVER_DATA = json.dumps({"reason": "another_tab"})
 RETRY_AFTER_S = 5
 #: Seconds a study that asked for a stream counts as wanting streams (two stream lifetimes).
 WANTING_S = 600.0
+#: Share of the ceiling past which only clients holding fewer than `FEW` get a stream.
+CROWDED, FEW = 0.75, 2
 
 
 def takeover_frame() -> str:
@@ -81,12 +91,14 @@ class StreamSlots:
         per_client: int | None = None,
         per_study: int | None = None,
         clock: Callable[[], float] = time.monotonic,
+        reserve_for_few: bool = False,
     ) -> None:
         self.max_streams = max_streams
         self.per_token = per_token
         self.per_client = per_client
         self.per_study = per_study
         self.clock = clock
+        self.reserve_for_few = reserve_for_few
         self._lock = threading.Lock()
         self._open: dict[str, list[int]] = {}  # token -> ticket numbers, oldest first
         self._clients: dict[str, int] = {}  # address -> open streams
@@ -110,7 +122,13 @@ class StreamSlots:
                 self._clients.get(client, 0) >= self.per_client
             )
             over_study = self._over_study_share(study)
-            if not taking_over and (full or over_share or over_study):
+            crowded = (
+                self.reserve_for_few
+                and self.max_streams is not None
+                and self._count >= CROWDED * self.max_streams
+                and self._clients.get(client, 0) >= FEW
+            )
+            if not taking_over and (full or over_share or over_study or crowded):
                 if not mine:
                     del self._open[token]
                 return None

@@ -14,7 +14,7 @@ from datetime import datetime
 from typing import Any
 
 from flask import Blueprint, Flask, current_app, g, redirect, render_template, request, url_for
-from sqlalchemy import select
+from sqlalchemy import inspect, select
 from sqlalchemy.exc import IntegrityError, SQLAlchemyError
 from werkzeug.exceptions import NotFound
 from werkzeug.wrappers import Response
@@ -52,8 +52,13 @@ def _participant_code() -> dict[str, Any]:
     if not isinstance(token, str):
         return {}
     participant = g.get("study_participant")
-    if participant is not None and participant.token == token:
-        return {"participant_code": participant.code}  # the view read it: no second query
+    if participant is not None:
+        # What the view read, without reading it again: after a failed unit of work the
+        # participant is expired, and the page saying "the database is away" (503)
+        # must not ask the database for its token (that was a 500).
+        loaded = inspect(participant).dict
+        if loaded.get("token") == token and loaded.get("code"):
+            return {"participant_code": loaded["code"]}  # no second query
     try:
         code = get_session().scalar(select(Participant.code).where(Participant.token == token))
     except SQLAlchemyError:  # an error page for a failed database still renders
