@@ -4,7 +4,7 @@ PY     := $(VENV)/bin/python
 HCSS   := $(VENV)/bin/hcss
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: install run test bench lint format browser nginx fuzz r
+.PHONY: install run test test-fast bench lint format browser nginx fuzz r
 
 $(PY):
 	python3 -m venv $(VENV)
@@ -42,6 +42,12 @@ nginx:
 
 test: install browser nginx
 	$(PY) -m pytest -q -n 2
+
+# The fast tier, before each commit: SQLite only, no slow or browser test, and none that took
+# over 2 s in tests/durations.csv (a full run's times; every run writes its own to
+# test-artifacts/durations.csv, and copying that file over refreshes the tier).
+test-fast: install
+	env -u HCSS_TEST_DATABASE_URL $(PY) -m pytest -q -n 2 --fast
 
 # Long fuzz run of every route (tests/platform/test_fuzz.py): 4 groups x FUZZ_EXAMPLES requests
 # on SQLite (50,000 at the default), an outage group of a fifth as many, and as many again on

@@ -18,6 +18,12 @@ import pytest
 #: Every run writes each test's time here (setup, call and teardown summed), longest first,
 #: so the suite's slow tests are known from a file, not from commit messages.
 DURATIONS_FILE = Path(__file__).resolve().parents[1] / "test-artifacts" / "durations.csv"
+#: A full run's durations, kept in the repository: the fast tier (`make test-fast`, `--fast`)
+#: leaves out every test that took longer than FAST_LIMIT_S there. A test not in the file
+#: (a new one) is in the fast tier until the file is refreshed from a full run
+#: (`cp test-artifacts/durations.csv tests/durations.csv`).
+RECORDED_DURATIONS = Path(__file__).resolve().parent / "durations.csv"
+FAST_LIMIT_S = 2.0
 _seconds: dict[str, float] = {}
 _outcome: dict[str, str] = {}
 
@@ -31,7 +37,35 @@ def _rank(item: pytest.Item) -> int:
     return 2
 
 
-def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+def pytest_addoption(parser: pytest.Parser) -> None:
+    parser.addoption(
+        "--fast",
+        action="store_true",
+        help=f"the fast tier: no slow or browser test, none over {FAST_LIMIT_S:g} s in "
+        "tests/durations.csv",
+    )
+
+
+def _recorded_seconds() -> dict[str, float]:
+    if not RECORDED_DURATIONS.exists():
+        return {}
+    with RECORDED_DURATIONS.open(newline="") as recorded:
+        return {row["test"]: float(row["seconds"]) for row in csv.DictReader(recorded)}
+
+
+def _in_fast_tier(item: pytest.Item, recorded: dict[str, float]) -> bool:
+    if item.get_closest_marker("slow") or item.get_closest_marker("browser"):
+        return False
+    return recorded.get(item.nodeid, 0.0) <= FAST_LIMIT_S
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    if config.getoption("fast"):
+        recorded = _recorded_seconds()
+        deselected = [item for item in items if not _in_fast_tier(item, recorded)]
+        if deselected:
+            config.hook.pytest_deselected(items=deselected)
+            items[:] = [item for item in items if _in_fast_tier(item, recorded)]
     rank: dict[str, int] = {}
     for item in items:
         module = item.nodeid.split("::")[0]
