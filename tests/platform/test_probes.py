@@ -242,3 +242,36 @@ def test_a_study_file_with_other_probe_counts_is_accepted_and_bad_ones_refused()
         doc["probes"]["projection"] = bad
         with pytest.raises(StudyFileError, match=r"\[probes\]"):
             parse_study(doc, source="t")
+
+
+def test_a_probe_with_no_subject_until_the_end_is_still_asked(make_trial, monkeypatch) -> None:
+    """A 2-minute demo trial plans one probe. Postponed while no collective or target made
+    sense for its level, it was postponed past the trial's end: one demo trial in three had
+    no probe, though the consent promises one about every minute or two. With too little
+    time left to look again, the level that always has a subject (projection) is asked."""
+    import hcss.platform.live.recorder as recorder
+
+    real_fill = recorder.fill_probe
+
+    def nothing_to_ask_about_yet(level, display, truth, rng):  # type: ignore[no-untyped-def]
+        if level != ProbeLevel.PROJECTION:
+            return None  # e.g. no target supported yet, no collective with two in range
+        return real_fill(level, display, truth, rng)
+
+    monkeypatch.setattr(recorder, "fill_probe", nothing_to_ask_about_yet)
+    for seed in range(3):
+        trial = make_trial(seed=seed, duration_s=120.0)
+        (planned,) = trial.live().probe_plan
+        shown = []
+        for second in range(2, 121, 2):
+            trial.run_to(float(second))
+            live = trial.live()
+            if live is None:  # the trial ended
+                break
+            if live.current_probe is not None:
+                shown.append((second, live.current_probe.level))
+                break
+        assert shown, f"seed {seed}: the planned level-{planned.level} probe was never asked"
+        at, level = shown[0]
+        assert at <= 120 - PROBE_TIMEOUT_S + 2  # with its time-out's time left to answer
+        assert level == ProbeLevel.PROJECTION

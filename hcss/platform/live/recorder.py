@@ -44,6 +44,7 @@ from hcss.platform.models import (
     TrialStatusChange,
 )
 from hcss.platform.models.vocabularies import RequestStatus, TrialStatus
+from hcss.questionnaires.probes import ProbeLevel
 from hcss.simulation.messages import event_text
 
 #: Decision-table columns the export fills from the trial and participant, not stored per row.
@@ -226,6 +227,11 @@ def _show_probe(live: RunningTrial, session: Session, time: float) -> None:
     probe_index, planned = due
     rng = np.random.default_rng([live.seed, 0x5B, probe_index])
     filled = fill_probe(planned.level, live.display(), live.sim.truth(), rng)
+    if filled is None and time + POSTPONE_S + PROBE_TIMEOUT_S > live.duration_s:
+        # Nothing to ask about at its level yet, and no time to look again: the level
+        # that always has a subject (projection) is asked, so no planned probe is lost
+        # to the trial's end (a short trial plans only one). The row stores that level.
+        filled = fill_probe(ProbeLevel.PROJECTION, live.display(), live.sim.truth(), rng)
     if filled is None:
         live.probe_postponed(time + POSTPONE_S)
         return
