@@ -42,7 +42,8 @@ FITTED_STATISTICS: tuple[str, ...] = ("mean", "sd", "median")
 
 @dataclass(frozen=True)
 class Summary:
-    """A column of units: how many, mean, SD (n − 1), median, minimum and maximum."""
+    """A set of unit values: how many, mean, SD (n − 1), median, minimum and maximum; the
+    analysis's descriptive tables use it too (`hcss.analysis.descriptive.summarise`)."""
 
     n: int
     mean: float

@@ -7,40 +7,18 @@ the SD is the sample SD (n − 1), as R's ``sd`` and SPSS report it.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 
 import numpy as np
 import pandas as pd
 
-
-@dataclass(frozen=True)
-class Summary:
-    """Mean, sample SD, median and range of one set of unit values."""
-
-    n: int
-    mean: float
-    sd: float
-    median: float
-    minimum: float
-    maximum: float
+from hcss.study_units import Summary
 
 
 def summarise(values: Sequence[float] | np.ndarray) -> Summary:
     """Summary of the non-missing values; SD is NaN for a single value."""
     array = np.asarray(values, dtype=float)
-    array = array[~np.isnan(array)]
-    if not len(array):
-        nan = float("nan")
-        return Summary(0, nan, nan, nan, nan, nan)
-    sd = float(np.std(array, ddof=1)) if len(array) > 1 else float("nan")
-    return Summary(
-        len(array),
-        float(array.mean()),
-        sd,
-        float(np.median(array)),
-        float(array.min()),
-        float(array.max()),
-    )
+    return Summary.of(array[~np.isnan(array)].tolist())
 
 
 def descriptive_frame(measures: pd.DataFrame) -> pd.DataFrame:
