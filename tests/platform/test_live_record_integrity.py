@@ -186,8 +186,14 @@ def test_runner_steps_whose_commit_answers_are_lost_store_every_row_once(
 ) -> None:
     """The runner's units of work commit but their answers are lost until a decision is
     made: each is taken for failed and written again by the next, which must find its
-    rows. Every event, decision, request status and probe is stored once."""
-    from hcss.platform.models import DecisionRow, Probe, ProbeEvent, RequestStatusChange
+    rows. Every event, decision, request status, probe and outage is stored once."""
+    from hcss.platform.models import (
+        DecisionRow,
+        Interruption,
+        Probe,
+        ProbeEvent,
+        RequestStatusChange,
+    )
 
     a, _b, clock = group
     trial_id = _start(a)
@@ -219,8 +225,10 @@ def test_runner_steps_whose_commit_answers_are_lost_store_every_row_once(
         statuses = rows(RequestStatusChange.request_id, RequestStatusChange.status)
         probes = rows(Probe.probe_index)
         probe_events = rows(ProbeEvent.probe_id, ProbeEvent.kind)
+        outages = rows(Interruption.trial_id, Interruption.last_seen_at)
     assert len(decisions) == len(live.sim.decisions)
-    for stored in (decisions, events, statuses, probes, probe_events):
+    assert outages  # the lost answers were taken for outages, each recorded
+    for stored in (decisions, events, statuses, probes, probe_events, outages):
         assert len(stored) == len(set(stored)), stored
 
 

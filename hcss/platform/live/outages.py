@@ -105,8 +105,26 @@ def record_database_outage(live: RunningTrial, session: Session, now: float) -> 
 
     `outage_s` is the time the clock stood still, so a later rebuild (which
     adds every earlier outage to the trial's paused time) keeps it stopped too.
+    An earlier unit of work may have stored part of this outage and lost its
+    commit's answer (the trial stood still on): its rows stand (the table is
+    append-only), and this one adds only the stretch after them, so the rows
+    add up to the time the clock stood still and none counts it twice.
     """
     assert live.database_away_since is not None
+    since = datetime.fromtimestamp(live.database_away_since, UTC)
+    covered_s = float(
+        session.scalar(
+            select(func.coalesce(func.sum(Interruption.outage_s), 0.0)).where(
+                Interruption.trial_id == live.trial_id,
+                Interruption.last_seen_at >= since,
+                Interruption.replayed_commands == 0,
+            )
+        )
+        or 0.0
+    )
+    outage_s = max(0.0, now - live.database_away_since) - covered_s
+    if covered_s and outage_s <= 0.0:
+        return
     session.add(
         Interruption(
             trial_id=live.trial_id,
@@ -114,7 +132,7 @@ def record_database_outage(live: RunningTrial, session: Session, now: float) -> 
             resumed_step=live.sim.step_count,
             replayed_commands=0,
             state_digest=live.sim.state_digest(),
-            last_seen_at=datetime.fromtimestamp(live.database_away_since, UTC),
-            outage_s=max(0.0, now - live.database_away_since),
+            last_seen_at=datetime.fromtimestamp(live.database_away_since + covered_s, UTC),
+            outage_s=max(0.0, outage_s),
         )
     )
