@@ -113,8 +113,9 @@ def test_participants_arriving_at_once_on_two_processes_fill_the_cells_exactly(
     answers: list[int] = []
     errors: list[BaseException] = []
     after_each_wave = []
-    # Every Start comes from nginx's address: no per-client limit on enrolment here.
-    with _two_processes(database_url, tmp_path, {"HCSS_JOIN_PER_CLIENT": "0"}) as (_, nginx):
+    # Each visitor from an address of its own, as real ones come: nginx passes it on
+    # (HCSS_PROXY_HOPS), and the study link's per-client limit stays as it ships.
+    with _two_processes(database_url, tmp_path) as (_, nginx):
 
         def join(client: httpx.Client, barrier: threading.Barrier, number: int) -> httpx.Response:
             """The study link's first page (its form, its session cookie), then Start at once."""
@@ -129,8 +130,10 @@ def test_participants_arriving_at_once_on_two_processes_fill_the_cells_exactly(
             barrier.wait(timeout=60)
             return client.get(f"/p/{token}")
 
-        def arrive(send, barrier, argument) -> None:  # type: ignore[no-untyped-def]
-            with httpx.Client(base_url=nginx.url, timeout=60) as client:
+        def arrive(send, barrier, argument, visitor: int) -> None:  # type: ignore[no-untyped-def]
+            address = f"127.0.{2 + visitor // 250}.{1 + visitor % 250}"
+            transport = httpx.HTTPTransport(local_address=address)
+            with httpx.Client(base_url=nginx.url, timeout=60, transport=transport) as client:
                 try:
                     answers.append(send(client, barrier, argument).status_code)
                 except BaseException as error:  # noqa: BLE001 - reported below
@@ -141,7 +144,10 @@ def test_participants_arriving_at_once_on_two_processes_fill_the_cells_exactly(
             half = cells // 2
             visits = [(join, barrier, wave * half + n) for n in range(half)]
             visits += [(enter, barrier, t) for t in tokens[wave * half : (wave + 1) * half]]
-            threads = [threading.Thread(target=arrive, args=visit) for visit in visits]
+            threads = [
+                threading.Thread(target=arrive, args=(*visit, wave * cells + n))
+                for n, visit in enumerate(visits)
+            ]
             for thread in threads:
                 thread.start()
             for thread in threads:
