@@ -172,12 +172,12 @@ def test_a_trial_hosted_by_another_process_answers_503_with_retry_after(database
     """
     from hcss.platform.bots import ManualClock
     from hcss.platform.live.trials import start_bot_trial
-    from tests.platform.test_leases import _process
+    from tests.platform.lease_support import leased_process
 
     clock = ManualClock(1_000_000.0)
-    owner = _process(database_url, "127.0.0.1:5001", clock)
+    owner = leased_process(database_url, "127.0.0.1:5001", clock)
     owner.extensions["hcss_db"].create_all()
-    other = _process(database_url, "127.0.0.1:5002", clock)
+    other = leased_process(database_url, "127.0.0.1:5002", clock)
     try:
         with owner.extensions["hcss_db"].session_scope() as session:
             participant, trial = start_bot_trial(session, seed=2, duration_s=600.0)
@@ -202,12 +202,12 @@ def test_a_host_killed_before_its_first_snapshot_still_leaves_an_honest_clock(da
     """
     from hcss.platform.bots import ManualClock
     from hcss.platform.live.trials import start_bot_trial
-    from tests.platform.test_leases import LEASE_S, _process
+    from tests.platform.lease_support import LEASE_S, leased_process
 
     clock = ManualClock(time.time())  # the trial's start is the database's now
-    a = _process(database_url, "127.0.0.1:5001", clock)
+    a = leased_process(database_url, "127.0.0.1:5001", clock)
     a.extensions["hcss_db"].create_all()
-    b = _process(database_url, "127.0.0.1:5002", clock)
+    b = leased_process(database_url, "127.0.0.1:5002", clock)
     database = a.extensions["hcss_db"]
     try:
         with database.session_scope() as session:

@@ -19,7 +19,7 @@ from hcss.platform.bots import ManualClock
 from hcss.platform.console.accounts import create_experimenter
 from hcss.platform.models import ConsoleAction, Participant, TrialLease, TrialOrder
 from tests.platform.console_support import sign_in
-from tests.platform.test_leases import _process, _start
+from tests.platform.lease_support import leased_process, start_trial_on
 
 ORDER_LIMIT_S = 2.0
 
@@ -27,9 +27,9 @@ ORDER_LIMIT_S = 2.0
 @pytest.fixture
 def host_and_console(database_url: str) -> Iterator[tuple[Flask, Flask]]:
     clock = ManualClock(1_000_000.0)
-    host = _process(database_url, "127.0.0.1:5001", clock)
+    host = leased_process(database_url, "127.0.0.1:5001", clock)
     host.extensions["hcss_db"].create_all()
-    console = _process(database_url, "127.0.0.1:5002", clock)
+    console = leased_process(database_url, "127.0.0.1:5002", clock)
     stop = threading.Event()
 
     def run_host() -> None:  # the host's runner thread, on the (still) fake clock
@@ -49,7 +49,7 @@ def host_and_console(database_url: str) -> Iterator[tuple[Flask, Flask]]:
 def _hosted_trial_and_console(host: Flask, console: Flask):  # type: ignore[no-untyped-def]
     """A trial the host holds, its participant's code, and an experimenter signed in on the other."""
     runner = host.extensions["hcss_runner"]
-    live = runner.host(_start(runner))
+    live = runner.host(start_trial_on(runner))
     assert live is not None
     with host.extensions["hcss_db"].session_scope() as session:
         create_experimenter(session, "alice", "correct horse battery")

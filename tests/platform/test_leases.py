@@ -12,10 +12,8 @@ import threading
 from collections.abc import Iterator
 
 import pytest
-from flask import Flask
 from sqlalchemy import func, select
 
-from hcss.platform.app import create_app
 from hcss.platform.bots import ManualClock
 from hcss.platform.db import Database
 from hcss.platform.live.leases import UNCLAIMED_GRACE_S, HostedElsewhere, LeaseLost, Leases
@@ -31,46 +29,23 @@ from hcss.platform.models import (
     Snapshot,
     TrialLease,
 )
-
-LEASE_S = 6.0
-
-
-def _process(database_url: str, name: str, clock: ManualClock) -> Flask:
-    app = create_app(
-        {
-            "DATABASE_URL": database_url,
-            "SECRET_KEY": "test-secret",
-            "TESTING": True,
-            "LIVE_RUNNER": False,
-            "SNAPSHOT_INTERVAL_S": 1.0,
-            "PROCESS_NAME": name,
-            "LEASE_S": LEASE_S,
-        }
-    )
-    app.extensions["hcss_runner"].clock = clock
-    return app
+from tests.platform.lease_support import LEASE_S, leased_process, start_trial_on
 
 
 @pytest.fixture
 def pair(database_url: str) -> Iterator[tuple[Runner, Runner, ManualClock]]:
     clock = ManualClock(1_000_000.0)
-    a = _process(database_url, "127.0.0.1:5001", clock)
+    a = leased_process(database_url, "127.0.0.1:5001", clock)
     a.extensions["hcss_db"].create_all()
-    b = _process(database_url, "127.0.0.1:5002", clock)
+    b = leased_process(database_url, "127.0.0.1:5002", clock)
     yield a.extensions["hcss_runner"], b.extensions["hcss_runner"], clock
     for app in (a, b):
         app.extensions["hcss_db"].engine.dispose()
 
 
-def _start(runner: Runner, duration_s: float = 600.0) -> int:
-    with runner.database.session_scope() as session:
-        _, trial = start_bot_trial(session, seed=2, duration_s=duration_s)
-        return trial.id
-
-
 def test_a_trial_is_hosted_by_one_process_and_taken_over_when_its_lease_runs_out(pair) -> None:
     a, b, clock = pair
-    trial_id = _start(a)
+    trial_id = start_trial_on(a)
     live = a.host(trial_id)  # the participant's first request reaches A: A claims it
     assert live is not None
     with pytest.raises(HostedElsewhere):
@@ -103,9 +78,9 @@ def test_a_trial_is_hosted_by_one_process_and_taken_over_when_its_lease_runs_out
 
 def test_a_runner_takes_over_only_trials_nobody_hosts(pair) -> None:
     a, b, clock = pair
-    hosted = _start(a)
+    hosted = start_trial_on(a)
     a.host(hosted)
-    fresh = _start(a)  # started by a page on A, not yet opened: no lease yet
+    fresh = start_trial_on(a)  # started by a page on A, not yet opened: no lease yet
     b.tick()
     assert b.loaded_ids() == set()  # neither the hosted nor the just-started one
     clock.now += LEASE_S + 0.5
@@ -118,7 +93,7 @@ def test_a_runner_takes_over_only_trials_nobody_hosts(pair) -> None:
 
 def test_only_the_host_finishes_an_overdue_trial(pair) -> None:
     a, b, clock = pair
-    trial_id = _start(a, duration_s=18.0)
+    trial_id = start_trial_on(a, duration_s=18.0)
     live = a.host(trial_id)
     assert live is not None
     for _ in range(3):  # A renews its lease, then stalls: the trial is overdue
@@ -181,9 +156,9 @@ def test_a_command_caught_by_a_lost_lease_is_held_back_with_held_by_and_retry_af
     from tests.platform.conftest import csrf_token_of
 
     clock = ManualClock(1_000_000.0)
-    a = _process(database_url, "127.0.0.1:5001", clock)
+    a = leased_process(database_url, "127.0.0.1:5001", clock)
     a.extensions["hcss_db"].create_all()
-    b = _process(database_url, "127.0.0.1:5002", clock)
+    b = leased_process(database_url, "127.0.0.1:5002", clock)
     runner_a, runner_b = a.extensions["hcss_runner"], b.extensions["hcss_runner"]
     try:
         with runner_a.database.session_scope() as session:
@@ -244,9 +219,9 @@ def test_a_host_that_stalled_past_its_lease_writes_nothing_when_it_wakes(databas
     from tests.platform.conftest import csrf_token_of
 
     clock = ManualClock(1_000_000.0)
-    a = _process(database_url, "127.0.0.1:5001", clock)
+    a = leased_process(database_url, "127.0.0.1:5001", clock)
     a.extensions["hcss_db"].create_all()
-    b = _process(database_url, "127.0.0.1:5002", clock)
+    b = leased_process(database_url, "127.0.0.1:5002", clock)
     runner_a, runner_b = a.extensions["hcss_runner"], b.extensions["hcss_runner"]
     try:
         with runner_a.database.session_scope() as session:
@@ -284,7 +259,7 @@ def test_a_holder_stops_writing_on_its_own_deadline_until_a_renewal_answers(pair
     """No renewal answered for a lease less its margin (a partition): the holder stops its
     trial by its own clock, without asking the database, and goes on once one answers."""
     a, _b, clock = pair
-    trial_id = _start(a)
+    trial_id = start_trial_on(a)
     live = a.host(trial_id)
     assert live is not None and live.fence is not None
     clock.now += 1.0

@@ -10,11 +10,9 @@ from collections.abc import Iterator
 from contextlib import suppress
 
 import pytest
-from flask import Flask
 from sqlalchemy import func, select
 from sqlalchemy.exc import DBAPIError
 
-from hcss.platform.app import create_app
 from hcss.platform.bots import ManualClock
 from hcss.platform.live import actions
 from hcss.platform.live.leases import UNCLAIMED_GRACE_S
@@ -22,30 +20,15 @@ from hcss.platform.live.runner import Runner
 from hcss.platform.live.trials import latest_status, start_bot_trial
 from hcss.platform.models import Command, CommandOutcome, Interruption, SimEvent, TrialProblem
 from hcss.simulation import OperatorCommand
-
-
-def _process(database_url: str, name: str | None, clock: ManualClock) -> Flask:
-    app = create_app(
-        {
-            "DATABASE_URL": database_url,
-            "SECRET_KEY": "test-secret",
-            "TESTING": True,
-            "LIVE_RUNNER": False,
-            "SNAPSHOT_INTERVAL_S": 1.0,
-            "PROCESS_NAME": name,
-            "LEASE_S": 6.0,
-        }
-    )
-    app.extensions["hcss_runner"].clock = clock
-    return app
+from tests.platform.lease_support import leased_process
 
 
 @pytest.fixture
 def group(database_url: str) -> Iterator[tuple[Runner, Runner, ManualClock]]:
     clock = ManualClock(1_000_000.0)
-    a = _process(database_url, "127.0.0.1:5001/a", clock)
+    a = leased_process(database_url, "127.0.0.1:5001/a", clock)
     a.extensions["hcss_db"].create_all()
-    b = _process(database_url, "127.0.0.1:5002/b", clock)
+    b = leased_process(database_url, "127.0.0.1:5002/b", clock)
     yield a.extensions["hcss_runner"], b.extensions["hcss_runner"], clock
     for app in (a, b):
         app.extensions["hcss_db"].engine.dispose()
