@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pandas as pd
 import pytest
 
+from hcss.analysis.load import AnalysisInputError, load_inputs
 from hcss.platform.export.tables import TABLES
 from hcss.platform.export.writer import DICTIONARY
 from hcss.simulation import MODELS
@@ -12,6 +15,7 @@ from hcss.tablespec import DECISIONS, EXPORT_TABLES, SWEEP_DECISIONS, Column, Ta
 from hcss.tablespec import export as export_spec
 from hcss.tablespec.dictionary import render
 from hcss.tablespec.frames import ContractError, check
+from hcss.tidy_csv import write_table
 
 
 def test_the_committed_dictionary_is_the_one_rendered_from_the_specs() -> None:
@@ -76,3 +80,56 @@ def test_a_frame_without_a_contract_column_is_refused_and_one_that_keeps_it_pass
     frame = pd.DataFrame({"run": [0, 1], "chosen_target": [3, None], "correct": [True, False]})
     check(frame, DECISIONS, ["run", "chosen_target", "correct"])
     assert frame["run"].tolist() == [0, 1]  # the check coerces a copy
+
+
+def _decision(**values: object) -> dict[str, object]:
+    """One decisions row that keeps the contract, with `values` changed."""
+    row: dict[str, object] = {name: 1 for name in DECISIONS.names}
+    row.update(
+        source="simulation",
+        model="M1",
+        participant=None,
+        trial_id="t",
+        scenario_id="s",
+        first_section="easy",
+        section_kind="easy",
+        collective="I",
+        difficulty="easy",
+        timed_out=False,
+        correct=True,
+    )
+    row.update(values)
+    return row
+
+
+@pytest.mark.parametrize(
+    ("values", "message"),
+    [
+        ({"run": "first"}, "column 'run' holds 'first' in row 3, expected a whole number"),
+        ({"decision_index": 1.5}, "column 'decision_index' holds '1.5' in row 3"),
+        ({"collective": None}, "column 'collective' has an empty cell in row 3"),
+        ({"trial_id": None}, "column 'trial_id' has an empty cell in row 3"),
+    ],
+)
+def test_the_analysis_refuses_a_decisions_table_that_breaks_the_contract(
+    tmp_path: Path, values: dict[str, object], message: str
+) -> None:
+    """These loaded before: a run named in words, a half decision, a decision of no collective."""
+    path = tmp_path / "decisions.csv"
+    write_table(path, DECISIONS.names, [_decision(), _decision(**values)])
+    with pytest.raises(AnalysisInputError, match=f"{path}: {message}"):
+        load_inputs([path])
+    write_table(path, DECISIONS.names, [_decision(), _decision()])
+    assert len(load_inputs([path]).decisions) == 2
+
+
+def test_the_analysis_refuses_an_export_table_that_breaks_the_contract(tmp_path: Path) -> None:
+    participants = EXPORT_TABLES["participants"]
+    write_table(tmp_path / "decisions.csv", DECISIONS.names, [_decision()])
+    write_table(
+        tmp_path / "participants.csv",
+        participants.names,
+        [{"participant": "P1", "is_bot": False}, {"participant": None, "is_bot": False}],
+    )
+    with pytest.raises(AnalysisInputError, match="column 'participant' has an empty cell in row 3"):
+        load_inputs([tmp_path])
