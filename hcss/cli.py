@@ -11,11 +11,11 @@ import os
 import click
 
 from hcss.analysis.cli import analyze
+from hcss.experiments.cli import simulate
 from hcss.platform.bot_command import bots_command
 from hcss.platform.cli import db_group, demo_trial, deploy_group, serve
 from hcss.platform.console.cli import admin_group
 from hcss.platform.export.cli import export
-from hcss.simulation.cli import simulate
 
 COMMANDS = (
     simulate,

@@ -11,10 +11,10 @@ import click
 from tqdm import tqdm
 
 from hcss.analysis.summary import summarise_decisions
-from hcss.simulation import calibrate as cal
-from hcss.simulation import experiment as exp
-from hcss.simulation import fidelity as fid
-from hcss.simulation import fit_study as fs
+from hcss.experiments import calibrate as cal
+from hcss.experiments import experiment as exp
+from hcss.experiments import fidelity as fid
+from hcss.experiments import fit_study as fs
 from hcss.simulation.engine import Simulation
 from hcss.simulation.messages import collective_name, event_text
 from hcss.simulation.operators import OPERATORS
@@ -527,7 +527,7 @@ def meanfield(runs: int, **readings: Any) -> None:
     decision time. The agent model uses the current params; the mean-field
     model always discovers per agent (the paper's P_γ = v·g(d)).
     """
-    from hcss.simulation import crosscheck
+    from hcss.experiments import crosscheck
 
     params = _params_with(**readings)
     rows = [
@@ -578,7 +578,7 @@ def sweep_command(
     skipping them) and OUT/decisions.csv, one row per decision with the cell's
     parameter values as columns. `hcss analyze OUT --out REPORT` draws the heat maps.
     """
-    from hcss.simulation import sweep as sw
+    from hcss.experiments import sweep as sw
 
     chosen = tuple(m.strip() for m in models.split(",") if m.strip())
     if not chosen or any(m not in MODELS for m in chosen) or len(set(chosen)) != len(chosen):
