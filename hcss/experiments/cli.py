@@ -1,4 +1,9 @@
-"""`hcss simulate`: a live demo and the simulation-only experiment."""
+"""`hcss simulate experiment|sweep|calibrate|fidelity|meanfield`: the experiment commands.
+
+They run batches of the model and, for `experiment`, ask the analysis for the
+summary; the model's own command (`demo`) is in hcss.simulation.cli, and
+hcss/cli.py lists both groups under the one `hcss simulate`.
+"""
 
 from __future__ import annotations
 
@@ -15,8 +20,7 @@ from hcss.experiments import calibrate as cal
 from hcss.experiments import experiment as exp
 from hcss.experiments import fidelity as fid
 from hcss.experiments import fit_study as fs
-from hcss.simulation.engine import Simulation
-from hcss.simulation.messages import collective_name, event_text
+from hcss.simulation.cli import PRESET_OPTION
 from hcss.simulation.operators import OPERATORS
 from hcss.simulation.params import (
     ABANDONMENT_READINGS,
@@ -31,9 +35,7 @@ from hcss.simulation.params import (
     MODELS,
     Params,
 )
-from hcss.simulation.presets import DEFAULT_PRESET, PRESETS, preset_params
-from hcss.simulation.scenario import Scenario
-from hcss.simulation.view import Display
+from hcss.simulation.presets import DEFAULT_PRESET, preset_params
 
 #: A click command function, before or after its options are attached.
 F = TypeVar("F", bound=Callable[..., Any])
@@ -41,7 +43,7 @@ F = TypeVar("F", bound=Callable[..., Any])
 
 @click.group()
 def simulate() -> None:
-    """Run the simulation: a live demo or the simulation-only experiment."""
+    """Experiment commands: batches of runs, sweeps, calibration and checks of the model."""
 
 
 _WORKERS = click.option(
@@ -50,15 +52,6 @@ _WORKERS = click.option(
     default=2,
     show_default=True,
     help="Local processes.",
-)
-
-
-_PRESET = click.option(
-    "--preset",
-    type=click.Choice(tuple(PRESETS)),
-    default=DEFAULT_PRESET,
-    show_default=True,
-    help="Named parameter set (docs/simulation-notes.md); readings given below override it.",
 )
 
 
@@ -108,61 +101,7 @@ def _batch_options(command: F) -> F:
 
 
 @simulate.command()
-@click.option("--model", type=click.Choice(MODELS), default="M1", show_default=True)
-@_PRESET
-@click.option("--seed", type=int, default=1, show_default=True, help="Scenario seed.")
-@click.option(
-    "--first-section", type=click.Choice(["easy", "difficult"]), default="easy", show_default=True
-)
-@click.option(
-    "--speed",
-    type=click.FloatRange(min=0.1),
-    default=30.0,
-    show_default=True,
-    help="Simulated seconds per wall-clock second (1 = live pace).",
-)
-@click.option(
-    "--minutes",
-    type=click.FloatRange(min=0.1),
-    default=20.0,
-    show_default=True,
-    help="Trial length.",
-)
-def demo(
-    model: str, preset: str, seed: int, first_section: str, speed: float, minutes: float
-) -> None:
-    """A four-collective trial, paced against the wall clock, with a live text summary."""
-    params = preset_params(preset)
-    scenario = Scenario.generate(seed, first_section=first_section, params=params)
-    sim = Simulation(scenario, model, params)
-    limit = minutes * 60.0
-    click.echo(
-        f"{model} trial ({preset}), seed {seed}, {first_section} section first, "
-        f"{speed:g}x real time. Ctrl-C stops."
-    )
-    started = time.monotonic()
-    bar = tqdm(total=int(limit), unit="sim s", desc="trial", dynamic_ncols=True)
-    try:
-        while not sim.finished and sim.time < limit:
-            due = (time.monotonic() - started) * speed
-            while sim.time < min(due, limit) and not sim.finished:
-                sim.step()
-            for event in sim.drain_events():
-                bar.write(f"[{_clock(event['time'])}] {event_text(event)}")
-            bar.set_postfix_str(_status(sim.display()), refresh=False)
-            bar.update(int(sim.time) - bar.n)
-            time.sleep(0.05)
-    except KeyboardInterrupt:
-        bar.write("stopped")
-    bar.close()
-    correct = sum(d.correct for d in sim.decisions)
-    click.echo(
-        f"{len(sim.decisions)} decisions, {correct} correct, in {_clock(sim.time)} of simulated time."
-    )
-
-
-@simulate.command()
-@_PRESET
+@PRESET_OPTION
 @_size_options(runs=10, runs_help="Runs per scenario and model.")
 @click.option(
     "--models",
@@ -238,19 +177,6 @@ def experiment(
     click.echo(f"{len(rows)} decisions written to {out / 'decisions.csv'} in {elapsed:.0f} s.")
 
 
-def _clock(seconds: float) -> str:
-    return f"{int(seconds) // 60:02d}:{int(seconds) % 60:02d}"
-
-
-def _status(display: Display) -> str:
-    parts = []
-    for c in range(display.n_collectives):
-        u, f, com, x = display.state_counts[c] / display.n_agents  # states.QUADRANTS
-        move = f"→{display.move_target[c]}" if display.move_target[c] else ""
-        parts.append(f"{collective_name(c)} U{u:.0%} F{f:.0%} C{com:.0%} X{x:.0%}{move}")
-    return f"section {display.section} | " + " | ".join(parts)
-
-
 def _reading_options(command: F) -> F:
     """Options that override the readings of the paper (params.py) for one command."""
     for name, choices in reversed(
@@ -272,7 +198,7 @@ def _reading_options(command: F) -> F:
             default=None,
             help="Override this reading of the preset.",
         )(command)
-    return _PRESET(command)
+    return PRESET_OPTION(command)
 
 
 def _params_with(preset: str = DEFAULT_PRESET, **readings: Any) -> Params:
@@ -543,7 +469,7 @@ def meanfield(runs: int, **readings: Any) -> None:
 
 
 @simulate.command("sweep")
-@_PRESET
+@PRESET_OPTION
 @click.option(
     "--param",
     "param_specs",

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from click.testing import CliRunner
 
-from hcss.experiments.cli import _status, simulate
 from hcss.simulation import Scenario, Simulation
+from hcss.simulation.cli import _status, simulate
 
 
 def test_the_demo_runs_to_its_summary() -> None:
