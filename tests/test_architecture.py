@@ -166,6 +166,71 @@ def test_a_module_imported_by_name_is_refused(tmp_path: Path) -> None:
     assert "TID251" in result.stdout and "trial_log.py" in result.stdout, result.stdout
 
 
+#: Names that import a module named at run time (or run code that may): no import graph
+#: sees them, and ruff's banned-api does not resolve the bare builtins.
+IMPORTING_NAMES = {"__import__", "import_module"}
+RUNNING_BUILTINS = {"exec", "eval"}
+
+
+def dynamic_imports(root: Path) -> list[str]:
+    """Each use in hcss/ of `__import__` or `import_module` by any name (a call, an
+    attribute, an alias) and each use of the builtins `exec` and `eval`."""
+    found = []
+    for path in sorted((root / "hcss").rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Name) and node.id in IMPORTING_NAMES | RUNNING_BUILTINS:
+                name = node.id
+            elif isinstance(node, ast.Attribute) and node.attr in IMPORTING_NAMES:
+                name = node.attr
+            elif isinstance(node, ast.alias) and node.name in IMPORTING_NAMES:
+                name = node.name
+            else:
+                continue
+            found.append(f"{path.relative_to(root)}:{getattr(node, 'lineno', '?')}: {name}")
+    return found
+
+
+def test_no_module_is_imported_by_name() -> None:
+    assert dynamic_imports(CHECKOUT) == []
+
+
+@pytest.mark.parametrize(
+    ("module", "line", "found"),
+    [
+        (  # the builtin, in a leaf: ruff and import-linter both let it pass
+            "hcss/simulation/params.py",
+            'db = __import__("hcss.platform.db")',
+            "__import__",
+        ),
+        (  # the builtin through its module
+            "hcss/analysis/summary.py",
+            'import builtins\nforms = builtins.__import__("hcss.platform.console.forms")',
+            "__import__",
+        ),
+        (  # an alias, called later
+            "hcss/experiments/sweep.py",
+            "load = __import__",
+            "__import__",
+        ),
+        (  # importlib's function imported by name
+            "hcss/questionnaires/tlx.py",
+            "from importlib import import_module",
+            "import_module",
+        ),
+        (  # an import statement run from a string
+            "hcss/questionnaires/tlx.py",
+            'exec("import hcss.platform")',
+            "exec",
+        ),
+    ],
+)
+def test_a_planted_import_by_name_is_found(
+    tmp_path: Path, module: str, line: str, found: str
+) -> None:
+    uses = dynamic_imports(planted(tmp_path, module, line))
+    assert any(u.startswith(module) and u.endswith(f": {found}") for u in uses), uses
+
+
 #: What the model must run without: it is imported by the platform's every process.
 NOT_IN_THE_MODEL = ("hcss.experiments", "hcss.analysis", "optuna", "dask", "distributed", "pandas")
 
