@@ -50,7 +50,7 @@ def test_no_module_of_hcss_writes_a_csv_but_the_one_writer() -> None:
         if path != WRITER
     }
     assert {path: found for path, found in writes.items() if found} == {
-        "simulation/fit_study.py": ["line 380: csv.writer(handle)"]  # its move comes next
+        "experiments/fit_study.py": ["line 380: csv.writer(handle)"]  # its move comes next
     }
 
 
