@@ -504,3 +504,68 @@ def test_a_planted_trial_handle_in_the_api_is_found(
 ) -> None:
     handles = trial_handles(planted(tmp_path, module, line))
     assert any(h.startswith(module) and found in h for h in handles), handles
+
+
+# --- the tests as a wing: no test module imports another --------------------------------
+
+
+def _imported(node: ast.Import | ast.ImportFrom, package: list[str]) -> list[str]:
+    """The dotted modules (and names, which may be modules) an import statement reaches."""
+    if isinstance(node, ast.Import):
+        return [alias.name for alias in node.names]
+    base = package[: len(package) - node.level] if node.level else []
+    module = ".".join([*base, *(node.module or "").split(".")]).strip(".")
+    return [module, *(f"{module}.{alias.name}" for alias in node.names)]
+
+
+def imports_between_test_modules(root: Path) -> list[str]:
+    """Each import in a test module (test_*.py, conftest.py) of a test module or a conftest.
+
+    A test module shares nothing but through tests/support: helpers are imported from
+    there and fixtures are named, registered by tests/conftest.py (`pytest_plugins`).
+    """
+    found = []
+    for path in sorted(root.rglob("*.py")):
+        if not (path.name.startswith("test_") or path.name == "conftest.py"):
+            continue
+        package = list(path.relative_to(root.parent).with_suffix("").parts)
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if not isinstance(node, ast.Import | ast.ImportFrom):
+                continue
+            for name in _imported(node, package):
+                last = name.rsplit(".", 1)[-1]
+                if name.startswith("tests.") and (last.startswith("test_") or last == "conftest"):
+                    found.append(f"{path.relative_to(root.parent)}:{node.lineno} imports {name}")
+    return found
+
+
+def test_no_test_module_imports_another() -> None:
+    assert imports_between_test_modules(CHECKOUT / "tests") == []
+
+
+@pytest.mark.parametrize(
+    ("module", "line"),
+    [
+        ("platform/test_access.py", "from tests.platform.test_requests import _in_range_target"),
+        ("platform/test_access.py", "from .test_requests import _in_range_target"),
+        ("platform/test_access.py", "from tests.platform import test_requests"),
+        ("analysis/test_api.py", "import tests.analysis.test_cli"),
+        ("simulation/test_rules.py", "from .conftest import scenario"),
+        ("platform/conftest.py", "    from tests.platform.test_failover import _Console"),
+    ],
+)
+def test_a_planted_import_between_test_modules_is_found(
+    tmp_path: Path, module: str, line: str
+) -> None:
+    root = tmp_path / "tests"
+    shutil.copytree(CHECKOUT / "tests", root, ignore=shutil.ignore_patterns("__pycache__"))
+    target = root / module
+    source = target.read_text(encoding="utf-8")
+    if line.startswith(" "):  # inside a function, as a lazy import
+        source += f"\n\ndef _planted() -> None:\n{line}\n"
+    else:
+        source += f"\n{line}\n"
+    target.write_text(source, encoding="utf-8")
+    assert [f.split(" imports ")[0].split(":")[0] for f in imports_between_test_modules(root)] == [
+        f"tests/{module}"
+    ]

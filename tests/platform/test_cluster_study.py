@@ -44,7 +44,7 @@ from hcss.platform.models import (
 )
 from hcss.platform.study.enrolment import cell_counts
 from hcss.platform.study.studyfile import load_study
-from tests.platform.test_failover import skip_unless_group
+from tests.support.leases import skip_unless_group
 
 #: What a laptop's browser measures and posts with the study link's Start.
 LAPTOP = {"width": "1366", "height": "768", "mobile": "0", "missing": ""}
@@ -172,7 +172,7 @@ def test_a_trial_hosted_by_another_process_answers_503_with_retry_after(database
     """
     from hcss.platform.bots import ManualClock
     from hcss.platform.live.trials import start_bot_trial
-    from tests.platform.lease_support import leased_process
+    from tests.support.leases import leased_process
 
     clock = ManualClock(1_000_000.0)
     owner = leased_process(database_url, "127.0.0.1:5001", clock)
@@ -202,7 +202,7 @@ def test_a_host_killed_before_its_first_snapshot_still_leaves_an_honest_clock(da
     """
     from hcss.platform.bots import ManualClock
     from hcss.platform.live.trials import start_bot_trial
-    from tests.platform.lease_support import LEASE_S, leased_process
+    from tests.support.leases import LEASE_S, leased_process
 
     clock = ManualClock(time.time())  # the trial's start is the database's now
     a = leased_process(database_url, "127.0.0.1:5001", clock)

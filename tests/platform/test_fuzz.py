@@ -41,8 +41,8 @@ from hcss.platform.app import create_app
 from hcss.platform.bots import ManualClock
 from hcss.platform.console.accounts import create_experimenter
 from hcss.platform.live.trials import start_bot_trial
-from tests.platform.conftest import STUDY_TRIAL_S
-from tests.platform.console_support import sign_in
+from tests.support.console import sign_in
+from tests.support.trials import STUDY_TRIAL_S
 
 EXAMPLES = int(os.environ.get("HCSS_FUZZ_EXAMPLES", "500"))
 TALLY_FILE = os.environ.get("HCSS_FUZZ_TALLY")  # `make fuzz` collects the counts here
@@ -463,7 +463,7 @@ def test_every_console_page_answers_after_failed_sign_ins_from_many_clients(
 def test_fuzz_during_a_database_outage(tmp_path, caplog) -> None:  # type: ignore[no-untyped-def]
     """A full disk under SQLite while a trial runs: every route answers, 503 with Retry-After
     at worst, never a 500; the runner ticks between requests as the server's thread does."""
-    from tests.platform.own_disk import own_disk
+    from tests.support.own_disk import own_disk
 
     with own_disk(tmp_path) as disk:
         fuzzed = _make_target(f"sqlite:///{disk.path / 'hcss.sqlite3'}")
@@ -511,8 +511,8 @@ def test_fuzz_during_a_postgresql_outage(caplog) -> None:  # type: ignore[no-unt
     from sqlalchemy.engine import make_url
 
     from hcss.platform.localserver import postgres_schema
-    from tests.platform.conftest import PG_ENV
-    from tests.platform.cut_proxy import CutProxy
+    from tests.support.cut_proxy import CutProxy
+    from tests.support.databases import PG_ENV
 
     base = os.environ.get(PG_ENV)
     if not base:

@@ -21,7 +21,7 @@ import pytest
 from hcss.platform.app import create_app
 from hcss.platform.bots import ManualClock
 from hcss.platform.cli import upgrade_database
-from tests.platform.own_disk import own_disk
+from tests.support.own_disk import own_disk
 
 _CRASHING_WRITER = """
 import os, sys

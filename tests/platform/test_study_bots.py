@@ -10,7 +10,7 @@ from hcss.cli import main
 from hcss.platform.db import Database
 from hcss.platform.models import ConsoleAction, Participant, StudyEnrolment
 from hcss.platform.study import participant_status
-from tests.platform.study_fixtures import demo_app, new_participant, visitor  # noqa: F401
+from tests.support.study import new_participant, visitor
 
 
 @pytest.mark.slow
@@ -35,7 +35,7 @@ def test_hcss_bots_fills_a_database_with_flagged_completed_bots(tmp_path) -> Non
     assert bad.exit_code != 0 and "no study file nope.toml" in bad.output
 
 
-def test_a_paused_or_aborted_session_holds_the_participant(demo_app) -> None:  # noqa: F811
+def test_a_paused_or_aborted_session_holds_the_participant(demo_app) -> None:
     token = new_participant(demo_app)
     v = visitor(demo_app, token)
     page = v.page()
