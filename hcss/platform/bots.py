@@ -117,7 +117,11 @@ def expected_pages(study: Study) -> list[tuple[str, str]]:
         "trial": ["ready", "run"],
         "nasa_tlx": ["ratings", "comparisons"],
     }
-    names = list(study.before) + list(study.per_model) * len(study.models) + list(study.after)
+    names = (
+        list(study.sequence.before)
+        + list(study.sequence.per_model) * len(study.models)
+        + list(study.sequence.after)
+    )
     return [(name, step) for name in names for step in steps.get(name, ["form"])]
 
 
@@ -399,7 +403,7 @@ def bot_app(database_url: str, study: str, **config: Any) -> Flask:
             "DATABASE_URL": database_url,
             "STUDY": study,
             "LIVE_RUNNER": False,
-            "TIME_ACCELERATION": study_file.max_time_acceleration,
+            "TIME_ACCELERATION": study_file.timing.max_time_acceleration,
             **config,
         }
     )

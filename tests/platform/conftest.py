@@ -48,7 +48,7 @@ def database_url(request: pytest.FixtureRequest, tmp_path) -> Iterator[str]:  # 
 
 #: The original study's trial length (`timing.trial_s`), for trials a test starts directly.
 STUDY = load_study("original")
-STUDY_TRIAL_S = STUDY.trial_s
+STUDY_TRIAL_S = STUDY.timing.trial_s
 
 
 @pytest.fixture
@@ -125,7 +125,9 @@ def make_trial(app: Flask):  # type: ignore[no-untyped-def]
     def make(**options: Any) -> TrialHandle:
         options.setdefault("seed", 2)
         training = options.get("kind") == "training"
-        options.setdefault("duration_s", STUDY.training_s if training else STUDY.trial_s)
+        options.setdefault(
+            "duration_s", STUDY.timing.training_s if training else STUDY.timing.trial_s
+        )
         database = app.extensions["hcss_db"]
         with database.session_scope() as session:
             participant, trial = start_bot_trial(session, **options)
