@@ -20,7 +20,13 @@ from wtforms.validators import InputRequired, NumberRange
 
 from hcss.platform.study.forms import attach_errors, form_of
 from hcss.platform.study.requirements import MAX_PIXELS
-from hcss.platform.study.stage import Stage, StageContext
+from hcss.platform.study.stage import (
+    Shown,
+    Stage,
+    StageContext,
+    Submission,
+    SubmissionMustFail,
+)
 
 
 def _size_field(name: str) -> IntegerField:
@@ -61,3 +67,10 @@ class ScreenCheck(Stage):
             )
             return False
         return True
+
+    def bot_submissions(self, shown: Shown) -> tuple[Submission | SubmissionMustFail, ...]:
+        # A bot's window is comfortably large enough; no window is -1 pixels wide.
+        return (
+            SubmissionMustFail({"width": "-1", "height": "800"}),
+            Submission({"width": "1280", "height": "800"}),
+        )

@@ -13,17 +13,18 @@ module and study/ is a tree, for the type checker as at run time.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from dataclasses import dataclass
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
 from datetime import datetime
 from typing import Any, ClassVar, Protocol
 
+import numpy as np
 from flask_wtf import FlaskForm
 from sqlalchemy.orm import Session
 
 from hcss.platform.models import ConsentRecord, Participant, StageEvent, StudyEnrolment
 from hcss.platform.study.settings import Study
-from hcss.questionnaires.definitions import ScoreRow
+from hcss.questionnaires.definitions import Item, RatingItem, ScoreRow
 
 
 class Refused(Exception):
@@ -115,6 +116,42 @@ class StageContext:
         self.flow.record_answers(self.slot, instrument, answers, model)
 
 
+#: A form as a bot posts it: field name -> value (or values, for ticked boxes).
+Fields = Mapping[str, str | Sequence[str]]
+
+
+@dataclass(frozen=True)
+class Submission:
+    """Answers a bot posts at a step, which the stage must accept (oTree's `Submission`)."""
+
+    fields: Fields
+
+
+@dataclass(frozen=True)
+class SubmissionMustFail:
+    """Answers the stage must refuse (oTree's `SubmissionMustFail`): the step is shown again
+    with an error and nothing is stored."""
+
+    fields: Fields
+
+
+@dataclass(frozen=True)
+class Shown:
+    """What a bot sees of a step's page: the step and the values each radio group offers."""
+
+    step: str
+    rng: np.random.Generator
+    radios: Mapping[str, Sequence[str]] = field(default_factory=dict)
+
+
+def answered(items: Iterable[Item], rng: np.random.Generator) -> dict[str, str]:
+    """One allowed answer to each item, drawn at random (a bot's questionnaire)."""
+    return {
+        item.key: str(rng.choice(item.points() if isinstance(item, RatingItem) else item.values()))
+        for item in items
+    }
+
+
 class Stage:
     """Base class; subclasses override what differs. Instances hold no participant state."""
 
@@ -163,3 +200,9 @@ class Stage:
     def redirect(self, here: StageContext) -> str | None:
         """A URL to send the participant to instead of rendering (e.g. the live trial)."""
         return None
+
+    def bot_submissions(self, shown: Shown) -> tuple[Submission | SubmissionMustFail, ...]:
+        """What a bot posts at the step, in order (hcss.platform.bots, the fuzz test): answers
+        the stage must refuse, then the answers that end the step. The default presses
+        Continue."""
+        return (Submission({}),)

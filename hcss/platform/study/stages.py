@@ -29,7 +29,16 @@ from hcss.platform.study.markdown import render_markdown
 from hcss.platform.study.mrt_stage import MentalRotation
 from hcss.platform.study.screen_check import ScreenCheck
 from hcss.platform.study.settings import Study
-from hcss.platform.study.stage import Refused, Slot, Stage, StageContext
+from hcss.platform.study.stage import (
+    Refused,
+    Shown,
+    Slot,
+    Stage,
+    StageContext,
+    Submission,
+    SubmissionMustFail,
+    answered,
+)
 from hcss.platform.study.texts import fill
 from hcss.platform.study.trial_stage import TrainingStage, TrialStage
 from hcss.questionnaires import consent, demographics, pages, post_trial, ranking, sart, tlx
@@ -75,6 +84,9 @@ class Consent(Stage):
         here.flow.record_consent(answers["version"], answers["decision"])
         return True
 
+    def bot_submissions(self, shown: Shown) -> tuple[Submission | SubmissionMustFail, ...]:
+        return (SubmissionMustFail({"decision": "maybe"}), Submission({"decision": "agree"}))
+
 
 class QuestionnaireStage(Stage):
     """One page of rated or chosen items, validated and scored by its instrument module."""
@@ -105,6 +117,12 @@ class QuestionnaireStage(Stage):
             rows = score(answers).rows()
             here.flow.record_scores(tuple(row.for_model(here.slot.model) for row in rows))
         return True
+
+    def bot_submissions(self, shown: Shown) -> tuple[Submission | SubmissionMustFail, ...]:
+        return (
+            SubmissionMustFail({}),  # every item unanswered
+            Submission(answered(self.questionnaire.items, shown.rng)),
+        )
 
 
 class Demographics(QuestionnaireStage):
@@ -206,6 +224,13 @@ class NasaTlx(Stage):
         here.flow.record_scores(tuple(row.for_model(here.slot.model) for row in rows))
         return True
 
+    def bot_submissions(self, shown: Shown) -> tuple[Submission | SubmissionMustFail, ...]:
+        if shown.step == "ratings":
+            return (SubmissionMustFail({}), Submission(answered(tlx.SUBSCALES, shown.rng)))
+        # The comparisons' sides are in the order drawn for this participant: read the page.
+        sides = {key: str(shown.rng.choice(values)) for key, values in shown.radios.items()}
+        return (SubmissionMustFail({}), Submission(sides))
+
 
 class Ranking(Stage):
     """The three models ranked on each dimension, named only by the order they were met."""
@@ -250,6 +275,15 @@ class Ranking(Stage):
             here.record_answers(ranking.INSTRUMENT, labelled, model)
         here.flow.record_scores(ranking.score(answers, order).rows())
         return True
+
+    def bot_submissions(self, shown: Shown) -> tuple[Submission | SubmissionMustFail, ...]:
+        ties, ranks = {}, {}
+        for dimension in ranking.DIMENSIONS:
+            drawn = shown.rng.permutation(ranking.MODEL_COUNT) + 1
+            for label, rank in zip(ranking.ORDER_LABELS, drawn, strict=True):
+                key = ranking.item_key(dimension.key, label)
+                ties[key], ranks[key] = "1", str(rank)
+        return (SubmissionMustFail(ties), Submission(ranks))
 
 
 class Introduction(Stage):
