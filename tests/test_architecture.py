@@ -138,6 +138,16 @@ def test_the_source_keeps_every_contract() -> None:
             "def _late():\n    from hcss.platform.study import flow",
             "No import cycle between the modules of any package",
         ),
+        (  # a stage reaching for the flow instead of its stage context
+            "hcss/platform/study/mrt_stage.py",
+            "from hcss.platform.study.flow import Flow",
+            "The stages know the study flow only through the stage context",
+        ),
+        (  # ... or the study model, which the stages read
+            "hcss/platform/study/settings.py",
+            "def _late():\n    from hcss.platform.study.flow import study_now",
+            "The stages know the study flow only through the stage context",
+        ),
     ],
 )
 def test_a_planted_import_breaks_a_contract(
@@ -164,6 +174,57 @@ def test_a_module_imported_by_name_is_refused(tmp_path: Path) -> None:
     )
     assert result.returncode != 0
     assert "TID251" in result.stdout and "trial_log.py" in result.stdout, result.stdout
+
+
+def _type_checking_only(node: ast.If) -> bool:
+    test = node.test
+    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or (
+        isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING"
+    )
+
+
+def type_only_imports(root: Path, package: str = "hcss/platform/study") -> list[str]:
+    """Imports between a package's modules made only for the type checker.
+
+    import-linter leaves them out (`exclude_type_checking_imports`), so a
+    back-import under `if TYPE_CHECKING:` would let a package be a tree at run
+    time only; the study package is one for the type checker too.
+    """
+    dotted = package.replace("/", ".")
+    found = []
+    for path in sorted((root / package).rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if not (isinstance(node, ast.If) and _type_checking_only(node)):
+                continue
+            for inner in ast.walk(node):
+                names = (
+                    [inner.module or ""]
+                    if isinstance(inner, ast.ImportFrom)
+                    else [alias.name for alias in inner.names]
+                    if isinstance(inner, ast.Import)
+                    else []
+                )
+                found += [
+                    f"{path.relative_to(root)}:{inner.lineno}: imports {name} for types only"
+                    for name in names
+                    if name == dotted or name.startswith(f"{dotted}.")
+                ]
+    return found
+
+
+def test_the_study_package_is_a_tree_for_the_type_checker_too() -> None:
+    assert type_only_imports(CHECKOUT) == []
+
+
+def test_a_planted_type_only_back_import_is_found(tmp_path: Path) -> None:
+    root = planted(
+        tmp_path,
+        "hcss/platform/study/trial_stage.py",
+        "import typing\nif typing.TYPE_CHECKING:\n    from hcss.platform.study.flow import Flow",
+    )
+    found = type_only_imports(root)
+    assert len(found) == 1 and "trial_stage.py" in found[0], found
+    assert "imports hcss.platform.study.flow for types only" in found[0]
 
 
 #: Names that import a module named at run time (or run code that may): no import graph

@@ -27,9 +27,11 @@ import os
 from collections import Counter
 from collections.abc import Iterator
 from dataclasses import dataclass, field
+from functools import cache
 from typing import Any
 from urllib.parse import quote, urlsplit
 
+import numpy as np
 import pytest
 from flask import Flask
 from flask.testing import FlaskClient
@@ -41,6 +43,8 @@ from hcss.platform.app import create_app
 from hcss.platform.bots import ManualClock
 from hcss.platform.console.accounts import create_experimenter
 from hcss.platform.live.trials import start_bot_trial
+from hcss.platform.study.stage import Shown
+from hcss.platform.study.stages import STAGES
 from tests.support.console import sign_in
 from tests.support.trials import STUDY_TRIAL_S
 
@@ -252,9 +256,29 @@ def study_requests(draw: st.DrawFn, target: Target) -> tuple[str, str, dict[str,
         fields = ("PROLIFIC_PID", "STUDY_ID", "SESSION_ID", "id", "screen_width", "pointer")
         return "POST", f"/join/{study}", _body_options(draw, form_fields=fields)
     index = _segment(draw, 0)
-    step = _segment(draw, draw(st.sampled_from(["form", "ready", "part_1", "page_1"])))
-    fields = ("decision", "age_band", "gender", "answer", "mental_demand", "submit")
-    return "POST", f"/p/{token}/stage/{index}/{step}", _body_options(draw, form_fields=fields)
+    step = draw(st.sampled_from(["form", "ratings", "ready", "part_1", "page_1"]))
+    fields = (*_stage_fields(step), "answer", "submit")
+    return (
+        "POST",
+        f"/p/{token}/stage/{index}/{_segment(draw, step)}",
+        _body_options(draw, form_fields=fields),
+    )
+
+
+@cache
+def _stage_fields(step: str) -> tuple[str, ...]:
+    """The fields the stages' own bot submissions post at a step (valid or refused)."""
+    shown = Shown(step, np.random.default_rng(0))
+    return tuple(
+        sorted(
+            {
+                name
+                for stage in STAGES.values()
+                for submission in stage.bot_submissions(shown)
+                for name in submission.fields
+            }
+        )
+    )
 
 
 @st.composite

@@ -39,7 +39,7 @@ def test_the_original_study_names_the_default_preset_and_its_trials_use_it(
 ) -> None:
     original = load_study("original")
     assert "[simulation]" in study_text("original")[1].decode()
-    assert original.simulation_preset == DEFAULT_PRESET
+    assert original.simulation.preset == DEFAULT_PRESET
     handle = make_trial(model="M1", preset="literal")
     assert handle.live().sim.params == Params().with_changes(decision_timeout_s=None)
 
@@ -47,9 +47,9 @@ def test_the_original_study_names_the_default_preset_and_its_trials_use_it(
 def test_a_study_file_names_a_preset_or_is_refused_naming_the_presets() -> None:
     doc = tomllib.loads(study_text("original")[1].decode())
     doc["simulation"] = {"preset": "literal"}
-    assert parse_study(doc, source="t").simulation_preset == "literal"
+    assert parse_study(doc, source="t").simulation.preset == "literal"
     del doc["simulation"]
-    assert parse_study(doc, source="t").simulation_preset == DEFAULT_PRESET
+    assert parse_study(doc, source="t").simulation.preset == DEFAULT_PRESET
     for bad in ({"preset": "bogus"}, {"preset": 3}, {"preset": "literal", "r_msg": 2}):
         doc["simulation"] = bad
         with pytest.raises(StudyFileError, match=r"simulation"):
