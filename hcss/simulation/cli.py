@@ -603,3 +603,51 @@ def sweep_command(
         ran = sw.run_sweep(plan, out, workers, dask_address, on_done=bar.update)
     elapsed = time.perf_counter() - started
     click.echo(f"{ran} cell(s) run in {elapsed:.0f} s; all decisions in {out / 'decisions.csv'}.")
+
+
+@simulate.command()
+@click.option(
+    "--preset",
+    type=click.Choice(tuple(PRESETS)),
+    default="study-units",
+    show_default=True,
+    help="Every value the grid does not set (the preset fitted under the study's unit).",
+)
+@click.option(
+    "--runs",
+    type=click.IntRange(min=1, max=1000),
+    default=8,
+    show_default=True,
+    help="Agent-model runs per layout and cell.",
+)
+@click.option(
+    "--out",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=Path("out/structure"),
+    show_default=True,
+)
+def structure(preset: str, runs: int, out: Path) -> None:
+    """Issue 28's structural question as a map: M1's and M2's P(best) and decision time on
+    three one-collective layouts, mean-field and agent model, over the discovery reading
+    (per agent, per collective, per returning discoverer), d_max, F_D's wait scale and M2's
+    mechanisms. Writes OUT/structure.csv and OUT/structure.md and prints the table."""
+    from hcss.simulation import structure as st
+
+    cells = list(st.grid())
+    click.echo(
+        f"{len(cells)} cells × {len(st.LAYOUTS)} layouts × {runs} agent runs, preset {preset}."
+    )
+    started = time.perf_counter()
+    with tqdm(total=len(cells), unit="cell", desc="structure", dynamic_ncols=True) as bar:
+        rows = st.run_map(preset_params(preset), runs, cells, on_cell=bar.update)
+    st.write_map(rows, out / "structure.csv")
+    table = st.summary_markdown(rows)
+    (out / "structure.md").write_text(
+        f"# The structural question (issue 28), preset {preset}, {runs} agent runs per cell\n\n"
+        f"{table}\n",
+        encoding="utf-8",
+    )
+    click.echo(table)
+    click.echo(
+        f"{len(rows)} rows in {out / 'structure.csv'} ({time.perf_counter() - started:.0f} s)."
+    )

@@ -69,7 +69,15 @@ def test_presets_are_named_in_the_params_they_give_and_share_every_value_across_
 
 
 def test_an_unknown_preset_is_a_usage_error_on_every_simulate_command() -> None:
-    for command in ("experiment", "fidelity", "sweep", "calibrate", "demo", "meanfield"):
+    for command in (
+        "experiment",
+        "fidelity",
+        "sweep",
+        "calibrate",
+        "demo",
+        "meanfield",
+        "structure",
+    ):
         result = CliRunner().invoke(main, ["simulate", command, "--preset", "bogus"])
         assert result.exit_code == 2, command
         assert "Traceback" not in result.output
