@@ -605,6 +605,15 @@ def sweep_command(
     click.echo(f"{ran} cell(s) run in {elapsed:.0f} s; all decisions in {out / 'decisions.csv'}.")
 
 
+def _structure_axes() -> tuple[
+    tuple[str, ...], tuple[float, ...], tuple[float, ...], tuple[str, ...]
+]:
+    """The structure map's default grid, as structure.py defines it."""
+    from hcss.simulation import structure as st
+
+    return st.DISCOVERY, st.D_MAX_M, st.WAIT_SCALES, tuple(st.MECHANISMS)
+
+
 @simulate.command()
 @click.option(
     "--preset",
@@ -621,19 +630,70 @@ def sweep_command(
     help="Agent-model runs per layout and cell.",
 )
 @click.option(
+    "--discovery",
+    default=",".join(_structure_axes()[0]),
+    show_default=True,
+    help="Comma-separated discovery readings of the grid.",
+)
+@click.option(
+    "--d-max",
+    default=",".join(f"{d:g}" for d in _structure_axes()[1]),
+    show_default=True,
+    help="Comma-separated d_max values (m).",
+)
+@click.option(
+    "--wait-scale",
+    default=",".join(f"{w:g}" for w in _structure_axes()[2]),
+    show_default=True,
+    help="Comma-separated F_D wait scales.",
+)
+@click.option(
+    "--mechanisms",
+    default=",".join(_structure_axes()[3]),
+    show_default=True,
+    help="Comma-separated sets of M2's mechanisms.",
+)
+@click.option(
     "--out",
     type=click.Path(file_okay=False, path_type=Path),
     default=Path("out/structure"),
     show_default=True,
 )
-def structure(preset: str, runs: int, out: Path) -> None:
+def structure(
+    preset: str,
+    runs: int,
+    discovery: str,
+    d_max: str,
+    wait_scale: str,
+    mechanisms: str,
+    out: Path,
+) -> None:
     """Issue 28's structural question as a map: M1's and M2's P(best) and decision time on
     three one-collective layouts, mean-field and agent model, over the discovery reading
     (per agent, per collective, per returning discoverer), d_max, F_D's wait scale and M2's
     mechanisms. Writes OUT/structure.csv and OUT/structure.md and prints the table."""
     from hcss.simulation import structure as st
 
-    cells = list(st.grid())
+    def axis(text: str, name: str, allowed: tuple[str, ...] | None = None) -> list[str]:
+        values = [v.strip() for v in text.split(",") if v.strip()]
+        if not values or (allowed and any(v not in allowed for v in values)):
+            raise click.BadParameter(
+                f"comma-separated values among {', '.join(allowed or ('numbers',))}; got {text!r}",
+                param_hint=name,
+            )
+        return values
+
+    try:
+        cells = list(
+            st.grid(
+                axis(discovery, "--discovery", st.DISCOVERY),
+                [float(v) for v in axis(d_max, "--d-max")],
+                [float(v) for v in axis(wait_scale, "--wait-scale")],
+                axis(mechanisms, "--mechanisms", tuple(st.MECHANISMS)),
+            )
+        )
+    except ValueError as error:  # a number that is not one
+        raise click.BadParameter(str(error), param_hint="--d-max/--wait-scale") from None
     click.echo(
         f"{len(cells)} cells × {len(st.LAYOUTS)} layouts × {runs} agent runs, preset {preset}."
     )

@@ -7,7 +7,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from click.testing import CliRunner
 
+from hcss.cli import main
 from hcss.simulation import Params
 from hcss.simulation import structure as st
 from hcss.simulation.presets import preset_params
@@ -97,3 +99,18 @@ def test_the_map_measures_both_models_on_every_layout_and_writes_a_tidy_csv(tmp_
         read = list(csv.DictReader(handle))
     assert tuple(read[0]) == st.COLUMNS and len(read) == 6
     assert {r["d_max_m"] for r in read} == {""}  # M1 has no delays: empty, not "None"
+
+
+def test_the_structure_command_maps_the_grid_it_is_given(tmp_path: Path) -> None:
+    args = ["simulate", "structure", "--runs", "1", "--out", str(tmp_path)]
+    one_cell = ["--discovery", "per_agent", "--d-max", "352", "--wait-scale", "1"]
+    result = CliRunner().invoke(main, [*args, *one_cell, "--mechanisms", "no_M_i"])
+    assert result.exit_code == 0, result.output
+    with (tmp_path / "structure.csv").open(newline="", encoding="utf-8") as handle:
+        read = list(csv.DictReader(handle))
+    assert len(read) == 2 * 3 * 2  # M1 and one M2 cell, three layouts, two methods
+    assert {r["mechanisms"] for r in read if r["model"] == "M2"} == {"no_M_i"}
+    assert "| per_agent | M2 | 352 m | 1 | no_M_i |" in (tmp_path / "structure.md").read_text()
+    for bad in (["--mechanisms", "no_F_X"], ["--d-max", "far"], ["--discovery", ""]):
+        result = CliRunner().invoke(main, [*args, *bad])
+        assert result.exit_code == 2 and "Traceback" not in result.output, bad
