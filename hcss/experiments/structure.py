@@ -38,8 +38,8 @@ from typing import Any
 
 import numpy as np
 
-from hcss.simulation.crosscheck import agent_decision
-from hcss.simulation.meanfield import Site, solve_meanfield
+from hcss.experiments.crosscheck import agent_decision
+from hcss.experiments.meanfield import Site, solve_meanfield
 from hcss.simulation.params import M2_MECHANISMS, Params
 from hcss.tidy_csv import write_table
 

@@ -10,8 +10,8 @@ import pytest
 from click.testing import CliRunner
 
 from hcss.cli import main
+from hcss.experiments import structure as st
 from hcss.simulation import Params
-from hcss.simulation import structure as st
 from hcss.simulation.presets import preset_params
 
 
