@@ -18,6 +18,15 @@ SECOND_FACTOR_COLUMNS = {
     ("experimenter", "totp_last_step"),
     ("experimenter", "recovery_hashes"),
 }
+#: The unique keys of a trial's rows, added by i29_unique_trial_rows (later than these tests).
+UNIQUE_TRIAL_KEYS = {
+    "uq_decision_trial",
+    "uq_sim_event_trial",
+    "uq_probe_trial",
+    "uq_probe_event_probe",
+    "uq_request_status_change_trial",
+    "uq_interruption_trial",
+}
 #: Columns later revisions add to tables that exist at 0002_console (table, column).
 LATER_COLUMNS = SECOND_FACTOR_COLUMNS | {
     ("participant", "study"),  # 0004_c8_console
@@ -29,6 +38,8 @@ LATER_COLUMNS = SECOND_FACTOR_COLUMNS | {
 
 
 def _not_added_later(obj, name, type_, reflected, compare_to) -> bool:  # type: ignore[no-untyped-def]
+    if type_ == "index":
+        return name not in UNIQUE_TRIAL_KEYS
     return not (type_ == "column" and (obj.table.name, name) in LATER_COLUMNS)
 
 
