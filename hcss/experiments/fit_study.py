@@ -39,8 +39,8 @@ from pathlib import Path
 from typing import Any
 
 from hcss import study_units as su
-from hcss.simulation import experiment as exp
-from hcss.simulation import study_targets as st
+from hcss.experiments import experiment as exp
+from hcss.experiments import study_targets as st
 from hcss.simulation.params import (
     ABANDONMENT_READINGS,
     DIFFICULTY_LABELS,

@@ -8,8 +8,8 @@ import pytest
 from click.testing import CliRunner
 
 from hcss.cli import main
+from hcss.experiments import experiment as exp
 from hcss.simulation import DECISION_COLUMNS
-from hcss.simulation import experiment as exp
 
 
 @pytest.fixture(scope="module")

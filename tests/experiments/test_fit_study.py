@@ -9,8 +9,8 @@ import pytest
 from click.testing import CliRunner
 
 from hcss.cli import main
-from hcss.simulation import fit_study as fs
-from hcss.simulation import study_targets as st
+from hcss.experiments import fit_study as fs
+from hcss.experiments import study_targets as st
 from hcss.simulation.params import Params
 from hcss.simulation.presets import DEFAULT_PRESET, PRESETS, preset_params
 

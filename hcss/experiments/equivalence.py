@@ -17,8 +17,8 @@ Everything runs at PRE_CHANGE_PARAMS, the parameter values in force when the
 reference was written, pinned here so that a later change of the defaults
 (which legitimately changes outcomes) cannot break or fake the comparison.
 
-    python -m hcss.simulation.equivalence write tests/simulation/data/reference_outcomes.csv
-    python -m hcss.simulation.equivalence compare tests/simulation/data/reference_outcomes.csv --runs 10
+    python -m hcss.experiments.equivalence write tests/experiments/data/reference_outcomes.csv
+    python -m hcss.experiments.equivalence compare tests/experiments/data/reference_outcomes.csv --runs 10
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ from typing import Any
 
 from scipy.stats import mannwhitneyu
 
-from hcss.simulation import experiment as exp
+from hcss.experiments import experiment as exp
 from hcss.simulation.params import Params
 from hcss.tidy_csv import write_table
 

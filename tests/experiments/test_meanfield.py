@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from hcss.experiments.crosscheck import LAYOUTS
+from hcss.experiments.meanfield import Site, solve_meanfield
+from hcss.experiments.meanfield_chain import run_chain
 from hcss.simulation import Params
-from hcss.simulation.crosscheck import LAYOUTS
-from hcss.simulation.meanfield import Site, solve_meanfield
-from hcss.simulation.meanfield_chain import run_chain
 
 SEARCH_SPACE = Params().with_changes(m2_distance_bounds="search_space")
 SITE_BOUNDS = Params().with_changes(m2_distance_bounds="site_distances")
@@ -77,7 +77,7 @@ def test_the_agent_model_agrees_with_the_mean_field_chain_on_simple_layouts() ->
     (0.33) when the engine's random stream changed; 4 keeps the structural gap
     and still fails for a real change of the agent model's speed.
     """
-    from hcss.simulation.crosscheck import agent_decision
+    from hcss.experiments.crosscheck import agent_decision
 
     params = SEARCH_SPACE.with_changes(discovery="per_agent")
     rng = np.random.default_rng(21)
@@ -97,7 +97,7 @@ def test_the_agent_model_agrees_with_the_mean_field_chain_on_simple_layouts() ->
 
 
 def test_the_odes_read_rate_abandonment_as_value_only_and_per_visit_as_distance_and_value() -> None:
-    from hcss.simulation.meanfield import Rates
+    from hcss.experiments.meanfield import Rates
 
     sites = [Site(150.0, 1.0), Site(350.0, 0.5)]
     rate = Rates.of(sites, "M2", Params().with_changes(abandonment="rate", abandon_scale=2.0))
@@ -119,7 +119,7 @@ def test_the_odes_read_rate_abandonment_as_value_only_and_per_visit_as_distance_
 
 
 def test_value_inside_g_lengthens_the_discovery_delay_of_poorer_sites() -> None:
-    from hcss.simulation.meanfield import Rates
+    from hcss.experiments.meanfield import Rates
 
     sites = [Site(150.0, 1.0), Site(150.0, 0.5)]
     plain = Rates.of(sites, "M2", SEARCH_SPACE)

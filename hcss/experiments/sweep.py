@@ -28,7 +28,7 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
 
-from hcss.simulation import experiment as exp
+from hcss.experiments import experiment as exp
 from hcss.simulation.decisions import DECISION_COLUMNS
 from hcss.simulation.params import Params
 from hcss.simulation.presets import DEFAULT_PRESET, preset_params
