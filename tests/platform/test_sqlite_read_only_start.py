@@ -87,6 +87,7 @@ def test_a_live_trial_read_only_across_a_start_runs_again_once_the_disk_is_writa
                 if statuses[-1] == (200, 200):
                     break
                 time.sleep(0.25)
+            print(f"after the disk is writable again: {statuses}")
             assert set(refused) == {503}
             assert statuses[-1] == (200, 200), statuses
             assert len(statuses) <= 4, statuses  # within a second of the disk's return
