@@ -1,4 +1,4 @@
-"""`hcss simulate experiment|sweep|calibrate|fidelity|meanfield`: the experiment commands.
+"""`hcss simulate experiment|sweep|calibrate|fidelity|meanfield|structure`: the experiment commands.
 
 They run batches of the model and, for `experiment`, ask the analysis for the
 summary; the model's own command (`demo`) is in hcss.simulation.cli, and
@@ -35,7 +35,7 @@ from hcss.simulation.params import (
     MODELS,
     Params,
 )
-from hcss.simulation.presets import DEFAULT_PRESET, preset_params
+from hcss.simulation.presets import DEFAULT_PRESET, PRESETS, preset_params
 
 #: A click command function, before or after its options are attached.
 F = TypeVar("F", bound=Callable[..., Any])
@@ -529,3 +529,111 @@ def sweep_command(
         ran = sw.run_sweep(plan, out, workers, dask_address, on_done=bar.update)
     elapsed = time.perf_counter() - started
     click.echo(f"{ran} cell(s) run in {elapsed:.0f} s; all decisions in {out / 'decisions.csv'}.")
+
+
+def _structure_axes() -> tuple[
+    tuple[str, ...], tuple[float, ...], tuple[float, ...], tuple[str, ...]
+]:
+    """The structure map's default grid, as structure.py defines it."""
+    from hcss.experiments import structure as st
+
+    return st.DISCOVERY, st.D_MAX_M, st.WAIT_SCALES, tuple(st.MECHANISMS)
+
+
+@simulate.command()
+@click.option(
+    "--preset",
+    type=click.Choice(tuple(PRESETS)),
+    default="study-units",
+    show_default=True,
+    help="Every value the grid does not set (the preset fitted under the study's unit).",
+)
+@click.option(
+    "--runs",
+    type=click.IntRange(min=1, max=1000),
+    default=8,
+    show_default=True,
+    help="Agent-model runs per layout and cell.",
+)
+@click.option(
+    "--discovery",
+    default=",".join(_structure_axes()[0]),
+    show_default=True,
+    help="Comma-separated discovery readings of the grid.",
+)
+@click.option(
+    "--d-max",
+    default=",".join(f"{d:g}" for d in _structure_axes()[1]),
+    show_default=True,
+    help="Comma-separated d_max values (m).",
+)
+@click.option(
+    "--wait-scale",
+    default=",".join(f"{w:g}" for w in _structure_axes()[2]),
+    show_default=True,
+    help="Comma-separated F_D wait scales.",
+)
+@click.option(
+    "--mechanisms",
+    default=",".join(_structure_axes()[3]),
+    show_default=True,
+    help="Comma-separated sets of M2's mechanisms.",
+)
+@click.option(
+    "--out",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=Path("out/structure"),
+    show_default=True,
+)
+def structure(
+    preset: str,
+    runs: int,
+    discovery: str,
+    d_max: str,
+    wait_scale: str,
+    mechanisms: str,
+    out: Path,
+) -> None:
+    """Issue 28's structural question as a map: M1's and M2's P(best) and decision time on
+    three one-collective layouts, mean-field and agent model, over the discovery reading
+    (per agent, per collective, per returning discoverer), d_max, F_D's wait scale and M2's
+    mechanisms. Writes OUT/structure.csv and OUT/structure.md and prints the table."""
+    from hcss.experiments import structure as st
+
+    def axis(text: str, name: str, allowed: tuple[str, ...] | None = None) -> list[str]:
+        values = [v.strip() for v in text.split(",") if v.strip()]
+        if not values or (allowed and any(v not in allowed for v in values)):
+            raise click.BadParameter(
+                f"comma-separated values among {', '.join(allowed or ('numbers',))}; got {text!r}",
+                param_hint=name,
+            )
+        return values
+
+    try:
+        cells = list(
+            st.grid(
+                axis(discovery, "--discovery", st.DISCOVERY),
+                [float(v) for v in axis(d_max, "--d-max")],
+                [float(v) for v in axis(wait_scale, "--wait-scale")],
+                axis(mechanisms, "--mechanisms", tuple(st.MECHANISMS)),
+            )
+        )
+    except ValueError as error:  # a number that is not one
+        raise click.BadParameter(str(error), param_hint="--d-max/--wait-scale") from None
+    click.echo(
+        f"{len(cells)} cells × {len(st.LAYOUTS)} layouts × {runs} agent runs, preset {preset}."
+    )
+    started = time.perf_counter()
+    with tqdm(total=len(cells), unit="cell", desc="structure", dynamic_ncols=True) as bar:
+        rows = st.run_map(preset_params(preset), runs, cells, on_cell=bar.update)
+    st.write_map(rows, out / "structure.csv")
+    table = st.summary_markdown(rows)
+    (out / "structure.md").write_text(
+        f"# The structural question (issue 28), preset {preset}, {runs} agent runs per cell\n\n"
+        f"{table}\n",
+        encoding="utf-8",
+    )
+    click.echo(table)
+    click.echo(
+        f"{len(rows)} rows in {out / 'structure.csv'} ({time.perf_counter() - started:.0f} s)."
+    )

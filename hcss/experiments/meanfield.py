@@ -95,6 +95,13 @@ class Rates:
             leave_d = np.where(gap_d > 0, v / np.where(gap_d > 0, gap_d, 1.0), np.inf)
             leave_r = np.where(gap_r > 0, v / np.where(gap_r > 0, gap_r, 1.0), np.inf)
         modulation = dm / params.m2_d_min_m
+        # An ablation removes a mechanism here as in the agent model (params.m2_uses).
+        if not params.m2_uses(model, "discovery_delay"):
+            leave_d = inf
+        if not params.m2_uses(model, "reassessment_delay"):
+            leave_r = inf
+        if not params.m2_uses(model, "modulation"):
+            modulation = np.ones(d.size)
         return cls(
             discovery,
             v,

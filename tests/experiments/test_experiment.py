@@ -44,7 +44,7 @@ def test_summary_is_the_analysis_of_the_same_decisions_file(tmp_path):
 
     from hcss.analysis.report import run_analysis
     from hcss.analysis.summary import summarise_decisions
-    from tests.analysis.synthetic import simulation_decisions
+    from tests.support.synthetic import simulation_decisions
 
     rows = simulation_decisions(scenarios=4, runs=3).to_dict("records")
     exp.write_decisions(rows, tmp_path / "decisions.csv")
@@ -85,6 +85,9 @@ def test_experiment_command_writes_the_decisions_table_and_summary(tmp_path):
     assert list(rows[0]) == list(DECISION_COLUMNS) and len(rows) == 12
     assert {r["source"] for r in rows} == {"simulation"} and {r["model"] for r in rows} == {"M2"}
     assert "| M2 | overall |" in (tmp_path / "summary.md").read_text()
+    # Without --preset the command runs the default, named in what it prints and writes.
+    assert "preset study-units." in result.output
+    assert "preset study-units." in (tmp_path / "summary.md").read_text()
 
 
 def test_unknown_models_are_refused_without_a_traceback(tmp_path):

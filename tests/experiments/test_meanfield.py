@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from hcss.experiments.crosscheck import LAYOUTS
-from hcss.experiments.meanfield import Site, solve_meanfield
+from hcss.experiments.meanfield import Rates, Site, solve_meanfield
 from hcss.experiments.meanfield_chain import run_chain
 from hcss.simulation import Params
 
@@ -125,3 +125,27 @@ def test_value_inside_g_lengthens_the_discovery_delay_of_poorer_sites() -> None:
     plain = Rates.of(sites, "M2", SEARCH_SPACE)
     inside = Rates.of(sites, "M2", SEARCH_SPACE.with_changes(m2_g_reading="value_inside"))
     assert inside.leave_delay == pytest.approx(plain.leave_delay * np.array([1.0, 0.5]))
+
+
+def test_the_odes_run_only_the_m2_mechanisms_the_params_keep() -> None:
+    """An ablation (`m2_mechanisms`) removes a mechanism from the equations too, as from the
+    agent model: M2 with none of its three is M1, and each one removed is gone alone."""
+    sites = LAYOUTS["difficult"]
+    params = Params().with_changes(m2_distance_bounds="fitted", fitted_d_max_m=430.0)
+    m1 = solve_meanfield(sites, "M1", params)
+    bare = solve_meanfield(sites, "M2", params.with_changes(m2_mechanisms=()))
+    assert bare.win_probability == pytest.approx(m1.win_probability, abs=0.01)
+    assert bare.quorum_s == pytest.approx(m1.quorum_s, rel=0.02)
+    full = Rates.of(sites, "M2", params)
+    assert np.all(np.isfinite(full.leave_delay[[1, 2, 3]])) and np.any(full.modulation > 1)
+    for mechanism, field in (
+        ("discovery_delay", "leave_delay"),
+        ("reassessment_delay", "leave_reassess"),
+        ("modulation", "modulation"),
+    ):
+        kept = tuple(m for m in params.m2_mechanisms if m != mechanism)
+        rates = Rates.of(sites, "M2", params.with_changes(m2_mechanisms=kept))
+        removed = np.ones(4) if field == "modulation" else np.full(4, np.inf)
+        assert np.array_equal(getattr(rates, field), removed)
+        for other in {"leave_delay", "leave_reassess", "modulation"} - {field}:
+            assert np.array_equal(getattr(rates, other), getattr(full, other))
