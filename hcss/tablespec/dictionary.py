@@ -9,6 +9,7 @@ when the two differ. After changing a spec, write it again:
 
 from __future__ import annotations
 
+import itertools
 import sys
 from pathlib import Path
 
@@ -67,12 +68,17 @@ withdrawal deletes it with the participant's other rows.
 
 
 def columns_table(spec: TableSpec) -> str:
-    """The spec's columns as a Markdown table: name, type, missing-value rule, meaning."""
+    """The spec's columns as a Markdown table: name, type, missing-value rule, meaning.
+
+    Neighbouring columns alike in all three (the demographics answers, say) share a row.
+    """
     lines = ["| column | type | missing | meaning |", "|---|---|---|---|"]
-    for column in spec.columns:
-        name = column.name.replace("<", "&lt;").replace(">", "&gt;")
-        missing = "allowed" if column.nullable else "never"
-        lines.append(f"| {name} | {column.dtype} | {missing} | {column.description} |")
+    for (dtype, nullable, description), group in itertools.groupby(
+        spec.columns, key=lambda column: (column.dtype, column.nullable, column.description)
+    ):
+        names = ", ".join(column.name.replace("<", "&lt;").replace(">", "&gt;") for column in group)
+        missing = "allowed" if nullable else "never"
+        lines.append(f"| {names} | {dtype} | {missing} | {description} |")
     return "\n".join(lines) + "\n"
 
 

@@ -53,7 +53,7 @@ PARTICIPANTS = TableSpec(
             "A participant outside the study flow (`hcss demo-trial`) is `in_progress` while a "
             "trial runs, `completed` after",
         ),
-        *(Column(name, "str", "demographics answer") for name in DEMOGRAPHICS),
+        *(Column(name, "str", "demographics answers") for name in DEMOGRAPHICS),
         Column("mrt_score", "int", "Mental Rotations Test score, 0–24"),
         *(
             Column(f"tlx_overall_{model}", "float", f"weighted NASA-TLX of {model}")

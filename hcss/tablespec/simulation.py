@@ -7,7 +7,7 @@ from hcss.tablespec.spec import Column, TableSpec
 
 SWEEP_DECISIONS = TableSpec(
     name="decisions",
-    title="Sweep decisions (`hcss simulate sweep`: OUT/decisions.csv and OUT/cells/*.csv)",
+    title="Sweep decisions (a sweep's OUT/decisions.csv and OUT/cells/*.csv)",
     description="""
 Every cell's decisions, one row per decision: the cell's value of each swept
 parameter first, then the columns of `decisions`. A cell's own file
@@ -28,7 +28,7 @@ parameter first, then the columns of `decisions`. A cell's own file
 
 EQUIVALENCE_REFERENCE = TableSpec(
     name="reference_outcomes",
-    title="Equivalence reference (`python -m hcss.simulation.equivalence write`)",
+    title="Equivalence reference (written by hcss.experiments.equivalence)",
     description="""
 The outcomes of the reduced experiment at pinned parameters, one row per
 decision, which a new engine's outcomes are compared with. The columns are
@@ -42,7 +42,7 @@ those of `decisions` of the same name.
 
 CALIBRATION_TRIALS = TableSpec(
     name="trials",
-    title="Calibration trials (`hcss simulate calibrate --to study`: OUT/trials.csv)",
+    title="Calibration trials (the study calibration's OUT/trials.csv)",
     description="""
 One row per completed search trial of the study calibration.
 """.strip(),
