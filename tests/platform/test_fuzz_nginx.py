@@ -31,8 +31,7 @@ from hcss.platform.console.accounts import create_experimenter
 from hcss.platform.db import Database
 from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.localserver import LocalNginx, LocalServer
-from tests.platform.conftest import STUDY_TRIAL_S, csrf_token_of
-from tests.platform.test_fuzz import (
+from tests.support.fuzz import (
     FUZZ_SETTINGS,
     TALLY_FILE,
     console_requests,
@@ -40,6 +39,7 @@ from tests.platform.test_fuzz import (
     live_requests,
     study_requests,
 )
+from tests.support.trials import STUDY_TRIAL_S, csrf_token_of
 
 pytestmark = pytest.mark.slow
 
