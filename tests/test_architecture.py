@@ -103,6 +103,16 @@ def test_the_source_keeps_every_contract() -> None:
             "from hcss.experiments import study_targets",
             "The model runs without its experiments, the analysis, optuna or dask",
         ),
+        (  # the table contracts, which every package reads, reading the model
+            "hcss/tablespec/spec.py",
+            "from hcss.simulation import MODELS",
+            "The table contracts import nothing else of hcss",
+        ),
+        (  # ... or the writer
+            "hcss/tablespec/dictionary.py",
+            "def _late():\n    from hcss.tidy_csv import write_table",
+            "The table contracts import nothing else of hcss",
+        ),
         (  # questionnaires -> analysis, while analysis reads questionnaires: a cycle
             "hcss/questionnaires/tlx.py",
             "from hcss.analysis import measures",
