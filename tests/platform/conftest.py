@@ -29,7 +29,7 @@ from tests.support.trials import STUDY, TrialHandle
 
 
 @pytest.fixture(params=["sqlite", "postgresql"])
-def database_url(request: pytest.FixtureRequest, tmp_path) -> Iterator[str]:  # type: ignore[no-untyped-def]
+def database_url(request: pytest.FixtureRequest, tmp_path) -> Iterator[str]:
     if request.param == "sqlite":
         yield f"sqlite:///{tmp_path / 'hcss-test.sqlite3'}"
         return
@@ -61,7 +61,7 @@ def app(database_url: str) -> Iterator[Flask]:
 
 
 @pytest.fixture
-def make_trial(app: Flask):  # type: ignore[no-untyped-def]
+def make_trial(app: Flask):
     """Start a trial for a new participant: make_trial(seed=2, model="M1", kind="trial")."""
 
     def make(**options: Any) -> TrialHandle:
@@ -87,7 +87,7 @@ def make_trial(app: Flask):  # type: ignore[no-untyped-def]
 
 
 @pytest.fixture(scope="session")
-def chromium():  # type: ignore[no-untyped-def]
+def chromium():
     """One headless Chromium per test process (each xdist worker), as pytest-playwright keeps
     one per session: a launch took 2 to 2.7 s on a loaded machine, paid once, not per test."""
     if not os.path.exists(CHROMIUM):
@@ -100,7 +100,7 @@ def chromium():  # type: ignore[no-untyped-def]
 
 
 @pytest.fixture
-def browser(chromium):  # type: ignore[no-untyped-def]
+def browser(chromium):
     """The process's headless Chromium for a browser test. Each page or context the test opens
     is a context of its own (cookies, storage, cache), and all are closed after the test, so
     no test sees another's pages."""

@@ -19,7 +19,7 @@ def _differing(a: Params, b: Params) -> list[str]:
 
 
 def test_a_live_m2_trial_is_the_batch_experiments_m2_apart_from_the_decision_timeout(
-    make_trial,  # type: ignore[no-untyped-def]
+    make_trial,
 ) -> None:
     handle = make_trial(model="M2")
     live = handle.live()
@@ -35,7 +35,7 @@ def test_a_live_m2_trial_is_the_batch_experiments_m2_apart_from_the_decision_tim
 
 
 def test_the_original_study_names_the_default_preset_and_its_trials_use_it(
-    make_trial,  # type: ignore[no-untyped-def]
+    make_trial,
 ) -> None:
     original = load_study("original")
     assert "[simulation]" in study_text("original")[1].decode()
@@ -57,7 +57,7 @@ def test_a_study_file_names_a_preset_or_is_refused_naming_the_presets() -> None:
 
 
 def test_a_live_trials_scenario_is_drawn_under_its_presets_layout_reading(
-    make_trial,  # type: ignore[no-untyped-def]
+    make_trial,
 ) -> None:
     from hcss.simulation import Scenario
 

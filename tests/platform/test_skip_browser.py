@@ -19,7 +19,7 @@ pytestmark = [pytest.mark.browser, pytest.mark.slow]  # waits for a 10 s heartbe
 
 
 @pytest.fixture
-def served(tmp_path):  # type: ignore[no-untyped-def]
+def served(tmp_path):
     url = f"sqlite:///{tmp_path / 'skip-browser.sqlite3'}"
     upgrade_database(url)
     app = bot_app(url, "demo", SECRET_KEY="skip-browser-secret", WTF_CSRF_ENABLED=True)
