@@ -21,11 +21,11 @@ import time
 from pathlib import Path
 
 from hcss.analysis.summary import summarise_decisions
+from hcss.experiments import equivalence as eq
+from hcss.experiments import experiment as exp
+from hcss.experiments import study_targets as st
+from hcss.experiments import sweep as sw
 from hcss.simulation import Params, Scenario, Simulation
-from hcss.simulation import equivalence as eq
-from hcss.simulation import experiment as exp
-from hcss.simulation import study_targets as st
-from hcss.simulation import sweep as sw
 from hcss.simulation.presets import DEFAULT_PRESET, PRESETS, preset_params
 
 # Figures of earlier engines, measured with this file's functions on the machine
@@ -205,7 +205,7 @@ def equivalence(rows: list[dict] | None, workers: int = 2) -> None:
             workers=workers,
             params=eq.pinned_params(),
         )
-    reference = eq.read_reference(Path("tests/simulation/data/reference_outcomes.csv"))
+    reference = eq.read_reference(Path("tests/experiments/data/reference_outcomes.csv"))
     results = eq.compare(reference, rows)
     agree = sum(r.agrees for r in results)
     print("(6) equivalence with the pre-change engine (28 x 10 new vs 28 x 4 reference runs):")

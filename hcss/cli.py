@@ -11,11 +11,36 @@ import os
 import click
 
 from hcss.analysis.cli import analyze
+from hcss.experiments import cli as experiments_cli
 from hcss.platform.bot_command import bots_command
 from hcss.platform.cli import db_group, demo_trial, deploy_group, serve
 from hcss.platform.console.cli import admin_group
 from hcss.platform.export.cli import export
-from hcss.simulation.cli import simulate
+from hcss.simulation import cli as model_cli
+
+
+class ByAudience(click.CommandCollection):
+    """One command whose subcommands come from several groups, each group's listed
+    under its own heading (its help up to the colon) in `--help`."""
+
+    def format_commands(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        groups = [source for source in self.sources if isinstance(source, click.Group)]
+        limit = formatter.width - 6 - max(len(name) for group in groups for name in group.commands)
+        for group in groups:
+            rows = [
+                (name, command.get_short_help_str(limit))
+                for name, command in sorted(group.commands.items())
+            ]
+            with formatter.section((group.help or "").partition(":")[0]):
+                formatter.write_dl(rows)
+
+
+#: `hcss simulate ...`: the model's command and the experiments', one command line.
+simulate = ByAudience(
+    "simulate",
+    sources=[model_cli.simulate, experiments_cli.simulate],
+    help="Run the simulation: a live demo or the simulation-only experiment.",
+)
 
 COMMANDS = (
     simulate,

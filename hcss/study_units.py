@@ -11,7 +11,7 @@ together, 578 units with an easy decision and 456 with a difficult one.
 
 This module computes those tables from decisions-table rows and holds the
 published numbers; `hcss.analysis.paper_units` lays them out beside the
-study's rows, and the calibration (`hcss.simulation.fit_study`) fits them. It
+study's rows, and the calibration (`hcss.experiments.fit_study`) fits them. It
 imports nothing from hcss, so both packages may use it (the simulation may
 not import the analysis).
 """

@@ -83,6 +83,26 @@ def test_the_source_keeps_every_contract() -> None:
             "import hcss.questionnaires.consent",
             "The model and the instruments know nothing of each other",
         ),
+        (  # the model asking the analysis (the old `simulate experiment` summary)
+            "hcss/simulation/cli.py",
+            "from hcss.analysis.summary import summarise_decisions",
+            "The model runs without its experiments, the analysis, optuna or dask",
+        ),
+        (  # the model reaching for the search library, inside a function
+            "hcss/simulation/presets.py",
+            "def _late():\n    import optuna",
+            "The model runs without its experiments, the analysis, optuna or dask",
+        ),
+        (  # the model sending runs to a cluster
+            "hcss/simulation/engine.py",
+            "from dask.distributed import Client",
+            "The model runs without its experiments, the analysis, optuna or dask",
+        ),
+        (  # the model using its experiments
+            "hcss/simulation/scenario.py",
+            "from hcss.experiments import study_targets",
+            "The model runs without its experiments, the analysis, optuna or dask",
+        ),
         (  # questionnaires -> analysis, while analysis reads questionnaires: a cycle
             "hcss/questionnaires/tlx.py",
             "from hcss.analysis import measures",
@@ -118,6 +138,16 @@ def test_the_source_keeps_every_contract() -> None:
             "def _late():\n    from hcss.platform.study import flow",
             "No import cycle between the modules of any package",
         ),
+        (  # a stage reaching for the flow instead of its stage context
+            "hcss/platform/study/mrt_stage.py",
+            "from hcss.platform.study.flow import Flow",
+            "The stages know the study flow only through the stage context",
+        ),
+        (  # ... or the study model, which the stages read
+            "hcss/platform/study/settings.py",
+            "def _late():\n    from hcss.platform.study.flow import study_now",
+            "The stages know the study flow only through the stage context",
+        ),
     ],
 )
 def test_a_planted_import_breaks_a_contract(
@@ -144,6 +174,152 @@ def test_a_module_imported_by_name_is_refused(tmp_path: Path) -> None:
     )
     assert result.returncode != 0
     assert "TID251" in result.stdout and "trial_log.py" in result.stdout, result.stdout
+
+
+def _type_checking_only(node: ast.If) -> bool:
+    test = node.test
+    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or (
+        isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING"
+    )
+
+
+def type_only_imports(root: Path, package: str = "hcss/platform/study") -> list[str]:
+    """Imports between a package's modules made only for the type checker.
+
+    import-linter leaves them out (`exclude_type_checking_imports`), so a
+    back-import under `if TYPE_CHECKING:` would let a package be a tree at run
+    time only; the study package is one for the type checker too.
+    """
+    dotted = package.replace("/", ".")
+    found = []
+    for path in sorted((root / package).rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if not (isinstance(node, ast.If) and _type_checking_only(node)):
+                continue
+            for inner in ast.walk(node):
+                names = (
+                    [inner.module or ""]
+                    if isinstance(inner, ast.ImportFrom)
+                    else [alias.name for alias in inner.names]
+                    if isinstance(inner, ast.Import)
+                    else []
+                )
+                found += [
+                    f"{path.relative_to(root)}:{inner.lineno}: imports {name} for types only"
+                    for name in names
+                    if name == dotted or name.startswith(f"{dotted}.")
+                ]
+    return found
+
+
+def test_the_study_package_is_a_tree_for_the_type_checker_too() -> None:
+    assert type_only_imports(CHECKOUT) == []
+
+
+def test_a_planted_type_only_back_import_is_found(tmp_path: Path) -> None:
+    root = planted(
+        tmp_path,
+        "hcss/platform/study/trial_stage.py",
+        "import typing\nif typing.TYPE_CHECKING:\n    from hcss.platform.study.flow import Flow",
+    )
+    found = type_only_imports(root)
+    assert len(found) == 1 and "trial_stage.py" in found[0], found
+    assert "imports hcss.platform.study.flow for types only" in found[0]
+
+
+#: Names that import a module named at run time (or run code that may): no import graph
+#: sees them, and ruff's banned-api does not resolve the bare builtins.
+IMPORTING_NAMES = {"__import__", "import_module"}
+RUNNING_BUILTINS = {"exec", "eval"}
+
+
+def dynamic_imports(root: Path) -> list[str]:
+    """Each use in hcss/ of `__import__` or `import_module` by any name (a call, an
+    attribute, an alias) and each use of the builtins `exec` and `eval`."""
+    found = []
+    for path in sorted((root / "hcss").rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Name) and node.id in IMPORTING_NAMES | RUNNING_BUILTINS:
+                name = node.id
+            elif isinstance(node, ast.Attribute) and node.attr in IMPORTING_NAMES:
+                name = node.attr
+            elif isinstance(node, ast.alias) and node.name in IMPORTING_NAMES:
+                name = node.name
+            else:
+                continue
+            found.append(f"{path.relative_to(root)}:{getattr(node, 'lineno', '?')}: {name}")
+    return found
+
+
+def test_no_module_is_imported_by_name() -> None:
+    assert dynamic_imports(CHECKOUT) == []
+
+
+@pytest.mark.parametrize(
+    ("module", "line", "found"),
+    [
+        (  # the builtin, in a leaf: ruff and import-linter both let it pass
+            "hcss/simulation/params.py",
+            'db = __import__("hcss.platform.db")',
+            "__import__",
+        ),
+        (  # the builtin through its module
+            "hcss/analysis/summary.py",
+            'import builtins\nforms = builtins.__import__("hcss.platform.console.forms")',
+            "__import__",
+        ),
+        (  # an alias, called later
+            "hcss/experiments/sweep.py",
+            "load = __import__",
+            "__import__",
+        ),
+        (  # importlib's function imported by name
+            "hcss/questionnaires/tlx.py",
+            "from importlib import import_module",
+            "import_module",
+        ),
+        (  # an import statement run from a string
+            "hcss/questionnaires/tlx.py",
+            'exec("import hcss.platform")',
+            "exec",
+        ),
+    ],
+)
+def test_a_planted_import_by_name_is_found(
+    tmp_path: Path, module: str, line: str, found: str
+) -> None:
+    uses = dynamic_imports(planted(tmp_path, module, line))
+    assert any(u.startswith(module) and u.endswith(f": {found}") for u in uses), uses
+
+
+#: What the model must run without: it is imported by the platform's every process.
+NOT_IN_THE_MODEL = ("hcss.experiments", "hcss.analysis", "optuna", "dask", "distributed", "pandas")
+
+#: Imports every module of hcss.simulation in a fresh interpreter and prints the
+#: top-level packages and hcss packages that came with them.
+LOADED_BY_THE_MODEL = """
+import importlib, pkgutil, sys
+import hcss.simulation as model
+for module in pkgutil.iter_modules(model.__path__):
+    importlib.import_module("hcss.simulation." + module.name)
+print(" ".join(sorted({".".join(name.split(".")[:2]) for name in sys.modules})))
+"""
+
+
+def test_the_model_loads_none_of_its_experiments_analysis_or_their_libraries() -> None:
+    """At run time too: the contract above reads imports, this imports every model module
+    (each with its module-level side effects) and looks at what came in."""
+    result = subprocess.run(
+        [sys.executable, "-c", LOADED_BY_THE_MODEL],
+        cwd=CHECKOUT,
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=300,
+    )
+    loaded = set(result.stdout.split())
+    assert "hcss.simulation" in loaded and "numba" in loaded, result.stdout
+    assert loaded.isdisjoint(NOT_IN_THE_MODEL), sorted(loaded & set(NOT_IN_THE_MODEL))
 
 
 #: Where a live trial's state is defined, and the classes that hold it.

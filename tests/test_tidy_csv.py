@@ -9,10 +9,10 @@ from pathlib import Path
 import pytest
 
 from hcss import tidy_csv
+from hcss.experiments import equivalence as eq
+from hcss.experiments import experiment as exp
+from hcss.experiments import sweep as sw
 from hcss.simulation import DECISION_COLUMNS
-from hcss.simulation import equivalence as eq
-from hcss.simulation import experiment as exp
-from hcss.simulation import sweep as sw
 
 
 def _cells(path: Path) -> list[dict[str, str]]:

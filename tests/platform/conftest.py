@@ -67,7 +67,9 @@ def make_trial(app: Flask):
     def make(**options: Any) -> TrialHandle:
         options.setdefault("seed", 2)
         training = options.get("kind") == "training"
-        options.setdefault("duration_s", STUDY.training_s if training else STUDY.trial_s)
+        options.setdefault(
+            "duration_s", STUDY.timing.training_s if training else STUDY.timing.trial_s
+        )
         database = app.extensions["hcss_db"]
         with database.session_scope() as session:
             participant, trial = start_bot_trial(session, **options)

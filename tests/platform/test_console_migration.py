@@ -10,7 +10,7 @@ from sqlalchemy import MetaData, create_engine, inspect
 
 from hcss.platform.cli import alembic_config
 from hcss.platform.models import AuditRecord, Base, ConsoleAction, Experimenter
-from tests.support.console import SECOND_FACTOR_COLUMNS
+from tests.support.console import SECOND_FACTOR_COLUMNS, UNIQUE_TRIAL_KEYS
 
 CONSOLE_TABLES = {m.__tablename__ for m in (Experimenter, ConsoleAction, AuditRecord)}
 #: Columns later revisions add to tables that exist at 0002_console (table, column).
@@ -24,6 +24,8 @@ LATER_COLUMNS = SECOND_FACTOR_COLUMNS | {
 
 
 def _not_added_later(obj, name, type_, reflected, compare_to) -> bool:
+    if type_ == "index":
+        return name not in UNIQUE_TRIAL_KEYS
     return not (type_ == "column" and (obj.table.name, name) in LATER_COLUMNS)
 
 

@@ -121,7 +121,7 @@ def test_a_study_without_a_link_is_not_found(app, study: str) -> None:
 
 
 def test_a_study_that_wants_ids_refuses_anonymous_visits(app) -> None:
-    study = dataclasses.replace(load_study("demo"), online=OnlineSettings(link=True))
+    study = load_study("demo").model_copy(update={"online": OnlineSettings(link=True)})
     with app.app_context(), app.extensions["hcss_db"].session_scope() as session:
         with pytest.raises(RecruitmentError, match="needs the id"):
             enrol_or_resume(session, study, Recruit(source="link", recruitment_id=None))
@@ -330,8 +330,8 @@ def test_the_debrief_gives_the_completion_code_only_to_online_participants(
         assert 'href="https://app.prolific.com/submissions/complete?cc=DEMO2026"' in online
         assert 'http-equiv="refresh"' not in online
         demo = load_study("demo")
-        redirecting = dataclasses.replace(
-            demo, online=dataclasses.replace(demo.online, redirect=True)
+        redirecting = demo.model_copy(
+            update={"online": dataclasses.replace(demo.online, redirect=True)}
         )
         # The participant's flow loads its study once per request (flow.Flow.study).
         monkeypatch.setattr(flow, "load_study", lambda name: redirecting)

@@ -221,7 +221,7 @@ def test_a_study_file_with_other_probe_counts_is_accepted_and_bad_ones_refused()
 
     doc = tomllib.loads(study_text("original")[1].decode())
     doc["probes"] = {"perception": 2, "comprehension": 0, "projection": 1}
-    assert parse_study(doc, source="t").probe_counts == {1: 2, 2: 0, 3: 1}
+    assert parse_study(doc, source="t").probes.per_level == {1: 2, 2: 0, 3: 1}
     for bad in (-1, 10**6):
         doc["probes"]["projection"] = bad
         with pytest.raises(StudyFileError, match=r"\[probes\]"):

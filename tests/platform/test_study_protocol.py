@@ -88,7 +88,9 @@ def test_the_whole_original_protocol_leaves_every_row(study_app, database_url, t
         ]
         assert all(latest_status(session, t.id) == "ended" for t in trials)
         for t in trials:
-            assert t.duration_s == (study.training_s if t.kind == "training" else study.trial_s)
+            assert t.duration_s == (
+                study.timing.training_s if t.kind == "training" else study.timing.trial_s
+            )
             if t.kind == "trial":
                 assert t.first_section == enrolment.first_sections[t.model]
         assert session.scalars(
@@ -148,5 +150,7 @@ def test_the_whole_original_protocol_leaves_every_row(study_app, database_url, t
     exported_items = (outdir / "questionnaire_items.csv").read_text().splitlines()
     assert len(exported_items) - 1 == len(items)
     timings = (outdir / "stage_timings.csv").read_text().splitlines()[1:]
-    stage_count = len(study.before) + len(study.per_model) * 3 + len(study.after)
+    stage_count = (
+        len(study.sequence.before) + len(study.sequence.per_model) * 3 + len(study.sequence.after)
+    )
     assert len(timings) == stage_count and all(line.startswith(code) for line in timings)

@@ -124,7 +124,7 @@ def test_every_page_of_the_demo_survives_refresh_and_restart(database_url) -> No
         bot.client = v.client
         if page.interface:
             kind = trial_kind(v)
-            half = (study.training_s if kind == "training" else study.trial_s) / 2
+            half = (study.timing.training_s if kind == "training" else study.timing.trial_s) / 2
             v.advance(half / app.config["TIME_ACCELERATION"])  # mid-trial restart
             app = _restart(app, database_url)
             v = visitor(app, token)

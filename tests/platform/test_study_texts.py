@@ -8,7 +8,6 @@ code, as the texts tell participants to quote it to withdraw.
 
 from __future__ import annotations
 
-import dataclasses
 import re
 
 import pytest
@@ -79,7 +78,8 @@ def test_the_session_estimate_counts_only_the_stages_the_file_lists() -> None:
     demo = load_study("demo")
     assert timed_minutes(demo) == 12
     assert session_minutes(demo) == pytest.approx(12 + 17.5 + 2328 / 200)
-    trials_only = dataclasses.replace(demo, per_model=("training", "trial"))
+    sequence = demo.sequence.model_copy(update={"per_model": ("training", "trial")})
+    trials_only = demo.model_copy(update={"sequence": sequence})
     assert session_minutes(trials_only) == pytest.approx(12 + 15 * 10 / 60 + 2328 / 200)
     assert about(session_minutes(trials_only)) == "about 25 minutes"
     consent_text = fill(consent.consent_text(demo.consent_version).markdown, trials_only)

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from hcss.analysis.load import load_inputs
+from hcss.experiments import experiment as exp
 from hcss.simulation import Params, Scenario, Simulation
-from hcss.simulation import experiment as exp
 from hcss.simulation.operators import (
     HumanPace,
     InvestigateThenDecide,

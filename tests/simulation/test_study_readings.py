@@ -8,8 +8,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from hcss.experiments import experiment as exp
 from hcss.simulation import Params, Scenario, Simulation
-from hcss.simulation import experiment as exp
 from hcss.simulation.decisions import difficulty, label_distance
 from hcss.simulation.presets import PRESETS
 from hcss.simulation.rules import discovery_gap

@@ -212,6 +212,15 @@ SECOND_FACTOR_COLUMNS = {
     ("experimenter", "totp_last_step"),
     ("experimenter", "recovery_hashes"),
 }
+#: The unique keys of a trial's rows, added by i29_unique_trial_rows (later than these tests).
+UNIQUE_TRIAL_KEYS = {
+    "uq_decision_trial",
+    "uq_sim_event_trial",
+    "uq_probe_trial",
+    "uq_probe_event_probe",
+    "uq_request_status_change_trial",
+    "uq_interruption_trial",
+}
 
 
 @pytest.fixture

@@ -20,7 +20,7 @@ from hcss.platform.study.studyfile import load_study
 
 #: The original study's trial length (`timing.trial_s`), for trials a test starts directly.
 STUDY = load_study("original")
-STUDY_TRIAL_S = STUDY.trial_s
+STUDY_TRIAL_S = STUDY.timing.trial_s
 
 
 def csrf_token_of(html: str) -> str:

@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from hcss.experiments.crosscheck import LAYOUTS
+from hcss.experiments.meanfield import Rates, Site, solve_meanfield
+from hcss.experiments.meanfield_chain import run_chain
 from hcss.simulation import Params
-from hcss.simulation.crosscheck import LAYOUTS
-from hcss.simulation.meanfield import Site, solve_meanfield
-from hcss.simulation.meanfield_chain import run_chain
 
 SEARCH_SPACE = Params().with_changes(m2_distance_bounds="search_space")
 SITE_BOUNDS = Params().with_changes(m2_distance_bounds="site_distances")
@@ -77,7 +77,7 @@ def test_the_agent_model_agrees_with_the_mean_field_chain_on_simple_layouts() ->
     (0.33) when the engine's random stream changed; 4 keeps the structural gap
     and still fails for a real change of the agent model's speed.
     """
-    from hcss.simulation.crosscheck import agent_decision
+    from hcss.experiments.crosscheck import agent_decision
 
     params = SEARCH_SPACE.with_changes(discovery="per_agent")
     rng = np.random.default_rng(21)
@@ -97,7 +97,7 @@ def test_the_agent_model_agrees_with_the_mean_field_chain_on_simple_layouts() ->
 
 
 def test_the_odes_read_rate_abandonment_as_value_only_and_per_visit_as_distance_and_value() -> None:
-    from hcss.simulation.meanfield import Rates
+    from hcss.experiments.meanfield import Rates
 
     sites = [Site(150.0, 1.0), Site(350.0, 0.5)]
     rate = Rates.of(sites, "M2", Params().with_changes(abandonment="rate", abandon_scale=2.0))
@@ -119,9 +119,33 @@ def test_the_odes_read_rate_abandonment_as_value_only_and_per_visit_as_distance_
 
 
 def test_value_inside_g_lengthens_the_discovery_delay_of_poorer_sites() -> None:
-    from hcss.simulation.meanfield import Rates
+    from hcss.experiments.meanfield import Rates
 
     sites = [Site(150.0, 1.0), Site(150.0, 0.5)]
     plain = Rates.of(sites, "M2", SEARCH_SPACE)
     inside = Rates.of(sites, "M2", SEARCH_SPACE.with_changes(m2_g_reading="value_inside"))
     assert inside.leave_delay == pytest.approx(plain.leave_delay * np.array([1.0, 0.5]))
+
+
+def test_the_odes_run_only_the_m2_mechanisms_the_params_keep() -> None:
+    """An ablation (`m2_mechanisms`) removes a mechanism from the equations too, as from the
+    agent model: M2 with none of its three is M1, and each one removed is gone alone."""
+    sites = LAYOUTS["difficult"]
+    params = Params().with_changes(m2_distance_bounds="fitted", fitted_d_max_m=430.0)
+    m1 = solve_meanfield(sites, "M1", params)
+    bare = solve_meanfield(sites, "M2", params.with_changes(m2_mechanisms=()))
+    assert bare.win_probability == pytest.approx(m1.win_probability, abs=0.01)
+    assert bare.quorum_s == pytest.approx(m1.quorum_s, rel=0.02)
+    full = Rates.of(sites, "M2", params)
+    assert np.all(np.isfinite(full.leave_delay[[1, 2, 3]])) and np.any(full.modulation > 1)
+    for mechanism, field in (
+        ("discovery_delay", "leave_delay"),
+        ("reassessment_delay", "leave_reassess"),
+        ("modulation", "modulation"),
+    ):
+        kept = tuple(m for m in params.m2_mechanisms if m != mechanism)
+        rates = Rates.of(sites, "M2", params.with_changes(m2_mechanisms=kept))
+        removed = np.ones(4) if field == "modulation" else np.full(4, np.inf)
+        assert np.array_equal(getattr(rates, field), removed)
+        for other in {"leave_delay", "leave_reassess", "modulation"} - {field}:
+            assert np.array_equal(getattr(rates, other), getattr(full, other))

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hcss.simulation import experiment as exp
+from hcss.experiments import experiment as exp
 from hcss.simulation import movement, rules
 from hcss.simulation import states as S
 from hcss.simulation.params import Params

@@ -8,8 +8,8 @@ import pytest
 from click.testing import CliRunner
 
 from hcss.cli import main
+from hcss.experiments import experiment as exp
 from hcss.simulation import DECISION_COLUMNS
-from hcss.simulation import experiment as exp
 
 
 @pytest.fixture(scope="module")
@@ -85,6 +85,9 @@ def test_experiment_command_writes_the_decisions_table_and_summary(tmp_path):
     assert list(rows[0]) == list(DECISION_COLUMNS) and len(rows) == 12
     assert {r["source"] for r in rows} == {"simulation"} and {r["model"] for r in rows} == {"M2"}
     assert "| M2 | overall |" in (tmp_path / "summary.md").read_text()
+    # Without --preset the command runs the default, named in what it prints and writes.
+    assert "preset study-units." in result.output
+    assert "preset study-units." in (tmp_path / "summary.md").read_text()
 
 
 def test_unknown_models_are_refused_without_a_traceback(tmp_path):

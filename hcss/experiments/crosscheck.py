@@ -13,8 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hcss.simulation.meanfield import Site, solve_meanfield
-from hcss.simulation.meanfield_chain import run_chain
+from hcss.experiments.meanfield import Site, solve_meanfield
+from hcss.experiments.meanfield_chain import run_chain
 from hcss.simulation.params import Params
 from hcss.simulation.scenario import Scenario, one_collective
 

@@ -17,8 +17,8 @@ Everything runs at PRE_CHANGE_PARAMS, the parameter values in force when the
 reference was written, pinned here so that a later change of the defaults
 (which legitimately changes outcomes) cannot break or fake the comparison.
 
-    python -m hcss.simulation.equivalence write tests/simulation/data/reference_outcomes.csv
-    python -m hcss.simulation.equivalence compare tests/simulation/data/reference_outcomes.csv --runs 10
+    python -m hcss.experiments.equivalence write tests/experiments/data/reference_outcomes.csv
+    python -m hcss.experiments.equivalence compare tests/experiments/data/reference_outcomes.csv --runs 10
 """
 
 from __future__ import annotations
@@ -33,8 +33,9 @@ from typing import Any
 
 from scipy.stats import mannwhitneyu
 
-from hcss.simulation import experiment as exp
+from hcss.experiments import experiment as exp
 from hcss.simulation.params import Params
+from hcss.tablespec import EQUIVALENCE_REFERENCE
 from hcss.tidy_csv import write_table
 
 # Every Params value as it was on 2026-11-26 (commit 5718869), when the
@@ -98,7 +99,7 @@ PRE_CHANGE_PARAMS: dict[str, object] = {
 REFERENCE_SCENARIOS = 28
 REFERENCE_RUNS = 4
 REFERENCE_MODELS = ("M1", "M2")
-OUTCOME_COLUMNS = ("model", "trial_id", "difficulty", "correct", "decision_time_s", "timed_out")
+OUTCOME_COLUMNS = EQUIVALENCE_REFERENCE.names
 
 FAMILY_ALPHA = 0.01
 SUCCESS_TOLERANCE = 0.10  # absolute difference of mean per-trial success rates

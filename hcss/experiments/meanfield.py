@@ -11,7 +11,7 @@ any set of sites (distance, value), with no space and a well-mixed hub:
   a run of k from F_I(i) senders at rate λ·(1 − p_i)·p_i^k, p_i being F_I(i)'s
   share of the messages. The first quorum's site and time follow from the
   competing hazards: P(i first) = ∫ H_i'·e^(−ΣH) dt.
-- `chain.run_chain` (hcss/simulation/meanfield_chain.py): the stochastic
+- `chain.run_chain` (hcss/experiments/meanfield_chain.py): the stochastic
   version, N agents with the same rates, flights as fixed delays, messages to
   random hub members, the quorum window and the commitment chain of spec §7.
 
@@ -95,6 +95,13 @@ class Rates:
             leave_d = np.where(gap_d > 0, v / np.where(gap_d > 0, gap_d, 1.0), np.inf)
             leave_r = np.where(gap_r > 0, v / np.where(gap_r > 0, gap_r, 1.0), np.inf)
         modulation = dm / params.m2_d_min_m
+        # An ablation removes a mechanism here as in the agent model (params.m2_uses).
+        if not params.m2_uses(model, "discovery_delay"):
+            leave_d = inf
+        if not params.m2_uses(model, "reassessment_delay"):
+            leave_r = inf
+        if not params.m2_uses(model, "modulation"):
+            modulation = np.ones(d.size)
         return cls(
             discovery,
             v,

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hcss.simulation.meanfield import Rates, Site
+from hcss.experiments.meanfield import Rates, Site
 from hcss.simulation.params import Params
 
 # Chain states: uncommitted (exploring, flying home, in hub), favouring

@@ -1,9 +1,9 @@
 """The compiled engine's outcomes agree with the pre-change engine's (issue 11).
 
-The reference (tests/simulation/data/reference_outcomes.csv, one row per
+The reference (tests/experiments/data/reference_outcomes.csv, one row per
 decision) was written by the numpy engine of commit 5718869 with
 
-    python -m hcss.simulation.equivalence write tests/simulation/data/reference_outcomes.csv
+    python -m hcss.experiments.equivalence write tests/experiments/data/reference_outcomes.csv
 
 on 28 scenarios × 4 runs × {M1, M2} at PRE_CHANGE_PARAMS (pinned there, not the
 defaults, which the fidelity work changes). Random streams differ, so the
@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 
-from hcss.simulation import equivalence as eq
+from hcss.experiments import equivalence as eq
 from hcss.simulation.params import Params
 
 REFERENCE = Path(__file__).parent / "data" / "reference_outcomes.csv"

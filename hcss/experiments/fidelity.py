@@ -16,9 +16,9 @@ from typing import Any
 
 import numpy as np
 
-from hcss.simulation import experiment as exp
-from hcss.simulation import study_targets as st
-from hcss.simulation.calibrate import STUDY_M1_DECISION_MIN
+from hcss.experiments import experiment as exp
+from hcss.experiments import study_targets as st
+from hcss.experiments.calibrate import STUDY_M1_DECISION_MIN
 from hcss.simulation.params import M2_MECHANISMS, Params
 
 ABLATIONS: dict[str, str] = {

@@ -11,9 +11,9 @@ import pytest
 from click.testing import CliRunner
 
 from hcss.cli import main
+from hcss.experiments import experiment as exp
+from hcss.experiments import sweep as sw
 from hcss.simulation import DECISION_COLUMNS
-from hcss.simulation import experiment as exp
-from hcss.simulation import sweep as sw
 from hcss.simulation.presets import DEFAULT_PRESET, preset_params
 
 GRID = ["--param", "message_rate=0.5,1,2", "--param", "quorum_k=10,15,20"]

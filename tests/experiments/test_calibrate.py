@@ -9,8 +9,8 @@ import pytest
 from click.testing import CliRunner
 
 from hcss.cli import main
+from hcss.experiments import calibrate as cal
 from hcss.simulation import Params
-from hcss.simulation import calibrate as cal
 
 
 def test_first_encounters_come_no_later_with_a_larger_radius() -> None:

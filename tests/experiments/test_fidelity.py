@@ -8,9 +8,9 @@ import pytest
 from click.testing import CliRunner
 
 from hcss.cli import main
+from hcss.experiments import experiment as exp
+from hcss.experiments import fidelity as fid
 from hcss.simulation import Params
-from hcss.simulation import experiment as exp
-from hcss.simulation import fidelity as fid
 
 
 def _row(
