@@ -53,7 +53,7 @@ def target(database_url: str) -> Iterator[Target]:
 
 
 @pytest.mark.slow
-def test_fuzz_live_api(target: Target, caplog) -> None:  # type: ignore[no-untyped-def]
+def test_fuzz_live_api(target: Target, caplog) -> None:
     @FUZZ_SETTINGS
     @given(data=st.data())
     def fuzz(data: st.DataObject) -> None:
@@ -63,7 +63,7 @@ def test_fuzz_live_api(target: Target, caplog) -> None:  # type: ignore[no-untyp
 
 
 @pytest.mark.slow
-def test_fuzz_study_pages(target: Target, caplog) -> None:  # type: ignore[no-untyped-def]
+def test_fuzz_study_pages(target: Target, caplog) -> None:
     @FUZZ_SETTINGS
     @given(data=st.data())
     def fuzz(data: st.DataObject) -> None:
@@ -73,7 +73,7 @@ def test_fuzz_study_pages(target: Target, caplog) -> None:  # type: ignore[no-un
 
 
 @pytest.mark.slow
-def test_fuzz_console(target: Target, caplog) -> None:  # type: ignore[no-untyped-def]
+def test_fuzz_console(target: Target, caplog) -> None:
     @FUZZ_SETTINGS
     @given(data=st.data())
     def fuzz(data: st.DataObject) -> None:
@@ -85,7 +85,7 @@ def test_fuzz_console(target: Target, caplog) -> None:  # type: ignore[no-untype
 
 
 @pytest.mark.slow
-def test_fuzz_hosts_and_multipart_names(target: Target, caplog) -> None:  # type: ignore[no-untyped-def]
+def test_fuzz_hosts_and_multipart_names(target: Target, caplog) -> None:
     """Malformed Host headers and multipart names on every route group."""
 
     @FUZZ_SETTINGS
@@ -102,7 +102,7 @@ def test_fuzz_hosts_and_multipart_names(target: Target, caplog) -> None:  # type
 @pytest.mark.slow
 def test_every_console_page_answers_after_failed_sign_ins_from_many_clients(
     database_url: str, caplog
-) -> None:  # type: ignore[no-untyped-def]
+) -> None:
     """5 failed sign-ins (any username, several clients, the rate limit on), then every page."""
     fuzzed = make_target(database_url, LOGIN_RATE_LIMIT=True)
     try:
@@ -130,7 +130,7 @@ def test_every_console_page_answers_after_failed_sign_ins_from_many_clients(
 
 
 @pytest.mark.slow
-def test_fuzz_during_a_database_outage(tmp_path, caplog) -> None:  # type: ignore[no-untyped-def]
+def test_fuzz_during_a_database_outage(tmp_path, caplog) -> None:
     """A full disk under SQLite while a trial runs: every route answers, 503 with Retry-After
     at worst, never a 500; the runner ticks between requests as the server's thread does."""
     from tests.support.own_disk import own_disk
@@ -168,7 +168,7 @@ def test_fuzz_during_a_database_outage(tmp_path, caplog) -> None:  # type: ignor
 
 
 @pytest.mark.slow
-def test_fuzz_during_a_postgresql_outage(caplog) -> None:  # type: ignore[no-untyped-def]
+def test_fuzz_during_a_postgresql_outage(caplog) -> None:
     """PostgreSQL comes and goes while a trial runs and every route is fuzzed.
 
     The database is reached through a proxy whose line the test cuts and
@@ -231,7 +231,7 @@ def test_fuzz_during_a_postgresql_outage(caplog) -> None:  # type: ignore[no-unt
             engine.dispose()
 
 
-def _half_stored(engine) -> dict[str, int]:  # type: ignore[no-untyped-def]
+def _half_stored(engine) -> dict[str, int]:
     """Rows whose unit of work is incomplete: a command without its outcome, a participant
     with no trace of how they were made, a trial without its status."""
     from sqlalchemy import text

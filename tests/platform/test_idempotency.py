@@ -18,7 +18,7 @@ from tests.support.counting import count_rows
 from tests.support.trials import csrf_token_of, investigate_request, until_probe
 
 
-def _keyed(trial, path: str, body, key: str):  # type: ignore[no-untyped-def]
+def _keyed(trial, path: str, body, key: str):
     return trial.client.post(
         trial.api + path,
         json=body,
@@ -195,7 +195,7 @@ def test_the_migration_creates_the_key_table_as_modelled_and_removes_it(database
             ("recruitment", "submit_to"),  # i31a_mturk_submit_to
         }
 
-        def not_later(obj, name, type_, reflected, compare_to) -> bool:  # type: ignore[no-untyped-def]
+        def not_later(obj, name, type_, reflected, compare_to) -> bool:
             if type_ == "index":
                 return name not in UNIQUE_TRIAL_KEYS
             return not (type_ == "column" and (obj.table.name, name) in later)
@@ -213,14 +213,14 @@ class _LostKey(Exception):
     """The write of a key failed (or the server died) after the command was carried out."""
 
 
-def _lose_the_next_key(app):  # type: ignore[no-untyped-def]
+def _lose_the_next_key(app):
     """Make the next transaction that holds a `CommandKey` fail, as a kill -9 would."""
     from sqlalchemy import event
 
     sessions = app.extensions["hcss_db"].sessions
     lost = []
 
-    def fail(session, _flush_context, _instances) -> None:  # type: ignore[no-untyped-def]
+    def fail(session, _flush_context, _instances) -> None:
         if not lost and any(isinstance(row, CommandKey) for row in session.new):
             lost.append(True)
             raise _LostKey("the key's write failed")
@@ -229,7 +229,7 @@ def _lose_the_next_key(app):  # type: ignore[no-untyped-def]
     return lambda: event.remove(sessions, "before_flush", fail)
 
 
-def _post_losing_the_key(trial, path: str, body, key: str) -> None:  # type: ignore[no-untyped-def]
+def _post_losing_the_key(trial, path: str, body, key: str) -> None:
     restore = _lose_the_next_key(trial.app)
     try:
         response = _keyed(trial, path, body, key)

@@ -368,7 +368,7 @@ def envelopes(
 
 def run_request(
     target: Target, client: FlaskClient, request: tuple[str, str, dict[str, Any]], caplog
-) -> None:  # type: ignore[no-untyped-def]
+) -> None:
     method, path, options = request
     caplog.clear()
     with caplog.at_level(logging.ERROR):
