@@ -35,8 +35,9 @@ from hcss.platform.live.runner import Runner
 from hcss.platform.live.session import RunningTrial
 from hcss.platform.live.stream import ended_stream, event_stream
 from hcss.platform.live.streams import StreamSlots
+from hcss.platform.live.trial_writer import KeyedCommand
 from hcss.platform.live.trials import end_reason
-from hcss.platform.models import CommandKey, Participant, StudyEnrolment, Trial
+from hcss.platform.models import Participant, StudyEnrolment, Trial
 
 __all__ = [
     "ActionError",
@@ -79,7 +80,7 @@ def frame(runner: Runner, trial_id: int) -> str:
 
 
 def submit_request(
-    database: Database, runner: Runner, trial_id: int, body: Any, key: CommandKey | None
+    database: Database, runner: Runner, trial_id: int, body: Any, key: KeyedCommand | None
 ) -> dict[str, Any]:
     """The request in the POST body, checked and applied; the answer the page gets."""
     live = _running(runner, trial_id)
@@ -89,7 +90,7 @@ def submit_request(
 
 
 def observe(
-    database: Database, runner: Runner, trial_id: int, body: Any, key: CommandKey | None
+    database: Database, runner: Runner, trial_id: int, body: Any, key: KeyedCommand | None
 ) -> dict[str, Any]:
     """A click on the map, checked and logged; the answer is the observation's id."""
     live = _running(runner, trial_id)
@@ -106,7 +107,7 @@ def observe(
 
 
 def probe_ready(
-    database: Database, runner: Runner, trial_id: int, probe_id: int, key: CommandKey | None
+    database: Database, runner: Runner, trial_id: int, probe_id: int, key: KeyedCommand | None
 ) -> dict[str, Any]:
     """The Ready press on the open probe, timed by the runner's clock."""
     live = _running(runner, trial_id)
@@ -119,7 +120,7 @@ def probe_answer(
     trial_id: int,
     probe_id: int,
     body: Any,
-    key: CommandKey | None,
+    key: KeyedCommand | None,
 ) -> dict[str, Any]:
     """The answer in the POST body to the open probe, timed by the runner's clock."""
     live = _running(runner, trial_id)

@@ -28,7 +28,7 @@ from hcss.platform.db import database
 from hcss.platform.live.access import require_owner, runner
 from hcss.platform.live.command_keys import Answer, once
 from hcss.platform.live.commands import ActionError
-from hcss.platform.models import CommandKey
+from hcss.platform.live.trial_writer import KeyedCommand
 
 KEY_HEADER = "Idempotency-Key"
 KEY_PATTERN = re.compile(r"[A-Za-z0-9_-]{8,64}")
@@ -62,7 +62,7 @@ def _fingerprint() -> str:
 def idempotent(view: Callable[..., Any]) -> Callable[..., Any]:
     """Route decorator: carry out a keyed command once and answer repeats from the store.
 
-    The view is called with `key`: the request's `CommandKey`, not yet stored,
+    The view is called with `key`: the request's key as a value (`KeyedCommand`),
     for the action to store with what it records; None when the POST has no key.
     """
 
@@ -72,11 +72,11 @@ def idempotent(view: Callable[..., Any]) -> Callable[..., Any]:
         if sent is None:
             return view(token, trial_id, key=None, **kwargs)
         require_owner(token, trial_id)  # 404 for another participant's trial
-        pending = CommandKey(
+        pending = KeyedCommand(
             trial_id=trial_id, key=sent, endpoint=str(request.endpoint), fingerprint=_fingerprint()
         )
 
-        def carry_out(key: CommandKey) -> Answer:
+        def carry_out(key: KeyedCommand) -> Answer:
             try:
                 response = current_app.make_response(view(token, trial_id, key=key, **kwargs))
             except ActionError as error:
