@@ -281,3 +281,25 @@ def test_clicks_and_probe_answers_whose_key_was_lost_are_recorded_once(make_tria
         )
     assert kinds.count("ready") == 1 and kinds.count("answer") == 1
     assert count_rows(trial.app, CommandKey) == 3
+
+
+def test_no_view_runs_under_the_trials_lock(make_trial, monkeypatch) -> None:
+    """A keyed command's Flask view reads the request and answers outside the trial's lock:
+    only the live service takes it (issue 29: the view ran inside it, so a slow read of the
+    body held up the runner's steps and the trial's streams)."""
+    from hcss.platform.live import api
+
+    trial = make_trial()
+    body = investigate_request(trial)
+    lock = trial.live().lock
+    held_while_reading: list[bool] = []
+    read = api._json
+
+    def spy():
+        held_while_reading.append(lock._is_owned())
+        return read()
+
+    monkeypatch.setattr(api, "_json", spy)
+    answer = _keyed(trial, "/requests", body, str(uuid.uuid4()))
+    assert answer.status_code == 200 and answer.get_json()["accepted"] is True
+    assert held_while_reading == [False]
