@@ -52,11 +52,16 @@ test-fast: install
 # Long fuzz run of every route (tests/platform/test_fuzz.py): 4 groups x FUZZ_EXAMPLES requests
 # on SQLite (50,000 at the default), an outage group of a fifth as many, and as many again on
 # PostgreSQL when HCSS_TEST_DATABASE_URL is set. The tally is by database, status and route.
+# Then the same groups over HTTP through a real nginx in front of `hcss serve`
+# (tests/platform/test_fuzz_nginx.py), FUZZ_NGINX_EXAMPLES per group.
 FUZZ_EXAMPLES ?= 12500
+FUZZ_NGINX_EXAMPLES ?= 2500
 fuzz: install
 	mkdir -p test-artifacts && rm -f test-artifacts/fuzz-tally.txt
 	HCSS_FUZZ_EXAMPLES=$(FUZZ_EXAMPLES) HCSS_FUZZ_TALLY=test-artifacts/fuzz-tally.txt \
 		$(PY) -m pytest tests/platform/test_fuzz.py -q -n 2
+	HCSS_FUZZ_NGINX_EXAMPLES=$(FUZZ_NGINX_EXAMPLES) HCSS_FUZZ_TALLY=test-artifacts/fuzz-tally.txt \
+		$(PY) -m pytest tests/platform/test_fuzz_nginx.py -q
 	@awk '{n[$$4" HTTP "$$1]+=$$2; t[$$4]+=$$2} END {for (s in n) printf "  %s: %d\n", s, n[s]; \
 		for (d in t) printf "fuzz %s: %d requests\n", d, t[d]}' test-artifacts/fuzz-tally.txt | sort
 	@awk '{r[$$4" "$$3" "$$1]+=$$2} END {for (k in r) printf "  %s: %d\n", k, r[k]}' \

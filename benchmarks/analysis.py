@@ -16,7 +16,7 @@ from scipy.stats import studentized_range
 
 from hcss.analysis.r_distributions import tukey_sf
 from hcss.analysis.report import run_analysis
-from tests.analysis.synthetic import simulation_decisions, study_export, write_table
+from tests.support.synthetic import simulation_decisions, study_export, write_table
 
 
 def studentized_range_p(repeats: int = 50) -> None:

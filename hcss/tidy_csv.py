@@ -1,8 +1,9 @@
 """The one CSV writer of hcss, with one rule for every cell.
 
-The study export, the simulation's decisions, a sweep's cells and the
-equivalence reference are all read by the same analysis (and by people in a
-spreadsheet), so they are written alike (docs/data-dictionary.md):
+The study export, the simulation's decisions, a sweep's cells, the
+equivalence reference, the calibration's trials and the tables of `hcss
+analyze` are all read by the same analysis, by R and by people in a
+spreadsheet, so they are written alike (docs/data-dictionary.md):
 
 - a missing value, None or a float NaN, is an empty cell, never ``nan``;
 - a bool is ``true`` or ``false``;
@@ -10,7 +11,9 @@ spreadsheet), so they are written alike (docs/data-dictionary.md):
   round-trip form);
 - UTF-8, a header row, lines ending in CRLF (RFC 4180).
 
-It imports nothing from hcss, so every package may use it.
+It imports nothing from hcss (nor pandas: a frame comes in through
+:func:`write_frame`), so every package may use it; tests/test_tidy_csv.py
+checks that no other module of hcss writes a CSV.
 """
 
 from __future__ import annotations
@@ -19,7 +22,10 @@ import csv
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import TextIO
+from typing import TYPE_CHECKING, TextIO
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 
 def is_missing(value: object) -> bool:
@@ -59,3 +65,18 @@ def write_table(path: Path, columns: Sequence[str], rows: Iterable[Mapping[str, 
         writer = TableWriter(handle, columns)
         for row in rows:
             writer.write(row)
+
+
+def write_frame(path: Path, frame: pd.DataFrame) -> None:
+    """A pandas frame as a table at `path`: its columns, its rows, the same cell rule.
+
+    pandas' own ``to_csv`` would write ``True`` and LF line ends; here a
+    missing value of any kind (None, NaN, ``pd.NA``, ``NaT``) is an empty cell
+    and numpy scalars become the Python values they hold.
+    """
+    columns = [str(name) for name in frame.columns]
+    if len(set(columns)) != len(columns):
+        raise ValueError(f"a table names a column twice: {columns}")
+    cells = frame.astype(object).where(frame.notna(), None)
+    rows = cells.itertuples(index=False, name=None)
+    write_table(path, columns, (dict(zip(columns, row, strict=True)) for row in rows))

@@ -25,6 +25,10 @@ DURATIONS_FILE = Path(__file__).resolve().parents[1] / "test-artifacts" / "durat
 RECORDED_DURATIONS = Path(__file__).resolve().parent / "durations.csv"
 FAST_LIMIT_S = 2.0
 _seconds: dict[str, float] = {}
+
+#: The shared fixtures, in tests/support (a test module names a fixture, never imports one,
+#: and no test module imports another: tests/test_architecture.py checks it).
+pytest_plugins = ["tests.support.console", "tests.support.pages", "tests.support.study"]
 _outcome: dict[str, str] = {}
 
 

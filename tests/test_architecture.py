@@ -138,6 +138,16 @@ def test_the_source_keeps_every_contract() -> None:
             "def _late():\n    from hcss.platform.study import flow",
             "No import cycle between the modules of any package",
         ),
+        (  # a stage reaching for the flow instead of its stage context
+            "hcss/platform/study/mrt_stage.py",
+            "from hcss.platform.study.flow import Flow",
+            "The stages know the study flow only through the stage context",
+        ),
+        (  # ... or the study model, which the stages read
+            "hcss/platform/study/settings.py",
+            "def _late():\n    from hcss.platform.study.flow import study_now",
+            "The stages know the study flow only through the stage context",
+        ),
     ],
 )
 def test_a_planted_import_breaks_a_contract(
@@ -164,6 +174,57 @@ def test_a_module_imported_by_name_is_refused(tmp_path: Path) -> None:
     )
     assert result.returncode != 0
     assert "TID251" in result.stdout and "trial_log.py" in result.stdout, result.stdout
+
+
+def _type_checking_only(node: ast.If) -> bool:
+    test = node.test
+    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or (
+        isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING"
+    )
+
+
+def type_only_imports(root: Path, package: str = "hcss/platform/study") -> list[str]:
+    """Imports between a package's modules made only for the type checker.
+
+    import-linter leaves them out (`exclude_type_checking_imports`), so a
+    back-import under `if TYPE_CHECKING:` would let a package be a tree at run
+    time only; the study package is one for the type checker too.
+    """
+    dotted = package.replace("/", ".")
+    found = []
+    for path in sorted((root / package).rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if not (isinstance(node, ast.If) and _type_checking_only(node)):
+                continue
+            for inner in ast.walk(node):
+                names = (
+                    [inner.module or ""]
+                    if isinstance(inner, ast.ImportFrom)
+                    else [alias.name for alias in inner.names]
+                    if isinstance(inner, ast.Import)
+                    else []
+                )
+                found += [
+                    f"{path.relative_to(root)}:{inner.lineno}: imports {name} for types only"
+                    for name in names
+                    if name == dotted or name.startswith(f"{dotted}.")
+                ]
+    return found
+
+
+def test_the_study_package_is_a_tree_for_the_type_checker_too() -> None:
+    assert type_only_imports(CHECKOUT) == []
+
+
+def test_a_planted_type_only_back_import_is_found(tmp_path: Path) -> None:
+    root = planted(
+        tmp_path,
+        "hcss/platform/study/trial_stage.py",
+        "import typing\nif typing.TYPE_CHECKING:\n    from hcss.platform.study.flow import Flow",
+    )
+    found = type_only_imports(root)
+    assert len(found) == 1 and "trial_stage.py" in found[0], found
+    assert "imports hcss.platform.study.flow for types only" in found[0]
 
 
 #: Names that import a module named at run time (or run code that may): no import graph
@@ -504,3 +565,68 @@ def test_a_planted_trial_handle_in_the_api_is_found(
 ) -> None:
     handles = trial_handles(planted(tmp_path, module, line))
     assert any(h.startswith(module) and found in h for h in handles), handles
+
+
+# --- the tests as a wing: no test module imports another --------------------------------
+
+
+def _imported(node: ast.Import | ast.ImportFrom, package: list[str]) -> list[str]:
+    """The dotted modules (and names, which may be modules) an import statement reaches."""
+    if isinstance(node, ast.Import):
+        return [alias.name for alias in node.names]
+    base = package[: len(package) - node.level] if node.level else []
+    module = ".".join([*base, *(node.module or "").split(".")]).strip(".")
+    return [module, *(f"{module}.{alias.name}" for alias in node.names)]
+
+
+def imports_between_test_modules(root: Path) -> list[str]:
+    """Each import in a test module (test_*.py, conftest.py) of a test module or a conftest.
+
+    A test module shares nothing but through tests/support: helpers are imported from
+    there and fixtures are named, registered by tests/conftest.py (`pytest_plugins`).
+    """
+    found = []
+    for path in sorted(root.rglob("*.py")):
+        if not (path.name.startswith("test_") or path.name == "conftest.py"):
+            continue
+        package = list(path.relative_to(root.parent).with_suffix("").parts)
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if not isinstance(node, ast.Import | ast.ImportFrom):
+                continue
+            for name in _imported(node, package):
+                last = name.rsplit(".", 1)[-1]
+                if name.startswith("tests.") and (last.startswith("test_") or last == "conftest"):
+                    found.append(f"{path.relative_to(root.parent)}:{node.lineno} imports {name}")
+    return found
+
+
+def test_no_test_module_imports_another() -> None:
+    assert imports_between_test_modules(CHECKOUT / "tests") == []
+
+
+@pytest.mark.parametrize(
+    ("module", "line"),
+    [
+        ("platform/test_access.py", "from tests.platform.test_requests import _in_range_target"),
+        ("platform/test_access.py", "from .test_requests import _in_range_target"),
+        ("platform/test_access.py", "from tests.platform import test_requests"),
+        ("analysis/test_api.py", "import tests.analysis.test_cli"),
+        ("simulation/test_rules.py", "from .conftest import scenario"),
+        ("platform/conftest.py", "    from tests.platform.test_failover import _Console"),
+    ],
+)
+def test_a_planted_import_between_test_modules_is_found(
+    tmp_path: Path, module: str, line: str
+) -> None:
+    root = tmp_path / "tests"
+    shutil.copytree(CHECKOUT / "tests", root, ignore=shutil.ignore_patterns("__pycache__"))
+    target = root / module
+    source = target.read_text(encoding="utf-8")
+    if line.startswith(" "):  # inside a function, as a lazy import
+        source += f"\n\ndef _planted() -> None:\n{line}\n"
+    else:
+        source += f"\n{line}\n"
+    target.write_text(source, encoding="utf-8")
+    assert [f.split(" imports ")[0].split(":")[0] for f in imports_between_test_modules(root)] == [
+        f"tests/{module}"
+    ]

@@ -28,6 +28,8 @@ from hcss.analysis.studies import (
     set_aside_never_opened,
     study_files,
 )
+from hcss.tablespec import DECISIONS, EXPORT_TABLES, TableSpec
+from hcss.tablespec.frames import ContractError, check
 
 SIMULATION = "simulation"
 STUDY = "study"
@@ -35,40 +37,30 @@ STUDY = "study"
 #: Group labels in display order: simulation-only models first, then teams.
 GROUP_ORDER = ("M1SIM", "M2SIM", "M1", "M2", "M3")
 
-#: Columns of the decisions table the analysis reads (a subset of the contract).
-DECISION_COLUMNS = (
-    "source",
-    "model",
-    "participant",
-    "trial_id",
-    "scenario_id",
-    "run",
-    "collective",
-    "decision_index",
-    "difficulty",
-    "decision_time_s",
-    "timed_out",
-    "correct",
-    "n_requests",
-    "n_investigate",
-    "n_abandon",
-    "n_decide",
-    "n_interventions",
+#: The tables of an export the analysis reads, beside decisions.
+ANALYSED_TABLES = (
+    "participants",
+    "requests",
+    "observations",
+    "probes",
+    "questionnaire_items",
+    "scores",
+    "stage_timings",
 )
+#: Columns of the decisions table the analysis reads: the contract's required ones.
+DECISION_COLUMNS = DECISIONS.required
 
 #: Export tables beside decisions.csv, with the columns the analysis reads.
 STUDY_TABLES: dict[str, tuple[str, ...]] = {
-    "participants": ("participant", "is_pilot", "is_bot", "is_demo"),
-    "requests": ("participant", "trial_id", "model", "kind", "accepted", "intervention"),
-    "observations": ("participant", "trial_id", "model", "kind"),
-    "probes": ("participant", "trial_id", "model", "level", "correct", "timed_out"),
-    "questionnaire_items": ("participant", "instrument", "model", "item", "value"),
-    "scores": ("participant", "instrument", "model", "scale", "score"),
-    "stage_timings": ("participant", "stage", "entered_at", "submitted_at"),
+    table: EXPORT_TABLES[table].required for table in ANALYSED_TABLES
 }
 
+#: The bool and text columns among those read, by their contract's types.
 BOOLEAN_COLUMNS = frozenset(
-    {"timed_out", "correct", "accepted", "intervention", "is_pilot", "is_bot", "is_demo"}
+    column.name
+    for spec in (DECISIONS, *(EXPORT_TABLES[table] for table in ANALYSED_TABLES))
+    for column in spec.columns
+    if column.required and column.dtype == "bool"
 )
 #: Numeric decision columns: a time in seconds and the per-decision counts. None may be
 #: negative or infinite; a missing time is allowed (the decision had no recorded end).
@@ -94,7 +86,7 @@ DECISION_RANGES: dict[str, tuple[float, float, bool]] = {
     },
 }
 TEXT_COLUMNS = frozenset(
-    {"source", "model", "participant", "trial_id", "scenario_id", "collective", "difficulty"}
+    column.name for column in DECISIONS.columns if column.required and column.dtype == "str"
 )
 
 
@@ -199,6 +191,15 @@ def _checked(frame: pd.DataFrame, where: str, table: str, required: Sequence[str
     return frame
 
 
+def _keeps_contract(frame: pd.DataFrame, where: str, spec: TableSpec) -> None:
+    """Refuse a table whose read columns break the dictionary: a value of the wrong type,
+    or an empty cell where the dictionary allows none (hcss.tablespec, checked by pandera)."""
+    try:
+        check(frame, spec, spec.required)
+    except ContractError as error:
+        raise AnalysisInputError(f"{where}: {error}") from error
+
+
 def _numeric(frame: pd.DataFrame, where: str, columns: Sequence[str]) -> None:
     """Parse ``columns`` as numbers in place; text, infinity or a value out of range is refused.
 
@@ -245,6 +246,7 @@ def _decisions(frame: pd.DataFrame, where: str) -> pd.DataFrame:
         raise AnalysisInputError(
             f"{where}: difficulty must be 'easy' or 'difficult', found {sorted(difficulties)}"
         )
+    _keeps_contract(decisions, where, DECISIONS)
     decisions["participant"] = decisions["participant"].fillna("")
     decisions["group"] = pd.Series(
         [
@@ -281,6 +283,7 @@ def _read_input(path: Path) -> dict[str, pd.DataFrame]:
             frame = _decisions(frame, where)
         else:
             frame = _checked(frame, where, table, STUDY_TABLES[table])
+            _keeps_contract(frame, where, EXPORT_TABLES[table])
         tables[table] = frame.assign(input=str(path))
     return tables
 

@@ -17,6 +17,7 @@ from pathlib import Path
 import pandas as pd
 
 from hcss.analysis.clustered import human_decisions
+from hcss.tidy_csv import write_frame
 
 SCRIPT = "analysis.R"
 MODEL_DECISIONS = "model_decisions.csv"
@@ -52,10 +53,10 @@ def write_r_script(
     if not human.empty:
         table = human[[column for column in MODEL_COLUMNS if column in human.columns]].copy()
         table["correct"] = table["correct"].fillna(False).astype(bool).astype(int)
-        table.to_csv(directory / MODEL_DECISIONS, index=False)
+        write_frame(directory / MODEL_DECISIONS, table)
         written.append(directory / MODEL_DECISIONS)
     if scores is not None and (scores["instrument"] == "mrt").any():
         mrt = scores.loc[scores["instrument"] == "mrt", ["participant", "scale", "score"]]
-        mrt.to_csv(directory / MRT_SCORES, index=False)
+        write_frame(directory / MRT_SCORES, mrt)
         written.append(directory / MRT_SCORES)
     return written

@@ -19,6 +19,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from hcss.tidy_csv import write_frame
+
 MANIFEST = "sweep.json"
 SPLITS = ("overall", "easy", "difficult")
 PANELS = (
@@ -142,7 +144,7 @@ def analyse_sweep(path: Path, out: Path) -> SweepReport:
     tables = Path(out) / "tables"
     tables.mkdir(parents=True, exist_ok=True)
     csv_path = tables / "sweep_cells.csv"
-    table.to_csv(csv_path, index=False)
+    write_frame(csv_path, table)
     md_path = tables / "sweep_cells.md"
     md_path.write_text(_markdown(table), encoding="utf-8")
     report.tables += [csv_path, md_path]

@@ -16,6 +16,7 @@ from pathlib import Path
 import pandas as pd
 
 from hcss.analysis.stats import TestResult
+from hcss.tidy_csv import write_frame
 
 
 @dataclass(frozen=True)
@@ -164,5 +165,5 @@ def write_table(table: Table, directory: Path) -> list[Path]:
     frame = table.frame
     if frame.columns.empty:  # never a file without a header: say why there are no rows
         frame = pd.DataFrame({"note": [f"no rows: {table.caption}"]})
-    frame.to_csv(paths[2], index=False)
+    write_frame(paths[2], frame)
     return paths

@@ -35,6 +35,7 @@ from scipy.stats import mannwhitneyu
 
 from hcss.experiments import experiment as exp
 from hcss.simulation.params import Params
+from hcss.tablespec import EQUIVALENCE_REFERENCE
 from hcss.tidy_csv import write_table
 
 # Every Params value as it was on 2026-11-26 (commit 5718869), when the
@@ -98,7 +99,7 @@ PRE_CHANGE_PARAMS: dict[str, object] = {
 REFERENCE_SCENARIOS = 28
 REFERENCE_RUNS = 4
 REFERENCE_MODELS = ("M1", "M2")
-OUTCOME_COLUMNS = ("model", "trial_id", "difficulty", "correct", "decision_time_s", "timed_out")
+OUTCOME_COLUMNS = EQUIVALENCE_REFERENCE.names
 
 FAMILY_ALPHA = 0.01
 SUCCESS_TOLERANCE = 0.10  # absolute difference of mean per-trial success rates

@@ -14,10 +14,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from hcss.simulation.decisions import DECISION_COLUMNS
 from hcss.simulation.engine import Simulation
 from hcss.simulation.params import Params
 from hcss.simulation.scenario import Scenario
+from hcss.tablespec import DECISIONS
 from hcss.tidy_csv import write_table
 
 SPLITS = ("overall", "easy", "difficult")
@@ -172,5 +172,5 @@ def _execute_dask(
 
 # ----------------------------------------------------------------- output
 def write_decisions(rows: list[dict[str, Any]], path: Path) -> None:
-    """The decisions table as CSV, with the columns of docs/data-dictionary.md."""
-    write_table(path, DECISION_COLUMNS, rows)
+    """The decisions table as CSV, with its contract's columns (hcss.tablespec.DECISIONS)."""
+    write_table(path, DECISIONS.names, rows)

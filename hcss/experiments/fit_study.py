@@ -29,7 +29,6 @@ fit on another (`hcss simulate fidelity --preset study-calibrated --seed ...`).
 
 from __future__ import annotations
 
-import csv
 import json
 import math
 import time
@@ -50,6 +49,8 @@ from hcss.simulation.params import (
     LABEL_DISTANCES,
     Params,
 )
+from hcss.tablespec import CALIBRATION_TRIALS
+from hcss.tidy_csv import write_table
 
 STUDY_NAME = "hcss-study-calibration"
 SEARCH_SEED_BLOCK = 20_150_000  # the experiment's default scenarios (exp.experiment_scenarios)
@@ -373,21 +374,23 @@ def calibrate(
 
 
 def write_trials(study: Any, path: Path) -> None:
-    """Every search trial: its values, loss, cells met and measured cells."""
+    """Every search trial: its values, loss, cells met and measured cells
+    (hcss.tablespec.CALIBRATION_TRIALS), by the one CSV writer."""
     trials = completed(study)
     attrs = sorted({k for t in trials for k in t.user_attrs})
-    with path.open("w", newline="", encoding="utf-8") as handle:
-        writer = csv.writer(handle)
-        writer.writerow(["trial", *SEARCH_SPACE, "loss", *attrs])
-        for t in trials:
-            writer.writerow(
-                [
-                    t.number,
-                    *(t.params.get(n, "") for n in SEARCH_SPACE),
-                    t.value,
-                    *(t.user_attrs.get(a, "") for a in attrs),
-                ]
-            )
+    write_table(
+        path,
+        CALIBRATION_TRIALS.expand(parameter=list(SEARCH_SPACE), measure=attrs),
+        (
+            {
+                "trial": t.number,
+                **{name: t.params.get(name) for name in SEARCH_SPACE},
+                "loss": t.value,
+                **{name: t.user_attrs.get(name) for name in attrs},
+            }
+            for t in trials
+        ),
+    )
 
 
 def _values_line(values: dict[str, Any]) -> str:

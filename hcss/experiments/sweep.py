@@ -29,9 +29,9 @@ from pathlib import Path
 from typing import Any
 
 from hcss.experiments import experiment as exp
-from hcss.simulation.decisions import DECISION_COLUMNS
 from hcss.simulation.params import Params
 from hcss.simulation.presets import DEFAULT_PRESET, preset_params
+from hcss.tablespec import SWEEP_DECISIONS
 from hcss.tidy_csv import TableWriter, write_table
 
 MANIFEST = "sweep.json"
@@ -147,7 +147,8 @@ class Sweep:
 
     @property
     def columns(self) -> tuple[str, ...]:
-        return tuple(a.name for a in self.axes) + DECISION_COLUMNS
+        """The columns of its tables: hcss.tablespec.SWEEP_DECISIONS with its axes named."""
+        return SWEEP_DECISIONS.expand(parameter=[a.name for a in self.axes])
 
 
 def prepare(sweep: Sweep, out: Path) -> list[dict[str, object]]:

@@ -17,7 +17,7 @@ from werkzeug.exceptions import HTTPException
 from werkzeug.middleware.proxy_fix import ProxyFix
 
 from hcss.platform import config as platform_config
-from hcss.platform import db, hardening, pages, ratelimit
+from hcss.platform import db, hardening, pages
 from hcss.platform.console import presence
 from hcss.platform.console import views as console_views
 from hcss.platform.errors import (
@@ -65,7 +65,6 @@ def create_app(config: Mapping[str, Any] | None = None) -> Flask:
         )
     app.session_interface = SchemeSecureSessions()
     hardening.install(app)
-    ratelimit.install(app)
     db.init_app(app)
     csrf.init_app(app)
     _register_json_errors(app)

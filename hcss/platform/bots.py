@@ -5,9 +5,10 @@ A bot uses Flask's test client on an app whose live runner is driven by a
 20-minute trial takes a few seconds (time acceleration without waiting).
 From the study file alone, independently of the study engine, it works out
 which page must come next and asserts each page it reaches is that page;
-then it fills the page's form, answers MRT items, supervises trials with a
-scripted operator policy (hcss.simulation.operators) through the live JSON
-API, answers SA probes and fills every questionnaire. Bot participants are
+then it posts what the page's stage declares (`Stage.bot_submissions`: the
+answers it must refuse, then valid ones, as oTree's bots), answers MRT items,
+supervises trials with a scripted operator policy (hcss.simulation.operators)
+through the live JSON API and answers SA probes. Bot participants are
 flagged `is_bot`, so their data are always set apart.
 """
 
@@ -27,8 +28,10 @@ from sqlalchemy import select
 
 from hcss.platform.models import Participant
 from hcss.platform.study.enrolment import assign_cell
+from hcss.platform.study.stage import Shown, SubmissionMustFail
+from hcss.platform.study.stages import STAGES
 from hcss.platform.study.studyfile import Study, load_study
-from hcss.questionnaires import mrt, pages, ranking
+from hcss.questionnaires import mrt, pages
 from hcss.simulation import Display
 from hcss.simulation.operators import InvestigateThenDecide
 
@@ -71,9 +74,15 @@ class PageParser(HTMLParser):
         self.interface: dict[str, str] = {}
         self.csrf = ""
         self.warming = False  # a training or trial page waiting for the server's warm-up
+        self.alerts = 0  # messages shown with role="alert" (a refused answer's errors)
+        self._noscript = 0
 
     def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
         a = {k: v or "" for k, v in attrs}
+        if tag == "noscript":
+            self._noscript += 1
+        if a.get("role") == "alert" and "hidden" not in a and not self._noscript:
+            self.alerts += 1
         if tag == "main" and "data-stage" in a:
             self.stage, self.step = a["data-stage"], a.get("data-step", "")
         elif tag == "meta" and a.get("name") == "csrf-token":
@@ -94,6 +103,10 @@ class PageParser(HTMLParser):
                 self.radios[name].append(a.get("value", ""))
             elif kind == "checkbox" and "disabled" not in a:
                 self.checkboxes.append(a.get("value", ""))
+
+    def handle_endtag(self, tag: str) -> None:
+        if tag == "noscript":
+            self._noscript -= 1
 
 
 def parse_page(html: str) -> PageParser:
@@ -117,7 +130,11 @@ def expected_pages(study: Study) -> list[tuple[str, str]]:
         "trial": ["ready", "run"],
         "nasa_tlx": ["ratings", "comparisons"],
     }
-    names = list(study.before) + list(study.per_model) * len(study.models) + list(study.after)
+    names = (
+        list(study.sequence.before)
+        + list(study.sequence.per_model) * len(study.models)
+        + list(study.sequence.after)
+    )
     return [(name, step) for name in names for step in steps.get(name, ["form"])]
 
 
@@ -270,17 +287,6 @@ class ParticipantBot:
     def act(self, page: PageParser, report: BotReport) -> tuple[str, bool]:
         """Answer the page; True when that ends the step (MRT parts take many answers)."""
         stage, step = page.stage, page.step
-        if stage == "consent":
-            return self.post_form(page, {"decision": "agree"}), True
-        if stage == "screen_check":  # a bot's "window": comfortably large enough
-            return self.post_form(page, {"width": "1280", "height": "800"}), True
-        if stage == "ranking":
-            fields = {}
-            for dimension in ranking.DIMENSIONS:
-                ranks = self.rng.permutation(ranking.MODEL_COUNT) + 1
-                for label, rank in zip(ranking.ORDER_LABELS, ranks, strict=True):
-                    fields[ranking.item_key(dimension.key, label)] = str(rank)
-            return self.post_form(page, fields), True
         if stage == "mental_rotation" and page.mrt_item:
             try:
                 html = self.post_form(page, {"chosen": self.mrt_choice(page.mrt_item)})
@@ -294,10 +300,16 @@ class ParticipantBot:
             after = parse_page(html)
             done = (after.stage, after.step) != (stage, step)
             return html, done
-        if stage == "mental_rotation" and step.startswith("practice_"):
-            return self.post_form(page, {}), True  # the feedback's Continue
-        fields = {name: str(self.rng.choice(values)) for name, values in page.radios.items()}
-        return self.post_form(page, fields), True
+        shown = Shown(step, self.rng, page.radios)
+        html = ""
+        for submission in STAGES[stage].bot_submissions(shown):
+            html = self.post_form(page, dict(submission.fields))
+            if isinstance(submission, SubmissionMustFail):
+                again = parse_page(html)
+                if (again.stage, again.step) != (stage, step) or not again.alerts:
+                    raise BotError(f"{stage}/{step} took {dict(submission.fields)}: must refuse")
+                page = again  # the form shown again, with its errors
+        return html, True
 
     def mrt_choice(self, key: str) -> list[str]:
         item = next(i for i in (*mrt.item_bank(), *mrt.practice_items()) if i.key == key)
@@ -399,7 +411,7 @@ def bot_app(database_url: str, study: str, **config: Any) -> Flask:
             "DATABASE_URL": database_url,
             "STUDY": study,
             "LIVE_RUNNER": False,
-            "TIME_ACCELERATION": study_file.max_time_acceleration,
+            "TIME_ACCELERATION": study_file.timing.max_time_acceleration,
             **config,
         }
     )

@@ -379,7 +379,7 @@ def demo_trial(
             else serving.get("url", f"http://127.0.0.1:{DEFAULT_PORT}")
         )
     study_file = _study_file(study or serving.get("study") or "original")
-    length_s = study_file.training_s if training else study_file.trial_s
+    length_s = study_file.timing.training_s if training else study_file.timing.trial_s
     database = Database(database_url())
     with database.command_scope() as session:
         participant = Participant(is_demo=True, study=study_file.name)
@@ -393,8 +393,8 @@ def demo_trial(
             seed=seed,
             duration_s=length_s if minutes is None else minutes * 60.0,
             time_acceleration=float(os.environ.get("HCSS_TIME_ACCELERATION", "1.0")),
-            probe_counts=study_file.probe_counts,
-            preset=study_file.simulation_preset,
+            probe_counts=study_file.probes.per_level,
+            preset=study_file.simulation.preset,
         )
         link = f"{base_url.rstrip('/')}/live/{participant.token}"
         click.echo(

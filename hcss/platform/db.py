@@ -25,12 +25,14 @@ import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from datetime import UTC, datetime
+from pathlib import Path
 from typing import Any
 
 from flask import Flask, current_app, g, has_app_context
 from sqlalchemy import Engine, create_engine, event
 from sqlalchemy.orm import ORMExecuteState, Session, sessionmaker
 
+from hcss.platform import sqlite_recovery
 from hcss.platform.models import Base, CreatedAt
 
 #: SQLite errors after which a pooled connection is replaced, not used again.
@@ -73,15 +75,24 @@ def make_engine(url: str) -> Engine:
             url, connect_args={"check_same_thread": False, "timeout": 30}, **POOL
         )
 
+        if engine.url.database and engine.url.database != ":memory:":
+            sqlite_recovery.install(engine, Path(engine.url.database))
+
         @event.listens_for(engine, "handle_error")
         def _reopen_after(context) -> None:
             # A connection opened while the file or its disk was read-only stays
             # read-only, and one that met an I/O error may be unusable: treat both
             # as lost, so the pool discards its connections and opens new ones,
-            # and the server recovers without a restart once the disk does.
+            # and the server recovers without a restart once the disk does (the
+            # -shm mapping's part of it is sqlite_recovery's).
             text = str(context.original_exception).lower()
             if any(sign in text for sign in SQLITE_REOPEN_ON):
                 context.is_disconnect = True
+                # SQLAlchemy leaves a lost connection's cursor open; its statement would keep
+                # the closed connection (its files, its read-only -shm mapping) alive for as
+                # long as the error's traceback is kept, so the file never took writes again.
+                if context.execution_context is not None:
+                    context.execution_context.cursor.close()
 
         @event.listens_for(engine, "connect")
         def _sqlite_pragmas(dbapi_connection, _record) -> None:

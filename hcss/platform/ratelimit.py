@@ -9,10 +9,13 @@ Retry-After and write nothing. The client is the proxy-corrected address
 address or its /24 as ``HCSS_CLIENT_PREFIX_V4`` says). A lab whose
 participants share one address raises the count.
 
-The windows live in the process, not the database: a restart forgets them,
-which costs an attacker one window, and checking one costs no query. With
-``hcss serve --processes N`` each process keeps its own windows, so a client
-may start up to N times the count (docs/operations.md).
+The Starts are rows of the database (`JoinStart`, the prefix hashed with
+the server's secret, kept for one window), counted in turn per client, so
+the limit holds across `hcss serve --processes N`, several hosts and
+restarts (before, each process kept its own windows in memory and N
+processes let a client start N times the count). The row is written in the
+request's transaction: a Start that fails writes no row, and a refused one
+(429) rolls back, so it counts nothing either.
 
 The limit composes with a study's recruitment cap (its file's `target`):
 the view checks the cap first, so a Start on a full study gets the "study
@@ -22,42 +25,22 @@ uses none of the allowance, since it creates no one.
 
 from __future__ import annotations
 
-import threading
-import time
-from collections import deque
-from collections.abc import Callable
+import hashlib
+import hmac
 
-from flask import Flask, Response, current_app, request
+from flask import Response, current_app, request
 from flask.typing import ResponseReturnValue
+from sqlalchemy import delete, func, select, text
+from sqlalchemy.orm import Session
 
 from hcss.platform.connections import client_prefix
 from hcss.platform.errors import error_page
+from hcss.platform.models import JoinStart
 
 #: (Starts, seconds) one address may send; None: no limit.
 DEFAULT = (30, 600.0)
-
-
-class SlidingWindows:
-    """At most `count` events per key within any `seconds`; thread-safe, pruned as it goes."""
-
-    def __init__(self, clock: Callable[[], float] = time.monotonic) -> None:
-        self.clock = clock
-        self._events: dict[str, deque[float]] = {}
-        self._lock = threading.Lock()
-
-    def take(self, key: str, count: int, seconds: float) -> float:
-        """Count one event for `key`; 0 when allowed, else the seconds until one is."""
-        now = self.clock()
-        with self._lock:
-            for stale in [k for k, q in self._events.items() if not q or q[-1] <= now - seconds]:
-                del self._events[stale]  # keys idle for a whole window: memory stays bounded
-            events = self._events.setdefault(key, deque())
-            while events and events[0] <= now - seconds:
-                events.popleft()
-            if len(events) >= count:
-                return events[0] + seconds - now
-            events.append(now)
-            return 0.0
+#: Rows past the window deleted by one Start (bounded, so no Start pays for a backlog).
+PRUNE = 100
 
 
 def parse_limit(text: str) -> tuple[int, float] | None:
@@ -68,18 +51,18 @@ def parse_limit(text: str) -> tuple[int, float] | None:
     return int(count), float(seconds or 60)
 
 
-def enrolment_refusal() -> ResponseReturnValue | None:
+def enrolment_refusal(session: Session) -> ResponseReturnValue | None:
     """Count one Start that would create a participant; the 429 answer past the limit, else None.
 
     The study link's view asks only once it knows the Start would create
     someone: a returning participant or a full study creates no one, so it
-    uses none of the address's allowance and is never told to wait.
+    uses none of the address's allowance and is never told to wait. The row
+    counted is `session`'s, so it commits or rolls back with the Start.
     """
     limit = current_app.config.get("JOIN_PER_CLIENT")
     if not limit:
         return None
-    windows: SlidingWindows = current_app.extensions["hcss_join_windows"]
-    wait_s = windows.take(request_client(), int(limit[0]), float(limit[1]))
+    wait_s = take_start(session, _client_key(), int(limit[0]), float(limit[1]))
     if wait_s <= 0:
         return None
     headers = {"Retry-After": str(max(1, round(wait_s)))}
@@ -90,10 +73,51 @@ def enrolment_refusal() -> ResponseReturnValue | None:
     return page[0], page[1], headers
 
 
+def take_start(session: Session, client: str, count: int, seconds: float) -> float:
+    """Count one Start of `client` in `session`; 0 when allowed, else the seconds until one is.
+
+    The client's Starts are counted in turn on every process (`_one_client_at_a_time`),
+    until the request's transaction ends. Up to `PRUNE` rows (any client's) a whole
+    window old are deleted first, so no prefix's hash stays longer than it counts.
+    """
+    now = session.info["database"].clock()
+    _one_client_at_a_time(session, client)
+    aged = (
+        select(JoinStart.id)
+        .where(JoinStart.at_epoch <= now - seconds)
+        .limit(PRUNE)
+        .with_for_update(skip_locked=True)  # another Start's pruning: never wait for it
+    )
+    session.execute(delete(JoinStart).where(JoinStart.id.in_(aged)))
+    recent = (
+        select(JoinStart.at_epoch).where(JoinStart.client == client).order_by(JoinStart.at_epoch)
+    )
+    taken = int(session.scalar(select(func.count()).select_from(recent.subquery())) or 0)
+    if taken >= count:
+        # One place frees when the Start `taken - count` places from the oldest ages out.
+        frees = session.scalars(recent.offset(taken - count).limit(1)).first()
+        return max((frees if frees is not None else now) + seconds - now, 0.001)
+    session.add(JoinStart(client=client, at_epoch=now))
+    session.flush()
+    return 0.0
+
+
+def _one_client_at_a_time(session: Session, client: str) -> None:
+    """PostgreSQL: a transaction-scoped advisory lock on the client. SQLite: a write that
+    changes nothing takes the database's write lock before the count is read."""
+    if session.get_bind().dialect.name == "postgresql":
+        lock = int.from_bytes(hashlib.sha256(client.encode()).digest()[:8], "big", signed=True)
+        session.execute(text("SELECT pg_advisory_xact_lock(:key)"), {"key": lock})
+    else:
+        session.execute(text("UPDATE join_start SET client = client WHERE 0 = 1"))
+
+
+def _client_key() -> str:
+    """The client's prefix hashed with the server's secret: counted, never kept as an address."""
+    secret = str(current_app.config["SECRET_KEY"]).encode()
+    return hmac.new(secret, b"join:" + request_client().encode(), hashlib.sha256).hexdigest()
+
+
 def request_client() -> str:
     """The client every per-client limit counts this request under: its address's prefix."""
     return client_prefix(request.remote_addr, int(current_app.config.get("CLIENT_PREFIX_V4", 32)))
-
-
-def install(app: Flask) -> None:
-    app.extensions["hcss_join_windows"] = SlidingWindows()

@@ -15,38 +15,10 @@ from typing import Any
 from hcss.simulation.messages import collective_name
 from hcss.simulation.params import Params
 from hcss.simulation.world import World
+from hcss.tablespec import DECISIONS
 
-# The columns of the decisions table (docs/data-dictionary.md), in order.
-DECISION_COLUMNS: tuple[str, ...] = (
-    "source",
-    "model",
-    "participant",
-    "trial_id",
-    "scenario_id",
-    "run",
-    "seed",
-    "first_section",
-    "section",
-    "section_kind",
-    "collective",
-    "decision_index",
-    "difficulty",
-    "start_s",
-    "end_s",
-    "decision_time_s",
-    "timed_out",
-    "chosen_target",
-    "chosen_value",
-    "chosen_distance_m",
-    "best_target",
-    "best_value",
-    "correct",
-    "n_requests",
-    "n_investigate",
-    "n_abandon",
-    "n_decide",
-    "n_interventions",
-)
+#: The columns of the decisions table, in order: its contract's (hcss.tablespec.DECISIONS).
+DECISION_COLUMNS: tuple[str, ...] = DECISIONS.names
 
 
 @dataclass

@@ -11,7 +11,7 @@ from hcss.analysis.figures import comparison_figure, profile_figure
 from hcss.analysis.load import load_inputs
 from hcss.analysis.measures import all_measures
 from hcss.analysis.sections import build_sections
-from tests.analysis.synthetic import study_export
+from tests.support.synthetic import study_export
 
 
 def test_one_participant_gets_counts_and_one_line_per_test_not_run(tmp_path: Path):

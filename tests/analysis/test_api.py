@@ -6,7 +6,7 @@ import pandas as pd
 import pytest
 
 import hcss.analysis as analysis
-from tests.analysis.test_r_agreement import SCORES
+from tests.support.synthetic import SCORES
 
 REL = 1e-6
 

@@ -10,7 +10,7 @@ from click.testing import CliRunner
 from scipy.stats import mannwhitneyu
 
 from hcss.analysis.cli import analyze
-from tests.analysis.synthetic import simulation_decisions, study_export, write_table
+from tests.support.synthetic import simulation_decisions, study_export, write_table
 
 
 def run(*arguments: str):

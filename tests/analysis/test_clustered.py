@@ -1,7 +1,7 @@
 """Decision-level models with the participant as cluster, against R's geepack and lme4.
 
 The fixture holds 288 decisions of 8 generated participants (3 models × 12
-decisions), written once from tests/analysis/synthetic.py (study_export, seed 5).
+decisions), written once from tests/support/synthetic.py (study_export, seed 5).
 """
 
 from __future__ import annotations

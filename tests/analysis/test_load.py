@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 
 from hcss.analysis.load import AnalysisInputError, load_inputs, parse_bool
-from tests.analysis.synthetic import (
+from tests.support.synthetic import (
     DECISION_COLUMNS,
     decision_row,
     simulation_decisions,

@@ -14,7 +14,7 @@ import pytest
 from hcss.analysis.comparisons import correlations
 from hcss.analysis.load import load_inputs
 from hcss.analysis.measures import all_measures, measure_label
-from tests.analysis.synthetic import DECISION_COLUMNS, decision_row, study_export, write_table
+from tests.support.synthetic import DECISION_COLUMNS, decision_row, study_export, write_table
 
 
 def _study_decisions() -> list[dict]:

@@ -169,7 +169,7 @@ def test_hcss_analyze_puts_the_unit_tables_in_the_simulation_section(tmp_path: P
     from click.testing import CliRunner
 
     from hcss.analysis.cli import analyze
-    from tests.analysis.synthetic import simulation_decisions, write_table
+    from tests.support.synthetic import simulation_decisions, write_table
 
     decisions = simulation_decisions(scenarios=4, runs=2)
     write_table(decisions, tmp_path / "decisions.csv")

@@ -17,7 +17,7 @@ import pytest
 from hcss.analysis import posthoc, repeated, stats
 from hcss.analysis.decision_measures import decision_measures
 from hcss.analysis.r_distributions import EDGEWORTH, EXACT, T_APPROXIMATION
-from tests.analysis.synthetic import trial_rows
+from tests.support.synthetic import SCORES, trial_rows
 
 REL = 1e-6
 
@@ -144,22 +144,6 @@ def test_tukey_hsd_with_a_group_of_one_value_matches_r():
         assert row.upper == pytest.approx(upper, rel=REL)
         assert row.p == pytest.approx(p, rel=REL)  # R's ptukey, not scipy's finer integral
     assert "one value" in comparison.note
-
-
-#: Eight participants × three models; row 2 ties M2 and M3 (a zero difference).
-SCORES = pd.DataFrame(
-    [
-        [50, 75, 60],
-        [40, 70, 70],
-        [55, 80, 65],
-        [30, 60, 45],
-        [60, 55, 70],
-        [45, 90, 50],
-        [35, 65, 40],
-        [50, 85, 75],
-    ],
-    columns=["M1", "M2", "M3"],
-)
 
 
 def test_friedman_and_kendalls_w_match_r():

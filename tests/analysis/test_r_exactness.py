@@ -12,7 +12,7 @@ from hcss.analysis.decision_measures import decision_measures
 from hcss.analysis.paired import participant_blocks
 from hcss.analysis.r_distributions import EDGEWORTH
 from hcss.analysis.repeated import paired_wilcoxon
-from tests.analysis.synthetic import trial_rows
+from tests.support.synthetic import trial_rows
 
 REL = 1e-6
 

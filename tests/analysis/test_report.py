@@ -20,7 +20,7 @@ from hcss.analysis.cli import analyze
 from hcss.platform import bots
 from hcss.platform.export.archive import export_archive
 from hcss.platform.export.writer import write_export
-from tests.analysis.synthetic import simulation_decisions, write_table
+from tests.support.synthetic import simulation_decisions, write_table
 
 # slow: one bot walk of the demo study (~10 s) for the module; any library warning that
 # escapes to the terminal fails the test

@@ -28,7 +28,7 @@ from hcss.analysis.clustered import success_gee, time_mixed_model
 from hcss.analysis.load import load_inputs
 from hcss.analysis.measures import all_measures
 from hcss.analysis.sections import build_sections
-from tests.analysis.synthetic import study_export
+from tests.support.synthetic import study_export
 
 FIXTURES = Path(__file__).parent / "fixtures"
 

@@ -11,7 +11,7 @@ from click.testing import CliRunner
 
 from hcss.analysis.cli import analyze
 from hcss.analysis.load import AnalysisInputError, load_inputs
-from tests.analysis.synthetic import study_export
+from tests.support.synthetic import study_export
 
 ORIGINAL, DEMO = "a" * 64, "b" * 64
 DEMO_CODES = {"P04", "P05"}

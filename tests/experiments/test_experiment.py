@@ -44,7 +44,7 @@ def test_summary_is_the_analysis_of_the_same_decisions_file(tmp_path):
 
     from hcss.analysis.report import run_analysis
     from hcss.analysis.summary import summarise_decisions
-    from tests.analysis.synthetic import simulation_decisions
+    from tests.support.synthetic import simulation_decisions
 
     rows = simulation_decisions(scenarios=4, runs=3).to_dict("records")
     exp.write_decisions(rows, tmp_path / "decisions.csv")

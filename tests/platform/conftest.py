@@ -13,23 +13,19 @@ wall clock and lets the runner step, so a 20-minute trial takes a second.
 from __future__ import annotations
 
 import os
-import re
 from collections.abc import Iterator
-from dataclasses import dataclass
 from typing import Any
 
 import pytest
 from flask import Flask
-from flask.testing import FlaskClient
 
 from hcss.platform.app import create_app
 from hcss.platform.bots import ManualClock
-from hcss.platform.live.runner import Runner
 from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.localserver import postgres_schema
-from hcss.platform.study.studyfile import load_study
-
-PG_ENV = "HCSS_TEST_DATABASE_URL"
+from tests.support.browser import CHROMIUM, CHROMIUM_ARGS
+from tests.support.databases import PG_ENV
+from tests.support.trials import STUDY, TrialHandle
 
 
 @pytest.fixture(params=["sqlite", "postgresql"])
@@ -44,11 +40,6 @@ def database_url(request: pytest.FixtureRequest, tmp_path) -> Iterator[str]:  # 
     # PostgreSQL's write-heavy tests, with the same visibility and isolation.
     with postgres_schema(base, "hcss_test", options="-csynchronous_commit=off") as url:
         yield url
-
-
-#: The original study's trial length (`timing.trial_s`), for trials a test starts directly.
-STUDY = load_study("original")
-STUDY_TRIAL_S = STUDY.trial_s
 
 
 @pytest.fixture
@@ -69,55 +60,6 @@ def app(database_url: str) -> Iterator[Flask]:
     app.extensions["hcss_db"].engine.dispose()
 
 
-def csrf_token_of(html: str) -> str:
-    match = re.search(r'<meta name="csrf-token" content="([^"]+)"', html)
-    assert match, "page has no csrf-token meta tag"
-    return match.group(1)
-
-
-@dataclass
-class TrialHandle:
-    """A participant with a live trial, and a browser-like client for it."""
-
-    app: Flask
-    client: FlaskClient
-    token: str
-    trial_id: int
-    started_epoch: float
-    acceleration: float
-    csrf: str = ""
-
-    @property
-    def runner(self) -> Runner:
-        return self.app.extensions["hcss_runner"]
-
-    @property
-    def api(self) -> str:
-        return f"/api/live/{self.token}/trials/{self.trial_id}"
-
-    def open_page(self) -> None:
-        """GET the trial page, as a browser does, and keep its CSRF token."""
-        page = self.client.get(f"/live/{self.token}")
-        assert page.status_code == 200
-        self.csrf = csrf_token_of(page.get_data(as_text=True))
-
-    def run_to(self, trial_seconds: float) -> None:
-        """Move the wall clock to this trial time and let the runner catch up."""
-        self.runner.clock.now = self.started_epoch + trial_seconds / self.acceleration
-        self.runner.tick()
-
-    def post(self, path: str, body: Any) -> Any:
-        return self.client.post(self.api + path, json=body, headers={"X-CSRFToken": self.csrf})
-
-    def state(self) -> dict[str, Any]:
-        response = self.client.get(self.api + "/state")
-        assert response.status_code == 200, response.get_data(as_text=True)
-        return response.get_json()
-
-    def live(self):  # type: ignore[no-untyped-def]
-        return self.runner.host(self.trial_id)
-
-
 @pytest.fixture
 def make_trial(app: Flask):  # type: ignore[no-untyped-def]
     """Start a trial for a new participant: make_trial(seed=2, model="M1", kind="trial")."""
@@ -125,7 +67,9 @@ def make_trial(app: Flask):  # type: ignore[no-untyped-def]
     def make(**options: Any) -> TrialHandle:
         options.setdefault("seed", 2)
         training = options.get("kind") == "training"
-        options.setdefault("duration_s", STUDY.training_s if training else STUDY.trial_s)
+        options.setdefault(
+            "duration_s", STUDY.timing.training_s if training else STUDY.timing.trial_s
+        )
         database = app.extensions["hcss_db"]
         with database.session_scope() as session:
             participant, trial = start_bot_trial(session, **options)
@@ -142,18 +86,6 @@ def make_trial(app: Flask):  # type: ignore[no-untyped-def]
         return handle
 
     return make
-
-
-# Debian's Chromium, driven by Playwright (its own browser download does not work here).
-CHROMIUM = "/usr/bin/chromium"
-CHROMIUM_ARGS = [
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-    "--no-first-run",
-]
 
 
 @pytest.fixture

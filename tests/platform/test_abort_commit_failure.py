@@ -16,10 +16,7 @@ from sqlalchemy.exc import OperationalError
 from hcss.platform.live.trials import latest_status
 from hcss.platform.models import ConsoleAction, Probe, ProbeEvent, TrialStatusChange
 from hcss.platform.models.vocabularies import TrialStatus
-from tests.platform import console_support
-from tests.platform.console_support import code_of
-
-console, experimenter = console_support.console, console_support.experimenter
+from tests.support.console import code_of
 
 
 def test_an_abort_whose_commit_fails_is_retried_without_lost_or_doubled_rows(

@@ -2,14 +2,8 @@
 
 from __future__ import annotations
 
-from sqlalchemy import func, select
-
 from hcss.platform.models import Command, Observation
-
-
-def _count(app, model) -> int:  # type: ignore[no-untyped-def]
-    with app.extensions["hcss_db"].session_scope() as session:
-        return session.scalar(select(func.count()).select_from(model))
+from tests.support.counting import count_rows
 
 
 def test_post_without_csrf_token_is_refused(make_trial) -> None:
@@ -29,8 +23,8 @@ def test_post_without_csrf_token_is_refused(make_trial) -> None:
     for response in (missing, forged, observation):
         assert response.status_code == 400
         assert response.get_json()["error"] == "csrf"
-    assert _count(trial.app, Command) == 0
-    assert _count(trial.app, Observation) == 0
+    assert count_rows(trial.app, Command) == 0
+    assert count_rows(trial.app, Observation) == 0
     assert trial.post("/requests", body).status_code == 200  # the page's token works
 
 
@@ -58,7 +52,7 @@ def test_a_participant_cannot_read_or_command_another_trial(make_trial) -> None:
     assert response.status_code == 404 and response.is_json
     probe = alice.client.post(foreign + "/probes/1/ready", headers={"X-CSRFToken": alice.csrf})
     assert probe.status_code == 404
-    assert _count(alice.app, Command) == 0
+    assert count_rows(alice.app, Command) == 0
     # Bob's own token still works, and an unknown token opens nothing.
     assert bob.client.get(bob.api + "/state").status_code == 200
     assert (

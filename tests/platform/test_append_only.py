@@ -23,10 +23,7 @@ from hcss.platform.models import (
     Participant,
 )
 from hcss.platform.pilots import is_pilot
-from tests.platform import console_support
-from tests.platform.console_support import code_of
-
-console, experimenter = console_support.console, console_support.experimenter
+from tests.support.console import code_of
 
 
 def _refused(database: Database, statement: str) -> str:

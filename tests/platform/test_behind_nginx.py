@@ -29,7 +29,7 @@ from hcss.platform.db import Database
 from hcss.platform.live.trials import start_trial
 from hcss.platform.localserver import LocalNginx, LocalServer
 from hcss.platform.models import Participant
-from tests.platform.conftest import csrf_token_of
+from tests.support.trials import csrf_token_of
 
 pytestmark = pytest.mark.slow
 

@@ -9,7 +9,7 @@ outcome. A form POST is repeated too; if the server had taken it ("already
 submitted", 409), the client opens the form's address, which leads on to the
 participant's current page, as a participant reloading would.
 
-The proxy (tests/platform/lossy_proxy.py) lets the server do the work, then
+The proxy (tests/support/lossy_proxy.py) lets the server do the work, then
 drops the answer.
 """
 
@@ -26,9 +26,9 @@ from hcss.platform.bot_http import HttpClient, LoadFigures
 from hcss.platform.bots import PageParser
 from hcss.platform.connections import close_server
 from hcss.platform.models import Command, StageEvent
-from tests.platform.conftest import csrf_token_of
-from tests.platform.inprocess_server import study_server
-from tests.platform.lossy_proxy import LossyProxy
+from tests.support.lossy_proxy import LossyProxy
+from tests.support.study_server import study_server
+from tests.support.trials import csrf_token_of
 
 
 @contextmanager

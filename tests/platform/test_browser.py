@@ -14,8 +14,8 @@ from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.localserver import LocalServer
 from hcss.platform.models import Observation, ProbeEvent
 from hcss.simulation import ROMAN
-from tests.platform.conftest import STUDY_TRIAL_S
-from tests.platform.screenshots import screenshot
+from tests.support.screenshots import screenshot
+from tests.support.trials import STUDY_TRIAL_S
 
 pytestmark = pytest.mark.browser
 

@@ -6,7 +6,7 @@ import pytest
 from click.testing import CliRunner
 
 from hcss.cli import main
-from tests.platform.conftest import STUDY_TRIAL_S
+from tests.support.trials import STUDY_TRIAL_S
 
 
 @pytest.mark.parametrize(

@@ -20,8 +20,8 @@ import pytest
 from hcss.platform.cli import upgrade_database
 from hcss.platform.connections import PER_CLIENT
 from hcss.platform.localserver import LocalServer
-from tests.platform.test_online_recruitment import _join as join
-from tests.platform.test_slow_clients import _bystander_ms
+from tests.support.bystander import sample_bystander_ms
+from tests.support.recruitment import join
 
 
 def _visitor(app, address: str):  # type: ignore[no-untyped-def]
@@ -94,7 +94,9 @@ def test_thirty_addresses_of_sixty_idle_sockets_leave_a_bystander_p95_under_500_
         time.sleep(3.0)  # the sockets are open
         latencies: list[float] = []
         watch = threading.Event()
-        bystander = threading.Thread(target=_bystander_ms, args=(server.port, watch, latencies))
+        bystander = threading.Thread(
+            target=sample_bystander_ms, args=(server.port, watch, latencies)
+        )
         bystander.start()
         time.sleep(WINDOW_S)
         watch.set()

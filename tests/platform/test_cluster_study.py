@@ -19,7 +19,7 @@ from pathlib import Path
 
 import httpx
 import pytest
-from sqlalchemy import select
+from sqlalchemy import func, select
 
 from hcss.platform.bot_http import LoadFigures, run_http_bots
 from hcss.platform.cli import upgrade_database
@@ -44,7 +44,7 @@ from hcss.platform.models import (
 )
 from hcss.platform.study.enrolment import cell_counts
 from hcss.platform.study.studyfile import load_study
-from tests.platform.test_failover import skip_unless_group
+from tests.support.leases import skip_unless_group
 
 #: What a laptop's browser measures and posts with the study link's Start.
 LAPTOP = {"width": "1366", "height": "768", "mobile": "0", "missing": ""}
@@ -163,6 +163,35 @@ def test_participants_arriving_at_once_on_two_processes_fill_the_cells_exactly(
     ]
 
 
+@pytest.mark.slow
+def test_one_client_s_starts_are_limited_once_across_both_processes(
+    group_database_url: str, tmp_path
+) -> None:
+    """One visitor's Starts, in turn on each process: the study link's window (3 per 10
+    minutes here) is one count for the group, not one per process (before: each process
+    kept its own windows, so the two let 6 of 8 Starts enrol)."""
+    database_url = group_database_url
+    upgrade_database(database_url)
+    statuses: list[int] = []
+    env = {"HCSS_JOIN_PER_CLIENT": "3/600"}
+    with _two_processes(database_url, tmp_path, env) as (servers, _):
+        transport = httpx.HTTPTransport(local_address="127.0.9.9")
+        with httpx.Client(timeout=60, transport=transport) as client:
+            for number in range(8):
+                server = servers[number % 2].url
+                query = {"PROLIFIC_PID": f"limit-{number}", "STUDY_ID": "S1", "SESSION_ID": "X"}
+                page = client.get(f"{server}/join/demo", params=query)
+                assert page.status_code == 200, page.text
+                form = dict(HIDDEN.findall(page.text)) | LAPTOP
+                statuses.append(client.post(f"{server}/join/demo", data=form).status_code)
+    database = Database(database_url)
+    with database.session_scope() as session:
+        enrolled = session.scalar(select(func.count()).select_from(Participant))
+    database.engine.dispose()
+    assert statuses == [302] * 3 + [429] * 5, statuses
+    assert enrolled == 3
+
+
 def test_a_trial_hosted_by_another_process_answers_503_with_retry_after(database_url) -> None:  # type: ignore[no-untyped-def]
     """Nginx passes the last 503 on when every process said "hosted elsewhere" (the owner is
     dead, its lease not yet run out); a bot or script then asks again after Retry-After.
@@ -172,7 +201,7 @@ def test_a_trial_hosted_by_another_process_answers_503_with_retry_after(database
     """
     from hcss.platform.bots import ManualClock
     from hcss.platform.live.trials import start_bot_trial
-    from tests.platform.lease_support import leased_process
+    from tests.support.leases import leased_process
 
     clock = ManualClock(1_000_000.0)
     owner = leased_process(database_url, "127.0.0.1:5001", clock)
@@ -202,7 +231,7 @@ def test_a_host_killed_before_its_first_snapshot_still_leaves_an_honest_clock(da
     """
     from hcss.platform.bots import ManualClock
     from hcss.platform.live.trials import start_bot_trial
-    from tests.platform.lease_support import LEASE_S, leased_process
+    from tests.support.leases import LEASE_S, leased_process
 
     clock = ManualClock(time.time())  # the trial's start is the database's now
     a = leased_process(database_url, "127.0.0.1:5001", clock)

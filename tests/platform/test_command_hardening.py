@@ -27,6 +27,7 @@ from hcss.platform.models import (
     TrialProblem,
     TrialStatusChange,
 )
+from tests.support.counting import count_rows
 
 ISSUE_POST = {"kind": "investigate", "collective": 16, "target": 1}
 
@@ -51,11 +52,6 @@ BAD_COMMANDS = [
     {"kind": "investigate", "collective": 0, "target": 1, "selections": list(range(1, 100))},
     {"kind": "investigate", "collective": 0, "target": 1, "selections": [[1]]},
 ]
-
-
-def _count(app, model) -> int:  # type: ignore[no-untyped-def]
-    with app.extensions["hcss_db"].session_scope() as session:
-        return session.scalar(select(func.count()).select_from(model))
 
 
 def _export(database_url: str, outdir) -> tuple[int, str, list[dict[str, str]]]:  # type: ignore[no-untyped-def]
@@ -84,7 +80,7 @@ def test_a_command_out_of_the_trials_range_is_refused_and_not_stored(make_trial,
 
     assert response.status_code == 400, response.get_data(as_text=True)
     assert response.get_json()["message"]
-    assert _count(trial.app, Command) == 0 and _count(trial.app, CommandOutcome) == 0
+    assert count_rows(trial.app, Command) == 0 and count_rows(trial.app, CommandOutcome) == 0
     after = trial.state()
     assert after["messages"] == before["messages"]
 
@@ -100,7 +96,7 @@ def test_an_observation_out_of_range_is_refused(make_trial) -> None:
     ):
         response = trial.post("/observations", body)
         assert response.status_code == 400, body
-    assert _count(trial.app, Observation) == 0
+    assert count_rows(trial.app, Observation) == 0
 
 
 def test_after_the_issues_post_export_and_restart_still_work(

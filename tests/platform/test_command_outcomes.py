@@ -14,9 +14,7 @@ from sqlalchemy.exc import IntegrityError
 from hcss.platform.live import actions
 from hcss.platform.models import Command, CommandOutcome, RequestStatusChange
 from hcss.simulation import OperatorCommand
-
-from .replay_support import operate
-from .replaying import replay_trial
+from tests.support.replays import operate, replay_trial
 
 
 def _rows(app, model):  # type: ignore[no-untyped-def]

@@ -9,25 +9,17 @@ Retry-After, and the retry that finally commits stores exactly one command.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-
 import pytest
 from sqlalchemy import event, select
 from sqlalchemy.exc import OperationalError
 
 from hcss.platform.models import Command
-from tests.platform.inprocess_server import StudyServer, study_server
-from tests.platform.test_participant_browser import open_live_trial, wait_for
+from tests.support.pages import open_live_trial, wait_for
+from tests.support.study_server import StudyServer
 
 pytestmark = pytest.mark.browser
 
 FAILED_COMMITS = 3
-
-
-@pytest.fixture
-def demo_server(tmp_path) -> Iterator[StudyServer]:  # type: ignore[no-untyped-def]
-    with study_server(tmp_path, "demo") as server:
-        yield server
 
 
 def _request_ready(browser, server: StudyServer):  # type: ignore[no-untyped-def]

@@ -6,12 +6,10 @@ import pytest
 from sqlalchemy import func, select
 
 from hcss.platform.models import ConsoleAction, Participant
-from tests.platform import console_support
-from tests.platform.conftest import csrf_token_of
-from tests.platform.console_support import PASSWORD, USERNAME, code_of, sign_in
+from tests.support.console import PASSWORD, USERNAME, code_of, sign_in
+from tests.support.trials import csrf_token_of
 
 # Fixtures of this part's own module (conftest.py belongs to the live trial tests).
-console, experimenter = console_support.console, console_support.experimenter
 
 
 def _console_urls(app, code: str, trial_id: int = 1) -> list[tuple[str, str]]:  # type: ignore[no-untyped-def]

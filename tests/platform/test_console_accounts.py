@@ -9,7 +9,7 @@ from sqlalchemy import select
 from hcss.cli import main
 from hcss.platform.console.accounts import FIRST_USERNAME, ensure_first_login
 from hcss.platform.models import Experimenter
-from tests.platform.console_support import sign_in
+from tests.support.console import sign_in
 
 
 @pytest.fixture

@@ -18,47 +18,16 @@ import time
 
 import pytest
 from sqlalchemy import select
-from waitress.server import create_server
 
-from hcss.platform.bots import ParticipantBot, bot_app
-from hcss.platform.cli import upgrade_database
-from hcss.platform.connections import close_server
-from hcss.platform.console.accounts import create_experimenter
+from hcss.platform.bots import ParticipantBot
 from hcss.platform.models import ConsoleAction, Participant, StudyEnrolment
 from hcss.platform.study.studyfile import load_study
-from tests.platform.screenshots import screenshot
+from tests.support.console import sign_in_page
+from tests.support.screenshots import screenshot
 
 pytestmark = pytest.mark.browser
 
 USERNAME, PASSWORD = "lab", "a long enough password"
-
-
-@pytest.fixture
-def console_app(tmp_path):  # type: ignore[no-untyped-def]
-    """The app (bots' clock, no runner thread) served by waitress in this process."""
-    url = f"sqlite:///{tmp_path / 'console-browser.sqlite3'}"
-    upgrade_database(url)
-    # The table polls every 0.3 s here (2 s by default), so a fast bot's stages all show.
-    app = bot_app(url, "original", SECRET_KEY="console-browser-secret", CONSOLE_POLL_S=0.3)
-    with app.extensions["hcss_db"].session_scope() as session:
-        create_experimenter(session, USERNAME, PASSWORD)
-    server = create_server(app, host="127.0.0.1", port=0, threads=8)
-    thread = threading.Thread(target=server.run, daemon=True)
-    thread.start()
-    yield app, f"http://127.0.0.1:{server.effective_port}"
-    close_server(server, thread)
-    app.extensions["hcss_db"].engine.dispose()
-
-
-def sign_in(page, base: str) -> None:  # type: ignore[no-untyped-def]
-    """The experimenter signs in and lands on the live table."""
-    from playwright.sync_api import expect
-
-    page.goto(f"{base}/console/")
-    page.fill("#username", USERNAME)
-    page.fill("#password", PASSWORD)
-    page.click("button[type=submit]")
-    expect(page.locator("h1")).to_have_text("Participants")
 
 
 def _row(page, code: str):  # type: ignore[no-untyped-def]
@@ -75,7 +44,7 @@ def test_console_batch_links_live_table_and_pause_resume(browser, console_app) -
     page = context.new_page()
 
     # Sign in, then create a batch of three on the demo study (the server's default is original).
-    sign_in(page, base)
+    sign_in_page(page, base)
     expect(page.locator("#study")).to_have_value("original")
     page.select_option("#study", "demo")
     page.fill("#count", "3")

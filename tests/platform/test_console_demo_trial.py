@@ -6,9 +6,6 @@ from __future__ import annotations
 from sqlalchemy import select
 
 from hcss.platform.models import Participant
-from tests.platform import console_support
-
-console, experimenter = console_support.console, console_support.experimenter
 
 
 def test_a_demo_trials_participant_shows_the_trial_and_its_actions(

@@ -10,10 +10,7 @@ from sqlalchemy import select
 from hcss.platform.live.trials import start_trial
 from hcss.platform.models import Participant
 from hcss.platform.study import views as study_views
-from tests.platform import console_support
-from tests.platform.conftest import STUDY_TRIAL_S
-
-console, experimenter = console_support.console, console_support.experimenter
+from tests.support.trials import STUDY_TRIAL_S
 
 
 def _lines(caplog: pytest.LogCaptureFixture) -> list[str]:

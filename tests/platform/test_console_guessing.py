@@ -13,10 +13,7 @@ from hcss.platform.app import create_app
 from hcss.platform.bots import ManualClock
 from hcss.platform.console.lockout import CLIENT_FAILURES, LOCKOUT_S
 from hcss.platform.models import AuditRecord
-from tests.platform import console_support
-from tests.platform.console_support import PASSWORD, USERNAME, sign_in
-
-console, experimenter = console_support.console, console_support.experimenter
+from tests.support.console import PASSWORD, USERNAME, code_of, sign_in
 
 
 def _attempt(app, username: str, password: str, address: str = "10.0.0.1"):  # type: ignore[no-untyped-def]
@@ -161,7 +158,7 @@ def test_every_answer_carries_the_security_headers(app, make_trial, console) -> 
 def test_pages_have_no_inline_script_or_handlers(app, make_trial, console) -> None:
     """What the CSP forbids must not be on the pages (the browser tests run them too)."""
     trial = make_trial()
-    code = console_support.code_of(app, trial.token)
+    code = code_of(app, trial.token)
     for html in (
         trial.client.get(f"/live/{trial.token}").get_data(as_text=True),
         console.get("/console/").get_data(as_text=True),

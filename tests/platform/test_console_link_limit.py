@@ -14,10 +14,7 @@ from sqlalchemy import func, select
 
 from hcss.platform.console.accounts import create_experimenter
 from hcss.platform.models import AuditRecord, Participant
-from tests.platform import console_support
-from tests.platform.console_support import Console, sign_in
-
-console, experimenter = console_support.console, console_support.experimenter
+from tests.support.console import Console, sign_in
 
 
 def _participants(app) -> int:  # type: ignore[no-untyped-def]

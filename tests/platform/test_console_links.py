@@ -8,10 +8,8 @@ import csv
 import io
 import re
 
-from tests.platform import console_support
-from tests.platform.console_support import statements
+from tests.support.console import statements
 
-console, experimenter = console_support.console, console_support.experimenter
 LINK = re.compile(r'data-copy="(http://localhost/p/[A-Za-z0-9_-]+)" data-usable="([01])"')
 
 

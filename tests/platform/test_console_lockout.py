@@ -13,12 +13,9 @@ from click.testing import CliRunner
 
 from hcss.platform.bot_http import HttpClient, LoadFigures
 from hcss.platform.console.lockout import CLIENT_FAILURES
-from tests.platform import console_support
-from tests.platform.conftest import csrf_token_of
-from tests.platform.console_support import PASSWORD, USERNAME, sign_in
-from tests.platform.inprocess import serving
-
-console, experimenter = console_support.console, console_support.experimenter
+from tests.support.console import PASSWORD, USERNAME, sign_in
+from tests.support.inprocess import serving
+from tests.support.trials import csrf_token_of
 
 
 def _attempt(app, username: str, password: str, address: str = "10.0.0.1", **headers: str):  # type: ignore[no-untyped-def]

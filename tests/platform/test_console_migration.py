@@ -10,14 +10,9 @@ from sqlalchemy import MetaData, create_engine, inspect
 
 from hcss.platform.cli import alembic_config
 from hcss.platform.models import AuditRecord, Base, ConsoleAction, Experimenter
+from tests.support.console import SECOND_FACTOR_COLUMNS, UNIQUE_TRIAL_KEYS
 
 CONSOLE_TABLES = {m.__tablename__ for m in (Experimenter, ConsoleAction, AuditRecord)}
-#: Columns 0011_second_factor adds, later than every revision these tests stop at.
-SECOND_FACTOR_COLUMNS = {
-    ("experimenter", "totp_secret"),
-    ("experimenter", "totp_last_step"),
-    ("experimenter", "recovery_hashes"),
-}
 #: Columns later revisions add to tables that exist at 0002_console (table, column).
 LATER_COLUMNS = SECOND_FACTOR_COLUMNS | {
     ("participant", "study"),  # 0004_c8_console
@@ -29,6 +24,8 @@ LATER_COLUMNS = SECOND_FACTOR_COLUMNS | {
 
 
 def _not_added_later(obj, name, type_, reflected, compare_to) -> bool:  # type: ignore[no-untyped-def]
+    if type_ == "index":
+        return name not in UNIQUE_TRIAL_KEYS
     return not (type_ == "column" and (obj.table.name, name) in LATER_COLUMNS)
 
 

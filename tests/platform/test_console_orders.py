@@ -18,8 +18,8 @@ from sqlalchemy import select
 from hcss.platform.bots import ManualClock
 from hcss.platform.console.accounts import create_experimenter
 from hcss.platform.models import ConsoleAction, Participant, TrialLease, TrialOrder
-from tests.platform.console_support import sign_in
-from tests.platform.lease_support import leased_process, start_trial_on
+from tests.support.console import sign_in
+from tests.support.leases import leased_process, start_trial_on
 
 ORDER_LIMIT_S = 2.0
 

@@ -7,9 +7,6 @@ from sqlalchemy import func, select
 
 from hcss.platform.console.presence import CONNECTED_WITHIN_S
 from hcss.platform.models import Participant, ParticipantPresence
-from tests.platform import console_support
-
-console, experimenter = console_support.console, console_support.experimenter
 
 
 def _new(console) -> tuple[str, str]:  # type: ignore[no-untyped-def]

@@ -6,9 +6,6 @@ from __future__ import annotations
 from sqlalchemy import select
 
 from hcss.platform.models import Participant, Recruitment
-from tests.platform import console_support
-
-console, experimenter = console_support.console, console_support.experimenter
 
 
 def _two_hundred(app) -> tuple[str, str]:  # type: ignore[no-untyped-def]

@@ -16,11 +16,8 @@ from sqlalchemy import select
 from hcss.platform.console.lockout import CLIENT_FAILURES
 from hcss.platform.console.second_factor import CODES_PER_LOCKOUT
 from hcss.platform.models import Experimenter
-from tests.platform import console_support
-from tests.platform.conftest import csrf_token_of
-from tests.platform.console_support import PASSWORD, USERNAME
-
-console, experimenter = console_support.console, console_support.experimenter
+from tests.support.console import PASSWORD, USERNAME
+from tests.support.trials import csrf_token_of
 
 
 def _sign_in(app, password: str, code: str = "", address: str = "10.0.0.1"):  # type: ignore[no-untyped-def]

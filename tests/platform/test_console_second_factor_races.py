@@ -20,12 +20,9 @@ from click.testing import CliRunner
 
 from hcss.platform.console import second_factor
 from hcss.platform.console.second_factor import CODE_FAILURES
-from tests.platform import console_support
-from tests.platform.conftest import csrf_token_of
-from tests.platform.console_support import PASSWORD, USERNAME
-from tests.platform.inprocess import serving
-
-console, experimenter = console_support.console, console_support.experimenter
+from tests.support.console import PASSWORD, USERNAME
+from tests.support.inprocess import serving
+from tests.support.trials import csrf_token_of
 
 pytestmark = pytest.mark.slow  # sign-ins at once: each checks an argon2 password
 

@@ -8,11 +8,9 @@ from hcss.platform.app import create_app
 from hcss.platform.bots import ManualClock
 from hcss.platform.live.trials import latest_status
 from hcss.platform.models import ConsoleAction, Participant
-from tests.platform import console_support
-from tests.platform.console_support import code_of
+from tests.support.console import code_of
 
 # Fixtures of this part's own module (conftest.py belongs to the live trial tests).
-console, experimenter = console_support.console, console_support.experimenter
 
 
 def _actions(app, code: str) -> list[tuple[str, int | None, str]]:  # type: ignore[no-untyped-def]

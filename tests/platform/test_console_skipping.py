@@ -10,10 +10,8 @@ from sqlalchemy import select
 
 from hcss.platform.bots import parse_page
 from hcss.platform.models import ConsoleAction, StageEvent
-from tests.platform import console_support
-from tests.platform.study_fixtures import Visitor, events, visitor
+from tests.support.study import Visitor, events, visitor
 
-console, experimenter = console_support.console, console_support.experimenter
 LINK = re.compile(r'value="(http://localhost/p/[A-Za-z0-9_-]+)"')
 
 

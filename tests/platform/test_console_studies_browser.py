@@ -15,7 +15,7 @@ import zipfile
 import pytest
 
 from hcss.platform.study.studyfile import load_study
-from tests.platform.test_console_browser import console_app, sign_in  # noqa: F401 - a fixture
+from tests.support.console import sign_in_page
 
 pytestmark = pytest.mark.browser
 
@@ -35,13 +35,13 @@ def _create_batch(page, study: str, count: int) -> tuple[list[str], list[str]]: 
     return codes, links
 
 
-def test_the_console_exports_one_study(browser, console_app) -> None:  # type: ignore[no-untyped-def]  # noqa: F811
+def test_the_console_exports_one_study(browser, console_app) -> None:  # type: ignore[no-untyped-def]
     from playwright.sync_api import expect
 
     _app, base = console_app
     context = browser.new_context(viewport={"width": 1366, "height": 768}, accept_downloads=True)
     page = context.new_page()
-    sign_in(page, base)
+    sign_in_page(page, base)
     demo, links = _create_batch(page, "demo", 2)
     original, _ = _create_batch(page, "original", 2)
     # One demo participant opens their link: enrolled, with the demo file's digest.

@@ -15,10 +15,7 @@ from hcss.platform.console.sessions import ConsoleError, change_session
 from hcss.platform.models import ConsoleAction, Participant, StudyEnrolment
 from hcss.platform.study.stages import sequence
 from hcss.platform.study.studyfile import load_study
-from tests.platform import console_support
-from tests.platform.study_fixtures import demo_app  # noqa: F401
 
-console, experimenter = console_support.console, console_support.experimenter
 LINK = re.compile(r'value="(http://localhost/p/[A-Za-z0-9_-]+)"')
 
 
@@ -144,7 +141,7 @@ def test_each_row_offers_only_the_actions_that_apply(app, console) -> None:
 
 
 @pytest.mark.slow  # a bot walks the whole demo study (about 10 s)
-def test_a_participant_who_finished_shows_completed_and_cannot_be_paused(demo_app) -> None:  # noqa: F811
+def test_a_participant_who_finished_shows_completed_and_cannot_be_paused(demo_app) -> None:
     (report,) = run_bots(demo_app, 1)
     database = demo_app.extensions["hcss_db"]
     with demo_app.app_context(), database.session_scope() as session:
@@ -186,7 +183,7 @@ def test_a_stuck_participant_is_moved_past_their_step_audited(app, console, tmp_
     from click.testing import CliRunner
 
     from hcss.cli import main
-    from tests.platform.study_fixtures import visitor
+    from tests.support.study import visitor
 
     console.post("/console/participants", {"count": "1", "study": "demo"})
     (code,) = console.progress()

@@ -8,10 +8,7 @@ from sqlalchemy import func, select
 from hcss.platform.console import withdrawal
 from hcss.platform.console.withdrawal import participant_tables
 from hcss.platform.models import AuditRecord, Base, Participant
-from tests.platform import console_support
-from tests.platform.console_support import cells_containing, code_of, play_trial, rows_referencing
-
-console, experimenter = console_support.console, console_support.experimenter
+from tests.support.console import cells_containing, code_of, play_trial, rows_referencing
 
 
 def _participant_id(app, code: str) -> int | None:  # type: ignore[no-untyped-def]
@@ -131,13 +128,13 @@ def test_the_schema_walk_finds_tables_added_later() -> None:
 
 
 def test_withdrawal_reaches_the_study_flow_records(app, console) -> None:
-    from tests.platform.test_export_study import _record_study
+    from tests.support.exports import record_study
 
     with app.extensions["hcss_db"].session_scope() as session:
         participant = Participant()
         session.add(participant)
         session.flush()
-        _record_study(session, participant)
+        record_study(session, participant)
         participant_id, code = participant.id, participant.code
     with app.extensions["hcss_db"].session_scope() as session:
         before = rows_referencing(session, participant_id)

@@ -23,9 +23,9 @@ from hcss.platform.live.trials import latest_status, start_bot_trial
 from hcss.platform.models import DecisionRow, Interruption, SimEvent, TrialStatusChange
 from hcss.platform.models.vocabularies import TrialStatus
 from hcss.simulation.messages import event_text
-from tests.platform.own_disk import own_disk
-from tests.platform.own_postgres import own_postgres
-from tests.platform.replaying import replay_trial
+from tests.support.own_disk import own_disk
+from tests.support.own_postgres import own_postgres
+from tests.support.replays import replay_trial
 
 TRIAL_S = 240.0
 TICK_S = 0.5  # trial (= wall, acceleration 1) seconds per runner tick: two per sync, as in a server

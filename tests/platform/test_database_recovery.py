@@ -7,9 +7,9 @@ import time
 
 from hcss.platform.app import create_app
 from hcss.platform.bots import ManualClock
-from tests.platform.own_disk import own_disk
-from tests.platform.own_postgres import own_postgres
-from tests.platform.test_online_recruitment import _join as join
+from tests.support.own_disk import own_disk
+from tests.support.own_postgres import own_postgres
+from tests.support.recruitment import join
 
 
 def _server_app(database_url: str):  # type: ignore[no-untyped-def]
@@ -80,7 +80,7 @@ def test_a_signed_in_console_page_answers_503_while_the_database_is_unreachable(
     again inside the error handler, and the console answered 500 (found by the
     PostgreSQL-outage fuzz)."""
     from hcss.platform.console.accounts import create_experimenter
-    from tests.platform.console_support import sign_in
+    from tests.support.console import sign_in
 
     with own_disk(tmp_path) as disk:
         url = f"sqlite:///{disk.path / 'hcss.sqlite3'}"

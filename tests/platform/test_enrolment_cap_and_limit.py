@@ -14,8 +14,7 @@ import re
 from sqlalchemy import func, select
 
 from hcss.platform.models import Participant
-from tests.platform.test_online_recruitment import LAPTOP
-from tests.platform.test_online_recruitment import _join as join
+from tests.support.recruitment import LAPTOP, join
 
 
 def start(app, study: str, **params: str):  # type: ignore[no-untyped-def]

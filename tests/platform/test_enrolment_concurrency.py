@@ -16,7 +16,6 @@ from typing import Any
 from sqlalchemy import select
 
 from hcss.platform.models import Participant, StageEvent, StudyEnrolment
-from tests.platform.study_fixtures import study_app  # noqa: F401
 
 
 def _at_once(calls: list[Callable[[], Any]]) -> list[Any]:
@@ -51,7 +50,7 @@ def _visit(app, path: str) -> Callable[[], int]:  # type: ignore[no-untyped-def]
     return lambda: app.test_client().get(path).status_code
 
 
-def test_48_simultaneous_arrivals_fill_each_cell_six_times(study_app) -> None:  # noqa: F811
+def test_48_simultaneous_arrivals_fill_each_cell_six_times(study_app) -> None:
     tokens = _new_participants(study_app, 48)
 
     statuses = _at_once([_visit(study_app, f"/p/{token}") for token in tokens])
@@ -62,7 +61,7 @@ def test_48_simultaneous_arrivals_fill_each_cell_six_times(study_app) -> None:  
     assert cells == {cell: 6 for cell in range(1, 9)}
 
 
-def test_eight_simultaneous_first_visits_of_one_link_enrol_once(study_app) -> None:  # noqa: F811
+def test_eight_simultaneous_first_visits_of_one_link_enrol_once(study_app) -> None:
     (token,) = _new_participants(study_app, 1)
 
     statuses = _at_once([_visit(study_app, f"/p/{token}/stage") for _ in range(8)])

@@ -17,12 +17,9 @@ from hcss.platform.console.progress import PER_PAGE
 from hcss.platform.localserver import postgres_schema
 from hcss.platform.models import Participant, StudyEnrolment
 from hcss.platform.study.studyfile import load_study
-from tests.platform import console_support
-from tests.platform.conftest import PG_ENV
-from tests.platform.console_support import Console, sign_in
-from tests.platform.test_online_recruitment import _join as join
-
-console, experimenter = console_support.console, console_support.experimenter
+from tests.support.console import Console, sign_in
+from tests.support.databases import PG_ENV
+from tests.support.recruitment import join
 
 
 def _participants(app) -> int:  # type: ignore[no-untyped-def]

@@ -9,7 +9,7 @@ from hcss.analysis.load import load_inputs
 from hcss.cli import main
 from hcss.platform import bots
 from hcss.platform.models import Participant
-from tests.platform.test_export_tables import dictionary_columns, read_csv
+from tests.support.exports import dictionary_columns, read_csv
 
 
 def test_a_bot_run_exports_every_table_with_rows(database_url, tmp_path) -> None:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from hcss.platform.console.participants import create_participants
 from hcss.platform.export.writer import collect
-from tests.platform.console_support import statements
+from tests.support.console import statements
 
 
 def _links_and_visits(app, count: int) -> None:  # type: ignore[no-untyped-def]

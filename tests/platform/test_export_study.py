@@ -2,94 +2,12 @@
 
 from __future__ import annotations
 
-from datetime import UTC, datetime, timedelta
-
 from click.testing import CliRunner
 from sqlalchemy import select
 
 from hcss.cli import main
 from hcss.platform.models import Participant, study
-from tests.platform import console_support
-from tests.platform.test_export_tables import read_csv
-
-console, experimenter = console_support.console, console_support.experimenter
-
-T0 = datetime(2026, 11, 22, 9, 0, tzinfo=UTC)
-
-
-def _at(seconds: float) -> datetime:
-    return T0 + timedelta(seconds=seconds)
-
-
-def _record_study(session, participant: Participant) -> None:  # type: ignore[no-untyped-def]
-    """What the study flow writes for a participant who reached the first post-trial form."""
-    pid = participant.id
-    session.add(
-        study.StudyEnrolment(
-            participant_id=pid,
-            study="original",
-            study_digest="0" * 64,
-            cell=3,
-            model_order="M2,M1,M3",
-            first_sections={"M1": "easy", "M2": "difficult", "M3": "easy"},
-            pool="real",
-        )
-    )
-    session.add(study.ConsentRecord(participant_id=pid, version="v1", decision="agree", at=_at(5)))
-    events = [
-        (0, "consent", "", "form", "entered", 0),
-        (0, "consent", "", "form", "submitted", 5),
-        (1, "demographics", "", "form", "entered", 5),
-        (1, "demographics", "", "form", "submitted", 65),
-        (2, "mental_rotation", "", "part_1", "entered", 65),
-        (2, "mental_rotation", "", "part_1", "timed_out", 245),
-        (2, "mental_rotation", "", "part_2", "entered", 250),
-        (2, "mental_rotation", "", "part_2", "submitted", 400),
-        (3, "post_trial", "M2", "form", "entered", 500),
-    ]
-    for index, stage, model, step, kind, at in events:
-        session.add(
-            study.StageEvent(
-                participant_id=pid,
-                stage_index=index,
-                stage=stage,
-                step=step,
-                model=model,
-                kind=kind,
-                at=_at(at),
-            )
-        )
-    answers = [
-        ("demographics", "", "age_band", "18-30"),
-        ("demographics", "", "gender", "female"),
-        ("demographics", "", "video_games", "2"),
-        ("demographics", "", "video_games", "3"),  # a correction: the newer row wins
-        ("nasa_tlx", "M2", "mental_demand", "55"),
-    ]
-    for instrument, model, item, value in answers:
-        session.add(
-            study.QuestionnaireItem(
-                participant_id=pid,
-                stage_index=1,
-                instrument=instrument,
-                model=model,
-                item=item,
-                value=value,
-                at=_at(60),
-            )
-        )
-    for instrument, model, scale, score in [
-        ("mrt", "", "total", 17.0),
-        ("mrt", "", "part_1", 9.0),
-        ("nasa_tlx", "M2", "overall", 48.5),
-        ("sart", "M2", "overall", 6.0),
-    ]:
-        session.add(
-            study.Score(
-                participant_id=pid, instrument=instrument, model=model, scale=scale, score=score
-            )
-        )
-    session.flush()
+from tests.support.exports import T0, read_csv, record_study
 
 
 def test_study_records_fill_the_participant_and_study_tables(app, database_url, tmp_path) -> None:
@@ -97,7 +15,7 @@ def test_study_records_fill_the_participant_and_study_tables(app, database_url, 
         participant = Participant()
         session.add(participant)
         session.flush()
-        _record_study(session, participant)
+        record_study(session, participant)
         code = participant.code
     outdir = tmp_path / "export"
     result = CliRunner().invoke(main, ["export", str(outdir), "--database-url", database_url])

@@ -2,11 +2,8 @@
 
 from __future__ import annotations
 
-import csv
-import re
 import zipfile
 from io import BytesIO
-from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
@@ -18,31 +15,8 @@ from hcss.platform.export.tables import TABLES
 from hcss.platform.export.writer import DICTIONARY
 from hcss.platform.models import AuditRecord, Participant
 from hcss.simulation import DECISION_COLUMNS
-from tests.platform import console_support
-from tests.platform.console_support import code_of, play_trial
-
-console, experimenter = console_support.console, console_support.experimenter
-
-
-def dictionary_columns() -> dict[str, list[str]]:
-    """Each table's columns as docs/data-dictionary.md lists them, read from its Markdown."""
-    tables: dict[str, list[str]] = {}
-    current = None
-    for line in DICTIONARY.read_text(encoding="utf-8").splitlines():
-        heading = re.match(r"#{2,3} (\w+)", line)
-        if heading:
-            current = heading.group(1) if heading.group(1).islower() else None
-            continue
-        cells = [c.strip() for c in line.strip().strip("|").split("|")]
-        if current and line.startswith("|") and cells[0] not in ("column", "---"):
-            tables.setdefault(current, []).extend(n.strip(" `") for n in cells[0].split(","))
-    return tables
-
-
-def read_csv(path: Path) -> tuple[list[str], list[dict[str, str]]]:
-    with path.open(encoding="utf-8", newline="") as handle:
-        reader = csv.DictReader(handle)
-        return list(reader.fieldnames or []), list(reader)
+from tests.support.console import code_of, play_trial
+from tests.support.exports import dictionary_columns, read_csv
 
 
 @pytest.fixture

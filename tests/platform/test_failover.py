@@ -32,8 +32,9 @@ from hcss.platform.live.client import TrialClient
 from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.localserver import LocalNginx, LocalServer
 from hcss.platform.models import Interruption, TrialLease
-from tests.platform.conftest import STUDY_TRIAL_S, csrf_token_of
-from tests.platform.test_restart import _records
+from tests.support.leases import lease_owner, skip_unless_group
+from tests.support.replays import trial_records
+from tests.support.trials import STUDY_TRIAL_S, csrf_token_of
 
 ACCELERATION = 20.0
 FAILOVER_LIMIT_S = 10.0
@@ -50,11 +51,6 @@ def _wait_for(condition, timeout_s: float, what: str):  # type: ignore[no-untype
             return value
         time.sleep(0.1)
     pytest.fail(f"timed out waiting for {what}")
-
-
-def _lease_owner(database: Database, trial_id: int) -> str | None:
-    with database.session_scope() as session:
-        return session.scalar(select(TrialLease.owner).where(TrialLease.trial_id == trial_id))
 
 
 class _Console:
@@ -95,15 +91,6 @@ def _signed_in_console(database: Database, base_url: str) -> _Console:
     return console
 
 
-def skip_unless_group(database_url: str) -> str:
-    """PostgreSQL for a group of processes behind nginx; a clear skip otherwise."""
-    if not database_url.startswith("postgresql"):
-        pytest.skip("several server processes share PostgreSQL; SQLite serves one process")
-    if not LocalNginx.available():
-        pytest.skip(f"needs nginx at {LocalNginx.BINARY} (scripts/ensure-nginx installs it)")
-    return database_url
-
-
 @pytest.fixture
 def group_database_url(database_url: str) -> str:
     return skip_unless_group(database_url)
@@ -141,7 +128,7 @@ def test_kill_9_of_the_host_moves_the_trial_to_the_other_process(
         client = TrialClient(nginx.url, token)
         client.open_page()
         view = _wait_for(lambda: client.state()["view"]["targets"], 30, "a visible target")
-        owner = _lease_owner(database, trial_id)
+        owner = lease_owner(database, trial_id)
         host = next(s for s in servers.values() if (owner or "").startswith(f"{s.host}:{s.port}/"))
         other = next(s for s in servers.values() if s is not host)
 
@@ -159,7 +146,7 @@ def test_kill_9_of_the_host_moves_the_trial_to_the_other_process(
             assert f"{code}: {action} done" in console.act(code, action)
             _wait_for(lambda s=status: client.state()["trial"]["status"] == s, 2.0, action)
             print(f"console {action} on the other process: {time.monotonic() - issued:.2f} s")
-        before = _records(database, trial_id)
+        before = trial_records(database, trial_id)
         step_at_kill = client.state()["trial"]["step"]
 
         host.kill()
@@ -168,12 +155,12 @@ def test_kill_9_of_the_host_moves_the_trial_to_the_other_process(
             lambda: client.state()["trial"]["step"] > step_at_kill, 20, "the trial on the other"
         )
         failover_s = time.monotonic() - killed
-        assert (_lease_owner(database, trial_id) or "").startswith(f"{other.host}:{other.port}/")
+        assert (lease_owner(database, trial_id) or "").startswith(f"{other.host}:{other.port}/")
         assert failover_s < FAILOVER_LIMIT_S, failover_s
 
         # The page repeats the command whose answer it lost: the first answer, not a second command.
         assert client.post("/requests", command, key=key) == first
-        after = _records(database, trial_id)
+        after = trial_records(database, trial_id)
         assert after["commands"] == before["commands"]  # none lost, none invented
         for kind in ("outcomes", "probes", "probe_events", "decisions"):
             assert after[kind][: len(before[kind])] == before[kind], kind
@@ -230,7 +217,7 @@ def test_a_host_stopped_past_its_lease_writes_nothing_it_held_when_it_resumes(
         client.open_page()  # A's page: A claims the trial
         _wait_for(lambda: client.state()["trial"]["step"] > 20, 30, "the trial to run")
         host, other = servers
-        assert (_lease_owner(database, trial_id) or "").startswith(f"{host.host}:{host.port}/")
+        assert (lease_owner(database, trial_id) or "").startswith(f"{host.host}:{host.port}/")
         assert host.process is not None
         client.http.timeout = httpx.Timeout(60.0)
         answers: list[tuple[int, dict]] = []
@@ -253,7 +240,7 @@ def test_a_host_stopped_past_its_lease_writes_nothing_it_held_when_it_resumes(
             elsewhere.open_page()  # the participant's page reaches the other process
             _wait_for(
                 lambda: (
-                    (_lease_owner(database, trial_id) or "").startswith(
+                    (lease_owner(database, trial_id) or "").startswith(
                         f"{other.host}:{other.port}/"
                     )
                     and elsewhere.state()["trial"]["step"] > 0
@@ -311,7 +298,7 @@ def test_a_host_cut_off_from_the_database_writes_nothing_after_the_takeover(
     from sqlalchemy.engine import make_url
 
     from hcss.platform.models import DecisionRow, Observation, RequestStatusChange, SimEvent
-    from tests.platform.cut_proxy import CutProxy
+    from tests.support.cut_proxy import CutProxy
 
     if not database_url.startswith("postgresql"):
         pytest.skip("several server processes share PostgreSQL; SQLite serves one process")
@@ -371,7 +358,7 @@ def test_a_host_cut_off_from_the_database_writes_nothing_after_the_takeover(
         elsewhere.open_page()
         _wait_for(
             lambda: (
-                (_lease_owner(database, trial_id) or "").startswith(f"{other.host}:{other.port}/")
+                (lease_owner(database, trial_id) or "").startswith(f"{other.host}:{other.port}/")
                 and elsewhere.state()["trial"]["step"] > 0
             ),
             20,
@@ -426,7 +413,7 @@ def test_a_survivor_takes_over_sixty_trials_without_losing_its_own_leases(
     """60 trials on one process, a second started, kill -9 of the first: the survivor takes
     all 60 over (rebuilds in batches, renewals on their own thread) and never loses a lease
     it took: no "lost the lease", one interruption per trial, no rebuild_failed."""
-    from hcss.platform.models import TrialLease, TrialStatusChange
+    from hcss.platform.models import TrialStatusChange
 
     if not database_url.startswith("postgresql"):
         pytest.skip("several server processes share PostgreSQL; SQLite serves one process")

@@ -15,8 +15,8 @@ from hcss.platform.cli import upgrade_database
 from hcss.platform.db import Database
 from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.localserver import LocalNginx, LocalServer
-from tests.platform.conftest import STUDY_TRIAL_S
-from tests.platform.test_failover import _lease_owner, skip_unless_group
+from tests.support.leases import lease_owner, skip_unless_group
+from tests.support.trials import STUDY_TRIAL_S
 
 pytestmark = pytest.mark.browser
 
@@ -57,7 +57,7 @@ def test_the_page_comes_back_by_itself_on_the_other_process(group_url, tmp_path,
         page.goto(f"{nginx.url}/live/{token}")
         expect(page.locator("#connection")).to_have_text("live", timeout=15_000)
         expect(page.locator("#clock")).not_to_have_text("0:00", timeout=15_000)
-        owner = _lease_owner(database, trial_id)
+        owner = lease_owner(database, trial_id)
         host = next(s for s in servers if (owner or "").startswith(f"127.0.0.1:{s.port}/"))
 
         host.kill()
@@ -67,7 +67,7 @@ def test_the_page_comes_back_by_itself_on_the_other_process(group_url, tmp_path,
         expect(page.locator("#connection")).to_have_text("live", timeout=20_000)
         expect(page.locator("#clock")).not_to_have_text(at_kill or "", timeout=20_000)
         print(f"page live again {time.monotonic() - killed:.1f} s after the kill")
-        assert _lease_owner(database, trial_id) != owner
+        assert lease_owner(database, trial_id) != owner
         page.close()
     finally:
         nginx.stop()
@@ -121,7 +121,7 @@ def test_the_page_of_a_stopped_host_shows_frames_again_while_it_stays_stopped(
         page.goto(f"{nginx.url}/live/{token}")
         expect(page.locator("#connection")).to_have_text("live", timeout=15_000)
         expect(page.locator("#clock")).not_to_have_text("0:00", timeout=15_000)
-        owner = _lease_owner(database, trial_id)
+        owner = lease_owner(database, trial_id)
         host = next(s for s in servers if (owner or "").startswith(f"127.0.0.1:{s.port}/"))
         assert host.process is not None
         stopped_pid = host.process.pid
@@ -131,7 +131,7 @@ def test_the_page_of_a_stopped_host_shows_frames_again_while_it_stays_stopped(
         at_stop = page.locator("#clock").text_content() or ""
         expect(page.locator("#clock")).not_to_have_text(at_stop, timeout=60_000)
         back_s = time.monotonic() - stopped
-        assert _lease_owner(database, trial_id) != owner
+        assert lease_owner(database, trial_id) != owner
         shown = [page.locator("#clock").text_content() or ""]
         for _ in range(10):  # it runs on and never goes back
             time.sleep(0.3)

@@ -27,9 +27,11 @@ import os
 from collections import Counter
 from collections.abc import Iterator
 from dataclasses import dataclass, field
+from functools import cache
 from typing import Any
 from urllib.parse import quote, urlsplit
 
+import numpy as np
 import pytest
 from flask import Flask
 from flask.testing import FlaskClient
@@ -41,8 +43,10 @@ from hcss.platform.app import create_app
 from hcss.platform.bots import ManualClock
 from hcss.platform.console.accounts import create_experimenter
 from hcss.platform.live.trials import start_bot_trial
-from tests.platform.conftest import STUDY_TRIAL_S
-from tests.platform.console_support import sign_in
+from hcss.platform.study.stage import Shown
+from hcss.platform.study.stages import STAGES
+from tests.support.console import sign_in
+from tests.support.trials import STUDY_TRIAL_S
 
 EXAMPLES = int(os.environ.get("HCSS_FUZZ_EXAMPLES", "500"))
 TALLY_FILE = os.environ.get("HCSS_FUZZ_TALLY")  # `make fuzz` collects the counts here
@@ -252,9 +256,29 @@ def study_requests(draw: st.DrawFn, target: Target) -> tuple[str, str, dict[str,
         fields = ("PROLIFIC_PID", "STUDY_ID", "SESSION_ID", "id", "screen_width", "pointer")
         return "POST", f"/join/{study}", _body_options(draw, form_fields=fields)
     index = _segment(draw, 0)
-    step = _segment(draw, draw(st.sampled_from(["form", "ready", "part_1", "page_1"])))
-    fields = ("decision", "age_band", "gender", "answer", "mental_demand", "submit")
-    return "POST", f"/p/{token}/stage/{index}/{step}", _body_options(draw, form_fields=fields)
+    step = draw(st.sampled_from(["form", "ratings", "ready", "part_1", "page_1"]))
+    fields = (*_stage_fields(step), "answer", "submit")
+    return (
+        "POST",
+        f"/p/{token}/stage/{index}/{_segment(draw, step)}",
+        _body_options(draw, form_fields=fields),
+    )
+
+
+@cache
+def _stage_fields(step: str) -> tuple[str, ...]:
+    """The fields the stages' own bot submissions post at a step (valid or refused)."""
+    shown = Shown(step, np.random.default_rng(0))
+    return tuple(
+        sorted(
+            {
+                name
+                for stage in STAGES.values()
+                for submission in stage.bot_submissions(shown)
+                for name in submission.fields
+            }
+        )
+    )
 
 
 @st.composite
@@ -463,7 +487,7 @@ def test_every_console_page_answers_after_failed_sign_ins_from_many_clients(
 def test_fuzz_during_a_database_outage(tmp_path, caplog) -> None:  # type: ignore[no-untyped-def]
     """A full disk under SQLite while a trial runs: every route answers, 503 with Retry-After
     at worst, never a 500; the runner ticks between requests as the server's thread does."""
-    from tests.platform.own_disk import own_disk
+    from tests.support.own_disk import own_disk
 
     with own_disk(tmp_path) as disk:
         fuzzed = _make_target(f"sqlite:///{disk.path / 'hcss.sqlite3'}")
@@ -511,8 +535,8 @@ def test_fuzz_during_a_postgresql_outage(caplog) -> None:  # type: ignore[no-unt
     from sqlalchemy.engine import make_url
 
     from hcss.platform.localserver import postgres_schema
-    from tests.platform.conftest import PG_ENV
-    from tests.platform.cut_proxy import CutProxy
+    from tests.support.cut_proxy import CutProxy
+    from tests.support.databases import PG_ENV
 
     base = os.environ.get(PG_ENV)
     if not base:

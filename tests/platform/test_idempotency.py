@@ -10,17 +10,12 @@ from __future__ import annotations
 import threading
 import uuid
 
-from sqlalchemy import func, select
+from sqlalchemy import select
 
 from hcss.platform.models import Command, CommandKey, CommandOutcome, Observation, ProbeEvent
-from tests.platform.conftest import csrf_token_of
-from tests.platform.test_console_migration import SECOND_FACTOR_COLUMNS
-from tests.platform.test_probes import _until_probe
-
-
-def _count(app, model) -> int:  # type: ignore[no-untyped-def]
-    with app.extensions["hcss_db"].session_scope() as session:
-        return session.scalar(select(func.count()).select_from(model))
+from tests.support.console import SECOND_FACTOR_COLUMNS, UNIQUE_TRIAL_KEYS
+from tests.support.counting import count_rows
+from tests.support.trials import csrf_token_of, investigate_request, until_probe
 
 
 def _keyed(trial, path: str, body, key: str):  # type: ignore[no-untyped-def]
@@ -31,15 +26,9 @@ def _keyed(trial, path: str, body, key: str):  # type: ignore[no-untyped-def]
     )
 
 
-def _investigate(trial):  # type: ignore[no-untyped-def]
-    trial.run_to(60)
-    target = next(t for t in trial.state()["view"]["targets"] if 0 in t["in_range_of"])
-    return {"kind": "investigate", "collective": 0, "target": target["id"]}
-
-
 def test_the_same_key_twice_gives_one_request_and_the_same_answer(make_trial) -> None:
     trial = make_trial()
-    body, key = _investigate(trial), str(uuid.uuid4())
+    body, key = investigate_request(trial), str(uuid.uuid4())
 
     first = _keyed(trial, "/requests", body, key)
     trial.run_to(61)  # the repeat comes later, after the simulation moved on
@@ -49,12 +38,12 @@ def test_the_same_key_twice_gives_one_request_and_the_same_answer(make_trial) ->
     assert first.get_json()["accepted"] is True
     assert second.get_json() == first.get_json()
     assert second.headers["Idempotent-Replayed"] == "true"
-    assert (_count(trial.app, Command), _count(trial.app, CommandOutcome)) == (1, 1)
-    assert _count(trial.app, CommandKey) == 1
+    assert (count_rows(trial.app, Command), count_rows(trial.app, CommandOutcome)) == (1, 1)
+    assert count_rows(trial.app, CommandKey) == 1
     assert len(trial.state()["view"]["requests"]) == 1
     # A fresh key is a new command: refused now (the collective is already investigating).
     third = _keyed(trial, "/requests", body, str(uuid.uuid4()))
-    assert third.status_code == 200 and _count(trial.app, Command) == 2
+    assert third.status_code == 200 and count_rows(trial.app, Command) == 2
 
 
 def test_a_refusal_is_recorded_once_and_replayed(make_trial) -> None:
@@ -65,14 +54,14 @@ def test_a_refusal_is_recorded_once_and_replayed(make_trial) -> None:
     first, second = (_keyed(trial, "/requests", body, key) for _ in range(2))
     assert first.get_json()["accepted"] is False
     assert (second.status_code, second.get_json()) == (first.status_code, first.get_json())
-    assert _count(trial.app, Command) == 1
+    assert count_rows(trial.app, Command) == 1
     refusals = [m for m in trial.live().messages if m["kind"] == "refusal"]
     assert len(refusals) == 1  # System Messages say it once
 
 
 def test_two_racing_posts_with_one_key_give_one_row(make_trial) -> None:
     trial = make_trial()
-    body, key = _investigate(trial), str(uuid.uuid4())
+    body, key = investigate_request(trial), str(uuid.uuid4())
     barrier, answers = threading.Barrier(2), []
 
     def post() -> None:
@@ -94,7 +83,7 @@ def test_two_racing_posts_with_one_key_give_one_row(make_trial) -> None:
         racer.join(timeout=30)
     assert len(answers) == 2 and answers[0] == answers[1]
     assert answers[0][0] == 200
-    assert (_count(trial.app, Command), _count(trial.app, CommandKey)) == (1, 1)
+    assert (count_rows(trial.app, Command), count_rows(trial.app, CommandKey)) == (1, 1)
 
 
 def test_clicks_and_probe_answers_are_idempotent_too(make_trial) -> None:
@@ -103,9 +92,9 @@ def test_clicks_and_probe_answers_are_idempotent_too(make_trial) -> None:
     first, second = (_keyed(trial, "/observations", click, "click-key-1") for _ in range(2))
     assert first.status_code == second.status_code == 201
     assert first.get_json() == second.get_json()
-    assert _count(trial.app, Observation) == 1
+    assert count_rows(trial.app, Observation) == 1
 
-    probe, _, _ = _until_probe(trial, 0)
+    probe, _, _ = until_probe(trial, 0)
     ready = [_keyed(trial, f"/probes/{probe['id']}/ready", {}, "ready-key-1") for _ in range(2)]
     assert [r.status_code for r in ready] == [200, 200]  # not a 409 "already ready"
     choice = trial.state()["probe"]["choices"][0]
@@ -128,12 +117,12 @@ def test_an_error_is_the_first_outcome_too(make_trial) -> None:
     first, second = (_keyed(trial, "/requests", bad, "err-key-01") for _ in range(2))
     assert first.status_code == second.status_code == 400
     assert first.get_json() == second.get_json()
-    assert (_count(trial.app, Command), _count(trial.app, CommandKey)) == (0, 1)
+    assert (count_rows(trial.app, Command), count_rows(trial.app, CommandKey)) == (0, 1)
 
 
 def test_bad_keys_get_a_clear_400_and_change_nothing(make_trial) -> None:
     trial = make_trial()
-    body = _investigate(trial)
+    body = investigate_request(trial)
     for key in (
         "short",
         "x" * 65,
@@ -148,34 +137,36 @@ def test_bad_keys_get_a_clear_400_and_change_nothing(make_trial) -> None:
             continue
         assert response.status_code == 400, key
         assert response.get_json()["error"] == "bad_idempotency_key"
-    assert (_count(trial.app, Command), _count(trial.app, CommandKey)) == (0, 0)
+    assert (count_rows(trial.app, Command), count_rows(trial.app, CommandKey)) == (0, 0)
 
 
 def test_a_key_reused_for_another_command_is_refused(make_trial) -> None:
     trial = make_trial()
-    body = _investigate(trial)
+    body = investigate_request(trial)
     assert _keyed(trial, "/requests", body, "reused-key").status_code == 200
     other = {**body, "collective": 1}
     response = _keyed(trial, "/requests", other, "reused-key")
     assert response.status_code == 422
     assert response.get_json()["error"] == "idempotency_key_reused"
-    assert _count(trial.app, Command) == 1
+    assert count_rows(trial.app, Command) == 1
 
 
 def test_without_a_key_a_command_is_carried_out_as_before(make_trial) -> None:
     """Bots and scripts without keys still work; only keyed commands are deduplicated."""
     trial = make_trial()
-    body = _investigate(trial)
+    body = investigate_request(trial)
     assert trial.post("/requests", body).status_code == 200
     assert trial.post("/requests", body).status_code == 200
-    assert (_count(trial.app, Command), _count(trial.app, CommandKey)) == (2, 0)
+    assert (count_rows(trial.app, Command), count_rows(trial.app, CommandKey)) == (2, 0)
 
 
 def test_the_same_key_in_another_participants_trial_is_another_command(make_trial) -> None:
     first, second = make_trial(), make_trial()
     for trial in (first, second):
-        assert _keyed(trial, "/requests", _investigate(trial), "shared-key").status_code == 200
-    assert (_count(first.app, Command), _count(first.app, CommandKey)) == (2, 2)
+        assert (
+            _keyed(trial, "/requests", investigate_request(trial), "shared-key").status_code == 200
+        )
+    assert (count_rows(first.app, Command), count_rows(first.app, CommandKey)) == (2, 2)
 
 
 def test_the_migration_creates_the_key_table_as_modelled_and_removes_it(database_url) -> None:
@@ -205,6 +196,8 @@ def test_the_migration_creates_the_key_table_as_modelled_and_removes_it(database
         }
 
         def not_later(obj, name, type_, reflected, compare_to) -> bool:  # type: ignore[no-untyped-def]
+            if type_ == "index":
+                return name not in UNIQUE_TRIAL_KEYS
             return not (type_ == "column" and (obj.table.name, name) in later)
 
         with engine.connect() as connection:
@@ -250,17 +243,17 @@ def _post_losing_the_key(trial, path: str, body, key: str) -> None:  # type: ign
 def test_a_command_whose_key_was_lost_is_not_carried_out_again(make_trial) -> None:
     """Command and key are committed together: a retry after a failed write gives one request."""
     trial = make_trial()
-    body, key = _investigate(trial), str(uuid.uuid4())
+    body, key = investigate_request(trial), str(uuid.uuid4())
 
     _post_losing_the_key(trial, "/requests", body, key)
-    assert _count(trial.app, Command) == _count(trial.app, CommandKey)  # both or neither
+    assert count_rows(trial.app, Command) == count_rows(trial.app, CommandKey)  # both or neither
     retry = _keyed(trial, "/requests", body, key)
     again = _keyed(trial, "/requests", body, key)
 
     assert retry.status_code == again.status_code == 200
     assert retry.get_json()["accepted"] is True and again.get_json() == retry.get_json()
-    assert (_count(trial.app, Command), _count(trial.app, CommandOutcome)) == (1, 1)
-    assert _count(trial.app, CommandKey) == 1
+    assert (count_rows(trial.app, Command), count_rows(trial.app, CommandOutcome)) == (1, 1)
+    assert count_rows(trial.app, CommandKey) == 1
     assert len(trial.state()["view"]["requests"]) == 1
     accepted = [m for m in trial.live().messages if m["kind"] == "accepted"]
     assert len(accepted) == 1  # System Messages say it once
@@ -270,11 +263,11 @@ def test_clicks_and_probe_answers_whose_key_was_lost_are_recorded_once(make_tria
     trial = make_trial(seed=4)
     click = {"kind": "collective", "collective": 1, "button": "right"}
     _post_losing_the_key(trial, "/observations", click, "click-key-lost")
-    assert _count(trial.app, Observation) == _count(trial.app, CommandKey)
+    assert count_rows(trial.app, Observation) == count_rows(trial.app, CommandKey)
     retry = _keyed(trial, "/observations", click, "click-key-lost")
-    assert retry.status_code == 201 and _count(trial.app, Observation) == 1
+    assert retry.status_code == 201 and count_rows(trial.app, Observation) == 1
 
-    probe, _, _ = _until_probe(trial, 0)
+    probe, _, _ = until_probe(trial, 0)
     ready, answer = f"/probes/{probe['id']}/ready", f"/probes/{probe['id']}/answer"
     _post_losing_the_key(trial, ready, {}, "ready-key-lost")
     assert _keyed(trial, ready, {}, "ready-key-lost").status_code == 200  # not 409
@@ -287,4 +280,4 @@ def test_clicks_and_probe_answers_whose_key_was_lost_are_recorded_once(make_tria
             session.scalars(select(ProbeEvent.kind).where(ProbeEvent.probe_id == probe["id"]))
         )
     assert kinds.count("ready") == 1 and kinds.count("answer") == 1
-    assert _count(trial.app, CommandKey) == 3
+    assert count_rows(trial.app, CommandKey) == 3

@@ -9,20 +9,14 @@ a trial the experimenter aborts says so.
 from __future__ import annotations
 
 import re
-from collections.abc import Iterator
 
 import pytest
 from sqlalchemy import select
 
 from hcss.platform.console.sessions import change_session
 from hcss.platform.models import Participant, ProbeEvent
-from tests.platform.inprocess_server import StudyServer, study_server
-from tests.platform.test_participant_browser import (
-    _contrast,
-    live_trial,
-    open_live_trial,
-    wait_for,
-)
+from tests.support.pages import contrast, live_trial, open_live_trial, wait_for
+from tests.support.study_server import StudyServer
 
 pytestmark = pytest.mark.browser
 
@@ -48,12 +42,6 @@ MEASURE = """() => {
     arena_fills_shorter_side: Math.max(arena.height / map.height, arena.width / map.width),
   };
 }"""
-
-
-@pytest.fixture
-def demo_server(tmp_path) -> Iterator[StudyServer]:  # type: ignore[no-untyped-def]
-    with study_server(tmp_path, "demo") as server:
-        yield server
 
 
 def _measure(page) -> dict[str, object]:  # type: ignore[no-untyped-def]
@@ -163,7 +151,7 @@ def _contrast_over(fill: str, ground: str, opacity: float) -> float:
     top = [int(v) for v in re.findall(r"\d+", fill)[:3]]
     under = [int(v) for v in re.findall(r"\d+", ground)[:3]]
     mixed = [round(opacity * a + (1 - opacity) * b) for a, b in zip(top, under, strict=True)]
-    return _contrast(f"rgb({mixed[0]}, {mixed[1]}, {mixed[2]})", ground)
+    return contrast(f"rgb({mixed[0]}, {mixed[1]}, {mixed[2]})", ground)
 
 
 def test_low_support_is_visible_in_the_blue_half(browser, demo_server: StudyServer, capsys) -> None:  # type: ignore[no-untyped-def]

@@ -10,11 +10,11 @@ from __future__ import annotations
 from urllib.parse import urlencode
 
 import pytest
-from sqlalchemy import func, select
+from sqlalchemy import select
 
 from hcss.platform.models import ConsentRecord, Participant, ScreenOut, StageEvent
-from tests.platform.inprocess import serving
-from tests.platform.test_online_browser import demo_app  # noqa: F401 - a fixture
+from tests.support.counting import count_rows
+from tests.support.inprocess import serving
 
 pytestmark = pytest.mark.browser
 
@@ -23,18 +23,13 @@ SCREEN_OUT_URL = "https://app.prolific.com/submissions/complete?cc=DEMOSCREEN"
 RETURN_URL = "https://app.prolific.com/submissions/complete?cc=DEMORETURN"
 
 
-def _count(app, model) -> int:  # type: ignore[no-untyped-def]
-    with app.extensions["hcss_db"].session_scope() as session:
-        return session.scalar(select(func.count()).select_from(model))
-
-
 def test_a_phone_is_screened_out_before_consent_and_a_small_window_is_asked_to_grow(
     browser,
-    demo_app,  # noqa: F811
+    demo_bot_app,
 ) -> None:  # type: ignore[no-untyped-def]
     from playwright.sync_api import expect
 
-    with serving(demo_app) as url:
+    with serving(demo_bot_app) as url:
         link = f"{url}/join/demo?{urlencode(PROLIFIC)}"
         phone = browser.new_context(
             viewport={"width": 375, "height": 812}, is_mobile=True, has_touch=True
@@ -46,8 +41,10 @@ def test_a_phone_is_screened_out_before_consent_and_a_small_window_is_asked_to_g
         expect(page.locator("#screen-out-code")).to_have_text("DEMOSCREEN")
         expect(page.locator("#screen-out-link")).to_have_attribute("href", SCREEN_OUT_URL)
         phone.close()
-        assert _count(demo_app, Participant) == 0 and _count(demo_app, StageEvent) == 0
-        with demo_app.extensions["hcss_db"].session_scope() as session:
+        assert (
+            count_rows(demo_bot_app, Participant) == 0 and count_rows(demo_bot_app, StageEvent) == 0
+        )
+        with demo_bot_app.extensions["hcss_db"].session_scope() as session:
             row = session.scalars(select(ScreenOut)).one()
             assert (row.recruitment_id, row.mobile, row.width) == (
                 PROLIFIC["PROLIFIC_PID"],
@@ -64,7 +61,7 @@ def test_a_phone_is_screened_out_before_consent_and_a_small_window_is_asked_to_g
         expect(page.locator("#window-too-small")).to_contain_text("F11")
         expect(page.locator("#window-too-small")).to_contain_text("zoom out")
         expect(page.locator("#join-start")).to_be_disabled()
-        assert _count(demo_app, Participant) == 0
+        assert count_rows(demo_bot_app, Participant) == 0
         # Maximised on a 1366 x 768 laptop (1366 x 657), or 1280 x 800 (1280 x 690): admitted.
         for width, height in ((1280, 690), (1366, 625), (1366, 657)):
             page.set_viewport_size({"width": width, "height": height})
@@ -72,7 +69,7 @@ def test_a_phone_is_screened_out_before_consent_and_a_small_window_is_asked_to_g
             expect(page.locator("#window-too-small")).to_be_hidden()
         page.locator("#join-start").click()
         expect(page.locator("main.study")).to_have_attribute("data-stage", "consent")
-        assert _count(demo_app, Participant) == 1
+        assert count_rows(demo_bot_app, Participant) == 1
 
         # Declining consent: asked to return the submission, with the study's return code.
         page.get_by_label("I do not agree").check()
@@ -82,15 +79,15 @@ def test_a_phone_is_screened_out_before_consent_and_a_small_window_is_asked_to_g
         expect(page.locator("#return-submission")).to_contain_text("return your submission")
         expect(page.locator("#return-code")).to_have_text("DEMORETURN")
         expect(page.locator("#return-link")).to_have_attribute("href", RETURN_URL)
-        assert _count(demo_app, ConsentRecord) == 1
-        assert _count(demo_app, ScreenOut) == 1  # the phone's; a decline is its own record
+        assert count_rows(demo_bot_app, ConsentRecord) == 1
+        assert count_rows(demo_bot_app, ScreenOut) == 1  # the phone's; a decline is its own record
         page.close()
 
 
-def test_a_double_submit_sends_the_form_once(browser, demo_app) -> None:  # type: ignore[no-untyped-def]  # noqa: F811
+def test_a_double_submit_sends_the_form_once(browser, demo_bot_app) -> None:  # type: ignore[no-untyped-def]
     from playwright.sync_api import expect
 
-    with serving(demo_app) as url:
+    with serving(demo_bot_app) as url:
         page = browser.new_page(viewport={"width": 1366, "height": 768})
         page.goto(f"{url}/join/demo")
         page.locator("#join-start").click()

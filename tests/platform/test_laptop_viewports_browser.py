@@ -10,12 +10,10 @@ and the map's text must stay at least 12 px.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-
 import pytest
 
-from tests.platform.inprocess_server import StudyServer, study_server
-from tests.platform.test_participant_browser import open_live_trial
+from tests.support.pages import open_live_trial
+from tests.support.study_server import StudyServer
 
 pytestmark = pytest.mark.browser
 
@@ -40,12 +38,6 @@ OFF_SCREEN = """() => {
   return {scroll: [page.scrollWidth - W, page.scrollHeight - H], out: out,
           smallest_text: Math.min(...text)};
 }"""
-
-
-@pytest.fixture
-def demo_server(tmp_path) -> Iterator[StudyServer]:  # type: ignore[no-untyped-def]
-    with study_server(tmp_path, "demo") as server:
-        yield server
 
 
 def test_the_live_trial_fits_a_maximised_laptop_window_without_scrolling(

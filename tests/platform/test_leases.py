@@ -29,7 +29,7 @@ from hcss.platform.models import (
     Snapshot,
     TrialLease,
 )
-from tests.platform.lease_support import LEASE_S, leased_process, start_trial_on
+from tests.support.leases import LEASE_S, leased_process, start_trial_on
 
 
 @pytest.fixture
@@ -153,7 +153,7 @@ def test_a_command_caught_by_a_lost_lease_is_held_back_with_held_by_and_retry_af
     Without a key the click meets the moved trial under its lock (error "moved"); with one
     the idempotency wrapper held the lock, so the click looks the trial up again after it
     and finds it hosted elsewhere."""
-    from tests.platform.conftest import csrf_token_of
+    from tests.support.trials import csrf_token_of
 
     clock = ManualClock(1_000_000.0)
     a = leased_process(database_url, "127.0.0.1:5001", clock)
@@ -216,7 +216,7 @@ def test_a_host_that_stalled_past_its_lease_writes_nothing_when_it_wakes(databas
     wakes with a participant's click and its own runner step in hand before any renewal
     of its has answered. The click is held back (503, retried by the page) and nothing A
     holds is written: only B, the lease's holder, writes for the trial."""
-    from tests.platform.conftest import csrf_token_of
+    from tests.support.trials import csrf_token_of
 
     clock = ManualClock(1_000_000.0)
     a = leased_process(database_url, "127.0.0.1:5001", clock)

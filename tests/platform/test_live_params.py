@@ -41,8 +41,8 @@ def test_the_bundled_studies_keep_the_preset_they_name_and_their_trials_use_it(
     bundled studies' live trials (and their decisions' label) did not change with it."""
     for name in ("original", "demo"):
         assert "[simulation]" in study_text(name)[1].decode()
-        assert load_study(name).simulation_preset == "study-calibrated" != DEFAULT_PRESET
-    handle = make_trial(model="M1", preset=load_study("original").simulation_preset)
+        assert load_study(name).simulation.preset == "study-calibrated" != DEFAULT_PRESET
+    handle = make_trial(model="M1", preset=load_study("original").simulation.preset)
     expected = preset_params("study-calibrated").with_changes(decision_timeout_s=None)
     assert handle.live().sim.params == expected
     handle = make_trial(model="M1", preset="literal")
@@ -52,9 +52,9 @@ def test_the_bundled_studies_keep_the_preset_they_name_and_their_trials_use_it(
 def test_a_study_file_names_a_preset_or_is_refused_naming_the_presets() -> None:
     doc = tomllib.loads(study_text("original")[1].decode())
     doc["simulation"] = {"preset": "literal"}
-    assert parse_study(doc, source="t").simulation_preset == "literal"
+    assert parse_study(doc, source="t").simulation.preset == "literal"
     del doc["simulation"]
-    assert parse_study(doc, source="t").simulation_preset == DEFAULT_PRESET
+    assert parse_study(doc, source="t").simulation.preset == DEFAULT_PRESET
     for bad in ({"preset": "bogus"}, {"preset": 3}, {"preset": "literal", "r_msg": 2}):
         doc["simulation"] = bad
         with pytest.raises(StudyFileError, match=r"simulation"):

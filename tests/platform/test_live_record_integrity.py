@@ -20,7 +20,7 @@ from hcss.platform.live.runner import Runner
 from hcss.platform.live.trials import latest_status, start_bot_trial
 from hcss.platform.models import Command, CommandOutcome, Interruption, SimEvent, TrialProblem
 from hcss.simulation import OperatorCommand
-from tests.platform.lease_support import leased_process
+from tests.support.leases import leased_process
 
 
 @pytest.fixture

@@ -7,14 +7,12 @@ selecting anything or counting as an observation; the keyboard does all of it.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-
 import pytest
 from sqlalchemy import func, select
 
 from hcss.platform.models import Observation
-from tests.platform.inprocess_server import StudyServer, study_server
-from tests.platform.test_participant_browser import open_live_trial
+from tests.support.pages import open_live_trial
+from tests.support.study_server import StudyServer
 
 pytestmark = pytest.mark.browser
 
@@ -23,12 +21,6 @@ HUBS = """() => Array.from(document.querySelectorAll("#layer-collectives .hub-bo
   const r = n.getBoundingClientRect();
   return [r.left + r.width / 2, r.top + r.height / 2, r.width];
 })"""
-
-
-@pytest.fixture
-def demo_server(tmp_path) -> Iterator[StudyServer]:  # type: ignore[no-untyped-def]
-    with study_server(tmp_path, "demo") as server:
-        yield server
 
 
 def _spread(hubs: list[list[float]]) -> float:

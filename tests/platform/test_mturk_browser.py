@@ -3,7 +3,7 @@
 MTurk shows an ExternalQuestion in an iframe on its own site and takes the
 answer as a form posted to `turkSubmitTo` + `/mturk/externalSubmit`
 (docs.aws.amazon.com, "How Mechanical Turk tasks are rendered"). The stand-in
-(tests/platform/mturk_standin.py) is on another site than the study, named by
+(tests/support/mturk_standin.py) is on another site than the study, named by
 the study file's `mturk_origins` as a real study names MTurk by `mturk = true`:
 
 1. the HIT's preview (assignmentId=ASSIGNMENT_ID_NOT_AVAILABLE) shows in the
@@ -20,24 +20,20 @@ from __future__ import annotations
 from urllib.parse import urlencode
 
 import pytest
-from sqlalchemy import func, select
+from sqlalchemy import select
 
 from hcss.platform.bots import ParticipantBot, bot_app
 from hcss.platform.models import Participant, Recruitment
 from hcss.platform.study.studyfile import load_study
-from tests.platform.inprocess import serving
-from tests.platform.mturk_standin import mturk_standin
-from tests.platform.recruitment_support import demo_variant
-from tests.platform.screenshots import screenshot
+from tests.support.counting import count_rows
+from tests.support.inprocess import serving
+from tests.support.mturk_standin import mturk_standin
+from tests.support.recruitment import demo_variant
+from tests.support.screenshots import screenshot
 
 pytestmark = pytest.mark.browser
 
 HIT = {"workerId": "A2WORKER7", "hitId": "3HITXYZ", "assignmentId": "3ASSIGN42"}
-
-
-def _count(app, model) -> int:  # type: ignore[no-untyped-def]
-    with app.extensions["hcss_db"].session_scope() as session:
-        return int(session.scalar(select(func.count()).select_from(model)) or 0)
 
 
 def _refused(frame) -> bool:  # type: ignore[no-untyped-def]
@@ -72,7 +68,7 @@ def test_an_mturk_worker_previews_accepts_walks_and_submits_the_assignment(
             worker.goto(mturk.worker_page())
             frame = worker.frame_locator("#hit")
             expect(frame.locator("main")).to_contain_text("accept the HIT")
-            assert _count(app, Participant) == 0 and _count(app, Recruitment) == 0
+            assert count_rows(app, Participant) == 0 and count_rows(app, Recruitment) == 0
 
             # 2. Another site may not frame the link; MTurk may not frame the console.
             accepted = f"{url}/join/{name}?{urlencode(HIT | {'turkSubmitTo': mturk.origin})}"

@@ -23,7 +23,7 @@ from hcss.platform.models import (
     TrialStatusChange,
 )
 from hcss.platform.study import load_study
-from tests.platform.study_fixtures import make_app, new_participant
+from tests.support.study import make_app, new_participant
 
 #: A fixed instant far from the real time: a stamp from the real clock cannot fall near it.
 START = datetime(2001, 2, 3, 4, 5, 6, tzinfo=UTC)

@@ -9,7 +9,7 @@
    participant's page, plays it at 20x and checks the end state's digest.
 
 Screenshots go to test-artifacts/; with HCSS_UPDATE_SCREENSHOTS=1 the replay's
-also goes to docs/ for the README (tests/platform/screenshots.py).
+also goes to docs/ for the README (tests/support/screenshots.py).
 """
 
 from __future__ import annotations
@@ -21,19 +21,17 @@ from urllib.parse import urlencode
 import pytest
 from sqlalchemy import func, select
 
-from hcss.platform.bots import ParticipantBot, bot_app
+from hcss.platform.bots import ParticipantBot
 from hcss.platform.export.writer import write_export
 from hcss.platform.models import Participant, Recruitment, Snapshot
 from hcss.platform.study.studyfile import load_study
 from hcss.simulation import Simulation
-from tests.platform import console_support
-from tests.platform.console_support import code_of, open_replay
-from tests.platform.inprocess import serving
-from tests.platform.replay_support import operate
-from tests.platform.screenshots import screenshot
+from tests.support.console import code_of, open_replay
+from tests.support.inprocess import serving
+from tests.support.replays import operate
+from tests.support.screenshots import screenshot
 
 pytestmark = pytest.mark.browser
-experimenter = console_support.experimenter
 
 PROLIFIC = {
     "PROLIFIC_PID": "60b7c9d2e4f1a2b3c4d5e6f7",
@@ -42,22 +40,13 @@ PROLIFIC = {
 }
 
 
-@pytest.fixture
-def demo_app(database_url: str):  # type: ignore[no-untyped-def]
-    """The demo study on a clock the bot moves (bot_app), with its schema."""
-    app = bot_app(database_url, "demo")
-    app.extensions["hcss_db"].create_all()
-    yield app
-    app.extensions["hcss_db"].engine.dispose()
-
-
 @pytest.mark.slow
 def test_a_prolific_visitor_walks_the_demo_to_its_completion_code(
-    browser, demo_app, tmp_path
+    browser, demo_bot_app, tmp_path
 ) -> None:  # type: ignore[no-untyped-def]
     from playwright.sync_api import expect
 
-    with serving(demo_app) as url:
+    with serving(demo_bot_app) as url:
         page = browser.new_page(viewport={"width": 1100, "height": 800})
         page.goto(f"{url}/join/demo?{urlencode(PROLIFIC)}")
         expect(page.locator("#device-ok")).to_be_visible()
@@ -65,13 +54,13 @@ def test_a_prolific_visitor_walks_the_demo_to_its_completion_code(
         expect(page.locator("main.study")).to_have_attribute("data-stage", "consent")
         assert "/p/" in page.url and "PROLIFIC_PID" not in page.url
 
-        with demo_app.extensions["hcss_db"].session_scope() as session:
+        with demo_bot_app.extensions["hcss_db"].session_scope() as session:
             token = session.scalars(
                 select(Participant.token)
                 .join(Recruitment, Recruitment.participant_id == Participant.id)
                 .where(Recruitment.recruitment_id == PROLIFIC["PROLIFIC_PID"])
             ).one()
-        report = ParticipantBot(demo_app, token).run(load_study("demo"))
+        report = ParticipantBot(demo_bot_app, token).run(load_study("demo"))
         assert len(report.trials) == 6  # a training and a trial per model
 
         # Back through the same study link, with Prolific's new session id: resumed.
@@ -87,7 +76,7 @@ def test_a_prolific_visitor_walks_the_demo_to_its_completion_code(
         page.locator("#completion-link").click()
         page.wait_for_url("https://app.prolific.com/submissions/complete?cc=DEMO2026")
 
-    with demo_app.extensions["hcss_db"].session_scope() as session:
+    with demo_bot_app.extensions["hcss_db"].session_scope() as session:
         assert session.scalar(select(func.count()).select_from(Participant)) == 1
         write_export(session, tmp_path / "export")
     with (tmp_path / "export" / "recruitment.csv").open(encoding="utf-8") as handle:

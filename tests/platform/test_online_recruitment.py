@@ -10,7 +10,7 @@ from collections import Counter
 from urllib.parse import urlencode
 
 import pytest
-from sqlalchemy import event, func, select
+from sqlalchemy import event, select
 
 from hcss.platform.console.withdrawal import participant_tables
 from hcss.platform.export.writer import collect
@@ -26,39 +26,19 @@ from hcss.platform.study.enrolment import cell_counts
 from hcss.platform.study.online import OnlineSettings, Recruit, RecruitmentError
 from hcss.platform.study.recruitment import enrol_or_resume
 from hcss.platform.study.studyfile import StudyFileError, load_study, parse_study
-from tests.platform import console_support
-
-console, experimenter = console_support.console, console_support.experimenter
+from tests.support.counting import count_rows
+from tests.support.recruitment import LAPTOP, join
 
 PROLIFIC = {"PROLIFIC_PID": "5f8a1b2c3d4e5f6a7b8c9d0e", "STUDY_ID": "S123", "SESSION_ID": "X9"}
 
 
-#: What the first page of a laptop's browser measures and posts with Start.
-LAPTOP = {"width": "1366", "height": "768", "mobile": "0", "missing": ""}
-HIDDEN = re.compile(r'<input type="hidden" name="([^"]+)" value="([^"]*)"')
-
-
-def _join(client, study: str = "demo", device=LAPTOP, **params: str):  # type: ignore[no-untyped-def]
-    """Open the study link; on its first page, press Start (as a laptop's browser posts it)."""
-    first = client.get(f"/join/{study}?{urlencode(params)}")
-    if first.status_code != 200 or 'id="join-form"' not in first.get_data(as_text=True):
-        return first
-    fields = dict(HIDDEN.findall(first.get_data(as_text=True)))
-    return client.post(f"/join/{study}", data=fields | dict(device))
-
-
-def _count(app, model) -> int:  # type: ignore[no-untyped-def]
-    with app.extensions["hcss_db"].session_scope() as session:
-        return session.scalar(select(func.count()).select_from(model))
-
-
 def test_two_visits_with_one_prolific_id_give_one_participant(app) -> None:  # type: ignore[no-untyped-def]
-    first = _join(app.test_client(), **PROLIFIC)
+    first = join(app.test_client(), **PROLIFIC)
     assert first.status_code == 302 and "/p/" in first.location
     # The same person later, from another browser and with a new Prolific session.
-    second = _join(app.test_client(), **PROLIFIC | {"SESSION_ID": "X10"})
+    second = join(app.test_client(), **PROLIFIC | {"SESSION_ID": "X10"})
     assert second.location == first.location
-    other = _join(app.test_client(), **PROLIFIC | {"PROLIFIC_PID": "another-person"})
+    other = join(app.test_client(), **PROLIFIC | {"PROLIFIC_PID": "another-person"})
     assert other.location != first.location
     with app.extensions["hcss_db"].session_scope() as session:
         rows = session.scalars(select(Recruitment).order_by(Recruitment.id)).all()
@@ -80,15 +60,15 @@ def test_two_visits_with_one_prolific_id_give_one_participant(app) -> None:  # t
 
 def test_sona_and_mturk_ids_and_anonymous_visits(app) -> None:  # type: ignore[no-untyped-def]
     client = app.test_client()
-    assert _join(client, id="41234").location == _join(client, id="41234").location
+    assert join(client, id="41234").location == join(client, id="41234").location
     mturk = {
         "workerId": "A1B2C3",
         "assignmentId": "ASG",
         "hitId": "HIT",
         "turkSubmitTo": "https://workersandbox.mturk.com",
     }
-    assert _join(client, **mturk).location == _join(client, **mturk).location
-    anonymous = {_join(client).location for _ in range(2)}  # demo allows them: two people
+    assert join(client, **mturk).location == join(client, **mturk).location
+    anonymous = {join(client).location for _ in range(2)}  # demo allows them: two people
     assert len(anonymous) == 2
     with app.extensions["hcss_db"].session_scope() as session:
         rows = session.execute(
@@ -130,24 +110,24 @@ def test_hostile_recruitment_parameters_are_refused_and_write_nothing(
     assert response.status_code == 400
     text = response.get_data(as_text=True)
     assert message in text and "Traceback" not in text
-    assert _count(app, Participant) == 0 and _count(app, Recruitment) == 0
+    assert count_rows(app, Participant) == 0 and count_rows(app, Recruitment) == 0
 
 
 @pytest.mark.parametrize("study", ["original", "nosuchstudy", "a%00b", "x" * 5000, "..%2F..%2Fetc"])
 def test_a_study_without_a_link_is_not_found(app, study: str) -> None:  # type: ignore[no-untyped-def]
     response = app.test_client().get(f"/join/{study}?PROLIFIC_PID=p1")
     assert response.status_code == 404
-    assert _count(app, Participant) == 0
+    assert count_rows(app, Participant) == 0
 
 
 def test_a_study_that_wants_ids_refuses_anonymous_visits(app) -> None:  # type: ignore[no-untyped-def]
-    study = dataclasses.replace(load_study("demo"), online=OnlineSettings(link=True))
+    study = load_study("demo").model_copy(update={"online": OnlineSettings(link=True)})
     with app.app_context(), app.extensions["hcss_db"].session_scope() as session:
         with pytest.raises(RecruitmentError, match="needs the id"):
             enrol_or_resume(session, study, Recruit(source="link", recruitment_id=None))
         enrolled = enrol_or_resume(session, study, Recruit("prolific", "p-1", "S", "X"))
         assert enrolled.id is not None
-    assert _count(app, Participant) == 1
+    assert count_rows(app, Participant) == 1
 
 
 def _study_doc(**online: object) -> dict:
@@ -176,7 +156,7 @@ def test_the_online_table_of_a_study_file_is_checked(online: dict, message: str)
 
 
 def test_the_export_holds_the_ids_and_a_withdrawal_deletes_them(app) -> None:  # type: ignore[no-untyped-def]
-    _join(app.test_client(), **PROLIFIC)
+    join(app.test_client(), **PROLIFIC)
     with app.extensions["hcss_db"].session_scope() as session:
         code = session.scalars(select(Participant.code)).one()
         rows = collect(session)["recruitment"]
@@ -195,11 +175,11 @@ def test_the_export_holds_the_ids_and_a_withdrawal_deletes_them(app) -> None:  #
 
 def test_a_return_visit_keeps_its_new_session_id_beside_the_first(app) -> None:  # type: ignore[no-untyped-def]
     """Prolific gives a returning person a new SESSION_ID; `recruitment` is append-only."""
-    first = _join(app.test_client(), **PROLIFIC)
+    first = join(app.test_client(), **PROLIFIC)
     again = app.test_client().get(f"/join/demo?{urlencode(PROLIFIC | {'SESSION_ID': 'X10'})}")
     assert again.status_code == 302 and again.location == first.location
     # Start posted from a first page left open in another tab is a return visit too.
-    third = _join(app.test_client(), **PROLIFIC | {"SESSION_ID": "X11", "STUDY_ID": "S124"})
+    third = join(app.test_client(), **PROLIFIC | {"SESSION_ID": "X11", "STUDY_ID": "S124"})
     assert third.location == first.location
     with app.extensions["hcss_db"].session_scope() as session:
         (recruitment,) = session.scalars(select(Recruitment)).all()
@@ -222,20 +202,20 @@ def test_a_return_visit_keeps_its_new_session_id_beside_the_first(app) -> None: 
     assert all(row["visited_at"] for row in exported["return_visits"])
     # Withdrawn with the participant (its triggers: tests/platform/test_append_only.py).
     assert "return_visit" in {t.name for t in participant_tables()}
-    assert _count(app, ReturnVisit) == 2
+    assert count_rows(app, ReturnVisit) == 2
 
 
 def test_a_reload_with_ids_on_record_stores_no_return_visit(app) -> None:  # type: ignore[no-untyped-def]
     """Reopening the link (or a client replaying it) adds rows only for ids not yet seen."""
-    first = _join(app.test_client(), **PROLIFIC)
+    first = join(app.test_client(), **PROLIFIC)
     for _ in range(3):  # the first visit's own ids again: nothing new to keep
         again = app.test_client().get(f"/join/demo?{urlencode(PROLIFIC)}")
         assert again.status_code == 302 and again.location == first.location
-    assert _count(app, ReturnVisit) == 0
+    assert count_rows(app, ReturnVisit) == 0
     for _ in range(3):  # a new SESSION_ID is kept once, however often it comes back
         again = app.test_client().get(f"/join/demo?{urlencode(PROLIFIC | {'SESSION_ID': 'X10'})}")
         assert again.status_code == 302 and again.location == first.location
-    assert _count(app, ReturnVisit) == 1
+    assert count_rows(app, ReturnVisit) == 1
 
 
 def _visit_at_once(app, queries: list[dict[str, str]]) -> list[str]:  # type: ignore[no-untyped-def]
@@ -248,7 +228,7 @@ def _visit_at_once(app, queries: list[dict[str, str]]) -> list[str]:  # type: ig
         client = app.test_client()
         barrier.wait()
         try:
-            response = _join(client, **queries[index])
+            response = join(client, **queries[index])
             assert response.status_code == 302, response.get_data(as_text=True)
             results[index] = response.location
         except BaseException as error:  # noqa: BLE001 - reported below
@@ -283,8 +263,8 @@ def test_twenty_concurrent_first_visits_fill_the_cells_evenly(app, database_url)
 def test_concurrent_visits_with_one_id_give_one_participant(app) -> None:  # type: ignore[no-untyped-def]
     links = _visit_at_once(app, [PROLIFIC] * 8)
     assert len(set(links)) == 1
-    assert _count(app, Participant) == 1 and _count(app, Recruitment) == 1
-    assert _count(app, StudyEnrolment) == 1
+    assert count_rows(app, Participant) == 1 and count_rows(app, Recruitment) == 1
+    assert count_rows(app, StudyEnrolment) == 1
     with app.extensions["hcss_db"].session_scope() as session:
         assert Counter(session.scalars(select(StudyEnrolment.pool))) == {"real": 1}
 
@@ -350,8 +330,8 @@ def test_the_debrief_gives_the_completion_code_only_to_online_participants(
         assert 'href="https://app.prolific.com/submissions/complete?cc=DEMO2026"' in online
         assert 'http-equiv="refresh"' not in online
         demo = load_study("demo")
-        redirecting = dataclasses.replace(
-            demo, online=dataclasses.replace(demo.online, redirect=True)
+        redirecting = demo.model_copy(
+            update={"online": dataclasses.replace(demo.online, redirect=True)}
         )
         # The participant's flow loads its study once per request (flow.Flow.study).
         monkeypatch.setattr(flow, "load_study", lambda name: redirecting)
@@ -379,14 +359,14 @@ def test_a_bare_visit_and_an_mturk_preview_record_nothing(app) -> None:  # type:
     assert preview.status_code == 200
     assert "accept the HIT first" in preview.get_data(as_text=True)
     assert 'id="join-form"' not in preview.get_data(as_text=True)
-    assert _count(app, Participant) == 0 and _count(app, Recruitment) == 0
-    assert _count(app, StudyEnrolment) == 0 and _count(app, ScreenOut) == 0
+    assert count_rows(app, Participant) == 0 and count_rows(app, Recruitment) == 0
+    assert count_rows(app, StudyEnrolment) == 0 and count_rows(app, ScreenOut) == 0
 
 
 def test_recruitment_parameter_names_match_in_any_case(app) -> None:  # type: ignore[no-untyped-def]
-    lower = _join(app.test_client(), prolific_pid="60b7c9d2", study_id="S1", session_id="X1")
+    lower = join(app.test_client(), prolific_pid="60b7c9d2", study_id="S1", session_id="X1")
     assert lower.status_code == 302
-    again = _join(app.test_client(), PROLIFIC_PID="60b7c9d2")
+    again = join(app.test_client(), PROLIFIC_PID="60b7c9d2")
     assert again.location == lower.location
     with app.extensions["hcss_db"].session_scope() as session:
         row = session.scalars(select(Recruitment)).one()
@@ -400,13 +380,13 @@ def test_recruitment_parameter_names_match_in_any_case(app) -> None:  # type: ig
 
 
 def test_a_phone_is_screened_out_with_the_code_and_nothing_else_is_kept(app) -> None:  # type: ignore[no-untyped-def]
-    page = _join(app.test_client(), device=PHONE, **PROLIFIC)
+    page = join(app.test_client(), device=PHONE, **PROLIFIC)
     text = page.get_data(as_text=True)
     assert page.status_code == 200 and 'data-stage="screened_out"' in text
     assert "desktop or laptop" in text and "375 x 812" in text
     assert 'id="screen-out-code" class="code">DEMOSCREEN<' in text
     assert "https://app.prolific.com/submissions/complete?cc=DEMOSCREEN" in text
-    assert _count(app, Participant) == 0 and _count(app, StudyEnrolment) == 0
+    assert count_rows(app, Participant) == 0 and count_rows(app, StudyEnrolment) == 0
     with app.extensions["hcss_db"].session_scope() as session:
         row = session.scalars(select(ScreenOut)).one()
         assert (row.study, row.source, row.recruitment_id) == (
@@ -420,8 +400,8 @@ def test_a_phone_is_screened_out_with_the_code_and_nothing_else_is_kept(app) -> 
         ("demo", PROLIFIC["PROLIFIC_PID"], True)
     ]
     # The same person on a laptop afterwards is enrolled as usual.
-    assert _join(app.test_client(), **PROLIFIC).status_code == 302
-    assert _count(app, Participant) == 1
+    assert join(app.test_client(), **PROLIFIC).status_code == 302
+    assert count_rows(app, Participant) == 1
 
 
 @pytest.mark.parametrize(
@@ -442,7 +422,7 @@ def test_a_malformed_device_report_is_refused_and_writes_nothing(app, device) ->
     )
     response = client.post("/join/demo", data={"csrf_token": csrf.group(1), **PROLIFIC, **device})
     assert response.status_code == 400 and "Traceback" not in response.get_data(as_text=True)
-    assert _count(app, Participant) == 0 and _count(app, ScreenOut) == 0
+    assert count_rows(app, Participant) == 0 and count_rows(app, ScreenOut) == 0
 
 
 @pytest.mark.parametrize(
@@ -472,15 +452,15 @@ def test_a_recruitment_target_closes_the_link_and_the_console_shows_it(
     (tmp_path / "studies").mkdir()
     (tmp_path / "studies" / "capped.toml").write_text(text)
     monkeypatch.setenv(STUDIES_ENV, str(tmp_path / "studies"))
-    first = _join(app.test_client(), "capped", PROLIFIC_PID="p1")
+    first = join(app.test_client(), "capped", PROLIFIC_PID="p1")
     assert first.status_code == 302
-    assert _join(app.test_client(), "capped", PROLIFIC_PID="p2").status_code == 302
+    assert join(app.test_client(), "capped", PROLIFIC_PID="p2").status_code == 302
     index = console.get("/console/").get_data(as_text=True)
     assert "2 of 2 real participants in progress or completed" in index and "full:" in index
 
-    full = _join(app.test_client(), "capped", PROLIFIC_PID="p3")
+    full = join(app.test_client(), "capped", PROLIFIC_PID="p3")
     assert full.status_code == 200 and 'data-stage="study_full"' in full.get_data(as_text=True)
-    assert _count(app, Participant) == 2 and _count(app, Recruitment) == 2
+    assert count_rows(app, Participant) == 2 and count_rows(app, Recruitment) == 2
     # A Start pressed on a first page opened before the last place went: refused too.
     client = app.test_client()
     csrf = re.search(
@@ -490,9 +470,9 @@ def test_a_recruitment_target_closes_the_link_and_the_console_shows_it(
         "/join/capped", data={"csrf_token": csrf.group(1), "PROLIFIC_PID": "p4", **LAPTOP}
     )
     assert late.status_code == 200 and 'data-stage="study_full"' in late.get_data(as_text=True)
-    assert _count(app, Participant) == 2
+    assert count_rows(app, Participant) == 2
     # Someone already enrolled still gets back in.
-    assert _join(app.test_client(), "capped", PROLIFIC_PID="p1").location == first.location
+    assert join(app.test_client(), "capped", PROLIFIC_PID="p1").location == first.location
 
 
 def test_an_abandoned_participant_is_timed_out_and_frees_the_place(
@@ -507,18 +487,18 @@ def test_an_abandoned_participant_is_timed_out_and_frees_the_place(
     (tmp_path / "studies" / "timed.toml").write_text(text)
     monkeypatch.setenv(STUDIES_ENV, str(tmp_path / "studies"))
     clock = app.extensions["hcss_runner"].clock
-    first = _join(app.test_client(), "timed", PROLIFIC_PID="p1")
+    first = join(app.test_client(), "timed", PROLIFIC_PID="p1")
     assert first.status_code == 302
     assert app.test_client().get(first.location, follow_redirects=True).status_code == 200
-    assert 'data-stage="study_full"' in _join(
+    assert 'data-stage="study_full"' in join(
         app.test_client(), "timed", PROLIFIC_PID="p2"
     ).get_data(as_text=True)
     clock.now += 599.0  # not yet
-    assert 'data-stage="study_full"' in _join(
+    assert 'data-stage="study_full"' in join(
         app.test_client(), "timed", PROLIFIC_PID="p2"
     ).get_data(as_text=True)
     clock.now += 2.0  # ten minutes without a sign of life: p1 is timed out, the place is free
-    second = _join(app.test_client(), "timed", PROLIFIC_PID="p2")
+    second = join(app.test_client(), "timed", PROLIFIC_PID="p2")
     assert second.status_code == 302 and second.location != first.location
     (code,) = [c for c, row in console.progress().items() if row["state"] == "timed_out"]
     with app.extensions["hcss_db"].session_scope() as session:
@@ -529,7 +509,7 @@ def test_an_abandoned_participant_is_timed_out_and_frees_the_place(
         statuses = {row["participant"]: row["status"] for row in collect(session)["participants"]}
     assert statuses[code] == "timed_out"
     # p1 comes back: held, told why; the console cannot resume them.
-    back = _join(app.test_client(), "timed", PROLIFIC_PID="p1")
+    back = join(app.test_client(), "timed", PROLIFIC_PID="p1")
     page = app.test_client().get(back.location, follow_redirects=True).get_data(as_text=True)
     assert "Your session has timed out" in page
     assert console.progress()[code]["actions"] == ["reinstate", "mark_pilot"]
@@ -564,7 +544,7 @@ def test_a_study_that_keeps_the_cell_stays_full_after_a_time_out(
     study = load_study("kept")
     assert study.timeouts.free_cell is False
     clock = app.extensions["hcss_runner"].clock
-    first = _join(app.test_client(), "kept", PROLIFIC_PID="p1")
+    first = join(app.test_client(), "kept", PROLIFIC_PID="p1")
     assert first.status_code == 302
     assert app.test_client().get(first.location, follow_redirects=True).status_code == 200
     with app.extensions["hcss_db"].session_scope() as session:
@@ -572,10 +552,10 @@ def test_a_study_that_keeps_the_cell_stays_full_after_a_time_out(
     assert sum(held.values()) == 1
 
     clock.now += 601.0  # ten minutes without a sign of life
-    refused = _join(app.test_client(), "kept", PROLIFIC_PID="p2")
+    refused = join(app.test_client(), "kept", PROLIFIC_PID="p2")
     assert refused.status_code == 200
     assert 'data-stage="study_full"' in refused.get_data(as_text=True)  # the place is kept
-    assert _count(app, Participant) == 1
+    assert count_rows(app, Participant) == 1
     (code,) = [c for c, row in console.progress().items() if row["state"] == "timed_out"]
     with app.extensions["hcss_db"].session_scope() as session:
         assert cell_counts(session, study, "real") == held  # their cell still counts

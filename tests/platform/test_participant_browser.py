@@ -1,13 +1,12 @@
 """The participant's path through the `demo` study in Chromium, on a clock the test moves.
 
 Each test clicks as a participant does, against waitress in this process
-(tests/platform/inprocess_server.py), then reads what the database stored.
+(tests/support/study_server.py), then reads what the database stored.
 """
 
 from __future__ import annotations
 
 import re
-from collections.abc import Iterator
 
 import pytest
 from sqlalchemy import func, select
@@ -15,9 +14,9 @@ from sqlalchemy import func, select
 from hcss.platform.models import QuestionnaireItem, Score
 from hcss.questionnaires import mrt, ranking
 from hcss.questionnaires.demographics import ITEM_KEYS
-from tests.platform.conftest import STUDY_TRIAL_S
-from tests.platform.inprocess_server import StudyServer, study_server
-from tests.platform.screenshots import screenshot
+from tests.support.pages import contrast, live_trial, open_live_trial, start_live_trial, wait_for
+from tests.support.screenshots import screenshot
+from tests.support.study_server import StudyServer
 
 pytestmark = pytest.mark.browser
 
@@ -36,12 +35,6 @@ MRT_OVERHANG = """() => {
   return Math.max(column.left - Math.min(...parts.map((r) => r.left)),
                   Math.max(...parts.map((r) => r.right)) - column.right);
 }"""
-
-
-@pytest.fixture
-def demo_server(tmp_path) -> Iterator[StudyServer]:  # type: ignore[no-untyped-def]
-    with study_server(tmp_path, "demo") as server:
-        yield server
 
 
 def expect_stage(page, stage: str, step: str | None = None) -> None:  # type: ignore[no-untyped-def]
@@ -240,14 +233,6 @@ def answer_every_radio_group(page, choose=lambda values: values[0]) -> None:  # 
         page.locator(f'input[name="{name}"][value="{choose(values)}"]').check()
 
 
-def live_trial(server: StudyServer):  # type: ignore[no-untyped-def]
-    """The one trial the runner holds for the test's participant."""
-    (live,) = [
-        t for t in map(server.runner.loaded, server.runner.loaded_ids()) if t and not t.ended
-    ]
-    return live
-
-
 def run_to_end(page, server: StudyServer, step_s: float = 4.0) -> None:  # type: ignore[no-untyped-def]
     """Advance the clock until the trial has ended (it may have already: the runner then
     holds no unended trial), then continue from the ended page."""
@@ -257,17 +242,6 @@ def run_to_end(page, server: StudyServer, step_s: float = 4.0) -> None:  # type:
         server.advance(step_s)
     expect(page.locator("#ended")).to_be_visible()
     page.locator("#continue").click()
-
-
-def wait_for(server: StudyServer, condition, limit_s: float):  # type: ignore[no-untyped-def]
-    """Advance the clock a second at a time until `condition(live)` is truthy."""
-    live = live_trial(server)
-    for _ in range(int(limit_s)):
-        found = condition(live)
-        if found:
-            return found
-        server.advance(1.0)
-    return None
 
 
 def answer_probe(page, server: StudyServer) -> str:  # type: ignore[no-untyped-def]
@@ -467,49 +441,6 @@ def test_the_demo_study_from_the_link_to_the_debrief(browser, demo_server: Study
 # --- the Collective Interface's details ----------------------------------------------
 
 
-def _start_live_trial(server: StudyServer, seed: int = 2) -> str:
-    from datetime import UTC, datetime
-
-    from hcss.platform.live.trials import start_trial
-    from hcss.platform.models import Participant
-
-    with server.app.app_context(), server.database.session_scope() as session:
-        participant = Participant(is_demo=True)
-        session.add(participant)
-        session.flush()
-        start_trial(
-            session,
-            participant,
-            seed=seed,
-            duration_s=STUDY_TRIAL_S,
-            started_at=datetime.fromtimestamp(server.clock.now, UTC),
-        )
-        return participant.token
-
-
-def open_live_trial(browser, server: StudyServer, viewport: dict[str, int] = LAPTOP):  # type: ignore[no-untyped-def]
-    """A demo participant's live trial, started and shown connected: (token, page)."""
-    from playwright.sync_api import expect
-
-    token = _start_live_trial(server)
-    page = browser.new_page(viewport=viewport)
-    page.goto(f"{server.url}/live/{token}")
-    expect(page.locator("#connection")).to_have_text("live")
-    return token, page
-
-
-def _contrast(first: str, second: str) -> float:
-    """WCAG 2 contrast ratio of two CSS rgb() colours."""
-
-    def luminance(css: str) -> float:
-        channels = [int(v) / 255 for v in re.findall(r"\d+", css)[:3]]
-        linear = [c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4 for c in channels]
-        return 0.2126 * linear[0] + 0.7152 * linear[1] + 0.0722 * linear[2]
-
-    high, low = sorted((luminance(first), luminance(second)), reverse=True)
-    return (high + 0.05) / (low + 0.05)
-
-
 def test_the_interface_by_keyboard_info_box_messages_and_contrast(
     browser, demo_server: StudyServer
 ) -> None:
@@ -577,7 +508,7 @@ def test_the_interface_by_keyboard_info_box_messages_and_contrast(
         """() => [getComputedStyle(document.querySelector('.target-blue')).fill,
                   getComputedStyle(document.querySelector('.ground')).fill]"""
     )
-    assert _contrast(*fills) >= 3.0, fills
+    assert contrast(*fills) >= 3.0, fills
 
     # System Messages: the ten newest fit in the panel without scrolling.
     assert wait_for(demo_server, lambda lv: len(lv.messages) >= 10, 110), "fewer than 10 messages"
@@ -598,7 +529,7 @@ def test_a_takeover_event_stops_the_older_tab(browser, demo_server: StudyServer)
     request with that event; without the handler EventSource would reconnect at once."""
     from playwright.sync_api import expect
 
-    token = _start_live_trial(demo_server)
+    token = start_live_trial(demo_server)
     page = browser.new_page(viewport=VIEWPORT)
     opened = []
 

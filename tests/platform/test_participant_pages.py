@@ -7,7 +7,7 @@ from sqlalchemy import func, select
 from hcss.platform.bots import parse_page
 from hcss.platform.models import ConsentRecord
 from hcss.platform.study import views
-from tests.platform.study_fixtures import demo_app, new_participant, visitor  # noqa: F401
+from tests.support.study import new_participant, visitor
 
 
 def _consents(app) -> int:  # type: ignore[no-untyped-def]
@@ -15,7 +15,7 @@ def _consents(app) -> int:  # type: ignore[no-untyped-def]
         return session.scalar(select(func.count()).select_from(ConsentRecord))
 
 
-def test_declining_asks_once_for_confirmation(demo_app) -> None:  # noqa: F811
+def test_declining_asks_once_for_confirmation(demo_app) -> None:
     guest = visitor(demo_app, new_participant(demo_app))
     page = guest.page()
     first = guest.submit({"decision": "decline"}, page)
@@ -32,7 +32,7 @@ def test_declining_asks_once_for_confirmation(demo_app) -> None:  # noqa: F811
     ).get_data(as_text=True)
 
 
-def test_changing_ones_mind_on_the_confirmation_agrees(demo_app) -> None:  # noqa: F811
+def test_changing_ones_mind_on_the_confirmation_agrees(demo_app) -> None:
     guest = visitor(demo_app, new_participant(demo_app))
     guest.submit({"decision": "decline"})
     guest.submit({"decision": "agree"}, parse_page(guest.html))
@@ -44,7 +44,7 @@ def test_changing_ones_mind_on_the_confirmation_agrees(demo_app) -> None:  # noq
     )
 
 
-def test_a_get_on_a_forms_post_address_goes_to_the_stage(demo_app) -> None:  # noqa: F811
+def test_a_get_on_a_forms_post_address_goes_to_the_stage(demo_app) -> None:
     guest = visitor(demo_app, new_participant(demo_app))
     page = guest.page()
     response = guest.client.get(page.action)
@@ -55,7 +55,7 @@ def test_a_get_on_a_forms_post_address_goes_to_the_stage(demo_app) -> None:  # n
     assert stale.status_code == 302
 
 
-def test_error_pages_use_the_study_look_and_say_what_to_do(demo_app, monkeypatch) -> None:  # noqa: F811
+def test_error_pages_use_the_study_look_and_say_what_to_do(demo_app, monkeypatch) -> None:
     client = demo_app.test_client()
     token = new_participant(demo_app)
 
@@ -91,8 +91,8 @@ def test_error_pages_use_the_study_look_and_say_what_to_do(demo_app, monkeypatch
     assert "Traceback" not in html and f'href="/p/{token}"' in html
 
 
-def test_the_screen_check_refuses_a_small_or_bogus_window_on_the_server(demo_app) -> None:  # noqa: F811
-    from tests.platform.test_study_resume import walk_to
+def test_the_screen_check_refuses_a_small_or_bogus_window_on_the_server(demo_app) -> None:
+    from tests.support.study import walk_to
 
     guest = visitor(demo_app, new_participant(demo_app))
     page = walk_to(guest, "screen_check", "form")

@@ -9,7 +9,6 @@ collective I (whose hub is the map's top-left one) and one about a target.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
 
 import pytest
 
@@ -17,8 +16,8 @@ from hcss.platform.live.progress import CurrentProbe
 from hcss.platform.models import Probe
 from hcss.questionnaires.probes import PROBE_TIMEOUT_S, TEMPLATES, ProbeLevel
 from hcss.simulation import ROMAN
-from tests.platform.inprocess_server import StudyServer, study_server
-from tests.platform.test_participant_browser import live_trial, open_live_trial, wait_for
+from tests.support.pages import live_trial, open_live_trial, wait_for
+from tests.support.study_server import StudyServer
 
 pytestmark = pytest.mark.browser
 
@@ -35,12 +34,6 @@ RECTS = """() => {
   return { box: rect(document.getElementById("probe")), hubs, targets,
            zoom: rect(document.getElementById("map-zoom")) };
 }"""
-
-
-@pytest.fixture
-def demo_server(tmp_path) -> Iterator[StudyServer]:  # type: ignore[no-untyped-def]
-    with study_server(tmp_path, "demo") as server:
-        yield server
 
 
 def _overlaps(box: list[float], glyph: list[float]) -> bool:

@@ -12,6 +12,7 @@ from hcss.platform.live.probes import level_counts, probe_plan
 from hcss.platform.models import Probe, ProbeEvent
 from hcss.questionnaires.probes import PROBE_TIMEOUT_S, ProbeLevel
 from hcss.simulation import ROMAN
+from tests.support.trials import until_probe
 
 
 def _events(app, probe_id: int) -> list[ProbeEvent]:  # type: ignore[no-untyped-def]
@@ -28,23 +29,6 @@ def _probe_row(app, probe_id: int) -> Probe:  # type: ignore[no-untyped-def]
         return session.get(Probe, probe_id)
 
 
-def _until_probe(trial, start: float, level: int | None = None):  # type: ignore[no-untyped-def]
-    """Run on until a probe (of `level`) is on screen; return it and the state then."""
-    second = start
-    while second < trial.live().duration_s:
-        second += 1
-        trial.run_to(second)
-        state = trial.state()
-        probe = state["probe"]
-        if probe and (level is None or probe["level"] == level):
-            return probe, state, second
-        if probe:  # another level: answer it so the next can come
-            trial.post(f"/probes/{probe['id']}/ready", {})
-            choice = trial.state()["probe"]["choices"][0]
-            trial.post(f"/probes/{probe['id']}/answer", {"answer": choice})
-    pytest.fail(f"no level-{level} probe in the trial")
-
-
 def test_a_20_minute_trial_plans_4_5_3_probes_about_one_a_minute() -> None:
     plan = probe_plan(seed=11, duration_s=1200)
     levels = [p.level for p in plan]
@@ -58,7 +42,7 @@ def test_a_20_minute_trial_plans_4_5_3_probes_about_one_a_minute() -> None:
 
 def test_probe_flow_records_latencies_and_scores_against_the_simulation(make_trial) -> None:
     trial = make_trial(seed=4)
-    probe, state, second = _until_probe(trial, 0, level=ProbeLevel.PERCEPTION)
+    probe, state, second = until_probe(trial, 0, level=ProbeLevel.PERCEPTION)
     assert probe["phase"] == "ready" and probe["question"] is None and probe["choices"] is None
     assert probe["subject"] is None  # the question, and what it is about, wait for Ready
     row = _probe_row(trial.app, probe["id"])
@@ -99,7 +83,7 @@ def test_probe_flow_records_latencies_and_scores_against_the_simulation(make_tri
 
 def test_comprehension_truth_is_the_best_target(make_trial) -> None:
     trial = make_trial(seed=4)
-    probe, _state, _second = _until_probe(trial, 0, level=ProbeLevel.COMPREHENSION)
+    probe, _state, _second = until_probe(trial, 0, level=ProbeLevel.COMPREHENSION)
     row = _probe_row(trial.app, probe["id"])
     collective = ROMAN.index(row.question.rsplit(" ", 1)[1].rstrip("?"))
     # Independently of Simulation.best_target: of the targets offered (those in range)
@@ -124,7 +108,7 @@ def test_comprehension_truth_is_the_best_target(make_trial) -> None:
 
 def test_unanswered_probe_times_out_on_the_server(make_trial) -> None:
     trial = make_trial(seed=4)
-    probe, _state, second = _until_probe(trial, 0)
+    probe, _state, second = until_probe(trial, 0)
     trial.run_to(second + PROBE_TIMEOUT_S - 1)
     assert trial.state()["probe"]["id"] == probe["id"]
     trial.run_to(second + PROBE_TIMEOUT_S + 1)
@@ -139,7 +123,7 @@ def test_projection_is_scored_when_the_next_decision_happens(make_trial) -> None
     # M2: its decisions take minutes, so the trial is still running when the next
     # decision after a late projection probe comes (M1 may have finished all 12).
     trial = make_trial(seed=4, model="M2")
-    probe, _state, second = _until_probe(trial, 0, level=ProbeLevel.PROJECTION)
+    probe, _state, second = until_probe(trial, 0, level=ProbeLevel.PROJECTION)
     assert _probe_row(trial.app, probe["id"]).truth is None
     trial.post(f"/probes/{probe['id']}/ready", {})
     trial.post(f"/probes/{probe['id']}/answer", {"answer": "II"})
@@ -167,7 +151,7 @@ def test_latencies_are_wall_clock_milliseconds_from_delivery(
     from hcss.platform.models import Participant
 
     trial = make_trial(seed=4)
-    probe, _, _ = _until_probe(trial, 0)  # this state() read delivered the prompt
+    probe, _, _ = until_probe(trial, 0)  # this state() read delivered the prompt
     clock = trial.runner.clock
     clock.now += 0.250
     assert trial.post(f"/probes/{probe['id']}/ready", {}).status_code == 200
@@ -237,7 +221,7 @@ def test_a_study_file_with_other_probe_counts_is_accepted_and_bad_ones_refused()
 
     doc = tomllib.loads(study_text("original")[1].decode())
     doc["probes"] = {"perception": 2, "comprehension": 0, "projection": 1}
-    assert parse_study(doc, source="t").probe_counts == {1: 2, 2: 0, 3: 1}
+    assert parse_study(doc, source="t").probes.per_level == {1: 2, 2: 0, 3: 1}
     for bad in (-1, 10**6):
         doc["probes"]["projection"] = bad
         with pytest.raises(StudyFileError, match=r"\[probes\]"):

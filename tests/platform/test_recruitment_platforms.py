@@ -25,10 +25,7 @@ from sqlalchemy import func, select
 from hcss.platform.bots import parse_page
 from hcss.platform.models import Participant, Recruitment
 from hcss.platform.study.studyfile import StudyFileError, load_study
-from tests.platform import console_support
-from tests.platform.recruitment_support import demo_variant
-
-console, experimenter = console_support.console, console_support.experimenter
+from tests.support.recruitment import demo_variant
 
 LAPTOP = {"width": "1366", "height": "657", "mobile": "0", "missing": ""}
 HIDDEN = re.compile(r'<input type="hidden" name="([^"]+)" value="([^"]*)"')

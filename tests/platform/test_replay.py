@@ -16,12 +16,8 @@ from hcss.platform.models import (
     Trial,
 )
 from hcss.simulation import Simulation
-from tests.platform import console_support
-from tests.platform.console_support import code_of
-from tests.platform.replay_support import operate
-from tests.platform.replaying import replay_trial
-
-console, experimenter = console_support.console, console_support.experimenter
+from tests.support.console import code_of
+from tests.support.replays import operate, replay_trial
 
 
 def _final_snapshot_digest(app, trial_id: int) -> str:  # type: ignore[no-untyped-def]

@@ -12,13 +12,11 @@ import re
 
 import pytest
 
-from tests.platform import console_support
-from tests.platform.console_support import code_of, open_replay
-from tests.platform.inprocess import serving
-from tests.platform.replay_support import operate
+from tests.support.console import code_of, open_replay
+from tests.support.inprocess import serving
+from tests.support.replays import operate
 
 pytestmark = pytest.mark.browser
-experimenter = console_support.experimenter
 
 #: Trial seconds from the probe showing to Ready, and from Ready to the answer.
 READY_AFTER_S, ANSWER_AFTER_S = 3.0, 5.0

@@ -9,9 +9,7 @@ from __future__ import annotations
 
 import pytest
 
-from tests.platform import console_support
-
-console, experimenter = console_support.console, console_support.experimenter
+from tests.support.trials import csrf_token_of
 
 HUGE_IDS = [2**31, 2**31 + 7, 2**63, 2**64 + 1, 10**40]
 
@@ -62,7 +60,7 @@ def test_nul_bytes_in_tokens_codes_and_logins_are_refused(make_trial, console) -
     answer = client.post(
         "/console/login",
         data={
-            "csrf_token": console_support.csrf_token_of(login.get_data(as_text=True)),
+            "csrf_token": csrf_token_of(login.get_data(as_text=True)),
             "username": "ali\x00ce",
             "password": "correct horse battery",
         },

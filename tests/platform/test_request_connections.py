@@ -33,12 +33,8 @@ from hcss.platform.models import Participant
 from hcss.platform.models.vocabularies import TrialStatus
 from hcss.platform.study.enrolment import current_enrolment
 from hcss.platform.study.flow import Flow
-from tests.platform import console_support
-from tests.platform.console_support import code_of
-from tests.platform.study_fixtures import demo_app, events, new_participant, visitor  # noqa: F401
-from tests.platform.test_study_resume import walk_to
-
-console, experimenter = console_support.console, console_support.experimenter
+from tests.support.console import code_of
+from tests.support.study import events, new_participant, visitor, walk_to
 
 #: A pool far smaller than the requests sent at once, failing in seconds, not 30.
 SMALL_POOL = {"pool_size": 4, "max_overflow": 4, "pool_timeout": 15}
@@ -86,7 +82,7 @@ class MostHeld:
         return max(self.counts)
 
 
-def test_settling_the_flow_leaves_an_overdue_trial_to_the_live_service(demo_app) -> None:  # noqa: F811
+def test_settling_the_flow_leaves_an_overdue_trial_to_the_live_service(demo_app) -> None:
     token = new_participant(demo_app, is_bot=True)
     v = visitor(demo_app, token)
     walk_to(v, "training", "ready")

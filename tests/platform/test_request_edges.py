@@ -7,10 +7,7 @@ import csv
 import pytest
 
 from hcss.platform.export.writer import write_export
-from tests.platform import console_support
-from tests.platform.test_online_recruitment import _join as join
-
-console, experimenter = console_support.console, console_support.experimenter
+from tests.support.recruitment import join
 
 
 @pytest.mark.parametrize("host", ["a" * 64 + ".example", "a..b"])

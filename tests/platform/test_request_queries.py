@@ -18,9 +18,8 @@ from sqlalchemy import event, select
 
 from hcss.platform.bots import parse_page
 from hcss.platform.models import QuestionnaireItem
-from tests.platform.study_fixtures import demo_app, new_participant, visitor  # noqa: F401
-from tests.platform.test_idempotency import _investigate
-from tests.platform.test_study_resume import walk_to
+from tests.support.study import new_participant, visitor, walk_to
+from tests.support.trials import investigate_request
 
 CLICK = {"kind": "collective", "collective": 0, "button": "left"}
 
@@ -44,7 +43,7 @@ def tables_read(app) -> Iterator[Counter[str]]:  # type: ignore[no-untyped-def]
 
 def test_a_keyed_command_to_a_held_trial_reads_its_key_once_and_no_owner_row(make_trial) -> None:
     trial = make_trial()
-    body = _investigate(trial)
+    body = investigate_request(trial)
     with tables_read(trial.app) as counts:
         answer = trial.client.post(
             trial.api + "/requests",
@@ -82,7 +81,7 @@ def test_a_held_trial_answers_only_its_own_token(make_trial) -> None:
         assert answer.status_code == 404
 
 
-def test_a_stage_page_reads_the_participant_and_the_consent_once(demo_app) -> None:  # noqa: F811
+def test_a_stage_page_reads_the_participant_and_the_consent_once(demo_app) -> None:
     token = new_participant(demo_app)
     client = demo_app.test_client()
     assert client.get(f"/p/{token}/stage").status_code == 200  # consent: entered, shown
@@ -113,7 +112,7 @@ def statements_sent(app) -> Iterator[Counter[str]]:  # type: ignore[no-untyped-d
         event.remove(engine, "commit", commit)
 
 
-def test_the_personal_link_reads_the_participant_and_enrolment_only(demo_app) -> None:  # noqa: F811
+def test_the_personal_link_reads_the_participant_and_enrolment_only(demo_app) -> None:
     """It redirects to the stage page, which locates the step: nothing else to read or write.
 
     The demo study has no [timeouts], so there is no one to time out either, and
@@ -128,7 +127,7 @@ def test_the_personal_link_reads_the_participant_and_enrolment_only(demo_app) ->
     assert sent == Counter({"SELECT": 2, "COMMIT": 1})
 
 
-def test_a_stage_page_commits_once_when_it_records_the_entry(demo_app) -> None:  # noqa: F811
+def test_a_stage_page_commits_once_when_it_records_the_entry(demo_app) -> None:
     """No step's deadline has passed, so no trial can be overdue: the live service's
     unit of work (and the request's connection handed back for it) is not needed."""
     token = new_participant(demo_app)
@@ -143,7 +142,7 @@ def test_a_stage_page_commits_once_when_it_records_the_entry(demo_app) -> None: 
     assert (sent["SELECT"], sent["INSERT"], sent["COMMIT"]) == (5, 0, 1)
 
 
-def test_an_answer_is_written_in_one_commit(demo_app) -> None:  # noqa: F811
+def test_an_answer_is_written_in_one_commit(demo_app) -> None:
     token = new_participant(demo_app)
     client = demo_app.test_client()
     page = parse_page(client.get(f"/p/{token}/stage").get_data(as_text=True))
@@ -154,7 +153,7 @@ def test_an_answer_is_written_in_one_commit(demo_app) -> None:  # noqa: F811
     assert (sent["SELECT"], sent["INSERT"], sent["COMMIT"]) == (5, 2, 1)  # consent, submitted
 
 
-def test_an_mrt_answer_reads_the_answers_so_far_once(demo_app) -> None:  # noqa: F811
+def test_an_mrt_answer_reads_the_answers_so_far_once(demo_app) -> None:
     """Which item is current, whether this is it, and whether the part is done are all
     read from the stage's answers: one SELECT, kept up to date as the answer is written."""
     v = visitor(demo_app, new_participant(demo_app, is_bot=True))

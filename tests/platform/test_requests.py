@@ -2,19 +2,15 @@
 
 from __future__ import annotations
 
-from sqlalchemy import func, select
+from sqlalchemy import select
 
 from hcss.platform.models import Command, CommandOutcome, RequestStatusChange
+from tests.support.counting import count_rows
 
 
 def _rows(app, model):  # type: ignore[no-untyped-def]
     with app.extensions["hcss_db"].session_scope() as session:
         return list(session.scalars(select(model).order_by(model.id)))
-
-
-def _count(app, model) -> int:  # type: ignore[no-untyped-def]
-    with app.extensions["hcss_db"].session_scope() as session:
-        return session.scalar(select(func.count()).select_from(model))
 
 
 def _in_range_target(view, collective: int):  # type: ignore[no-untyped-def]
@@ -190,8 +186,8 @@ def test_bad_input_gets_a_json_error_and_changes_nothing(make_trial) -> None:
         trial.api + "/requests", data="kind=decide", headers={"X-CSRFToken": trial.csrf}
     )
     assert not_json.status_code == 400 and "JSON" in not_json.get_json()["message"]
-    assert _count(trial.app, Command) == 0
-    assert _count(trial.app, CommandOutcome) == 0
+    assert count_rows(trial.app, Command) == 0
+    assert count_rows(trial.app, CommandOutcome) == 0
 
 
 def test_accepted_requests_are_logged_in_system_messages_and_survive_a_rebuild(

@@ -13,15 +13,10 @@ from hcss.platform.live.client import TrialClient
 from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.localserver import LocalServer
 from hcss.platform.models import (
-    Command,
-    CommandOutcome,
-    DecisionRow,
     Interruption,
-    Probe,
-    ProbeEvent,
 )
-from tests.platform.conftest import STUDY_TRIAL_S
-from tests.platform.replaying import replay_trial
+from tests.support.replays import replay_trial, trial_records
+from tests.support.trials import STUDY_TRIAL_S
 
 ACCELERATION = 20.0  # trial seconds per wall second
 
@@ -34,26 +29,6 @@ def _wait_for(condition, timeout_s: float, what: str):  # type: ignore[no-untype
             return value
         time.sleep(0.1)
     pytest.fail(f"timed out waiting for {what}")
-
-
-def _records(database: Database, trial_id: int) -> dict[str, list[tuple]]:
-    with database.session_scope() as session:
-        commands = session.scalars(select(Command).where(Command.trial_id == trial_id))
-        outcomes = session.execute(
-            select(CommandOutcome).join(Command).where(Command.trial_id == trial_id)
-        ).scalars()
-        probes = session.scalars(select(Probe).where(Probe.trial_id == trial_id))
-        probe_events = session.execute(
-            select(ProbeEvent).join(Probe).where(Probe.trial_id == trial_id)
-        ).scalars()
-        decisions = session.scalars(select(DecisionRow).where(DecisionRow.trial_id == trial_id))
-        return {
-            "commands": [(c.id, c.kind, c.collective, c.target, c.step_applied) for c in commands],
-            "outcomes": [(o.command_id, o.accepted, o.request_id, o.reason) for o in outcomes],
-            "probes": [(p.id, p.level, p.question, p.truth) for p in probes],
-            "probe_events": [(e.id, e.probe_id, e.kind, e.answer) for e in probe_events],
-            "decisions": [(d.collective, d.decision_index, d.record["end_s"]) for d in decisions],
-        }
 
 
 @pytest.mark.slow
@@ -91,9 +66,9 @@ def test_kill_9_and_restart_loses_nothing_and_rebuilds_exactly(database_url, tmp
         assert client.post(f"/probes/{probe['id']}/ready", {})[0] == 200
         choice = client.state()["probe"]["choices"][0]
         assert client.post(f"/probes/{probe['id']}/answer", {"answer": choice})[0] == 200
-        _wait_for(lambda: _records(database, trial_id)["decisions"], 60, "a decision")
+        _wait_for(lambda: trial_records(database, trial_id)["decisions"], 60, "a decision")
         client.post("/requests", {"kind": "investigate", "collective": 1, "target": targets[-1]})
-        before = _records(database, trial_id)
+        before = trial_records(database, trial_id)
         server.kill()
 
         time.sleep(1.0)  # the server is down; the trial's clock stands still (outages.py)
@@ -103,7 +78,7 @@ def test_kill_9_and_restart_loses_nothing_and_rebuilds_exactly(database_url, tmp
             30,
             "the restarted server to rebuild the trial",
         )
-        after = _records(database, trial_id)
+        after = trial_records(database, trial_id)
         for kind in ("commands", "probes", "probe_events", "decisions"):
             assert after[kind][: len(before[kind])] == before[kind], kind
         assert after["commands"] == before["commands"]  # none lost, none invented

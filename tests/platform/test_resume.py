@@ -8,7 +8,7 @@ from sqlalchemy import select
 from hcss.platform.app import create_app
 from hcss.platform.bots import ManualClock
 from hcss.platform.models import CommandOutcome, Interruption, Snapshot
-from tests.platform.replaying import replay_trial
+from tests.support.replays import replay_trial
 
 
 def test_rebuild_after_a_crash_equals_an_uninterrupted_run(app, make_trial, database_url) -> None:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from tests.platform import screenshots
+from tests.support import screenshots
 
 
 class Page:

@@ -17,8 +17,8 @@ from pathlib import Path
 
 from hcss.platform.app import create_app
 from hcss.platform.db import Database
-from tests.platform.own_disk import own_disk
-from tests.platform.test_online_recruitment import _join as join
+from tests.support.own_disk import own_disk
+from tests.support.recruitment import join
 
 HCSS = str(Path(sys.executable).with_name("hcss"))
 
@@ -90,7 +90,7 @@ def test_a_read_only_postgresql_is_said_at_start_and_answers_503() -> None:
     import pytest
 
     from hcss.platform.localserver import postgres_schema
-    from tests.platform.conftest import PG_ENV
+    from tests.support.databases import PG_ENV
 
     base = os.environ.get(PG_ENV)
     if not base:

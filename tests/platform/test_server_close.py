@@ -17,7 +17,7 @@ import time
 from hcss.platform.live.client import TrialClient
 from hcss.platform.live.trials import start_trial
 from hcss.platform.models import Participant
-from tests.platform.inprocess_server import study_server
+from tests.support.study_server import study_server
 
 
 def test_a_stream_ending_after_the_server_closed_writes_into_no_reused_descriptor(

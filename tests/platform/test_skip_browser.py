@@ -12,9 +12,9 @@ from hcss.platform.bots import bot_app
 from hcss.platform.cli import upgrade_database
 from hcss.platform.console.accounts import create_experimenter
 from hcss.platform.models import Participant
-from tests.platform.conftest import CHROMIUM, CHROMIUM_ARGS
-from tests.platform.console_support import Console, sign_in
-from tests.platform.study_fixtures import events, visitor
+from tests.support.browser import CHROMIUM, CHROMIUM_ARGS
+from tests.support.console import Console, sign_in
+from tests.support.study import events, visitor
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]  # waits for a 10 s heartbeat
 

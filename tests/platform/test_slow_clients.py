@@ -8,7 +8,6 @@ send a request head a byte every 2 s. A bystander on another loopback address
 from __future__ import annotations
 
 import contextlib
-import http.client
 import socket
 import threading
 import time
@@ -18,27 +17,10 @@ import pytest
 from hcss.platform.cli import upgrade_database
 from hcss.platform.connections import PER_CLIENT
 from hcss.platform.localserver import LocalServer
+from tests.support.bystander import sample_bystander_ms
 
 ATTACK_SOCKETS = 600
 WINDOW_S = 12.0
-
-
-def _bystander_ms(port: int, stop: threading.Event, latencies: list[float]) -> None:
-    while not stop.is_set():
-        started = time.perf_counter()
-        try:
-            connection = http.client.HTTPConnection(
-                "127.0.0.1", port, timeout=5, source_address=("127.0.0.2", 0)
-            )
-            connection.request("GET", "/console/login")
-            response = connection.getresponse()
-            response.read()
-            connection.close()
-            assert response.status == 200
-            latencies.append((time.perf_counter() - started) * 1000)
-        except OSError:
-            latencies.append(5000.0)  # timed out or refused: the server is taken
-        time.sleep(0.2)
 
 
 @pytest.mark.slow
@@ -62,7 +44,9 @@ def test_600_slowloris_sockets_leave_a_bystander_p95_under_500_ms(tmp_path) -> N
                 attacker.sendall(b"G")  # a head begun, never finished
             attackers.append(attacker)
         stop, latencies = threading.Event(), []
-        bystander = threading.Thread(target=_bystander_ms, args=(server.port, stop, latencies))
+        bystander = threading.Thread(
+            target=sample_bystander_ms, args=(server.port, stop, latencies)
+        )
         bystander.start()
         started = time.monotonic()
         head = b"ET / HTTP/1.1\r\nHost: x\r\nX-Slow: " + b"a" * 64

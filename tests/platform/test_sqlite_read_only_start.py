@@ -1,12 +1,11 @@
 """Issue 30 §3: SQLite read-only across a start recovers once the disk is writable again.
 
-NOT FIXED: this reproduces the defect (xfail, strict: it fails loudly once fixed).
-
 A server that started on a read-only disk, with a live trial in it, answered
 503 to the trial's state, commands and heartbeats for good: SQLite shares a
 read-only -shm mapping among the process's connections to the file while any
 of them stays open, so replacing one connection at a time never let a
-writable one in. Walked as a participant's page does: the state, a command,
+writable one in; and a connection dropped after a read-only error stayed open
+behind its failed cursor. Walked as a participant's page does: the state, a command,
 the runner's tick, over the app's routes.
 """
 
@@ -21,7 +20,7 @@ import pytest
 from hcss.platform.app import create_app
 from hcss.platform.bots import ManualClock
 from hcss.platform.cli import upgrade_database
-from tests.platform.own_disk import own_disk
+from tests.support.own_disk import own_disk
 
 _CRASHING_WRITER = """
 import os, sys
@@ -41,12 +40,6 @@ os._exit(0)
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(
-    strict=True,
-    reason="open (issue 30 §3): after the remount the process keeps ~26 descriptors of the "
-    "file open with no connection left in the pool, and disposing the engine on the first "
-    "read-only error once the file is writable did not help",
-)
 def test_a_live_trial_read_only_across_a_start_runs_again_once_the_disk_is_writable(
     tmp_path,
 ) -> None:
@@ -94,6 +87,7 @@ def test_a_live_trial_read_only_across_a_start_runs_again_once_the_disk_is_writa
                 if statuses[-1] == (200, 200):
                     break
                 time.sleep(0.25)
+            print(f"after the disk is writable again: {statuses}")
             assert set(refused) == {503}
             assert statuses[-1] == (200, 200), statuses
             assert len(statuses) <= 4, statuses  # within a second of the disk's return

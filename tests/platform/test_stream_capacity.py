@@ -21,7 +21,7 @@ from hcss.platform.db import Database
 from hcss.platform.live.streams import WANTING_S, StreamSlots
 from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.localserver import LocalServer
-from tests.platform.conftest import STUDY_TRIAL_S, TrialHandle
+from tests.support.trials import STUDY_TRIAL_S, TrialHandle
 
 
 def _stream(trial):  # type: ignore[no-untyped-def]

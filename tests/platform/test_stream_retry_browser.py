@@ -19,7 +19,7 @@ from hcss.platform.db import Database
 from hcss.platform.live.streams import RETRY_AFTER_S
 from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.localserver import LocalServer
-from tests.platform.conftest import STUDY_TRIAL_S
+from tests.support.trials import STUDY_TRIAL_S
 
 pytestmark = pytest.mark.browser
 

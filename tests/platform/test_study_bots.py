@@ -7,10 +7,13 @@ from click.testing import CliRunner
 from sqlalchemy import select
 
 from hcss.cli import main
+from hcss.platform.bots import BotError, run_bots
 from hcss.platform.db import Database
-from hcss.platform.models import ConsoleAction, Participant, StudyEnrolment
+from hcss.platform.models import ConsoleAction, Participant, StageEvent, StudyEnrolment
 from hcss.platform.study import participant_status
-from tests.platform.study_fixtures import demo_app, new_participant, visitor  # noqa: F401
+from hcss.platform.study.stage import Submission, SubmissionMustFail
+from hcss.platform.study.stages import STAGES
+from tests.support.study import new_participant, visitor
 
 
 @pytest.mark.slow
@@ -35,7 +38,7 @@ def test_hcss_bots_fills_a_database_with_flagged_completed_bots(tmp_path) -> Non
     assert bad.exit_code != 0 and "no study file nope.toml" in bad.output
 
 
-def test_a_paused_or_aborted_session_holds_the_participant(demo_app) -> None:  # noqa: F811
+def test_a_paused_or_aborted_session_holds_the_participant(demo_app) -> None:
     token = new_participant(demo_app)
     v = visitor(demo_app, token)
     page = v.page()
@@ -51,3 +54,27 @@ def test_a_paused_or_aborted_session_holds_the_participant(demo_app) -> None:  #
         session.add(ConsoleAction(participant_id=participant.id, action="abort", at_epoch=2.0))
         assert participant_status(session, session.get(Participant, participant.id)) == "aborted"
     assert v.page().stage == "held" and "has ended this session" in v.html
+
+
+@pytest.mark.parametrize(
+    ("stage", "accepted"),
+    [
+        ("consent", {"decision": "agree"}),
+        ("screen_check", {"width": "1280", "height": "800"}),
+    ],
+)
+def test_a_bot_stops_where_a_stage_takes_answers_it_must_refuse(
+    demo_app,  # noqa: F811
+    monkeypatch: pytest.MonkeyPatch,
+    stage: str,
+    accepted: dict[str, str],
+) -> None:
+    """The bots post each stage's `SubmissionMustFail` before its `Submission`: declared
+    answers the platform takes are a failed walk, not a pilot participant with wrong data."""
+    planted = (SubmissionMustFail(accepted), Submission(accepted))
+    monkeypatch.setattr(type(STAGES[stage]), "bot_submissions", lambda self, shown: planted)
+    with pytest.raises(BotError, match=rf"{stage}/form took .*: must refuse"):
+        run_bots(demo_app, 1)
+    with demo_app.extensions["hcss_db"].session_scope() as session:
+        submitted = session.scalars(select(StageEvent.stage).where(StageEvent.kind == "submitted"))
+        assert stage in set(submitted)  # it was the stage that took them

@@ -18,7 +18,7 @@ from hcss.platform.localserver import LocalServer
 from hcss.platform.models import ConsentRecord, Participant, QuestionnaireItem
 from hcss.platform.study import assign_cell
 from hcss.questionnaires.demographics import ITEM_KEYS
-from tests.platform.screenshots import screenshot
+from tests.support.screenshots import screenshot
 
 pytestmark = pytest.mark.browser
 

@@ -11,7 +11,6 @@ from hcss.platform.models import ConsentRecord, Participant, StudyEnrolment
 from hcss.platform.study import StudyFileError, assign_cell, load_study
 from hcss.platform.study.enrolment import cell_counts
 from hcss.platform.study.studyfile import parse_study
-from tests.platform.study_fixtures import study_app  # noqa: F401
 
 
 def _enrol(session, **flags):  # type: ignore[no-untyped-def]
@@ -32,7 +31,7 @@ def test_the_original_design_has_the_eight_cells_of_the_spec() -> None:
         assert Counter(c.first_sections[model] for c in study.cells) == {"easy": 4, "difficult": 4}
 
 
-def test_sixteen_participants_fill_each_cell_twice_and_pilots_do_not_count(study_app) -> None:  # noqa: F811
+def test_sixteen_participants_fill_each_cell_twice_and_pilots_do_not_count(study_app) -> None:
     database = study_app.extensions["hcss_db"]
     with study_app.app_context(), database.session_scope() as session:
         pilots = [_enrol(session, is_pilot=True) for _ in range(5)]
@@ -51,7 +50,7 @@ def test_sixteen_participants_fill_each_cell_twice_and_pilots_do_not_count(study
         )
 
 
-def test_declined_participants_free_their_cell(study_app) -> None:  # noqa: F811
+def test_declined_participants_free_their_cell(study_app) -> None:
     database = study_app.extensions["hcss_db"]
     study = load_study("original")
     with study_app.app_context(), database.session_scope() as session:
@@ -69,7 +68,7 @@ def test_declined_participants_free_their_cell(study_app) -> None:  # noqa: F811
         assert _enrol(session).cell == first[0].cell
 
 
-def test_an_override_is_recorded_and_a_bad_cell_changes_nothing(study_app) -> None:  # noqa: F811
+def test_an_override_is_recorded_and_a_bad_cell_changes_nothing(study_app) -> None:
     database = study_app.extensions["hcss_db"]
     with study_app.app_context(), database.session_scope() as session:
         participant = Participant()
@@ -129,7 +128,7 @@ def test_another_design_is_a_study_file_not_code() -> None:
         parse_study(doc, source="latin.toml")
 
 
-def test_on_postgresql_concurrent_assignments_wait_for_each_other(study_app, database_url) -> None:  # noqa: F811
+def test_on_postgresql_concurrent_assignments_wait_for_each_other(study_app, database_url) -> None:
     """Two arrivals at once: the second sees the first's cell, so it cannot take it blindly."""
     import threading
     import time

@@ -37,7 +37,7 @@ def test_a_user_study_is_loaded_listed_and_wins_over_a_bundled_one(studies: Path
     _write(studies, "mine")
     _write(studies, "demo", ("trial_s = 120.0", "trial_s = 90.0"))
     assert load_study("mine").name == "mine"
-    assert load_study("demo").trial_s == 90.0
+    assert load_study("demo").timing.trial_s == 90.0
     assert {"demo", "mine", "original"} <= set(study_names())
 
 

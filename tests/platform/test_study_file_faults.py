@@ -12,9 +12,6 @@ from hcss.platform.study import assign_cell
 from hcss.platform.study.files import STUDIES_ENV, bundled_directory
 from hcss.platform.study.studyfile import _load_study
 from hcss.platform.study.versions import study_problems
-from tests.platform import console_support
-
-console, experimenter = console_support.console, console_support.experimenter
 
 
 @pytest.fixture

@@ -19,12 +19,8 @@ from hcss.platform.models import (
 )
 from hcss.platform.study import load_study
 from hcss.platform.study.enrolment import cell_counts
-from tests.platform.study_fixtures import demo_app, errors_in, events, new_participant, visitor  # noqa: F401
-
-
-def _count(app, model) -> int:  # type: ignore[no-untyped-def]
-    with app.extensions["hcss_db"].session_scope() as session:
-        return session.scalar(select(func.count()).select_from(model))
+from tests.support.counting import count_rows
+from tests.support.study import errors_in, events, new_participant, visitor
 
 
 def _checked(html: str, name: str) -> str | None:
@@ -38,7 +34,7 @@ def _agree(v) -> None:  # type: ignore[no-untyped-def]
     assert v.submit({"decision": "agree"}).status_code == 302
 
 
-def test_invalid_demographics_rerender_with_messages_and_keep_answers(demo_app) -> None:  # noqa: F811
+def test_invalid_demographics_rerender_with_messages_and_keep_answers(demo_app) -> None:
     v = visitor(demo_app, new_participant(demo_app))
     _agree(v)
     page = v.page()
@@ -59,12 +55,12 @@ def test_invalid_demographics_rerender_with_messages_and_keep_answers(demo_app) 
     assert any(m.startswith("Please choose one of:") for m in messages)  # gender
     assert "Must be between 1 and 5, got 9." in messages  # video_games
     assert _checked(v.html, "education") == "master" and _checked(v.html, "robots") == "3"
-    assert _count(demo_app, QuestionnaireItem) == 0
+    assert count_rows(demo_app, QuestionnaireItem) == 0
     assert v.page().stage == "demographics"  # still here, nothing recorded
 
 
-def test_nasa_tlx_and_ranking_errors_come_from_the_instruments(demo_app) -> None:  # noqa: F811
-    from tests.platform.test_study_resume import walk_to
+def test_nasa_tlx_and_ranking_errors_come_from_the_instruments(demo_app) -> None:
+    from tests.support.study import walk_to
 
     token = new_participant(demo_app, is_bot=True)
     v = visitor(demo_app, token)
@@ -103,7 +99,7 @@ def test_nasa_tlx_and_ranking_errors_come_from_the_instruments(demo_app) -> None
     assert "first collective type" in v.html and not re.search(r"\bM[123]\b", v.html)
 
 
-def test_resubmission_and_skipping_are_refused_and_change_nothing(demo_app) -> None:  # noqa: F811
+def test_resubmission_and_skipping_are_refused_and_change_nothing(demo_app) -> None:
     token = new_participant(demo_app)
     v = visitor(demo_app, token)
     consent_page = v.page()
@@ -111,7 +107,7 @@ def test_resubmission_and_skipping_are_refused_and_change_nothing(demo_app) -> N
     again = v.submit({"decision": "agree"}, consent_page)
     assert again.status_code == 409
     assert "already been submitted" in v.html
-    assert _count(demo_app, ConsentRecord) == 1
+    assert count_rows(demo_app, ConsentRecord) == 1
     before = len(events(demo_app, token))
     skip = v.client.post(
         f"/p/{token}/stage/2/instructions", data={"csrf_token": consent_page.hidden["csrf_token"]}
@@ -121,7 +117,7 @@ def test_resubmission_and_skipping_are_refused_and_change_nothing(demo_app) -> N
     assert v.page().stage == "demographics"
 
 
-def test_declining_consent_keeps_only_the_refusal(demo_app) -> None:  # noqa: F811
+def test_declining_consent_keeps_only_the_refusal(demo_app) -> None:
     token = new_participant(demo_app)
     v = visitor(demo_app, token)
     page = v.page()
@@ -140,7 +136,7 @@ def test_declining_consent_keeps_only_the_refusal(demo_app) -> None:  # noqa: F8
         assert sum(cell_counts(session, load_study("demo"), "real").values()) == 0
 
 
-def test_a_token_opens_only_its_own_pages(demo_app) -> None:  # noqa: F811
+def test_a_token_opens_only_its_own_pages(demo_app) -> None:
     a, b = new_participant(demo_app), new_participant(demo_app)
     assert demo_app.test_client().get("/p/not-a-token").status_code == 404
     va, vb = visitor(demo_app, a), visitor(demo_app, b)
@@ -156,9 +152,9 @@ def test_a_token_opens_only_its_own_pages(demo_app) -> None:  # noqa: F811
     assert f"/p/{a}/" in page_a.action and b not in va.html
 
 
-def test_tlx_pairs_keep_their_random_order_and_it_is_stored(demo_app) -> None:  # noqa: F811
+def test_tlx_pairs_keep_their_random_order_and_it_is_stored(demo_app) -> None:
     from hcss.questionnaires import tlx
-    from tests.platform.test_study_resume import walk_to
+    from tests.support.study import walk_to
 
     token = new_participant(demo_app, is_bot=True)
     v = visitor(demo_app, token)

@@ -13,7 +13,7 @@ from sqlalchemy import event
 from sqlalchemy.exc import OperationalError
 
 from hcss.platform.models import Participant
-from tests.platform.test_online_recruitment import _join as join
+from tests.support.recruitment import join
 
 
 class _Stopped(Exception):

@@ -28,7 +28,7 @@ from hcss.platform.models import (
 )
 from hcss.platform.study import load_study, participant_status
 from hcss.questionnaires import demographics, post_trial, ranking, sart, tlx
-from tests.platform.study_fixtures import new_participant, study_app  # noqa: F401
+from tests.support.study import new_participant
 
 #: The bot looks every 6 trial seconds and decides every 18 (2 and 6 by default): the six
 #: trials' 72 minutes are half the requests, and every row the walk must leave is still left.
@@ -36,7 +36,7 @@ LOOK_S, DECIDE_S = 6.0, 18.0
 
 
 @pytest.mark.slow
-def test_the_whole_original_protocol_leaves_every_row(study_app, database_url, tmp_path) -> None:  # noqa: F811
+def test_the_whole_original_protocol_leaves_every_row(study_app, database_url, tmp_path) -> None:
     study = load_study("original")
     token = new_participant(study_app, is_bot=True)
     report = ParticipantBot(study_app, token, seed=3, tick_s=LOOK_S, policy_every_s=DECIDE_S).run(
@@ -88,7 +88,9 @@ def test_the_whole_original_protocol_leaves_every_row(study_app, database_url, t
         ]
         assert all(latest_status(session, t.id) == "ended" for t in trials)
         for t in trials:
-            assert t.duration_s == (study.training_s if t.kind == "training" else study.trial_s)
+            assert t.duration_s == (
+                study.timing.training_s if t.kind == "training" else study.timing.trial_s
+            )
             if t.kind == "trial":
                 assert t.first_section == enrolment.first_sections[t.model]
         assert session.scalars(
@@ -148,5 +150,7 @@ def test_the_whole_original_protocol_leaves_every_row(study_app, database_url, t
     exported_items = (outdir / "questionnaire_items.csv").read_text().splitlines()
     assert len(exported_items) - 1 == len(items)
     timings = (outdir / "stage_timings.csv").read_text().splitlines()[1:]
-    stage_count = len(study.before) + len(study.per_model) * 3 + len(study.after)
+    stage_count = (
+        len(study.sequence.before) + len(study.sequence.per_model) * 3 + len(study.sequence.after)
+    )
     assert len(timings) == stage_count and all(line.startswith(code) for line in timings)

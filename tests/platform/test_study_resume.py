@@ -11,36 +11,17 @@ import pytest
 from flask import Flask
 from sqlalchemy import select
 
-from hcss.platform.bots import BotReport, PageParser, ParticipantBot
+from hcss.platform.bots import BotReport, ParticipantBot
 from hcss.platform.models import Participant
 from hcss.platform.study import current_position, load_study
-from tests.platform.study_fixtures import (
-    Visitor,
-    demo_app,  # noqa: F401  (a fixture)
+from tests.support.study import (
     events,
     make_app,
     new_participant,
+    trial_kind,
     visitor,
+    walk_to,
 )
-
-
-def walk_to(v: Visitor, stage: str, step: str) -> PageParser:
-    """Drive a participant with the bot's answers until the page is `stage`/`step`."""
-    bot = ParticipantBot(v.app, v.token, seed=5)
-    bot.client = v.client
-    report = BotReport(code="")
-    while True:
-        page = v.page()
-        if (page.stage, page.step) == (stage, step):
-            return page
-        if page.interface:
-            bot.supervise(page, page.interface and _trial_kind(v), report)
-        else:
-            bot.act(page, report)
-
-
-def _trial_kind(v: Visitor) -> str:
-    return "training" if "<strong>Training</strong>" in v.html else "trial"
 
 
 def _entered(app: Flask, token: str, step: str):  # type: ignore[no-untyped-def]
@@ -142,8 +123,8 @@ def test_every_page_of_the_demo_survives_refresh_and_restart(database_url) -> No
         bot = ParticipantBot(app, token, seed=len(seen))
         bot.client = v.client
         if page.interface:
-            kind = _trial_kind(v)
-            half = (study.training_s if kind == "training" else study.trial_s) / 2
+            kind = trial_kind(v)
+            half = (study.timing.training_s if kind == "training" else study.timing.trial_s) / 2
             v.advance(half / app.config["TIME_ACCELERATION"])  # mid-trial restart
             app = _restart(app, database_url)
             v = visitor(app, token)
@@ -158,7 +139,7 @@ def test_every_page_of_the_demo_survives_refresh_and_restart(database_url) -> No
     app.extensions["hcss_db"].engine.dispose()
 
 
-def test_a_trial_whose_deadline_passed_while_away_is_run_to_its_end(demo_app) -> None:  # noqa: F811
+def test_a_trial_whose_deadline_passed_while_away_is_run_to_its_end(demo_app) -> None:
     from sqlalchemy import select
 
     from hcss.platform.models import TrialStatusChange
@@ -182,7 +163,7 @@ def test_a_trial_whose_deadline_passed_while_away_is_run_to_its_end(demo_app) ->
         assert ended.reason == "time_limit" and ended.step > 0
 
 
-def test_the_last_mrt_part_timing_out_still_scores_the_answers_given(demo_app) -> None:  # noqa: F811
+def test_the_last_mrt_part_timing_out_still_scores_the_answers_given(demo_app) -> None:
     from hcss.platform.models import Score
     from hcss.questionnaires import mrt
 

@@ -8,7 +8,6 @@ code, as the texts tell participants to quote it to withdraw.
 
 from __future__ import annotations
 
-import dataclasses
 import re
 
 import pytest
@@ -24,7 +23,7 @@ from hcss.platform.study.texts import (
     timed_minutes,
 )
 from hcss.questionnaires import consent, pages
-from tests.platform.study_fixtures import demo_app, new_participant, visitor  # noqa: F401
+from tests.support.study import new_participant, visitor
 
 # By hand from the bundled study files (hcss/platform/study/bundled/*.toml) and the texts:
 #   answers: demographics 6; per model post-trial 6 + NASA-TLX 6 ratings and 15 comparisons
@@ -79,7 +78,8 @@ def test_the_session_estimate_counts_only_the_stages_the_file_lists() -> None:
     demo = load_study("demo")
     assert timed_minutes(demo) == 12
     assert session_minutes(demo) == pytest.approx(12 + 17.5 + 2328 / 200)
-    trials_only = dataclasses.replace(demo, per_model=("training", "trial"))
+    sequence = demo.sequence.model_copy(update={"per_model": ("training", "trial")})
+    trials_only = demo.model_copy(update={"sequence": sequence})
     assert session_minutes(trials_only) == pytest.approx(12 + 15 * 10 / 60 + 2328 / 200)
     assert about(session_minutes(trials_only)) == "about 25 minutes"
     consent_text = fill(consent.consent_text(demo.consent_version).markdown, trials_only)
@@ -134,7 +134,7 @@ def test_durations_have_correct_plurals() -> None:
     assert [length(s) for s in (60, 300, 45)] == ["1-minute", "5-minute", "45-second"]
 
 
-def test_consent_page_and_footer_show_the_participant_code(demo_app) -> None:  # noqa: F811
+def test_consent_page_and_footer_show_the_participant_code(demo_app) -> None:
     token = new_participant(demo_app)
     guest = visitor(demo_app, token)
     with demo_app.app_context():
@@ -150,7 +150,7 @@ def test_consent_page_and_footer_show_the_participant_code(demo_app) -> None:  #
     assert f'Your participant code: <b class="participant-code">{code}</b>' in guest.html
 
 
-def test_demographics_keep_their_promise_and_label_each_scale_end_once(demo_app) -> None:  # noqa: F811
+def test_demographics_keep_their_promise_and_label_each_scale_end_once(demo_app) -> None:
     from hcss.questionnaires.definitions import ChoiceItem
     from hcss.questionnaires.demographics import DEMOGRAPHICS
 
@@ -173,8 +173,8 @@ def test_demographics_keep_their_promise_and_label_each_scale_end_once(demo_app)
     assert 'class="anchor"' not in fieldset
 
 
-def test_the_mrt_instructions_count_the_practice_rows(demo_app) -> None:  # noqa: F811
-    from tests.platform.study_fixtures import new_participant, visitor
+def test_the_mrt_instructions_count_the_practice_rows(demo_app) -> None:
+    from tests.support.study import new_participant, visitor
 
     guest = visitor(demo_app, new_participant(demo_app))
     guest.submit({"decision": "agree"})

@@ -18,7 +18,7 @@ from hcss.cli import main
 from hcss.platform import bots
 from hcss.platform.console.accounts import create_experimenter
 from hcss.platform.study.studyfile import load_study
-from tests.platform.console_support import Console, sign_in
+from tests.support.console import Console, sign_in
 
 UNUSED, WALKED = 6, 4
 

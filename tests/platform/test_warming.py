@@ -19,7 +19,7 @@ from sqlalchemy import func, select
 from hcss.platform.bots import parse_page
 from hcss.platform.live.warmup import Warmup
 from hcss.platform.models import Trial
-from tests.platform.recruitment_support import demo_variant
+from tests.support.recruitment import demo_variant
 
 LAPTOP = {"width": "1366", "height": "657", "mobile": "0", "missing": ""}
 HIDDEN = re.compile(r'<input type="hidden" name="([^"]+)" value="([^"]*)"')

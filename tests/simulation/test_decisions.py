@@ -8,8 +8,7 @@ import pytest
 from hcss.simulation import Scenario, Simulation
 from hcss.simulation import states as S
 from hcss.simulation.decisions import best_available, difficulty
-
-from .conftest import agents_of, make_sim, place, visible_target
+from tests.support.worlds import agents_of, make_sim, place, visible_target
 
 
 def _layout(sim, collective, targets):

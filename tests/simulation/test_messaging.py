@@ -7,8 +7,7 @@ import pytest
 
 from hcss.simulation import states as S
 from hcss.simulation.messaging import compose, frequency_modulation
-
-from .conftest import agents_of, make_sim, place, send
+from tests.support.worlds import agents_of, make_sim, place, send
 
 
 def test_recruitment_turns_uncommitted_into_assessing_agents_with_probability_of_senders_estimate():

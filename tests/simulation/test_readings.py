@@ -11,8 +11,7 @@ from hcss.simulation.decisions import in_range_targets
 from hcss.simulation.discovery import site_rates
 from hcss.simulation.messaging import frequency_modulation
 from hcss.simulation.rules import discoverable, discovery, discovery_gap, round_trip_gap
-
-from .conftest import agents_of, make_sim, place
+from tests.support.worlds import agents_of, make_sim, place
 
 
 @pytest.mark.parametrize(

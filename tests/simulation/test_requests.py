@@ -7,8 +7,7 @@ import pytest
 
 from hcss.simulation import OperatorCommand, StatusChange
 from hcss.simulation import states as S
-
-from .conftest import agents_of, make_sim, place, visible_target
+from tests.support.worlds import agents_of, make_sim, place, visible_target
 
 
 def _uncommitted_in_hub(sim, c=0):

@@ -19,8 +19,7 @@ from hcss.simulation.rules import (
     reach_target,
     round_trip_gap,
 )
-
-from .conftest import agents_of, make_sim, place
+from tests.support.worlds import agents_of, make_sim, place
 
 # These tests check spec §4-5's formulas as first written: spatial encounter,
 # d_min, d_max = 150, 350 m and the guard beyond d_max. The other readings

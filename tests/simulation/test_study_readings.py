@@ -13,8 +13,7 @@ from hcss.simulation import Params, Scenario, Simulation
 from hcss.simulation.decisions import difficulty, label_distance
 from hcss.simulation.presets import PRESETS
 from hcss.simulation.rules import discovery_gap
-
-from .conftest import lay_out, make_sim
+from tests.support.worlds import lay_out, make_sim
 
 STRICT = Params().with_changes(easy_layout_others="strictly_farther")
 SEEDS = range(100, 112)

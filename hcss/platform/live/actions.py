@@ -29,6 +29,7 @@ from hcss.platform.live.leases import trial_transaction
 from hcss.platform.live.recorder import kept_until_written, record_request_statuses
 from hcss.platform.live.session import RunningTrial
 from hcss.platform.live.trial_log import command_message
+from hcss.platform.live.trial_writer import add_if_absent
 from hcss.platform.models import (
     Command,
     CommandKey,
@@ -161,7 +162,7 @@ def probe_ready(
         event = _probe_event(live, probe_id, "ready")
         event.latency_ms = _latency_ms(probe.delivered_s, running_s)
         with trial_transaction(database, live) as session:
-            session.add(event)
+            add_if_absent(session, event)
             answer = _answered(session, key, {"ok": True})
         probe.ready_pressed(running_s)
         live.touch()
@@ -191,11 +192,11 @@ def probe_answer(
         answered = _probe_event(live, probe_id, "answer", answer=answer)
         answered.latency_ms = _latency_ms(asked_s, running_s)
         with trial_transaction(database, live) as session:
-            session.add(answered)
+            add_if_absent(session, answered)
             if probe.truth is not None:
                 event = _probe_event(live, probe_id, "scored", answer=answer)
                 event.truth, event.correct = probe.truth, correct
-                session.add(event)
+                add_if_absent(session, event)
             reply = _answered(session, key, {"ok": True})
         live.probe_answered(answer)
         live.touch()

@@ -25,6 +25,7 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from hcss.platform.live.session import RunningTrial
+from hcss.platform.live.trial_writer import add_if_absent
 from hcss.platform.models import (
     Command,
     DecisionRow,
@@ -125,7 +126,8 @@ def record_database_outage(live: RunningTrial, session: Session, now: float) -> 
     outage_s = max(0.0, now - live.database_away_since) - covered_s
     if covered_s and outage_s <= 0.0:
         return
-    session.add(
+    add_if_absent(
+        session,
         Interruption(
             trial_id=live.trial_id,
             snapshot_step=live.sim.step_count,
@@ -134,5 +136,5 @@ def record_database_outage(live: RunningTrial, session: Session, now: float) -> 
             state_digest=live.sim.state_digest(),
             last_seen_at=datetime.fromtimestamp(live.database_away_since + covered_s, UTC),
             outage_s=max(0.0, outage_s),
-        )
+        ),
     )

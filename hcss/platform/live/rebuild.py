@@ -33,6 +33,7 @@ from hcss.platform.live.trial_log import (
     newest_snapshot,
     shown_messages,
 )
+from hcss.platform.live.trial_writer import add_if_absent
 from hcss.platform.models import (
     Command,
     CommandOutcome,
@@ -100,8 +101,9 @@ def load_trial(
     # with this transaction, so the first `advance` does not write the load's events again.
     with kept_until_written(live):
         record_progress(live, session)
-    if ran_before:
-        session.add(
+    if ran_before:  # stored once, even if two rebuilds of this outage race (its key)
+        add_if_absent(
+            session,
             Interruption(
                 trial_id=trial.id,
                 snapshot_step=-1 if snapshot is None else snapshot.step,
@@ -110,7 +112,7 @@ def load_trial(
                 state_digest=sim.state_digest(),
                 last_seen_at=seen,
                 outage_s=outage_s,
-            )
+            ),
         )
     write_snapshot(live, session, now)
     return live
@@ -125,20 +127,12 @@ def _replay_commands(session: Session, trial: Trial, live: RunningTrial) -> int:
     later rebuild. An outcome the server logged no row for (it died in
     between) is written now. Returns the commands replayed.
     """
-    decided = set(
-        session.scalars(
-            select(CommandOutcome.command_id)
-            .join(Command, Command.id == CommandOutcome.command_id)
-            .where(Command.trial_id == trial.id)
-        )
-    )
     replayed = 0
 
     def record(command: Command, outcome: RequestOutcome) -> None:
         nonlocal replayed
         replayed += 1
-        if command.id not in decided:
-            session.add(CommandOutcome.of(command.id, outcome))
+        add_if_absent(session, CommandOutcome.of(command.id, outcome))  # one per command
         live.command_applied(command.id)
 
     build_simulation(

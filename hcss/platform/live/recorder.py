@@ -4,13 +4,14 @@ Called by the runner after each batch of steps, and once after a rebuild, with
 the trial's lock held. Everything is derived from the simulation's state, so a
 rebuild that replays the same steps writes only what had not been written.
 
-Every row is written if absent: a unit of work whose commit reached the
-database but whose answer was lost (a dropped line, a failover) is taken for
-failed and written again by the next, which then finds its rows (an event
-by kind, time and text; a decision by collective and index; a status by
-request and status; a probe by its index; a probe event by its kind) and
-skips them. Only the lease's holder writes (`leases.trial_transaction`), so
-the check and the insert cannot race another writer.
+Every row is written if absent (`trial_writer.add_if_absent`: the database's
+unique keys decide): a unit of work whose commit reached the database but
+whose answer was lost (a dropped line, a failover) is taken for failed and
+written again by the next, whose rows (an event by kind, time and text; a
+decision by collective and index; a status by request and status; a probe by
+its index; a probe event by its kind) are then skipped. Only the lease's
+holder writes (`leases.trial_transaction`); should a second writer race it
+anyway, the keys still store each row once.
 
 The cursors that say "written up to here" (the last event time, the decisions
 recorded, the request statuses, the probes shown) move only with the commit:
@@ -34,6 +35,7 @@ from sqlalchemy.orm import Session
 from hcss.platform.live.probes import POSTPONE_S, PROBE_TIMEOUT_S, fill_probe
 from hcss.platform.live.progress import CurrentProbe
 from hcss.platform.live.session import RunningTrial
+from hcss.platform.live.trial_writer import add_all_if_absent, add_if_absent
 from hcss.platform.models import (
     DecisionRow,
     Probe,
@@ -89,11 +91,9 @@ def _take_events(live: RunningTrial) -> None:
 
 def _record_events(live: RunningTrial, session: Session) -> None:
     _take_events(live)
-    stored = _stored_events(live, session)
-    for event in live.unwritten_events:
-        if (str(event["kind"]), float(event["time"]), event_text(event)[:300]) in stored:
-            continue  # written by a commit whose answer was lost: never twice
-        session.add(
+    add_all_if_absent(  # one written by a commit whose answer was lost is not written twice
+        session,
+        [
             SimEvent(
                 trial_id=live.trial_id,
                 kind=str(event["kind"]),
@@ -102,44 +102,21 @@ def _record_events(live: RunningTrial, session: Session) -> None:
                 text=event_text(event)[:300],
                 sim_time=float(event["time"]),
             )
-        )
+            for event in live.unwritten_events
+        ],
+    )
     # Events of one step share its time and are written together, so the
     # newest time marks everything written.
     live.events_written_up_to(float(live.sim.time) - 1e-9)
 
 
-def _stored_events(live: RunningTrial, session: Session) -> set[tuple[str, float, str]]:
-    """The events of the unwritten ones' times already stored (kind, time, text)."""
-    if not live.unwritten_events:
-        return set()
-    since = min(float(event["time"]) for event in live.unwritten_events)
-    rows = session.execute(
-        select(SimEvent.kind, SimEvent.sim_time, SimEvent.text).where(
-            SimEvent.trial_id == live.trial_id, SimEvent.sim_time >= since
-        )
-    )
-    return {(kind, float(time), text) for kind, time, text in rows}
-
-
 def _record_decisions(live: RunningTrial, session: Session) -> None:
     records = live.sim.decisions
-    fresh = records[live.decisions_recorded :]
-    stored: set[tuple[int, int]] = set()
-    if fresh:
-        stored = {
-            (collective, index)
-            for collective, index in session.execute(
-                select(DecisionRow.collective, DecisionRow.decision_index).where(
-                    DecisionRow.trial_id == live.trial_id
-                )
-            )
-        }
-    for record in fresh:
+    for record in records[live.decisions_recorded :]:
         # The record itself; who and where (source, participant, trial, run) the export adds.
         row = {k: v for k, v in record.as_row().items() if k not in EXPORT_IDENTITY}
-        if (int(record.collective), int(row["decision_index"])) in stored:
-            continue  # written by a commit whose answer was lost, with its probes' scores
-        session.add(
+        add_if_absent(  # skipped if written by a commit whose answer was lost
+            session,
             DecisionRow(
                 trial_id=live.trial_id,
                 collective=int(record.collective),
@@ -147,7 +124,7 @@ def _record_decisions(live: RunningTrial, session: Session) -> None:
                 step=live.sim.step_count,
                 correct=None if row.get("correct") is None else bool(row["correct"]),
                 record=row,
-            )
+            ),
         )
         _score_projections(live, session, row["collective"], float(row["end_s"]))
     live.decisions_written(len(records))
@@ -156,9 +133,8 @@ def _record_decisions(live: RunningTrial, session: Session) -> None:
 def _score_projections(live: RunningTrial, session: Session, collective: str, end_s: float) -> None:
     """Level-3 probes asked before this decision ended are scored by it."""
     for probe_id, _shown_at, answer in live.projections_ended_by(end_s):
-        if _probe_event_stored(session, probe_id, "scored"):
-            continue
-        session.add(
+        add_if_absent(
+            session,
             ProbeEvent(
                 probe_id=probe_id,
                 kind="scored",
@@ -167,7 +143,7 @@ def _score_projections(live: RunningTrial, session: Session, collective: str, en
                 correct=None if answer is None else answer == collective,
                 step=live.sim.step_count,
                 sim_time=float(live.sim.time),
-            )
+            ),
         )
 
 
@@ -178,21 +154,9 @@ def record_request_statuses(live: RunningTrial, session: Session) -> None:
     the written ones (restored from the rows) are skipped.
     """
     changes = live.status_changes_to_write(live.sim.drain_status_changes())
-    stored: set[tuple[int, str]] = set()
-    if changes:
-        stored = {
-            (request_id, status)
-            for request_id, status in session.execute(
-                select(RequestStatusChange.request_id, RequestStatusChange.status).where(
-                    RequestStatusChange.trial_id == live.trial_id,
-                    RequestStatusChange.request_id.in_({c.request_id for c in changes}),
-                )
-            )
-        }
-    for change in changes:
-        if (change.request_id, str(RequestStatus(change.status))) in stored:
-            continue  # written by a commit whose answer was lost
-        session.add(
+    add_all_if_absent(  # one written by a commit whose answer was lost is not written twice
+        session,
+        [
             RequestStatusChange(
                 trial_id=live.trial_id,
                 request_id=change.request_id,
@@ -200,7 +164,9 @@ def record_request_statuses(live: RunningTrial, session: Session) -> None:
                 step=change.step,
                 sim_time=float(change.time),
             )
-        )
+            for change in changes
+        ],
+    )
 
 
 def _expire_probe(live: RunningTrial, session: Session, time: float) -> None:
@@ -208,15 +174,11 @@ def _expire_probe(live: RunningTrial, session: Session, time: float) -> None:
     if probe is None or time < probe.timeout_sim_time:
         return
     live.probe_cleared()
-    if _probe_event_stored(session, probe.id, "timeout"):
-        return
-    session.add(
+    add_if_absent(
+        session,
         ProbeEvent(
-            probe_id=probe.id,
-            kind="timeout",
-            step=live.sim.step_count,
-            sim_time=float(time),
-        )
+            probe_id=probe.id, kind="timeout", step=live.sim.step_count, sim_time=float(time)
+        ),
     )
 
 
@@ -235,12 +197,6 @@ def _show_probe(live: RunningTrial, session: Session, time: float) -> None:
     if filled is None:
         live.probe_postponed(time + POSTPONE_S)
         return
-    stored = session.scalars(
-        select(Probe).where(Probe.trial_id == live.trial_id, Probe.probe_index == probe_index)
-    ).first()
-    if stored is not None:  # shown by a commit whose answer was lost: the same probe
-        live.probe_shown(CurrentProbe.of(stored))
-        return
     row = Probe(
         trial_id=live.trial_id,
         probe_index=probe_index,
@@ -252,20 +208,11 @@ def _show_probe(live: RunningTrial, session: Session, time: float) -> None:
         shown_sim_time=float(time),
         timeout_sim_time=float(time) + PROBE_TIMEOUT_S,
     )
-    session.add(row)
-    session.flush()
+    if not add_if_absent(session, row):  # shown by a commit whose answer was lost: that probe
+        row = session.scalars(
+            select(Probe).where(Probe.trial_id == live.trial_id, Probe.probe_index == probe_index)
+        ).one()
     live.probe_shown(CurrentProbe.of(row))
-
-
-def _probe_event_stored(session: Session, probe_id: int, kind: str) -> bool:
-    return (
-        session.scalar(
-            select(ProbeEvent.id)
-            .where(ProbeEvent.probe_id == probe_id, ProbeEvent.kind == kind)
-            .limit(1)
-        )
-        is not None
-    )
 
 
 def write_snapshot(live: RunningTrial, session: Session, now: float) -> None:
@@ -285,11 +232,12 @@ def write_snapshot(live: RunningTrial, session: Session, now: float) -> None:
 def end_trial(live: RunningTrial, session: Session, reason: str, now: float) -> None:
     """The time limit is reached: close the open probe, snapshot, and mark it ended."""
     probe = live.probe_cleared()
-    if probe is not None and not _probe_event_stored(session, probe.id, "timeout"):
-        session.add(
+    if probe is not None:
+        add_if_absent(
+            session,
             ProbeEvent(
                 probe_id=probe.id, kind="timeout", step=live.sim.step_count, sim_time=live.sim.time
-            )
+            ),
         )
     write_snapshot(live, session, now)
     ended = session.scalar(

@@ -4,6 +4,7 @@ from hcss.platform.models.append_only import APPEND_ONLY_TABLES, DeletionPermit
 from hcss.platform.models.base import Base, CreatedAt, UTCDateTime
 from hcss.platform.models.console import AuditRecord, ConsoleAction, Experimenter, LoginFailure
 from hcss.platform.models.idempotency import CommandKey
+from hcss.platform.models.join_start import JoinStart
 from hcss.platform.models.lease import TrialLease
 from hcss.platform.models.observation import Observation
 from hcss.platform.models.order import TrialOrder
@@ -48,6 +49,7 @@ __all__ = [
     "CreatedAt",
     "DecisionRow",
     "Interruption",
+    "JoinStart",
     "LoginFailure",
     "Observation",
     "Participant",

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from sqlalchemy import ForeignKey, String
+from sqlalchemy import ForeignKey, Index, String
 from sqlalchemy.orm import Mapped, mapped_column
 
 from hcss.platform.models.base import Base, CreatedAt
@@ -14,6 +14,10 @@ class DecisionRow(CreatedAt, Base):
     """One completed collective decision: `DecisionRecord.as_row()` plus keys to query by."""
 
     __tablename__ = "decision"
+    # A decision is stored once, whoever writes it and however often (i29_unique_trial_rows).
+    __table_args__ = (
+        Index("uq_decision_trial", "trial_id", "collective", "decision_index", unique=True),
+    )
 
     id: Mapped[int] = mapped_column(primary_key=True)
     trial_id: Mapped[int] = mapped_column(ForeignKey("trial.id"), index=True)
@@ -30,6 +34,10 @@ class SimEvent(CreatedAt, Base):
     """A system message from `Simulation.drain_events()` (discovery, commitment, ...)."""
 
     __tablename__ = "sim_event"
+    # An event is its kind, time and text within the trial: stored once (i29_unique_trial_rows).
+    __table_args__ = (
+        Index("uq_sim_event_trial", "trial_id", "kind", "sim_time", "text", unique=True),
+    )
 
     id: Mapped[int] = mapped_column(primary_key=True)
     trial_id: Mapped[int] = mapped_column(ForeignKey("trial.id"), index=True)

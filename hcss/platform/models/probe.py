@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from sqlalchemy import ForeignKey, String
+from sqlalchemy import ForeignKey, Index, String
 from sqlalchemy.orm import Mapped, mapped_column
 
 from hcss.platform.models.base import Base, CreatedAt
@@ -20,6 +20,8 @@ PROBE_EVENT_KINDS = ("ready", "answer", "timeout", "scored")
 
 class Probe(CreatedAt, Base):
     __tablename__ = "probe"
+    # The trial's n-th probe is shown once (i29_unique_trial_rows).
+    __table_args__ = (Index("uq_probe_trial", "trial_id", "probe_index", unique=True),)
 
     id: Mapped[int] = mapped_column(primary_key=True)
     trial_id: Mapped[int] = mapped_column(ForeignKey("trial.id"), index=True)
@@ -35,6 +37,8 @@ class Probe(CreatedAt, Base):
 
 class ProbeEvent(CreatedAt, Base):
     __tablename__ = "probe_event"
+    # A probe is readied, answered, timed out and scored at most once each (i29_unique_trial_rows).
+    __table_args__ = (Index("uq_probe_event_probe", "probe_id", "kind", unique=True),)
 
     id: Mapped[int] = mapped_column(primary_key=True)
     probe_id: Mapped[int] = mapped_column(ForeignKey("probe.id"), index=True)

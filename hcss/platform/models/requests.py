@@ -13,7 +13,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from sqlalchemy import ForeignKey, String
+from sqlalchemy import ForeignKey, Index, String
 from sqlalchemy.orm import Mapped, mapped_column
 
 from hcss.platform.models.base import Base, CreatedAt
@@ -107,7 +107,11 @@ class RequestStatusChange(CreatedAt, Base):
     """
 
     __tablename__ = "request_status_change"
-    __table_args__ = (check_in("status", RequestStatus, "status"),)
+    __table_args__ = (
+        check_in("status", RequestStatus, "status"),
+        # A request reaches each status once (i29_unique_trial_rows).
+        Index("uq_request_status_change_trial", "trial_id", "request_id", "status", unique=True),
+    )
 
     id: Mapped[int] = mapped_column(primary_key=True)
     trial_id: Mapped[int] = mapped_column(ForeignKey("trial.id"), index=True)

@@ -10,7 +10,7 @@ from __future__ import annotations
 from datetime import datetime
 from typing import Any
 
-from sqlalchemy import ForeignKey, LargeBinary, String
+from sqlalchemy import ForeignKey, Index, LargeBinary, String
 from sqlalchemy.orm import Mapped, mapped_column, relationship
 
 from hcss.platform.models.base import Base, CreatedAt
@@ -79,6 +79,10 @@ class Interruption(CreatedAt, Base):
     `snapshot_step` = `resumed_step`, the step it stood at)."""
 
     __tablename__ = "interruption"
+    # An outage is known by when the trial was last seen before it: two rebuilds of one
+    # outage store one row (i29_unique_trial_rows). A database outage's later stretch
+    # starts where the stored rows end, so it is another key.
+    __table_args__ = (Index("uq_interruption_trial", "trial_id", "last_seen_at", unique=True),)
 
     id: Mapped[int] = mapped_column(primary_key=True)
     trial_id: Mapped[int] = mapped_column(ForeignKey("trial.id"), index=True)

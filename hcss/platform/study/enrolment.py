@@ -58,7 +58,7 @@ def time_acceleration_for(participant: Participant, study: Study) -> float:
     if pool_of(participant) not in ("bot", "demo"):
         return 1.0
     wanted = float(current_app.config.get("TIME_ACCELERATION", 1.0)) if has_app_context() else 1.0
-    return max(1e-9, min(wanted, study.max_time_acceleration))
+    return max(1e-9, min(wanted, study.timing.max_time_acceleration))
 
 
 def current_enrolment(session: Session, participant_id: int) -> StudyEnrolment | None:

@@ -33,7 +33,7 @@ from hcss.platform.models.latest import latest_per_key, latest_row
 from hcss.platform.models.vocabularies import TrialStatus
 from hcss.platform.session_state import session_states
 from hcss.platform.study.enrolment import current_enrolment, not_counted
-from hcss.platform.study.stage import Slot
+from hcss.platform.study.stage import Slot, StageContext
 from hcss.platform.study.stages import sequence
 from hcss.platform.study.studyfile import load_study
 from hcss.questionnaires.definitions import ScoreRow
@@ -138,7 +138,7 @@ class Flow:
         if consent is not None and consent.decision == "decline":
             return Position(None, status="declined")
         for slot in self.slots:
-            for step in slot.stage.steps(self, slot):
+            for step in slot.stage.steps(self.at(slot)):
                 if not self.finished(slot.index, step):
                     return Position(slot, step)
         return Position(None, status="completed")
@@ -157,6 +157,10 @@ class Flow:
             )
             self._answers[(index, instrument)] = {row.item: row.value for row in rows}
         return dict(self._answers[(index, instrument)])
+
+    def at(self, slot: Slot, step: str = "") -> StageContext:
+        """What a stage's hooks are given: this flow (a `stage.Participation`) at one step."""
+        return StageContext(self, slot, step)
 
     def deadline_of(self, slot: Slot, step: str) -> datetime | None:
         entered = self.event(slot.index, step, "entered")
@@ -205,11 +209,12 @@ class Flow:
         entered = self.event(slot.index, step, "entered")
         if entered is not None:
             return entered
-        limit = slot.stage.timeout_s(self, slot, step)
+        here = self.at(slot, step)
+        limit = slot.stage.timeout_s(here)
         deadline = None
         if limit is not None:
             deadline = self.now + timedelta(seconds=limit / self.enrolment.time_acceleration)
-        detail = slot.stage.on_enter(self, slot, step)
+        detail = slot.stage.on_enter(here)
         return self.record(slot, step, "entered", deadline=deadline, detail=detail)
 
     def record_answers(
@@ -255,7 +260,7 @@ class Flow:
             entered = self.event(position.slot.index, position.step, "entered")
             if entered is None:
                 return position
-            ended = position.slot.stage.poll(self, position.slot, position.step, entered)
+            ended = position.slot.stage.poll(self.at(position.slot, position.step), entered)
             if ended is None:
                 return position
             kind, at = ended

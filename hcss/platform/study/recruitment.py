@@ -326,7 +326,7 @@ def start(study_name: str) -> ResponseReturnValue:
         except StudyFull as full:
             session.rollback()
             return _study_full(study, str(full), recruit)
-        refused = enrolment_refusal()
+        refused = enrolment_refusal(session)
         if refused is not None:
             return refused
         reasons = shortfalls(study.requirements, measured)

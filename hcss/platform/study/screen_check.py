@@ -12,7 +12,7 @@ cannot skip the check.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from flask_wtf import FlaskForm
 from wtforms import IntegerField
@@ -20,10 +20,13 @@ from wtforms.validators import InputRequired, NumberRange
 
 from hcss.platform.study.forms import attach_errors, form_of
 from hcss.platform.study.requirements import MAX_PIXELS
-from hcss.platform.study.stage import Slot, Stage
-
-if TYPE_CHECKING:
-    from hcss.platform.study.flow import Flow
+from hcss.platform.study.stage import (
+    Shown,
+    Stage,
+    StageContext,
+    Submission,
+    SubmissionMustFail,
+)
 
 
 def _size_field(name: str) -> IntegerField:
@@ -41,17 +44,17 @@ class ScreenCheck(Stage):
     title = "Screen check"
     template = "study/screen_check.html"
 
-    def form(self, flow: Flow, slot: Slot, step: str, formdata: Any = None) -> FlaskForm:
+    def form(self, here: StageContext, formdata: Any = None) -> FlaskForm:
         fields = {"width": _size_field("Window width"), "height": _size_field("Window height")}
         return form_of(fields, formdata, "ScreenCheckForm")
 
-    def context(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> dict[str, Any]:
-        needed = flow.study.requirements
+    def context(self, here: StageContext, form: FlaskForm) -> dict[str, Any]:
+        needed = here.study.requirements
         return {"min_width": needed.min_width, "min_height": needed.min_height}
 
-    def submit(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> bool:
+    def submit(self, here: StageContext, form: FlaskForm) -> bool:
         width, height = form["width"].data, form["height"].data
-        needed = flow.study.requirements
+        needed = here.study.requirements
         if width < needed.min_width or height < needed.min_height:
             attach_errors(
                 form,
@@ -64,3 +67,10 @@ class ScreenCheck(Stage):
             )
             return False
         return True
+
+    def bot_submissions(self, shown: Shown) -> tuple[Submission | SubmissionMustFail, ...]:
+        # A bot's window is comfortably large enough; no window is -1 pixels wide.
+        return (
+            SubmissionMustFail({"width": "-1", "height": "800"}),
+            Submission({"width": "1280", "height": "800"}),
+        )

@@ -9,12 +9,13 @@ their own modules.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from flask_wtf import FlaskForm
 from wtforms import HiddenField, RadioField
 
+from hcss.platform.models import StudyEnrolment
 from hcss.platform.study.forms import (
     answers_of,
     attach_errors,
@@ -27,16 +28,21 @@ from hcss.platform.study.forms import (
 from hcss.platform.study.markdown import render_markdown
 from hcss.platform.study.mrt_stage import MentalRotation
 from hcss.platform.study.screen_check import ScreenCheck
-from hcss.platform.study.stage import Refused, Slot, Stage
+from hcss.platform.study.settings import Study
+from hcss.platform.study.stage import (
+    Refused,
+    Shown,
+    Slot,
+    Stage,
+    StageContext,
+    Submission,
+    SubmissionMustFail,
+    answered,
+)
 from hcss.platform.study.texts import fill
 from hcss.platform.study.trial_stage import TrainingStage, TrialStage
 from hcss.questionnaires import consent, demographics, pages, post_trial, ranking, sart, tlx
 from hcss.questionnaires.definitions import Questionnaire, ValidationErrors, ordinal_labels
-
-if TYPE_CHECKING:
-    from hcss.platform.models import StudyEnrolment
-    from hcss.platform.study.flow import Flow
-    from hcss.platform.study.studyfile import Study
 
 DECLINE_QUESTION = (
     "You chose not to take part. If that is right, press Confirm: the study ends here and "
@@ -49,23 +55,23 @@ class Consent(Stage):
     template = "study/consent.html"
     title = "Consent"
 
-    def form(self, flow: Flow, slot: Slot, step: str, formdata: Any = None) -> FlaskForm:
+    def form(self, here: StageContext, formdata: Any = None) -> FlaskForm:
         fields = {
             "decision": item_field(consent.DECISION),
-            "version": HiddenField(default=flow.study.consent_version),
+            "version": HiddenField(default=here.study.consent_version),
             # "yes" once the participant has been asked to confirm a decline.
             "confirm_decline": HiddenField(default=""),
         }
         return form_of(fields, formdata, "ConsentForm")
 
-    def context(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> dict[str, Any]:
-        text = consent.consent_text(flow.study.consent_version)
-        return {"text_html": render_markdown(fill(text.markdown, flow.study))}
+    def context(self, here: StageContext, form: FlaskForm) -> dict[str, Any]:
+        text = consent.consent_text(here.study.consent_version)
+        return {"text_html": render_markdown(fill(text.markdown, here.study))}
 
-    def submit(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> bool:
+    def submit(self, here: StageContext, form: FlaskForm) -> bool:
         answers = answers_of(form, ("decision", "version"))
         errors = consent.validate(answers)
-        if not errors and answers["version"] != flow.study.consent_version:
+        if not errors and answers["version"] != here.study.consent_version:
             errors["version"] = ["The consent text has changed; please read it again."]
         if errors:
             attach_errors(form, errors)
@@ -75,8 +81,11 @@ class Consent(Stage):
             form["confirm_decline"].data = "yes"
             attach_errors(form, {"": [DECLINE_QUESTION]})
             return False
-        flow.record_consent(answers["version"], answers["decision"])
+        here.flow.record_consent(answers["version"], answers["decision"])
         return True
+
+    def bot_submissions(self, shown: Shown) -> tuple[Submission | SubmissionMustFail, ...]:
+        return (SubmissionMustFail({"decision": "maybe"}), Submission({"decision": "agree"}))
 
 
 class QuestionnaireStage(Stage):
@@ -87,27 +96,33 @@ class QuestionnaireStage(Stage):
     validate: Callable[[Mapping[str, object]], ValidationErrors]
     score: Callable[[Mapping[str, object]], Any] | None = None
 
-    def form(self, flow: Flow, slot: Slot, step: str, formdata: Any = None) -> FlaskForm:
+    def form(self, here: StageContext, formdata: Any = None) -> FlaskForm:
         return items_form(self.questionnaire.items, formdata)
 
-    def context(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> dict[str, Any]:
+    def context(self, here: StageContext, form: FlaskForm) -> dict[str, Any]:
         return {
             "questionnaire": self.questionnaire,
             "items": [(form[item.key], item) for item in self.questionnaire.items],
         }
 
-    def submit(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> bool:
+    def submit(self, here: StageContext, form: FlaskForm) -> bool:
         answers = answers_of(form, self.questionnaire.item_keys())
         errors = type(self).validate(answers)
         if errors:
             attach_errors(form, errors)
             return False
-        flow.record_answers(slot, self.questionnaire.instrument, answers, slot.model)
+        here.record_answers(self.questionnaire.instrument, answers, here.slot.model)
         score = type(self).score  # a staticmethod: read from the class, not bound
         if score is not None:
             rows = score(answers).rows()
-            flow.record_scores(tuple(row.for_model(slot.model) for row in rows))
+            here.flow.record_scores(tuple(row.for_model(here.slot.model) for row in rows))
         return True
+
+    def bot_submissions(self, shown: Shown) -> tuple[Submission | SubmissionMustFail, ...]:
+        return (
+            SubmissionMustFail({}),  # every item unanswered
+            Submission(answered(self.questionnaire.items, shown.rng)),
+        )
 
 
 class Demographics(QuestionnaireStage):
@@ -143,71 +158,78 @@ class NasaTlx(Stage):
     title = "Workload"
     template = "study/nasa_tlx.html"
 
-    def steps(self, flow: Flow, slot: Slot) -> tuple[str, ...]:
+    def steps(self, here: StageContext) -> tuple[str, ...]:
         return ("ratings", "comparisons")
 
-    def on_enter(self, flow: Flow, slot: Slot, step: str) -> dict[str, Any] | None:
-        if step != "comparisons":
+    def on_enter(self, here: StageContext) -> dict[str, Any] | None:
+        if here.step != "comparisons":
             return None
         order = tlx.comparison_order(np.random.default_rng())
         return {"presentation": tlx.presentation_record(order)}
 
-    def _order(self, flow: Flow, slot: Slot) -> tuple[tlx.PresentedPair, ...]:
-        entered = flow.event(slot.index, "comparisons", "entered")
+    def _order(self, here: StageContext) -> tuple[tlx.PresentedPair, ...]:
+        entered = here.event("entered", "comparisons")
         if entered is None or not entered.detail:
             raise Refused("The comparisons have not been shown yet; please reload the page.")
         return tlx.order_from_record(entered.detail["presentation"])
 
-    def form(self, flow: Flow, slot: Slot, step: str, formdata: Any = None) -> FlaskForm:
-        if step == "ratings":
+    def form(self, here: StageContext, formdata: Any = None) -> FlaskForm:
+        if here.step == "ratings":
             return items_form(tlx.SUBSCALES, formdata)
         fields = {
             presented.pair.key: pair_field(
                 f"Comparison {presented.position}",
                 [(side, tlx.SUBSCALE_TITLES[side]) for side in (presented.left, presented.right)],
             )
-            for presented in self._order(flow, slot)
+            for presented in self._order(here)
         }
         return form_of(fields, formdata, "TlxPairsForm")
 
-    def context(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> dict[str, Any]:
-        if step == "ratings":
+    def context(self, here: StageContext, form: FlaskForm) -> dict[str, Any]:
+        if here.step == "ratings":
             return {
                 "questionnaire": tlx.RATINGS,
                 "items": [(form[item.key], item) for item in tlx.SUBSCALES],
             }
-        pairs = self._order(flow, slot)
+        pairs = self._order(here)
         return {
             "instructions": tlx.COMPARISON_INSTRUCTIONS,
             "pairs": [form[presented.pair.key] for presented in pairs],
         }
 
-    def submit(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> bool:
-        if step == "ratings":
+    def submit(self, here: StageContext, form: FlaskForm) -> bool:
+        if here.step == "ratings":
             answers = answers_of(form, tlx.SUBSCALE_KEYS)
             errors = {k: v for k, v in tlx.validate(answers).items() if k in tlx.SUBSCALE_KEYS}
             if errors:
                 attach_errors(form, errors)
                 return False
-            flow.record_answers(slot, tlx.INSTRUMENT, answers, slot.model)
+            here.record_answers(tlx.INSTRUMENT, answers, here.slot.model)
             return True
         choices = answers_of(form, tlx.PAIR_KEYS)
         ratings = {
             key: value
-            for key, value in flow.answers(slot.index, tlx.INSTRUMENT).items()
+            for key, value in here.answers(tlx.INSTRUMENT).items()
             if key in tlx.SUBSCALE_KEYS
         }
         errors = tlx.validate(ratings | choices)
         if errors:
             attach_errors(form, errors)
             return False
-        shown = flow.event(slot.index, "comparisons", "entered")
+        shown = here.event("entered", "comparisons")
         assert shown is not None and shown.detail is not None, "submitted before it was shown"
         presentation = shown.detail["presentation"]
-        flow.record_answers(slot, tlx.INSTRUMENT, choices | presentation, slot.model)
+        here.record_answers(tlx.INSTRUMENT, choices | presentation, here.slot.model)
         rows = tlx.score(ratings | choices).rows()
-        flow.record_scores(tuple(row.for_model(slot.model) for row in rows))
+        here.flow.record_scores(tuple(row.for_model(here.slot.model) for row in rows))
         return True
+
+    def bot_submissions(self, shown: Shown) -> tuple[Submission | SubmissionMustFail, ...]:
+        if shown.step == "ratings":
+            return (SubmissionMustFail({}), Submission(answered(tlx.SUBSCALES, shown.rng)))
+        # The comparisons' sides are in the order drawn for this participant: read the page.
+        sides = {key: str(shown.rng.choice(values)) for key, values in shown.radios.items()}
+        return (SubmissionMustFail({}), Submission(sides))
 
 
 class Ranking(Stage):
@@ -217,7 +239,7 @@ class Ranking(Stage):
     title = "Comparing the collective types"
     template = "study/ranking.html"
 
-    def form(self, flow: Flow, slot: Slot, step: str, formdata: Any = None) -> FlaskForm:
+    def form(self, here: StageContext, formdata: Any = None) -> FlaskForm:
         fields: dict[str, RadioField] = {}
         for dimension in ranking.DIMENSIONS:
             for label in ranking.ORDER_LABELS:
@@ -226,7 +248,7 @@ class Ranking(Stage):
                 )
         return form_of(fields, formdata, "RankingForm")
 
-    def context(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> dict[str, Any]:
+    def context(self, here: StageContext, form: FlaskForm) -> dict[str, Any]:
         dimensions = [
             (
                 dimension,
@@ -237,7 +259,7 @@ class Ranking(Stage):
         ]
         return {"instructions": ranking.INSTRUCTIONS, "dimensions": dimensions}
 
-    def submit(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> bool:
+    def submit(self, here: StageContext, form: FlaskForm) -> bool:
         answers = answers_of(form, ranking.ITEM_KEYS)
         errors = ranking.validate(answers)
         if errors:
@@ -246,13 +268,22 @@ class Ranking(Stage):
             }
             attach_errors(form, errors)
             return False
-        order = flow.enrolment.models()
+        order = here.flow.enrolment.models()
         for label in ranking.ORDER_LABELS:
             model = ranking.model_for_label(label, order)
             labelled = {k: v for k, v in answers.items() if k.endswith(f"_{label}")}
-            flow.record_answers(slot, ranking.INSTRUMENT, labelled, model)
-        flow.record_scores(ranking.score(answers, order).rows())
+            here.record_answers(ranking.INSTRUMENT, labelled, model)
+        here.flow.record_scores(ranking.score(answers, order).rows())
         return True
+
+    def bot_submissions(self, shown: Shown) -> tuple[Submission | SubmissionMustFail, ...]:
+        ties, ranks = {}, {}
+        for dimension in ranking.DIMENSIONS:
+            drawn = shown.rng.permutation(ranking.MODEL_COUNT) + 1
+            for label, rank in zip(ranking.ORDER_LABELS, drawn, strict=True):
+                key = ranking.item_key(dimension.key, label)
+                ties[key], ranks[key] = "1", str(rank)
+        return (SubmissionMustFail(ties), Submission(ranks))
 
 
 class Introduction(Stage):
@@ -262,14 +293,14 @@ class Introduction(Stage):
     title = "Introduction"
     template = "study/text_page.html"
 
-    def steps(self, flow: Flow, slot: Slot) -> tuple[str, ...]:
+    def steps(self, here: StageContext) -> tuple[str, ...]:
         return tuple(f"page_{page.number}" for page in pages.introduction_pages())
 
-    def context(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> dict[str, Any]:
+    def context(self, here: StageContext, form: FlaskForm) -> dict[str, Any]:
         all_pages = pages.introduction_pages()
-        page = all_pages[int(step.removeprefix("page_")) - 1]
+        page = all_pages[int(here.step.removeprefix("page_")) - 1]
         return {
-            "text_html": render_markdown(fill(page.markdown, flow.study)),
+            "text_html": render_markdown(fill(page.markdown, here.study)),
             "page_number": page.number,
             "page_count": len(all_pages),
         }
@@ -282,7 +313,7 @@ class Debrief(Stage):
     title = "Thank you"
     template = "study/debrief.html"
 
-    def poll(self, flow: Flow, slot: Slot, step: str, entered: Any) -> tuple[str, Any] | None:
+    def poll(self, here: StageContext, entered: Any) -> tuple[str, Any] | None:
         return ("submitted", entered.at)
 
 
@@ -306,11 +337,11 @@ for _stage in (
 
 def sequence(study: Study, enrolment: StudyEnrolment) -> tuple[Slot, ...]:
     """The participant's stages: the study's list with per-model stages in their order."""
-    names: list[tuple[str, str, str]] = [(name, "", "") for name in study.before]
+    names: list[tuple[str, str, str]] = [(name, "", "") for name in study.sequence.before]
     models = enrolment.models()
     for model, label in zip(models, ordinal_labels(len(models)), strict=True):
-        names += [(name, model, label) for name in study.per_model]
-    names += [(name, "", "") for name in study.after]
+        names += [(name, model, label) for name in study.sequence.per_model]
+    names += [(name, "", "") for name in study.sequence.after]
     return tuple(
         Slot(index, STAGES[name], model, label) for index, (name, model, label) in enumerate(names)
     )

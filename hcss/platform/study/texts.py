@@ -13,12 +13,9 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Iterable
-from typing import TYPE_CHECKING
 
+from hcss.platform.study.settings import Study
 from hcss.questionnaires import consent, demographics, pages, post_trial, ranking, sart, tlx
-
-if TYPE_CHECKING:
-    from hcss.platform.study.studyfile import Study
 
 PLACEHOLDER = re.compile(r"\{\{\s*([a-z_]+)\s*\}\}")
 NUMBER_WORDS = ("no", "one", "two", "three", "four", "five", "six")
@@ -67,10 +64,11 @@ def mrt_minutes(study: Study) -> int:
 
 def timed_minutes(study: Study) -> float:
     """The parts whose length the study file fixes: the spatial test, trainings and trials."""
-    stages = set(study.before) | set(study.after) | set(study.per_model)
+    stages = set(study.sequence.before) | set(study.sequence.after) | set(study.sequence.per_model)
     minutes = mrt_minutes(study) if "mental_rotation" in stages else 0.0
     per_model = (
-        ("training" in stages) * study.training_s + ("trial" in stages) * study.trial_s
+        ("training" in stages) * study.timing.training_s
+        + ("trial" in stages) * study.timing.trial_s
     ) / 60
     return minutes + len(study.models) * per_model
 
@@ -107,7 +105,9 @@ def session_minutes(study: Study) -> float:
     Only the stages the file lists count, so a study without questionnaires,
     or a demo with short trials, is never promised a longer session than it has.
     """
-    stages = [*study.before, *study.after] + [s for _ in study.models for s in study.per_model]
+    stages = [*study.sequence.before, *study.sequence.after] + [
+        s for _ in study.models for s in study.sequence.per_model
+    ]
     answering = sum(answers(stage, study) for stage in stages) * ANSWER_S / 60
     reading = sum(words(stage, study) for stage in dict.fromkeys(stages)) / READING_WPM
     return timed_minutes(study) + answering + reading
@@ -127,10 +127,10 @@ def facts(study: Study) -> dict[str, str]:
     """Every placeholder's text for this study."""
     count = len(study.models)
     return {
-        "training_length": length(study.training_s),
-        "trial_length": length(study.trial_s),
-        "training_duration": duration(study.training_s),
-        "trial_duration": duration(study.trial_s),
+        "training_length": length(study.timing.training_s),
+        "trial_length": length(study.timing.trial_s),
+        "training_duration": duration(study.timing.training_s),
+        "trial_duration": duration(study.timing.trial_s),
         "mrt_duration": f"about {plural(mrt_minutes(study), 'minute')}",
         "session_duration": about(session_minutes(study)),
         "model_count": number_word(count),

@@ -17,7 +17,7 @@ beside it, which let a bounded pool deadlock.
 from __future__ import annotations
 
 from datetime import datetime
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from flask import url_for
 from flask_wtf import FlaskForm
@@ -27,11 +27,8 @@ from hcss.platform.live.warmup import simulation_ready
 from hcss.platform.models import StageEvent
 from hcss.platform.models import Trial as TrialRow
 from hcss.platform.models.vocabularies import TrialStatus
-from hcss.platform.study.stage import Refused, Slot, Stage
+from hcss.platform.study.stage import Refused, Stage, StageContext
 from hcss.platform.study.texts import duration
-
-if TYPE_CHECKING:
-    from hcss.platform.study.flow import Flow
 
 
 class LiveStage(Stage):
@@ -41,57 +38,59 @@ class LiveStage(Stage):
     template = "study/trial_start.html"
     kind: str
 
-    def steps(self, flow: Flow, slot: Slot) -> tuple[str, ...]:
+    def steps(self, here: StageContext) -> tuple[str, ...]:
         return ("ready", "run")
 
-    def duration_s(self, flow: Flow) -> float:
-        return flow.study.training_s if self.kind == "training" else flow.study.trial_s
+    def duration_s(self, here: StageContext) -> float:
+        return (
+            here.study.timing.training_s if self.kind == "training" else here.study.timing.trial_s
+        )
 
-    def context(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> dict[str, Any]:
+    def context(self, here: StageContext, form: FlaskForm) -> dict[str, Any]:
         return {
             "kind": self.kind,
-            "type_name": f"{slot.order_label} collective type",
-            "duration": duration(self.duration_s(flow)),
+            "type_name": f"{here.slot.order_label} collective type",
+            "duration": duration(self.duration_s(here)),
             "simulation_ready": simulation_ready(),
         }
 
-    def submit(self, flow: Flow, slot: Slot, step: str, form: FlaskForm) -> bool:
-        if step != "ready":
+    def submit(self, here: StageContext, form: FlaskForm) -> bool:
+        if here.step != "ready":
             raise Refused("The trial is already under way.")
         if not simulation_ready():  # its clock would run while the server compiles
             raise Refused("The simulation is still being prepared; please wait a moment.")
         trial = start_trial(
-            flow.session,
-            flow.participant,
+            here.flow.session,
+            here.flow.participant,
             kind=self.kind,
-            model=slot.model,
-            first_section=flow.enrolment.first_sections.get(slot.model, "easy"),
-            duration_s=self.duration_s(flow),
-            time_acceleration=flow.enrolment.time_acceleration,
-            started_at=flow.now,
-            probe_counts=flow.study.probe_counts,
-            preset=flow.study.simulation_preset,
+            model=here.slot.model,
+            first_section=here.flow.enrolment.first_sections.get(here.slot.model, "easy"),
+            duration_s=self.duration_s(here),
+            time_acceleration=here.flow.enrolment.time_acceleration,
+            started_at=here.flow.now,
+            probe_counts=here.study.probes.per_level,
+            preset=here.study.simulation.preset,
         )
-        flow.record(slot, step, "submitted")
-        flow.record(slot, "run", "entered", deadline=trial.deadline, detail={"trial_id": trial.id})
+        here.flow.record(here.slot, here.step, "submitted")
+        here.flow.record(
+            here.slot, "run", "entered", deadline=trial.deadline, detail={"trial_id": trial.id}
+        )
         return False  # the flow has moved on by itself: both rows are written
 
-    def redirect(self, flow: Flow, slot: Slot, step: str) -> str | None:
-        if step == "run":
-            return url_for("live.trial_page", token=flow.participant.token)
+    def redirect(self, here: StageContext) -> str | None:
+        if here.step == "run":
+            return url_for("live.trial_page", token=here.flow.participant.token)
         return None
 
-    def poll(
-        self, flow: Flow, slot: Slot, step: str, entered: StageEvent
-    ) -> tuple[str, datetime] | None:
+    def poll(self, here: StageContext, entered: StageEvent) -> tuple[str, datetime] | None:
         """The run step ends when its trial has ended (time limit or experimenter's abort)."""
-        if step != "run":
+        if here.step != "run":
             return None
-        trial = flow.session.get(TrialRow, int((entered.detail or {})["trial_id"]))
+        trial = here.flow.session.get(TrialRow, int((entered.detail or {})["trial_id"]))
         assert trial is not None
-        if latest_status(flow.session, trial.id) != TrialStatus.ENDED:
+        if latest_status(here.flow.session, trial.id) != TrialStatus.ENDED:
             return None
-        return ("submitted", min(flow.now, trial.deadline))
+        return ("submitted", min(here.flow.now, trial.deadline))
 
 
 class TrainingStage(LiveStage):

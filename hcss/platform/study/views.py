@@ -169,10 +169,11 @@ def _current_stage(token: str) -> Response | str:
         position = _settled(flow)  # a step may end as it is entered (the debrief)
     if position.slot is None:
         return _finished(flow, position)
-    target = position.slot.stage.redirect(flow, position.slot, position.step)
+    here = flow.at(position.slot, position.step)
+    target = position.slot.stage.redirect(here)
     if target is not None:
         return redirect(target)
-    form = position.slot.stage.form(flow, position.slot, position.step, None)
+    form = position.slot.stage.form(here, None)
     return _render(flow, position, form)
 
 
@@ -191,10 +192,11 @@ def submit(token: str, index: int, step: str) -> Response | tuple[str, int] | st
         _check_current(flow, position, index, step)
         assert position.slot is not None
         stage_ = position.slot.stage
-        form = stage_.form(flow, position.slot, position.step, request.form)
+        here = flow.at(position.slot, position.step)
+        form = stage_.form(here, request.form)
         if not form.validate():
             return _render(flow, position, form)
-        done = stage_.submit(flow, position.slot, position.step, form)
+        done = stage_.submit(here, form)
         if form.errors or form.form_errors or getattr(form, "dimension_errors", None):
             flow.session.rollback()
             return _render(flow, position, form)
@@ -320,5 +322,5 @@ def _render(flow: Flow, position: Position, form: Any) -> str:
         remaining_wall_s=remaining_wall,
         study_per_wall=flow.enrolment.time_acceleration,
         progress=(slot.index + 1, len(flow.slots)),
-        **slot.stage.context(flow, slot, position.step, form),
+        **slot.stage.context(flow.at(slot, position.step), form),
     )

@@ -1,5 +1,8 @@
 """Fixtures and helpers for the study-flow tests (test_study_*.py).
 
+The fixtures (`study_app`, `demo_app`, `demo_bot_app`) are registered for the whole suite by
+tests/conftest.py (`pytest_plugins`): a test names them, never imports them.
+
 They build on the live engineer's `database_url` fixture (tests/platform/
 conftest.py), so every test runs on SQLite and, with HCSS_TEST_DATABASE_URL,
 on PostgreSQL. The runner's clock is a `ManualClock` at the real time: stage
@@ -18,7 +21,14 @@ from flask import Flask
 from flask.testing import FlaskClient
 from sqlalchemy import select
 
-from hcss.platform.bots import ManualClock, PageParser, bot_app, parse_page
+from hcss.platform.bots import (
+    BotReport,
+    ManualClock,
+    PageParser,
+    ParticipantBot,
+    bot_app,
+    parse_page,
+)
 from hcss.platform.models import Participant, StageEvent
 from hcss.platform.study import assign_cell
 
@@ -109,3 +119,31 @@ def events(app: Flask, token: str) -> list[StageEvent]:
 
 def errors_in(html: str) -> list[str]:
     return re.findall(r'<p class="error"[^>]*role="alert"[^>]*>([^<]+)</p>', html)
+
+
+@pytest.fixture
+def demo_bot_app(database_url: str):  # type: ignore[no-untyped-def]
+    """The demo study on a clock the bot moves (bot_app), with its schema."""
+    app = bot_app(database_url, "demo")
+    app.extensions["hcss_db"].create_all()
+    yield app
+    app.extensions["hcss_db"].engine.dispose()
+
+
+def walk_to(v: Visitor, stage: str, step: str) -> PageParser:
+    """Drive a participant with the bot's answers until the page is `stage`/`step`."""
+    bot = ParticipantBot(v.app, v.token, seed=5)
+    bot.client = v.client
+    report = BotReport(code="")
+    while True:
+        page = v.page()
+        if (page.stage, page.step) == (stage, step):
+            return page
+        if page.interface:
+            bot.supervise(page, page.interface and trial_kind(v), report)
+        else:
+            bot.act(page, report)
+
+
+def trial_kind(v: Visitor) -> str:
+    return "training" if "<strong>Training</strong>" in v.html else "trial"

@@ -1,12 +1,13 @@
-"""Fixtures and helpers for the console and export tests (the live engineer owns conftest.py).
+"""Fixtures and helpers for the console and export tests.
 
-Import the fixtures into a test module to use them:
-``from tests.platform.console_support import experimenter, console  # noqa: F401``.
+The fixtures (`experimenter`, `console`, `console_app`) are registered for the whole suite
+by tests/conftest.py (`pytest_plugins`): a test names them, never imports them.
 """
 
 from __future__ import annotations
 
 import re
+import threading
 from collections import Counter
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -17,10 +18,14 @@ import pytest
 from flask import Flask
 from flask.testing import FlaskClient
 from sqlalchemy import Table, event, select
+from waitress.server import create_server
 
+from hcss.platform.bots import bot_app
+from hcss.platform.cli import upgrade_database
+from hcss.platform.connections import close_server
 from hcss.platform.console.accounts import create_experimenter
 from hcss.platform.models import Base, Participant
-from tests.platform.conftest import csrf_token_of
+from tests.support.trials import csrf_token_of
 
 USERNAME = "alice"
 PASSWORD = "correct horse battery"
@@ -199,3 +204,48 @@ def statements(app) -> Iterator[Counter[str]]:  # type: ignore[no-untyped-def]
         yield counts
     finally:
         event.remove(engine, "before_cursor_execute", count)
+
+
+#: Columns 0011_second_factor adds, later than every revision these tests stop at.
+SECOND_FACTOR_COLUMNS = {
+    ("experimenter", "totp_secret"),
+    ("experimenter", "totp_last_step"),
+    ("experimenter", "recovery_hashes"),
+}
+#: The unique keys of a trial's rows, added by i29_unique_trial_rows (later than these tests).
+UNIQUE_TRIAL_KEYS = {
+    "uq_decision_trial",
+    "uq_sim_event_trial",
+    "uq_probe_trial",
+    "uq_probe_event_probe",
+    "uq_request_status_change_trial",
+    "uq_interruption_trial",
+}
+
+
+@pytest.fixture
+def console_app(tmp_path):  # type: ignore[no-untyped-def]
+    """The app (bots' clock, no runner thread) served by waitress in this process."""
+    url = f"sqlite:///{tmp_path / 'console-browser.sqlite3'}"
+    upgrade_database(url)
+    # The table polls every 0.3 s here (2 s by default), so a fast bot's stages all show.
+    app = bot_app(url, "original", SECRET_KEY="console-browser-secret", CONSOLE_POLL_S=0.3)
+    with app.extensions["hcss_db"].session_scope() as session:
+        create_experimenter(session, USERNAME, PASSWORD)
+    server = create_server(app, host="127.0.0.1", port=0, threads=8)
+    thread = threading.Thread(target=server.run, daemon=True)
+    thread.start()
+    yield app, f"http://127.0.0.1:{server.effective_port}"
+    close_server(server, thread)
+    app.extensions["hcss_db"].engine.dispose()
+
+
+def sign_in_page(page, base: str) -> None:  # type: ignore[no-untyped-def]
+    """The experimenter signs in and lands on the live table."""
+    from playwright.sync_api import expect
+
+    page.goto(f"{base}/console/")
+    page.fill("#username", USERNAME)
+    page.fill("#password", PASSWORD)
+    page.click("button[type=submit]")
+    expect(page.locator("h1")).to_have_text("Participants")

@@ -359,3 +359,19 @@ def study_export(directory: Path, participants: int = 6, seed: int = 11) -> Path
     ):
         write_table(pd.DataFrame(rows), directory / f"{name}.csv")
     return directory
+
+
+#: Eight participants × three models; row 2 ties M2 and M3 (a zero difference).
+SCORES = pd.DataFrame(
+    [
+        [50, 75, 60],
+        [40, 70, 70],
+        [55, 80, 65],
+        [30, 60, 45],
+        [60, 55, 70],
+        [45, 90, 50],
+        [35, 65, 40],
+        [50, 85, 75],
+    ],
+    columns=["M1", "M2", "M3"],
+)

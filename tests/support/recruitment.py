@@ -1,8 +1,11 @@
-"""Study files for the recruitment-platform tests: the demo study with its `[online]` table changed."""
+"""The recruitment tests' helpers: a visitor's press of Start on a study link, and study files
+with the demo study's `[online]` table changed."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
+from urllib.parse import urlencode
 
 import pytest
 
@@ -23,3 +26,19 @@ def demo_variant(
     (directory / f"{name}.toml").write_text(text, encoding="utf-8")
     monkeypatch.setenv(STUDIES_ENV, str(directory))
     return name
+
+
+#: What the first page of a laptop's browser measures and posts with Start.
+LAPTOP = {"width": "1366", "height": "768", "mobile": "0", "missing": ""}
+
+
+HIDDEN = re.compile(r'<input type="hidden" name="([^"]+)" value="([^"]*)"')
+
+
+def join(client, study: str = "demo", device=LAPTOP, **params: str):  # type: ignore[no-untyped-def]
+    """Open the study link; on its first page, press Start (as a laptop's browser posts it)."""
+    first = client.get(f"/join/{study}?{urlencode(params)}")
+    if first.status_code != 200 or 'id="join-form"' not in first.get_data(as_text=True):
+        return first
+    fields = dict(HIDDEN.findall(first.get_data(as_text=True)))
+    return client.post(f"/join/{study}", data=fields | dict(device))

@@ -7,12 +7,17 @@ lease runs out when the test moves the clock past it.
 
 from __future__ import annotations
 
+import pytest
 from flask import Flask
+from sqlalchemy import select
 
 from hcss.platform.app import create_app
 from hcss.platform.bots import ManualClock
+from hcss.platform.db import Database
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.trials import start_bot_trial
+from hcss.platform.localserver import LocalNginx
+from hcss.platform.models import TrialLease
 
 LEASE_S = 6.0
 
@@ -39,3 +44,17 @@ def start_trial_on(runner: Runner, duration_s: float = 600.0) -> int:
     with runner.database.session_scope() as session:
         _, trial = start_bot_trial(session, seed=2, duration_s=duration_s)
         return trial.id
+
+
+def skip_unless_group(database_url: str) -> str:
+    """PostgreSQL for a group of processes behind nginx; a clear skip otherwise."""
+    if not database_url.startswith("postgresql"):
+        pytest.skip("several server processes share PostgreSQL; SQLite serves one process")
+    if not LocalNginx.available():
+        pytest.skip(f"needs nginx at {LocalNginx.BINARY} (scripts/ensure-nginx installs it)")
+    return database_url
+
+
+def lease_owner(database: Database, trial_id: int) -> str | None:
+    with database.session_scope() as session:
+        return session.scalar(select(TrialLease.owner).where(TrialLease.trial_id == trial_id))
