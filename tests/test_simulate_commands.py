@@ -77,6 +77,7 @@ def test_help_lists_the_models_command_apart_from_the_experiments() -> None:
         "experiment",
         "fidelity",
         "meanfield",
+        "structure",
         "sweep",
     ]
 
