@@ -64,7 +64,7 @@ def test_a_paused_or_aborted_session_holds_the_participant(demo_app) -> None:
     ],
 )
 def test_a_bot_stops_where_a_stage_takes_answers_it_must_refuse(
-    demo_app,  # noqa: F811
+    demo_app,
     monkeypatch: pytest.MonkeyPatch,
     stage: str,
     accepted: dict[str, str],
