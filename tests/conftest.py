@@ -15,8 +15,9 @@ from pathlib import Path
 
 import pytest
 
-#: Every run writes each test's time here (setup, call and teardown summed), longest first,
-#: so the suite's slow tests are known from a file, not from commit messages.
+#: Every run writes each test's time here (setup, call and teardown summed, and each apart:
+#: a slow setup is a fixture's server or schema, a slow call the test's own work), longest
+#: first, so the suite's slow tests are known from a file, not from commit messages.
 DURATIONS_FILE = Path(__file__).resolve().parents[1] / "test-artifacts" / "durations.csv"
 #: A full run's durations, kept in the repository: the fast tier (`make test-fast`, `--fast`)
 #: leaves out every test that took longer than FAST_LIMIT_S there. A test not in the file
@@ -24,7 +25,9 @@ DURATIONS_FILE = Path(__file__).resolve().parents[1] / "test-artifacts" / "durat
 #: (`cp test-artifacts/durations.csv tests/durations.csv`).
 RECORDED_DURATIONS = Path(__file__).resolve().parent / "durations.csv"
 FAST_LIMIT_S = 2.0
+PHASES = ("setup", "call", "teardown")
 _seconds: dict[str, float] = {}
+_phases: dict[str, dict[str, float]] = {}
 
 #: The shared fixtures, in tests/support (a test module names a fixture, never imports one,
 #: and no test module imports another: tests/test_architecture.py checks it).
@@ -80,6 +83,7 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
 def pytest_runtest_logreport(report: pytest.TestReport) -> None:
     """Sum a test's phases; under xdist the controller receives every worker's reports."""
     _seconds[report.nodeid] = _seconds.get(report.nodeid, 0.0) + report.duration
+    _phases.setdefault(report.nodeid, {})[report.when] = report.duration
     if report.when == "call" or report.outcome != "passed":
         _outcome[report.nodeid] = report.outcome
 
@@ -90,6 +94,7 @@ def pytest_sessionfinish(session: pytest.Session) -> None:
     DURATIONS_FILE.parent.mkdir(exist_ok=True)
     with DURATIONS_FILE.open("w", newline="") as out:
         table = csv.writer(out)
-        table.writerow(["seconds", "outcome", "test"])
+        table.writerow(["seconds", "outcome", "test", *PHASES])
         for nodeid, seconds in sorted(_seconds.items(), key=lambda kv: -kv[1]):
-            table.writerow([f"{seconds:.3f}", _outcome.get(nodeid, "passed"), nodeid])
+            phases = [f"{_phases[nodeid].get(phase, 0.0):.3f}" for phase in PHASES]
+            table.writerow([f"{seconds:.3f}", _outcome.get(nodeid, "passed"), nodeid, *phases])

@@ -59,7 +59,7 @@ def test_a_spec_refuses_a_repeated_column_and_an_unknown_type() -> None:
     with pytest.raises(ValueError, match="twice"):
         TableSpec("t", "t", "", (Column("a", "int", ""), Column("a", "str", "")))
     with pytest.raises(ValueError, match="unknown type"):
-        Column("a", "integer", "")  # type: ignore[arg-type]
+        Column("a", "integer", "")
 
 
 @pytest.mark.parametrize(

@@ -618,7 +618,9 @@ def structure(
                 axis(mechanisms, "--mechanisms", tuple(st.MECHANISMS)),
             )
         )
-    except ValueError as error:  # a number that is not one
+        for cell in cells:  # a d_max or scale the params refuse, before any run
+            cell.params(preset_params(preset))
+    except ValueError as error:  # a number that is not one, or one the params refuse
         raise click.BadParameter(str(error), param_hint="--d-max/--wait-scale") from None
     click.echo(
         f"{len(cells)} cells × {len(st.LAYOUTS)} layouts × {runs} agent runs, preset {preset}."

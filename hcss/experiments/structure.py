@@ -123,7 +123,8 @@ class Cell:
     def params(self, base: Params) -> tuple[Params, float]:
         params, scale = reading_params(base, self.discovery)
         if self.model == "M2":
-            assert self.d_max_m is not None and self.wait_scale is not None and self.mechanisms
+            if self.d_max_m is None or self.wait_scale is None or self.mechanisms is None:
+                raise ValueError("an M2 cell needs d_max_m, wait_scale and mechanisms")
             params = params.with_changes(
                 m2_distance_bounds="fitted",
                 fitted_d_max_m=self.d_max_m,

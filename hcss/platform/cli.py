@@ -131,6 +131,7 @@ def serve(
     from hcss.platform.serving import log_events_to_stderr, write_serving_file
     from hcss.platform.workers import (
         GroupRefused,
+        hold_studies,
         process_name,
         require_shared_database,
         run_group,
@@ -159,6 +160,10 @@ def serve(
     }
     if cluster:
         config["PROCESS_NAME"] = process_name(host, port)
+        try:  # every process of a group serves the same study files
+            hold_studies(database_url(), str(config["PROCESS_NAME"]))
+        except GroupRefused as refused:
+            raise click.UsageError(str(refused)) from refused
     if time_acceleration is not None:
         config["TIME_ACCELERATION"] = time_acceleration
     if study is not None:

@@ -21,6 +21,7 @@ is the wall clock; tests and bots put a `ManualClock` there.
 
 from __future__ import annotations
 
+import functools
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -208,9 +209,25 @@ class Database:
         return None
 
     def create_all(self) -> None:
-        """Create every table and the append-only triggers; for tests. Deployments migrate."""
+        """Create every table and the append-only triggers; for tests. Deployments migrate.
+
+        On a PostgreSQL schema with no tables yet (each test's own), the same DDL goes as one
+        script: one round trip instead of 112 (a check, table, index or trigger each); on a
+        loaded machine 0.5 s instead of 0.7 s of each PostgreSQL test's setup.
+        """
+        from sqlalchemy import inspect
+
         from hcss.platform.models.append_only import install_triggers
 
+        with self.engine.begin() as connection:
+            if (
+                connection.dialect.name == "postgresql"
+                and not inspect(connection).get_table_names()
+            ):
+                # The driver's cursor, without parameters: psycopg reads no placeholders then,
+                # and sends the script as one query.
+                connection.connection.cursor().execute(_create_script(connection.dialect.name))
+                return
         Base.metadata.create_all(self.engine)
         with self.engine.begin() as connection:
             install_triggers(connection)
@@ -298,3 +315,22 @@ def get_session() -> Session:
     if "db_session" not in g:
         g.db_session = database().sessions()
     return g.db_session
+
+
+@functools.cache
+def _create_script(dialect: str) -> str:
+    """What `Base.metadata.create_all` and the append-only triggers run on an empty database,
+    as one script (statements the dialect compiles, joined by semicolons)."""
+    from sqlalchemy import create_mock_engine
+    from sqlalchemy.engine import make_url
+
+    from hcss.platform.models.append_only import trigger_statements
+
+    compiler = make_url(f"{dialect}://").get_dialect()()
+    statements: list[str] = []
+
+    def collect(ddl: Any, *_: Any, **__: Any) -> None:
+        statements.append(str(ddl.compile(dialect=compiler)))
+
+    Base.metadata.create_all(create_mock_engine(f"{dialect}://", collect), checkfirst=False)
+    return ";\n".join([*statements, *trigger_statements(dialect)])

@@ -111,6 +111,13 @@ def test_the_structure_command_maps_the_grid_it_is_given(tmp_path: Path) -> None
     assert len(read) == 2 * 3 * 2  # M1 and one M2 cell, three layouts, two methods
     assert {r["mechanisms"] for r in read if r["model"] == "M2"} == {"no_M_i"}
     assert "| per_agent | M2 | 352 m | 1 | no_M_i |" in (tmp_path / "structure.md").read_text()
-    for bad in (["--mechanisms", "no_F_X"], ["--d-max", "far"], ["--discovery", ""]):
+    bad_grids = (
+        ["--mechanisms", "no_F_X"],
+        ["--d-max", "far"],
+        ["--d-max", "100"],  # not above d_min (150 m)
+        ["--wait-scale", "0"],
+        ["--discovery", ""],
+    )
+    for bad in bad_grids:
         result = CliRunner().invoke(main, [*args, *bad])
         assert result.exit_code == 2 and "Traceback" not in result.output, bad

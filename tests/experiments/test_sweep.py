@@ -53,8 +53,9 @@ def test_each_cell_is_the_experiment_at_its_parameter_values(swept):
     """The (2, 10) cell's rows are exactly a direct run of the experiment at those values,
     every other value the default preset's (named in the manifest)."""
     assert json.loads((swept / "sweep.json").read_text())["preset"] == DEFAULT_PRESET
-    jobs = exp.jobs_for(exp.experiment_scenarios(1), ["M1", "M2"], 1)
     at_cell = preset_params(DEFAULT_PRESET).with_changes(message_rate=2.0, quorum_k=10)
+    # The scenarios too are drawn under the cell's params (the preset's layout reading).
+    jobs = exp.jobs_for(exp.experiment_scenarios(1, params=at_cell), ["M1", "M2"], 1)
     direct = exp.run_jobs(jobs, params=at_cell)
     cell = [
         r

@@ -29,7 +29,7 @@ from tests.support.trials import STUDY, TrialHandle
 
 
 @pytest.fixture(params=["sqlite", "postgresql"])
-def database_url(request: pytest.FixtureRequest, tmp_path) -> Iterator[str]:  # type: ignore[no-untyped-def]
+def database_url(request: pytest.FixtureRequest, tmp_path) -> Iterator[str]:
     if request.param == "sqlite":
         yield f"sqlite:///{tmp_path / 'hcss-test.sqlite3'}"
         return
@@ -61,7 +61,7 @@ def app(database_url: str) -> Iterator[Flask]:
 
 
 @pytest.fixture
-def make_trial(app: Flask):  # type: ignore[no-untyped-def]
+def make_trial(app: Flask):
     """Start a trial for a new participant: make_trial(seed=2, model="M1", kind="trial")."""
 
     def make(**options: Any) -> TrialHandle:
@@ -88,9 +88,10 @@ def make_trial(app: Flask):  # type: ignore[no-untyped-def]
     return make
 
 
-@pytest.fixture
-def browser():  # type: ignore[no-untyped-def]
-    """A headless Chromium for the browser tests; skipped when it is not installed."""
+@pytest.fixture(scope="session")
+def chromium():
+    """One headless Chromium per test process (each xdist worker), as pytest-playwright keeps
+    one per session: a launch took 2 to 2.7 s on a loaded machine, paid once, not per test."""
     if not os.path.exists(CHROMIUM):
         pytest.skip(f"browser tests need {CHROMIUM} (make browser installs it)")
     sync_api = pytest.importorskip("playwright.sync_api")
@@ -98,3 +99,13 @@ def browser():  # type: ignore[no-untyped-def]
         browser = playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
         yield browser
         browser.close()
+
+
+@pytest.fixture
+def browser(chromium):
+    """The process's headless Chromium for a browser test. Each page or context the test opens
+    is a context of its own (cookies, storage, cache), and all are closed after the test, so
+    no test sees another's pages."""
+    yield chromium
+    for context in list(chromium.contexts):
+        context.close()

@@ -35,11 +35,11 @@ def test_an_abort_whose_commit_fails_is_retried_without_lost_or_doubled_rows(
 
     flushed_aborts: set[int] = set()  # sessions that flushed an abort's row before committing
 
-    def note_an_abort(session, _context) -> None:  # type: ignore[no-untyped-def]
+    def note_an_abort(session, _context) -> None:
         if any(isinstance(o, ConsoleAction) and o.action == "abort" for o in session.new):
             flushed_aborts.add(id(session))
 
-    def fail_the_abort(session, *_args) -> None:  # type: ignore[no-untyped-def]
+    def fail_the_abort(session, *_args) -> None:
         aborting = id(session) in flushed_aborts or any(
             isinstance(o, ConsoleAction) and o.action == "abort" for o in session.new
         )

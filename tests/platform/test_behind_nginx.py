@@ -64,7 +64,7 @@ def _certificate(folder: Path) -> tuple[Path, Path]:
 
 
 @pytest.fixture(scope="module")
-def proxied(tmp_path_factory) -> Iterator[Proxied]:  # type: ignore[no-untyped-def]
+def proxied(tmp_path_factory) -> Iterator[Proxied]:
     if not LocalNginx.available():
         pytest.skip(f"needs nginx at {LocalNginx.BINARY} (scripts/ensure-nginx installs it)")
     folder = tmp_path_factory.mktemp("behind-nginx")

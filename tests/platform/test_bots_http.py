@@ -82,7 +82,7 @@ def test_a_bot_whose_mental_rotation_part_times_out_goes_on(tmp_path, monkeypatc
 
     practice = {item.key for item in mrt.practice_items()}
 
-    def slow_choice(self, key):  # type: ignore[no-untyped-def]
+    def slow_choice(self, key):
         if not slept and key not in practice:  # the part's first answer, after its 60 s
             slept.append(60.0 / acceleration + 0.5)
             time.sleep(slept[0])

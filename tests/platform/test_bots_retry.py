@@ -32,7 +32,7 @@ from tests.support.trials import csrf_token_of
 
 
 @contextmanager
-def _served(app) -> Iterator[int]:  # type: ignore[no-untyped-def]
+def _served(app) -> Iterator[int]:
     server = create_server(app, host="127.0.0.1", port=0, threads=4)
     thread = threading.Thread(target=server.run, daemon=True)
     thread.start()

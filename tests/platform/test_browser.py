@@ -23,7 +23,7 @@ ACCELERATION = 6.0
 
 
 @pytest.fixture
-def live_trial(tmp_path):  # type: ignore[no-untyped-def]
+def live_trial(tmp_path):
     url = f"sqlite:///{tmp_path / 'browser.sqlite3'}"
     upgrade_database(url)
     database = Database(url)

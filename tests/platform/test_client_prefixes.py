@@ -24,7 +24,7 @@ from tests.support.bystander import sample_bystander_ms
 from tests.support.recruitment import join
 
 
-def _visitor(app, address: str):  # type: ignore[no-untyped-def]
+def _visitor(app, address: str):
     client = app.test_client()
     client.environ_base["REMOTE_ADDR"] = address
     return client

@@ -130,7 +130,7 @@ def test_participants_arriving_at_once_on_two_processes_fill_the_cells_exactly(
             barrier.wait(timeout=60)
             return client.get(f"/p/{token}")
 
-        def arrive(send, barrier, argument, visitor: int) -> None:  # type: ignore[no-untyped-def]
+        def arrive(send, barrier, argument, visitor: int) -> None:
             address = f"127.0.{2 + visitor // 250}.{1 + visitor % 250}"
             transport = httpx.HTTPTransport(local_address=address)
             with httpx.Client(base_url=nginx.url, timeout=60, transport=transport) as client:
@@ -192,7 +192,7 @@ def test_one_client_s_starts_are_limited_once_across_both_processes(
     assert enrolled == 3
 
 
-def test_a_trial_hosted_by_another_process_answers_503_with_retry_after(database_url) -> None:  # type: ignore[no-untyped-def]
+def test_a_trial_hosted_by_another_process_answers_503_with_retry_after(database_url) -> None:
     """Nginx passes the last 503 on when every process said "hosted elsewhere" (the owner is
     dead, its lease not yet run out); a bot or script then asks again after Retry-After.
 
@@ -221,7 +221,7 @@ def test_a_trial_hosted_by_another_process_answers_503_with_retry_after(database
             app.extensions["hcss_db"].engine.dispose()
 
 
-def test_a_host_killed_before_its_first_snapshot_still_leaves_an_honest_clock(database_url) -> None:  # type: ignore[no-untyped-def]
+def test_a_host_killed_before_its_first_snapshot_still_leaves_an_honest_clock(database_url) -> None:
     """A claims a trial and dies before writing its first snapshot; B takes it over.
 
     The bots' kill -9 found this: the kill came right after a trial's lease was

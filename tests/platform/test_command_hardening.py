@@ -54,14 +54,14 @@ BAD_COMMANDS = [
 ]
 
 
-def _export(database_url: str, outdir) -> tuple[int, str, list[dict[str, str]]]:  # type: ignore[no-untyped-def]
+def _export(database_url: str, outdir) -> tuple[int, str, list[dict[str, str]]]:
     result = CliRunner().invoke(main, ["export", str(outdir), "--database-url", database_url])
     problems = outdir / "export_problems.csv"
     rows = list(csv.DictReader(problems.open(encoding="utf-8"))) if problems.exists() else []
     return result.exit_code, result.output, rows
 
 
-def _restart(database_url: str, now: float):  # type: ignore[no-untyped-def]
+def _restart(database_url: str, now: float):
     """A new server process on the same database (the old one died)."""
     app = create_app(
         {"DATABASE_URL": database_url, "SECRET_KEY": "test-secret", "LIVE_RUNNER": False}
@@ -123,7 +123,7 @@ def test_after_the_issues_post_export_and_restart_still_work(
         restarted.extensions["hcss_db"].engine.dispose()
 
 
-def _store_bad_command(app, trial_id: int) -> int:  # type: ignore[no-untyped-def]
+def _store_bad_command(app, trial_id: int) -> int:
     """What the server stored before this fix: the issue's command and its refusal.
 
     Logged at the step of the newest snapshot, as a command the live trial

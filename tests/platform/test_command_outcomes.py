@@ -17,12 +17,12 @@ from hcss.simulation import OperatorCommand
 from tests.support.replays import operate, replay_trial
 
 
-def _rows(app, model):  # type: ignore[no-untyped-def]
+def _rows(app, model):
     with app.extensions["hcss_db"].session_scope() as session:
         return list(session.scalars(select(model).order_by(model.id)))
 
 
-def _favoured(trial, collective: int = 0):  # type: ignore[no-untyped-def]
+def _favoured(trial, collective: int = 0):
     view = trial.state()["view"]
     return max(
         (t for t in view["targets"] if collective in t["in_range_of"]),
@@ -50,7 +50,7 @@ def test_the_intervention_flag_follows_the_simulations_parameter(make_trial) -> 
     assert live.sim.open[0].requests["interventions"] == int(outcome.intervention)
 
 
-def _stored_and_replayed_statuses(trial):  # type: ignore[no-untyped-def]
+def _stored_and_replayed_statuses(trial):
     """The stored status rows and those of an uninterrupted replay of the stored commands."""
     live = trial.live()
     step, digest = live.sim.step_count, live.sim.state_digest()
@@ -99,7 +99,7 @@ def test_a_command_that_cannot_be_written_leaves_the_trial_as_it_was(
     database = trial.app.extensions["hcss_db"]
     good = CommandOutcome.of
 
-    def broken(command_id, outcome):  # type: ignore[no-untyped-def]
+    def broken(command_id, outcome):
         row = good(command_id, outcome)
         row.accepted = None  # NOT NULL: the database refuses the transaction
         return row

@@ -22,7 +22,7 @@ pytestmark = pytest.mark.browser
 FAILED_COMMITS = 3
 
 
-def _request_ready(browser, server: StudyServer):  # type: ignore[no-untyped-def]
+def _request_ready(browser, server: StudyServer):
     """A live trial's page with an investigate request chosen, one click from being sent."""
     _, page = open_live_trial(browser, server, {"width": 1280, "height": 900})
     target = wait_for(
@@ -39,7 +39,7 @@ def _request_ready(browser, server: StudyServer):  # type: ignore[no-untyped-def
     return page
 
 
-def _requests_sent(page) -> list[tuple[str | None, int]]:  # type: ignore[no-untyped-def]
+def _requests_sent(page) -> list[tuple[str | None, int]]:
     """(Idempotency-Key, status) of every answer to a request command the page gets."""
     sent: list[tuple[str | None, int]] = []
     page.on(
@@ -62,7 +62,7 @@ def test_a_command_answered_503_is_retried_with_its_key_and_stored_once(
 
     failed: list[int] = []
 
-    def drop_the_command(session, *_args) -> None:  # type: ignore[no-untyped-def]
+    def drop_the_command(session, *_args) -> None:
         # The command's row is flushed (for its id) before the commit: it is in the identity map.
         stored = list(session.new) + list(session.identity_map.values())
         if len(failed) < FAILED_COMMITS and any(isinstance(o, Command) for o in stored):
@@ -98,7 +98,7 @@ def test_a_command_whose_answer_the_proxy_lost_is_retried_and_stored_once(
     page = _request_ready(browser, demo_server)
     lost: list[int] = []
 
-    def lose_the_first_answer(route) -> None:  # type: ignore[no-untyped-def]
+    def lose_the_first_answer(route) -> None:
         if lost:
             route.continue_()
             return

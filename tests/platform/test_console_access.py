@@ -12,7 +12,7 @@ from tests.support.trials import csrf_token_of
 # Fixtures of this part's own module (conftest.py belongs to the live trial tests).
 
 
-def _console_urls(app, code: str, trial_id: int = 1) -> list[tuple[str, str]]:  # type: ignore[no-untyped-def]
+def _console_urls(app, code: str, trial_id: int = 1) -> list[tuple[str, str]]:
     """Every console route (but sign-in and static files), filled with a real participant."""
     urls = []
     for rule in app.url_map.iter_rules():
@@ -28,7 +28,7 @@ def _console_urls(app, code: str, trial_id: int = 1) -> list[tuple[str, str]]:  
     return urls
 
 
-def _action_count(app) -> int:  # type: ignore[no-untyped-def]
+def _action_count(app) -> int:
     with app.extensions["hcss_db"].session_scope() as session:
         return session.scalar(select(func.count()).select_from(ConsoleAction))
 

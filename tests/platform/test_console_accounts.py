@@ -13,13 +13,13 @@ from tests.support.console import sign_in
 
 
 @pytest.fixture
-def cli(database_url, monkeypatch):  # type: ignore[no-untyped-def]
+def cli(database_url, monkeypatch):
     """The `hcss` command on the test database."""
     monkeypatch.setenv("DATABASE_URL", database_url)
     return lambda *args, **options: CliRunner().invoke(main, list(args), **options)
 
 
-def _usernames(app) -> list[str]:  # type: ignore[no-untyped-def]
+def _usernames(app) -> list[str]:
     with app.extensions["hcss_db"].session_scope() as session:
         return list(session.scalars(select(Experimenter.username).order_by(Experimenter.id)))
 
@@ -85,7 +85,7 @@ def test_two_processes_starting_at_once_make_one_first_login(app, monkeypatch, c
     both_counted = threading.Barrier(2, timeout=10)
     make = accounts.create_experimenter
 
-    def make_after_both_counted(*args, **kwargs):  # type: ignore[no-untyped-def]
+    def make_after_both_counted(*args, **kwargs):
         both_counted.wait()
         return make(*args, **kwargs)
 

@@ -30,7 +30,7 @@ pytestmark = pytest.mark.browser
 USERNAME, PASSWORD = "lab", "a long enough password"
 
 
-def _row(page, code: str):  # type: ignore[no-untyped-def]
+def _row(page, code: str):
     return page.locator(f'#progress tr[data-code="{code}"]')
 
 

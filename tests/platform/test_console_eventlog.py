@@ -75,7 +75,7 @@ def test_an_error_on_a_participants_page_is_one_error_line(
     with app.extensions["hcss_db"].session_scope() as session:
         token = session.scalars(select(Participant.token).where(Participant.code == code)).one()
 
-    def broken(*_args, **_kwargs):  # type: ignore[no-untyped-def]
+    def broken(*_args, **_kwargs):
         raise RuntimeError("disk on fire")
 
     monkeypatch.setattr(study_views, "current_enrolment", broken)

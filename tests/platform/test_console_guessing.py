@@ -16,13 +16,13 @@ from hcss.platform.models import AuditRecord
 from tests.support.console import PASSWORD, USERNAME, code_of, sign_in
 
 
-def _attempt(app, username: str, password: str, address: str = "10.0.0.1"):  # type: ignore[no-untyped-def]
+def _attempt(app, username: str, password: str, address: str = "10.0.0.1"):
     client = app.test_client()
     client.environ_base["REMOTE_ADDR"] = address
     return sign_in(client, username, password)
 
 
-def _audits(app) -> list[AuditRecord]:  # type: ignore[no-untyped-def]
+def _audits(app) -> list[AuditRecord]:
     with app.extensions["hcss_db"].session_scope() as session:
         return list(
             session.scalars(select(AuditRecord).where(AuditRecord.action == "login_lockout"))
@@ -50,7 +50,7 @@ def test_repeated_wrong_passwords_lock_the_account_from_that_client_and_are_audi
     assert _attempt(app, USERNAME, PASSWORD).status_code == 302  # the lockout ends
 
 
-def _restarted(app):  # type: ignore[no-untyped-def]
+def _restarted(app):
     """A new server process on the same database: nothing carried over in memory.
 
     Only the clock is shared, as two real processes share the wall clock.

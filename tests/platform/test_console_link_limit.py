@@ -17,7 +17,7 @@ from hcss.platform.models import AuditRecord, Participant
 from tests.support.console import Console, sign_in
 
 
-def _participants(app) -> int:  # type: ignore[no-untyped-def]
+def _participants(app) -> int:
     with app.extensions["hcss_db"].session_scope() as session:
         return int(session.scalar(select(func.count()).select_from(Participant)) or 0)
 
@@ -82,7 +82,7 @@ def test_twenty_batches_at_once_never_pass_the_limit(app, console) -> None:
     start = threading.Barrier(len(clients))
     answers: list[int] = []
 
-    def create(client) -> None:  # type: ignore[no-untyped-def]
+    def create(client) -> None:
         start.wait()
         answer = client.post(
             "/console/participants", data={"csrf_token": console.csrf, "count": "50"}

@@ -13,7 +13,7 @@ from tests.support.console import statements
 LINK = re.compile(r'data-copy="(http://localhost/p/[A-Za-z0-9_-]+)" data-usable="([01])"')
 
 
-def _batch(console, count: int) -> list[str]:  # type: ignore[no-untyped-def]
+def _batch(console, count: int) -> list[str]:
     created = console.post("/console/participants", {"study": "demo", "count": str(count)})
     assert created.status_code == 303
     html = console.get(created.headers["Location"]).get_data(as_text=True)

@@ -18,7 +18,7 @@ from tests.support.inprocess import serving
 from tests.support.trials import csrf_token_of
 
 
-def _attempt(app, username: str, password: str, address: str = "10.0.0.1", **headers: str):  # type: ignore[no-untyped-def]
+def _attempt(app, username: str, password: str, address: str = "10.0.0.1", **headers: str):
     client = app.test_client()
     client.environ_base["REMOTE_ADDR"] = address
     for name, value in headers.items():

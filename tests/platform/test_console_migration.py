@@ -23,7 +23,7 @@ LATER_COLUMNS = SECOND_FACTOR_COLUMNS | {
 }
 
 
-def _not_added_later(obj, name, type_, reflected, compare_to) -> bool:  # type: ignore[no-untyped-def]
+def _not_added_later(obj, name, type_, reflected, compare_to) -> bool:
     if type_ == "index":
         return name not in UNIQUE_TRIAL_KEYS
     return not (type_ == "column" and (obj.table.name, name) in LATER_COLUMNS)

@@ -46,7 +46,7 @@ def host_and_console(database_url: str) -> Iterator[tuple[Flask, Flask]]:
         app.extensions["hcss_db"].engine.dispose()
 
 
-def _hosted_trial_and_console(host: Flask, console: Flask):  # type: ignore[no-untyped-def]
+def _hosted_trial_and_console(host: Flask, console: Flask):
     """A trial the host holds, its participant's code, and an experimenter signed in on the other."""
     runner = host.extensions["hcss_runner"]
     live = runner.host(start_trial_on(runner))
@@ -59,7 +59,7 @@ def _hosted_trial_and_console(host: Flask, console: Flask):  # type: ignore[no-u
     return live, code, client
 
 
-def _csrf(client, code: str) -> str:  # type: ignore[no-untyped-def]
+def _csrf(client, code: str) -> str:
     page = client.get(f"/console/participants/{code}")
     return page.get_data(as_text=True).split('name="csrf-token" content="')[1].split('"')[0]
 

@@ -9,7 +9,7 @@ from hcss.platform.console.presence import CONNECTED_WITHIN_S
 from hcss.platform.models import Participant, ParticipantPresence
 
 
-def _new(console) -> tuple[str, str]:  # type: ignore[no-untyped-def]
+def _new(console) -> tuple[str, str]:
     console.post("/console/participants", {"count": "1", "study": "demo"})
     (code,) = console.progress()
     with console.app.extensions["hcss_db"].session_scope() as session:
@@ -17,7 +17,7 @@ def _new(console) -> tuple[str, str]:  # type: ignore[no-untyped-def]
     return code, token
 
 
-def _token(app) -> str:  # type: ignore[no-untyped-def]
+def _token(app) -> str:
     """A participant made straight in the database (no console sign-in: argon2 is slow)."""
     with app.extensions["hcss_db"].session_scope() as session:
         participant = Participant(study="demo")
@@ -26,7 +26,7 @@ def _token(app) -> str:  # type: ignore[no-untyped-def]
         return participant.token
 
 
-def _presence_rows(app) -> int:  # type: ignore[no-untyped-def]
+def _presence_rows(app) -> int:
     with app.extensions["hcss_db"].session_scope() as session:
         return session.scalar(select(func.count()).select_from(ParticipantPresence)) or 0
 
@@ -140,7 +140,7 @@ def test_a_busy_database_is_a_503_not_a_500(app, monkeypatch) -> None:
 
     token = _token(app)
 
-    def locked(*_args, **_kwargs):  # type: ignore[no-untyped-def]
+    def locked(*_args, **_kwargs):
         raise OperationalError("UPDATE participant_presence", {}, Exception("database is locked"))
 
     monkeypatch.setattr(presence, "record_heartbeat", locked)

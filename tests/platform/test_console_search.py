@@ -8,7 +8,7 @@ from sqlalchemy import select
 from hcss.platform.models import Participant, Recruitment
 
 
-def _two_hundred(app) -> tuple[str, str]:  # type: ignore[no-untyped-def]
+def _two_hundred(app) -> tuple[str, str]:
     """200 participants; the first made (the last page, newest first) came from Prolific."""
     with app.extensions["hcss_db"].session_scope() as session:
         people = [Participant(study="demo") for _ in range(200)]

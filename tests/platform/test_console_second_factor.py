@@ -20,7 +20,7 @@ from tests.support.console import PASSWORD, USERNAME
 from tests.support.trials import csrf_token_of
 
 
-def _sign_in(app, password: str, code: str = "", address: str = "10.0.0.1"):  # type: ignore[no-untyped-def]
+def _sign_in(app, password: str, code: str = "", address: str = "10.0.0.1"):
     client = app.test_client()
     client.environ_base["REMOTE_ADDR"] = address
     form = client.get("/console/login").get_data(as_text=True)
@@ -28,7 +28,7 @@ def _sign_in(app, password: str, code: str = "", address: str = "10.0.0.1"):  # 
     return client.post("/console/login", data={**fields, "code": code})
 
 
-def _enrol(app, monkeypatch) -> tuple[pyotp.TOTP, list[str]]:  # type: ignore[no-untyped-def]
+def _enrol(app, monkeypatch) -> tuple[pyotp.TOTP, list[str]]:
     from hcss.cli import main as cli
 
     monkeypatch.setenv("DATABASE_URL", app.config["DATABASE_URL"])

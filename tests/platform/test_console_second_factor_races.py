@@ -27,7 +27,7 @@ from tests.support.trials import csrf_token_of
 pytestmark = pytest.mark.slow  # sign-ins at once: each checks an argon2 password
 
 
-def _enrol(app, monkeypatch) -> tuple[pyotp.TOTP, list[str]]:  # type: ignore[no-untyped-def]
+def _enrol(app, monkeypatch) -> tuple[pyotp.TOTP, list[str]]:
     from hcss.cli import main as cli
 
     monkeypatch.setenv("DATABASE_URL", app.config["DATABASE_URL"])
@@ -128,7 +128,7 @@ def test_wrong_codes_from_many_addresses_are_bounded_per_account(
     tried: list[str] = []
     take = second_factor._take_totp
 
-    def counted(database, account, typed, now):  # type: ignore[no-untyped-def]
+    def counted(database, account, typed, now):
         tried.append(typed)
         return take(database, account, typed, now)
 

@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 @pytest.fixture
-def instance(tmp_path, monkeypatch) -> tuple[Path, str]:  # type: ignore[no-untyped-def]
+def instance(tmp_path, monkeypatch) -> tuple[Path, str]:
     url = f"sqlite:///{tmp_path / 'serving.sqlite3'}"
     upgrade_database(url)
     monkeypatch.setenv("DATABASE_URL", url)

@@ -13,7 +13,7 @@ from tests.support.console import code_of
 # Fixtures of this part's own module (conftest.py belongs to the live trial tests).
 
 
-def _actions(app, code: str) -> list[tuple[str, int | None, str]]:  # type: ignore[no-untyped-def]
+def _actions(app, code: str) -> list[tuple[str, int | None, str]]:
     with app.extensions["hcss_db"].session_scope() as session:
         return [
             (a.action, a.trial_id, a.detail)

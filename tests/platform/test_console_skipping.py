@@ -15,7 +15,7 @@ from tests.support.study import Visitor, events, visitor
 LINK = re.compile(r'value="(http://localhost/p/[A-Za-z0-9_-]+)"')
 
 
-def _guest(app, console) -> tuple[str, Visitor]:  # type: ignore[no-untyped-def]
+def _guest(app, console) -> tuple[str, Visitor]:
     console.post("/console/participants", {"count": "1", "study": "demo"})
     (code,) = console.progress()
     (link,) = LINK.findall(console.get("/console/links").get_data(as_text=True))
@@ -24,7 +24,7 @@ def _guest(app, console) -> tuple[str, Visitor]:  # type: ignore[no-untyped-def]
     return code, guest
 
 
-def _beat(guest: Visitor, stage: int, step: str):  # type: ignore[no-untyped-def]
+def _beat(guest: Visitor, stage: int, step: str):
     return guest.client.post(
         f"/p/{guest.token}/heartbeat",
         json={"page": "study", "hidden": False, "stage": stage, "step": step},

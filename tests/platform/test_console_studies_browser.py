@@ -20,7 +20,7 @@ from tests.support.console import sign_in_page
 pytestmark = pytest.mark.browser
 
 
-def _create_batch(page, study: str, count: int) -> tuple[list[str], list[str]]:  # type: ignore[no-untyped-def]
+def _create_batch(page, study: str, count: int) -> tuple[list[str], list[str]]:
     from playwright.sync_api import expect
 
     page.select_option("#study", study)
@@ -35,7 +35,7 @@ def _create_batch(page, study: str, count: int) -> tuple[list[str], list[str]]: 
     return codes, links
 
 
-def test_the_console_exports_one_study(browser, console_app) -> None:  # type: ignore[no-untyped-def]
+def test_the_console_exports_one_study(browser, console_app) -> None:
     from playwright.sync_api import expect
 
     _app, base = console_app

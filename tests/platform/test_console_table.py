@@ -19,7 +19,7 @@ from hcss.platform.study.studyfile import load_study
 LINK = re.compile(r'value="(http://localhost/p/[A-Za-z0-9_-]+)"')
 
 
-def _enrolment(app, code: str) -> StudyEnrolment | None:  # type: ignore[no-untyped-def]
+def _enrolment(app, code: str) -> StudyEnrolment | None:
     with app.extensions["hcss_db"].session_scope() as session:
         return session.scalars(
             select(StudyEnrolment)

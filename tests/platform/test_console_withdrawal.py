@@ -11,12 +11,12 @@ from hcss.platform.models import AuditRecord, Base, Participant
 from tests.support.console import cells_containing, code_of, play_trial, rows_referencing
 
 
-def _participant_id(app, code: str) -> int | None:  # type: ignore[no-untyped-def]
+def _participant_id(app, code: str) -> int | None:
     with app.extensions["hcss_db"].session_scope() as session:
         return session.scalar(select(Participant.id).where(Participant.code == code))
 
 
-def _two_participants_with_data(app, make_trial, console):  # type: ignore[no-untyped-def]
+def _two_participants_with_data(app, make_trial, console):
     """A withdrawn-to-be participant with a played trial and console actions, and a bystander."""
     leaving = make_trial(seed=3, duration_s=900.0)
     play_trial(leaving, 500.0)  # still live when withdrawn
@@ -80,7 +80,7 @@ def test_a_failed_withdrawal_deletes_nothing(app, make_trial, console, monkeypat
     with app.extensions["hcss_db"].session_scope() as session:
         before = rows_referencing(session, participant_id)
 
-    def broken_audit(**_fields):  # type: ignore[no-untyped-def]
+    def broken_audit(**_fields):
         raise RuntimeError("audit store unavailable")
 
     monkeypatch.setattr(withdrawal, "AuditRecord", broken_audit)

@@ -31,7 +31,7 @@ TRIAL_S = 240.0
 TICK_S = 0.5  # trial (= wall, acceleration 1) seconds per runner tick: two per sync, as in a server
 
 
-def _app(database_url: str):  # type: ignore[no-untyped-def]
+def _app(database_url: str):
     app = create_app(
         {"DATABASE_URL": database_url, "SECRET_KEY": "s", "TESTING": True, "LIVE_RUNNER": False}
     )
@@ -40,7 +40,7 @@ def _app(database_url: str):  # type: ignore[no-untyped-def]
     return app
 
 
-def _run_through_outage(app, begin: Callable[[], None], end: Callable[[], None], outage_s: float):  # type: ignore[no-untyped-def]
+def _run_through_outage(app, begin: Callable[[], None], end: Callable[[], None], outage_s: float):
     database, runner = app.extensions["hcss_db"], app.extensions["hcss_runner"]
     with database.session_scope() as session:
         _, trial = start_bot_trial(session, seed=7, duration_s=TRIAL_S)

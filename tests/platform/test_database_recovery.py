@@ -12,7 +12,7 @@ from tests.support.own_postgres import own_postgres
 from tests.support.recruitment import join
 
 
-def _server_app(database_url: str):  # type: ignore[no-untyped-def]
+def _server_app(database_url: str):
     """As `hcss serve` builds it: errors are pages, not exceptions in the test."""
     app = create_app({"DATABASE_URL": database_url, "SECRET_KEY": "s", "LIVE_RUNNER": False})
     app.extensions["hcss_runner"].clock = ManualClock(1_000_000.0)

@@ -17,7 +17,7 @@ from hcss.platform.models import Participant
 from tests.support.recruitment import LAPTOP, join
 
 
-def start(app, study: str, **params: str):  # type: ignore[no-untyped-def]
+def start(app, study: str, **params: str):
     """Press Start on a first page opened earlier (or post it as a script does)."""
     client = app.test_client()
     page = client.get("/join/demo").get_data(as_text=True)
@@ -26,12 +26,12 @@ def start(app, study: str, **params: str):  # type: ignore[no-untyped-def]
     return client.post(f"/join/{study}", data={"csrf_token": csrf.group(1), **params, **LAPTOP})
 
 
-def _participants(app) -> int:  # type: ignore[no-untyped-def]
+def _participants(app) -> int:
     with app.extensions["hcss_db"].session_scope() as session:
         return int(session.scalar(select(func.count()).select_from(Participant)) or 0)
 
 
-def _capped_study(tmp_path, monkeypatch, target: int) -> str:  # type: ignore[no-untyped-def]
+def _capped_study(tmp_path, monkeypatch, target: int) -> str:
     from hcss.platform.study.files import STUDIES_ENV, study_text
 
     text = study_text("demo")[1].decode()

@@ -38,7 +38,7 @@ def _at_once(calls: list[Callable[[], Any]]) -> list[Any]:
     return results
 
 
-def _new_participants(app, count: int) -> list[str]:  # type: ignore[no-untyped-def]
+def _new_participants(app, count: int) -> list[str]:
     with app.extensions["hcss_db"].session_scope() as session:
         made = [Participant() for _ in range(count)]
         session.add_all(made)
@@ -46,7 +46,7 @@ def _new_participants(app, count: int) -> list[str]:  # type: ignore[no-untyped-
         return [p.token for p in made]
 
 
-def _visit(app, path: str) -> Callable[[], int]:  # type: ignore[no-untyped-def]
+def _visit(app, path: str) -> Callable[[], int]:
     return lambda: app.test_client().get(path).status_code
 
 

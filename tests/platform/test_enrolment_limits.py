@@ -22,7 +22,7 @@ from tests.support.databases import PG_ENV
 from tests.support.recruitment import join
 
 
-def _participants(app) -> int:  # type: ignore[no-untyped-def]
+def _participants(app) -> int:
     with app.extensions["hcss_db"].session_scope() as session:
         return int(session.scalar(select(func.count()).select_from(Participant)) or 0)
 
@@ -42,7 +42,7 @@ def test_one_client_cannot_enrol_without_limit_and_another_still_can(app) -> Non
     assert join(other).status_code == 302
 
 
-def _enrol_5000(app, count: int = 5000) -> None:  # type: ignore[no-untyped-def]
+def _enrol_5000(app, count: int = 5000) -> None:
     """5,000 participants enrolled in the demo study's cells, as 5,000 link visits leave them."""
     study = load_study("demo")
     cells = study.cells
@@ -66,7 +66,7 @@ def _enrol_5000(app, count: int = 5000) -> None:  # type: ignore[no-untyped-def]
         )
 
 
-def _best_ms(consoles, path: str) -> list[tuple[float, object]]:  # type: ignore[no-untyped-def]
+def _best_ms(consoles, path: str) -> list[tuple[float, object]]:
     """The fastest of 5 answers of each console, taken in turns: what the page costs on
     each, without the shared machine's spikes, and under the same load for both."""
     times: list[list[float]] = [[] for _ in consoles]
@@ -81,7 +81,7 @@ def _best_ms(consoles, path: str) -> list[tuple[float, object]]:  # type: ignore
 
 
 @contextmanager
-def _one_page_console(database_url: str, tmp_path) -> Iterator[Console]:  # type: ignore[no-untyped-def]
+def _one_page_console(database_url: str, tmp_path) -> Iterator[Console]:
     """A second server, on the same kind of database, holding one page of participants."""
     if database_url.startswith("postgresql"):
         schema = postgres_schema(os.environ[PG_ENV], "hcss_test")
@@ -102,11 +102,11 @@ def _one_page_console(database_url: str, tmp_path) -> Iterator[Console]:  # type
             app.extensions["hcss_db"].engine.dispose()
 
 
-def _queries(app, console, path: str) -> int:  # type: ignore[no-untyped-def]
+def _queries(app, console, path: str) -> int:
     engine = app.extensions["hcss_db"].engine
     count = [0]
 
-    def counted(*_args) -> None:  # type: ignore[no-untyped-def]
+    def counted(*_args) -> None:
         count[0] += 1
 
     event.listen(engine, "before_cursor_execute", counted)

@@ -13,7 +13,7 @@ from sqlalchemy import select
 from hcss.platform.models import SimEvent
 
 
-def test_every_stored_event_target_is_the_id_in_its_text_and_on_the_map(app, make_trial) -> None:  # type: ignore[no-untyped-def]
+def test_every_stored_event_target_is_the_id_in_its_text_and_on_the_map(app, make_trial) -> None:
     trial = make_trial(seed=7, duration_s=120.0)
     seen: set[int] = set()
     for second in range(5, 116, 5):

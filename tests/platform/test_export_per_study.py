@@ -12,7 +12,7 @@ from hcss.platform.study.enrolment import assign_cell
 from hcss.platform.study.studyfile import load_study
 
 
-def _participants(app) -> dict[str, str]:  # type: ignore[no-untyped-def]
+def _participants(app) -> dict[str, str]:
     """Two demo participants (one through the study link), one original, one never started."""
     codes = {}
     with app.app_context(), app.extensions["hcss_db"].session_scope() as session:
@@ -38,12 +38,12 @@ def _participants(app) -> dict[str, str]:  # type: ignore[no-untyped-def]
     return codes
 
 
-def _rows(path) -> list[dict[str, str]]:  # type: ignore[no-untyped-def]
+def _rows(path) -> list[dict[str, str]]:
     with path.open(encoding="utf-8") as handle:
         return list(csv.DictReader(handle))
 
 
-def test_export_of_one_study(app, database_url, tmp_path) -> None:  # type: ignore[no-untyped-def]
+def test_export_of_one_study(app, database_url, tmp_path) -> None:
     codes = _participants(app)
     result = CliRunner().invoke(
         main, ["export", str(tmp_path / "demo"), "--study", "demo", "--database-url", database_url]
@@ -83,7 +83,7 @@ def test_the_console_lists_the_studies_participants_belong_to_now(app) -> None:
     study chosen at creation; a study left by its only participant is not listed."""
     from hcss.platform.export.selection import participant_studies, present_studies
 
-    def listed(session) -> list[str]:  # type: ignore[no-untyped-def]
+    def listed(session) -> list[str]:
         assigned = sorted({name for name in participant_studies(session).values() if name})
         assert present_studies(session) == assigned
         return assigned

@@ -8,7 +8,7 @@ from hcss.platform.export.writer import collect
 from tests.support.console import statements
 
 
-def _links_and_visits(app, count: int) -> None:  # type: ignore[no-untyped-def]
+def _links_and_visits(app, count: int) -> None:
     """`count` demo links, every third opened (enrolled, at consent)."""
     with app.test_request_context(), app.extensions["hcss_db"].session_scope() as session:
         made = create_participants(

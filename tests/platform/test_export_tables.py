@@ -20,7 +20,7 @@ from tests.support.exports import dictionary_columns, read_csv
 
 
 @pytest.fixture
-def exported(app, make_trial, database_url, tmp_path):  # type: ignore[no-untyped-def]
+def exported(app, make_trial, database_url, tmp_path):
     """One participant with a played 10-minute trial and a training trial, exported by the CLI."""
     trial = make_trial(seed=3, duration_s=600.0)
     play_trial(trial, 600.0)
@@ -32,7 +32,7 @@ def exported(app, make_trial, database_url, tmp_path):  # type: ignore[no-untype
     return outdir, trial, training
 
 
-def test_export_tables_match_the_data_dictionary(exported) -> None:  # type: ignore[no-untyped-def]
+def test_export_tables_match_the_data_dictionary(exported) -> None:
     outdir, trial, _ = exported
     expected = dictionary_columns()
     assert set(expected) == set(TABLES)
@@ -46,7 +46,7 @@ def test_export_tables_match_the_data_dictionary(exported) -> None:  # type: ign
     assert (outdir / "data-dictionary.md").read_text().startswith(DICTIONARY.read_text().rstrip())
 
 
-def test_export_rows_carry_the_recorded_trial(exported, app) -> None:  # type: ignore[no-untyped-def]
+def test_export_rows_carry_the_recorded_trial(exported, app) -> None:
     outdir, trial, training = exported
     code = code_of(app, trial.token)
     _, requests = read_csv(outdir / "requests.csv")
@@ -82,7 +82,7 @@ def test_export_rows_carry_the_recorded_trial(exported, app) -> None:  # type: i
     )
 
 
-def test_export_holds_no_token(exported, app) -> None:  # type: ignore[no-untyped-def]
+def test_export_holds_no_token(exported, app) -> None:
     outdir, _, _ = exported
     with app.extensions["hcss_db"].session_scope() as session:
         tokens = list(session.scalars(select(Participant.token)))
@@ -94,7 +94,7 @@ def test_export_holds_no_token(exported, app) -> None:  # type: ignore[no-untype
             assert token.encode() not in content, path
 
 
-def test_parquet_tables_have_the_csv_columns_and_rows(exported) -> None:  # type: ignore[no-untyped-def]
+def test_parquet_tables_have_the_csv_columns_and_rows(exported) -> None:
     pq = pytest.importorskip("pyarrow.parquet")
     outdir, _, _ = exported
     for table in TABLES:
@@ -103,7 +103,7 @@ def test_parquet_tables_have_the_csv_columns_and_rows(exported) -> None:  # type
         assert parquet.column_names == header and parquet.num_rows == len(rows)
 
 
-def test_the_analysis_reads_the_export(exported, tmp_path) -> None:  # type: ignore[no-untyped-def]
+def test_the_analysis_reads_the_export(exported, tmp_path) -> None:
     outdir, _, _ = exported
     tables = load_inputs([outdir], include_pilot=True)
     assert len(tables.decisions) > 0 and set(tables.decisions["group"]) == {"M1"}
@@ -165,7 +165,7 @@ def test_export_of_an_unmigrated_database_says_what_to_do(tmp_path) -> None:
     assert not outdir.exists()
 
 
-def test_the_stored_decision_is_the_record_and_the_export_adds_who_and_where(exported, app) -> None:  # type: ignore[no-untyped-def]
+def test_the_stored_decision_is_the_record_and_the_export_adds_who_and_where(exported, app) -> None:
     """DecisionRow.record holds the simulation's record, not the participant's code (issue 10)."""
     from sqlalchemy import select
 

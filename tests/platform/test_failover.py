@@ -40,7 +40,7 @@ ACCELERATION = 20.0
 FAILOVER_LIMIT_S = 10.0
 
 
-def _wait_for(condition, timeout_s: float, what: str):  # type: ignore[no-untyped-def]
+def _wait_for(condition, timeout_s: float, what: str):
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
         try:
@@ -372,7 +372,7 @@ def test_a_host_cut_off_from_the_database_writes_nothing_after_the_takeover(
         time.sleep(3.0)  # the healed host had its chance to write what it held
         with database.session_scope() as session:
 
-            def rows(*columns):  # type: ignore[no-untyped-def]
+            def rows(*columns):
                 query = select(*columns).where(columns[0].table.c.trial_id == trial_id)
                 return [tuple(r) for r in session.execute(query)]
 

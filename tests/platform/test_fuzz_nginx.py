@@ -19,6 +19,7 @@ from collections import Counter
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import Any
+from urllib.parse import parse_qs, urlsplit
 
 import h11
 import httpx
@@ -31,8 +32,7 @@ from hcss.platform.console.accounts import create_experimenter
 from hcss.platform.db import Database
 from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.localserver import LocalNginx, LocalServer
-from tests.platform.conftest import STUDY_TRIAL_S, csrf_token_of
-from tests.platform.test_fuzz import (
+from tests.support.fuzz import (
     FUZZ_SETTINGS,
     TALLY_FILE,
     console_requests,
@@ -40,6 +40,7 @@ from tests.platform.test_fuzz import (
     live_requests,
     study_requests,
 )
+from tests.support.trials import STUDY_TRIAL_S, csrf_token_of
 
 pytestmark = pytest.mark.slow
 
@@ -61,7 +62,7 @@ class Proxied:
 
 
 @pytest.fixture(scope="module")
-def proxied(tmp_path_factory) -> Iterator[Proxied]:  # type: ignore[no-untyped-def]
+def proxied(tmp_path_factory) -> Iterator[Proxied]:
     if not LocalNginx.available():
         pytest.skip(f"needs nginx at {LocalNginx.BINARY} (scripts/ensure-nginx installs it)")
     folder = tmp_path_factory.mktemp("fuzz-nginx")
@@ -154,3 +155,18 @@ def test_fuzz_through_nginx_gives_no_5xx(proxied: Proxied, group: Any) -> None:
 
 def test_fuzz_hosts_and_multipart_names_through_nginx_gives_no_5xx(proxied: Proxied) -> None:
     _fuzz(proxied, None, _client, wrap=True)
+
+
+def test_a_signed_out_console_link_with_a_long_query_signs_in_first_through_nginx(
+    proxied: Proxied,
+) -> None:
+    """Found by this fuzz: the sign-in redirect carried the whole URL in `next`, a Location
+    header past nginx's 4 kB for response headers, and nginx answered 502."""
+    with httpx.Client(base_url=str(proxied.console.base_url), timeout=30.0) as visitor:
+        long_query = "/console/links?codes=" + "9" * 5000
+        answer = visitor.get(long_query)
+        assert answer.status_code == 302, answer.status_code
+        assert answer.headers["location"].startswith("/console/login")
+        short = visitor.get("/console/links?codes=ABC")
+        asked = parse_qs(urlsplit(short.headers["location"]).query)["next"]
+        assert asked == ["/console/links?codes=ABC"]  # a short one still comes back after

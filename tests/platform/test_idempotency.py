@@ -18,7 +18,7 @@ from tests.support.counting import count_rows
 from tests.support.trials import csrf_token_of, investigate_request, until_probe
 
 
-def _keyed(trial, path: str, body, key: str):  # type: ignore[no-untyped-def]
+def _keyed(trial, path: str, body, key: str):
     return trial.client.post(
         trial.api + path,
         json=body,
@@ -195,7 +195,7 @@ def test_the_migration_creates_the_key_table_as_modelled_and_removes_it(database
             ("recruitment", "submit_to"),  # i31a_mturk_submit_to
         }
 
-        def not_later(obj, name, type_, reflected, compare_to) -> bool:  # type: ignore[no-untyped-def]
+        def not_later(obj, name, type_, reflected, compare_to) -> bool:
             if type_ == "index":
                 return name not in UNIQUE_TRIAL_KEYS
             return not (type_ == "column" and (obj.table.name, name) in later)
@@ -213,14 +213,14 @@ class _LostKey(Exception):
     """The write of a key failed (or the server died) after the command was carried out."""
 
 
-def _lose_the_next_key(app):  # type: ignore[no-untyped-def]
+def _lose_the_next_key(app):
     """Make the next transaction that holds a `CommandKey` fail, as a kill -9 would."""
     from sqlalchemy import event
 
     sessions = app.extensions["hcss_db"].sessions
     lost = []
 
-    def fail(session, _flush_context, _instances) -> None:  # type: ignore[no-untyped-def]
+    def fail(session, _flush_context, _instances) -> None:
         if not lost and any(isinstance(row, CommandKey) for row in session.new):
             lost.append(True)
             raise _LostKey("the key's write failed")
@@ -229,7 +229,7 @@ def _lose_the_next_key(app):  # type: ignore[no-untyped-def]
     return lambda: event.remove(sessions, "before_flush", fail)
 
 
-def _post_losing_the_key(trial, path: str, body, key: str) -> None:  # type: ignore[no-untyped-def]
+def _post_losing_the_key(trial, path: str, body, key: str) -> None:
     restore = _lose_the_next_key(trial.app)
     try:
         response = _keyed(trial, path, body, key)
@@ -281,3 +281,25 @@ def test_clicks_and_probe_answers_whose_key_was_lost_are_recorded_once(make_tria
         )
     assert kinds.count("ready") == 1 and kinds.count("answer") == 1
     assert count_rows(trial.app, CommandKey) == 3
+
+
+def test_no_view_runs_under_the_trials_lock(make_trial, monkeypatch) -> None:
+    """A keyed command's Flask view reads the request and answers outside the trial's lock:
+    only the live service takes it (issue 29: the view ran inside it, so a slow read of the
+    body held up the runner's steps and the trial's streams)."""
+    from hcss.platform.live import api
+
+    trial = make_trial()
+    body = investigate_request(trial)
+    lock = trial.live().lock
+    held_while_reading: list[bool] = []
+    read = api._json
+
+    def spy():
+        held_while_reading.append(lock._is_owned())
+        return read()
+
+    monkeypatch.setattr(api, "_json", spy)
+    answer = _keyed(trial, "/requests", body, str(uuid.uuid4()))
+    assert answer.status_code == 200 and answer.get_json()["accepted"] is True
+    assert held_while_reading == [False]

@@ -44,7 +44,7 @@ MEASURE = """() => {
 }"""
 
 
-def _measure(page) -> dict[str, object]:  # type: ignore[no-untyped-def]
+def _measure(page) -> dict[str, object]:
     sizes = page.evaluate(MEASURE)
     for kind in ("target_ids", "quad_labels", "hub_names", "info_box"):
         assert sizes[kind], f"no {kind} on the map"
@@ -58,7 +58,7 @@ def _measure(page) -> dict[str, object]:  # type: ignore[no-untyped-def]
 
 def test_the_map_reads_at_1366_and_1024_and_a_double_enter_answers_no_probe(
     browser, demo_server: StudyServer, capsys
-) -> None:  # type: ignore[no-untyped-def]
+) -> None:
     from playwright.sync_api import expect
 
     token, page = open_live_trial(browser, demo_server)
@@ -154,7 +154,7 @@ def _contrast_over(fill: str, ground: str, opacity: float) -> float:
     return contrast(f"rgb({mixed[0]}, {mixed[1]}, {mixed[2]})", ground)
 
 
-def test_low_support_is_visible_in_the_blue_half(browser, demo_server: StudyServer, capsys) -> None:  # type: ignore[no-untyped-def]
+def test_low_support_is_visible_in_the_blue_half(browser, demo_server: StudyServer, capsys) -> None:
     """Opacity grows with support (SPEC-study §3) from a floor, so a little support shows."""
 
     token, page = open_live_trial(browser, demo_server)

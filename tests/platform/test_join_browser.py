@@ -26,7 +26,7 @@ RETURN_URL = "https://app.prolific.com/submissions/complete?cc=DEMORETURN"
 def test_a_phone_is_screened_out_before_consent_and_a_small_window_is_asked_to_grow(
     browser,
     demo_bot_app,
-) -> None:  # type: ignore[no-untyped-def]
+) -> None:
     from playwright.sync_api import expect
 
     with serving(demo_bot_app) as url:
@@ -84,7 +84,7 @@ def test_a_phone_is_screened_out_before_consent_and_a_small_window_is_asked_to_g
         page.close()
 
 
-def test_a_double_submit_sends_the_form_once(browser, demo_bot_app) -> None:  # type: ignore[no-untyped-def]
+def test_a_double_submit_sends_the_form_once(browser, demo_bot_app) -> None:
     from playwright.sync_api import expect
 
     with serving(demo_bot_app) as url:

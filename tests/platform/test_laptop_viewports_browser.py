@@ -42,7 +42,7 @@ OFF_SCREEN = """() => {
 
 def test_the_live_trial_fits_a_maximised_laptop_window_without_scrolling(
     browser, demo_server: StudyServer, capsys
-) -> None:  # type: ignore[no-untyped-def]
+) -> None:
     _, page = open_live_trial(browser, demo_server, {"width": 1366, "height": 657})
     page.wait_for_selector(".hub-name", state="attached", timeout=30_000)
     found = {}

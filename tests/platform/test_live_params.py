@@ -19,7 +19,7 @@ def _differing(a: Params, b: Params) -> list[str]:
 
 
 def test_a_live_m2_trial_is_the_batch_experiments_m2_apart_from_the_decision_timeout(
-    make_trial,  # type: ignore[no-untyped-def]
+    make_trial,
 ) -> None:
     handle = make_trial(model="M2")
     live = handle.live()
@@ -35,7 +35,7 @@ def test_a_live_m2_trial_is_the_batch_experiments_m2_apart_from_the_decision_tim
 
 
 def test_the_bundled_studies_keep_the_preset_they_name_and_their_trials_use_it(
-    make_trial,  # type: ignore[no-untyped-def]
+    make_trial,
 ) -> None:
     """The default moved to study-units; a study file that names a preset keeps it, so the
     bundled studies' live trials (and their decisions' label) did not change with it."""
@@ -62,7 +62,7 @@ def test_a_study_file_names_a_preset_or_is_refused_naming_the_presets() -> None:
 
 
 def test_a_live_trials_scenario_is_drawn_under_its_presets_layout_reading(
-    make_trial,  # type: ignore[no-untyped-def]
+    make_trial,
 ) -> None:
     from hcss.simulation import Scenario
 

@@ -119,7 +119,7 @@ def test_the_rebuild_replays_the_commands_after_the_snapshots_last_one_by_identi
     assert rebuilt.sim.state_digest() != ""
 
 
-def _answer_lost_after_commit(database, monkeypatch, times: int = 1, every: int = 1) -> None:  # type: ignore[no-untyped-def]
+def _answer_lost_after_commit(database, monkeypatch, times: int = 1, every: int = 1) -> None:
     """Of the next commits, every `every`-th (`times` in all) reaches the database and
     commits, and its answer never arrives (the connection drops after the server sent
     it): the driver raises as for a lost line."""
@@ -127,7 +127,7 @@ def _answer_lost_after_commit(database, monkeypatch, times: int = 1, every: int 
     commit = dialect.do_commit
     left, seen = [times], [0]
 
-    def lost(dbapi_connection) -> None:  # type: ignore[no-untyped-def]
+    def lost(dbapi_connection) -> None:
         commit(dbapi_connection)
         seen[0] += 1
         if left[0] > 0 and seen[0] % every == 0:
@@ -200,7 +200,7 @@ def test_runner_steps_whose_commit_answers_are_lost_store_every_row_once(
     assert live.database_away_since is None and live.decisions_recorded == len(live.sim.decisions)
     with a.database.session_scope() as session:
 
-        def rows(*columns):  # type: ignore[no-untyped-def]
+        def rows(*columns):
             return [tuple(r) for r in session.execute(select(*columns))]
 
         decisions = rows(DecisionRow.collective, DecisionRow.decision_index)
@@ -273,7 +273,7 @@ def test_a_command_nobody_can_say_was_committed_is_settled_by_a_rebuild(group, m
     execute = dialect.do_execute
     asked = [0]
 
-    def still_down(cursor, statement, parameters, context=None):  # type: ignore[no-untyped-def]
+    def still_down(cursor, statement, parameters, context=None):
         if statement.lstrip().upper().startswith("SELECT") and "FROM command" in statement:
             asked[0] += 1
             if asked[0] == 1:  # the question right after the lost answer

@@ -35,7 +35,7 @@ def _observations(server: StudyServer) -> int:
 
 def test_the_map_zooms_and_pans_by_button_wheel_drag_and_keyboard(
     browser, demo_server: StudyServer, capsys
-) -> None:  # type: ignore[no-untyped-def]
+) -> None:
     from playwright.sync_api import expect
 
     token, page = open_live_trial(browser, demo_server)

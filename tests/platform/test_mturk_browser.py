@@ -36,7 +36,7 @@ pytestmark = pytest.mark.browser
 HIT = {"workerId": "A2WORKER7", "hitId": "3HITXYZ", "assignmentId": "3ASSIGN42"}
 
 
-def _refused(frame) -> bool:  # type: ignore[no-untyped-def]
+def _refused(frame) -> bool:
     """Chromium shows a refused frame as its error page, with none of the study's page."""
     return frame.url.startswith("chrome-error://") or frame.locator("main").count() == 0
 
@@ -44,7 +44,7 @@ def _refused(frame) -> bool:  # type: ignore[no-untyped-def]
 @pytest.mark.slow
 def test_an_mturk_worker_previews_accepts_walks_and_submits_the_assignment(
     browser, database_url, tmp_path, monkeypatch
-) -> None:  # type: ignore[no-untyped-def]
+) -> None:
     from playwright.sync_api import expect
 
     with mturk_standin() as mturk, mturk_standin() as stranger:

@@ -54,7 +54,7 @@ class DyingProcess:
 
 
 @contextmanager
-def dying_pair(tmp_path) -> Iterator[tuple[str, list[DyingProcess]]]:  # type: ignore[no-untyped-def]
+def dying_pair(tmp_path) -> Iterator[tuple[str, list[DyingProcess]]]:
     if not LocalNginx.available():
         pytest.skip(f"needs nginx at {LocalNginx.BINARY} (scripts/ensure-nginx installs it)")
     processes = [DyingProcess(), DyingProcess()]

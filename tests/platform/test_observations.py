@@ -8,7 +8,7 @@ from hcss.platform.live.trial_log import observation_actions
 from hcss.platform.models import Command, Observation
 
 
-def _observations(app):  # type: ignore[no-untyped-def]
+def _observations(app):
     with app.extensions["hcss_db"].session_scope() as session:
         return list(session.scalars(select(Observation).order_by(Observation.id)))
 

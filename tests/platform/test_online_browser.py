@@ -43,7 +43,7 @@ PROLIFIC = {
 @pytest.mark.slow
 def test_a_prolific_visitor_walks_the_demo_to_its_completion_code(
     browser, demo_bot_app, tmp_path
-) -> None:  # type: ignore[no-untyped-def]
+) -> None:
     from playwright.sync_api import expect
 
     with serving(demo_bot_app) as url:
@@ -95,7 +95,7 @@ def test_a_prolific_visitor_walks_the_demo_to_its_completion_code(
 @pytest.mark.slow
 def test_a_finished_trial_replays_at_20x_to_the_recorded_digest(
     browser, app, make_trial, experimenter
-) -> None:  # type: ignore[no-untyped-def]
+) -> None:
     from playwright.sync_api import expect
 
     trial = make_trial(seed=7, duration_s=120.0)

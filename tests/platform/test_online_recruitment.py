@@ -32,7 +32,7 @@ from tests.support.recruitment import LAPTOP, join
 PROLIFIC = {"PROLIFIC_PID": "5f8a1b2c3d4e5f6a7b8c9d0e", "STUDY_ID": "S123", "SESSION_ID": "X9"}
 
 
-def test_two_visits_with_one_prolific_id_give_one_participant(app) -> None:  # type: ignore[no-untyped-def]
+def test_two_visits_with_one_prolific_id_give_one_participant(app) -> None:
     first = join(app.test_client(), **PROLIFIC)
     assert first.status_code == 302 and "/p/" in first.location
     # The same person later, from another browser and with a new Prolific session.
@@ -58,7 +58,7 @@ def test_two_visits_with_one_prolific_id_give_one_participant(app) -> None:  # t
     assert page.status_code == 200 and 'data-stage="consent"' in page.get_data(as_text=True)
 
 
-def test_sona_and_mturk_ids_and_anonymous_visits(app) -> None:  # type: ignore[no-untyped-def]
+def test_sona_and_mturk_ids_and_anonymous_visits(app) -> None:
     client = app.test_client()
     assert join(client, id="41234").location == join(client, id="41234").location
     mturk = {
@@ -105,7 +105,7 @@ def test_sona_and_mturk_ids_and_anonymous_visits(app) -> None:  # type: ignore[n
 )
 def test_hostile_recruitment_parameters_are_refused_and_write_nothing(
     app, query: str, message: str
-) -> None:  # type: ignore[no-untyped-def]
+) -> None:
     response = app.test_client().get(f"/join/demo?{query}")
     assert response.status_code == 400
     text = response.get_data(as_text=True)
@@ -114,13 +114,13 @@ def test_hostile_recruitment_parameters_are_refused_and_write_nothing(
 
 
 @pytest.mark.parametrize("study", ["original", "nosuchstudy", "a%00b", "x" * 5000, "..%2F..%2Fetc"])
-def test_a_study_without_a_link_is_not_found(app, study: str) -> None:  # type: ignore[no-untyped-def]
+def test_a_study_without_a_link_is_not_found(app, study: str) -> None:
     response = app.test_client().get(f"/join/{study}?PROLIFIC_PID=p1")
     assert response.status_code == 404
     assert count_rows(app, Participant) == 0
 
 
-def test_a_study_that_wants_ids_refuses_anonymous_visits(app) -> None:  # type: ignore[no-untyped-def]
+def test_a_study_that_wants_ids_refuses_anonymous_visits(app) -> None:
     study = load_study("demo").model_copy(update={"online": OnlineSettings(link=True)})
     with app.app_context(), app.extensions["hcss_db"].session_scope() as session:
         with pytest.raises(RecruitmentError, match="needs the id"):
@@ -155,7 +155,7 @@ def test_the_online_table_of_a_study_file_is_checked(online: dict, message: str)
         parse_study(_study_doc(**online), source="demo.toml")
 
 
-def test_the_export_holds_the_ids_and_a_withdrawal_deletes_them(app) -> None:  # type: ignore[no-untyped-def]
+def test_the_export_holds_the_ids_and_a_withdrawal_deletes_them(app) -> None:
     join(app.test_client(), **PROLIFIC)
     with app.extensions["hcss_db"].session_scope() as session:
         code = session.scalars(select(Participant.code)).one()
@@ -173,7 +173,7 @@ def test_the_export_holds_the_ids_and_a_withdrawal_deletes_them(app) -> None:  #
     assert "recruitment" in {t.name for t in participant_tables()}
 
 
-def test_a_return_visit_keeps_its_new_session_id_beside_the_first(app) -> None:  # type: ignore[no-untyped-def]
+def test_a_return_visit_keeps_its_new_session_id_beside_the_first(app) -> None:
     """Prolific gives a returning person a new SESSION_ID; `recruitment` is append-only."""
     first = join(app.test_client(), **PROLIFIC)
     again = app.test_client().get(f"/join/demo?{urlencode(PROLIFIC | {'SESSION_ID': 'X10'})}")
@@ -205,7 +205,7 @@ def test_a_return_visit_keeps_its_new_session_id_beside_the_first(app) -> None: 
     assert count_rows(app, ReturnVisit) == 2
 
 
-def test_a_reload_with_ids_on_record_stores_no_return_visit(app) -> None:  # type: ignore[no-untyped-def]
+def test_a_reload_with_ids_on_record_stores_no_return_visit(app) -> None:
     """Reopening the link (or a client replaying it) adds rows only for ids not yet seen."""
     first = join(app.test_client(), **PROLIFIC)
     for _ in range(3):  # the first visit's own ids again: nothing new to keep
@@ -218,7 +218,7 @@ def test_a_reload_with_ids_on_record_stores_no_return_visit(app) -> None:  # typ
     assert count_rows(app, ReturnVisit) == 1
 
 
-def _visit_at_once(app, queries: list[dict[str, str]]) -> list[str]:  # type: ignore[no-untyped-def]
+def _visit_at_once(app, queries: list[dict[str, str]]) -> list[str]:
     """Every query in its own thread, released together; the redirect of each."""
     barrier = threading.Barrier(len(queries))
     results: list[str] = [""] * len(queries)
@@ -243,7 +243,7 @@ def _visit_at_once(app, queries: list[dict[str, str]]) -> list[str]:  # type: ig
     return results
 
 
-def test_twenty_concurrent_first_visits_fill_the_cells_evenly(app, database_url) -> None:  # type: ignore[no-untyped-def]
+def test_twenty_concurrent_first_visits_fill_the_cells_evenly(app, database_url) -> None:
     if not database_url.startswith("postgresql"):
         # SQLite has no advisory lock; making its assignment atomic is issue 13's part.
         pytest.skip("concurrent cell assignment is checked on PostgreSQL")
@@ -260,7 +260,7 @@ def test_twenty_concurrent_first_visits_fill_the_cells_evenly(app, database_url)
     assert max(counts.values()) - min(counts.values()) <= 1, counts  # 2 or 3 in each of 8
 
 
-def test_concurrent_visits_with_one_id_give_one_participant(app) -> None:  # type: ignore[no-untyped-def]
+def test_concurrent_visits_with_one_id_give_one_participant(app) -> None:
     links = _visit_at_once(app, [PROLIFIC] * 8)
     assert len(set(links)) == 1
     assert count_rows(app, Participant) == 1 and count_rows(app, Recruitment) == 1
@@ -300,7 +300,7 @@ def test_the_migration_creates_the_recruitment_table_as_modelled(tmp_path) -> No
 @pytest.mark.slow
 def test_the_debrief_gives_the_completion_code_only_to_online_participants(
     database_url, monkeypatch
-) -> None:  # type: ignore[no-untyped-def]
+) -> None:
     from hcss.platform.bots import bot_app, run_bots
     from hcss.platform.study import flow
 
@@ -349,7 +349,7 @@ def test_the_debrief_gives_the_completion_code_only_to_online_participants(
 PHONE = {"width": "375", "height": "812", "mobile": "1", "missing": ""}
 
 
-def test_a_bare_visit_and_an_mturk_preview_record_nothing(app) -> None:  # type: ignore[no-untyped-def]
+def test_a_bare_visit_and_an_mturk_preview_record_nothing(app) -> None:
     client = app.test_client()
     page = client.get("/join/demo")  # a link preview, a crawler: anonymous mode, no Start
     assert page.status_code == 200 and 'id="join-start"' in page.get_data(as_text=True)
@@ -363,7 +363,7 @@ def test_a_bare_visit_and_an_mturk_preview_record_nothing(app) -> None:  # type:
     assert count_rows(app, StudyEnrolment) == 0 and count_rows(app, ScreenOut) == 0
 
 
-def test_recruitment_parameter_names_match_in_any_case(app) -> None:  # type: ignore[no-untyped-def]
+def test_recruitment_parameter_names_match_in_any_case(app) -> None:
     lower = join(app.test_client(), prolific_pid="60b7c9d2", study_id="S1", session_id="X1")
     assert lower.status_code == 302
     again = join(app.test_client(), PROLIFIC_PID="60b7c9d2")
@@ -379,7 +379,7 @@ def test_recruitment_parameter_names_match_in_any_case(app) -> None:  # type: ig
     assert twice.status_code == 400 and "more than once" in twice.get_data(as_text=True)
 
 
-def test_a_phone_is_screened_out_with_the_code_and_nothing_else_is_kept(app) -> None:  # type: ignore[no-untyped-def]
+def test_a_phone_is_screened_out_with_the_code_and_nothing_else_is_kept(app) -> None:
     page = join(app.test_client(), device=PHONE, **PROLIFIC)
     text = page.get_data(as_text=True)
     assert page.status_code == 200 and 'data-stage="screened_out"' in text
@@ -414,7 +414,7 @@ def test_a_phone_is_screened_out_with_the_code_and_nothing_else_is_kept(app) -> 
         {"width": "1366", "height": "768", "mobile": "0", "missing": "webgpu"},
     ],
 )
-def test_a_malformed_device_report_is_refused_and_writes_nothing(app, device) -> None:  # type: ignore[no-untyped-def]
+def test_a_malformed_device_report_is_refused_and_writes_nothing(app, device) -> None:
     client = app.test_client()
     client.get("/join/demo")
     csrf = re.search(
@@ -442,7 +442,7 @@ def test_the_requirements_table_is_checked(requirements: dict, message: str) -> 
 
 def test_a_recruitment_target_closes_the_link_and_the_console_shows_it(
     app, console, tmp_path, monkeypatch
-) -> None:  # type: ignore[no-untyped-def]
+) -> None:
     from hcss.platform.study.files import STUDIES_ENV, study_text
 
     text = study_text("demo")[1].decode()
@@ -477,7 +477,7 @@ def test_a_recruitment_target_closes_the_link_and_the_console_shows_it(
 
 def test_an_abandoned_participant_is_timed_out_and_frees_the_place(
     app, console, tmp_path, monkeypatch
-) -> None:  # type: ignore[no-untyped-def]
+) -> None:
     from hcss.platform.study.files import STUDIES_ENV, study_text
 
     text = study_text("demo")[1].decode().replace('name = "demo"', 'name = "timed"')
@@ -531,7 +531,7 @@ def test_an_abandoned_participant_is_timed_out_and_frees_the_place(
 
 def test_a_study_that_keeps_the_cell_stays_full_after_a_time_out(
     app, console, tmp_path, monkeypatch
-) -> None:  # type: ignore[no-untyped-def]
+) -> None:
     """`free_cell = false`: the abandoned participant is timed out, but still counts."""
     from hcss.platform.study.files import STUDIES_ENV, study_text
 

@@ -23,7 +23,7 @@ from hcss.platform.models import Interruption
 ACCELERATION = 4.0  # trial seconds per wall second
 
 
-def _restart(database_url: str, now: float):  # type: ignore[no-untyped-def]
+def _restart(database_url: str, now: float):
     app = create_app(
         {"DATABASE_URL": database_url, "SECRET_KEY": "test-secret", "LIVE_RUNNER": False}
     )

@@ -37,7 +37,7 @@ MRT_OVERHANG = """() => {
 }"""
 
 
-def expect_stage(page, stage: str, step: str | None = None) -> None:  # type: ignore[no-untyped-def]
+def expect_stage(page, stage: str, step: str | None = None) -> None:
     from playwright.sync_api import expect
 
     expect(page.locator("main.study")).to_have_attribute("data-stage", stage)
@@ -45,7 +45,7 @@ def expect_stage(page, stage: str, step: str | None = None) -> None:  # type: ig
         expect(page.locator("main.study")).to_have_attribute("data-step", step)
 
 
-def consent_and_demographics(page) -> None:  # type: ignore[no-untyped-def]
+def consent_and_demographics(page) -> None:
     expect_stage(page, "consent")
     page.get_by_label("I agree").check()
     page.get_by_role("button", name="Continue").click()
@@ -62,7 +62,7 @@ PATTERN = ("correct", "one_right_one_wrong", "correct", "all_four")
 HAND_COUNT = 2
 
 
-def start_mrt_part_1(page) -> None:  # type: ignore[no-untyped-def]
+def start_mrt_part_1(page) -> None:
     """From the MRT's instructions through the practice item to part 1's first item."""
     page.get_by_role("button", name="Begin").click()
     page.locator('input[name="chosen"][value="0"]').check()
@@ -82,7 +82,7 @@ def chosen_for(item: mrt.MrtItem, how: str) -> list[int]:
     }[how]
 
 
-def answer_mrt(page, server: StudyServer, walk: bool = False) -> dict[str, str]:  # type: ignore[no-untyped-def]
+def answer_mrt(page, server: StudyServer, walk: bool = False) -> dict[str, str]:
     """Instructions, the practice item, then the timed part with PATTERN; the answers given."""
     from playwright.sync_api import expect
 
@@ -217,7 +217,7 @@ def test_the_mrt_timer_stays_in_view_on_a_phone(browser, demo_server: StudyServe
 # --- the whole demo study, link to debrief (issue 8's acceptance walk) ------------------
 
 
-def answer_every_radio_group(page, choose=lambda values: values[0]) -> None:  # type: ignore[no-untyped-def]
+def answer_every_radio_group(page, choose=lambda values: values[0]) -> None:
     """Check one option of every radio group on the page (questionnaires, TLX, SART)."""
     groups = page.evaluate(
         """() => {
@@ -233,7 +233,7 @@ def answer_every_radio_group(page, choose=lambda values: values[0]) -> None:  # 
         page.locator(f'input[name="{name}"][value="{choose(values)}"]').check()
 
 
-def run_to_end(page, server: StudyServer, step_s: float = 4.0) -> None:  # type: ignore[no-untyped-def]
+def run_to_end(page, server: StudyServer, step_s: float = 4.0) -> None:
     """Advance the clock until the trial has ended (it may have already: the runner then
     holds no unended trial), then continue from the ended page."""
     from playwright.sync_api import expect
@@ -244,7 +244,7 @@ def run_to_end(page, server: StudyServer, step_s: float = 4.0) -> None:  # type:
     page.locator("#continue").click()
 
 
-def answer_probe(page, server: StudyServer) -> str:  # type: ignore[no-untyped-def]
+def answer_probe(page, server: StudyServer) -> str:
     """The probe on screen: its countdown runs, Ready has the focus; answered by keyboard."""
     from playwright.sync_api import expect
 
@@ -263,7 +263,7 @@ def answer_probe(page, server: StudyServer) -> str:  # type: ignore[no-untyped-d
     return choice
 
 
-def supervise_first_trial(page, server: StudyServer, token: str) -> dict[str, int]:  # type: ignore[no-untyped-def]
+def supervise_first_trial(page, server: StudyServer, token: str) -> dict[str, int]:
     """A double-clicked Commit, the probe if it comes, and the experimenter's pause."""
     from playwright.sync_api import expect
 
@@ -533,7 +533,7 @@ def test_a_takeover_event_stops_the_older_tab(browser, demo_server: StudyServer)
     page = browser.new_page(viewport=VIEWPORT)
     opened = []
 
-    def takeover(route) -> None:  # type: ignore[no-untyped-def]
+    def takeover(route) -> None:
         opened.append(route.request.url)
         route.fulfill(
             status=200,

@@ -10,7 +10,7 @@ from hcss.platform.study import views
 from tests.support.study import new_participant, visitor
 
 
-def _consents(app) -> int:  # type: ignore[no-untyped-def]
+def _consents(app) -> int:
     with app.extensions["hcss_db"].session_scope() as session:
         return session.scalar(select(func.count()).select_from(ConsentRecord))
 
@@ -79,7 +79,7 @@ def test_error_pages_use_the_study_look_and_say_what_to_do(demo_app, monkeypatch
     assert no_csrf.status_code == 400 and "This page could not be sent" in html
     assert _consents(demo_app) == 0
 
-    def broken(token: str):  # type: ignore[no-untyped-def]
+    def broken(token: str):
         raise RuntimeError("database on fire")
 
     monkeypatch.setattr(views, "_flow", broken)

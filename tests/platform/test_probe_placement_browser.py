@@ -77,7 +77,7 @@ def _ask(server: StudyServer, level: ProbeLevel, subject: str | int, choices: li
         live.touch()
 
 
-def _covered(page) -> dict[str, list[str]]:  # type: ignore[no-untyped-def]
+def _covered(page) -> dict[str, list[str]]:
     rects = page.evaluate(RECTS)
     return {
         "hubs": [h for h, r in rects["hubs"].items() if _overlaps(rects["box"], r)],
@@ -88,7 +88,7 @@ def _covered(page) -> dict[str, list[str]]:  # type: ignore[no-untyped-def]
 
 def test_the_probe_box_hides_no_hub_and_not_what_it_asks_about(
     browser, demo_server: StudyServer, capsys
-) -> None:  # type: ignore[no-untyped-def]
+) -> None:
     from playwright.sync_api import expect
 
     token, page = open_live_trial(browser, demo_server)

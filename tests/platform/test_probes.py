@@ -15,7 +15,7 @@ from hcss.simulation import ROMAN
 from tests.support.trials import until_probe
 
 
-def _events(app, probe_id: int) -> list[ProbeEvent]:  # type: ignore[no-untyped-def]
+def _events(app, probe_id: int) -> list[ProbeEvent]:
     with app.extensions["hcss_db"].session_scope() as session:
         return list(
             session.scalars(
@@ -24,7 +24,7 @@ def _events(app, probe_id: int) -> list[ProbeEvent]:  # type: ignore[no-untyped-
         )
 
 
-def _probe_row(app, probe_id: int) -> Probe:  # type: ignore[no-untyped-def]
+def _probe_row(app, probe_id: int) -> Probe:
     with app.extensions["hcss_db"].session_scope() as session:
         return session.get(Probe, probe_id)
 
@@ -201,7 +201,7 @@ def test_the_fast_answer_threshold_is_a_checked_study_setting() -> None:
 
 def test_the_study_files_probe_counts_reach_the_runner_and_survive_a_rebuild(
     app, make_trial
-) -> None:  # type: ignore[no-untyped-def]
+) -> None:
     """A study asking 2/0/1 probes per 20 minutes gets exactly that, before and after a restart."""
     trial = make_trial(seed=11, duration_s=1200.0, probe_counts={1: 2, 2: 0, 3: 1})
     runner = app.extensions["hcss_runner"]
@@ -237,7 +237,7 @@ def test_a_probe_with_no_subject_until_the_end_is_still_asked(make_trial, monkey
 
     real_fill = recorder.fill_probe
 
-    def nothing_to_ask_about_yet(level, display, truth, rng):  # type: ignore[no-untyped-def]
+    def nothing_to_ask_about_yet(level, display, truth, rng):
         if level != ProbeLevel.PROJECTION:
             return None  # e.g. no target supported yet, no collective with two in range
         return real_fill(level, display, truth, rng)

@@ -21,7 +21,7 @@ def test_a_read_only_database_under_a_running_trial_stops_its_clock(app, make_tr
     live = trial.live()
     database = app.extensions["hcss_db"]
 
-    def read_only(session, *_args) -> None:  # type: ignore[no-untyped-def]
+    def read_only(session, *_args) -> None:
         if session.new or session.dirty or session.deleted:
             refusal = ReadOnlySqlTransaction("cannot execute INSERT in a read-only transaction")
             raise InternalError("INSERT", {}, refusal)

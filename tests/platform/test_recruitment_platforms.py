@@ -36,7 +36,7 @@ SONA_CREDIT = (
 MTURK = "https://www.mturk.com"
 
 
-def _short(directory, monkeypatch, name: str, online: dict[str, str]) -> str:  # type: ignore[no-untyped-def]
+def _short(directory, monkeypatch, name: str, online: dict[str, str]) -> str:
     """A demo variant that goes from consent straight to the debrief."""
     demo_variant(directory, monkeypatch, name, online)
     path = directory / f"{name}.toml"
@@ -48,7 +48,7 @@ def _short(directory, monkeypatch, name: str, online: dict[str, str]) -> str:  #
     return name
 
 
-def _start(client, study: str, **params: str):  # type: ignore[no-untyped-def]
+def _start(client, study: str, **params: str):
     """The study link's first page, then Start as a maximised laptop browser posts it."""
     first = client.get(f"/join/{study}?{urlencode(params)}")
     if 'id="join-form"' not in first.get_data(as_text=True):
@@ -57,7 +57,7 @@ def _start(client, study: str, **params: str):  # type: ignore[no-untyped-def]
     return client.post(f"/join/{study}", data=fields | LAPTOP)
 
 
-def _consent_to_debrief(client, study: str, **params: str) -> str:  # type: ignore[no-untyped-def]
+def _consent_to_debrief(client, study: str, **params: str) -> str:
     """Join, agree to consent; the debrief's HTML."""
     joined = _start(client, study, **params)
     assert joined.status_code == 302, joined.get_data(as_text=True)
@@ -73,7 +73,7 @@ def _consent_to_debrief(client, study: str, **params: str) -> str:  # type: igno
 
 def test_each_sona_participant_is_sent_to_the_credit_url_with_their_own_survey_code(
     app, tmp_path, monkeypatch
-) -> None:  # type: ignore[no-untyped-def]
+) -> None:
     study = _short(
         tmp_path / "studies",
         monkeypatch,
@@ -119,7 +119,7 @@ def test_a_url_with_an_unusable_placeholder_stops_the_study_file_loading(
 
 def test_prolific_outcomes_full_timed_out_and_ended_each_get_their_own_code(
     app, console, tmp_path, monkeypatch
-) -> None:  # type: ignore[no-untyped-def]
+) -> None:
     name = demo_variant(tmp_path / "studies", monkeypatch, "outcomes", {"target": "2"})
     path = tmp_path / "studies" / "outcomes.toml"
     path.write_text(path.read_text() + "\n[timeouts]\ninactivity_s = 600\n")
@@ -174,14 +174,14 @@ def test_prolific_outcomes_full_timed_out_and_ended_each_get_their_own_code(
     }
 
 
-def _csp(response) -> dict[str, str]:  # type: ignore[no-untyped-def]
+def _csp(response) -> dict[str, str]:
     policy = response.headers["Content-Security-Policy"]
     return {d.split(" ", 1)[0]: d.split(" ", 1)[1] for d in policy.split("; ")}
 
 
 def test_only_an_mturk_studys_link_may_be_framed_and_only_by_mturk(
     app, tmp_path, monkeypatch
-) -> None:  # type: ignore[no-untyped-def]
+) -> None:
     hit = {"workerId": "A2W", "hitId": "H1", "assignmentId": "AS1", "turkSubmitTo": MTURK}
     link = app.test_client().get(f"/join/demo?{urlencode(hit)}")
     assert link.status_code == 200 and "X-Frame-Options" not in link.headers
@@ -214,7 +214,7 @@ def test_only_an_mturk_studys_link_may_be_framed_and_only_by_mturk(
 )
 def test_a_turk_submit_to_that_is_not_mturk_is_refused_and_records_nothing(
     app, submit_to: str | None, message: str
-) -> None:  # type: ignore[no-untyped-def]
+) -> None:
     hit = {"workerId": "A2W", "hitId": "H1", "assignmentId": "AS1"}
     if submit_to is not None:
         hit["turkSubmitTo"] = submit_to
@@ -230,7 +230,7 @@ def test_a_turk_submit_to_that_is_not_mturk_is_refused_and_records_nothing(
 
 def test_the_mturk_debrief_posts_the_assignment_to_turk_submit_to(
     app, tmp_path, monkeypatch
-) -> None:  # type: ignore[no-untyped-def]
+) -> None:
     name = _short(tmp_path / "studies", monkeypatch, "hitshort", {"mturk": "true"})
     preview = {"workerId": "A2W", "hitId": "H1", "assignmentId": "ASSIGNMENT_ID_NOT_AVAILABLE"}
     shown = app.test_client().get(f"/join/{name}?{urlencode(preview | {'turkSubmitTo': MTURK})}")

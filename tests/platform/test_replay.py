@@ -20,7 +20,7 @@ from tests.support.console import code_of
 from tests.support.replays import operate, replay_trial
 
 
-def _final_snapshot_digest(app, trial_id: int) -> str:  # type: ignore[no-untyped-def]
+def _final_snapshot_digest(app, trial_id: int) -> str:
     with app.extensions["hcss_db"].session_scope() as session:
         snapshot = session.scalars(
             select(Snapshot).where(Snapshot.trial_id == trial_id).order_by(Snapshot.id.desc())
@@ -28,7 +28,7 @@ def _final_snapshot_digest(app, trial_id: int) -> str:  # type: ignore[no-untype
         return Simulation.restore(snapshot.blob).state_digest()
 
 
-def _all_frames(console, trial_id: int, count: int = 50) -> tuple[list[dict], dict]:  # type: ignore[no-untyped-def]
+def _all_frames(console, trial_id: int, count: int = 50) -> tuple[list[dict], dict]:
     """Every frame, fetched in chunks as the page does; and the last chunk's head."""
     frames: list[dict] = []
     while True:
@@ -43,7 +43,7 @@ def _all_frames(console, trial_id: int, count: int = 50) -> tuple[list[dict], di
             return frames, body
 
 
-def test_a_finished_trial_replays_to_the_recorded_end_state(app, make_trial, console) -> None:  # type: ignore[no-untyped-def]
+def test_a_finished_trial_replays_to_the_recorded_end_state(app, make_trial, console) -> None:
     trial = make_trial(seed=7, duration_s=180.0)
     sent = operate(trial, 90.0)
     # An interruption midway (the runner lets go and rebuilds from a snapshot) changes nothing.
@@ -74,7 +74,7 @@ def test_a_finished_trial_replays_to_the_recorded_end_state(app, make_trial, con
     assert frames[0] != frames[-1]
 
 
-def test_the_timeline_marks_requests_probe_answers_and_messages(app, make_trial, console) -> None:  # type: ignore[no-untyped-def]
+def test_the_timeline_marks_requests_probe_answers_and_messages(app, make_trial, console) -> None:
     trial = make_trial(seed=7, duration_s=180.0)
     sent = operate(trial, 180.0)
     body = console.get(f"/console/trials/{trial.trial_id}/replay/timeline").get_json()
@@ -100,7 +100,7 @@ def test_the_timeline_marks_requests_probe_answers_and_messages(app, make_trial,
     assert body["trial"]["dt"] == 1.0 and body["trial"]["duration_s"] == 180.0
 
 
-def test_a_live_trial_replays_up_to_its_newest_snapshot(app, make_trial, console) -> None:  # type: ignore[no-untyped-def]
+def test_a_live_trial_replays_up_to_its_newest_snapshot(app, make_trial, console) -> None:
     trial = make_trial(seed=11, duration_s=300.0)
     operate(trial, 60.0)
     frames, first = _all_frames(console, trial.trial_id)
@@ -115,7 +115,7 @@ def test_a_live_trial_replays_up_to_its_newest_snapshot(app, make_trial, console
     assert later["replayed_digest"] == later["recorded_digest"]
 
 
-def test_the_participant_page_links_each_trial_to_its_replay(app, make_trial, console) -> None:  # type: ignore[no-untyped-def]
+def test_the_participant_page_links_each_trial_to_its_replay(app, make_trial, console) -> None:
     trial = make_trial(seed=3, duration_s=30.0)
     trial.run_to(30.0)
     page = console.get(f"/console/participants/{code_of(app, trial.token)}").get_data(as_text=True)
@@ -129,7 +129,7 @@ def test_the_participant_page_links_each_trial_to_its_replay(app, make_trial, co
     "query",
     ["start=-1", "start=abc", "count=1e9", "start=99999999999", "start=%00", "count=" + "9" * 400],
 )
-def test_bad_frame_requests_are_refused(app, make_trial, console, query: str) -> None:  # type: ignore[no-untyped-def]
+def test_bad_frame_requests_are_refused(app, make_trial, console, query: str) -> None:
     trial = make_trial(seed=3, duration_s=30.0)
     response = console.get(f"/console/trials/{trial.trial_id}/replay/frames?{query}")
     assert response.status_code == 400
@@ -137,7 +137,7 @@ def test_bad_frame_requests_are_refused(app, make_trial, console, query: str) ->
     assert response.is_json is False or response.get_json()["error"] == "bad_request"
 
 
-def test_replay_is_for_signed_in_experimenters_only(app, make_trial, console) -> None:  # type: ignore[no-untyped-def]
+def test_replay_is_for_signed_in_experimenters_only(app, make_trial, console) -> None:
     trial = make_trial(seed=3, duration_s=30.0)
     for path in ("", "/timeline", "/frames"):
         anonymous = app.test_client().get(f"/console/trials/{trial.trial_id}/replay{path}")

@@ -24,7 +24,7 @@ READY_AFTER_S, ANSWER_AFTER_S = 3.0, 5.0
 
 def test_a_replayed_probe_is_drawn_in_the_live_box_with_its_answer(
     browser, app, make_trial, experimenter
-) -> None:  # type: ignore[no-untyped-def]
+) -> None:
     from playwright.sync_api import expect
 
     trial = make_trial(seed=7, duration_s=90.0)

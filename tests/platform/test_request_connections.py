@@ -160,12 +160,12 @@ def test_many_requests_at_once_on_a_small_pool_all_answer(app, make_trial, conso
     def console_client() -> FlaskClient:
         return like(console.client)
 
-    def pause(trial) -> int:  # type: ignore[no-untyped-def]
+    def pause(trial) -> int:
         code = code_of(app, trial.token)
         fields = {"csrf_token": console.csrf}
         return console_client().post(f"/console/participants/{code}/pause", data=fields).status_code
 
-    def skip(trial) -> int:  # type: ignore[no-untyped-def]
+    def skip(trial) -> int:
         code = code_of(app, trial.token)
         fields = {"csrf_token": console.csrf}
         return (
@@ -174,7 +174,7 @@ def test_many_requests_at_once_on_a_small_pool_all_answer(app, make_trial, conso
             .status_code
         )
 
-    def command(trial) -> int:  # type: ignore[no-untyped-def]
+    def command(trial) -> int:
         key = f"k-burst-{trial.trial_id}-{threading.get_ident()}"
         return (
             like(trial.client)
@@ -186,13 +186,13 @@ def test_many_requests_at_once_on_a_small_pool_all_answer(app, make_trial, conso
             .status_code
         )
 
-    def study_page(trial) -> int:  # type: ignore[no-untyped-def]
+    def study_page(trial) -> int:
         return app.test_client().get(f"/p/{trial.token}/stage").status_code
 
-    def table(_trial) -> int:  # type: ignore[no-untyped-def]
+    def table(_trial) -> int:
         return console_client().get("/console/progress.json").status_code
 
-    def export(_trial) -> int:  # type: ignore[no-untyped-def]
+    def export(_trial) -> int:
         return console_client().get("/console/export.zip").status_code
 
     jobs = (
@@ -209,7 +209,7 @@ def test_many_requests_at_once_on_a_small_pool_all_answer(app, make_trial, conso
     answers: dict[int, tuple[str, int | str, float]] = {}
     start = threading.Barrier(len(jobs))
 
-    def run(index: int, job, trial) -> None:  # type: ignore[no-untyped-def]
+    def run(index: int, job, trial) -> None:
         start.wait()
         began = time.monotonic()
         try:

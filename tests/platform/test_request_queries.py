@@ -25,11 +25,11 @@ CLICK = {"kind": "collective", "collective": 0, "button": "left"}
 
 
 @contextmanager
-def tables_read(app) -> Iterator[Counter[str]]:  # type: ignore[no-untyped-def]
+def tables_read(app) -> Iterator[Counter[str]]:
     """How many SELECT statements name each table (FROM or JOIN) while the block runs."""
     counts: Counter[str] = Counter()
 
-    def count(_conn, _cursor, statement: str, *_args) -> None:  # type: ignore[no-untyped-def]
+    def count(_conn, _cursor, statement: str, *_args) -> None:
         if statement.lstrip().upper().startswith("SELECT"):
             counts.update(set(re.findall(r"(?:FROM|JOIN) \"?(\w+)", statement)))
 
@@ -92,14 +92,14 @@ def test_a_stage_page_reads_the_participant_and_the_consent_once(demo_app) -> No
 
 
 @contextmanager
-def statements_sent(app) -> Iterator[Counter[str]]:  # type: ignore[no-untyped-def]
+def statements_sent(app) -> Iterator[Counter[str]]:
     """Every SQL statement sent while the block runs, by its first word, and the COMMITs."""
     counts: Counter[str] = Counter()
 
-    def statement(_conn, _cursor, text: str, *_args) -> None:  # type: ignore[no-untyped-def]
+    def statement(_conn, _cursor, text: str, *_args) -> None:
         counts[text.split(None, 1)[0].upper()] += 1
 
-    def commit(_conn) -> None:  # type: ignore[no-untyped-def]
+    def commit(_conn) -> None:
         counts["COMMIT"] += 1
 
     engine = app.extensions["hcss_db"].engine

@@ -8,12 +8,12 @@ from hcss.platform.models import Command, CommandOutcome, RequestStatusChange
 from tests.support.counting import count_rows
 
 
-def _rows(app, model):  # type: ignore[no-untyped-def]
+def _rows(app, model):
     with app.extensions["hcss_db"].session_scope() as session:
         return list(session.scalars(select(model).order_by(model.id)))
 
 
-def _in_range_target(view, collective: int):  # type: ignore[no-untyped-def]
+def _in_range_target(view, collective: int):
     return next(t for t in view["targets"] if collective in t["in_range_of"])
 
 
@@ -68,7 +68,7 @@ def test_investigate_completes_once_ten_agents_acknowledge(make_trial) -> None:
     assert statuses[:2] == ["in_progress", "completed"]
 
 
-def _refuse(trial, body, expected_reason: str) -> None:  # type: ignore[no-untyped-def]
+def _refuse(trial, body, expected_reason: str) -> None:
     before = trial.state()
     response = trial.post("/requests", body)
     assert response.status_code == 200

@@ -21,7 +21,7 @@ from tests.support.trials import STUDY_TRIAL_S
 ACCELERATION = 20.0  # trial seconds per wall second
 
 
-def _wait_for(condition, timeout_s: float, what: str):  # type: ignore[no-untyped-def]
+def _wait_for(condition, timeout_s: float, what: str):
     deadline = time.monotonic() + timeout_s
     while time.monotonic() < deadline:
         value = condition()
@@ -104,6 +104,6 @@ def test_kill_9_and_restart_loses_nothing_and_rebuilds_exactly(database_url, tmp
         database.engine.dispose()
 
 
-def _one(database: Database, query):  # type: ignore[no-untyped-def]
+def _one(database: Database, query):
     with database.session_scope() as session:
         return session.scalars(query).first()

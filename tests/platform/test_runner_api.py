@@ -8,7 +8,7 @@ import time
 from hcss.platform.app import create_app
 
 
-def test_an_app_built_for_a_script_has_no_runner_thread(tmp_path) -> None:  # type: ignore[no-untyped-def]
+def test_an_app_built_for_a_script_has_no_runner_thread(tmp_path) -> None:
     app = create_app({"DATABASE_URL": f"sqlite:///{tmp_path / 'x.db'}", "SECRET_KEY": "s"})
     runner = app.extensions["hcss_runner"]
     try:
@@ -20,7 +20,7 @@ def test_an_app_built_for_a_script_has_no_runner_thread(tmp_path) -> None:  # ty
 
 def test_an_unmigrated_database_gives_one_clear_message_not_a_traceback_per_tick(
     tmp_path, caplog
-) -> None:  # type: ignore[no-untyped-def]
+) -> None:
     app = create_app(
         {
             "DATABASE_URL": f"sqlite:///{tmp_path / 'empty.db'}",

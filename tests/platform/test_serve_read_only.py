@@ -29,7 +29,7 @@ def _free_port() -> int:
         return int(probe.getsockname()[1])
 
 
-def _stderr_until(process: subprocess.Popen, needle: str, limit_s: float) -> str:  # type: ignore[type-arg]
+def _stderr_until(process: subprocess.Popen, needle: str, limit_s: float) -> str:
     """What the process wrote on stderr until `needle` (or its exit, or the limit)."""
     assert process.stderr is not None
     os.set_blocking(process.stderr.fileno(), False)

@@ -12,7 +12,6 @@ from hcss.platform.bots import bot_app
 from hcss.platform.cli import upgrade_database
 from hcss.platform.console.accounts import create_experimenter
 from hcss.platform.models import Participant
-from tests.support.browser import CHROMIUM, CHROMIUM_ARGS
 from tests.support.console import Console, sign_in
 from tests.support.study import events, visitor
 
@@ -20,7 +19,7 @@ pytestmark = [pytest.mark.browser, pytest.mark.slow]  # waits for a 10 s heartbe
 
 
 @pytest.fixture
-def served(tmp_path):  # type: ignore[no-untyped-def]
+def served(tmp_path):
     url = f"sqlite:///{tmp_path / 'skip-browser.sqlite3'}"
     upgrade_database(url)
     app = bot_app(url, "demo", SECRET_KEY="skip-browser-secret", WTF_CSRF_ENABLED=True)
@@ -36,8 +35,8 @@ def served(tmp_path):  # type: ignore[no-untyped-def]
     app.extensions["hcss_db"].engine.dispose()
 
 
-def test_the_open_page_moves_on_by_itself_and_keeps_the_answer(served) -> None:
-    from playwright.sync_api import expect, sync_playwright
+def test_the_open_page_moves_on_by_itself_and_keeps_the_answer(served, browser) -> None:
+    from playwright.sync_api import expect
 
     app, base = served
     with app.extensions["hcss_db"].session_scope() as session:
@@ -51,21 +50,16 @@ def test_the_open_page_moves_on_by_itself_and_keeps_the_answer(served) -> None:
     console = Console(app=app, client=client)
     console.get("/console/")
 
-    with sync_playwright() as playwright:
-        browser = playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
-        try:
-            page = browser.new_page()
-            page.goto(f"{base}/p/{token}")
-            expect(page.locator("main.study")).to_have_attribute("data-stage", "demographics")
-            page.check('input[name="age_band"][value="18-30"]')
-            assert console.act(code, "skip_stage").status_code == 303
-            # No click: the next heartbeat (every 10 s) learns of the skip.
-            expect(page.locator("#moved-on")).to_contain_text(
-                "The answers you gave on it were kept", timeout=20_000
-            )
-            page.click("#continue")
-            expect(page.locator("main.study")).to_have_attribute("data-stage", "mental_rotation")
-        finally:
-            browser.close()
+    page = browser.new_page()
+    page.goto(f"{base}/p/{token}")
+    expect(page.locator("main.study")).to_have_attribute("data-stage", "demographics")
+    page.check('input[name="age_band"][value="18-30"]')
+    assert console.act(code, "skip_stage").status_code == 303
+    # No click: the next heartbeat (every 10 s) learns of the skip.
+    expect(page.locator("#moved-on")).to_contain_text(
+        "The answers you gave on it were kept", timeout=20_000
+    )
+    page.click("#continue")
+    expect(page.locator("main.study")).to_have_attribute("data-stage", "mental_rotation")
     (late,) = [e for e in events(app, token) if e.kind == "late_answer"]
     assert late.detail["answers"]["age_band"] == ["18-30"]

@@ -97,7 +97,7 @@ def test_a_live_trial_read_only_across_a_start_runs_again_once_the_disk_is_writa
             app.extensions["hcss_db"].engine.dispose()
 
 
-def _decide(client, api: str, csrf: str):  # type: ignore[no-untyped-def]
+def _decide(client, api: str, csrf: str):
     return client.post(
         f"{api}/requests",
         json={"kind": "decide", "collective": 0, "target": 1},

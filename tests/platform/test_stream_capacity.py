@@ -24,7 +24,7 @@ from hcss.platform.localserver import LocalServer
 from tests.support.trials import STUDY_TRIAL_S, TrialHandle
 
 
-def _stream(trial):  # type: ignore[no-untyped-def]
+def _stream(trial):
     response = trial.client.get(f"{trial.api}/stream", buffered=False)
     assert response.status_code == 200
     chunks = iter(response.response)
@@ -115,7 +115,7 @@ def test_scripted_participants_from_a_few_addresses_leave_a_stream_for_a_real_on
     assert app.extensions["hcss_streams"].count == 0
 
 
-def _trial_in(app, study: str, seed: int, address: str) -> TrialHandle:  # type: ignore[no-untyped-def]
+def _trial_in(app, study: str, seed: int, address: str) -> TrialHandle:
     """A participant invited to `study` (as the console's study choice does) in a live trial."""
     from datetime import UTC, datetime
 
@@ -198,7 +198,7 @@ def test_slots_count_takeovers_once() -> None:
     assert slots.acquire("a") is not None  # "a" replaces its own stream
 
 
-def _open_stream(base: str, path: str, results: list, index: int) -> None:  # type: ignore[type-arg]
+def _open_stream(base: str, path: str, results: list, index: int) -> None:
     """A raw HTTP stream read for up to 8 s; records (status, saw takeover)."""
     parts = urlsplit(base)
     connection = http.client.HTTPConnection(parts.hostname, parts.port, timeout=30)

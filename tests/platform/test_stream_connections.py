@@ -16,7 +16,7 @@ import time
 import hcss.platform.live.runner as runner_module
 
 
-def _wait_until(predicate, timeout_s: float = 10.0) -> None:  # type: ignore[no-untyped-def]
+def _wait_until(predicate, timeout_s: float = 10.0) -> None:
     deadline = time.monotonic() + timeout_s
     while not predicate():
         assert time.monotonic() < deadline, "timed out"
@@ -62,7 +62,7 @@ def test_streams_waiting_for_a_trial_to_load_hold_no_connection(
     real_load = runner_module.load_trial
     loads: list[int] = []
 
-    def slow_load(*args, **kwargs):  # type: ignore[no-untyped-def]
+    def slow_load(*args, **kwargs):
         loads.append(1)
         loading.set()
         assert finish.wait(timeout=10)
@@ -140,7 +140,7 @@ def test_a_command_holds_one_connection_while_it_holds_its_trials_lock(make_tria
     pool = database.engine.pool
     held: list[int] = []
 
-    def note_connections(*_args) -> None:  # type: ignore[no-untyped-def]
+    def note_connections(*_args) -> None:
         held.append(pool.checkedout())  # this checkout included
 
     event.listen(pool, "checkout", note_connections)

@@ -24,7 +24,7 @@ pytestmark = pytest.mark.browser
 
 
 @pytest.fixture
-def study_server(tmp_path):  # type: ignore[no-untyped-def]
+def study_server(tmp_path):
     url = f"sqlite:///{tmp_path / 'study-browser.sqlite3'}"
     upgrade_database(url)
     database = Database(url)

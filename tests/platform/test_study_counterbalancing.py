@@ -13,7 +13,7 @@ from hcss.platform.study.enrolment import cell_counts
 from hcss.platform.study.studyfile import parse_study
 
 
-def _enrol(session, **flags):  # type: ignore[no-untyped-def]
+def _enrol(session, **flags):
     participant = Participant(**flags)
     session.add(participant)
     session.flush()

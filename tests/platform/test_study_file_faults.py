@@ -15,7 +15,7 @@ from hcss.platform.study.versions import study_problems
 
 
 @pytest.fixture
-def lab_study(tmp_path: Path, monkeypatch) -> Path:  # type: ignore[no-untyped-def]
+def lab_study(tmp_path: Path, monkeypatch) -> Path:
     """The lab's own study file `lab.toml` (a copy of the demo) in HCSS_STUDIES."""
     directory = tmp_path / "studies"
     directory.mkdir()
@@ -27,7 +27,7 @@ def lab_study(tmp_path: Path, monkeypatch) -> Path:  # type: ignore[no-untyped-d
     _load_study.cache_clear()
 
 
-def _enrolled(app) -> str:  # type: ignore[no-untyped-def]
+def _enrolled(app) -> str:
     with app.extensions["hcss_db"].session_scope() as session:
         participant = Participant(study="lab")
         session.add(participant)

@@ -26,11 +26,11 @@ from tests.support.study import errors_in, events, new_participant, visitor
 def _checked(html: str, name: str) -> str | None:
     for tag in re.findall(r"<input[^>]*>", html):
         if f'name="{name}"' in tag and " checked" in tag:
-            return re.search(r'value="([^"]*)"', tag).group(1)  # type: ignore[union-attr]
+            return re.search(r'value="([^"]*)"', tag).group(1)
     return None
 
 
-def _agree(v) -> None:  # type: ignore[no-untyped-def]
+def _agree(v) -> None:
     assert v.submit({"decision": "agree"}).status_code == 302
 
 

@@ -34,11 +34,11 @@ def test_a_study_page_whose_database_stops_after_reading_the_participant_answers
     database = app.extensions["hcss_db"]
     stopped = {"now": False}
 
-    def stop_after_participant(_session, instance) -> None:  # type: ignore[no-untyped-def]
+    def stop_after_participant(_session, instance) -> None:
         if isinstance(instance, Participant):
             stopped["now"] = True
 
-    def refuse(*_args) -> None:  # type: ignore[no-untyped-def]
+    def refuse(*_args) -> None:
         if stopped["now"]:
             raise OperationalError("SELECT", {}, _Stopped("server closed the connection"))
 

@@ -24,7 +24,7 @@ from tests.support.study import (
 )
 
 
-def _entered(app: Flask, token: str, step: str):  # type: ignore[no-untyped-def]
+def _entered(app: Flask, token: str, step: str):
     rows = [e for e in events(app, token) if e.step == step and e.kind == "entered"]
     assert len(rows) == 1
     return rows[0]
@@ -57,7 +57,7 @@ def test_mid_mrt_refresh_and_restart_return_to_the_same_item_and_deadline(databa
     with app.extensions["hcss_db"].session_scope() as session:
         participant = session.scalars(select(Participant).where(Participant.token == token)).one()
         position = current_position(session, participant)
-        assert (position.slot.name, position.step) == ("mental_rotation", "part_1")  # type: ignore[union-attr]
+        assert (position.slot.name, position.step) == ("mental_rotation", "part_1")
     # Away past the deadline: the part is timed out at its deadline, the answers kept.
     stale = page
     v.advance(200.0)

@@ -11,7 +11,7 @@ from hcss.platform.live.trials import latest_status
 from hcss.platform.models import Probe, ProbeEvent, Snapshot, TrialStatusChange
 
 
-def _frames(response, count: int) -> list[dict]:  # type: ignore[no-untyped-def]
+def _frames(response, count: int) -> list[dict]:
     frames = []
     for chunk in response.response:
         for block in chunk.decode().split("\n\n"):

@@ -35,7 +35,7 @@ from hcss.platform.models import (
 T0 = 1_000_000.0
 
 
-def _trial_rows(trial_id: int, seen: datetime) -> list:  # type: ignore[type-arg]
+def _trial_rows(trial_id: int, seen: datetime) -> list:
     """One of each row with a key, as a writer would store them."""
     return [
         DecisionRow(trial_id=trial_id, collective=0, decision_index=1, step=9, record={}),

@@ -23,7 +23,7 @@ from tests.support.console import Console, sign_in
 UNUSED, WALKED = 6, 4
 
 
-def _demo_study_with_unused_links(database_url: str, monkeypatch) -> tuple[Flask, Console]:  # type: ignore[no-untyped-def]
+def _demo_study_with_unused_links(database_url: str, monkeypatch) -> tuple[Flask, Console]:
     """A batch of ten demo links from the console: four walked to the debrief by
     participant bots (as real participants: not flagged), six never opened; and a demo
     trial made by `hcss demo-trial`, still running."""

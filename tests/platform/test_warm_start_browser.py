@@ -47,7 +47,7 @@ def server_line(server: LocalServer, words: str = "serving on") -> str | None:
 
 
 @pytest.mark.slow  # compiles the simulation into an empty cache (10-25 s)
-def test_the_first_trial_on_an_empty_kernel_cache_draws_within_2_s(browser, tmp_path) -> None:  # type: ignore[no-untyped-def]
+def test_the_first_trial_on_an_empty_kernel_cache_draws_within_2_s(browser, tmp_path) -> None:
     from playwright.sync_api import expect
 
     url = f"sqlite:///{tmp_path / 'warm.sqlite3'}"

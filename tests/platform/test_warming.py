@@ -25,14 +25,14 @@ LAPTOP = {"width": "1366", "height": "657", "mobile": "0", "missing": ""}
 HIDDEN = re.compile(r'<input type="hidden" name="([^"]+)" value="([^"]*)"')
 
 
-def _trials(app) -> int:  # type: ignore[no-untyped-def]
+def _trials(app) -> int:
     with app.extensions["hcss_db"].session_scope() as session:
         return int(session.scalar(select(func.count()).select_from(Trial)) or 0)
 
 
 def test_pages_answer_during_the_warm_up_and_a_training_waits_for_it(
     app, tmp_path, monkeypatch
-) -> None:  # type: ignore[no-untyped-def]
+) -> None:
     name = demo_variant(tmp_path / "studies", monkeypatch, "warming", {})
     path = tmp_path / "studies" / "warming.toml"
     text = re.sub(r"before = \[[^\]]*\]", 'before = ["consent"]', path.read_text(), count=1)
@@ -101,7 +101,7 @@ class _HeldWarmup(Warmup):
         return done
 
 
-def test_a_bot_that_meets_the_waiting_page_waits_and_walks_on(database_url) -> None:  # type: ignore[no-untyped-def]
+def test_a_bot_that_meets_the_waiting_page_waits_and_walks_on(database_url) -> None:
     """`hcss bots` against a server still compiling: every bot failed 'POST  answered 405'
     on the training's waiting page, which has no form (seen on a fresh install and under load)."""
     from hcss.platform.bots import bot_app, run_bots

@@ -17,7 +17,7 @@ def test_twenty_simultaneous_first_calls_build_the_catalogue_once(monkeypatch) -
     built = []
     real_splits = shapes._step_splits
 
-    def counting_splits(total: int, parts: int):  # type: ignore[no-untyped-def]
+    def counting_splits(total: int, parts: int):
         built.append(threading.get_ident())  # called once per catalogue build
         return real_splits(total, parts)
 

@@ -119,7 +119,7 @@ def test_only_an_abandon_can_be_cancelled():
     assert not sim.apply(OperatorCommand.cancel(outcome.request_id)).accepted
 
 
-def _favoured_by(n: int):  # type: ignore[no-untyped-def]
+def _favoured_by(n: int):
     """A simulation in which n agents of collective I favour a visible target: (sim, its index)."""
     sim = make_sim("M1")
     t = visible_target(sim)

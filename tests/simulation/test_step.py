@@ -19,7 +19,7 @@ from hcss.simulation.step import leading
 
 
 @njit
-def _compiled_leading(counts):  # type: ignore[no-untyped-def]
+def _compiled_leading(counts):
     return leading(counts)  # `leading` is callable only from compiled code
 
 

@@ -46,17 +46,17 @@ class Console:
     client: FlaskClient
     csrf: str = ""
 
-    def get(self, path: str, **options: Any):  # type: ignore[no-untyped-def]
+    def get(self, path: str, **options: Any):
         response = self.client.get(path, **options)
         text = response.get_data(as_text=True) if response.mimetype == "text/html" else ""
         if 'name="csrf-token"' in text:
             self.csrf = csrf_token_of(text)
         return response
 
-    def post(self, path: str, fields: dict[str, Any] | None = None):  # type: ignore[no-untyped-def]
+    def post(self, path: str, fields: dict[str, Any] | None = None):
         return self.client.post(path, data={"csrf_token": self.csrf, **(fields or {})})
 
-    def act(self, code: str, action: str):  # type: ignore[no-untyped-def]
+    def act(self, code: str, action: str):
         return self.post(f"/console/participants/{code}/{action}")
 
     def progress(self) -> dict[str, dict[str, Any]]:
@@ -65,7 +65,7 @@ class Console:
         return {row["code"]: row for row in response.get_json()["participants"]}
 
 
-def sign_in(client: FlaskClient, username: str, password: str):  # type: ignore[no-untyped-def]
+def sign_in(client: FlaskClient, username: str, password: str):
     page = client.get("/console/login")
     return client.post(
         "/console/login",
@@ -92,7 +92,7 @@ def code_of(app: Flask, token: str) -> str:
         return session.scalars(select(Participant.code).where(Participant.token == token)).one()
 
 
-def rows_referencing(session, participant_id: int) -> dict[str, int]:  # type: ignore[no-untyped-def]
+def rows_referencing(session, participant_id: int) -> dict[str, int]:
     """Rows of each table reached from the participant through foreign keys.
 
     Written independently of the withdrawal module: it loads every table and
@@ -123,7 +123,7 @@ def _reaches(table: Table, row: Any, owned: dict[str, set[Any]]) -> bool:
     )
 
 
-def cells_containing(session, needle: str, skip: tuple[str, ...] = ()) -> list[str]:  # type: ignore[no-untyped-def]
+def cells_containing(session, needle: str, skip: tuple[str, ...] = ()) -> list[str]:
     """`table.column` of every cell whose text contains `needle` (JSON included)."""
     found = []
     for table in Base.metadata.sorted_tables:
@@ -178,7 +178,7 @@ def play_trial(trial: Any, until_s: float) -> None:  # TrialHandle
     trial.run_to(until_s)  # the time limit ends the trial
 
 
-def open_replay(browser, url: str, code: str, trial_id: int, viewport: dict[str, int]):  # type: ignore[no-untyped-def]
+def open_replay(browser, url: str, code: str, trial_id: int, viewport: dict[str, int]):
     """Sign in to the console as the test experimenter and open one trial's replay: the page."""
     page = browser.new_page(viewport=viewport)
     page.goto(f"{url}/console/login")
@@ -191,11 +191,11 @@ def open_replay(browser, url: str, code: str, trial_id: int, viewport: dict[str,
 
 
 @contextmanager
-def statements(app) -> Iterator[Counter[str]]:  # type: ignore[no-untyped-def]
+def statements(app) -> Iterator[Counter[str]]:
     """SQL statements sent while the block runs, counted under "all"."""
     counts: Counter[str] = Counter()
 
-    def count(*_args) -> None:  # type: ignore[no-untyped-def]
+    def count(*_args) -> None:
         counts["all"] += 1
 
     engine = app.extensions["hcss_db"].engine
@@ -224,7 +224,7 @@ UNIQUE_TRIAL_KEYS = {
 
 
 @pytest.fixture
-def console_app(tmp_path):  # type: ignore[no-untyped-def]
+def console_app(tmp_path):
     """The app (bots' clock, no runner thread) served by waitress in this process."""
     url = f"sqlite:///{tmp_path / 'console-browser.sqlite3'}"
     upgrade_database(url)
@@ -240,7 +240,7 @@ def console_app(tmp_path):  # type: ignore[no-untyped-def]
     app.extensions["hcss_db"].engine.dispose()
 
 
-def sign_in_page(page, base: str) -> None:  # type: ignore[no-untyped-def]
+def sign_in_page(page, base: str) -> None:
     """The experimenter signs in and lands on the live table."""
     from playwright.sync_api import expect
 

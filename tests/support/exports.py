@@ -39,7 +39,7 @@ def at_second(seconds: float) -> datetime:
     return T0 + timedelta(seconds=seconds)
 
 
-def record_study(session, participant: Participant) -> None:  # type: ignore[no-untyped-def]
+def record_study(session, participant: Participant) -> None:
     """What the study flow writes for a participant who reached the first post-trial form."""
     pid = participant.id
     session.add(

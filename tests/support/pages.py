@@ -19,13 +19,13 @@ LAPTOP = {"width": 1366, "height": 768}
 
 
 @pytest.fixture
-def demo_server(tmp_path) -> Iterator[StudyServer]:  # type: ignore[no-untyped-def]
+def demo_server(tmp_path) -> Iterator[StudyServer]:
     """The demo study served in this process, on a fresh SQLite file."""
     with study_server(tmp_path, "demo") as server:
         yield server
 
 
-def live_trial(server: StudyServer):  # type: ignore[no-untyped-def]
+def live_trial(server: StudyServer):
     """The one trial the runner holds for the test's participant."""
     (live,) = [
         t for t in map(server.runner.loaded, server.runner.loaded_ids()) if t and not t.ended
@@ -33,7 +33,7 @@ def live_trial(server: StudyServer):  # type: ignore[no-untyped-def]
     return live
 
 
-def wait_for(server: StudyServer, condition, limit_s: float):  # type: ignore[no-untyped-def]
+def wait_for(server: StudyServer, condition, limit_s: float):
     """Advance the clock a second at a time until `condition(live)` is truthy."""
     live = live_trial(server)
     for _ in range(int(limit_s)):
@@ -64,7 +64,7 @@ def start_live_trial(server: StudyServer, seed: int = 2) -> str:
         return participant.token
 
 
-def open_live_trial(browser, server: StudyServer, viewport: dict[str, int] = LAPTOP):  # type: ignore[no-untyped-def]
+def open_live_trial(browser, server: StudyServer, viewport: dict[str, int] = LAPTOP):
     """A demo participant's live trial, started and shown connected: (token, page)."""
     from playwright.sync_api import expect
 

@@ -35,7 +35,7 @@ LAPTOP = {"width": "1366", "height": "768", "mobile": "0", "missing": ""}
 HIDDEN = re.compile(r'<input type="hidden" name="([^"]+)" value="([^"]*)"')
 
 
-def join(client, study: str = "demo", device=LAPTOP, **params: str):  # type: ignore[no-untyped-def]
+def join(client, study: str = "demo", device=LAPTOP, **params: str):
     """Open the study link; on its first page, press Start (as a laptop's browser posts it)."""
     first = client.get(f"/join/{study}?{urlencode(params)}")
     if first.status_code != 200 or 'id="join-form"' not in first.get_data(as_text=True):

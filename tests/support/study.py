@@ -122,7 +122,7 @@ def errors_in(html: str) -> list[str]:
 
 
 @pytest.fixture
-def demo_bot_app(database_url: str):  # type: ignore[no-untyped-def]
+def demo_bot_app(database_url: str):
     """The demo study on a clock the bot moves (bot_app), with its schema."""
     app = bot_app(database_url, "demo")
     app.extensions["hcss_db"].create_all()

@@ -68,17 +68,17 @@ class TrialHandle:
         assert response.status_code == 200, response.get_data(as_text=True)
         return response.get_json()
 
-    def live(self):  # type: ignore[no-untyped-def]
+    def live(self):
         return self.runner.host(self.trial_id)
 
 
-def investigate_request(trial):  # type: ignore[no-untyped-def]
+def investigate_request(trial):
     trial.run_to(60)
     target = next(t for t in trial.state()["view"]["targets"] if 0 in t["in_range_of"])
     return {"kind": "investigate", "collective": 0, "target": target["id"]}
 
 
-def until_probe(trial, start: float, level: int | None = None):  # type: ignore[no-untyped-def]
+def until_probe(trial, start: float, level: int | None = None):
     """Run on until a probe (of `level`) is on screen; return it and the state then."""
     second = start
     while second < trial.live().duration_s:

@@ -75,6 +75,25 @@ login_manager.login_view = "console.login"
 login_manager.login_message = "Sign in to use the console."
 login_manager.session_protection = "strong"
 CODE = re.compile(r"[A-Z0-9]{1,32}")
+#: The longest page a sign-in redirect names in `next`: its Location header must fit a
+#: proxy's buffer for response headers (nginx: 4 kB), or the proxy answers 502.
+NEXT_MAX = 1024
+
+
+@login_manager.unauthorized_handler
+def _sign_in_first() -> ResponseReturnValue:
+    """Flask-Login's redirect to the sign-in page, its `next` the page asked for while short.
+
+    A link with a long query (a 5,000-digit code) gave a Location header nginx refused
+    (502); such a page is named by its path alone, or not at all.
+    """
+    flash(login_manager.login_message, login_manager.login_message_category)
+    page = request.full_path.removesuffix("?")
+    if len(page) > NEXT_MAX:
+        page = request.path
+    if len(page) > NEXT_MAX:
+        return redirect(url_for("console.login"))
+    return redirect(url_for("console.login", next=page))
 
 
 @bp.record_once

@@ -9,8 +9,8 @@ that transaction fail, the simulation is put back as it was before the
 command, so the log (what a rebuild replays) and the trial in memory never
 disagree.
 
-An action sent with an idempotency key gets the key as an unsaved
-`CommandKey` (the `idempotent` route decorator hands it to the view) and stores it, with the answer
+An action sent with an idempotency key gets the key as a value
+(`trial_writer.KeyedCommand`, which the live service hands down) and stores it, with the answer
 it gives, in the same transaction as what it records: the command and its key
 are committed together or not at all, so a retry after a crash or a failed
 write can never carry the command out twice.
@@ -25,17 +25,14 @@ from sqlalchemy.exc import DBAPIError
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
+from hcss.platform.live import trial_writer
 from hcss.platform.live.leases import trial_transaction
 from hcss.platform.live.recorder import kept_until_written, record_request_statuses
 from hcss.platform.live.session import RunningTrial
 from hcss.platform.live.trial_log import command_message
-from hcss.platform.live.trial_writer import add_if_absent
+from hcss.platform.live.trial_writer import KeyedCommand
 from hcss.platform.models import (
     Command,
-    CommandKey,
-    CommandOutcome,
-    Observation,
-    ProbeEvent,
 )
 from hcss.simulation import OperatorCommand
 from hcss.simulation.requests import RequestOutcome
@@ -58,7 +55,7 @@ def submit_request(
     live: RunningTrial,
     command: OperatorCommand,
     selections: tuple[int, ...] = (),
-    key: CommandKey | None = None,
+    key: KeyedCommand | None = None,
 ) -> dict[str, Any]:
     """Apply `command` and log it with its outcome; the answer the participant's page gets."""
     with live.lock:
@@ -73,7 +70,8 @@ def submit_request(
                 kept_until_written(live, simulation_restored=True),
                 trial_transaction(database, live) as session,
             ):
-                row = Command.applied(
+                row = trial_writer.write_command(
+                    session,
                     live.trial_id,
                     command,
                     outcome,
@@ -81,9 +79,6 @@ def submit_request(
                     sim_time=sim_time,
                     selections=selections,
                 )
-                session.add(row)
-                session.flush()
-                session.add(CommandOutcome.of(row.id, outcome))
                 record_request_statuses(live, session)
                 answer = _answered(session, key, _committed_answer(row, outcome, step))
         except DBAPIError:
@@ -120,7 +115,7 @@ def record_observation(
     collective: int | None,
     target: int | None,
     button: str,
-    key: CommandKey | None = None,
+    key: KeyedCommand | None = None,
 ) -> dict[str, Any]:
     """A click on the map; the answer is the observation's id (201 Created)."""
     with live.lock:
@@ -131,19 +126,18 @@ def record_observation(
                 raise ActionError("a collective observation needs a collective on the map")
         elif target is None or display.column(target) is None:
             raise ActionError("a target observation needs a visible target")
-        row = Observation(
-            trial_id=live.trial_id,
-            kind=kind,
-            collective=collective,
-            target=target,
-            button=button,
-            step=live.sim.step_count,
-            sim_time=float(live.sim.time),
-        )
         with trial_transaction(database, live) as session:
-            session.add(row)
-            session.flush()
-            return _answered(session, key, {"observation_id": row.id}, status=201)
+            observation_id = trial_writer.write_observation(
+                session,
+                live.trial_id,
+                kind=kind,
+                collective=collective,
+                target=target,
+                button=button,
+                step=live.sim.step_count,
+                sim_time=float(live.sim.time),
+            )
+            return _answered(session, key, {"observation_id": observation_id}, status=201)
 
 
 def probe_ready(
@@ -151,7 +145,7 @@ def probe_ready(
     live: RunningTrial,
     probe_id: int,
     now: float | None = None,
-    key: CommandKey | None = None,
+    key: KeyedCommand | None = None,
 ) -> dict[str, Any]:
     """The Ready press; `now` (the runner's wall clock) times it from the prompt's delivery."""
     with live.lock:
@@ -159,10 +153,14 @@ def probe_ready(
         if probe.ready:
             raise ActionError("this probe's question is already shown", 409, "already_ready")
         running_s = None if now is None else live.running_wall_s(now)
-        event = _probe_event(live, probe_id, "ready")
-        event.latency_ms = _latency_ms(probe.delivered_s, running_s)
         with trial_transaction(database, live) as session:
-            add_if_absent(session, event)
+            trial_writer.write_probe_event(
+                session,
+                probe_id,
+                "ready",
+                latency_ms=_latency_ms(probe.delivered_s, running_s),
+                **_when(live),
+            )
             answer = _answered(session, key, {"ok": True})
         probe.ready_pressed(running_s)
         live.touch()
@@ -175,7 +173,7 @@ def probe_answer(
     probe_id: int,
     answer: str,
     now: float | None = None,
-    key: CommandKey | None = None,
+    key: KeyedCommand | None = None,
 ) -> dict[str, Any]:
     """The answer; timed from the question's delivery (or the Ready press, if never sent)."""
     with live.lock:
@@ -189,14 +187,25 @@ def probe_answer(
         asked_s = (
             probe.question_delivered_s if probe.question_delivered_s is not None else probe.ready_s
         )
-        answered = _probe_event(live, probe_id, "answer", answer=answer)
-        answered.latency_ms = _latency_ms(asked_s, running_s)
         with trial_transaction(database, live) as session:
-            add_if_absent(session, answered)
+            trial_writer.write_probe_event(
+                session,
+                probe_id,
+                "answer",
+                answer=answer,
+                latency_ms=_latency_ms(asked_s, running_s),
+                **_when(live),
+            )
             if probe.truth is not None:
-                event = _probe_event(live, probe_id, "scored", answer=answer)
-                event.truth, event.correct = probe.truth, correct
-                add_if_absent(session, event)
+                trial_writer.write_probe_event(
+                    session,
+                    probe_id,
+                    "scored",
+                    answer=answer,
+                    truth=probe.truth,
+                    correct=correct,
+                    **_when(live),
+                )
             reply = _answered(session, key, {"ok": True})
         live.probe_answered(answer)
         live.touch()
@@ -229,23 +238,17 @@ def _committed_answer(row: Command, outcome: RequestOutcome, step: int) -> dict[
 
 
 def _answered(
-    session: Session, key: CommandKey | None, answer: dict[str, Any], status: int = 200
+    session: Session, key: KeyedCommand | None, answer: dict[str, Any], status: int = 200
 ) -> dict[str, Any]:
     """`answer`, stored with the command's idempotency key (if sent) in the command's transaction."""
     if key is not None:
-        key.status, key.response = status, answer
-        session.add(key)
+        trial_writer.write_command_key(session, key, status, answer)
     return answer
 
 
-def _probe_event(live: RunningTrial, probe_id: int, kind: str, answer: str | None = None):
-    return ProbeEvent(
-        probe_id=probe_id,
-        kind=kind,
-        answer=answer,
-        step=live.sim.step_count,
-        sim_time=float(live.sim.time),
-    )
+def _when(live: RunningTrial) -> dict[str, Any]:
+    """The step and trial time an action lands at (between two steps)."""
+    return {"step": live.sim.step_count, "sim_time": float(live.sim.time)}
 
 
 def _latency_ms(since_s: float | None, now_s: float | None) -> float | None:

@@ -21,7 +21,7 @@ from hcss.platform.live import commands
 from hcss.platform.live.access import require_owner, runner, trial_for
 from hcss.platform.live.idempotency import idempotent
 from hcss.platform.live.streams import RETRY_AFTER_S, StreamSlots, client_share, study_share
-from hcss.platform.models import CommandKey
+from hcss.platform.live.trial_writer import KeyedCommand
 from hcss.platform.ratelimit import request_client
 
 _POSITION = re.compile(r"[0-9]{1,18}")
@@ -104,33 +104,40 @@ def state(token: str, trial_id: int) -> Response:
 
 @bp.post("/requests")
 @idempotent
-def submit_request(token: str, trial_id: int, key: CommandKey | None):
+def submit_request(token: str, trial_id: int, key: KeyedCommand | None):
     require_owner(token, trial_id)
-    answer = commands.submit_request(database(), runner(), trial_id, _json(), key)
-    return jsonify(answer), 200
+    return _response(commands.submit_request(database(), runner(), trial_id, _json(), key))
 
 
 @bp.post("/observations")
 @idempotent
-def observe(token: str, trial_id: int, key: CommandKey | None):
+def observe(token: str, trial_id: int, key: KeyedCommand | None):
     require_owner(token, trial_id)
-    answer = commands.observe(database(), runner(), trial_id, _json(), key)
-    return jsonify(answer), 201
+    return _response(commands.observe(database(), runner(), trial_id, _json(), key))
 
 
 @bp.post("/probes/<int:probe_id>/ready")
 @idempotent
-def probe_ready(token: str, trial_id: int, probe_id: int, key: CommandKey | None):
+def probe_ready(token: str, trial_id: int, probe_id: int, key: KeyedCommand | None):
     require_owner(token, trial_id)
-    return jsonify(commands.probe_ready(database(), runner(), trial_id, probe_id, key))
+    return _response(commands.probe_ready(database(), runner(), trial_id, probe_id, key))
 
 
 @bp.post("/probes/<int:probe_id>/answer")
 @idempotent
-def probe_answer(token: str, trial_id: int, probe_id: int, key: CommandKey | None):
+def probe_answer(token: str, trial_id: int, probe_id: int, key: KeyedCommand | None):
     require_owner(token, trial_id)
-    reply = commands.probe_answer(database(), runner(), trial_id, probe_id, _json(), key)
-    return jsonify(reply)
+    body = _json()
+    return _response(commands.probe_answer(database(), runner(), trial_id, probe_id, body, key))
+
+
+def _response(answer: commands.Answer) -> Response:
+    """The live service's answer as the page gets it (a repeat of a keyed command says so)."""
+    response = jsonify(answer.body)
+    response.status_code = answer.status
+    if answer.replayed:
+        response.headers["Idempotent-Replayed"] = "true"
+    return response
 
 
 def _json() -> Any:

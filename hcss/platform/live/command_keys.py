@@ -31,14 +31,16 @@ from contextlib import nullcontext
 from dataclasses import dataclass
 from typing import Any
 
-from sqlalchemy import inspect, select
+from sqlalchemy import select
 from sqlalchemy.exc import IntegrityError
 
 from hcss.platform.db import Database
+from hcss.platform.live import trial_writer
 from hcss.platform.live.actions import ActionError
 from hcss.platform.live.leases import trial_transaction
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.session import RunningTrial
+from hcss.platform.live.trial_writer import KeyedCommand
 from hcss.platform.models import CommandKey
 
 
@@ -54,8 +56,8 @@ class Answer:
 def once(
     database: Database,
     runner: Runner,
-    key: CommandKey,
-    carry_out: Callable[[CommandKey], Answer],
+    key: KeyedCommand,
+    carry_out: Callable[[KeyedCommand], Answer],
 ) -> Answer:
     """`carry_out(key)` if the key is new, else the stored answer; `key` is not yet stored.
 
@@ -78,7 +80,7 @@ def once(
             return _replayed(row, key)
 
 
-def _stored(database: Database, key: CommandKey) -> CommandKey | None:
+def _stored(database: Database, key: KeyedCommand) -> CommandKey | None:
     with database.session_scope() as session:
         row = session.scalars(
             select(CommandKey).where(CommandKey.trial_id == key.trial_id, CommandKey.key == key.key)
@@ -88,7 +90,7 @@ def _stored(database: Database, key: CommandKey) -> CommandKey | None:
         return row
 
 
-def _replayed(row: CommandKey, key: CommandKey) -> Answer:
+def _replayed(row: CommandKey, key: KeyedCommand) -> Answer:
     if (row.endpoint, row.fingerprint) != (key.endpoint, key.fingerprint):
         raise ActionError(
             "this Idempotency-Key was already used for another command; send a fresh key",
@@ -100,21 +102,17 @@ def _replayed(row: CommandKey, key: CommandKey) -> Answer:
 
 def _first(
     database: Database,
-    key: CommandKey,
-    carry_out: Callable[[CommandKey], Answer],
+    key: KeyedCommand,
+    carry_out: Callable[[KeyedCommand], Answer],
     live: RunningTrial | None,
 ) -> Answer:
-    """The command's answer; `key` stored with it, by the action or (nothing recorded) here."""
+    """The command's answer; `key` stored with it, by the action (a 2xx: in the transaction
+    that recorded the command) or here (a refusal, which recorded nothing)."""
     answer = carry_out(key)
-    if inspect(key).has_identity:  # the action committed it with the command
-        if (key.status, key.response) != (answer.status, answer.body):
-            raise RuntimeError(f"{key.endpoint} answered otherwise than it stored")
-        return answer
+    if answer.status < 400:
+        return answer  # the action committed the key with the command
     if answer.status >= 500:
         return answer  # not an outcome: the client may try again with the key
-    if answer.status < 400:
-        raise RuntimeError(f"{key.endpoint} recorded a command without its key")
-    key.status, key.response = answer.status, answer.body
     with database.session_scope() if live is None else trial_transaction(database, live) as session:
-        session.add(key)  # a refusal: nothing else was written
+        trial_writer.write_command_key(session, key, answer.status, answer.body)
     return answer

@@ -31,15 +31,18 @@ from sqlalchemy import select
 from hcss.platform.db import Database
 from hcss.platform.live import actions, validation
 from hcss.platform.live.actions import ActionError
+from hcss.platform.live.command_keys import Answer, once
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.session import RunningTrial
 from hcss.platform.live.stream import ended_stream, event_stream
 from hcss.platform.live.streams import StreamSlots
+from hcss.platform.live.trial_writer import KeyedCommand
 from hcss.platform.live.trials import end_reason
-from hcss.platform.models import CommandKey, Participant, StudyEnrolment, Trial
+from hcss.platform.models import Participant, StudyEnrolment, Trial
 
 __all__ = [
     "ActionError",
+    "Answer",
     "Stream",
     "frame",
     "holds_for",
@@ -78,39 +81,76 @@ def frame(runner: Runner, trial_id: int) -> str:
     return text
 
 
+def _answered(
+    database: Database,
+    runner: Runner,
+    key: KeyedCommand | None,
+    status: int,
+    act: Callable[[KeyedCommand | None], dict[str, Any]],
+) -> Answer:
+    """`act`'s answer with `status`; with a key, carried out once (`command_keys.once`).
+
+    The caller (the API's view) has read the request already: only `act`, the
+    service's own code, runs under the trial's lock, never a Flask view.
+    Without a key an `ActionError` goes to the caller (the API answers it).
+    """
+    if key is None:
+        return Answer(status, act(None))
+
+    def carry_out(keyed: KeyedCommand) -> Answer:
+        try:
+            return Answer(status, act(keyed))
+        except ActionError as error:
+            return Answer(error.status, {"error": error.code, "message": error.message})
+
+    return once(database, runner, key, carry_out)
+
+
 def submit_request(
-    database: Database, runner: Runner, trial_id: int, body: Any, key: CommandKey | None
-) -> dict[str, Any]:
+    database: Database, runner: Runner, trial_id: int, body: Any, key: KeyedCommand | None
+) -> Answer:
     """The request in the POST body, checked and applied; the answer the page gets."""
-    live = _running(runner, trial_id)
-    with database.session_scope() as session:  # read-only: back in the pool before the lock
-        command, selections = validation.parse_request(body, live, session, trial_id)
-    return actions.submit_request(database, live, command, selections, key=key)
+
+    def act(keyed: KeyedCommand | None) -> dict[str, Any]:
+        live = _running(runner, trial_id)
+        with database.session_scope() as session:  # read-only: back in the pool first
+            command, selections = validation.parse_request(body, live, session, trial_id)
+        return actions.submit_request(database, live, command, selections, key=keyed)
+
+    return _answered(database, runner, key, 200, act)
 
 
 def observe(
-    database: Database, runner: Runner, trial_id: int, body: Any, key: CommandKey | None
-) -> dict[str, Any]:
-    """A click on the map, checked and logged; the answer is the observation's id."""
-    live = _running(runner, trial_id)
-    kind, collective, target, button = validation.parse_observation(body, live)
-    return actions.record_observation(
-        database,
-        live,
-        kind=kind,
-        collective=collective,
-        target=target,
-        button=button,
-        key=key,
-    )
+    database: Database, runner: Runner, trial_id: int, body: Any, key: KeyedCommand | None
+) -> Answer:
+    """A click on the map, checked and logged; the answer is the observation's id (201)."""
+
+    def act(keyed: KeyedCommand | None) -> dict[str, Any]:
+        live = _running(runner, trial_id)
+        kind, collective, target, button = validation.parse_observation(body, live)
+        return actions.record_observation(
+            database,
+            live,
+            kind=kind,
+            collective=collective,
+            target=target,
+            button=button,
+            key=keyed,
+        )
+
+    return _answered(database, runner, key, 201, act)
 
 
 def probe_ready(
-    database: Database, runner: Runner, trial_id: int, probe_id: int, key: CommandKey | None
-) -> dict[str, Any]:
+    database: Database, runner: Runner, trial_id: int, probe_id: int, key: KeyedCommand | None
+) -> Answer:
     """The Ready press on the open probe, timed by the runner's clock."""
-    live = _running(runner, trial_id)
-    return actions.probe_ready(database, live, probe_id, now=runner.clock(), key=key)
+
+    def act(keyed: KeyedCommand | None) -> dict[str, Any]:
+        live = _running(runner, trial_id)
+        return actions.probe_ready(database, live, probe_id, now=runner.clock(), key=keyed)
+
+    return _answered(database, runner, key, 200, act)
 
 
 def probe_answer(
@@ -119,12 +159,16 @@ def probe_answer(
     trial_id: int,
     probe_id: int,
     body: Any,
-    key: CommandKey | None,
-) -> dict[str, Any]:
+    key: KeyedCommand | None,
+) -> Answer:
     """The answer in the POST body to the open probe, timed by the runner's clock."""
-    live = _running(runner, trial_id)
-    answer = validation.parse_answer(body)
-    return actions.probe_answer(database, live, probe_id, answer, now=runner.clock(), key=key)
+
+    def act(keyed: KeyedCommand | None) -> dict[str, Any]:
+        live = _running(runner, trial_id)
+        answer = validation.parse_answer(body)
+        return actions.probe_answer(database, live, probe_id, answer, now=runner.clock(), key=keyed)
+
+    return _answered(database, runner, key, 200, act)
 
 
 @dataclass(frozen=True)

@@ -11,11 +11,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from sqlalchemy import update
-
+from hcss.platform.live import trial_writer
 from hcss.platform.live.leases import trial_transaction
+from hcss.platform.live.orders import mark_done
 from hcss.platform.live.recorder import kept_until_written, record_progress
-from hcss.platform.models import ConsoleAction, TrialOrder
 from hcss.platform.session_state import STATE_ACTIONS
 
 if TYPE_CHECKING:
@@ -65,41 +64,30 @@ def control_trial(
         ):
             if order_id is not None:
                 with trial_transaction(runner.database, live) as session:
-                    session.execute(
-                        update(TrialOrder)
-                        .where(TrialOrder.id == order_id)
-                        .values(done_epoch=now, outcome=DONE)
-                    )
+                    mark_done(session, order_id, now, DONE)
             return ALREADY
         with kept_until_written(live), trial_transaction(runner.database, live) as session:
             if not live.ended:
                 record_progress(live, session)
             if order_id is not None:
-                outcome = ENDED if live.ended else DONE
-                session.execute(
-                    update(TrialOrder)
-                    .where(TrialOrder.id == order_id)
-                    .values(done_epoch=now, outcome=outcome)
-                )
+                mark_done(session, order_id, now, ENDED if live.ended else DONE)
             if live.ended:  # reached its time limit just now: the session's state still changes
-                session.add(
-                    ConsoleAction(
-                        participant_id=participant_id,
-                        experimenter_id=experimenter_id,
-                        action=action,
-                        at_epoch=now,
-                    )
-                )
-                return ENDED
-            session.add(
-                ConsoleAction(
+                trial_writer.write_console_action(
+                    session,
                     participant_id=participant_id,
                     experimenter_id=experimenter_id,
                     action=action,
-                    trial_id=live.trial_id,
                     at_epoch=now,
-                    detail=f"trial clock {live.clock(now):.1f} s",
                 )
+                return ENDED
+            trial_writer.write_console_action(
+                session,
+                participant_id=participant_id,
+                experimenter_id=experimenter_id,
+                action=action,
+                trial_id=live.trial_id,
+                at_epoch=now,
+                detail=f"trial clock {live.clock(now):.1f} s",
             )
             if action == "abort":
                 runner.end(live, session, "aborted", now)

@@ -2,12 +2,13 @@
 
 The Collective Interface sends an ``Idempotency-Key`` header (a fresh UUID)
 with every command. The route decorator here reads the key and a fingerprint
-of the command (route, arguments, raw body) and hands them, with the view, to
-the live service's rule for keyed commands (hcss.platform.live.command_keys):
-the first POST with a key is carried out once under the trial's lock and its
-answer stored with the key, in the action's own transaction when it records
-something; a repeat gets that answer back (header ``Idempotent-Replayed``),
-and a key reused for another command is refused with 422.
+of the command (route, arguments, raw body) and hands them to the view as a
+value, which passes it to the live service; the service's rule for keyed
+commands (hcss.platform.live.command_keys) carries the first POST with a key
+out once under the trial's lock and stores its answer with the key, in the
+action's own transaction when it records something; a repeat gets that answer
+back (header ``Idempotent-Replayed``), and a key reused for another command is
+refused with 422. The view itself never runs under the trial's lock.
 
 A POST without the header is carried out as before, without protection
 against repeats: scripts and bots that predate keys keep working. A header
@@ -22,13 +23,11 @@ from collections.abc import Callable
 from functools import wraps
 from typing import Any
 
-from flask import current_app, jsonify, request
+from flask import request
 
-from hcss.platform.db import database
-from hcss.platform.live.access import require_owner, runner
-from hcss.platform.live.command_keys import Answer, once
+from hcss.platform.live.access import require_owner
 from hcss.platform.live.commands import ActionError
-from hcss.platform.models import CommandKey
+from hcss.platform.live.trial_writer import KeyedCommand
 
 KEY_HEADER = "Idempotency-Key"
 KEY_PATTERN = re.compile(r"[A-Za-z0-9_-]{8,64}")
@@ -60,9 +59,9 @@ def _fingerprint() -> str:
 
 
 def idempotent(view: Callable[..., Any]) -> Callable[..., Any]:
-    """Route decorator: carry out a keyed command once and answer repeats from the store.
+    """Route decorator: the request's key, read and checked, handed to the view as a value.
 
-    The view is called with `key`: the request's `CommandKey`, not yet stored,
+    The view is called with `key`: the request's key as a value (`KeyedCommand`),
     for the action to store with what it records; None when the POST has no key.
     """
 
@@ -72,22 +71,9 @@ def idempotent(view: Callable[..., Any]) -> Callable[..., Any]:
         if sent is None:
             return view(token, trial_id, key=None, **kwargs)
         require_owner(token, trial_id)  # 404 for another participant's trial
-        pending = CommandKey(
+        key = KeyedCommand(
             trial_id=trial_id, key=sent, endpoint=str(request.endpoint), fingerprint=_fingerprint()
         )
-
-        def carry_out(key: CommandKey) -> Answer:
-            try:
-                response = current_app.make_response(view(token, trial_id, key=key, **kwargs))
-            except ActionError as error:
-                return Answer(error.status, {"error": error.code, "message": error.message})
-            return Answer(response.status_code, response.get_json())
-
-        answer = once(database(), runner(), pending, carry_out)
-        response = jsonify(answer.body)
-        response.status_code = answer.status
-        if answer.replayed:
-            response.headers["Idempotent-Replayed"] = "true"
-        return response
+        return view(token, trial_id, key=key, **kwargs)
 
     return wrapper

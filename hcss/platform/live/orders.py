@@ -15,7 +15,8 @@ import time as wallclock
 from collections.abc import Iterable
 from dataclasses import dataclass
 
-from sqlalchemy import select
+from sqlalchemy import select, update
+from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
 from hcss.platform.models import Trial, TrialOrder
@@ -67,6 +68,13 @@ def send_order(
         if wallclock.monotonic() >= deadline:
             return None
         wallclock.sleep(0.05)
+
+
+def mark_done(session: Session, order_id: int, now: float, outcome: str) -> None:
+    """The order is carried out (`outcome`), in the transaction that carried it out."""
+    session.execute(
+        update(TrialOrder).where(TrialOrder.id == order_id).values(done_epoch=now, outcome=outcome)
+    )
 
 
 def pending_orders(database: Database, trial_ids: Iterable[int]) -> list[PendingOrder]:

@@ -24,8 +24,8 @@ from datetime import UTC, datetime
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
+from hcss.platform.live import trial_writer
 from hcss.platform.live.session import RunningTrial
-from hcss.platform.live.trial_writer import add_if_absent
 from hcss.platform.models import (
     Command,
     DecisionRow,
@@ -126,15 +126,13 @@ def record_database_outage(live: RunningTrial, session: Session, now: float) -> 
     outage_s = max(0.0, now - live.database_away_since) - covered_s
     if covered_s and outage_s <= 0.0:
         return
-    add_if_absent(
+    trial_writer.write_interruption(
         session,
-        Interruption(
-            trial_id=live.trial_id,
-            snapshot_step=live.sim.step_count,
-            resumed_step=live.sim.step_count,
-            replayed_commands=0,
-            state_digest=live.sim.state_digest(),
-            last_seen_at=datetime.fromtimestamp(live.database_away_since + covered_s, UTC),
-            outage_s=max(0.0, outage_s),
-        ),
+        live.trial_id,
+        snapshot_step=live.sim.step_count,
+        resumed_step=live.sim.step_count,
+        replayed_commands=0,
+        state_digest=live.sim.state_digest(),
+        last_seen_at=datetime.fromtimestamp(live.database_away_since + covered_s, UTC),
+        outage_s=max(0.0, outage_s),
     )

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
+from hcss.platform.live import trial_writer
 from hcss.platform.live.clock import paused_intervals
 from hcss.platform.live.outages import (
     earlier_outages_s,
@@ -33,18 +34,14 @@ from hcss.platform.live.trial_log import (
     newest_snapshot,
     shown_messages,
 )
-from hcss.platform.live.trial_writer import add_if_absent
 from hcss.platform.models import (
     Command,
-    CommandOutcome,
     DecisionRow,
-    Interruption,
     Probe,
     ProbeEvent,
     RequestStatusChange,
     SimEvent,
     Trial,
-    TrialProblem,
 )
 from hcss.platform.naming import Uninterpretable
 
@@ -102,17 +99,15 @@ def load_trial(
     with kept_until_written(live):
         record_progress(live, session)
     if ran_before:  # stored once, even if two rebuilds of this outage race (its key)
-        add_if_absent(
+        trial_writer.write_interruption(
             session,
-            Interruption(
-                trial_id=trial.id,
-                snapshot_step=-1 if snapshot is None else snapshot.step,
-                resumed_step=sim.step_count,
-                replayed_commands=replayed,
-                state_digest=sim.state_digest(),
-                last_seen_at=seen,
-                outage_s=outage_s,
-            ),
+            trial.id,
+            snapshot_step=-1 if snapshot is None else snapshot.step,
+            resumed_step=sim.step_count,
+            replayed_commands=replayed,
+            state_digest=sim.state_digest(),
+            last_seen_at=seen,
+            outage_s=outage_s,
         )
     write_snapshot(live, session, now)
     return live
@@ -132,7 +127,7 @@ def _replay_commands(session: Session, trial: Trial, live: RunningTrial) -> int:
     def record(command: Command, outcome: RequestOutcome) -> None:
         nonlocal replayed
         replayed += 1
-        add_if_absent(session, CommandOutcome.of(command.id, outcome))  # one per command
+        trial_writer.write_command_outcome(session, command.id, outcome)  # one per command
         live.command_applied(command.id)
 
     build_simulation(
@@ -166,13 +161,12 @@ def _restore_messages(session: Session, live: RunningTrial) -> None:
     cannot be worded is recorded as a trial problem instead."""
 
     def unworded(command: Command, error: Uninterpretable) -> None:
-        session.add(
-            TrialProblem(
-                trial_id=live.trial_id,
-                source="rebuild",
-                record=f"command {command.id}",
-                problem=f"not shown in System Messages: {error}"[:300],
-            )
+        trial_writer.write_problem(
+            session,
+            live.trial_id,
+            "rebuild",
+            f"command {command.id}",
+            f"not shown in System Messages: {error}",
         )
 
     n = live.sim.scenario.n_collectives

@@ -4,8 +4,9 @@ Called by the runner after each batch of steps, and once after a rebuild, with
 the trial's lock held. Everything is derived from the simulation's state, so a
 rebuild that replays the same steps writes only what had not been written.
 
-Every row is written if absent (`trial_writer.add_if_absent`: the database's
-unique keys decide): a unit of work whose commit reached the database but
+The rows are made by the trial log's writer (`trial_writer`), decisions,
+events, probes, probe events and statuses if absent (the database's unique
+keys decide): a unit of work whose commit reached the database but
 whose answer was lost (a dropped line, a failover) is taken for failed and
 written again by the next, whose rows (an event by kind, time and text; a
 decision by collective and index; a status by request and status; a probe by
@@ -29,23 +30,12 @@ from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
-from sqlalchemy import select
 from sqlalchemy.orm import Session
 
+from hcss.platform.live import trial_writer
 from hcss.platform.live.probes import POSTPONE_S, PROBE_TIMEOUT_S, fill_probe
 from hcss.platform.live.progress import CurrentProbe
 from hcss.platform.live.session import RunningTrial
-from hcss.platform.live.trial_writer import add_all_if_absent, add_if_absent
-from hcss.platform.models import (
-    DecisionRow,
-    Probe,
-    ProbeEvent,
-    RequestStatusChange,
-    SimEvent,
-    Snapshot,
-    TrialStatusChange,
-)
-from hcss.platform.models.vocabularies import RequestStatus, TrialStatus
 from hcss.questionnaires.probes import ProbeLevel
 from hcss.simulation.messages import event_text
 
@@ -91,19 +81,19 @@ def _take_events(live: RunningTrial) -> None:
 
 def _record_events(live: RunningTrial, session: Session) -> None:
     _take_events(live)
-    add_all_if_absent(  # one written by a commit whose answer was lost is not written twice
+    trial_writer.write_events(
         session,
-        [
-            SimEvent(
-                trial_id=live.trial_id,
-                kind=str(event["kind"]),
-                collective=_int_or_none(event.get("collective")),
-                target=_int_or_none(event.get("target")),
-                text=event_text(event)[:300],
-                sim_time=float(event["time"]),
-            )
+        live.trial_id,
+        (
+            {
+                "kind": str(event["kind"]),
+                "collective": _int_or_none(event.get("collective")),
+                "target": _int_or_none(event.get("target")),
+                "text": event_text(event)[:300],
+                "sim_time": float(event["time"]),
+            }
             for event in live.unwritten_events
-        ],
+        ),
     )
     # Events of one step share its time and are written together, so the
     # newest time marks everything written.
@@ -115,16 +105,14 @@ def _record_decisions(live: RunningTrial, session: Session) -> None:
     for record in records[live.decisions_recorded :]:
         # The record itself; who and where (source, participant, trial, run) the export adds.
         row = {k: v for k, v in record.as_row().items() if k not in EXPORT_IDENTITY}
-        add_if_absent(  # skipped if written by a commit whose answer was lost
+        trial_writer.write_decision(  # skipped if written by a commit whose answer was lost
             session,
-            DecisionRow(
-                trial_id=live.trial_id,
-                collective=int(record.collective),
-                decision_index=int(row["decision_index"]),
-                step=live.sim.step_count,
-                correct=None if row.get("correct") is None else bool(row["correct"]),
-                record=row,
-            ),
+            live.trial_id,
+            collective=int(record.collective),
+            decision_index=int(row["decision_index"]),
+            step=live.sim.step_count,
+            correct=None if row.get("correct") is None else bool(row["correct"]),
+            record=row,
         )
         _score_projections(live, session, row["collective"], float(row["end_s"]))
     live.decisions_written(len(records))
@@ -133,17 +121,15 @@ def _record_decisions(live: RunningTrial, session: Session) -> None:
 def _score_projections(live: RunningTrial, session: Session, collective: str, end_s: float) -> None:
     """Level-3 probes asked before this decision ended are scored by it."""
     for probe_id, _shown_at, answer in live.projections_ended_by(end_s):
-        add_if_absent(
+        trial_writer.write_probe_event(
             session,
-            ProbeEvent(
-                probe_id=probe_id,
-                kind="scored",
-                answer=answer,
-                truth=collective,
-                correct=None if answer is None else answer == collective,
-                step=live.sim.step_count,
-                sim_time=float(live.sim.time),
-            ),
+            probe_id,
+            "scored",
+            answer=answer,
+            truth=collective,
+            correct=None if answer is None else answer == collective,
+            step=live.sim.step_count,
+            sim_time=float(live.sim.time),
         )
 
 
@@ -154,18 +140,10 @@ def record_request_statuses(live: RunningTrial, session: Session) -> None:
     the written ones (restored from the rows) are skipped.
     """
     changes = live.status_changes_to_write(live.sim.drain_status_changes())
-    add_all_if_absent(  # one written by a commit whose answer was lost is not written twice
+    trial_writer.write_request_statuses(
         session,
-        [
-            RequestStatusChange(
-                trial_id=live.trial_id,
-                request_id=change.request_id,
-                status=RequestStatus(change.status),
-                step=change.step,
-                sim_time=float(change.time),
-            )
-            for change in changes
-        ],
+        live.trial_id,
+        [(c.request_id, str(c.status), c.step, float(c.time)) for c in changes],
     )
 
 
@@ -174,11 +152,8 @@ def _expire_probe(live: RunningTrial, session: Session, time: float) -> None:
     if probe is None or time < probe.timeout_sim_time:
         return
     live.probe_cleared()
-    add_if_absent(
-        session,
-        ProbeEvent(
-            probe_id=probe.id, kind="timeout", step=live.sim.step_count, sim_time=float(time)
-        ),
+    trial_writer.write_probe_event(
+        session, probe.id, "timeout", step=live.sim.step_count, sim_time=float(time)
     )
 
 
@@ -197,9 +172,10 @@ def _show_probe(live: RunningTrial, session: Session, time: float) -> None:
     if filled is None:
         live.probe_postponed(time + POSTPONE_S)
         return
-    row = Probe(
-        trial_id=live.trial_id,
-        probe_index=probe_index,
+    row = trial_writer.write_probe(  # the stored one if a commit whose answer was lost showed it
+        session,
+        live.trial_id,
+        probe_index,
         level=filled.level,
         question=filled.question,
         choices=filled.choices,
@@ -208,23 +184,18 @@ def _show_probe(live: RunningTrial, session: Session, time: float) -> None:
         shown_sim_time=float(time),
         timeout_sim_time=float(time) + PROBE_TIMEOUT_S,
     )
-    if not add_if_absent(session, row):  # shown by a commit whose answer was lost: that probe
-        row = session.scalars(
-            select(Probe).where(Probe.trial_id == live.trial_id, Probe.probe_index == probe_index)
-        ).one()
     live.probe_shown(CurrentProbe.of(row))
 
 
 def write_snapshot(live: RunningTrial, session: Session, now: float) -> None:
     sim = live.sim
-    session.add(
-        Snapshot(
-            trial_id=live.trial_id,
-            step=sim.step_count,
-            sim_time=float(sim.time),
-            last_command_id=live.last_command_id,
-            blob=sim.snapshot(),
-        )
+    trial_writer.write_snapshot(
+        session,
+        live.trial_id,
+        step=sim.step_count,
+        sim_time=float(sim.time),
+        last_command_id=live.last_command_id,
+        blob=sim.snapshot(),
     )
     live.snapshot_written(now)
 
@@ -233,30 +204,11 @@ def end_trial(live: RunningTrial, session: Session, reason: str, now: float) -> 
     """The time limit is reached: close the open probe, snapshot, and mark it ended."""
     probe = live.probe_cleared()
     if probe is not None:
-        add_if_absent(
-            session,
-            ProbeEvent(
-                probe_id=probe.id, kind="timeout", step=live.sim.step_count, sim_time=live.sim.time
-            ),
+        trial_writer.write_probe_event(
+            session, probe.id, "timeout", step=live.sim.step_count, sim_time=float(live.sim.time)
         )
     write_snapshot(live, session, now)
-    ended = session.scalar(
-        select(TrialStatusChange.id)
-        .where(
-            TrialStatusChange.trial_id == live.trial_id,
-            TrialStatusChange.status == TrialStatus.ENDED,
-        )
-        .limit(1)
-    )
-    if ended is None:  # else a commit whose answer was lost ended it already
-        session.add(
-            TrialStatusChange(
-                trial_id=live.trial_id,
-                status=TrialStatus.ENDED,
-                reason=reason,
-                step=live.sim.step_count,
-            )
-        )
+    trial_writer.write_ended_once(session, live.trial_id, reason, live.sim.step_count)
     live.mark_ended(reason)
 
 

@@ -20,12 +20,12 @@ from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
 
 from flask import Flask
-from sqlalchemy import update
 from sqlalchemy.exc import DBAPIError, InterfaceError, OperationalError, ProgrammingError
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
 from hcss.platform.errors import database_away
+from hcss.platform.live import trial_writer
 from hcss.platform.live.control import control_trial
 from hcss.platform.live.leases import (
     LEASE_S,
@@ -35,7 +35,14 @@ from hcss.platform.live.leases import (
     Leases,
     trial_transaction,
 )
-from hcss.platform.live.orders import HAND_OVER, POLL_S, PendingOrder, pending_orders, send_order
+from hcss.platform.live.orders import (
+    HAND_OVER,
+    POLL_S,
+    PendingOrder,
+    mark_done,
+    pending_orders,
+    send_order,
+)
 from hcss.platform.live.outages import record_database_outage
 from hcss.platform.live.rebuild import load_trial
 from hcss.platform.live.recorder import (
@@ -46,7 +53,7 @@ from hcss.platform.live.recorder import (
 )
 from hcss.platform.live.session import RunningTrial
 from hcss.platform.live.trials import latest_status, running_trial_ids
-from hcss.platform.models import Trial, TrialOrder, TrialProblem, TrialStatusChange
+from hcss.platform.models import Trial
 from hcss.platform.models.vocabularies import TrialStatus
 
 log = logging.getLogger(__name__)
@@ -263,19 +270,14 @@ class Runner:
         with self.database.session_scope() as session:
             if fence is not None:
                 fence.prove(session, self.clock())
-            session.add(
-                TrialProblem(
-                    trial_id=trial_id,
-                    source="rebuild",
-                    record=f"trial {trial_id}",
-                    problem=f"cannot be rebuilt: {type(error).__name__}: {error}"[:300],
-                )
+            trial_writer.write_problem(
+                session,
+                trial_id,
+                "rebuild",
+                f"trial {trial_id}",
+                f"cannot be rebuilt: {type(error).__name__}: {error}",
             )
-            session.add(
-                TrialStatusChange(
-                    trial_id=trial_id, status=TrialStatus.ENDED, reason="rebuild_failed"
-                )
-            )
+            trial_writer.write_status(session, trial_id, TrialStatus.ENDED, "rebuild_failed", 0)
 
     def sync(self) -> None:
         """Load every running trial not yet in memory (after a restart, or from the CLI)."""
@@ -365,11 +367,7 @@ class Runner:
             with trial_transaction(self.database, live) as session:
                 now = self.clock()
                 self.leases.pass_on(session, live.trial_id, order.issued_by, now)
-                session.execute(
-                    update(TrialOrder)
-                    .where(TrialOrder.id == order.id)
-                    .values(done_epoch=now, outcome="done")
-                )
+                mark_done(session, order.id, now, "done")
             with self._registry_lock:
                 self._trials.pop(live.trial_id, None)
             live.move_away()  # its streams close; the page reconnects to the new host

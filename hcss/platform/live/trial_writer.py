@@ -1,29 +1,238 @@
-"""Insert a trial's row unless the row it stands for is stored already.
+"""The trial log's writer: the only code that makes a trial's rows.
+
+Everything a live trial leaves in the database is written here: the trial
+row and its status changes, snapshots, interruptions and problems, the
+participant's commands with their outcomes and idempotency keys, clicks,
+probes and their events, decisions, System Message events, request statuses,
+and the console's actions on it. The callers (the recorder, the actions, the
+rebuild, the runner, the console's control) decide *what* happened, under the
+trial's lock and in a transaction that proves the lease
+(`leases.trial_transaction`); this module turns it into rows. A check in
+tests/platform/test_one_writer.py finds any other code that builds, inserts,
+updates or deletes such a row (the lease and order tables are the leases' and
+orders' own; a withdrawal deletes a participant's rows wholesale).
 
 A trial's decisions, events, probes, probe events, request statuses and
 interruptions each have a unique key in the database (migration
 i29_unique_trial_rows): a decision is its collective and index, an event its
 kind, time and text, a probe its index, a probe event its kind, a status its
 request and status, an interruption the moment the trial was last seen before
-it. Written through `add_if_absent`, a row whose key is stored is skipped by the
-database itself (``INSERT … ON CONFLICT DO NOTHING``), so neither a retry after a
-commit whose answer was lost nor a second writer racing this one (two
-transactions that both read "absent") can store it twice, and neither fails.
-On PostgreSQL the second of two racing inserts waits for the first's commit
-and then skips; SQLite writes one transaction at a time.
+it. They are written insert-if-absent (``INSERT … ON CONFLICT DO NOTHING``), so
+neither a retry after a commit whose answer was lost nor a second writer
+racing this one (two transactions that both read "absent") can store one
+twice, and neither fails. On PostgreSQL the second of two racing inserts
+waits for the first's commit and then skips; SQLite writes one transaction
+at a time.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import Any
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
+from sqlalchemy import select
 from sqlalchemy.dialects.postgresql import insert as pg_insert
 from sqlalchemy.dialects.sqlite import insert as sqlite_insert
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import session_now
+from hcss.platform.models import (
+    Command,
+    CommandKey,
+    CommandOutcome,
+    ConsoleAction,
+    DecisionRow,
+    Interruption,
+    Observation,
+    Probe,
+    ProbeEvent,
+    RequestStatusChange,
+    SimEvent,
+    Snapshot,
+    Trial,
+    TrialProblem,
+    TrialStatusChange,
+)
 from hcss.platform.models.base import Base
+from hcss.platform.models.vocabularies import RequestStatus, TrialStatus
+
+if TYPE_CHECKING:
+    from hcss.simulation import OperatorCommand
+    from hcss.simulation.requests import RequestOutcome
+
+
+@dataclass(frozen=True)
+class KeyedCommand:
+    """A command's idempotency key as a value: which trial, the key, and what it stands for
+    (route and fingerprint); stored as a `CommandKey` row with the command's answer."""
+
+    trial_id: int
+    key: str
+    endpoint: str
+    fingerprint: str
+
+
+def write_trial(session: Session, trial: Trial) -> Trial:
+    """A trial starts: its row and its first status, ``running``."""
+    session.add(trial)
+    session.flush()
+    write_status(session, trial.id, TrialStatus.RUNNING, "started", 0)
+    return trial
+
+
+def new_trial(**columns: Any) -> Trial:
+    """The unsaved row of a trial about to start (`write_trial` stores it)."""
+    return Trial(**columns)
+
+
+def write_status(session: Session, trial_id: int, status: str, reason: str, step: int) -> None:
+    session.add(TrialStatusChange(trial_id=trial_id, status=status, reason=reason, step=step))
+    session.flush()
+
+
+def write_ended_once(session: Session, trial_id: int, reason: str, step: int) -> None:
+    """The trial's end, unless a commit whose answer was lost ended it already."""
+    ended = session.scalar(
+        select(TrialStatusChange.id)
+        .where(
+            TrialStatusChange.trial_id == trial_id,
+            TrialStatusChange.status == TrialStatus.ENDED,
+        )
+        .limit(1)
+    )
+    if ended is None:
+        session.add(
+            TrialStatusChange(trial_id=trial_id, status=TrialStatus.ENDED, reason=reason, step=step)
+        )
+
+
+def write_problem(session: Session, trial_id: int, source: str, record: str, problem: str) -> None:
+    """A stored record that could not be used, or a trial that could not be rebuilt."""
+    session.add(
+        TrialProblem(trial_id=trial_id, source=source, record=record, problem=problem[:300])
+    )
+
+
+def write_snapshot(
+    session: Session,
+    trial_id: int,
+    *,
+    step: int,
+    sim_time: float,
+    last_command_id: int | None,
+    blob: bytes,
+) -> None:
+    session.add(
+        Snapshot(
+            trial_id=trial_id,
+            step=step,
+            sim_time=sim_time,
+            last_command_id=last_command_id,
+            blob=blob,
+        )
+    )
+
+
+def write_interruption(session: Session, trial_id: int, **fields: Any) -> bool:
+    """An outage of the trial, once per moment it was last seen before it (its key)."""
+    return add_if_absent(session, Interruption(trial_id=trial_id, **fields))
+
+
+def write_command(
+    session: Session,
+    trial_id: int,
+    command: OperatorCommand,
+    outcome: RequestOutcome,
+    *,
+    step: int,
+    sim_time: float,
+    selections: tuple[int, ...],
+) -> Command:
+    """A participant's request as applied, with its outcome; the row has its id."""
+    row = Command.applied(
+        trial_id, command, outcome, step=step, sim_time=sim_time, selections=selections
+    )
+    session.add(row)
+    session.flush()
+    session.add(CommandOutcome.of(row.id, outcome))
+    return row
+
+
+def write_command_outcome(session: Session, command_id: int, outcome: RequestOutcome) -> None:
+    """The outcome of a logged command, replayed by a rebuild; one per command."""
+    add_if_absent(session, CommandOutcome.of(command_id, outcome))
+
+
+def write_command_key(session: Session, key: KeyedCommand, status: int, response: Any) -> None:
+    """The key with the answer its command got, in the command's transaction."""
+    session.add(
+        CommandKey(
+            trial_id=key.trial_id,
+            key=key.key,
+            endpoint=key.endpoint,
+            fingerprint=key.fingerprint,
+            status=status,
+            response=response,
+        )
+    )
+
+
+def write_observation(session: Session, trial_id: int, **fields: Any) -> int:
+    """A click on the map; its id."""
+    row = Observation(trial_id=trial_id, **fields)
+    session.add(row)
+    session.flush()
+    return row.id
+
+
+def write_probe_event(session: Session, probe_id: int, kind: str, **fields: Any) -> bool:
+    """A probe's ready press, answer, time-out or score; once per kind."""
+    return add_if_absent(session, ProbeEvent(probe_id=probe_id, kind=kind, **fields))
+
+
+def write_probe(session: Session, trial_id: int, probe_index: int, **fields: Any) -> Probe:
+    """The trial's `probe_index`-th probe, shown; the stored one if a lost commit showed it."""
+    row = Probe(trial_id=trial_id, probe_index=probe_index, **fields)
+    if add_if_absent(session, row):
+        return row
+    return session.scalars(
+        select(Probe).where(Probe.trial_id == trial_id, Probe.probe_index == probe_index)
+    ).one()
+
+
+def write_events(session: Session, trial_id: int, events: Iterable[dict[str, Any]]) -> None:
+    """System Message events (kind, collective, target, text, sim_time); each once."""
+    add_all_if_absent(session, [SimEvent(trial_id=trial_id, **event) for event in events])
+
+
+def write_decision(session: Session, trial_id: int, **fields: Any) -> bool:
+    """A collective decision's record; once per collective and index."""
+    return add_if_absent(session, DecisionRow(trial_id=trial_id, **fields))
+
+
+def write_request_statuses(
+    session: Session, trial_id: int, changes: Iterable[tuple[int, str, int, float]]
+) -> None:
+    """(request, status, step, time) of each status change; each once."""
+    add_all_if_absent(
+        session,
+        [
+            RequestStatusChange(
+                trial_id=trial_id,
+                request_id=request_id,
+                status=RequestStatus(status),
+                step=step,
+                sim_time=sim_time,
+            )
+            for request_id, status, step, sim_time in changes
+        ],
+    )
+
+
+def write_console_action(session: Session, **fields: Any) -> None:
+    """The experimenter's pause, resume or abort of the trial (the console's record)."""
+    session.add(ConsoleAction(**fields))
 
 
 def add_if_absent(session: Session, row: Base) -> bool:

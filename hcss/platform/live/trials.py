@@ -15,6 +15,7 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import session_now
+from hcss.platform.live import trial_writer
 from hcss.platform.live.probes import stored_counts
 from hcss.platform.models import Participant, Trial, TrialStatusChange
 from hcss.platform.models.latest import latest_row, newest_ids
@@ -75,7 +76,7 @@ def start_trial(
     if duration <= 0:
         raise ValueError("duration_s must be positive")
     started_at = started_at or session_now(session)
-    trial = Trial(
+    trial = trial_writer.new_trial(
         participant_id=participant.id,
         kind=kind,
         model=model,
@@ -91,13 +92,7 @@ def start_trial(
         started_at=started_at,
         deadline=started_at + timedelta(seconds=duration / time_acceleration),
     )
-    session.add(trial)
-    session.flush()
-    session.add(
-        TrialStatusChange(trial_id=trial.id, status=TrialStatus.RUNNING, reason="started", step=0)
-    )
-    session.flush()
-    return trial
+    return trial_writer.write_trial(session, trial)
 
 
 def start_bot_trial(session: Session, **options: Any) -> tuple[Participant, Trial]:

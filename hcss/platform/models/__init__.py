@@ -3,6 +3,7 @@
 from hcss.platform.models.append_only import APPEND_ONLY_TABLES, DeletionPermit
 from hcss.platform.models.base import Base, CreatedAt, UTCDateTime
 from hcss.platform.models.console import AuditRecord, ConsoleAction, Experimenter, LoginFailure
+from hcss.platform.models.group import GroupStudy
 from hcss.platform.models.idempotency import CommandKey
 from hcss.platform.models.join_start import JoinStart
 from hcss.platform.models.lease import TrialLease
@@ -48,6 +49,7 @@ __all__ = [
     "CommandKey",
     "CreatedAt",
     "DecisionRow",
+    "GroupStudy",
     "Interruption",
     "JoinStart",
     "LoginFailure",

@@ -5,7 +5,7 @@ windows lived in each server process: `hcss serve --processes N` let a client
 start N times the limit, and a restart forgot them.
 
 Revision ID: i30_join_start
-Revises: i29_unique_trial_rows
+Revises: i29_group_study
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import sqlalchemy as sa
 from alembic import op
 
 revision = "i30_join_start"
-down_revision = "i29_unique_trial_rows"
+down_revision = "i29_group_study"
 branch_labels = None
 depends_on = None
 
