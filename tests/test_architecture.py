@@ -31,7 +31,8 @@ from pathlib import Path
 
 import pytest
 
-CHECKOUT = Path(__file__).resolve().parents[1]
+from tests.support.source import CHECKOUT, planted
+
 BIN = Path(sys.executable).parent
 
 
@@ -47,16 +48,6 @@ def lint_imports(root: Path) -> subprocess.CompletedProcess[str]:
         check=False,
         timeout=300,
     )
-
-
-def planted(tmp_path: Path, module: str, line: str) -> Path:
-    """A copy of the source with `line` appended to `module` (a path under hcss/)."""
-    root = tmp_path / "source"
-    shutil.copytree(CHECKOUT / "hcss", root / "hcss", ignore=shutil.ignore_patterns("__pycache__"))
-    shutil.copy(CHECKOUT / "pyproject.toml", root / "pyproject.toml")
-    target = root / module
-    target.write_text(target.read_text() + f"\n{line}\n")
-    return root
 
 
 def test_the_source_keeps_every_contract() -> None:

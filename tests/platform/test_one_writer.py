@@ -22,7 +22,7 @@ import re
 from pathlib import Path
 
 from hcss.platform import models
-from tests.test_architecture import CHECKOUT, planted
+from tests.support.source import CHECKOUT, planted
 
 WRITER = "hcss/platform/live/trial_writer.py"
 #: The trial log: every table of what happened in a trial, written only by the writer.
