@@ -30,7 +30,7 @@ OTHER_DEMO = "0" * 64  # the digest of a demo study file that is not this checko
 
 
 @pytest.fixture
-def group_database(database_url: str):  # type: ignore[no-untyped-def]
+def group_database(database_url: str):
     if not database_url.startswith("postgresql"):
         pytest.skip("a process group runs on PostgreSQL")
     upgrade_database(database_url)
