@@ -62,10 +62,19 @@ def app(database_url: str) -> Iterator[Flask]:
 
 @pytest.fixture
 def make_trial(app: Flask):
-    """Start a trial for a new participant: make_trial(seed=2, model="M1", kind="trial")."""
+    """Start a trial for a new participant: make_trial(seed=2, model="M1", kind="trial").
+
+    Unless told otherwise it is the original study's trial: its length and its simulation
+    preset (the study file names one, which need not be the simulation's default);
+    `preset=None` starts it as start_trial does when no preset is named.
+    """
 
     def make(**options: Any) -> TrialHandle:
         options.setdefault("seed", 2)
+        if "preset" not in options:
+            options["preset"] = STUDY.simulation.preset
+        elif options["preset"] is None:
+            del options["preset"]
         training = options.get("kind") == "training"
         options.setdefault(
             "duration_s", STUDY.timing.training_s if training else STUDY.timing.trial_s

@@ -21,7 +21,7 @@ def _differing(a: Params, b: Params) -> list[str]:
 def test_a_live_m2_trial_is_the_batch_experiments_m2_apart_from_the_decision_timeout(
     make_trial,
 ) -> None:
-    handle = make_trial(model="M2")
+    handle = make_trial(model="M2", preset=None)  # a trial whose study names no preset
     live = handle.live()
     batch = preset_params(DEFAULT_PRESET)  # what `hcss simulate experiment` runs by default
     assert _differing(live.sim.params, batch) == ["decision_timeout_s"]
