@@ -82,6 +82,7 @@ class Attempt:
     wait_s: float = 0.0
     failures: int = 0
     locks: bool = False
+    row_id: int | None = None  # its failure row, taken back if the password was right
 
 
 class LoginThrottle:
@@ -156,20 +157,28 @@ class LoginThrottle:
             )
             failures = int(recent or 0) + 1
             locks = failures >= CLIENT_FAILURES
-            session.add(
-                LoginFailure(
-                    scope=SCOPE,
-                    key=key,
-                    at_epoch=now,
-                    locked_until=now + LOCKOUT_S if locks else None,
-                )
+            row = LoginFailure(
+                scope=SCOPE, key=key, at_epoch=now, locked_until=now + LOCKOUT_S if locks else None
             )
-        return Attempt(key, failures=failures, locks=locks)
+            session.add(row)
+            session.flush()
+            row_id = row.id
+        return Attempt(key, failures=failures, locks=locks, row_id=row_id)
 
     def succeeded(self, attempt: Attempt) -> None:
-        """The right password: this (account, client) never failed."""
+        """The right password was no failure. Alone, it means this (account, client) never
+        failed: its count starts again. With other sign-ins of it waiting their turn behind
+        it (a burst: a person signs in once at a time), only its own count is taken back, so
+        the guesses behind it are still counted from the wrong ones before it."""
+        with self._turns_lock:
+            turn = self._turns.get(attempt.key)
+            burst = turn is not None and turn[1][0] > 1
         with self._lock, self.database.session_scope() as session:
-            session.execute(delete(LoginFailure).where(_of(attempt.key)))
+            if not burst:
+                session.execute(delete(LoginFailure).where(_of(attempt.key)))
+                return
+            if attempt.row_id is not None:
+                session.execute(delete(LoginFailure).where(LoginFailure.id == attempt.row_id))
 
     def take(self, scope: str, key: str, count: int, window_s: float) -> bool:
         """Count one event of (`scope`, `key`); False, counting nothing, when `count` of them
