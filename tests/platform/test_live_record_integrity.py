@@ -40,6 +40,17 @@ def _start(runner: Runner) -> int:
         return trial.id
 
 
+def _hosted_for_20_s(runner: Runner, clock):
+    """A new trial hosted by `runner`, ticked through 20 s of its clock: (its id, its live trial)."""
+    trial_id = _start(runner)
+    live = runner.host(trial_id)
+    assert live is not None
+    for _ in range(20):
+        clock.now += 1.0
+        runner.tick()
+    return trial_id, live
+
+
 def _events(runner: Runner, trial_id: int) -> list[tuple[str, float, str]]:
     with runner.database.session_scope() as session:
         rows = session.execute(
@@ -81,12 +92,7 @@ def test_the_rebuild_replays_the_commands_after_the_snapshots_last_one_by_identi
     the trial rolled back): the snapshots after it name the last command they hold, and a
     rebuild replays what follows that command, not the log's tail by count."""
     a, b, clock = group
-    trial_id = _start(a)
-    live = a.host(trial_id)
-    assert live is not None
-    for _ in range(20):
-        clock.now += 1.0
-        a.tick()
+    trial_id, live = _hosted_for_20_s(a, clock)
     command = _command(a, trial_id)
     actions.submit_request(a.database, live, command)
     with a.database.session_scope() as session:  # a command in the log, not in memory
@@ -142,12 +148,7 @@ def test_a_command_whose_commit_answer_is_lost_stays_applied_as_logged(group, mo
     database, finds the command logged and keeps it applied in memory, so the trial in
     memory and its log agree (before, it was rolled back while its row stayed logged)."""
     a, b, clock = group
-    trial_id = _start(a)
-    live = a.host(trial_id)
-    assert live is not None
-    for _ in range(20):
-        clock.now += 1.0
-        a.tick()
+    trial_id, live = _hosted_for_20_s(a, clock)
     command = _command(a, trial_id)
     _answer_lost_after_commit(a.database, monkeypatch)
     answer = actions.submit_request(a.database, live, command)
@@ -261,12 +262,7 @@ def test_a_command_nobody_can_say_was_committed_is_settled_by_a_rebuild(group, m
     line is still down): the trial in memory is not guessed at. The runner drops it and
     the next request rebuilds it from the log, which holds the command."""
     a, _b, clock = group
-    trial_id = _start(a)
-    live = a.host(trial_id)
-    assert live is not None
-    for _ in range(20):
-        clock.now += 1.0
-        a.tick()
+    trial_id, live = _hosted_for_20_s(a, clock)
     command = _command(a, trial_id)
     _answer_lost_after_commit(a.database, monkeypatch)
     dialect = a.database.engine.dialect
