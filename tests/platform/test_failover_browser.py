@@ -21,6 +21,25 @@ from tests.support.trials import STUDY_TRIAL_S
 pytestmark = pytest.mark.browser
 
 
+def _live_page(database, browser, nginx, servers):
+    """A new trial's page opened through nginx, live with its clock running: (the page, the
+    trial's id, the lease's owner, the server that owner is)."""
+    from playwright.sync_api import expect
+
+    with database.session_scope() as session:
+        participant, trial = start_bot_trial(
+            session, seed=2, duration_s=STUDY_TRIAL_S, time_acceleration=20.0
+        )
+        token, trial_id = participant.token, trial.id
+    page = browser.new_page()
+    page.goto(f"{nginx.url}/live/{token}")
+    expect(page.locator("#connection")).to_have_text("live", timeout=15_000)
+    expect(page.locator("#clock")).not_to_have_text("0:00", timeout=15_000)
+    owner = lease_owner(database, trial_id)
+    host = next(s for s in servers if (owner or "").startswith(f"127.0.0.1:{s.port}/"))
+    return page, trial_id, owner, host
+
+
 @pytest.fixture
 def group_url(database_url: str) -> str:
     """Skips before the browser starts, on SQLite or without nginx."""
@@ -48,17 +67,7 @@ def test_the_page_comes_back_by_itself_on_the_other_process(group_url, tmp_path,
         for server in servers:
             server.start(timeout_s=120)
         nginx.start()
-        with database.session_scope() as session:
-            participant, trial = start_bot_trial(
-                session, seed=2, duration_s=STUDY_TRIAL_S, time_acceleration=20.0
-            )
-            token, trial_id = participant.token, trial.id
-        page = browser.new_page()
-        page.goto(f"{nginx.url}/live/{token}")
-        expect(page.locator("#connection")).to_have_text("live", timeout=15_000)
-        expect(page.locator("#clock")).not_to_have_text("0:00", timeout=15_000)
-        owner = lease_owner(database, trial_id)
-        host = next(s for s in servers if (owner or "").startswith(f"127.0.0.1:{s.port}/"))
+        page, trial_id, owner, host = _live_page(database, browser, nginx, servers)
 
         host.kill()
         killed = time.monotonic()
@@ -112,17 +121,7 @@ def test_the_page_of_a_stopped_host_shows_frames_again_while_it_stays_stopped(
         for server in servers:
             server.start(timeout_s=120)
         nginx.start()
-        with database.session_scope() as session:
-            participant, trial = start_bot_trial(
-                session, seed=2, duration_s=STUDY_TRIAL_S, time_acceleration=20.0
-            )
-            token, trial_id = participant.token, trial.id
-        page = browser.new_page()
-        page.goto(f"{nginx.url}/live/{token}")
-        expect(page.locator("#connection")).to_have_text("live", timeout=15_000)
-        expect(page.locator("#clock")).not_to_have_text("0:00", timeout=15_000)
-        owner = lease_owner(database, trial_id)
-        host = next(s for s in servers if (owner or "").startswith(f"127.0.0.1:{s.port}/"))
+        page, trial_id, owner, host = _live_page(database, browser, nginx, servers)
         assert host.process is not None
         stopped_pid = host.process.pid
 
