@@ -279,8 +279,10 @@ def supervise_first_trial(page, server: StudyServer, token: str) -> dict[str, in
         60,
     )
     assert target, "no drawn target in range of collective I within a minute"
+    answered = 0
     if live.current_probe is not None:  # it would cover the hub
         answer_probe(page, server)
+        answered += 1
     page.locator('g.collective[data-collective="0"]').click()
     page.locator(f'g.target[data-target="{target["id"]}"]').click()
     page.select_option("#request-kind", "investigate")
@@ -310,11 +312,10 @@ def supervise_first_trial(page, server: StudyServer, token: str) -> dict[str, in
     expect(page.locator("#paused")).to_be_hidden()
     expect(page.locator("#commit")).to_be_enabled()
 
-    answered = 0
     coming = live.probes_shown < len(live.probe_plan) or live.current_probe is not None
     if coming and wait_for(server, lambda lv: lv.current_probe is not None, 120):
         answer_probe(page, server)
-        answered = 1
+        answered += 1
     return {"target": target["id"], "probes": answered}
 
 
