@@ -63,6 +63,12 @@ POSTGRESQL_LINK = {
 }
 #: Milliseconds; set on each new connection (a URL's own `options`, the schema, stay).
 STATEMENT_TIMEOUT_MS = 15_000
+#: Milliseconds a transaction may wait on its client between statements. A process stopped
+#: (SIGSTOP, a hung VM) or cut off in the middle of a unit of work keeps every row it
+#: locked, the trial's lease row first, until PostgreSQL ends its transaction; the next
+#: host's claim would wait on that lock. Half a lease: the row is free before the lease
+#: runs out. The server's units of work are a few statements apart by milliseconds.
+IDLE_IN_TRANSACTION_MS = 3_000
 
 
 class RequestHoldsWrites(RuntimeError):
@@ -111,6 +117,7 @@ def make_engine(url: str) -> Engine:
     def _statement_timeout(dbapi_connection, _record) -> None:
         with dbapi_connection.cursor() as cursor:
             cursor.execute(f"SET statement_timeout = {STATEMENT_TIMEOUT_MS}")
+            cursor.execute(f"SET idle_in_transaction_session_timeout = {IDLE_IN_TRANSACTION_MS}")
         dbapi_connection.commit()
 
     return engine

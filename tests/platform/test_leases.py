@@ -13,6 +13,7 @@ from collections.abc import Iterator
 
 import pytest
 from sqlalchemy import func, select
+from sqlalchemy.exc import DBAPIError
 
 from hcss.platform.bots import ManualClock
 from hcss.platform.db import Database
@@ -304,3 +305,77 @@ def test_every_claim_takes_a_new_epoch_and_an_old_one_proves_nothing(database_ur
             leases.prove(session, trial.id, second, clock.now)
     finally:
         database.engine.dispose()
+
+
+def test_a_process_asked_for_the_trial_of_a_quiet_holder_waits_its_lease_out(
+    database_url: str,
+) -> None:
+    """A's lease is not renewed (A is stopped or cut off). While A renews on time, B asked
+    for the trial answers at once that A hosts it; once A has missed two renewals, B asked
+    for it (the participant's stream, sent on by the proxy) waits out A's last seconds and
+    hosts it, instead of a 503 that sends the page back through the silent A. On the
+    database's clock, as in a server."""
+    import time
+
+    apps = [leased_process(database_url, name, ManualClock(0.0)) for name in ("a:1", "b:1")]
+    apps[0].extensions["hcss_db"].create_all()
+    a, b = (app.extensions["hcss_runner"] for app in apps)
+    try:
+        for runner in (a, b):
+            runner.clock = time.time
+        trial_id = start_trial_on(a)
+        assert a.host(trial_id) is not None
+        claimed = time.monotonic()
+        asked = time.monotonic()
+        with pytest.raises(HostedElsewhere):
+            b.host(trial_id)  # A renews on time as far as B can tell
+        assert time.monotonic() - asked < 1.0, "B must not wait for a holder that renews"
+
+        time.sleep(max(0.0, claimed + 2 * LEASE_S / 3 + 0.2 - time.monotonic()))
+        asked = time.monotonic()
+        taken = b.host(trial_id)  # A has missed two renewals: B waits its lease out
+        waited = time.monotonic() - asked
+        assert taken is not None
+        assert claimed + LEASE_S - 0.5 < time.monotonic() < claimed + LEASE_S + 1.5
+        assert waited < LEASE_S / 3 + 0.5
+        with b.database.session_scope() as session:
+            assert session.scalar(select(TrialLease.owner)) == "b:1"
+    finally:
+        for app in apps:
+            app.extensions["hcss_db"].engine.dispose()
+
+
+def test_a_holder_stopped_inside_its_transaction_does_not_keep_the_lease_row_locked(
+    database_url: str,
+) -> None:
+    """SIGSTOP (or a cut line) in the middle of a fenced unit of work: the holder proved its
+    lease, so PostgreSQL keeps the lease row locked for it, and then it went silent. The
+    database ends the silent transaction, so once the lease has run out another process's
+    claim takes the row at once; it used to wait on the lock until its statement timeout
+    (15 s) and fail, and the trial's participants waited as long."""
+    import time
+
+    if not database_url.startswith("postgresql"):
+        pytest.skip("a row lock held by another session is PostgreSQL's (SQLite locks the file)")
+    stopped, other = Database(database_url), Database(database_url)
+    stopped.create_all()
+    try:
+        with stopped.session_scope() as session:
+            _, trial = start_bot_trial(session, seed=2, duration_s=600.0)
+        holder = Leases(stopped, "a:1/stopped")
+        epoch = holder.claim(trial.id, time.time())
+        assert epoch is not None
+        with stopped.sessions() as silent:
+            holder.prove(silent, trial.id, epoch, time.time())  # the row is locked; A stops
+            time.sleep(LEASE_S + 0.3)
+
+            asked = time.monotonic()
+            taken = Leases(other, "b:1/running").claim(trial.id, time.time())
+            waited = time.monotonic() - asked
+            with pytest.raises(DBAPIError):  # A wakes: what it held is not written
+                silent.commit()
+        assert taken == epoch + 1
+        assert waited < 1.0
+    finally:
+        for database in (stopped, other):
+            database.engine.dispose()

@@ -73,6 +73,9 @@ LEASE_S = 6.0
 UNCLAIMED_GRACE_S = 30.0
 #: Renewals per lease length: a renewal may be late twice before the lease is at risk.
 RENEWALS_PER_LEASE = 3
+#: Renewals a holder has missed in a row when a process asked for its trial stops waiting for
+#: it to answer and waits out its lease instead (`Leases.runs_out_unrenewed`).
+MISSED_RENEWALS = 2
 #: Seconds before its lease runs out (by its own monotonic clock) that a holder stops writing:
 #: room for a transaction begun just before the deadline and for clock rate differences.
 STOP_MARGIN_S = 1.0
@@ -260,6 +263,29 @@ class Leases:
                     TrialLease.expires_epoch >= self._now(session, now),
                 )
             )
+
+    def runs_out_unrenewed(self, trial_id: int, now: float) -> float | None:
+        """Seconds until another process's lease of the trial runs out, when its holder has
+        missed `MISSED_RENEWALS` renewals in a row (it is stopped, cut off from the
+        database, or dead); None while the holder renews, or without the database's clock.
+
+        A healthy holder renews every `renew_every_s`, so its lease always has more
+        than `lease_s - renew_every_s` left; one with less than `lease_s -
+        MISSED_RENEWALS * renew_every_s` left has gone quiet. A process asked for
+        the trial (its participant's stream, sent on by the proxy) waits out those
+        last seconds and claims it, instead of answering 503 and having the page
+        come back through the silent process once more.
+        """
+        if not self._wall_clock:
+            return None  # a test's manual clock does not move while this one waits
+        with self.database.session_scope() as session:
+            left = session.scalar(
+                select(TrialLease.expires_epoch - self._now(session, now)).where(
+                    TrialLease.trial_id == trial_id, TrialLease.owner != self.owner
+                )
+            )
+        quiet_below = self.lease_s - MISSED_RENEWALS * self.renew_every_s
+        return float(left) if left is not None and 0 <= left <= quiet_below else None
 
     def unhosted(self, trial_ids: Iterable[int], now: float) -> list[int]:
         """Of these running trials, those nobody hosts: their lease ran out, or they have none.

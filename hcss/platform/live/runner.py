@@ -60,6 +60,9 @@ log = logging.getLogger(__name__)
 
 TICK_S = 0.05
 SYNC_EVERY_S = 1.0
+#: Seconds past a quiet holder's lease that a process asked for its trial claims it: the
+#: database's clock has moved on by then, whatever the two hosts' clocks say.
+QUIET_MARGIN_S = 0.05
 
 
 class Runner:
@@ -134,6 +137,14 @@ class Runner:
         if self.leases is not None:
             claimed_at = self.leases.monotonic()
             epoch = self.leases.claim(trial_id, self.clock())
+            quiet_for = (
+                None
+                if epoch is not None
+                else self.leases.runs_out_unrenewed(trial_id, self.clock())
+            )
+            if quiet_for is not None:  # its holder has gone quiet: wait its lease out
+                wallclock.sleep(quiet_for + QUIET_MARGIN_S)
+                epoch = self.leases.claim(trial_id, self.clock())
             if epoch is None:
                 holder = self.leases.holder(trial_id, self.clock())
                 raise HostedElsewhere(trial_id, holder or "")

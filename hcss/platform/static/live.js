@@ -697,22 +697,30 @@
   }
   // The watchdog: a host that hangs (stopped, or cut off from its database) keeps the
   // connection open and sends nothing, and EventSource waits forever. Frames come several
-  // times a second, so a stream silent for STALLED_MS is dropped and opened again; the
-  // proxy sends the new one to a process that answers.
-  const STALLED_MS = 3000;
+  // times a second, so an open stream silent for STALLED_MS is dropped and opened again;
+  // the proxy sends the new one on to a process that answers. A new stream is given
+  // OPENING_MS: the proxy waits out its own read timeout at the silent process before it
+  // passes the stream on, and the next process may first wait out the silent one's lease
+  // and rebuild the trial. Dropping it sooner sends it back to the silent process.
+  const STALLED_MS = 3000, OPENING_MS = 12000;
   let lastFrameAt = Date.now();
   setInterval(() => {
     if (state.ended || !stream || stream.readyState === EventSource.CLOSED) return;
-    if (Date.now() - lastFrameAt < STALLED_MS) return;
+    const limitMs = stream.readyState === EventSource.OPEN ? STALLED_MS : OPENING_MS;
+    if (Date.now() - lastFrameAt < limitMs) return;
     $("connection").textContent = "reconnecting…";
     $("connection").className = "connection";
     stream.close();
     connect();
-  }, 1000);
+  }, 500);
   function connect() {
     lastFrameAt = Date.now();
     stream = new EventSource(streamUrl());
-    stream.onopen = () => { $("connection").textContent = "live"; $("connection").className = "connection ok"; };
+    stream.onopen = () => {
+      lastFrameAt = Date.now();
+      $("connection").textContent = "live";
+      $("connection").className = "connection ok";
+    };
     stream.onerror = () => {
       if (state.ended) return;
       $("connection").textContent = "reconnecting…";
@@ -732,7 +740,7 @@
   // with HEAD, which the server answers like the stream without opening one,
   // wait as long as its Retry-After says (plus up to half again, so refused
   // pages do not all come back at once), and open a new stream.
-  const RETRY_DEFAULT_S = 5, RETRY_MAX_S = 60;
+  const RETRY_DEFAULT_S = 5, RETRY_MAX_S = 60, PROXY_RETRY_S = 1;
   function retryAfterS(response) {
     const seconds = Number(response.headers.get("Retry-After"));
     return Number.isFinite(seconds) && seconds > 0 ? Math.min(seconds, RETRY_MAX_S) : RETRY_DEFAULT_S;
@@ -743,6 +751,9 @@
       const response = await fetch(streamUrl(), { method: "HEAD", cache: "no-store", credentials: "same-origin" });
       if (response.ok) waitS = 0;
       else if (response.status === 503 || response.status === 429) waitS = retryAfterS(response);
+      // The proxy's own answer: the process it tried first did not answer in time (a
+      // stopped host) or at all. Another may host the trial by now: ask again soon.
+      else if (response.status === 502 || response.status === 504) waitS = PROXY_RETRY_S;
       else if (response.status < 500) {  // the link or the trial is gone: a reload says why
         $("connection").textContent = "disconnected: reload the page";
         return;
