@@ -144,7 +144,9 @@ def test_the_page_of_a_stopped_host_shows_frames_again_while_it_stays_stopped(
             expect(page.locator("#clock")).not_to_have_text(at_stop, timeout=60_000)
         except AssertionError as error:
             shown = page.locator("#connection").text_content()
-            raise AssertionError(f"{error}\nconnection: {shown}\nstream answers: {answers}")
+            raise AssertionError(
+                f"{error}\nconnection: {shown}\nstream answers: {answers}"
+            ) from error
         back_s = time.monotonic() - stopped
         assert back_s <= 10.0, f"frames again only {back_s:.1f} s after SIGSTOP: {answers}"
         assert lease_owner(database, trial_id) != owner
