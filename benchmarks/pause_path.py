@@ -26,7 +26,7 @@ from typing import Any
 def main() -> None:
     import hcss
     from hcss.platform.app import create_app
-    from hcss.platform.bots import ManualClock
+    from hcss.platform.bots.participant import ManualClock
     from hcss.platform.console.sessions import change_session
     from hcss.platform.live.trials import start_bot_trial
     from hcss.platform.models import Participant

@@ -20,7 +20,7 @@ import pytest
 from flask import Flask
 
 from hcss.platform.app import create_app
-from hcss.platform.bots import ManualClock
+from hcss.platform.bots.participant import ManualClock
 from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.localserver import postgres_schema
 from tests.support.browser import CHROMIUM, CHROMIUM_ARGS

@@ -22,8 +22,8 @@ from contextlib import contextmanager
 from sqlalchemy import func, select
 from waitress.server import create_server
 
-from hcss.platform.bot_http import HttpClient, LoadFigures
-from hcss.platform.bots import PageParser
+from hcss.platform.bots.http_load import HttpClient, LoadFigures
+from hcss.platform.bots.participant import PageParser
 from hcss.platform.connections import close_server
 from hcss.platform.models import Command, StageEvent
 from tests.support.lossy_proxy import LossyProxy

@@ -9,7 +9,7 @@ import re
 import pytest
 from sqlalchemy import select
 
-from hcss.platform.bots import run_bots
+from hcss.platform.bots.participant import run_bots
 from hcss.platform.console.progress import progress_page
 from hcss.platform.console.sessions import ConsoleError, change_session
 from hcss.platform.models import ConsoleAction, Participant, StudyEnrolment

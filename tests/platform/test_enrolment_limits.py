@@ -11,7 +11,7 @@ from contextlib import contextmanager, nullcontext
 from sqlalchemy import event, func, select
 
 from hcss.platform.app import create_app
-from hcss.platform.bots import ManualClock
+from hcss.platform.bots.participant import ManualClock
 from hcss.platform.console.accounts import create_experimenter
 from hcss.platform.console.progress import PER_PAGE
 from hcss.platform.localserver import postgres_schema

@@ -14,7 +14,7 @@ from collections.abc import Iterator
 import pytest
 from sqlalchemy import func, select
 
-from hcss.platform.bots import ManualClock
+from hcss.platform.bots.participant import ManualClock
 from hcss.platform.db import Database
 from hcss.platform.live.leases import UNCLAIMED_GRACE_S, HostedElsewhere, LeaseLost, Leases
 from hcss.platform.live.runner import Runner

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from sqlalchemy import func, select
 
-from hcss.platform.bots import parse_page
+from hcss.platform.bots.participant import parse_page
 from hcss.platform.models import ConsentRecord
 from hcss.platform.study import views
 from tests.support.study import new_participant, visitor

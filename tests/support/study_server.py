@@ -19,7 +19,7 @@ from typing import Any
 from flask import Flask
 from waitress.server import create_server
 
-from hcss.platform.bots import ManualClock, bot_app
+from hcss.platform.bots.participant import ManualClock, bot_app
 from hcss.platform.cli import upgrade_database
 from hcss.platform.connections import close_server
 from hcss.platform.db import Database

@@ -166,7 +166,7 @@ class ParticipantBot:
         look_every_wall_s: float = 0.2,
     ) -> None:
         """In-process (`app`, a test client, the bot moves the clock), or over HTTP
-        (`client` from hcss.platform.bot_http, the server's own clock, `code` known)."""
+        (`client` from hcss.platform.bots.http_load, the server's own clock, `code` known)."""
         self.app = app
         self.token = token
         self.code = code
