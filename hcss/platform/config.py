@@ -70,7 +70,7 @@ def secret_key() -> str:
 
 
 def _join_limit() -> tuple[int, float] | None:
-    from hcss.platform.ratelimit import DEFAULT, parse_limit
+    from hcss.platform.guards.ratelimit import DEFAULT, parse_limit
 
     configured = os.environ.get("HCSS_JOIN_PER_CLIENT")
     return DEFAULT if configured is None else parse_limit(configured)
@@ -78,7 +78,7 @@ def _join_limit() -> tuple[int, float] | None:
 
 def _links_limit() -> tuple[int, float] | None:
     """Participant links one console account may create: (count, seconds), or None."""
-    from hcss.platform.ratelimit import parse_limit
+    from hcss.platform.guards.ratelimit import parse_limit
 
     configured = os.environ.get("HCSS_LINKS_PER_EXPERIMENTER")
     return (500, 3600.0) if configured is None else parse_limit(configured)
@@ -145,7 +145,7 @@ def defaults() -> dict[str, object]:
             if network.strip()
         ],
         # Starts of the public study link one address may send: (count, seconds), or
-        # None; HCSS_JOIN_PER_CLIENT="30/600" (hcss.platform.ratelimit).
+        # None; HCSS_JOIN_PER_CLIENT="30/600" (hcss.platform.guards.ratelimit).
         "JOIN_PER_CLIENT": _join_limit(),
         # Participant links one console account may create: (count, seconds), or None;
         # HCSS_LINKS_PER_EXPERIMENTER="500/3600" (hcss.platform.console.link_limit).

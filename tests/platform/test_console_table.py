@@ -78,7 +78,9 @@ def test_a_batch_on_a_chosen_study_lists_every_link_and_a_csv(app, console) -> N
 )
 def test_an_unknown_study_or_cell_creates_nobody(app, console, fields) -> None:
     response = console.post("/console/participants", fields)
-    if "\x00" in fields["study"]:  # refused before the form sees it (hcss.platform.hardening)
+    if (
+        "\x00" in fields["study"]
+    ):  # refused before the form sees it (hcss.platform.guards.hardening)
         assert response.status_code == 400
     else:
         assert response.status_code == 303 and response.headers["Location"] == "/console/"

@@ -108,7 +108,7 @@ def test_the_screen_check_refuses_a_small_or_bogus_window_on_the_server(demo_app
         response = guest.submit({"width": width, "height": height}, page)
         assert response.status_code == 200, (width, height)
         assert 'class="error' in guest.html and 'data-stage="screen_check"' in guest.html
-    # A NUL byte is refused before the form sees it (hcss.platform.hardening).
+    # A NUL byte is refused before the form sees it (hcss.platform.guards.hardening).
     assert guest.submit({"width": "1280\x00", "height": "900"}, page).status_code == 400
     assert "Your window is 800 x 600 pixels" in guest.client.post(
         page.action, data=dict(page.hidden) | {"width": "800", "height": "600"}

@@ -28,13 +28,13 @@ from __future__ import annotations
 import hashlib
 import hmac
 
-from flask import Response, current_app, request
+from flask import Response, current_app
 from flask.typing import ResponseReturnValue
 from sqlalchemy import delete, func, select, text
 from sqlalchemy.orm import Session
 
-from hcss.platform.connections import client_prefix
 from hcss.platform.errors import error_page
+from hcss.platform.guards.clients import request_client
 from hcss.platform.models import JoinStart
 
 #: (Starts, seconds) one address may send; None: no limit.
@@ -116,8 +116,3 @@ def _client_key() -> str:
     """The client's prefix hashed with the server's secret: counted, never kept as an address."""
     secret = str(current_app.config["SECRET_KEY"]).encode()
     return hmac.new(secret, b"join:" + request_client().encode(), hashlib.sha256).hexdigest()
-
-
-def request_client() -> str:
-    """The client every per-client limit counts this request under: its address's prefix."""
-    return client_prefix(request.remote_addr, int(current_app.config.get("CLIENT_PREFIX_V4", 32)))
