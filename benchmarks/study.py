@@ -19,7 +19,7 @@ from benchmarks.live import _process_cpu_s
 from benchmarks.live_processes import database_base_url, group
 from hcss.platform.bots.http_load import percentile, run_http_bots
 from hcss.platform.cli import upgrade_database
-from hcss.platform.localserver import LocalNginx, LocalServer, postgres_schema
+from hcss.platform.serving.localserver import LocalNginx, LocalServer, postgres_schema
 
 BOT_COUNTS = (8, 24)
 #: The issue's figure for several processes: 24 bots through nginx, 1 process against 2.

@@ -25,8 +25,8 @@ from sqlalchemy import select
 from hcss.platform.bots.http_load import run_http_bots
 from hcss.platform.cli import upgrade_database
 from hcss.platform.db import Database
-from hcss.platform.localserver import LocalServer
 from hcss.platform.models import Base, Interruption, TrialStatusChange
+from hcss.platform.serving.localserver import LocalServer
 
 
 def committed_ids(database: Database) -> dict[str, set[int]]:

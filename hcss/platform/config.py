@@ -129,7 +129,7 @@ def defaults() -> dict[str, object]:
         # The address the nearest proxy connects from (waitress trusts its headers only
         # from there; "*": any peer); `hcss deploy nginx` on this host is 127.0.0.1.
         # Every per-client limit counts an IPv4 address by this prefix (32: each address;
-        # 24: its /24) and an IPv6 address by its /64 (hcss.platform.connections).
+        # 24: its /24) and an IPv6 address by its /64 (hcss.platform.guards.clients).
         "CLIENT_PREFIX_V4": int(os.environ.get("HCSS_CLIENT_PREFIX_V4", "32") or 32),
         # Pages send no Referer (Referrer-Policy: no-referrer: links carry tokens), so
         # Flask-WTF's HTTPS-only Referer check would refuse every form behind a TLS proxy

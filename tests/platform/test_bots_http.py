@@ -17,8 +17,8 @@ from sqlalchemy import func, select
 from hcss.cli import main
 from hcss.platform.cli import upgrade_database
 from hcss.platform.db import Database
-from hcss.platform.localserver import LocalServer
 from hcss.platform.models import Participant, StudyEnrolment, TrialStatusChange
+from hcss.platform.serving.localserver import LocalServer
 
 
 @pytest.mark.slow

@@ -24,7 +24,6 @@ from sqlalchemy import func, select
 from hcss.platform.bots.http_load import LoadFigures, run_http_bots
 from hcss.platform.cli import upgrade_database
 from hcss.platform.db import Database
-from hcss.platform.localserver import LocalNginx, LocalServer
 from hcss.platform.models import (
     Command,
     CommandKey,
@@ -42,6 +41,7 @@ from hcss.platform.models import (
     TrialLease,
     TrialStatusChange,
 )
+from hcss.platform.serving.localserver import LocalNginx, LocalServer
 from hcss.platform.study.enrolment import cell_counts
 from hcss.platform.study.studyfile import load_study
 from tests.support.leases import skip_unless_group

@@ -1,6 +1,6 @@
 """Which client a request counts under: every per-client limit counts an address by its prefix.
 
-The connection cap of `hcss serve` (hcss.platform.connections), the
+The connection cap of `hcss serve` (hcss.platform.serving.connections), the
 Starts of the public study link (`ratelimit`), the console's sign-in lockout
 and the live API's commands all count a client the same way.
 """
