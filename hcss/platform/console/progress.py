@@ -32,8 +32,8 @@ from hcss.platform.models import (
     Trial,
 )
 from hcss.platform.models.latest import latest_per_key
+from hcss.platform.models.pilots import pilot_flags, pilot_marks
 from hcss.platform.models.vocabularies import TrialStatus
-from hcss.platform.pilots import pilot_flags, pilot_marks
 from hcss.platform.session_state import session_states
 from hcss.platform.study.enrolment import default_study_name
 from hcss.platform.study.flow import Flow, Position, participant_statuses

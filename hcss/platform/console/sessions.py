@@ -15,7 +15,7 @@ from hcss.platform.db import Database
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.service import OrderUnconfirmed, control_session_trial, running_trial_id
 from hcss.platform.models import AuditRecord, ConsoleAction, Experimenter, Participant
-from hcss.platform.pilots import is_pilot
+from hcss.platform.models.pilots import is_pilot
 from hcss.platform.session_state import ENDED_STATES, STATE_ACTIONS, session_state
 from hcss.platform.study.flow import current_position, trial_states
 from hcss.platform.study.timeouts import REINSTATED
@@ -137,7 +137,7 @@ def set_pilot(
     experimenter: Experimenter | None,
     pilot: bool,
 ) -> None:
-    """Flag (or unflag) a pilot: an action row, the flag's history (hcss.platform.pilots)."""
+    """Flag (or unflag) a pilot: an action row, the flag's history (hcss.platform.models.pilots)."""
     with database.session_scope() as session:
         row = session.get(Participant, participant.id)
         if row is None:

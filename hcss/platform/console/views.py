@@ -59,7 +59,7 @@ from hcss.platform.console.skipping import skip_step, skip_targets
 from hcss.platform.console.withdrawal import WithdrawalError, withdraw
 from hcss.platform.db import database, get_session, session_now
 from hcss.platform.models import AuditRecord, ConsoleAction, Experimenter, Participant
-from hcss.platform.pilots import is_pilot
+from hcss.platform.models.pilots import is_pilot
 from hcss.platform.session_state import session_state
 from hcss.platform.study.enrolment import current_enrolment
 from hcss.platform.study.files import study_names
