@@ -110,7 +110,7 @@ def test_the_source_keeps_every_contract() -> None:
             "No import cycle between the modules of any package",
         ),
         (  # the console holding a trial in memory instead of asking the live service
-            "hcss/platform/console/sessions.py",
+            "hcss/platform/console/interventions.py",
             "from hcss.platform.live.session import RunningTrial",
             "The console reaches live trials through the live service",
         ),

@@ -10,8 +10,8 @@ import pytest
 from sqlalchemy import select
 
 from hcss.platform.bots.participant import run_bots
+from hcss.platform.console.interventions import ConsoleError, change_participant_state
 from hcss.platform.console.progress import progress_page
-from hcss.platform.console.sessions import ConsoleError, change_session
 from hcss.platform.models import ConsoleAction, Participant, StudyEnrolment
 from hcss.platform.study.stages import sequence
 from hcss.platform.study.studyfile import load_study
@@ -156,7 +156,7 @@ def test_a_participant_who_finished_shows_completed_and_cannot_be_paused(demo_ap
     with demo_app.app_context():
         for action in ("pause", "abort"):
             with pytest.raises(ConsoleError, match="completed the study"):
-                change_session(
+                change_participant_state(
                     database, demo_app.extensions["hcss_runner"], participant, None, action
                 )
     with database.session_scope() as session:

@@ -14,7 +14,7 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 from werkzeug.routing import BuildError
 
-from hcss.platform.console.sessions import ConsoleError
+from hcss.platform.console.interventions import ConsoleError
 from hcss.platform.models import (
     ConsoleAction,
     Experimenter,
