@@ -115,3 +115,9 @@ def test_the_screen_check_refuses_a_small_or_bogus_window_on_the_server(demo_app
     ).get_data(as_text=True)
     assert guest.submit({"width": "1280", "height": "800"}, page).status_code == 302
     assert guest.page().stage == "training"
+
+
+def test_the_site_without_a_link_sends_the_visitor_to_theirs(demo_app) -> None:
+    response = demo_app.test_client().get("/")
+    assert response.status_code == 200
+    assert "Please open the personal link you were given." in response.get_data(as_text=True)
