@@ -11,7 +11,7 @@ from sqlalchemy import select
 
 from hcss.platform.bots.participant import run_bots
 from hcss.platform.console.interventions import ConsoleError, change_participant_state
-from hcss.platform.console.progress import progress_page
+from hcss.platform.console.participant_table import progress_page
 from hcss.platform.models import ConsoleAction, Participant, StudyEnrolment
 from hcss.platform.study.stages import sequence
 from hcss.platform.study.studyfile import load_study

@@ -43,6 +43,7 @@ from hcss.platform.console.interventions import (
 )
 from hcss.platform.console.link_limit import LinkLimitReached, require_allowance
 from hcss.platform.console.login_sessions import end_sessions, experimenter_for_cookie
+from hcss.platform.console.participant_table import FLAGS, progress_json, progress_page
 from hcss.platform.console.participants import (
     USABLE,
     batches,
@@ -53,7 +54,6 @@ from hcss.platform.console.participants import (
     participants_by_code,
 )
 from hcss.platform.console.presence import CONNECTED_WITHIN_S
-from hcss.platform.console.progress import FLAGS, progress_json, progress_page
 from hcss.platform.console.signin import answer_sign_in
 from hcss.platform.console.skipping import skip_step, skip_targets
 from hcss.platform.console.withdrawal import WithdrawalError, withdraw
