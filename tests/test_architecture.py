@@ -135,7 +135,7 @@ def test_the_source_keeps_every_contract() -> None:
             "The console reaches live trials through the live service",
         ),
         (  # a cycle inside a package, through an import in a function
-            "hcss/platform/study/stage.py",
+            "hcss/platform/study/stage_protocol.py",
             "def _late():\n    from hcss.platform.study import flow",
             "No import cycle between the modules of any package",
         ),

@@ -28,7 +28,7 @@ from sqlalchemy import select
 
 from hcss.platform.models import Participant
 from hcss.platform.study.enrolment import assign_cell
-from hcss.platform.study.stage import Shown, SubmissionMustFail
+from hcss.platform.study.stage_protocol import Shown, SubmissionMustFail
 from hcss.platform.study.stages import STAGES
 from hcss.platform.study.studyfile import Study, load_study
 from hcss.questionnaires import mrt, pages

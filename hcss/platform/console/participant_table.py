@@ -1,4 +1,4 @@
-"""The console's participant table: every participant's study, cell, stage, clocks, presence and actions.
+"""The console's participant table: each one's study, cell, stage, clocks, presence and actions.
 
 Read straight from the database on each poll, so the table is right
 whichever server process runs the trials. The table is paged and filtered in

@@ -32,7 +32,7 @@ from hcss.platform.models.participant_state import ENDED_STATES, participant_sta
 from hcss.platform.models.vocabularies import TrialStatus
 from hcss.platform.study.enrolment import current_enrolment
 from hcss.platform.study.flow import Flow, Position
-from hcss.platform.study.stage import Slot
+from hcss.platform.study.stage_protocol import Slot
 
 #: Stages no experimenter may move a participant past.
 NEVER_SKIPPED = ("consent",)

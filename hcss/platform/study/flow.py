@@ -33,7 +33,7 @@ from hcss.platform.models.latest import latest_per_key, latest_row
 from hcss.platform.models.participant_state import participant_states
 from hcss.platform.models.vocabularies import TrialStatus
 from hcss.platform.study.enrolment import current_enrolment, not_counted
-from hcss.platform.study.stage import Slot, StageContext
+from hcss.platform.study.stage_protocol import Slot, StageContext
 from hcss.platform.study.stages import sequence
 from hcss.platform.study.studyfile import load_study
 from hcss.questionnaires.definitions import ScoreRow

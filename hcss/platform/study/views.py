@@ -28,7 +28,7 @@ from hcss.platform.study.flow import Flow, Position, study_now
 from hcss.platform.study.markdown import render_markdown
 from hcss.platform.study.recruitment import completion_for
 from hcss.platform.study.screenout import leave_for, screen_out_for
-from hcss.platform.study.stage import Refused
+from hcss.platform.study.stage_protocol import Refused
 from hcss.platform.study.texts import fill
 from hcss.platform.study.timeouts import time_out_abandoned
 from hcss.platform.study.versions import enrolled_study
