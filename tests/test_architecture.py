@@ -101,7 +101,7 @@ def test_the_source_keeps_every_contract() -> None:
         ),
         (  # ... or the writer
             "hcss/tablespec/dictionary.py",
-            "def _late():\n    from hcss.tidy_csv import write_table",
+            "def _late():\n    from hcss.tidy_csv import write_rows",
             "The table contracts import nothing else of hcss",
         ),
         (  # questionnaires -> analysis, while analysis reads questionnaires: a cycle
