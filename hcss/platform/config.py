@@ -69,17 +69,25 @@ def secret_key() -> str:
     return key_file.read_text().strip()
 
 
-def _join_limit() -> tuple[int, float] | None:
-    from hcss.platform.guards.ratelimit import DEFAULT, parse_limit
+#: Starts through a public study link one client may send: (count, seconds); None: no limit.
+JOIN_PER_CLIENT = (30, 600.0)
 
+
+def parse_limit(text: str) -> tuple[int, float] | None:
+    """``"30/600"`` -> (30, 600.0); ``"0"`` or ``""`` -> None (no limit)."""
+    if not text or text.strip() == "0":
+        return None
+    count, _, seconds = text.partition("/")
+    return int(count), float(seconds or 60)
+
+
+def _join_limit() -> tuple[int, float] | None:
     configured = os.environ.get("HCSS_JOIN_PER_CLIENT")
-    return DEFAULT if configured is None else parse_limit(configured)
+    return JOIN_PER_CLIENT if configured is None else parse_limit(configured)
 
 
 def _links_limit() -> tuple[int, float] | None:
     """Participant links one console account may create: (count, seconds), or None."""
-    from hcss.platform.guards.ratelimit import parse_limit
-
     configured = os.environ.get("HCSS_LINKS_PER_EXPERIMENTER")
     return (500, 3600.0) if configured is None else parse_limit(configured)
 

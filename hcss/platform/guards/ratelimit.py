@@ -37,18 +37,8 @@ from hcss.platform.errors import error_page
 from hcss.platform.guards.clients import request_client
 from hcss.platform.models import JoinStart
 
-#: (Starts, seconds) one address may send; None: no limit.
-DEFAULT = (30, 600.0)
 #: Rows past the window deleted by one Start (bounded, so no Start pays for a backlog).
 PRUNE = 100
-
-
-def parse_limit(text: str) -> tuple[int, float] | None:
-    """``"30/600"`` -> (30, 600.0); ``"0"`` or ``""`` -> None (no limit)."""
-    if not text or text.strip() == "0":
-        return None
-    count, _, seconds = text.partition("/")
-    return int(count), float(seconds or 60)
 
 
 def enrolment_refusal(session: Session) -> ResponseReturnValue | None:
