@@ -18,9 +18,9 @@ POLLS = 5
 
 
 def run() -> None:
-    from hcss.platform.bots import bot_app
+    from hcss.platform.bots.participant import bot_app
     from hcss.platform.cli import upgrade_database
-    from hcss.platform.console.progress import progress_json
+    from hcss.platform.console.participant_table import progress_json
     from hcss.platform.models import Participant
 
     with tempfile.TemporaryDirectory() as folder:

@@ -22,7 +22,7 @@ WALKED = 4
 
 def build(url: str):  # type: ignore[no-untyped-def]
     """The populated app (the demo study) and an experimenter's signed-in test client."""
-    from hcss.platform.bots import ParticipantBot, bot_app
+    from hcss.platform.bots.participant import ParticipantBot, bot_app
     from hcss.platform.cli import upgrade_database
     from hcss.platform.console.accounts import create_experimenter
     from hcss.platform.console.participants import create_participants

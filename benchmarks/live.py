@@ -31,7 +31,7 @@ from hcss.platform.cli import DEFAULT_THREADS, upgrade_database
 from hcss.platform.db import Database
 from hcss.platform.live.client import TrialClient
 from hcss.platform.live.trials import start_bot_trial
-from hcss.platform.localserver import LocalServer
+from hcss.platform.serving.localserver import LocalServer
 from hcss.platform.study.studyfile import load_study
 
 STUDY = load_study("original")  # the trial length the benchmark's trials run for

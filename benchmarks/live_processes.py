@@ -28,7 +28,6 @@ from benchmarks.live import TARGET_P95_MS, TARGET_RATE_HZ, _process_cpu_s, drive
 from hcss.platform.cli import DEFAULT_THREADS, upgrade_database
 from hcss.platform.db import Database
 from hcss.platform.live.client import TrialClient
-from hcss.platform.localserver import LocalNginx, LocalServer, postgres_schema
 from hcss.platform.models import (
     Command,
     DecisionRow,
@@ -37,6 +36,7 @@ from hcss.platform.models import (
     Snapshot,
     TrialLease,
 )
+from hcss.platform.serving.localserver import LocalNginx, LocalServer, postgres_schema
 
 #: Where each group's capacity search starts: a count it held and one it did not in the
 #: runs of 2026-12-01 (one process held 140, not 160; two held 240, not 280), widened so

@@ -3,7 +3,7 @@
 Issue 29 followed one pause of a live trial through the code by hand (50 stops
 in 13 modules, 37 returns). This counts the same walk with `sys.settrace`: a
 trial hosted by this process (SQLite, no runner thread), one
-`console.sessions.change_session(..., "pause")` traced, and of the package's
+`console.sessions.change_participant_state(..., "pause")` traced, and of the package's
 own code (hcss/, the models included, the libraries not) it reports
 
 - stops: distinct functions entered (file, name, first line);
@@ -26,8 +26,8 @@ from typing import Any
 def main() -> None:
     import hcss
     from hcss.platform.app import create_app
-    from hcss.platform.bots import ManualClock
-    from hcss.platform.console.sessions import change_session
+    from hcss.platform.bots.participant import ManualClock
+    from hcss.platform.console.interventions import change_participant_state
     from hcss.platform.live.trials import start_bot_trial
     from hcss.platform.models import Participant
 
@@ -69,7 +69,7 @@ def main() -> None:
         with app.app_context():
             sys.settrace(trace)
             try:
-                change_session(database, runner, participant, None, "pause")
+                change_participant_state(database, runner, participant, None, "pause")
             finally:
                 sys.settrace(None)
         assert runner.loaded(trial_id) is not None

@@ -1,7 +1,7 @@
 """Study load benchmark: N participant bots walk the whole demo study at once over HTTP.
 
 One waitress server in its own process (SQLite, WAL) runs the demo study at
-time acceleration 20; `hcss.platform.bot_http` walks N bots through every
+time acceleration 20; `hcss.platform.bots.http_load` walks N bots through every
 page, questionnaire, MRT part and live trial concurrently, as browsers
 would. Figures: bots completed and failed, answers >= 500, the page and
 live-API latency percentiles, the routes that make up the slow tail, and the
@@ -17,9 +17,9 @@ from tempfile import TemporaryDirectory
 
 from benchmarks.live import _process_cpu_s
 from benchmarks.live_processes import database_base_url, group
-from hcss.platform.bot_http import percentile, run_http_bots
+from hcss.platform.bots.http_load import percentile, run_http_bots
 from hcss.platform.cli import upgrade_database
-from hcss.platform.localserver import LocalNginx, LocalServer, postgres_schema
+from hcss.platform.serving.localserver import LocalNginx, LocalServer, postgres_schema
 
 BOT_COUNTS = (8, 24)
 #: The issue's figure for several processes: 24 bots through nginx, 1 process against 2.

@@ -58,8 +58,8 @@ class TableWriter:
         self._writer.writerow({name: cell(row.get(name)) for name in self.columns})
 
 
-def write_table(path: Path, columns: Sequence[str], rows: Iterable[Mapping[str, object]]) -> None:
-    """The table at `path` (its folder made when missing)."""
+def write_rows(path: Path, columns: Sequence[str], rows: Iterable[Mapping[str, object]]) -> None:
+    """Rows (mappings by column name) as the tidy CSV at `path` (its folder made when missing)."""
     path.parent.mkdir(parents=True, exist_ok=True)
     with path.open("w", newline="", encoding="utf-8") as handle:
         writer = TableWriter(handle, columns)
@@ -79,4 +79,4 @@ def write_frame(path: Path, frame: pd.DataFrame) -> None:
         raise ValueError(f"a table names a column twice: {columns}")
     cells = frame.astype(object).where(frame.notna(), None)
     rows = cells.itertuples(index=False, name=None)
-    write_table(path, columns, (dict(zip(columns, row, strict=True)) for row in rows))
+    write_rows(path, columns, (dict(zip(columns, row, strict=True)) for row in rows))

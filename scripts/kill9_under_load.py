@@ -3,7 +3,7 @@
     .venv/bin/python scripts/kill9_under_load.py [--bots 8] [--rounds 4] [--every 6]
 
 A waitress server (its own process, SQLite unless DATABASE_URL is given)
-runs the demo study at time acceleration 20; `hcss.platform.bot_http` walks
+runs the demo study at time acceleration 20; `hcss.platform.bots.http_load` walks
 the bots concurrently. Every EVERY seconds the script records the id of
 every committed row, sends SIGKILL, waits a second, starts a new server on
 the same database, and checks that every recorded row is still there. At the
@@ -22,11 +22,11 @@ from tempfile import TemporaryDirectory
 
 from sqlalchemy import select
 
-from hcss.platform.bot_http import run_http_bots
+from hcss.platform.bots.http_load import run_http_bots
 from hcss.platform.cli import upgrade_database
 from hcss.platform.db import Database
-from hcss.platform.localserver import LocalServer
 from hcss.platform.models import Base, Interruption, TrialStatusChange
+from hcss.platform.serving.localserver import LocalServer
 
 
 def committed_ids(database: Database) -> dict[str, set[int]]:

@@ -101,8 +101,38 @@ def test_the_source_keeps_every_contract() -> None:
         ),
         (  # ... or the writer
             "hcss/tablespec/dictionary.py",
-            "def _late():\n    from hcss.tidy_csv import write_table",
+            "def _late():\n    from hcss.tidy_csv import write_rows",
             "The table contracts import nothing else of hcss",
+        ),
+        (  # what a request meets reaching up to the server plumbing (ratelimit once did)
+            "hcss/platform/guards/ratelimit.py",
+            "from hcss.platform.serving.connections import PER_CLIENT",
+            "The platform's packages are layered",
+        ),
+        (  # ... or to a live trial
+            "hcss/platform/guards/clients.py",
+            "def _late():\n    from hcss.platform.live import trials",
+            "The platform's packages are layered",
+        ),
+        (  # the settings reaching the guards again (config once imported ratelimit)
+            "hcss/platform/config.py",
+            "def _late():\n    from hcss.platform.guards.ratelimit import enrolment_refusal",
+            "The platform's packages are layered",
+        ),
+        (  # the app factory knowing how it is served
+            "hcss/platform/app.py",
+            "from hcss.platform.serving import workers",
+            "The platform's packages are layered",
+        ),
+        (  # the server processes building the app in process
+            "hcss/platform/serving/workers.py",
+            "from hcss.platform.app import create_app",
+            "The platform's packages are layered",
+        ),
+        (  # the platform driving its own bots
+            "hcss/platform/cli.py",
+            "from hcss.platform.bots.participant import ManualClock",
+            "The platform's packages are layered",
         ),
         (  # questionnaires -> analysis, while analysis reads questionnaires: a cycle
             "hcss/questionnaires/tlx.py",
@@ -110,7 +140,7 @@ def test_the_source_keeps_every_contract() -> None:
             "No import cycle between the modules of any package",
         ),
         (  # the console holding a trial in memory instead of asking the live service
-            "hcss/platform/console/sessions.py",
+            "hcss/platform/console/interventions.py",
             "from hcss.platform.live.session import RunningTrial",
             "The console reaches live trials through the live service",
         ),
@@ -135,7 +165,7 @@ def test_the_source_keeps_every_contract() -> None:
             "The console reaches live trials through the live service",
         ),
         (  # a cycle inside a package, through an import in a function
-            "hcss/platform/study/stage.py",
+            "hcss/platform/study/stage_protocol.py",
             "def _late():\n    from hcss.platform.study import flow",
             "No import cycle between the modules of any package",
         ),
@@ -157,6 +187,17 @@ def test_a_planted_import_breaks_a_contract(
     result = lint_imports(planted(tmp_path, module, line))
     assert result.returncode != 0, result.stdout
     assert f"{broken} BROKEN" in result.stdout, result.stdout
+
+
+def test_a_module_in_no_layer_breaks_the_layers(tmp_path: Path) -> None:
+    """The layers contract is exhaustive: a module put directly in hcss/platform and in no
+    layer (as ratelimit.py and connections.py were) is refused until it is placed."""
+    root = planted(tmp_path, "hcss/platform/__init__.py", "")
+    (root / "hcss/platform/loose.py").write_text('"""A module in no layer."""\n')
+    result = lint_imports(root)
+    assert result.returncode != 0, result.stdout
+    assert "The platform's packages are layered BROKEN" in result.stdout, result.stdout
+    assert "hcss.platform.loose" in result.stdout, result.stdout
 
 
 def test_a_module_imported_by_name_is_refused(tmp_path: Path) -> None:

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import pytest
 
-from hcss.platform.localserver import LocalServer
+from hcss.platform.serving.localserver import LocalServer
 
 CHECKOUT = Path(__file__).resolve().parents[1]
 

@@ -13,7 +13,7 @@ import pytest
 
 import hcss
 from hcss.analysis.tables import Table
-from hcss.analysis.tables import write_table as write_analysis_table
+from hcss.analysis.tables import write_paper_table as write_analysis_table
 from hcss.tidy_csv import write_frame
 
 PACKAGE = Path(hcss.__file__).parent

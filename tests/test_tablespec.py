@@ -15,7 +15,7 @@ from hcss.tablespec import DECISIONS, EXPORT_TABLES, SWEEP_DECISIONS, Column, Ta
 from hcss.tablespec import export as export_spec
 from hcss.tablespec.dictionary import render
 from hcss.tablespec.frames import ContractError, check
-from hcss.tidy_csv import write_table
+from hcss.tidy_csv import write_rows
 
 
 def test_the_committed_dictionary_is_the_one_rendered_from_the_specs() -> None:
@@ -121,17 +121,17 @@ def test_the_analysis_refuses_a_decisions_table_that_breaks_the_contract(
 ) -> None:
     """These loaded before: a run named in words, a half decision, a decision of no collective."""
     path = tmp_path / "decisions.csv"
-    write_table(path, DECISIONS.names, [_decision(), _decision(**values)])
+    write_rows(path, DECISIONS.names, [_decision(), _decision(**values)])
     with pytest.raises(AnalysisInputError, match=f"{path}: {message}"):
         load_inputs([path])
-    write_table(path, DECISIONS.names, [_decision(), _decision()])
+    write_rows(path, DECISIONS.names, [_decision(), _decision()])
     assert len(load_inputs([path]).decisions) == 2
 
 
 def test_the_analysis_refuses_an_export_table_that_breaks_the_contract(tmp_path: Path) -> None:
     participants = EXPORT_TABLES["participants"]
-    write_table(tmp_path / "decisions.csv", DECISIONS.names, [_decision()])
-    write_table(
+    write_rows(tmp_path / "decisions.csv", DECISIONS.names, [_decision()])
+    write_rows(
         tmp_path / "participants.csv",
         participants.names,
         [{"participant": "P1", "is_bot": False}, {"participant": None, "is_bot": False}],

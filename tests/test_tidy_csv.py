@@ -30,7 +30,7 @@ def test_the_cell_rule(value: object, written: object) -> None:
 
 def test_a_row_with_a_column_outside_the_table_is_refused(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="not in the table"):
-        tidy_csv.write_table(tmp_path / "t.csv", ["a"], [{"a": 1, "b": 2}])
+        tidy_csv.write_rows(tmp_path / "t.csv", ["a"], [{"a": 1, "b": 2}])
 
 
 def _decision(**values: object) -> dict[str, object]:

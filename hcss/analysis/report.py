@@ -22,7 +22,7 @@ from hcss.analysis.rscript import write_r_script
 from hcss.analysis.sections import Section, build_sections
 from hcss.analysis.stats import MannWhitneyMethod
 from hcss.analysis.studies import studies_line
-from hcss.analysis.tables import Table, to_html, write_table
+from hcss.analysis.tables import Table, to_html, write_paper_table
 from hcss.tidy_csv import write_frame
 
 STYLE = """
@@ -205,7 +205,7 @@ def run_analysis(
     steps.update()
     steps.set_postfix_str("writing tables")
     for table in built:
-        write_table(table, directory / "tables")
+        write_paper_table(table, directory / "tables")
     steps.update()
     steps.set_postfix_str("figures")
     figures: dict[str, list[str]] = {}

@@ -16,7 +16,7 @@ from hcss.analysis.decision_measures import SPLITS, decision_measures
 from hcss.analysis.descriptive import descriptive_frame
 from hcss.analysis.load import load_inputs
 from hcss.analysis.paper_units import paper_unit_tables
-from hcss.analysis.tables import Table, format_number, to_markdown, write_table
+from hcss.analysis.tables import Table, format_number, to_markdown, write_paper_table
 
 SUMMARY_MEASURES = ("success_rate", "decision_time_min")
 
@@ -70,7 +70,7 @@ def simulation_summary(decisions_path: Path) -> Table:
 def write_simulation_summary(decisions_path: Path, directory: Path) -> Table:
     """Write summary.md, summary.tex and summary.csv beside the decisions table."""
     table = simulation_summary(decisions_path)
-    write_table(table, directory)
+    write_paper_table(table, directory)
     return table
 
 
@@ -82,6 +82,6 @@ def summarise_decisions(decisions_path: Path) -> str:
     text = to_markdown(write_simulation_summary(decisions_path, decisions_path.parent))
     decisions = load_inputs([decisions_path], include_pilot=True).decisions
     for table in paper_unit_tables(decisions):
-        write_table(table, decisions_path.parent)
+        write_paper_table(table, decisions_path.parent)
         text += "\n" + to_markdown(table)
     return text

@@ -156,7 +156,7 @@ def to_html(table: Table) -> str:
     )
 
 
-def write_table(table: Table, directory: Path) -> list[Path]:
+def write_paper_table(table: Table, directory: Path) -> list[Path]:
     """Write ``name.md``, ``name.tex`` and ``name.csv`` into ``directory``."""
     directory.mkdir(parents=True, exist_ok=True)
     paths = [directory / f"{table.name}.{suffix}" for suffix in ("md", "tex", "csv")]

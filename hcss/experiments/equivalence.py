@@ -36,7 +36,7 @@ from scipy.stats import mannwhitneyu
 from hcss.experiments import experiment as exp
 from hcss.simulation.params import Params
 from hcss.tablespec import EQUIVALENCE_REFERENCE
-from hcss.tidy_csv import write_table
+from hcss.tidy_csv import write_rows
 
 # Every Params value as it was on 2026-11-26 (commit 5718869), when the
 # reference outcomes were written.  Do not follow the defaults.
@@ -124,7 +124,7 @@ def run_outcomes(
 
 
 def write_reference(rows: list[dict[str, Any]], path: Path) -> None:
-    write_table(
+    write_rows(
         path,
         OUTCOME_COLUMNS,
         (

@@ -18,7 +18,7 @@ from hcss.simulation.engine import Simulation
 from hcss.simulation.params import Params
 from hcss.simulation.scenario import Scenario
 from hcss.tablespec import DECISIONS
-from hcss.tidy_csv import write_table
+from hcss.tidy_csv import write_rows
 
 SPLITS = ("overall", "easy", "difficult")
 DEFAULT_SCENARIO_SEED = 20_150_000  # the experiment's scenario block; calibrations search on it
@@ -173,4 +173,4 @@ def _execute_dask(
 # ----------------------------------------------------------------- output
 def write_decisions(rows: list[dict[str, Any]], path: Path) -> None:
     """The decisions table as CSV, with its contract's columns (hcss.tablespec.DECISIONS)."""
-    write_table(path, DECISIONS.names, rows)
+    write_rows(path, DECISIONS.names, rows)

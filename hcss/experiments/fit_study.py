@@ -50,7 +50,7 @@ from hcss.simulation.params import (
     Params,
 )
 from hcss.tablespec import CALIBRATION_TRIALS
-from hcss.tidy_csv import write_table
+from hcss.tidy_csv import write_rows
 
 STUDY_NAME = "hcss-study-calibration"
 SEARCH_SEED_BLOCK = 20_150_000  # the experiment's default scenarios (exp.experiment_scenarios)
@@ -378,7 +378,7 @@ def write_trials(study: Any, path: Path) -> None:
     (hcss.tablespec.CALIBRATION_TRIALS), by the one CSV writer."""
     trials = completed(study)
     attrs = sorted({k for t in trials for k in t.user_attrs})
-    write_table(
+    write_rows(
         path,
         CALIBRATION_TRIALS.expand(parameter=list(SEARCH_SPACE), measure=attrs),
         (

@@ -41,7 +41,7 @@ import numpy as np
 from hcss.experiments.crosscheck import agent_decision
 from hcss.experiments.meanfield import Site, solve_meanfield
 from hcss.simulation.params import M2_MECHANISMS, Params
-from hcss.tidy_csv import write_table
+from hcss.tidy_csv import write_rows
 
 # Best nearest (easy under every label), best in the middle ring (easy under the loose
 # label "best not the furthest", difficult under "best nearest"), best furthest (difficult).
@@ -207,7 +207,7 @@ def run_map(
 
 
 def write_map(rows: list[dict[str, Any]], path: Path) -> None:
-    write_table(path, COLUMNS, rows)
+    write_rows(path, COLUMNS, rows)
 
 
 def _easy_reaches(m2: dict[str, dict[str, Any]]) -> bool:

@@ -32,7 +32,7 @@ from hcss.experiments import experiment as exp
 from hcss.simulation.params import Params
 from hcss.simulation.presets import DEFAULT_PRESET, preset_params
 from hcss.tablespec import SWEEP_DECISIONS
-from hcss.tidy_csv import TableWriter, write_table
+from hcss.tidy_csv import TableWriter, write_rows
 
 MANIFEST = "sweep.json"
 CELLS = "cells"
@@ -248,7 +248,7 @@ def _write_cell(
 ) -> None:
     path = out / CELLS / f"{cell_name(cell)}.csv"
     tmp = path.with_suffix(".csv.tmp")
-    write_table(tmp, sweep.columns, ({**cell, **row} for row in rows))
+    write_rows(tmp, sweep.columns, ({**cell, **row} for row in rows))
     os.replace(tmp, path)
 
 

@@ -17,7 +17,7 @@ from werkzeug.exceptions import HTTPException
 from werkzeug.middleware.proxy_fix import ProxyFix
 
 from hcss.platform import config as platform_config
-from hcss.platform import db, hardening, pages
+from hcss.platform import db
 from hcss.platform.console import presence
 from hcss.platform.console import views as console_views
 from hcss.platform.errors import (
@@ -26,17 +26,18 @@ from hcss.platform.errors import (
     error_page,
     http_error_page,
 )
-from hcss.platform.hardening import SchemeSecureSessions
+from hcss.platform.guards import hardening
+from hcss.platform.guards.hardening import SchemeSecureSessions
 from hcss.platform.live import api as live_api
 from hcss.platform.live import views as live_views
 from hcss.platform.live.runner import init_runner
 from hcss.platform.replay import views as replay_views
-from hcss.platform.study import recruitment
+from hcss.platform.study import landing, recruitment
 from hcss.platform.study import views as study_views
 
 # Each part of the platform adds its blueprint here.
 BLUEPRINTS = (
-    pages.bp,
+    landing.bp,
     live_views.bp,
     live_api.bp,
     study_views.bp,

@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING
 
 import click
 
-from hcss.platform.connections import PER_CLIENT
+from hcss.platform.serving.connections import PER_CLIENT
 from hcss.simulation.params import MODELS
 
 if TYPE_CHECKING:
@@ -120,16 +120,16 @@ def serve(
     """Serve the study platform with waitress; one line per participant event on stderr."""
     from hcss.platform.app import create_app
     from hcss.platform.config import database_url
-    from hcss.platform.connections import (
+    from hcss.platform.console.accounts import ensure_first_login
+    from hcss.platform.live.streams import reserve_for_pages
+    from hcss.platform.serving.announce import log_events_to_stderr, write_serving_file
+    from hcss.platform.serving.connections import (
         bounded_server,
         proxy_adjustments,
         say_untrusted_headers_once,
         serve_until_stopped,
     )
-    from hcss.platform.console.accounts import ensure_first_login
-    from hcss.platform.live.streams import reserve_for_pages
-    from hcss.platform.serving import log_events_to_stderr, write_serving_file
-    from hcss.platform.workers import (
+    from hcss.platform.serving.workers import (
         GroupRefused,
         hold_studies,
         process_name,
@@ -204,7 +204,7 @@ def serve(
         ident="hcss",
         max_request_body_size=int(app.config["MAX_CONTENT_LENGTH"]),
         # Every thread's stream plus as many short requests, and room for idle and
-        # slow connections, which cost no thread (hcss.platform.connections bounds
+        # slow connections, which cost no thread (hcss.platform.serving.connections bounds
         # them); poll, not select, which stops at descriptor 1024.
         connection_limit=2 * threads + 1024,
         asyncore_use_poll=True,
@@ -215,7 +215,7 @@ def serve(
         **proxy_adjustments(hops, str(app.config["TRUSTED_PROXY"])),
     )
     # Ctrl-C and SIGTERM end the streams and wait for their threads before the
-    # server's wake-up pipe closes (hcss.platform.connections.close_server).
+    # server's wake-up pipe closes (hcss.platform.serving.connections.close_server).
     if not serve_until_stopped(server):
         click.echo("hcss: stopped with requests still running", err=True)
     click.echo("hcss: stopped", err=True)
@@ -280,7 +280,7 @@ def deploy_nginx(
     """Write the nginx configuration that routes each participant to one hcss process."""
     from pathlib import Path
 
-    from hcss.platform.nginx import site_config, standalone_config
+    from hcss.platform.serving.nginx import site_config, standalone_config
 
     members = list(servers) or [f"{host}:{port + index}" for index in range(processes)]
     if standalone is None:
@@ -374,7 +374,7 @@ def demo_trial(
     from hcss.platform.db import Database
     from hcss.platform.live.trials import start_trial
     from hcss.platform.models import Participant
-    from hcss.platform.serving import read_serving_file
+    from hcss.platform.serving.announce import read_serving_file
 
     serving = read_serving_file()
     if base_url is None:

@@ -69,17 +69,25 @@ def secret_key() -> str:
     return key_file.read_text().strip()
 
 
-def _join_limit() -> tuple[int, float] | None:
-    from hcss.platform.ratelimit import DEFAULT, parse_limit
+#: Starts through a public study link one client may send: (count, seconds); None: no limit.
+JOIN_PER_CLIENT = (30, 600.0)
 
+
+def parse_limit(text: str) -> tuple[int, float] | None:
+    """``"30/600"`` -> (30, 600.0); ``"0"`` or ``""`` -> None (no limit)."""
+    if not text or text.strip() == "0":
+        return None
+    count, _, seconds = text.partition("/")
+    return int(count), float(seconds or 60)
+
+
+def _join_limit() -> tuple[int, float] | None:
     configured = os.environ.get("HCSS_JOIN_PER_CLIENT")
-    return DEFAULT if configured is None else parse_limit(configured)
+    return JOIN_PER_CLIENT if configured is None else parse_limit(configured)
 
 
 def _links_limit() -> tuple[int, float] | None:
     """Participant links one console account may create: (count, seconds), or None."""
-    from hcss.platform.ratelimit import parse_limit
-
     configured = os.environ.get("HCSS_LINKS_PER_EXPERIMENTER")
     return (500, 3600.0) if configured is None else parse_limit(configured)
 
@@ -129,7 +137,7 @@ def defaults() -> dict[str, object]:
         # The address the nearest proxy connects from (waitress trusts its headers only
         # from there; "*": any peer); `hcss deploy nginx` on this host is 127.0.0.1.
         # Every per-client limit counts an IPv4 address by this prefix (32: each address;
-        # 24: its /24) and an IPv6 address by its /64 (hcss.platform.connections).
+        # 24: its /24) and an IPv6 address by its /64 (hcss.platform.guards.clients).
         "CLIENT_PREFIX_V4": int(os.environ.get("HCSS_CLIENT_PREFIX_V4", "32") or 32),
         # Pages send no Referer (Referrer-Policy: no-referrer: links carry tokens), so
         # Flask-WTF's HTTPS-only Referer check would refuse every form behind a TLS proxy
@@ -145,7 +153,7 @@ def defaults() -> dict[str, object]:
             if network.strip()
         ],
         # Starts of the public study link one address may send: (count, seconds), or
-        # None; HCSS_JOIN_PER_CLIENT="30/600" (hcss.platform.ratelimit).
+        # None; HCSS_JOIN_PER_CLIENT="30/600" (hcss.platform.guards.ratelimit).
         "JOIN_PER_CLIENT": _join_limit(),
         # Participant links one console account may create: (count, seconds), or None;
         # HCSS_LINKS_PER_EXPERIMENTER="500/3600" (hcss.platform.console.link_limit).

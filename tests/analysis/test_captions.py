@@ -11,7 +11,7 @@ import pytest
 from hcss.analysis.clustered import success_gee
 from hcss.analysis.design_tables import model_table
 from hcss.analysis.repeated import friedman, paired_wilcoxon
-from hcss.analysis.tables import effect_cell, write_table
+from hcss.analysis.tables import effect_cell, write_paper_table
 
 FIXTURES = Path(__file__).parent / "fixtures"
 
@@ -44,7 +44,7 @@ def test_an_unfitted_model_says_why_not_that_order_did_not_vary(tmp_path: Path):
         "Success by model × difficulty: not fitted (every decision was correct: "
         "no variation in success to model)"
     )
-    (csv,) = [path for path in write_table(table, tmp_path) if path.suffix == ".csv"]
+    (csv,) = [path for path in write_paper_table(table, tmp_path) if path.suffix == ".csv"]
     written = pd.read_csv(csv)
     assert written.loc[0, "term"] == "not fitted"
     assert written.loc[0, "note"] == "every decision was correct: no variation in success to model"

@@ -18,7 +18,7 @@ import pytest
 from hcss.analysis.clustered import success_gee
 from hcss.analysis.design_tables import model_table
 from hcss.analysis.report import run_analysis
-from hcss.analysis.tables import write_table as write_table_files
+from hcss.analysis.tables import write_paper_table as write_table_files
 from tests.support.synthetic import simulation_decisions, study_export, write_table
 
 

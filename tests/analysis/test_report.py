@@ -17,7 +17,7 @@ import pytest
 from click.testing import CliRunner
 
 from hcss.analysis.cli import analyze
-from hcss.platform import bots
+from hcss.platform.bots.participant import bot_app, run_bots
 from hcss.platform.export.archive import export_archive
 from hcss.platform.export.writer import write_export
 from tests.support.synthetic import simulation_decisions, write_table
@@ -33,11 +33,11 @@ QUESTIONNAIRE_SECTIONS = ["sa_probes", "nasa_tlx", "sart", "post_trial", "rankin
 def bot_export(tmp_path_factory) -> tuple[Path, Path]:
     """(export folder, console zip) of one bot's run through the demo study."""
     base = tmp_path_factory.mktemp("bot")
-    app = bots.bot_app(f"sqlite:///{base / 'db.sqlite'}", "demo", SECRET_KEY="t", TESTING=True)
+    app = bot_app(f"sqlite:///{base / 'db.sqlite'}", "demo", SECRET_KEY="t", TESTING=True)
     database = app.extensions["hcss_db"]
     try:
         database.create_all()
-        bots.run_bots(app, 1)
+        run_bots(app, 1)
         with database.session_scope() as session:
             write_export(session, base / "export")
         buffer, name = export_archive(database, "tester")

@@ -9,7 +9,14 @@ import pytest
 
 from hcss.analysis.builders import descriptive_tables
 from hcss.analysis.descriptive import descriptive_frame, summarise
-from hcss.analysis.tables import Table, format_p, latex_escape, to_latex, to_markdown, write_table
+from hcss.analysis.tables import (
+    Table,
+    format_p,
+    latex_escape,
+    to_latex,
+    to_markdown,
+    write_paper_table,
+)
 
 
 def test_summary_uses_sample_sd():
@@ -64,7 +71,7 @@ def test_formats(tmp_path):
     assert r"\toprule" in latex and r"\midrule" in latex and r"\bottomrule" in latex
     assert r"H \& more & $<$ .001 \\" in latex
     assert r"\caption{$\chi^2$ and 10\% of a\_b}" in latex
-    paths = write_table(table, tmp_path)
+    paths = write_paper_table(table, tmp_path)
     assert [path.suffix for path in paths] == [".md", ".tex", ".csv"]
     assert pd.read_csv(paths[2])["p"].tolist() == [0.0004, 0.0512]
 

@@ -20,9 +20,9 @@ import pytest
 from flask import Flask
 
 from hcss.platform.app import create_app
-from hcss.platform.bots import ManualClock
+from hcss.platform.bots.participant import ManualClock
 from hcss.platform.live.trials import start_bot_trial
-from hcss.platform.localserver import postgres_schema
+from hcss.platform.serving.localserver import postgres_schema
 from tests.support.browser import CHROMIUM, CHROMIUM_ARGS
 from tests.support.databases import PG_ENV
 from tests.support.trials import STUDY, TrialHandle

@@ -22,7 +22,7 @@ from hcss.platform.models import (
     ConsoleAction,
     Participant,
 )
-from hcss.platform.pilots import is_pilot
+from hcss.platform.models.pilots import is_pilot
 from tests.support.console import code_of
 
 

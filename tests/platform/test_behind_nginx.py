@@ -27,8 +27,8 @@ from hcss.platform.cli import DEFAULT_THREADS, upgrade_database
 from hcss.platform.console.accounts import create_experimenter
 from hcss.platform.db import Database
 from hcss.platform.live.trials import start_trial
-from hcss.platform.localserver import LocalNginx, LocalServer
 from hcss.platform.models import Participant
+from hcss.platform.serving.localserver import LocalNginx, LocalServer
 from tests.support.trials import csrf_token_of
 
 pytestmark = pytest.mark.slow

@@ -17,8 +17,8 @@ from sqlalchemy import func, select
 from hcss.cli import main
 from hcss.platform.cli import upgrade_database
 from hcss.platform.db import Database
-from hcss.platform.localserver import LocalServer
 from hcss.platform.models import Participant, StudyEnrolment, TrialStatusChange
+from hcss.platform.serving.localserver import LocalServer
 
 
 @pytest.mark.slow
@@ -72,8 +72,8 @@ def test_a_bot_whose_mental_rotation_part_times_out_goes_on(tmp_path, monkeypatc
     participant reaches only that way; the bot stopped there ("expected
     introduction/page_1"), in every kill -9 round. It now presses Continue.
     """
-    from hcss.platform.bot_http import run_http_bots
-    from hcss.platform.bots import ParticipantBot
+    from hcss.platform.bots.http_load import run_http_bots
+    from hcss.platform.bots.participant import ParticipantBot
     from hcss.questionnaires import mrt
 
     acceleration = 30.0

@@ -22,10 +22,10 @@ from contextlib import contextmanager
 from sqlalchemy import func, select
 from waitress.server import create_server
 
-from hcss.platform.bot_http import HttpClient, LoadFigures
-from hcss.platform.bots import PageParser
-from hcss.platform.connections import close_server
+from hcss.platform.bots.http_load import HttpClient, LoadFigures
+from hcss.platform.bots.participant import PageParser
 from hcss.platform.models import Command, StageEvent
+from hcss.platform.serving.connections import close_server
 from tests.support.lossy_proxy import LossyProxy
 from tests.support.study_server import study_server
 from tests.support.trials import csrf_token_of

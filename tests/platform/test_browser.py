@@ -11,8 +11,8 @@ from hcss.platform.cli import upgrade_database
 from hcss.platform.db import Database
 from hcss.platform.live.client import TrialClient
 from hcss.platform.live.trials import start_bot_trial
-from hcss.platform.localserver import LocalServer
 from hcss.platform.models import Observation, ProbeEvent
+from hcss.platform.serving.localserver import LocalServer
 from hcss.simulation import ROMAN
 from tests.support.screenshots import screenshot
 from tests.support.trials import STUDY_TRIAL_S

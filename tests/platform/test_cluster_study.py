@@ -21,10 +21,9 @@ import httpx
 import pytest
 from sqlalchemy import func, select
 
-from hcss.platform.bot_http import LoadFigures, run_http_bots
+from hcss.platform.bots.http_load import LoadFigures, run_http_bots
 from hcss.platform.cli import upgrade_database
 from hcss.platform.db import Database
-from hcss.platform.localserver import LocalNginx, LocalServer
 from hcss.platform.models import (
     Command,
     CommandKey,
@@ -42,6 +41,7 @@ from hcss.platform.models import (
     TrialLease,
     TrialStatusChange,
 )
+from hcss.platform.serving.localserver import LocalNginx, LocalServer
 from hcss.platform.study.enrolment import cell_counts
 from hcss.platform.study.studyfile import load_study
 from tests.support.leases import skip_unless_group
@@ -199,7 +199,7 @@ def test_a_trial_hosted_by_another_process_answers_503_with_retry_after(database
     The answer lost the header on its way through the JSON and HTML error handlers, so
     the HTTP bots gave up mid-trial on a kill -9 (KeyError 'trial' on the 503's JSON).
     """
-    from hcss.platform.bots import ManualClock
+    from hcss.platform.bots.participant import ManualClock
     from hcss.platform.live.trials import start_bot_trial
     from tests.support.leases import leased_process
 
@@ -229,7 +229,7 @@ def test_a_host_killed_before_its_first_snapshot_still_leaves_an_honest_clock(da
     interruption, and the trial clock ran on through the outage (a 60 s
     training at 30x was over before the participant saw it again).
     """
-    from hcss.platform.bots import ManualClock
+    from hcss.platform.bots.participant import ManualClock
     from hcss.platform.live.trials import start_bot_trial
     from tests.support.leases import LEASE_S, leased_process
 

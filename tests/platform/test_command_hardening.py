@@ -18,7 +18,7 @@ from sqlalchemy import func, select
 
 from hcss.cli import main
 from hcss.platform.app import create_app
-from hcss.platform.bots import ManualClock
+from hcss.platform.bots.participant import ManualClock
 from hcss.platform.models import (
     Command,
     CommandOutcome,

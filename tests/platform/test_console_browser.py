@@ -19,7 +19,7 @@ import time
 import pytest
 from sqlalchemy import select
 
-from hcss.platform.bots import ParticipantBot
+from hcss.platform.bots.participant import ParticipantBot
 from hcss.platform.models import ConsoleAction, Participant, StudyEnrolment
 from hcss.platform.study.studyfile import load_study
 from tests.support.console import sign_in_page

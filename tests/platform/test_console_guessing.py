@@ -10,7 +10,7 @@ from __future__ import annotations
 from sqlalchemy import select
 
 from hcss.platform.app import create_app
-from hcss.platform.bots import ManualClock
+from hcss.platform.bots.participant import ManualClock
 from hcss.platform.console.lockout import CLIENT_FAILURES, LOCKOUT_S
 from hcss.platform.models import AuditRecord
 from tests.support.console import PASSWORD, USERNAME, code_of, sign_in

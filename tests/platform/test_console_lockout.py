@@ -12,7 +12,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 from click.testing import CliRunner
 
-from hcss.platform.bot_http import HttpClient, LoadFigures
+from hcss.platform.bots.http_load import HttpClient, LoadFigures
 from hcss.platform.console.lockout import CLIENT_FAILURES, LoginThrottle
 from tests.support.console import PASSWORD, USERNAME, sign_in
 from tests.support.inprocess import serving

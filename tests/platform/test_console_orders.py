@@ -15,7 +15,7 @@ import pytest
 from flask import Flask
 from sqlalchemy import select
 
-from hcss.platform.bots import ManualClock
+from hcss.platform.bots.participant import ManualClock
 from hcss.platform.console.accounts import create_experimenter
 from hcss.platform.models import ConsoleAction, Participant, TrialLease, TrialOrder
 from tests.support.console import sign_in

@@ -14,8 +14,8 @@ from click.testing import CliRunner
 from hcss.cli import main
 from hcss.platform.cli import upgrade_database
 from hcss.platform.db import Database
-from hcss.platform.localserver import LocalServer
 from hcss.platform.models import Participant
+from hcss.platform.serving.localserver import LocalServer
 
 ROOT = Path(__file__).resolve().parents[2]
 

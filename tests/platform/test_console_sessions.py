@@ -5,7 +5,7 @@ from __future__ import annotations
 from sqlalchemy import select
 
 from hcss.platform.app import create_app
-from hcss.platform.bots import ManualClock
+from hcss.platform.bots.participant import ManualClock
 from hcss.platform.live.trials import latest_status
 from hcss.platform.models import ConsoleAction, Participant
 from tests.support.console import code_of

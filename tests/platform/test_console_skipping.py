@@ -8,7 +8,7 @@ import re
 
 from sqlalchemy import select
 
-from hcss.platform.bots import parse_page
+from hcss.platform.bots.participant import parse_page
 from hcss.platform.models import ConsoleAction, StageEvent
 from tests.support.study import Visitor, events, visitor
 

@@ -9,9 +9,9 @@ import re
 import pytest
 from sqlalchemy import select
 
-from hcss.platform.bots import run_bots
-from hcss.platform.console.progress import progress_page
-from hcss.platform.console.sessions import ConsoleError, change_session
+from hcss.platform.bots.participant import run_bots
+from hcss.platform.console.interventions import ConsoleError, change_participant_state
+from hcss.platform.console.participant_table import progress_page
 from hcss.platform.models import ConsoleAction, Participant, StudyEnrolment
 from hcss.platform.study.stages import sequence
 from hcss.platform.study.studyfile import load_study
@@ -78,7 +78,9 @@ def test_a_batch_on_a_chosen_study_lists_every_link_and_a_csv(app, console) -> N
 )
 def test_an_unknown_study_or_cell_creates_nobody(app, console, fields) -> None:
     response = console.post("/console/participants", fields)
-    if "\x00" in fields["study"]:  # refused before the form sees it (hcss.platform.hardening)
+    if (
+        "\x00" in fields["study"]
+    ):  # refused before the form sees it (hcss.platform.guards.hardening)
         assert response.status_code == 400
     else:
         assert response.status_code == 303 and response.headers["Location"] == "/console/"
@@ -154,7 +156,7 @@ def test_a_participant_who_finished_shows_completed_and_cannot_be_paused(demo_ap
     with demo_app.app_context():
         for action in ("pause", "abort"):
             with pytest.raises(ConsoleError, match="completed the study"):
-                change_session(
+                change_participant_state(
                     database, demo_app.extensions["hcss_runner"], participant, None, action
                 )
     with database.session_scope() as session:

@@ -12,9 +12,9 @@ import pytest
 from sqlalchemy import create_engine, inspect, text
 
 from hcss.platform.db import Database
-from hcss.platform.localserver import postgres_schema
 from hcss.platform.models import Base
 from hcss.platform.models.append_only import install_triggers
+from hcss.platform.serving.localserver import postgres_schema
 from tests.support.databases import PG_ENV
 
 

@@ -18,7 +18,7 @@ import pytest
 from sqlalchemy import select
 
 from hcss.platform.app import create_app
-from hcss.platform.bots import ManualClock
+from hcss.platform.bots.participant import ManualClock
 from hcss.platform.live.trials import latest_status, start_bot_trial
 from hcss.platform.models import DecisionRow, Interruption, SimEvent, TrialStatusChange
 from hcss.platform.models.vocabularies import TrialStatus

@@ -6,7 +6,7 @@ from __future__ import annotations
 import time
 
 from hcss.platform.app import create_app
-from hcss.platform.bots import ManualClock
+from hcss.platform.bots.participant import ManualClock
 from tests.support.own_disk import own_disk
 from tests.support.own_postgres import own_postgres
 from tests.support.recruitment import join

@@ -11,11 +11,11 @@ from contextlib import contextmanager, nullcontext
 from sqlalchemy import event, func, select
 
 from hcss.platform.app import create_app
-from hcss.platform.bots import ManualClock
+from hcss.platform.bots.participant import ManualClock
 from hcss.platform.console.accounts import create_experimenter
-from hcss.platform.console.progress import PER_PAGE
-from hcss.platform.localserver import postgres_schema
+from hcss.platform.console.participant_table import PER_PAGE
 from hcss.platform.models import Participant, StudyEnrolment
+from hcss.platform.serving.localserver import postgres_schema
 from hcss.platform.study.studyfile import load_study
 from tests.support.console import Console, sign_in
 from tests.support.databases import PG_ENV

@@ -7,16 +7,16 @@ from sqlalchemy import select
 
 from hcss.analysis.load import load_inputs
 from hcss.cli import main
-from hcss.platform import bots
+from hcss.platform.bots.participant import bot_app, run_bots
 from hcss.platform.models import Participant
 from tests.support.exports import dictionary_columns, read_csv
 
 
 def test_a_bot_run_exports_every_table_with_rows(database_url, tmp_path) -> None:
-    app = bots.bot_app(database_url, "demo", SECRET_KEY="test-secret", TESTING=True)
+    app = bot_app(database_url, "demo", SECRET_KEY="test-secret", TESTING=True)
     try:
         app.extensions["hcss_db"].create_all()
-        (report,) = bots.run_bots(app, 1)
+        (report,) = run_bots(app, 1)
         with app.extensions["hcss_db"].session_scope() as session:
             token = session.scalars(select(Participant.token)).one()
     finally:

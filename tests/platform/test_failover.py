@@ -30,8 +30,8 @@ from hcss.platform.console.accounts import create_experimenter
 from hcss.platform.db import Database
 from hcss.platform.live.client import TrialClient
 from hcss.platform.live.trials import start_bot_trial
-from hcss.platform.localserver import LocalNginx, LocalServer
 from hcss.platform.models import Interruption, TrialLease
+from hcss.platform.serving.localserver import LocalNginx, LocalServer
 from tests.support.leases import lease_owner, skip_unless_group
 from tests.support.replays import trial_records
 from tests.support.trials import STUDY_TRIAL_S, csrf_token_of

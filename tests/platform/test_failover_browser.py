@@ -14,7 +14,7 @@ import pytest
 from hcss.platform.cli import upgrade_database
 from hcss.platform.db import Database
 from hcss.platform.live.trials import start_bot_trial
-from hcss.platform.localserver import LocalNginx, LocalServer
+from hcss.platform.serving.localserver import LocalNginx, LocalServer
 from tests.support.leases import lease_owner, skip_unless_group
 from tests.support.trials import STUDY_TRIAL_S
 

@@ -180,7 +180,7 @@ def test_fuzz_during_a_postgresql_outage(caplog) -> None:
     from sqlalchemy import create_engine
     from sqlalchemy.engine import make_url
 
-    from hcss.platform.localserver import postgres_schema
+    from hcss.platform.serving.localserver import postgres_schema
     from tests.support.cut_proxy import CutProxy
     from tests.support.databases import PG_ENV
 

@@ -31,7 +31,7 @@ from hcss.platform.cli import upgrade_database
 from hcss.platform.console.accounts import create_experimenter
 from hcss.platform.db import Database
 from hcss.platform.live.trials import start_bot_trial
-from hcss.platform.localserver import LocalNginx, LocalServer
+from hcss.platform.serving.localserver import LocalNginx, LocalServer
 from tests.support.fuzz import (
     FUZZ_SETTINGS,
     TALLY_FILE,

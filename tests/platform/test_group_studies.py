@@ -19,7 +19,7 @@ from sqlalchemy import update
 from hcss.platform.cli import upgrade_database
 from hcss.platform.db import Database
 from hcss.platform.models import GroupStudy
-from hcss.platform.workers import (
+from hcss.platform.serving.workers import (
     MEMBER_GONE_S,
     GroupRefused,
     require_same_studies,

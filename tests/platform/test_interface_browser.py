@@ -13,7 +13,7 @@ import re
 import pytest
 from sqlalchemy import select
 
-from hcss.platform.console.sessions import change_session
+from hcss.platform.console.interventions import change_participant_state
 from hcss.platform.models import Participant, ProbeEvent
 from tests.support.pages import contrast, live_trial, open_live_trial, wait_for
 from tests.support.study_server import StudyServer
@@ -127,7 +127,9 @@ def test_the_map_reads_at_1366_and_1024_and_a_double_enter_answers_no_probe(
         participant = session.scalars(select(Participant).where(Participant.token == token)).one()
         session.expunge(participant)
     with demo_server.app.app_context():
-        change_session(demo_server.database, demo_server.runner, participant, None, "abort")
+        change_participant_state(
+            demo_server.database, demo_server.runner, participant, None, "abort"
+        )
     expect(page.locator("#ended")).to_be_visible()
     expect(page.locator("#ended-title")).to_have_text("Ended by the experimenter")
     page.reload()  # the ended trial's page, opened again, says the same

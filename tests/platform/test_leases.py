@@ -15,7 +15,7 @@ import pytest
 from sqlalchemy import func, select
 from sqlalchemy.exc import DBAPIError
 
-from hcss.platform.bots import ManualClock
+from hcss.platform.bots.participant import ManualClock
 from hcss.platform.db import Database
 from hcss.platform.live.leases import UNCLAIMED_GRACE_S, HostedElsewhere, LeaseLost, Leases
 from hcss.platform.live.runner import Runner

@@ -13,7 +13,7 @@ import pytest
 from sqlalchemy import func, select
 from sqlalchemy.exc import DBAPIError
 
-from hcss.platform.bots import ManualClock
+from hcss.platform.bots.participant import ManualClock
 from hcss.platform.live import actions
 from hcss.platform.live.leases import UNCLAIMED_GRACE_S
 from hcss.platform.live.runner import Runner

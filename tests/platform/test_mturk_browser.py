@@ -22,7 +22,7 @@ from urllib.parse import urlencode
 import pytest
 from sqlalchemy import select
 
-from hcss.platform.bots import ParticipantBot, bot_app
+from hcss.platform.bots.participant import ParticipantBot, bot_app
 from hcss.platform.models import Participant, Recruitment
 from hcss.platform.study.studyfile import load_study
 from tests.support.counting import count_rows

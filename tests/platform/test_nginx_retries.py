@@ -16,7 +16,7 @@ from contextlib import contextmanager
 import httpx
 import pytest
 
-from hcss.platform.localserver import LocalNginx
+from hcss.platform.serving.localserver import LocalNginx
 
 
 class DyingProcess:

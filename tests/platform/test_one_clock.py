@@ -13,7 +13,7 @@ from datetime import UTC, datetime
 
 from sqlalchemy import select
 
-from hcss.platform.bots import ParticipantBot
+from hcss.platform.bots.participant import ParticipantBot
 from hcss.platform.models import (
     Base,
     CreatedAt,

@@ -167,7 +167,7 @@ PLANTS = [
         "builds ProbeEvent",
     ),
     (  # through the models package
-        "hcss/platform/console/sessions.py",
+        "hcss/platform/console/interventions.py",
         "from hcss.platform import models\ndef _planted():\n    return models.Snapshot()",
         "builds Snapshot",
     ),

@@ -21,7 +21,7 @@ from urllib.parse import urlencode
 import pytest
 from sqlalchemy import func, select
 
-from hcss.platform.bots import ParticipantBot
+from hcss.platform.bots.participant import ParticipantBot
 from hcss.platform.export.writer import write_export
 from hcss.platform.models import Participant, Recruitment, Snapshot
 from hcss.platform.study.studyfile import load_study

@@ -301,7 +301,7 @@ def test_the_migration_creates_the_recruitment_table_as_modelled(tmp_path) -> No
 def test_the_debrief_gives_the_completion_code_only_to_online_participants(
     database_url, monkeypatch
 ) -> None:
-    from hcss.platform.bots import bot_app, run_bots
+    from hcss.platform.bots.participant import bot_app, run_bots
     from hcss.platform.study import flow
 
     app = bot_app(database_url, "demo")

@@ -17,7 +17,7 @@ from sqlalchemy import select
 
 from hcss.cli import main
 from hcss.platform.app import create_app
-from hcss.platform.bots import ManualClock
+from hcss.platform.bots.participant import ManualClock
 from hcss.platform.models import Interruption
 
 ACCELERATION = 4.0  # trial seconds per wall second

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from sqlalchemy import func, select
 
-from hcss.platform.bots import parse_page
+from hcss.platform.bots.participant import parse_page
 from hcss.platform.models import ConsentRecord
 from hcss.platform.study import views
 from tests.support.study import new_participant, visitor
@@ -108,10 +108,16 @@ def test_the_screen_check_refuses_a_small_or_bogus_window_on_the_server(demo_app
         response = guest.submit({"width": width, "height": height}, page)
         assert response.status_code == 200, (width, height)
         assert 'class="error' in guest.html and 'data-stage="screen_check"' in guest.html
-    # A NUL byte is refused before the form sees it (hcss.platform.hardening).
+    # A NUL byte is refused before the form sees it (hcss.platform.guards.hardening).
     assert guest.submit({"width": "1280\x00", "height": "900"}, page).status_code == 400
     assert "Your window is 800 x 600 pixels" in guest.client.post(
         page.action, data=dict(page.hidden) | {"width": "800", "height": "600"}
     ).get_data(as_text=True)
     assert guest.submit({"width": "1280", "height": "800"}, page).status_code == 302
     assert guest.page().stage == "training"
+
+
+def test_the_site_without_a_link_sends_the_visitor_to_theirs(demo_app) -> None:
+    response = demo_app.test_client().get("/")
+    assert response.status_code == 200
+    assert "Please open the personal link you were given." in response.get_data(as_text=True)

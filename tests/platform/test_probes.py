@@ -147,7 +147,7 @@ def test_latencies_are_wall_clock_milliseconds_from_delivery(
     from click.testing import CliRunner
 
     from hcss.cli import main
-    from hcss.platform.console.sessions import change_session
+    from hcss.platform.console.interventions import change_participant_state
     from hcss.platform.models import Participant
 
     trial = make_trial(seed=4)
@@ -164,9 +164,13 @@ def test_latencies_are_wall_clock_milliseconds_from_delivery(
                 select(Participant).where(Participant.token == trial.token)
             ).one()
             session.expunge(participant)
-        change_session(trial.app.extensions["hcss_db"], trial.runner, participant, None, "pause")
+        change_participant_state(
+            trial.app.extensions["hcss_db"], trial.runner, participant, None, "pause"
+        )
         clock.now += 5.0  # the pause: wall time that is no one's latency
-        change_session(trial.app.extensions["hcss_db"], trial.runner, participant, None, "resume")
+        change_participant_state(
+            trial.app.extensions["hcss_db"], trial.runner, participant, None, "resume"
+        )
     clock.now += 0.133
     assert trial.post(f"/probes/{probe['id']}/answer", {"answer": choice}).status_code == 200
 

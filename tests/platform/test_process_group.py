@@ -8,7 +8,7 @@ import pytest
 from click.testing import CliRunner
 
 from hcss.cli import main
-from hcss.platform.localserver import LocalNginx
+from hcss.platform.serving.localserver import LocalNginx
 
 
 @pytest.mark.parametrize("options", [["--processes", "2"], ["--cluster"]])

@@ -22,7 +22,7 @@ from urllib.parse import urlencode
 import pytest
 from sqlalchemy import func, select
 
-from hcss.platform.bots import parse_page
+from hcss.platform.bots.participant import parse_page
 from hcss.platform.models import Participant, Recruitment
 from hcss.platform.study.studyfile import StudyFileError, load_study
 from tests.support.recruitment import demo_variant

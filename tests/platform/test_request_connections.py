@@ -27,7 +27,7 @@ from sqlalchemy import event, select
 
 import hcss.platform.db as db_module
 from hcss.platform.app import create_app
-from hcss.platform.bots import ManualClock
+from hcss.platform.bots.participant import ManualClock
 from hcss.platform.live.trials import latest_status
 from hcss.platform.models import Participant
 from hcss.platform.models.vocabularies import TrialStatus

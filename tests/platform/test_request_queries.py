@@ -16,7 +16,7 @@ from contextlib import contextmanager
 
 from sqlalchemy import event, select
 
-from hcss.platform.bots import parse_page
+from hcss.platform.bots.participant import parse_page
 from hcss.platform.models import QuestionnaireItem
 from tests.support.study import new_participant, visitor, walk_to
 from tests.support.trials import investigate_request

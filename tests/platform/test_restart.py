@@ -11,10 +11,10 @@ from hcss.platform.cli import upgrade_database
 from hcss.platform.db import Database
 from hcss.platform.live.client import TrialClient
 from hcss.platform.live.trials import start_bot_trial
-from hcss.platform.localserver import LocalServer
 from hcss.platform.models import (
     Interruption,
 )
+from hcss.platform.serving.localserver import LocalServer
 from tests.support.replays import replay_trial, trial_records
 from tests.support.trials import STUDY_TRIAL_S
 

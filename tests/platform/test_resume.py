@@ -6,7 +6,7 @@ import pytest
 from sqlalchemy import select
 
 from hcss.platform.app import create_app
-from hcss.platform.bots import ManualClock
+from hcss.platform.bots.participant import ManualClock
 from hcss.platform.models import CommandOutcome, Interruption, Snapshot
 from tests.support.replays import replay_trial
 

@@ -89,7 +89,7 @@ def test_a_read_only_postgresql_is_said_at_start_and_answers_503() -> None:
     raises no OperationalError for it, but ReadOnlySqlTransaction, SQLSTATE 25006)."""
     import pytest
 
-    from hcss.platform.localserver import postgres_schema
+    from hcss.platform.serving.localserver import postgres_schema
     from tests.support.databases import PG_ENV
 
     base = os.environ.get(PG_ENV)

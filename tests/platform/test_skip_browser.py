@@ -8,7 +8,7 @@ import threading
 import pytest
 from waitress.server import create_server
 
-from hcss.platform.bots import bot_app
+from hcss.platform.bots.participant import bot_app
 from hcss.platform.cli import upgrade_database
 from hcss.platform.console.accounts import create_experimenter
 from hcss.platform.models import Participant

@@ -15,8 +15,8 @@ import time
 import pytest
 
 from hcss.platform.cli import upgrade_database
-from hcss.platform.connections import PER_CLIENT
-from hcss.platform.localserver import LocalServer
+from hcss.platform.serving.connections import PER_CLIENT
+from hcss.platform.serving.localserver import LocalServer
 from tests.support.bystander import sample_bystander_ms
 
 ATTACK_SOCKETS = 600

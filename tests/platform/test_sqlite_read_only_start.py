@@ -18,7 +18,7 @@ import time
 import pytest
 
 from hcss.platform.app import create_app
-from hcss.platform.bots import ManualClock
+from hcss.platform.bots.participant import ManualClock
 from hcss.platform.cli import upgrade_database
 from tests.support.own_disk import own_disk
 

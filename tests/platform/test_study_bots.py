@@ -7,11 +7,11 @@ from click.testing import CliRunner
 from sqlalchemy import select
 
 from hcss.cli import main
-from hcss.platform.bots import BotError, run_bots
+from hcss.platform.bots.participant import BotError, run_bots
 from hcss.platform.db import Database
 from hcss.platform.models import ConsoleAction, Participant, StageEvent, StudyEnrolment
 from hcss.platform.study import participant_status
-from hcss.platform.study.stage import Submission, SubmissionMustFail
+from hcss.platform.study.stage_protocol import Submission, SubmissionMustFail
 from hcss.platform.study.stages import STAGES
 from tests.support.study import new_participant, visitor
 

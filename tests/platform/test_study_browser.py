@@ -14,8 +14,8 @@ from sqlalchemy import select
 
 from hcss.platform.cli import upgrade_database
 from hcss.platform.db import Database
-from hcss.platform.localserver import LocalServer
 from hcss.platform.models import ConsentRecord, Participant, QuestionnaireItem
+from hcss.platform.serving.localserver import LocalServer
 from hcss.platform.study import assign_cell
 from hcss.questionnaires.demographics import ITEM_KEYS
 from tests.support.screenshots import screenshot

@@ -14,7 +14,7 @@ from click.testing import CliRunner
 from sqlalchemy import select
 
 from hcss.cli import main
-from hcss.platform.bots import ParticipantBot, expected_pages
+from hcss.platform.bots.participant import ParticipantBot, expected_pages
 from hcss.platform.live.trials import latest_status
 from hcss.platform.models import (
     ConsentRecord,

@@ -11,7 +11,7 @@ import pytest
 from flask import Flask
 from sqlalchemy import select
 
-from hcss.platform.bots import BotReport, ParticipantBot
+from hcss.platform.bots.participant import BotReport, ParticipantBot
 from hcss.platform.models import Participant
 from hcss.platform.study import current_position, load_study
 from tests.support.study import (

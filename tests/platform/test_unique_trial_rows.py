@@ -16,7 +16,7 @@ from alembic import command
 from sqlalchemy import func, select, text
 from sqlalchemy.exc import DBAPIError, IntegrityError
 
-from hcss.platform.bots import ManualClock
+from hcss.platform.bots.participant import ManualClock
 from hcss.platform.cli import alembic_config
 from hcss.platform.db import Database
 from hcss.platform.live.rebuild import load_trial

@@ -15,7 +15,7 @@ from flask import Flask
 
 from hcss.analysis.load import load_inputs
 from hcss.cli import main
-from hcss.platform import bots
+from hcss.platform.bots.participant import ParticipantBot, bot_app
 from hcss.platform.console.accounts import create_experimenter
 from hcss.platform.study.studyfile import load_study
 from tests.support.console import Console, sign_in
@@ -27,7 +27,7 @@ def _demo_study_with_unused_links(database_url: str, monkeypatch) -> tuple[Flask
     """A batch of ten demo links from the console: four walked to the debrief by
     participant bots (as real participants: not flagged), six never opened; and a demo
     trial made by `hcss demo-trial`, still running."""
-    app = bots.bot_app(database_url, "demo", SECRET_KEY="test-secret", TESTING=True)
+    app = bot_app(database_url, "demo", SECRET_KEY="test-secret", TESTING=True)
     app.extensions["hcss_db"].create_all()
     with app.extensions["hcss_db"].session_scope() as session:
         create_experimenter(session, "alice", "correct horse battery")
@@ -39,7 +39,7 @@ def _demo_study_with_unused_links(database_url: str, monkeypatch) -> tuple[Flask
     assert len(tokens) == UNUSED + WALKED
     study = load_study("demo")
     for number, token in enumerate(tokens[:WALKED]):
-        bot = bots.ParticipantBot(app, token, seed=number, tick_s=10.0, policy_every_s=30.0)
+        bot = ParticipantBot(app, token, seed=number, tick_s=10.0, policy_every_s=30.0)
         bot.run(study)  # raises unless it reaches the debrief
     monkeypatch.setenv("DATABASE_URL", database_url)
     result = CliRunner().invoke(main, ["demo-trial", "--study", "demo"])
@@ -110,7 +110,7 @@ def test_export_and_analyze_study_demo_count_the_four_who_took_part(tmp_path, mo
 
 def test_a_link_never_opened_is_not_started_in_the_export(database_url, tmp_path: Path) -> None:
     """Without a walk: a batch's links, one opened (at consent), the rest not started."""
-    app = bots.bot_app(database_url, "demo", SECRET_KEY="test-secret", TESTING=True)
+    app = bot_app(database_url, "demo", SECRET_KEY="test-secret", TESTING=True)
     app.extensions["hcss_db"].create_all()
     try:
         with app.extensions["hcss_db"].session_scope() as session:

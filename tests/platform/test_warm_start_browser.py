@@ -17,8 +17,8 @@ import pytest
 from hcss.platform.cli import upgrade_database
 from hcss.platform.db import Database
 from hcss.platform.live.trials import start_trial
-from hcss.platform.localserver import LocalServer
 from hcss.platform.models import Participant
+from hcss.platform.serving.localserver import LocalServer
 
 pytestmark = pytest.mark.browser
 

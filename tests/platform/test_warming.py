@@ -16,7 +16,7 @@ from urllib.parse import urlencode
 
 from sqlalchemy import func, select
 
-from hcss.platform.bots import parse_page
+from hcss.platform.bots.participant import parse_page
 from hcss.platform.live.warmup import Warmup
 from hcss.platform.models import Trial
 from tests.support.recruitment import demo_variant
@@ -104,7 +104,7 @@ class _HeldWarmup(Warmup):
 def test_a_bot_that_meets_the_waiting_page_waits_and_walks_on(database_url) -> None:
     """`hcss bots` against a server still compiling: every bot failed 'POST  answered 405'
     on the training's waiting page, which has no form (seen on a fresh install and under load)."""
-    from hcss.platform.bots import bot_app, run_bots
+    from hcss.platform.bots.participant import bot_app, run_bots
 
     app = bot_app(database_url, "demo")
     app.extensions["hcss_db"].create_all()

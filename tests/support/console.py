@@ -20,11 +20,11 @@ from flask.testing import FlaskClient
 from sqlalchemy import Table, event, select
 from waitress.server import create_server
 
-from hcss.platform.bots import bot_app
+from hcss.platform.bots.participant import bot_app
 from hcss.platform.cli import upgrade_database
-from hcss.platform.connections import close_server
 from hcss.platform.console.accounts import create_experimenter
 from hcss.platform.models import Base, Participant
+from hcss.platform.serving.connections import close_server
 from tests.support.trials import csrf_token_of
 
 USERNAME = "alice"

@@ -19,10 +19,10 @@ from hypothesis import strategies as st
 from werkzeug.exceptions import HTTPException
 
 from hcss.platform.app import create_app
-from hcss.platform.bots import ManualClock
+from hcss.platform.bots.participant import ManualClock
 from hcss.platform.console.accounts import create_experimenter
 from hcss.platform.live.trials import start_bot_trial
-from hcss.platform.study.stage import Shown
+from hcss.platform.study.stage_protocol import Shown
 from hcss.platform.study.stages import STAGES
 from tests.support.console import sign_in
 from tests.support.trials import STUDY_TRIAL_S

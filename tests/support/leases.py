@@ -12,12 +12,12 @@ from flask import Flask
 from sqlalchemy import select
 
 from hcss.platform.app import create_app
-from hcss.platform.bots import ManualClock
+from hcss.platform.bots.participant import ManualClock
 from hcss.platform.db import Database
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.trials import start_bot_trial
-from hcss.platform.localserver import LocalNginx
 from hcss.platform.models import TrialLease
+from hcss.platform.serving.localserver import LocalNginx
 
 LEASE_S = 6.0
 

@@ -21,7 +21,7 @@ from flask import Flask
 from flask.testing import FlaskClient
 from sqlalchemy import select
 
-from hcss.platform.bots import (
+from hcss.platform.bots.participant import (
     BotReport,
     ManualClock,
     PageParser,

@@ -19,12 +19,12 @@ from typing import Any
 from flask import Flask
 from waitress.server import create_server
 
-from hcss.platform.bots import ManualClock, bot_app
+from hcss.platform.bots.participant import ManualClock, bot_app
 from hcss.platform.cli import upgrade_database
-from hcss.platform.connections import close_server
 from hcss.platform.db import Database
 from hcss.platform.live.runner import Runner
 from hcss.platform.models import Participant
+from hcss.platform.serving.connections import close_server
 from hcss.platform.study import assign_cell
 
 
@@ -83,5 +83,5 @@ def study_server(tmp_path: Path, study: str = "demo", **config: Any) -> Iterator
     finally:
         close_server(
             server, thread
-        )  # tasks first, then the trigger pipe: hcss.platform.connections
+        )  # tasks first, then the trigger pipe: hcss.platform.serving.connections
         app.extensions["hcss_db"].engine.dispose()

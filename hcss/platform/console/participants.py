@@ -14,7 +14,7 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 from werkzeug.routing import BuildError
 
-from hcss.platform.console.sessions import ConsoleError
+from hcss.platform.console.interventions import ConsoleError
 from hcss.platform.models import (
     ConsoleAction,
     Experimenter,
@@ -23,7 +23,7 @@ from hcss.platform.models import (
     StudyEnrolment,
 )
 from hcss.platform.models.latest import latest_per_key
-from hcss.platform.pilots import pilot_flags
+from hcss.platform.models.pilots import pilot_flags
 from hcss.platform.study.enrolment import assign_cell
 from hcss.platform.study.flow import participant_statuses
 from hcss.platform.study.studyfile import StudyFileError, load_study

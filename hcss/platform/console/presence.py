@@ -30,7 +30,7 @@ from sqlalchemy.orm import Session
 
 from hcss.platform.db import get_session
 from hcss.platform.errors import DATABASE_RETRY_S
-from hcss.platform.hardening import takes_json
+from hcss.platform.guards.hardening import takes_json
 from hcss.platform.models import Participant, ParticipantPresence, StageEvent
 
 HEARTBEAT_EVERY_S = 10.0

@@ -41,7 +41,7 @@ from hcss.platform.console.second_factor import (
 )
 from hcss.platform.console.second_factor import verify as verify_second_factor
 from hcss.platform.db import database, get_session
-from hcss.platform.ratelimit import request_client
+from hcss.platform.guards.clients import request_client
 
 
 def answer_sign_in(form: forms.LoginForm, next_url: str) -> ResponseReturnValue:

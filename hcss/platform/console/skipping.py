@@ -22,17 +22,17 @@ from __future__ import annotations
 
 from sqlalchemy.orm import Session
 
-from hcss.platform.console.sessions import ConsoleError
+from hcss.platform.console.interventions import ConsoleError
 from hcss.platform.db import Database, session_now
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.service import finish_overdue_trial
 from hcss.platform.live.trials import latest_status
 from hcss.platform.models import ConsoleAction, Experimenter, Participant
+from hcss.platform.models.participant_state import ENDED_STATES, participant_state
 from hcss.platform.models.vocabularies import TrialStatus
-from hcss.platform.session_state import ENDED_STATES, session_state
 from hcss.platform.study.enrolment import current_enrolment
 from hcss.platform.study.flow import Flow, Position
-from hcss.platform.study.stage import Slot
+from hcss.platform.study.stage_protocol import Slot
 
 #: Stages no experimenter may move a participant past.
 NEVER_SKIPPED = ("consent",)
@@ -56,7 +56,7 @@ def skip_step(
     """
     finish_overdue_trial(runner, participant)
     with database.session_scope() as session:
-        if session_state(session, participant.id) in ENDED_STATES:
+        if participant_state(session, participant.id) in ENDED_STATES:
             raise ConsoleError(f"{participant.code}'s session has ended; nothing to skip")
         enrolment = current_enrolment(session, participant.id)
         if enrolment is None:

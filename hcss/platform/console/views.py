@@ -33,8 +33,17 @@ from sqlalchemy.orm import Session
 
 from hcss.platform.console import eventlog, forms
 from hcss.platform.console.audit import audit_entries
+from hcss.platform.console.interventions import (
+    ConsoleError,
+    available_actions,
+    change_participant_state,
+    reinstate,
+    set_pilot,
+    study_status,
+)
 from hcss.platform.console.link_limit import LinkLimitReached, require_allowance
 from hcss.platform.console.login_sessions import end_sessions, experimenter_for_cookie
+from hcss.platform.console.participant_table import FLAGS, progress_json, progress_page
 from hcss.platform.console.participants import (
     USABLE,
     batches,
@@ -45,22 +54,13 @@ from hcss.platform.console.participants import (
     participants_by_code,
 )
 from hcss.platform.console.presence import CONNECTED_WITHIN_S
-from hcss.platform.console.progress import FLAGS, progress_json, progress_page
-from hcss.platform.console.sessions import (
-    ConsoleError,
-    available_actions,
-    change_session,
-    reinstate,
-    set_pilot,
-    study_status,
-)
 from hcss.platform.console.signin import answer_sign_in
 from hcss.platform.console.skipping import skip_step, skip_targets
 from hcss.platform.console.withdrawal import WithdrawalError, withdraw
 from hcss.platform.db import database, get_session, session_now
 from hcss.platform.models import AuditRecord, ConsoleAction, Experimenter, Participant
-from hcss.platform.pilots import is_pilot
-from hcss.platform.session_state import session_state
+from hcss.platform.models.participant_state import participant_state
+from hcss.platform.models.pilots import is_pilot
 from hcss.platform.study.enrolment import current_enrolment
 from hcss.platform.study.files import study_names
 from hcss.platform.study.outcomes import Outcomes, outcomes
@@ -336,7 +336,7 @@ def links_csv_download() -> Response:
 def participant(code: str) -> str:
     found = _participant(code)
     session = get_session()
-    state, status = session_state(session, found.id), study_status(session, found)
+    state, status = participant_state(session, found.id), study_status(session, found)
     pilot = is_pilot(session, found)
     actions = session.scalars(
         select(ConsoleAction)
@@ -405,7 +405,7 @@ def bulk():  # type: ignore[no-untyped-def]
     for found in chosen:
         try:
             if action in ("pause", "resume", "abort"):
-                change_session(database(), _runner(), found, current_user, action)
+                change_participant_state(database(), _runner(), found, current_user, action)
             else:
                 set_pilot(database(), _runner(), found, current_user, action == "mark_pilot")
             done.append(found.code)
@@ -440,7 +440,7 @@ def act(code: str, action: str):
         elif action == "reinstate":
             reinstate(database(), _runner(), found, current_user)
         else:
-            change_session(database(), _runner(), found, current_user, action)
+            change_participant_state(database(), _runner(), found, current_user, action)
     except ConsoleError as error:
         flash(str(error))
         return redirect(back), 303

@@ -26,7 +26,7 @@ from hcss.platform.models import (
     ProbeEvent,
     Trial,
 )
-from hcss.platform.naming import collective_name
+from hcss.platform.models.stored_names import stored_collective_name
 from hcss.platform.study.enrolment import current_enrolment
 from hcss.platform.study.studyfile import FAST_ANSWER_MS, StudyFileError, load_study
 from hcss.simulation.params import Params
@@ -48,7 +48,7 @@ def iso(moment: datetime | None) -> str | None:
 def roman(collective: int | None, trial: Trial) -> str | None:
     """The collective's numeral; Uninterpretable for an index the trial does not have."""
     hubs = trial.scenario.get("hubs") if isinstance(trial.scenario, dict) else None
-    return collective_name(collective, len(hubs) if isinstance(hubs, list) else None)
+    return stored_collective_name(collective, len(hubs) if isinstance(hubs, list) else None)
 
 
 def _keys(trial: Trial, code: str, sim_time: float, wall: datetime) -> Row:

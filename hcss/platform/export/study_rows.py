@@ -26,7 +26,7 @@ from hcss.platform.models import (
     StudyEnrolment,
     Trial,
 )
-from hcss.platform.pilots import pilot_flags
+from hcss.platform.models.pilots import pilot_flags
 from hcss.platform.study.flow import DONE_KINDS, participant_statuses
 
 Row = dict[str, Any]

@@ -29,7 +29,7 @@ from hcss.platform.export.selection import participants_of
 from hcss.platform.export.study_rows import participant_rows, study_flow_rows
 from hcss.platform.export.tables import PROBLEMS_TABLE, TABLES, TRIAL_TABLES, columns
 from hcss.platform.models import Participant, Trial
-from hcss.tidy_csv import is_missing, write_table
+from hcss.tidy_csv import is_missing, write_rows
 
 #: The data dictionary, package data (docs/data-dictionary.md links to it).
 DICTIONARY = resources.files("hcss.platform.export") / "data-dictionary.md"
@@ -122,7 +122,7 @@ def _participant_tables(
 
 
 def write_csv(path: Path, table: str, rows: list[dict[str, Any]]) -> None:
-    write_table(path, columns(table), rows)
+    write_rows(path, columns(table), rows)
 
 
 def write_parquet(path: Path, table: str, rows: list[dict[str, Any]]) -> bool:

@@ -17,12 +17,12 @@ from typing import Any
 from flask import Blueprint, Response, current_app, jsonify, request
 
 from hcss.platform.db import database
+from hcss.platform.guards.clients import request_client
 from hcss.platform.live import commands
 from hcss.platform.live.access import require_owner, runner, trial_for
 from hcss.platform.live.idempotency import idempotent
 from hcss.platform.live.streams import RETRY_AFTER_S, StreamSlots, client_share, study_share
 from hcss.platform.live.trial_writer import KeyedCommand
-from hcss.platform.ratelimit import request_client
 
 _POSITION = re.compile(r"[0-9]{1,18}")
 

@@ -15,7 +15,7 @@ from hcss.platform.live import trial_writer
 from hcss.platform.live.leases import trial_transaction
 from hcss.platform.live.orders import mark_done
 from hcss.platform.live.recorder import kept_until_written, record_progress
-from hcss.platform.session_state import STATE_ACTIONS
+from hcss.platform.models.participant_state import STATE_ACTIONS
 
 if TYPE_CHECKING:
     from hcss.platform.live.runner import Runner

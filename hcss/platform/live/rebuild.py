@@ -43,7 +43,7 @@ from hcss.platform.models import (
     SimEvent,
     Trial,
 )
-from hcss.platform.naming import Uninterpretable
+from hcss.platform.models.stored_names import Uninterpretable
 
 if TYPE_CHECKING:
     from hcss.simulation.requests import RequestOutcome

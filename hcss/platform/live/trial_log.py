@@ -25,7 +25,8 @@ from hcss.platform.models import (
     Snapshot,
     Trial,
 )
-from hcss.platform.naming import Uninterpretable, collective_name
+from hcss.platform.models.stored_names import Uninterpretable
+from hcss.platform.models.stored_names import stored_collective_name as collective_name
 from hcss.simulation.messages import accepted_text, refusal_text, request_subject
 
 if TYPE_CHECKING:

@@ -5,7 +5,7 @@ files, since `/join` goes to any of them and each enrolment keeps its file's
 digest. A process records the digest of each study it can load at start and
 says it is alive every few seconds (`seen_epoch`); a process starting with a
 different file for a study that a live member serves refuses to serve
-(`hcss.platform.workers.require_same_studies`). Like the lease, a mutable
+(`hcss.platform.serving.workers.require_same_studies`). Like the lease, a mutable
 record of the group, not of the study: not append-only, not exported.
 """
 

@@ -13,7 +13,7 @@ class JoinStart(Base):
 
     ``client`` is the address prefix hashed with the server's secret (no address at
     rest); ``at_epoch`` the wall clock. Kept only for the limit's window: older rows
-    are deleted as Starts come (hcss.platform.ratelimit). In the database, not in a
+    are deleted as Starts come (hcss.platform.guards.ratelimit). In the database, not in a
     process, so `hcss serve --processes N` and a restart keep one count per client.
     """
 

@@ -22,7 +22,7 @@ class TrialOrder(CreatedAt, Base):
     id: Mapped[int] = mapped_column(primary_key=True)
     trial_id: Mapped[int] = mapped_column(ForeignKey("trial.id"), index=True)
     experimenter_id: Mapped[int | None] = mapped_column(ForeignKey("experimenter.id"))
-    #: pause, resume or abort (hcss.platform.session_state.STATE_ACTIONS).
+    #: pause, resume or abort (hcss.platform.models.participant_state.STATE_ACTIONS).
     action: Mapped[str] = mapped_column(String(16))
     #: The process that wrote it (`host:port`), for the log.
     issued_by: Mapped[str] = mapped_column(String(128))

@@ -3,7 +3,7 @@
 A study file (`<name>.toml`: `files` finds it, `studyfile` reads it into `settings.Study`,
 the one typed model the platform runs) lists the stages; the stage classes (`stages`,
 `mrt_stage`, `trial_stage`) declare their forms, templates, time limits and hooks, each
-hook given one `stage.StageContext`; `flow.Flow` answers "which stage now?" from the
+hook given one `stage_protocol.StageContext`; `flow.Flow` answers "which stage now?" from the
 participant's append-only stage events; `enrolment.assign_cell` does the
 counterbalancing; `views` serves `/p/<token>`.
 """

@@ -24,8 +24,8 @@ from hcss.platform.models import (
     StudyEnrolment,
 )
 from hcss.platform.models.latest import latest_row, newest_ids
-from hcss.platform.pilots import is_pilot
-from hcss.platform.session_state import aborted_participants, timed_out_participants
+from hcss.platform.models.participant_state import aborted_participants, timed_out_participants
+from hcss.platform.models.pilots import is_pilot
 from hcss.platform.study.stages import sequence
 from hcss.platform.study.studyfile import Study, load_study
 

@@ -30,10 +30,10 @@ from hcss.platform.models import (
     TrialStatusChange,
 )
 from hcss.platform.models.latest import latest_per_key, latest_row
+from hcss.platform.models.participant_state import participant_states
 from hcss.platform.models.vocabularies import TrialStatus
-from hcss.platform.session_state import session_states
 from hcss.platform.study.enrolment import current_enrolment, not_counted
-from hcss.platform.study.stage import Slot, StageContext
+from hcss.platform.study.stage_protocol import Slot, StageContext
 from hcss.platform.study.stages import sequence
 from hcss.platform.study.studyfile import load_study
 from hcss.questionnaires.definitions import ScoreRow
@@ -311,7 +311,7 @@ def participant_statuses(session: Session, participants: list[Participant]) -> d
         return (column.in_(ids),) if few else ()
 
     ended = not_counted(session)
-    states = session_states(session)
+    states = participant_states(session)
     consents = latest_per_key(
         session, ConsentRecord, ConsentRecord.participant_id, *scope(ConsentRecord.participant_id)
     )

@@ -16,7 +16,7 @@ from markupsafe import Markup
 from hcss.platform.study.forms import mrt_form
 from hcss.platform.study.markdown import render_markdown
 from hcss.platform.study.settings import MrtTable
-from hcss.platform.study.stage import Refused, Stage, StageContext
+from hcss.platform.study.stage_protocol import Refused, Stage, StageContext
 from hcss.platform.study.texts import duration, number_word
 from hcss.questionnaires import mrt
 from hcss.questionnaires.definitions import ScoreRow

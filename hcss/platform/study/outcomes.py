@@ -19,7 +19,7 @@ from sqlalchemy import func, select
 from sqlalchemy.orm import Session
 
 from hcss.platform.models import ConsentRecord, Participant, Recruitment, ScreenOut, TurnedAway
-from hcss.platform.session_state import aborted_participants, timed_out_participants
+from hcss.platform.models.participant_state import aborted_participants, timed_out_participants
 from hcss.platform.study.flow import current_position
 from hcss.platform.study.online import Recruit
 

@@ -31,9 +31,9 @@ from sqlalchemy.orm import Session
 from werkzeug.wrappers import Response
 
 from hcss.platform.db import get_session, session_now
-from hcss.platform.hardening import allow_form_action_to, allow_framing_by
+from hcss.platform.guards.hardening import allow_form_action_to, allow_framing_by
+from hcss.platform.guards.ratelimit import enrolment_refusal
 from hcss.platform.models import Participant, Recruitment, ReturnVisit
-from hcss.platform.ratelimit import enrolment_refusal
 from hcss.platform.study.enrolment import assign_cell, cell_counts, hold_assignment_lock
 from hcss.platform.study.limits import Timeouts
 from hcss.platform.study.online import (

@@ -20,7 +20,7 @@ from wtforms.validators import InputRequired, NumberRange
 
 from hcss.platform.study.forms import attach_errors, form_of
 from hcss.platform.study.requirements import MAX_PIXELS
-from hcss.platform.study.stage import (
+from hcss.platform.study.stage_protocol import (
     Shown,
     Stage,
     StageContext,

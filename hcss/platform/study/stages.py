@@ -29,7 +29,7 @@ from hcss.platform.study.markdown import render_markdown
 from hcss.platform.study.mrt_stage import MentalRotation
 from hcss.platform.study.screen_check import ScreenCheck
 from hcss.platform.study.settings import Study
-from hcss.platform.study.stage import (
+from hcss.platform.study.stage_protocol import (
     Refused,
     Shown,
     Slot,

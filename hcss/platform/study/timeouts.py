@@ -7,7 +7,7 @@ counts places, the personal link before it shows a page. Each of those calls
 experimenter) for every active, in-progress participant whose last sign of
 life (a page heartbeat, a stage event, the enrolment) is older than
 `inactivity_s`, or whose enrolment is older than `overall_s`. The session is
-then `timed_out` (hcss.platform.session_state): held like an abort, exported
+then `timed_out` (hcss.platform.models.participant_state): held like an abort, exported
 with that status, and its cell free unless the study says `free_cell = false`.
 A running trial is never timed out: it ends at its own limit first.
 """
@@ -29,13 +29,13 @@ from hcss.platform.models import (
     Trial,
 )
 from hcss.platform.models.latest import latest_per_key
+from hcss.platform.models.participant_state import participant_states
 from hcss.platform.models.vocabularies import TrialStatus
-from hcss.platform.session_state import session_states
 from hcss.platform.study.flow import current_position
 from hcss.platform.study.studyfile import Study, StudyFileError, load_study
 
 #: The detail of the console's `resume` that reinstates a timed-out participant
-#: (hcss.platform.console.sessions.reinstate).
+#: (hcss.platform.console.interventions.reinstate).
 REINSTATED = "reinstated after a time-out"
 
 
@@ -79,7 +79,7 @@ def time_out_abandoned(
     }
     if not limited:
         return []
-    states = session_states(session)
+    states = participant_states(session)
     presence = select(ParticipantPresence.participant_id, ParticipantPresence.last_seen_epoch)
     seen = {pid: last for pid, last in session.execute(presence)}
     stage_at = {

@@ -27,7 +27,7 @@ from hcss.platform.live.warmup import simulation_ready
 from hcss.platform.models import StageEvent
 from hcss.platform.models import Trial as TrialRow
 from hcss.platform.models.vocabularies import TrialStatus
-from hcss.platform.study.stage import Refused, Stage, StageContext
+from hcss.platform.study.stage_protocol import Refused, Stage, StageContext
 from hcss.platform.study.texts import duration
 
 

@@ -22,13 +22,13 @@ from werkzeug.wrappers import Response
 from hcss.platform.db import get_session
 from hcss.platform.live.service import finish_overdue_trial
 from hcss.platform.models import Participant, StageEvent, StudyEnrolment
-from hcss.platform.session_state import session_state
+from hcss.platform.models.participant_state import participant_state
 from hcss.platform.study.enrolment import current_enrolment, first_enrolment
 from hcss.platform.study.flow import Flow, Position, study_now
 from hcss.platform.study.markdown import render_markdown
 from hcss.platform.study.recruitment import completion_for
 from hcss.platform.study.screenout import leave_for, screen_out_for
-from hcss.platform.study.stage import Refused
+from hcss.platform.study.stage_protocol import Refused
 from hcss.platform.study.texts import fill
 from hcss.platform.study.timeouts import time_out_abandoned
 from hcss.platform.study.versions import enrolled_study
@@ -272,7 +272,7 @@ def _check_current(flow: Flow, position: Position, index: int, step: str) -> Non
 
 def _held(flow: Flow) -> str | None:
     """The page for a session the experimenter paused or ended, else None."""
-    state = session_state(flow.session, flow.participant.id)
+    state = participant_state(flow.session, flow.participant.id)
     if state == "active":
         return None
     leave = leave_for(flow.session, flow.participant, flow.study, state)

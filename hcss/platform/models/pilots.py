@@ -11,8 +11,9 @@ from __future__ import annotations
 
 from sqlalchemy.orm import Session
 
-from hcss.platform.models import ConsoleAction, Participant
+from hcss.platform.models.console import ConsoleAction
 from hcss.platform.models.latest import latest_per_key, latest_row
+from hcss.platform.models.participant import Participant
 
 PILOT_ACTIONS = ("mark_pilot", "unmark_pilot")
 

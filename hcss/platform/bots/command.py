@@ -5,8 +5,8 @@ from __future__ import annotations
 import click
 from tqdm import tqdm
 
-from hcss.platform.bot_http import run_http_bots
-from hcss.platform.bots import bot_app, run_bots
+from hcss.platform.bots.http_load import run_http_bots
+from hcss.platform.bots.participant import bot_app, run_bots
 from hcss.platform.cli import upgrade_database
 from hcss.platform.config import database_url as default_url
 from hcss.platform.study.studyfile import StudyFileError, load_study

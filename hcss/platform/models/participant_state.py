@@ -1,4 +1,4 @@
-"""A participant's session state: ``active``, ``paused``, ``aborted`` or ``timed_out``.
+"""A participant's state in the study: ``active``, ``paused``, ``aborted`` or ``timed_out``.
 
 The rule, in one place: the state is given by the participant's latest
 pause/resume/abort/time_out `ConsoleAction` row (none: active). The console writes those
@@ -27,7 +27,7 @@ _STATE_OF_ACTION = {
 ENDED_STATES = ("aborted", "timed_out")
 
 
-def session_state(session: Session, participant_id: int) -> str:
+def participant_state(session: Session, participant_id: int) -> str:
     """``active``, ``paused`` or ``aborted``, from the latest pause/resume/abort row."""
     latest = latest_row(
         session,
@@ -39,8 +39,8 @@ def session_state(session: Session, participant_id: int) -> str:
     return "active" if latest is None else _STATE_OF_ACTION[latest.action]
 
 
-def session_states(session: Session) -> dict[int, str]:
-    """`session_state` of every participant with a pause/resume/abort row, in one query."""
+def participant_states(session: Session) -> dict[int, str]:
+    """`participant_state` of every participant with a pause/resume/abort row, in one query."""
     rows = latest_per_key(
         session,
         ConsoleAction,
@@ -52,9 +52,9 @@ def session_states(session: Session) -> dict[int, str]:
 
 def aborted_participants(session: Session) -> set[int]:
     """Ids of every participant whose session is ``aborted``."""
-    return {pid for pid, state in session_states(session).items() if state == "aborted"}
+    return {pid for pid, state in participant_states(session).items() if state == "aborted"}
 
 
 def timed_out_participants(session: Session) -> set[int]:
     """Ids of every participant the server timed out (inactive, or over the study's limit)."""
-    return {pid for pid, state in session_states(session).items() if state == "timed_out"}
+    return {pid for pid, state in participant_states(session).items() if state == "timed_out"}

@@ -1,4 +1,4 @@
-"""The live table: every participant's study, cell, stage, clocks, presence and actions.
+"""The console's participant table: each one's study, cell, stage, clocks, presence and actions.
 
 Read straight from the database on each poll, so the table is right
 whichever server process runs the trials. The table is paged and filtered in
@@ -17,8 +17,8 @@ from typing import Any
 from sqlalchemy import ColumnElement, and_, false, func, or_, select, true
 from sqlalchemy.orm import Session
 
+from hcss.platform.console.interventions import available_actions
 from hcss.platform.console.presence import CONNECTED_WITHIN_S, presence_by_participant
-from hcss.platform.console.sessions import available_actions
 from hcss.platform.db import session_now
 from hcss.platform.live.clock import paused_intervals, trial_time_s
 from hcss.platform.live.trials import latest_change
@@ -32,9 +32,9 @@ from hcss.platform.models import (
     Trial,
 )
 from hcss.platform.models.latest import latest_per_key
+from hcss.platform.models.participant_state import participant_states
+from hcss.platform.models.pilots import pilot_flags, pilot_marks
 from hcss.platform.models.vocabularies import TrialStatus
-from hcss.platform.pilots import pilot_flags, pilot_marks
-from hcss.platform.session_state import session_states
 from hcss.platform.study.enrolment import default_study_name
 from hcss.platform.study.flow import Flow, Position, participant_statuses
 from hcss.platform.study.versions import StudyHeld, enrolled_study
@@ -276,7 +276,7 @@ def _with_status(
         session.scalars(select(Participant).where(shown).order_by(Participant.id.desc()))
     )
     statuses = participant_statuses(session, candidates)
-    states = session_states(session)
+    states = participant_states(session)
     return [
         p for p in candidates if table_status(states.get(p.id, "active"), statuses[p.id]) in wanted
     ]
@@ -300,7 +300,7 @@ def progress_rows(
         session, StageEvent, StageEvent.participant_id, StageEvent.participant_id.in_(ids)
     )
     presence = presence_by_participant(session, ids)
-    states = session_states(session)
+    states = participant_states(session)
     enrolments = latest_per_key(
         session,
         StudyEnrolment,

@@ -33,7 +33,6 @@ fresh PostgreSQL connection read it as "invalid frontend message type 120").
 from __future__ import annotations
 
 import contextlib
-import ipaddress
 import logging
 import signal
 import threading
@@ -46,6 +45,8 @@ from waitress import wasyncore
 from waitress.channel import HTTPChannel
 from waitress.server import create_server
 
+from hcss.platform.guards.clients import IPV4_PREFIX, client_prefix
+
 #: Seconds from a request's first byte to its last (head and body).
 REQUEST_S = 10.0
 #: Seconds a connection may stay open with nothing to do (waitress' channel_timeout).
@@ -54,31 +55,9 @@ IDLE_S = 60
 PER_CLIENT = 64
 
 
-#: IPv4 addresses are counted by this prefix (HCSS_CLIENT_PREFIX_V4: 32, or 24 where one
-#: holder gets a whole /24); IPv6 by its /64, the block one subscriber gets.
-IPV4_PREFIX, IPV6_PREFIX = 32, 64
 #: Share of `connection_limit` past which only clients holding fewer than `FEW` get more.
 CROWDED = 0.8
 FEW = 4
-
-
-def client_prefix(address: str | None, ipv4_bits: int = IPV4_PREFIX) -> str:
-    """The network an address is counted in by every per-client limit.
-
-    One holder of an IPv6 /64 has 2^64 addresses, so a limit per address
-    would bound nothing there; an IPv4-mapped IPv6 address is its IPv4 one.
-    Anything that is not an address (a test's "?") is its own client.
-    """
-    if not address:
-        return "?"
-    try:
-        ip = ipaddress.ip_address(address.strip("[]"))
-    except ValueError:
-        return address
-    if ip.version == 6 and ip.ipv4_mapped is not None:
-        ip = ip.ipv4_mapped
-    bits = ipv4_bits if ip.version == 4 else IPV6_PREFIX
-    return str(ipaddress.ip_network(f"{ip}/{bits}", strict=False))
 
 
 def _host(addr: Any) -> str:

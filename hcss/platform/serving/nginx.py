@@ -25,7 +25,7 @@ hung host; the page's watchdog opens a new one, which nginx sends on).
 
 The servers trust X-Forwarded-For and -Proto from this proxy only when told
 (``HCSS_PROXY_HOPS=1`` and ``HCSS_TRUSTED_PROXY``, the address nginx connects
-from; hcss.platform.connections.proxy_adjustments).
+from; hcss.platform.serving.connections.proxy_adjustments).
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ Every action is a new `ConsoleAction` row written before the live trial in
 memory changes, inside the trial's lock, so the runner, the participant's
 commands and the console never see a half-done pause. The session's state is
 the latest pause/resume/abort row (the rule and its query are in
-hcss.platform.session_state, which the study flow asks too).
+hcss.platform.models.participant_state, which the study flow asks too).
 """
 
 from __future__ import annotations
@@ -15,8 +15,8 @@ from hcss.platform.db import Database
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.service import OrderUnconfirmed, control_session_trial, running_trial_id
 from hcss.platform.models import AuditRecord, ConsoleAction, Experimenter, Participant
-from hcss.platform.pilots import is_pilot
-from hcss.platform.session_state import ENDED_STATES, STATE_ACTIONS, session_state
+from hcss.platform.models.participant_state import ENDED_STATES, STATE_ACTIONS, participant_state
+from hcss.platform.models.pilots import is_pilot
 from hcss.platform.study.flow import current_position, trial_states
 from hcss.platform.study.timeouts import REINSTATED
 
@@ -34,7 +34,7 @@ def available_actions(
 ) -> list[str]:
     """The actions that apply now, in the order the console offers them.
 
-    `state` is `session_state`; `status` the study engine's (``in_progress``,
+    `state` is `participant_state`; `status` the study engine's (``in_progress``,
     ``not_enrolled``, ``completed``, ``declined``). A finished or aborted
     session can only have its pilot flag changed; a paused one can be resumed
     or aborted, an active one paused or aborted.
@@ -83,7 +83,7 @@ def _record(
         )
 
 
-def change_session(
+def change_participant_state(
     database: Database,
     runner: Runner,
     participant: Participant,
@@ -94,7 +94,7 @@ def change_session(
     if action not in STATE_ACTIONS:
         raise ConsoleError(f"unknown session action {action!r}")
     with database.session_scope() as session:
-        state = session_state(session, participant.id)
+        state = participant_state(session, participant.id)
         trial_id = running_trial_id(session, participant)
     if action == "time_out":
         raise ConsoleError("only the server times a session out")
@@ -137,7 +137,7 @@ def set_pilot(
     experimenter: Experimenter | None,
     pilot: bool,
 ) -> None:
-    """Flag (or unflag) a pilot: an action row, the flag's history (hcss.platform.pilots)."""
+    """Flag (or unflag) a pilot: an action row, the flag's history (hcss.platform.models.pilots)."""
     with database.session_scope() as session:
         row = session.get(Participant, participant.id)
         if row is None:
@@ -160,7 +160,7 @@ def reinstate(
     """Let a timed-out participant go on (a power cut, a lost connection): a `resume` row,
     from which the study's time-outs count afresh, and an audit row in the console's log."""
     with database.session_scope() as session:
-        if session_state(session, participant.id) != "timed_out":
+        if participant_state(session, participant.id) != "timed_out":
             raise ConsoleError(f"{participant.code} was not timed out; nothing to reinstate")
         row = session.get(Participant, participant.id)
         assert row is not None

@@ -198,7 +198,7 @@ class LocalNginx:
         return f"{'https' if self.tls else 'http'}://127.0.0.1:{self.port}"
 
     def start(self, timeout_s: float = 10.0) -> LocalNginx:
-        from hcss.platform.nginx import standalone_config
+        from hcss.platform.serving.nginx import standalone_config
 
         for folder in ("body", "proxy", "fastcgi", "uwsgi", "scgi"):
             (self.prefix / "temp" / folder).mkdir(parents=True, exist_ok=True)

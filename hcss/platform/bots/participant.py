@@ -28,7 +28,7 @@ from sqlalchemy import select
 
 from hcss.platform.models import Participant
 from hcss.platform.study.enrolment import assign_cell
-from hcss.platform.study.stage import Shown, SubmissionMustFail
+from hcss.platform.study.stage_protocol import Shown, SubmissionMustFail
 from hcss.platform.study.stages import STAGES
 from hcss.platform.study.studyfile import Study, load_study
 from hcss.questionnaires import mrt, pages
@@ -166,7 +166,7 @@ class ParticipantBot:
         look_every_wall_s: float = 0.2,
     ) -> None:
         """In-process (`app`, a test client, the bot moves the clock), or over HTTP
-        (`client` from hcss.platform.bot_http, the server's own clock, `code` known)."""
+        (`client` from hcss.platform.bots.http_load, the server's own clock, `code` known)."""
         self.app = app
         self.token = token
         self.code = code

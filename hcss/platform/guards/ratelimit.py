@@ -28,27 +28,17 @@ from __future__ import annotations
 import hashlib
 import hmac
 
-from flask import Response, current_app, request
+from flask import Response, current_app
 from flask.typing import ResponseReturnValue
 from sqlalchemy import delete, func, select, text
 from sqlalchemy.orm import Session
 
-from hcss.platform.connections import client_prefix
 from hcss.platform.errors import error_page
+from hcss.platform.guards.clients import request_client
 from hcss.platform.models import JoinStart
 
-#: (Starts, seconds) one address may send; None: no limit.
-DEFAULT = (30, 600.0)
 #: Rows past the window deleted by one Start (bounded, so no Start pays for a backlog).
 PRUNE = 100
-
-
-def parse_limit(text: str) -> tuple[int, float] | None:
-    """``"30/600"`` -> (30, 600.0); ``"0"`` or ``""`` -> None (no limit)."""
-    if not text or text.strip() == "0":
-        return None
-    count, _, seconds = text.partition("/")
-    return int(count), float(seconds or 60)
 
 
 def enrolment_refusal(session: Session) -> ResponseReturnValue | None:
@@ -116,8 +106,3 @@ def _client_key() -> str:
     """The client's prefix hashed with the server's secret: counted, never kept as an address."""
     secret = str(current_app.config["SECRET_KEY"]).encode()
     return hmac.new(secret, b"join:" + request_client().encode(), hashlib.sha256).hexdigest()
-
-
-def request_client() -> str:
-    """The client every per-client limit counts this request under: its address's prefix."""
-    return client_prefix(request.remote_addr, int(current_app.config.get("CLIENT_PREFIX_V4", 32)))

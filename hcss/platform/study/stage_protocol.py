@@ -202,7 +202,7 @@ class Stage:
         return None
 
     def bot_submissions(self, shown: Shown) -> tuple[Submission | SubmissionMustFail, ...]:
-        """What a bot posts at the step, in order (hcss.platform.bots, the fuzz test): answers
+        """What a bot posts at the step, in order (hcss.platform.bots.participant, the fuzz test): answers
         the stage must refuse, then the answers that end the step. The default presses
         Continue."""
         return (Submission({}),)

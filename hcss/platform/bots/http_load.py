@@ -29,7 +29,7 @@ from typing import Any
 
 import httpx
 
-from hcss.platform.bots import BotReport, ParticipantBot
+from hcss.platform.bots.participant import BotReport, ParticipantBot
 from hcss.platform.db import Database
 from hcss.platform.live.idempotency import KEY_HEADER
 from hcss.platform.models import Participant
