@@ -19,7 +19,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from hcss.tidy_csv import write_frame
+from hcss.analysis.tables import write_checked
+from hcss.tablespec.analysis import SWEEP_CELLS
 
 MANIFEST = "sweep.json"
 SPLITS = ("overall", "easy", "difficult")
@@ -144,7 +145,7 @@ def analyse_sweep(path: Path, out: Path) -> SweepReport:
     tables = Path(out) / "tables"
     tables.mkdir(parents=True, exist_ok=True)
     csv_path = tables / "sweep_cells.csv"
-    write_frame(csv_path, table)
+    write_checked(csv_path, table, SWEEP_CELLS)
     md_path = tables / "sweep_cells.md"
     md_path.write_text(_markdown(table), encoding="utf-8")
     report.tables += [csv_path, md_path]

@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 from typing import Literal
 
 #: The cell types of the dictionary: Parquet's string, int64, float64 and bool, and
-#: "any" for a pattern column whose columns each take their parameter's type.
+#: "any" for a pattern column whose columns each take their own type (a parameter's).
 Dtype = Literal["str", "int", "float", "bool", "any"]
 DTYPES: tuple[Dtype, ...] = ("str", "int", "float", "bool", "any")
 
@@ -28,7 +28,9 @@ class Column:
     value. ``required`` marks the columns a reader refuses to go without:
     the ones `hcss analyze` reads. A ``pattern`` column stands for zero or
     more columns named at write time (a sweep's parameters, say); its name
-    is a placeholder such as ``<parameter>``.
+    is a placeholder such as ``<parameter>``, its type ``any`` when each
+    column takes its own (a parameter's) or one type all its columns share
+    (the counts of a table with a column per status).
     """
 
     name: str
@@ -41,7 +43,7 @@ class Column:
     def __post_init__(self) -> None:
         if self.dtype not in DTYPES:
             raise ValueError(f"column {self.name!r}: unknown type {self.dtype!r}")
-        if (self.dtype == "any") != self.pattern:
+        if self.dtype == "any" and not self.pattern:
             raise ValueError(f"column {self.name!r}: only a pattern column has the type any")
 
 
