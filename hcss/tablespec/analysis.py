@@ -79,7 +79,7 @@ def _effect(name: str, meaning: str) -> tuple[Column, ...]:
 
 MEASURES = TableSpec(
     name="measures",
-    title="measures (`hcss analyze`: OUT/measures.csv)",
+    title="Measures (`hcss analyze`: OUT/measures.csv)",
     description="""
 Every measure of every analysis unit, long: one row per measure, split, group
 and unit. The unit is a participant (study) or a scenario with its runs
@@ -103,7 +103,7 @@ averaged (simulation-only); the measures are those of docs/analysis.md.
 
 MODEL_DECISIONS = TableSpec(
     name="model_decisions",
-    title="model decisions (`hcss analyze`: OUT/model_decisions.csv, read by analysis.R)",
+    title="Model decisions (`hcss analyze`: OUT/model_decisions.csv, read by analysis.R)",
     description="""
 The study's human decisions the repeated-measures models were fitted to, with
 the order covariates they used; analysis.R refits the models from it. Written
@@ -162,7 +162,7 @@ of each trial's share of correct decisions.
 
 SAMPLE = TableSpec(
     name="sample",
-    title="sample",
+    title="Report table `sample`",
     description="Participants by status, and the bots, pilots and demos left out or kept.",
     columns=(
         Column("row", "str", "what is counted, as the report labels it", nullable=False),
@@ -172,7 +172,7 @@ SAMPLE = TableSpec(
 
 ATTRITION = TableSpec(
     name="attrition",
-    title="attrition",
+    title="Report table `attrition`",
     description="Per stage in protocol order: analysed participants who entered and submitted it.",
     columns=(
         Column("stage", "str", "the stage", nullable=False),
@@ -184,7 +184,7 @@ ATTRITION = TableSpec(
 
 DEMOGRAPHICS = TableSpec(
     name="demographics",
-    title="demographics",
+    title="Report table `demographics`",
     description="Counts per answer of each categorical item; mean and SD of each numeric one.",
     columns=(
         Column("item", "str", "the demographics item", nullable=False),
@@ -197,7 +197,7 @@ DEMOGRAPHICS = TableSpec(
 
 COUNTERBALANCING = TableSpec(
     name="counterbalancing",
-    title="counterbalancing",
+    title="Report table `counterbalancing`",
     description="""
 Analysed participants per counterbalancing cell and model order, with one
 column per status met in the inputs (so the columns after `model_order`
@@ -218,14 +218,14 @@ depend on the sample).
 
 DESCRIPTIVE = TableSpec(
     name="descriptive_<measure>",
-    title="descriptive_&lt;measure&gt; (one table per measure)",
+    title="Report tables `descriptive_<measure>` (one per measure)",
     description="The measure's descriptive statistics per model and split, over analysis units.",
     columns=(_measure(), _GROUP, _SPLIT, *_summary("units with a value")),
 )
 
 FAMILY = TableSpec(
     name="family_<family>",
-    title="family_&lt;family&gt; (one table per measure family)",
+    title="Report tables `family_<family>` (one per measure family)",
     description="A family's measures per model and split, with the omnibus p of both designs.",
     columns=(
         _measure(),
@@ -239,7 +239,7 @@ FAMILY = TableSpec(
 
 PMATRIX = TableSpec(
     name="pmatrix_<family>",
-    title="pmatrix_&lt;family&gt; (one table per measure family)",
+    title="Report tables `pmatrix_<family>` (one per measure family)",
     description="""
 Pairwise p of M1–M3 per measure and split: above the diagonal Tukey-Kramer
 on mean ranks, below paired Wilcoxon with Holm.
@@ -263,7 +263,7 @@ on mean ranks, below paired Wilcoxon with Holm.
 
 KRUSKAL_WALLIS = TableSpec(
     name="kruskal_wallis",
-    title="kruskal_wallis",
+    title="Report table `kruskal_wallis`",
     description="Kruskal-Wallis tests across models, per measure, split and family.",
     columns=(
         _measure(),
@@ -284,7 +284,7 @@ KRUSKAL_WALLIS = TableSpec(
 def _posthoc(name: str, title: str, statistic: str, meaning: str) -> TableSpec:
     return TableSpec(
         name=name,
-        title=name,
+        title=f"Report table `{name}`",
         description=f"{title}: every pair of every Kruskal-Wallis family.",
         columns=(
             _measure(),
@@ -312,7 +312,7 @@ TUKEY_HSD = _posthoc("tukey_hsd", "Tukey HSD on raw values", "q", "studentized r
 
 FRIEDMAN = TableSpec(
     name="friedman",
-    title="friedman",
+    title="Report table `friedman`",
     description="Friedman tests across M1–M3 of the participants with all three.",
     columns=(
         _measure(),
@@ -329,7 +329,7 @@ FRIEDMAN = TableSpec(
 
 WILCOXON_PAIRED = TableSpec(
     name="wilcoxon_paired",
-    title="wilcoxon_paired",
+    title="Report table `wilcoxon_paired`",
     description="Paired Wilcoxon signed-rank tests per pair of models, Holm within measure and split.",
     columns=(
         _measure(),
@@ -348,7 +348,7 @@ WILCOXON_PAIRED = TableSpec(
 
 MANN_WHITNEY = TableSpec(
     name="mann_whitney",
-    title="mann_whitney",
+    title="Report table `mann_whitney`",
     description="Mann-Whitney-Wilcoxon tests of the two simulation-only models.",
     columns=(
         _measure(),
@@ -370,7 +370,7 @@ MANN_WHITNEY = TableSpec(
 def _spearman(name: str, description: str) -> TableSpec:
     return TableSpec(
         name=name,
-        title=name,
+        title=f"Report table `{name}`",
         description=description,
         columns=(
             Column("x", "str", "the measure correlated", nullable=False),
@@ -395,7 +395,7 @@ SPEARMAN_MRT = _spearman("spearman_mrt", "Spearman correlations of MRT score wit
 def _model(name: str, ratio: str, title: str) -> TableSpec:
     return TableSpec(
         name=name,
-        title=name,
+        title=f"Report table `{name}`",
         description=f"""
 {title} by model × difficulty (and order covariates): one row per term, then
 one per variance component; a model that was not fitted is one row `not
@@ -423,7 +423,7 @@ MIXEDLM_TIME = _model("mixedlm_time", "time_ratio", "Log decision time (linear m
 def _paper_units(name: str, what: str) -> TableSpec:
     return TableSpec(
         name=name,
-        title=name,
+        title=f"Report table `{name}`",
         description=f"""
 The simulation-only experiment's {what} under the study's unit, beside the
 study's published numbers.
@@ -445,7 +445,7 @@ PAPER_UNITS_TIME = _paper_units("paper_units_time", "decision time (minutes)")
 
 SUMMARY = TableSpec(
     name="summary",
-    title="summary (`hcss simulate experiment`: OUT/summary.csv)",
+    title="Report table `summary` (`hcss simulate experiment`: OUT/summary.csv)",
     description="The simulation-only experiment per model and split, over scenarios (runs averaged).",
     columns=(
         Column("model", "str", "`M1` or `M2`", nullable=False),

@@ -21,7 +21,7 @@ import pandas as pd
 import pandera.errors
 import pandera.pandas as pa
 
-from hcss.tablespec.spec import Dtype, TableSpec
+from hcss.tablespec.spec import TYPE_WORDS, Dtype, TableSpec
 
 #: pandas dtype each cell type is coerced to for the check; str and pattern columns
 #: keep theirs (a text cell may read as a number, and is still text). An int column
@@ -37,13 +37,6 @@ _WHOLE = pa.Check(
     lambda values: values.isna() | ((values.abs() < 2**63) & (values % 1 == 0).fillna(False)),
     name="whole",
 )
-_TYPE_WORDS: dict[Dtype, str] = {
-    "str": "text",
-    "int": "a whole number",
-    "float": "a number",
-    "bool": "true or false",
-    "any": "a value",
-}
 
 
 #: A text cell of a table hcss writes holds text, not a number that happens to fit.
@@ -107,7 +100,7 @@ def _first_breach(spec: TableSpec, cases: pd.DataFrame, patterned: tuple[str, ..
     value = case["failure_case"]
     if pd.isna(value) or str(case["check"]) == "not_nullable":
         return f"column {name!r} has an empty cell{row}; the dictionary allows none there"
-    return f"column {name!r} holds {str(value)!r}{row}, expected {_TYPE_WORDS[column.dtype]}"
+    return f"column {name!r} holds {str(value)!r}{row}, expected {TYPE_WORDS[column.dtype]}"
 
 
 def conform(frame: pd.DataFrame, spec: TableSpec, name: str | None = None) -> pd.DataFrame:

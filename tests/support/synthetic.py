@@ -68,6 +68,16 @@ def decision_row(**values) -> dict:
     return row
 
 
+def stored_record(**values) -> dict:
+    """A decision as a study stores it (`DecisionRow.record`): a decision_row without the
+    export's who and where (hcss.tablespec.decisions.EXPORT_IDENTITY)."""
+    return {
+        name: value
+        for name, value in decision_row(**values).items()
+        if name not in ("source", "participant", "trial_id", "run")
+    }
+
+
 def trial_rows(participant: str, model: str, seconds: list[float]) -> list[dict]:
     """One study trial's decisions, one per decision time (seconds) given."""
     return [
