@@ -50,7 +50,7 @@ def write_r_script(
         write_checked(directory / MODEL_DECISIONS, table, MODEL_DECISIONS_TABLE)
         written.append(directory / MODEL_DECISIONS)
     if scores is not None and (scores["instrument"] == "mrt").any():
-        mrt = scores.loc[scores["instrument"] == "mrt", ["participant", "scale", "score"]]
+        mrt = scores.loc[scores["instrument"] == "mrt", list(MRT_SCORES_TABLE.names)]
         write_checked(directory / MRT_SCORES, mrt, MRT_SCORES_TABLE)
         written.append(directory / MRT_SCORES)
     return written
