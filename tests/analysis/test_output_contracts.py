@@ -16,6 +16,7 @@ import pytest
 from hcss.analysis import report, rscript
 from hcss.analysis.report import run_analysis
 from hcss.analysis.rscript import write_r_script
+from hcss.analysis.sweeps import SweepInputError, load_sweep
 from hcss.analysis.tables import Table, write_checked, write_table
 from hcss.tablespec import TableSpec
 from hcss.tablespec.analysis import (
@@ -27,7 +28,7 @@ from hcss.tablespec.analysis import (
     analysis_table,
 )
 from hcss.tablespec.frames import ContractError
-from tests.support.synthetic import simulation_decisions
+from tests.support.synthetic import decision_row, simulation_decisions
 from tests.support.synthetic import write_table as write_csv
 
 #: A cell of each type that keeps the contract.
@@ -202,3 +203,22 @@ def test_a_sweep_cells_table_keeps_its_contract_with_a_column_per_parameter(
     write_checked(tmp_path / "sweep_cells.csv", frame.assign(quorum_k=10), SWEEP_CELLS)
     header = (tmp_path / "sweep_cells.csv").read_text(encoding="utf-8").splitlines()[0]
     assert header.startswith("message_rate,quorum_k,model,trials,")
+
+
+def test_a_sweep_is_read_through_its_decisions_contract(tmp_path: Path) -> None:
+    """A decision time in words passed the loader (the cell table then failed on it); now the
+    loader names it."""
+    (tmp_path / "sweep.json").write_text('{"parameters": ["quorum_k"]}', encoding="utf-8")
+    rows = [
+        decision_row() | {"quorum_k": 10},
+        decision_row(decision_time_s="soon") | {"quorum_k": 10},
+    ]
+    write_csv(pd.DataFrame(rows), tmp_path / "decisions.csv")
+    with pytest.raises(
+        SweepInputError,
+        match="decisions.csv: column 'decision_time_s' holds 'soon' in row 3, expected a number",
+    ):
+        load_sweep(tmp_path)
+    write_csv(pd.DataFrame(rows[:1]), tmp_path / "decisions.csv")
+    names, decisions = load_sweep(tmp_path)
+    assert names == ["quorum_k"] and len(decisions) == 1

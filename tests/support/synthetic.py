@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 
 from hcss.simulation.decisions import DECISION_COLUMNS as SIMULATION_DECISION_COLUMNS
+from hcss.tablespec.decisions import EXPORT_IDENTITY
 
 DECISION_COLUMNS = list(SIMULATION_DECISION_COLUMNS)  # the contract, from its one definition
 COLLECTIVES = ["I", "II", "III", "IV"]
@@ -72,9 +73,7 @@ def stored_record(**values) -> dict:
     """A decision as a study stores it (`DecisionRow.record`): a decision_row without the
     export's who and where (hcss.tablespec.decisions.EXPORT_IDENTITY)."""
     return {
-        name: value
-        for name, value in decision_row(**values).items()
-        if name not in ("source", "participant", "trial_id", "run")
+        name: value for name, value in decision_row(**values).items() if name not in EXPORT_IDENTITY
     }
 
 
