@@ -99,9 +99,12 @@ def test_a_frame_naming_a_column_twice_is_refused(tmp_path: Path) -> None:
 
 
 def test_an_analysis_table_is_written_by_the_one_writer(tmp_path: Path) -> None:
-    table = Table("t", "a table", ("met",), (("yes",),), pd.DataFrame({"met": [True, False]}))
+    """A table with a contract (hcss.tablespec.analysis; one without is refused), its
+    missing mean and SD written as empty cells, never `nan`."""
+    frame = pd.DataFrame({"item": ["gender"], "value": ["f"], "n": [2], "mean": [math.nan]})
+    table = Table("demographics", "a table", ("item",), (("gender",),), frame.assign(sd=None))
     csv_path = next(p for p in write_analysis_table(table, tmp_path) if p.suffix == ".csv")
-    assert csv_path.read_bytes() == b"met\r\ntrue\r\nfalse\r\n"
+    assert csv_path.read_bytes() == b"item,value,n,mean,sd\r\ngender,f,2,,\r\n"
 
 
 def test_the_calibration_trials_are_written_by_the_one_writer(tmp_path: Path) -> None:

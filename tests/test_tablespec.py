@@ -13,6 +13,7 @@ from hcss.platform.export.writer import DICTIONARY
 from hcss.simulation import MODELS
 from hcss.tablespec import DECISIONS, EXPORT_TABLES, SWEEP_DECISIONS, Column, TableSpec
 from hcss.tablespec import export as export_spec
+from hcss.tablespec.analysis import ANALYSIS_TABLES
 from hcss.tablespec.dictionary import render
 from hcss.tablespec.frames import ContractError, check
 from hcss.tidy_csv import write_rows
@@ -35,6 +36,22 @@ def test_every_column_of_every_table_is_in_the_dictionary_with_its_type_and_rule
         for column in spec.columns:
             missing = "allowed" if column.nullable else "never"
             assert (column.dtype, missing) in listed[column.name], (spec.name, column)
+
+
+def test_every_table_the_analysis_writes_is_in_the_dictionary() -> None:
+    """Each with its heading and every column with its type and rule."""
+    text = render()
+    for spec in ANALYSIS_TABLES:
+        section = text.split(f"### {spec.title}\n", 1)[1].split("\n### ", 1)[0]
+        for column in spec.columns:
+            name = column.name.replace("<", "&lt;").replace(">", "&gt;")
+            missing = "allowed" if column.nullable else "never"
+            assert any(
+                line.startswith("| ")
+                and name in line.split(" | ")[0]
+                and f" | {column.dtype} | {missing} | " in line
+                for line in section.splitlines()
+            ), (spec.name, column.name)
 
 
 def test_the_export_reads_its_tables_from_the_specs() -> None:

@@ -25,6 +25,7 @@ from hcss.analysis.tables import (
     format_number,
     format_p,
 )
+from hcss.tablespec.analysis import KRUSKAL_WALLIS
 
 SPLIT_LABELS = {"overall": "Overall", "easy": "Easy", "difficult": "Difficult"}
 POSTHOC_TITLES = {
@@ -142,26 +143,8 @@ def kruskal_table(comparisons: list[OmnibusComparison]) -> Table:
         "interval (2,000 resamples within groups, seeded)",
         header,
         tuple(rows),
-        pd.DataFrame(records, columns=list(_KW_COLUMNS)),
+        pd.DataFrame(records, columns=list(KRUSKAL_WALLIS.names)),
     )
-
-
-_KW_COLUMNS = (
-    "measure",
-    "split",
-    "family",
-    "groups",
-    "H",
-    "df",
-    "n",
-    "p",
-    "epsilon_squared",
-    "epsilon_squared_lower",
-    "epsilon_squared_upper",
-    "interval_method",
-    "method",
-    "note",
-)
 
 
 def posthoc_tables(comparisons: list[OmnibusComparison]) -> list[Table]:

@@ -22,6 +22,7 @@ import pandas as pd
 
 from hcss.analysis.exact import snapped
 from hcss.analysis.load import SIMULATION
+from hcss.tablespec.analysis import MEASURES
 
 SPLITS = ("overall", "easy", "difficult")
 
@@ -36,7 +37,8 @@ REQUEST_KINDS = {
 #: Measures that only make sense with a human in the loop.
 HUMAN_ONLY = frozenset({*REQUEST_KINDS, "interventions"})
 
-MEASURE_COLUMNS = ["measure", "split", "group", "source", "unit", "participant", "value"]
+#: The columns of the measures table: its contract's (hcss.tablespec.analysis.MEASURES).
+MEASURE_COLUMNS = list(MEASURES.names)
 
 
 #: Decision measures in the order a unit's rows are listed.
@@ -142,7 +144,7 @@ def decision_measures(decisions: pd.DataFrame) -> pd.DataFrame:
     )
     per_unit = (
         per_trial.groupby(
-            ["measure", "split", "group", "source", "unit", "participant"],
+            MEASURE_COLUMNS[:-1],  # a unit's keys: every column but its value
             sort=False,
             dropna=False,
         )["value"]

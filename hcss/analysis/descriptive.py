@@ -13,6 +13,7 @@ import numpy as np
 import pandas as pd
 
 from hcss.study_units import Summary
+from hcss.tablespec.analysis import DESCRIPTIVE
 
 
 def summarise(values: Sequence[float] | np.ndarray) -> Summary:
@@ -31,5 +32,4 @@ def descriptive_frame(measures: pd.DataFrame) -> pd.DataFrame:
             {"measure": measure, "group": group, "split": split}
             | asdict(summarise(subset["value"]))
         )
-    columns = ["measure", "group", "split", "n", "mean", "sd", "median", "minimum", "maximum"]
-    return pd.DataFrame(rows, columns=columns)
+    return pd.DataFrame(rows, columns=list(DESCRIPTIVE.names))

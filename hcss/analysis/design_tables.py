@@ -15,6 +15,7 @@ from hcss.analysis.tables import (
     format_number,
     format_p,
 )
+from hcss.tablespec.analysis import analysis_table
 
 
 def friedman_table(comparisons: list[RepeatedComparison]) -> Table:
@@ -146,7 +147,8 @@ def model_table(name: str, model: ClusteredModel) -> Table:
             f"{model.n_decisions} decisions of {model.n_participants} participants"
             + (f" ({model.note})" if model.note else "")
         )
-    ratio = model.ratio_name.replace(" ", "_")
+    spec = analysis_table(name)
+    ratio = spec.column(model.ratio_name.replace(" ", "_")).name  # KeyError: not this table's
     records = [
         {"term": t.term, ratio: t.ratio, "lower": t.lower}
         | {"upper": t.upper, "p": t.p, "p_method": model.p_method, "note": model.note}
@@ -159,8 +161,7 @@ def model_table(name: str, model: ClusteredModel) -> Table:
         records = [
             {"term": "not fitted", "p": None, "p_method": model.p_method, "note": model.note}
         ]
-    columns = ["term", ratio, "lower", "upper", "p", "p_method", "note", "variance"]
-    frame = pd.DataFrame(records, columns=columns)
+    frame = pd.DataFrame(records, columns=list(spec.names))
     return Table(
         name,
         caption,

@@ -22,8 +22,8 @@ from hcss.analysis.rscript import write_r_script
 from hcss.analysis.sections import Section, build_sections
 from hcss.analysis.stats import MannWhitneyMethod
 from hcss.analysis.studies import studies_line
-from hcss.analysis.tables import Table, to_html, write_paper_table
-from hcss.tidy_csv import write_frame
+from hcss.analysis.tables import Table, to_html, write_checked, write_paper_table
+from hcss.tablespec.analysis import MEASURES
 
 STYLE = """
 body { font-family: sans-serif; margin: 2em; max-width: 80em; color: #222; }
@@ -197,7 +197,7 @@ def run_analysis(
     if measures.empty and tables.all_participants.empty:
         raise AnalysisInputError("the inputs hold no decisions, answers or participants to analyse")
     directory.mkdir(parents=True, exist_ok=True)
-    write_frame(directory / "measures.csv", measures)
+    write_checked(directory / "measures.csv", measures, MEASURES)
     steps.update()
     steps.set_postfix_str("tests")
     sections = build_sections(tables, measures, include_pilot, mann_whitney_method, continuity)

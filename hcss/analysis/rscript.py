@@ -17,21 +17,15 @@ from pathlib import Path
 import pandas as pd
 
 from hcss.analysis.clustered import human_decisions
-from hcss.tidy_csv import write_frame
+from hcss.analysis.tables import write_checked
+from hcss.tablespec.analysis import MODEL_DECISIONS as MODEL_DECISIONS_TABLE
+from hcss.tablespec.analysis import MRT_SCORES as MRT_SCORES_TABLE
 
 SCRIPT = "analysis.R"
 MODEL_DECISIONS = "model_decisions.csv"
 MRT_SCORES = "mrt_scores.csv"
-MODEL_COLUMNS = (
-    "participant",
-    "trial_id",
-    "model",
-    "difficulty",
-    "correct",
-    "decision_time_s",
-    "position",
-    "first_section",
-)
+#: The columns of model_decisions.csv: its contract's (hcss.tablespec.analysis).
+MODEL_COLUMNS = MODEL_DECISIONS_TABLE.names
 
 
 def write_r_script(
@@ -53,10 +47,10 @@ def write_r_script(
     if not human.empty:
         table = human[[column for column in MODEL_COLUMNS if column in human.columns]].copy()
         table["correct"] = table["correct"].fillna(False).astype(bool).astype(int)
-        write_frame(directory / MODEL_DECISIONS, table)
+        write_checked(directory / MODEL_DECISIONS, table, MODEL_DECISIONS_TABLE)
         written.append(directory / MODEL_DECISIONS)
     if scores is not None and (scores["instrument"] == "mrt").any():
-        mrt = scores.loc[scores["instrument"] == "mrt", ["participant", "scale", "score"]]
-        write_frame(directory / MRT_SCORES, mrt)
+        mrt = scores.loc[scores["instrument"] == "mrt", list(MRT_SCORES_TABLE.names)]
+        write_checked(directory / MRT_SCORES, mrt, MRT_SCORES_TABLE)
         written.append(directory / MRT_SCORES)
     return written

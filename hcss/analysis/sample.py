@@ -10,6 +10,7 @@ from __future__ import annotations
 import pandas as pd
 
 from hcss.analysis.tables import Table, format_number
+from hcss.tablespec.analysis import ATTRITION, DEMOGRAPHICS
 
 #: Demographic answers reported as counts per category.
 CATEGORICAL = ("age_band", "gender", "education", "colour_vision")
@@ -94,7 +95,7 @@ def attrition_table(stage_timings: pd.DataFrame) -> Table:
         "Attrition by stage (analysed participants who entered and submitted each stage)",
         ("Stage", "Entered", "Submitted", "Did not submit"),
         tuple(rows),
-        pd.DataFrame(records, columns=["stage", "entered", "submitted", "lost"]),
+        pd.DataFrame(records, columns=list(ATTRITION.names)),
     )
 
 
@@ -132,7 +133,7 @@ def demographics_table(participants: pd.DataFrame) -> Table:
         "Demographics of the analysed participants",
         ("Item", "Answer", "n (%) or mean (SD)"),
         tuple(rows),
-        pd.DataFrame(records, columns=["item", "value", "n", "mean", "sd"]),
+        pd.DataFrame(records, columns=list(DEMOGRAPHICS.names)),
     )
 
 

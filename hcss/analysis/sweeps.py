@@ -19,10 +19,15 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from hcss.tidy_csv import write_frame
+from hcss.analysis.tables import write_checked
+from hcss.tablespec import SWEEP_DECISIONS
+from hcss.tablespec.analysis import SWEEP_CELLS
+from hcss.tablespec.frames import ContractError, check
 
 MANIFEST = "sweep.json"
 SPLITS = ("overall", "easy", "difficult")
+#: The columns of a sweep's decisions the cell table reads, besides the parameters'.
+READ_COLUMNS = ("model", "trial_id", "difficulty", "correct", "decision_time_s")
 PANELS = (
     ("success_easy", "success rate, easy"),
     ("success_difficult", "success rate, difficult"),
@@ -47,11 +52,13 @@ def load_sweep(path: Path) -> tuple[list[str], pd.DataFrame]:
         decisions = pd.read_csv(path / "decisions.csv")
     except (OSError, ValueError, KeyError, TypeError) as error:
         raise SweepInputError(f"{path} is not a complete sweep output: {error}") from None
-    missing = [
-        c for c in [*names, "model", "trial_id", "difficulty", "correct"] if c not in decisions
-    ]
+    missing = [c for c in [*names, *READ_COLUMNS] if c not in decisions]
     if missing or decisions.empty:
         raise SweepInputError(f"{path}/decisions.csv lacks {missing or 'rows'}")
+    try:  # the columns read keep their contract (hcss.tablespec.SWEEP_DECISIONS)
+        check(decisions, SWEEP_DECISIONS, READ_COLUMNS)
+    except ContractError as error:
+        raise SweepInputError(f"{path}/decisions.csv: {error}") from None
     decisions["correct"] = decisions["correct"].astype(str).str.lower().isin(["true", "1"])
     return names, decisions
 
@@ -144,7 +151,7 @@ def analyse_sweep(path: Path, out: Path) -> SweepReport:
     tables = Path(out) / "tables"
     tables.mkdir(parents=True, exist_ok=True)
     csv_path = tables / "sweep_cells.csv"
-    write_frame(csv_path, table)
+    write_checked(csv_path, table, SWEEP_CELLS)
     md_path = tables / "sweep_cells.md"
     md_path.write_text(_markdown(table), encoding="utf-8")
     report.tables += [csv_path, md_path]

@@ -16,6 +16,9 @@ from pathlib import Path
 import pandas as pd
 
 from hcss.analysis.stats import TestResult
+from hcss.tablespec import TableSpec
+from hcss.tablespec.analysis import NO_ROWS, analysis_table
+from hcss.tablespec.frames import conform
 from hcss.tidy_csv import write_frame
 
 
@@ -156,14 +159,29 @@ def to_html(table: Table) -> str:
     )
 
 
+def write_checked(
+    path: Path, frame: pd.DataFrame, spec: TableSpec, name: str | None = None
+) -> None:
+    """The frame as the table `spec` describes, checked first (hcss.tablespec.frames.conform).
+
+    A frame that breaks its contract raises ContractError and writes nothing.
+    """
+    write_frame(path, conform(frame, spec, name))
+
+
 def write_paper_table(table: Table, directory: Path) -> list[Path]:
-    """Write ``name.md``, ``name.tex`` and ``name.csv`` into ``directory``."""
+    """Write ``name.md``, ``name.tex`` and ``name.csv`` into ``directory``.
+
+    The CSV keeps the contract of its name (hcss.tablespec.analysis), checked
+    before any of the three files is written.
+    """
+    frame, spec = table.frame, analysis_table(table.name)
+    if frame.columns.empty:  # never a file without a header: say why there are no rows
+        frame, spec = pd.DataFrame({"note": [f"no rows: {table.caption}"]}), NO_ROWS
+    written = conform(frame, spec, table.name)
     directory.mkdir(parents=True, exist_ok=True)
     paths = [directory / f"{table.name}.{suffix}" for suffix in ("md", "tex", "csv")]
     paths[0].write_text(to_markdown(table), encoding="utf-8")
     paths[1].write_text(to_latex(table), encoding="utf-8")
-    frame = table.frame
-    if frame.columns.empty:  # never a file without a header: say why there are no rows
-        frame = pd.DataFrame({"note": [f"no rows: {table.caption}"]})
-    write_frame(paths[2], frame)
+    write_frame(paths[2], written)
     return paths

@@ -1,8 +1,18 @@
-"""The decisions table: written by the simulation-only experiment and by the study export alike."""
+"""The decisions table: written by the simulation-only experiment and by the study export alike.
+
+A study's decisions are stored as they happen (`DecisionRow.record`) without
+the columns that say who and where (`EXPORT_IDENTITY`), which the export
+adds: :func:`stored_decision` is the record as stored, checked against this
+contract, and :func:`exported_decision` reads a stored record back as a row
+of the table.
+"""
 
 from __future__ import annotations
 
-from hcss.tablespec.spec import Column, TableSpec
+from collections.abc import Mapping
+from typing import Any
+
+from hcss.tablespec.spec import Column, TableSpec, check_row
 
 DECISIONS = TableSpec(
     name="decisions",
@@ -146,3 +156,37 @@ discarded, as the study does, and do not appear.
         ),
     ),
 )
+
+
+#: The columns the study export adds to a stored decision: who and where.
+EXPORT_IDENTITY = ("source", "participant", "trial_id", "run")
+#: The columns of a stored decision record (`DecisionRow.record`), in the table's order.
+RECORD_COLUMNS: tuple[str, ...] = tuple(
+    name for name in DECISIONS.names if name not in EXPORT_IDENTITY
+)
+
+
+def stored_decision(row: Mapping[str, Any]) -> dict[str, Any]:
+    """A decisions row as a study stores it: RECORD_COLUMNS in order, the export's own left out.
+
+    RowError unless the row keeps the contract: a column the table does not
+    name or a missing record column is refused, as is a value of another
+    type or an empty cell where the dictionary allows none. The identity
+    columns (`DecisionRecord.as_row()` fills them) are dropped unchecked.
+    """
+    record = {name: value for name, value in row.items() if name not in EXPORT_IDENTITY}
+    check_row(DECISIONS, record, RECORD_COLUMNS)
+    return {name: record[name] for name in RECORD_COLUMNS}
+
+
+def exported_decision(record: Mapping[str, Any], participant: str, trial_id: str) -> dict[str, Any]:
+    """A stored record as a row of the decisions table, who and where added by the export.
+
+    Read through the contract: the table's columns in order, a column the
+    record lacks empty. Records stored by earlier versions are read alike;
+    those may also carry source, participant, trial_id and run, which the
+    export's own replace, and columns since dropped, which are left out.
+    """
+    row = {name: record.get(name) for name in DECISIONS.names}
+    row.update(source="study", participant=participant, trial_id=trial_id, run=0)
+    return row

@@ -13,6 +13,7 @@ import itertools
 import sys
 from pathlib import Path
 
+from hcss.tablespec.analysis import ANALYSIS_TABLES
 from hcss.tablespec.decisions import DECISIONS
 from hcss.tablespec.export import EXPORT_TABLES
 from hcss.tablespec.simulation import SIMULATION_TABLES
@@ -55,6 +56,20 @@ Tables the simulation writes besides an experiment's `decisions.csv`. A column
 written `<name>` stands for several columns, named when the table is written.
 """
 
+ANALYSIS_OUTPUTS = """\
+## Analysis outputs
+
+Tables the analysis writes (`hcss analyze`, and the summary of `hcss simulate
+experiment`), each checked against its contract as it is written: a column
+the contract does not name, a missing column whose `missing` is `never`, or
+a cell of another type stops the write. A column whose `missing` is
+`allowed` may be left out when the inputs lack it. A name written
+`descriptive_<measure>` stands for one table per measure (or per family of
+measures); a column written `<name>` stands for several, named when the
+table is written. The report's tables are written as `tables/<name>.csv`
+beside their Markdown and LaTeX.
+"""
+
 NOT_EXPORTED = """\
 ## Not exported: operational tables
 
@@ -93,6 +108,8 @@ def render() -> str:
     parts += [section(spec, "###") for spec in EXPORT_TABLES.values() if spec is not DECISIONS]
     parts += [SIMULATION_OUTPUTS]
     parts += [section(spec, "###") for spec in SIMULATION_TABLES]
+    parts += [ANALYSIS_OUTPUTS]
+    parts += [section(spec, "###") for spec in ANALYSIS_TABLES]
     parts += [NOT_EXPORTED]
     return "\n".join(parts)
 

@@ -9,12 +9,13 @@ place and not in the others.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Literal
 
 #: The cell types of the dictionary: Parquet's string, int64, float64 and bool, and
-#: "any" for a pattern column whose columns each take their parameter's type.
+#: "any" for a pattern column whose columns each take their own type (a parameter's).
 Dtype = Literal["str", "int", "float", "bool", "any"]
 DTYPES: tuple[Dtype, ...] = ("str", "int", "float", "bool", "any")
 
@@ -28,7 +29,9 @@ class Column:
     value. ``required`` marks the columns a reader refuses to go without:
     the ones `hcss analyze` reads. A ``pattern`` column stands for zero or
     more columns named at write time (a sweep's parameters, say); its name
-    is a placeholder such as ``<parameter>``.
+    is a placeholder such as ``<parameter>``, its type ``any`` when each
+    column takes its own (a parameter's) or one type all its columns share
+    (the counts of a table with a column per status).
     """
 
     name: str
@@ -41,7 +44,7 @@ class Column:
     def __post_init__(self) -> None:
         if self.dtype not in DTYPES:
             raise ValueError(f"column {self.name!r}: unknown type {self.dtype!r}")
-        if (self.dtype == "any") != self.pattern:
+        if self.dtype == "any" and not self.pattern:
             raise ValueError(f"column {self.name!r}: only a pattern column has the type any")
 
 
@@ -110,3 +113,56 @@ def described(columns: Iterable[Column], descriptions: Mapping[str, str]) -> tup
         else column
         for column in columns
     )
+
+
+class RowError(ValueError):
+    """A row that breaks its table's contract; the message names the columns or the value."""
+
+
+#: The Python types a cell of each type may hold (a bool is never a number here).
+_PYTHON_TYPES: dict[Dtype, tuple[type, ...]] = {
+    "str": (str,),
+    "int": (int,),
+    "float": (int, float),
+    "bool": (bool,),
+    "any": (object,),
+}
+#: A cell's type in words, as a refusal names it.
+TYPE_WORDS: dict[Dtype, str] = {
+    "str": "text",
+    "int": "a whole number",
+    "float": "a number",
+    "bool": "true or false",
+    "any": "a value",
+}
+
+
+def check_row(spec: TableSpec, row: Mapping[str, object], columns: Sequence[str]) -> None:
+    """Raise RowError unless `row` has exactly `columns` of `spec`, each of its type and rule.
+
+    One row as plain Python, before it is stored: every key a named column,
+    every named column a key, a missing value (None or NaN) only where the
+    rule allows it, and any other value of the column's type.
+    """
+    unknown = sorted(key for key in row if key not in columns)
+    if unknown:
+        raise RowError(f"a {spec.name} row has {unknown}, which its contract does not name")
+    missing = [name for name in columns if name not in row]
+    if missing:
+        raise RowError(f"a {spec.name} row lacks {missing}, which its contract needs")
+    for name in columns:
+        column, value = spec.column(name), row[name]
+        if value is None or (isinstance(value, float) and math.isnan(value)):
+            if not column.nullable:
+                raise RowError(
+                    f"column {name!r} of a {spec.name} row is empty; the dictionary allows none"
+                )
+            continue
+        number = column.dtype in ("int", "float")
+        if not isinstance(value, _PYTHON_TYPES[column.dtype]) or (
+            number and isinstance(value, bool)
+        ):
+            raise RowError(
+                f"column {name!r} of a {spec.name} row holds {value!r}, "
+                f"expected {TYPE_WORDS[column.dtype]}"
+            )

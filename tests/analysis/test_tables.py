@@ -58,11 +58,13 @@ def test_descriptive_table_has_mean_over_sd_and_median_over_range():
 
 def test_formats(tmp_path):
     table = Table(
-        "demo",
+        "spearman",  # a table with a contract (hcss.tablespec.analysis): its CSV is checked
         "χ² and 10% of a_b",
         ("Measure", "p"),
         (("H & more", format_p(0.0004)), ("x", format_p(0.0512))),
-        pd.DataFrame({"p": [0.0004, 0.0512]}),
+        pd.DataFrame({"x": ["a", "b"], "y": ["c", "d"], "group": ["M1", "M2"]}).assign(
+            p=[0.0004, 0.0512]
+        ),
     )
     markdown = to_markdown(table)
     assert "| H & more | < .001 |" in markdown

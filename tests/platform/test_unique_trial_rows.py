@@ -31,6 +31,7 @@ from hcss.platform.models import (
     Trial,
     TrialProblem,
 )
+from tests.support.synthetic import stored_record
 
 T0 = 1_000_000.0
 
@@ -38,7 +39,9 @@ T0 = 1_000_000.0
 def _trial_rows(trial_id: int, seen: datetime) -> list:
     """One of each row with a key, as a writer would store them."""
     return [
-        DecisionRow(trial_id=trial_id, collective=0, decision_index=1, step=9, record={}),
+        DecisionRow(
+            trial_id=trial_id, collective=0, decision_index=1, step=9, record=stored_record()
+        ),
         SimEvent(trial_id=trial_id, kind="discovery", text="Target 3 discovered.", sim_time=4.5),
         RequestStatusChange(trial_id=trial_id, request_id=1, status="removed", step=9, sim_time=5),
         Interruption(

@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 
 from hcss.simulation.decisions import DECISION_COLUMNS as SIMULATION_DECISION_COLUMNS
+from hcss.tablespec.decisions import EXPORT_IDENTITY
 
 DECISION_COLUMNS = list(SIMULATION_DECISION_COLUMNS)  # the contract, from its one definition
 COLLECTIVES = ["I", "II", "III", "IV"]
@@ -66,6 +67,14 @@ def decision_row(**values) -> dict:
     assert not unknown, unknown
     row.update(values)
     return row
+
+
+def stored_record(**values) -> dict:
+    """A decision as a study stores it (`DecisionRow.record`): a decision_row without the
+    export's who and where (hcss.tablespec.decisions.EXPORT_IDENTITY)."""
+    return {
+        name: value for name, value in decision_row(**values).items() if name not in EXPORT_IDENTITY
+    }
 
 
 def trial_rows(participant: str, model: str, seconds: list[float]) -> list[dict]:

@@ -30,7 +30,7 @@ from hcss.platform.models.stored_names import stored_collective_name
 from hcss.platform.study.enrolment import current_enrolment
 from hcss.platform.study.studyfile import FAST_ANSWER_MS, StudyFileError, load_study
 from hcss.simulation.params import Params
-from hcss.tablespec import DECISIONS
+from hcss.tablespec.decisions import exported_decision
 
 #: `[probes] fast_answer_ms` of a study file that does not set it.
 DEFAULT_FAST_MS = FAST_ANSWER_MS
@@ -69,9 +69,7 @@ def decision_rows(session: Session, trial: Trial, code: str, problems: ProblemLo
         with problems.guard(
             "decisions", f"decision {stored.id}", participant=code, trial_id=trial.id
         ):
-            row = {column: stored.record.get(column) for column in DECISIONS.names}
-            row.update(source="study", participant=code, trial_id=str(trial.id), run=0)
-            rows.append(row)
+            rows.append(exported_decision(stored.record, code, str(trial.id)))
     return rows
 
 

@@ -38,9 +38,7 @@ from hcss.platform.live.progress import CurrentProbe
 from hcss.platform.live.session import RunningTrial
 from hcss.questionnaires.probes import ProbeLevel
 from hcss.simulation.messages import event_text
-
-#: Decision-table columns the export fills from the trial and participant, not stored per row.
-EXPORT_IDENTITY = ("source", "participant", "trial_id", "run")
+from hcss.tablespec.decisions import stored_decision
 
 
 @contextmanager
@@ -103,8 +101,9 @@ def _record_events(live: RunningTrial, session: Session) -> None:
 def _record_decisions(live: RunningTrial, session: Session) -> None:
     records = live.sim.decisions
     for record in records[live.decisions_recorded :]:
-        # The record itself; who and where (source, participant, trial, run) the export adds.
-        row = {k: v for k, v in record.as_row().items() if k not in EXPORT_IDENTITY}
+        # The record itself, checked against the decisions table's contract; who and where
+        # (source, participant, trial, run) the export adds (hcss.tablespec.decisions).
+        row = stored_decision(record.as_row())
         trial_writer.write_decision(  # skipped if written by a commit whose answer was lost
             session,
             live.trial_id,
