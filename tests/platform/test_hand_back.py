@@ -12,6 +12,12 @@ point: within a bound, each participant hashed to the restarted process is
 hosted by it again and no request of theirs passes through a 503; no
 acknowledged command is lost or stored twice, no rebuild fails, and every
 trial's command log replays to its newest snapshot.
+
+The rules that keep a trial from moving to and fro are checked in-process
+first (apps on one database standing for processes, on a shared manual clock,
+as in test_leases.py): only a participant's request asks, the first asker
+keeps the ask, a trial moves at most once per lease, and never while a
+participant's command for it is under way.
 """
 
 from __future__ import annotations
@@ -19,23 +25,127 @@ from __future__ import annotations
 import time
 import uuid
 from collections import Counter
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 
 import httpx
 import pytest
 from sqlalchemy import func, select
 
+from hcss.platform.bots import ManualClock
 from hcss.platform.cli import upgrade_database
 from hcss.platform.db import Database
 from hcss.platform.live.client import TrialClient
+from hcss.platform.live.leases import HostedElsewhere
+from hcss.platform.live.runner import Runner
 from hcss.platform.live.trial_log import newest_snapshot
 from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.localserver import LocalNginx, LocalServer
-from hcss.platform.models import Observation, TrialStatusChange
+from hcss.platform.models import Interruption, Observation, TrialLease, TrialStatusChange
 from hcss.simulation import Simulation
-from tests.support.leases import lease_owner, skip_unless_group
+from tests.support.leases import (
+    LEASE_S,
+    lease_owner,
+    leased_process,
+    skip_unless_group,
+    start_trial_on,
+)
 from tests.support.replays import replay_trial
 from tests.support.trials import STUDY_TRIAL_S
+
+NAMES = ("127.0.0.1:5001/a", "127.0.0.1:5002/b", "127.0.0.1:5003/c")
+
+
+@pytest.fixture
+def group(database_url: str) -> Iterator[tuple[list[Runner], ManualClock]]:
+    """Three processes of a group on one database and one manual clock (no runner threads)."""
+    clock = ManualClock(1_000_000.0)
+    apps = [leased_process(database_url, name, clock) for name in NAMES]
+    apps[0].extensions["hcss_db"].create_all()
+    yield [app.extensions["hcss_runner"] for app in apps], clock
+    for app in apps:
+        app.extensions["hcss_db"].engine.dispose()
+
+
+def _asks(runner: Runner, trial_id: int) -> None:
+    """A participant's request reaching `runner` while another process hosts the trial."""
+    with pytest.raises(HostedElsewhere):
+        runner.host(trial_id, participant=True)
+
+
+def _lease(runner: Runner, trial_id: int) -> tuple[str, str | None]:
+    with runner.database.session_scope() as session:
+        row = session.get(TrialLease, trial_id)
+        assert row is not None
+        return row.owner, row.wanted_by
+
+
+def _run(runners: list[Runner], clock: ManualClock, seconds: float) -> None:
+    """The processes tick on, one second of the shared clock at a time."""
+    for _ in range(int(seconds)):
+        clock.now += 1.0
+        for runner in runners:
+            runner.tick()
+
+
+def test_the_holder_hands_a_trial_back_to_the_process_its_participant_asks_through(
+    group,
+) -> None:
+    (a, b, _), clock = group
+    trial_id = start_trial_on(a)
+    held = a.host(trial_id)  # A took the trial (B was down)
+    assert held is not None
+    _run([a], clock, 3)
+    with pytest.raises(HostedElsewhere):
+        b.host(trial_id)  # the console or a runner's look: no ask
+    assert _lease(a, trial_id) == (NAMES[0], None)
+    _asks(b, trial_id)  # the participant's request, hashed to B
+    assert _lease(a, trial_id) == (NAMES[0], NAMES[1])
+    _run([a], clock, 2)
+    assert trial_id in a.loaded_ids()  # held for less than a lease: not yet
+    _run([a], clock, 3)
+    assert trial_id not in a.loaded_ids() and held.moved  # handed back at a renewal
+    assert _lease(a, trial_id) == (NAMES[1], None)
+    with pytest.raises(HostedElsewhere):
+        a.host(trial_id)  # A writes nothing for it any more
+    rebuilt = b.host(trial_id, participant=True)  # the participant's next request, at B
+    assert rebuilt is not None
+    assert rebuilt.sim.step_count >= held.sim.step_count  # from the hand-back's snapshot
+    with b.database.session_scope() as session:
+        outages = session.scalars(select(Interruption.outage_s)).all()
+    assert len(outages) == 1 and outages[0] <= 1.0  # stood still from the hand-back to the claim
+
+    _asks(a, trial_id)  # a request reaching A (not nginx's choice for it): no move back
+    _run([a, b], clock, LEASE_S - 1)
+    assert trial_id in b.loaded_ids() and _lease(b, trial_id)[0] == NAMES[1]
+
+
+def test_the_first_process_to_ask_keeps_the_ask(group) -> None:
+    (a, b, c), clock = group
+    trial_id = start_trial_on(a)
+    assert a.host(trial_id) is not None
+    _run([a], clock, 4)
+    _asks(b, trial_id)  # nginx's first choice for the participant asks first
+    _asks(c, trial_id)  # the next one on the ring, after B's 503: it does not displace B
+    assert _lease(a, trial_id)[1] == NAMES[1]
+    _run([a], clock, 4)
+    assert _lease(a, trial_id) == (NAMES[1], None)
+
+
+def test_no_hand_back_while_a_participants_command_is_under_way(group) -> None:
+    (a, b, _), clock = group
+    trial_id = start_trial_on(a)
+    assert a.host(trial_id) is not None
+    _run([a], clock, 5)
+    _asks(b, trial_id)
+    with a.commanding(trial_id):
+        _run([a], clock, 3)
+        assert trial_id in a.loaded_ids()
+        assert _lease(a, trial_id) == (NAMES[0], NAMES[1])
+    a.tick()  # the command answered: the next tick hands it over
+    assert trial_id not in a.loaded_ids()
+    assert _lease(a, trial_id)[0] == NAMES[1]
+
 
 #: Seconds from the restarted process answering to every one of its participants' trials
 #: hosted by it again (a renewal period to hear the ask, a tick, the participant's next request).

@@ -266,6 +266,10 @@ class Leases:
         last = self._asked.get(trial_id)
         if last is not None and time.monotonic() - last < ASK_EVERY_S:
             return None
+        if len(self._asked) > 4096:  # forget asks too old to hold back a new one
+            self._asked = {
+                t: at for t, at in self._asked.items() if at > time.monotonic() - ASK_EVERY_S
+            }
         self._asked[trial_id] = time.monotonic()
         with self.database.session_scope() as session:
             db_now = self._now(session, now)
