@@ -47,7 +47,7 @@ request of the participant reaches the hashed process first, is answered
 503 and passed on: a detour per request. So a process that answers a
 participant's request that way asks for the trial (`ask_back`: its name in
 the lease's `wanted_by`), and the holder, at its next renewal, hears it
-(`asked_back`) and hands the trial over at a safe point (`hand_back`, in a
+(`renew_hearing_asks`) and hands the trial over at a safe point (`hand_back`, in a
 fenced unit of work that writes what it holds and a snapshot). Against
 ping-pong: only a participant's own request asks (the console and the
 runners' syncs never do); the first asker keeps the request while it is
@@ -218,8 +218,15 @@ class Leases:
 
     def renew(self, held: dict[int, int], now: float) -> set[int]:
         """Extend our leases of these trials (id: epoch) in one statement; the ids still ours."""
+        return self.renew_hearing_asks(held, now)[0]
+
+    def renew_hearing_asks(
+        self, held: dict[int, int], now: float
+    ) -> tuple[set[int], dict[int, str]]:
+        """`renew`, and in the same transaction the asks for those trials (`_asks`):
+        one unit of work per renewal, as without asks."""
         if not held:
-            return set()
+            return set(), {}
         with self.database.session_scope() as session:
             db_now = self._now(session, now)
             rows = session.execute(
@@ -238,7 +245,8 @@ class Leases:
                 .returning(TrialLease.trial_id)
                 .execution_options(synchronize_session=False)
             )
-            return {trial_id for (trial_id,) in rows}
+            kept = {trial_id for (trial_id,) in rows}
+            return kept, self._asks(session, kept, db_now)
 
     def pass_on(self, session: Session, trial_id: int, heir: str, now: float) -> None:
         """Give our lease of the trial to `heir`, in the caller's transaction (which proved
@@ -301,18 +309,19 @@ class Leases:
             TrialLease.taken_epoch <= db_now - self.lease_s,
         )
 
-    def asked_back(self, trial_ids: Iterable[int], now: float) -> dict[int, str]:
+    def _asks(
+        self, session: Session, trial_ids: Iterable[int], db_now: ColumnElement[float]
+    ) -> dict[int, str]:
         """Of these trials held here, those another process asks for now: id -> the asker."""
         held = list(trial_ids)
         if not held:
             return {}
-        with self.database.session_scope() as session:
-            rows = session.execute(
-                select(TrialLease.trial_id, TrialLease.wanted_by).where(
-                    TrialLease.trial_id.in_(held), self._handable(self._now(session, now))
-                )
+        rows = session.execute(
+            select(TrialLease.trial_id, TrialLease.wanted_by).where(
+                TrialLease.trial_id.in_(held), self._handable(db_now)
             )
-            return {trial_id: str(asker) for trial_id, asker in rows}
+        )
+        return {trial_id: str(asker) for trial_id, asker in rows}
 
     def hand_back(self, session: Session, trial_id: int, heir: str, now: float) -> bool:
         """Pass our lease of the trial to `heir`, which asks for it, in the caller's

@@ -491,7 +491,7 @@ class Runner:
             }
         started = self.leases.monotonic()
         try:
-            kept = self.leases.renew({t: f.epoch for t, f in held.items()}, now)
+            kept, asked = self.leases.renew_hearing_asks({t: f.epoch for t, f in held.items()}, now)
         except DBAPIError:
             if now - self._last_renewal < self.leases.lease_s:
                 log.debug("lease renewal failed; the next tick tries again", exc_info=True)
@@ -499,10 +499,6 @@ class Runner:
             kept = set()  # the database was away longer than a lease: another may host them
         else:
             self._last_renewal = now
-            try:
-                asked = self.leases.asked_back(kept, now)
-            except DBAPIError:
-                asked = {}
             with self._registry_lock:
                 self._asked_back = asked
         deadline = self.leases.deadline_after(started)
