@@ -7,8 +7,13 @@ tick: they take the trial's lock and apply between two steps.
 
 Blueprints use only the public methods below (host, loaded, holding, pause,
 resume, end, finish_overdue, forget, withdrawing, commanding); the registry and
-its lock are private. The thread is started only where trials are served (`hcss serve`, the
-test server); an app built for a script or a check has a runner without one.
+its lock are private. The thread is started only where trials are served
+(`hcss serve`, the test server); an app built for a script or a check has a
+runner without one.
+
+With several processes, the runner also hands a trial back to the process
+nginx sends its participant to when that process asks (`hand_back_asked`,
+see hcss.platform.live.leases).
 """
 
 from __future__ import annotations
