@@ -63,7 +63,7 @@ def once(
 
     `carry_out` hands the key to the action, which stores it with what it records.
     """
-    live = runner.host(key.trial_id)
+    live = runner.host(key.trial_id, participant=True)
     with live.lock if live is not None else nullcontext():  # repeats wait here
         row = _stored(database, key)
         if row is not None:

@@ -67,7 +67,9 @@ def holds_for(runner: Runner, token: str, trial_id: int) -> bool:
 
 
 def _running(runner: Runner, trial_id: int) -> RunningTrial:
-    live = runner.host(trial_id)
+    """The trial hosted here for the participant's request (which asks it back if another
+    process holds it: nginx sends this participant here)."""
+    live = runner.host(trial_id, participant=True)
     if live is None:
         raise ActionError("the trial has ended", 409, "ended")
     return live
@@ -84,6 +86,7 @@ def frame(runner: Runner, trial_id: int) -> str:
 def _answered(
     database: Database,
     runner: Runner,
+    trial_id: int,
     key: KeyedCommand | None,
     status: int,
     act: Callable[[KeyedCommand | None], dict[str, Any]],
@@ -94,16 +97,17 @@ def _answered(
     service's own code, runs under the trial's lock, never a Flask view.
     Without a key an `ActionError` goes to the caller (the API answers it).
     """
-    if key is None:
-        return Answer(status, act(None))
+    with runner.commanding(trial_id):  # not handed to another process meanwhile
+        if key is None:
+            return Answer(status, act(None))
 
-    def carry_out(keyed: KeyedCommand) -> Answer:
-        try:
-            return Answer(status, act(keyed))
-        except ActionError as error:
-            return Answer(error.status, {"error": error.code, "message": error.message})
+        def carry_out(keyed: KeyedCommand) -> Answer:
+            try:
+                return Answer(status, act(keyed))
+            except ActionError as error:
+                return Answer(error.status, {"error": error.code, "message": error.message})
 
-    return once(database, runner, key, carry_out)
+        return once(database, runner, key, carry_out)
 
 
 def submit_request(
@@ -117,7 +121,7 @@ def submit_request(
             command, selections = validation.parse_request(body, live, session, trial_id)
         return actions.submit_request(database, live, command, selections, key=keyed)
 
-    return _answered(database, runner, key, 200, act)
+    return _answered(database, runner, trial_id, key, 200, act)
 
 
 def observe(
@@ -138,7 +142,7 @@ def observe(
             key=keyed,
         )
 
-    return _answered(database, runner, key, 201, act)
+    return _answered(database, runner, trial_id, key, 201, act)
 
 
 def probe_ready(
@@ -150,7 +154,7 @@ def probe_ready(
         live = _running(runner, trial_id)
         return actions.probe_ready(database, live, probe_id, now=runner.clock(), key=keyed)
 
-    return _answered(database, runner, key, 200, act)
+    return _answered(database, runner, trial_id, key, 200, act)
 
 
 def probe_answer(
@@ -168,7 +172,7 @@ def probe_answer(
         answer = validation.parse_answer(body)
         return actions.probe_answer(database, live, probe_id, answer, now=runner.clock(), key=keyed)
 
-    return _answered(database, runner, key, 200, act)
+    return _answered(database, runner, trial_id, key, 200, act)
 
 
 @dataclass(frozen=True)
@@ -197,7 +201,7 @@ def open_stream(
     none is free, released when the connection closes) and wakes the link's
     older stream, which sees it is superseded and hands over.
     """
-    live = runner.host(trial.id)
+    live = runner.host(trial.id, participant=True)
     if live is None:
         with database.session_scope() as session:
             reason = end_reason(session, trial.id)

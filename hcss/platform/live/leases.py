@@ -41,6 +41,20 @@ monotonic instant of the last renewal that succeeded plus the lease less a
 margin; past it, nothing is written for the trial until a renewal confirms
 the lease again, whatever the database answers (or does not).
 
+Hand-back. nginx hashes each participant to one process; while another
+process holds the trial (it took it over while that one was down), every
+request of the participant reaches the hashed process first, is answered
+503 and passed on: a detour per request. So a process that answers a
+participant's request that way asks for the trial (`ask_back`: its name in
+the lease's `wanted_by`), and the holder, at its next renewal, hears it
+(`renew_hearing_asks`) and hands the trial over at a safe point (`hand_back`, in a
+fenced unit of work that writes what it holds and a snapshot). Against
+ping-pong: only a participant's own request asks (the console and the
+runners' syncs never do); the first asker keeps the request while it is
+fresh (nginx tries the hashed process first, so its ask is written before
+any other process sees the request); and a trial is handed over only after
+its holder has held it for a lease, so at most once per lease period.
+
 Only processes started as part of a group (`hcss serve --processes N`, or
 `--cluster`) lease; a lone server hosts every trial, as before.
 """
@@ -79,6 +93,9 @@ MISSED_RENEWALS = 2
 #: Seconds before its lease runs out (by its own monotonic clock) that a holder stops writing:
 #: room for a transaction begun just before the deadline and for clock rate differences.
 STOP_MARGIN_S = 1.0
+#: Seconds between two asks of one process for one trial: the ask stays fresh for a lease,
+#: so the participant's requests need not each write it.
+ASK_EVERY_S = 1.0
 
 
 class HostedElsewhere(ServiceUnavailable):
@@ -107,6 +124,8 @@ class Leases:
         self.database = database
         self.owner = owner
         self.lease_s = lease_s
+        #: When this process last asked for each trial (monotonic), to write an ask once a second.
+        self._asked: dict[int, float] = {}
 
     @property
     def renew_every_s(self) -> float:
@@ -202,8 +221,15 @@ class Leases:
 
     def renew(self, held: dict[int, int], now: float) -> set[int]:
         """Extend our leases of these trials (id: epoch) in one statement; the ids still ours."""
+        return self.renew_hearing_asks(held, now)[0]
+
+    def renew_hearing_asks(
+        self, held: dict[int, int], now: float
+    ) -> tuple[set[int], dict[int, str]]:
+        """`renew`, and in the same transaction the asks for those trials (`_asks`):
+        one unit of work per renewal, as without asks."""
         if not held:
-            return set()
+            return set(), {}
         with self.database.session_scope() as session:
             db_now = self._now(session, now)
             rows = session.execute(
@@ -222,7 +248,8 @@ class Leases:
                 .returning(TrialLease.trial_id)
                 .execution_options(synchronize_session=False)
             )
-            return {trial_id for (trial_id,) in rows}
+            kept = {trial_id for (trial_id,) in rows}
+            return kept, self._asks(session, kept, db_now)
 
     def pass_on(self, session: Session, trial_id: int, heir: str, now: float) -> None:
         """Give our lease of the trial to `heir`, in the caller's transaction (which proved
@@ -239,6 +266,95 @@ class Leases:
             )
             .execution_options(synchronize_session=False)
         )
+
+    def ask_back(self, trial_id: int, now: float) -> str | None:
+        """Ask the live holder of the trial to hand it to this process; the holder asked,
+        or None (nobody else holds it, or another process asked first and still asks).
+
+        Call it only for a participant's own request, which nginx's hash sent here. At
+        most one write per `ASK_EVERY_S` per trial: an ask stays fresh for a lease.
+        """
+        last = self._asked.get(trial_id)
+        if last is not None and time.monotonic() - last < ASK_EVERY_S:
+            return None
+        if len(self._asked) > 4096:  # forget asks too old to hold back a new one
+            self._asked = {
+                t: at for t, at in self._asked.items() if at > time.monotonic() - ASK_EVERY_S
+            }
+        self._asked[trial_id] = time.monotonic()
+        with self.database.session_scope() as session:
+            db_now = self._now(session, now)
+            return session.scalar(
+                update(TrialLease)
+                .where(
+                    TrialLease.trial_id == trial_id,
+                    TrialLease.owner != self.owner,
+                    TrialLease.expires_epoch >= db_now,
+                    or_(
+                        TrialLease.wanted_by.is_(None),
+                        TrialLease.wanted_by == self.owner,
+                        TrialLease.wanted_epoch < db_now - self.lease_s,
+                    ),
+                )
+                .values(wanted_by=self.owner, wanted_epoch=db_now)
+                .returning(TrialLease.owner)
+                .execution_options(synchronize_session=False)
+            )
+
+    def _handable(self, db_now: ColumnElement[float]) -> ColumnElement[bool]:
+        """A lease of ours that another process asks for (within a lease) and that we have
+        held for a lease at least (so a trial moves back at most once per lease period)."""
+        return and_(
+            TrialLease.owner == self.owner,
+            TrialLease.wanted_by.is_not(None),
+            TrialLease.wanted_by != self.owner,
+            TrialLease.wanted_epoch >= db_now - self.lease_s,
+            TrialLease.taken_epoch <= db_now - self.lease_s,
+        )
+
+    def _asks(
+        self, session: Session, trial_ids: Iterable[int], db_now: ColumnElement[float]
+    ) -> dict[int, str]:
+        """Of these trials held here, those another process asks for now: id -> the asker."""
+        held = list(trial_ids)
+        if not held:
+            return {}
+        rows = session.execute(
+            select(TrialLease.trial_id, TrialLease.wanted_by).where(
+                TrialLease.trial_id.in_(held), self._handable(db_now)
+            )
+        )
+        return {trial_id: str(asker) for trial_id, asker in rows}
+
+    def hand_back(self, session: Session, trial_id: int, heir: str, now: float) -> bool:
+        """Pass our lease of the trial to `heir`, which asks for it, in the caller's
+        transaction (which proved it); False when the ask is gone (void, or another's).
+
+        The lease goes to the asker itself, not to whoever claims first: its next
+        request for the trial claims it (a claim of its own lease) and rebuilds it, and
+        no runner's sync takes it meanwhile. The epoch rises, so nothing this process
+        still holds can write.
+        """
+        db_now = self._now(session, now)
+        handed = session.execute(
+            update(TrialLease)
+            .where(
+                TrialLease.trial_id == trial_id,
+                TrialLease.wanted_by == heir,
+                self._handable(db_now),
+            )
+            .values(
+                owner=heir,
+                epoch=TrialLease.epoch + 1,
+                expires_epoch=db_now + self.lease_s,
+                taken_epoch=db_now,
+                wanted_by=None,
+                wanted_epoch=None,
+            )
+            .returning(TrialLease.trial_id)
+            .execution_options(synchronize_session=False)
+        ).first()
+        return handed is not None
 
     def release(self, trial_id: int) -> None:
         """Give the trial up now (it ended, or this process stops hosting it)."""

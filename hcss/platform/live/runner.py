@@ -6,9 +6,14 @@ due, records what happened and wakes the streams. Commands do not wait for a
 tick: they take the trial's lock and apply between two steps.
 
 Blueprints use only the public methods below (host, loaded, holding, pause,
-resume, end, finish_overdue, forget, withdrawing); the registry and its lock are
-private. The thread is started only where trials are served (`hcss serve`, the
-test server); an app built for a script or a check has a runner without one.
+resume, end, finish_overdue, forget, withdrawing, commanding); the registry and
+its lock are private. The thread is started only where trials are served
+(`hcss serve`, the test server); an app built for a script or a check has a
+runner without one.
+
+With several processes, the runner also hands a trial back to the process
+nginx sends its participant to when that process asks (`hand_back_asked`,
+see hcss.platform.live.leases).
 """
 
 from __future__ import annotations
@@ -16,6 +21,7 @@ from __future__ import annotations
 import logging
 import threading
 import time as wallclock
+from collections import Counter
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
 
@@ -88,6 +94,10 @@ class Runner:
         self._keeper: threading.Thread | None = None
         self._last_sync = -float("inf")
         self._told_unmigrated = False
+        #: Participants' commands under way per trial (`commanding`): no hand-back meanwhile.
+        self._commanding: Counter[int] = Counter()
+        #: Trials held here that another process asked for at the last renewal: id -> asker.
+        self._asked_back: dict[int, str] = {}
 
     @property
     def clock(self) -> Callable[[], float]:
@@ -100,13 +110,16 @@ class Runner:
 
     # --- finding trials -------------------------------------------------------
 
-    def host(self, trial_id: int) -> RunningTrial | None:
+    def host(self, trial_id: int, *, participant: bool = False) -> RunningTrial | None:
         """Host the trial here: the trial in memory, claimed and rebuilt first if the
         database says it is running and it is not in memory (None: it is not running).
 
         With leases, hosting means taking the trial's lease first (a takeover
         when its owner died); `HostedElsewhere` (503) when another live
-        process holds it. `loaded` only looks.
+        process holds it. `participant`: the participant's own request, which
+        nginx's hash sent here; then this process also asks the holder to hand
+        the trial back (`Leases.ask_back`), so the participant's later requests
+        stop taking a detour. `loaded` only looks.
         """
         live = self._trials.get(trial_id)
         if live is not None:
@@ -119,13 +132,13 @@ class Runner:
             live = self._trials.get(trial_id)
             if live is not None:
                 return live
-            live = self._load(trial_id)
+            live = self._load(trial_id, participant)
             if live is not None:
                 with self._registry_lock:
                     self._trials[trial_id] = live
             return live
 
-    def _load(self, trial_id: int) -> RunningTrial | None:
+    def _load(self, trial_id: int, participant: bool = False) -> RunningTrial | None:
         """Claim and rebuild the trial (`host` holds its loader); None if it is not running."""
         with self.database.session_scope() as session:
             if latest_status(session, trial_id) != TrialStatus.RUNNING:
@@ -146,7 +159,8 @@ class Runner:
                 wallclock.sleep(quiet_for + QUIET_MARGIN_S)
                 epoch = self.leases.claim(trial_id, self.clock())
             if epoch is None:
-                holder = self.leases.holder(trial_id, self.clock())
+                asked = self.leases.ask_back(trial_id, self.clock()) if participant else None
+                holder = asked or self.leases.holder(trial_id, self.clock())
                 raise HostedElsewhere(trial_id, holder or "")
             fence = Fence(self.leases, trial_id, epoch, self.leases.deadline_after(claimed_at))
         host_died = self.leases is not None and earlier not in (None, self.leases.owner)
@@ -203,6 +217,20 @@ class Runner:
             self.leases.release(trial_id)
         except DBAPIError:
             log.warning("could not release the lease of trial %s; it runs out by itself", trial_id)
+
+    @contextmanager
+    def commanding(self, trial_id: int) -> Iterator[None]:
+        """A participant's command for the trial is under way (found, waiting for the lock,
+        applied, written): the trial is not handed to another process meanwhile."""
+        with self._registry_lock:
+            self._commanding[trial_id] += 1
+        try:
+            yield
+        finally:
+            with self._registry_lock:
+                self._commanding[trial_id] -= 1
+                if self._commanding[trial_id] <= 0:
+                    del self._commanding[trial_id]
 
     # --- controlling one trial --------------------------------------------------
 
@@ -338,6 +366,8 @@ class Runner:
         if self.leases is not None and wallclock.monotonic() - self._last_orders >= POLL_S:
             self._last_orders = wallclock.monotonic()
             self.carry_out_orders()
+        if self._asked_back:
+            self.hand_back_asked()
         with self._registry_lock:
             live_trials = list(self._trials.values())
         for live in live_trials:
@@ -383,6 +413,61 @@ class Runner:
                 self._trials.pop(live.trial_id, None)
             live.move_away()  # its streams close; the page reconnects to the new host
 
+    def hand_back_asked(self) -> None:
+        """Hand the trials another process asked for (at the last renewal) to it, each at a
+        safe point; one busy now (a command under way, its lock taken) waits for a tick."""
+        with self._registry_lock:
+            asked = list(self._asked_back.items())
+        for trial_id, heir in asked:
+            live = self.loaded(trial_id)
+            try:
+                done = live is None or self._hand_back(live, heir)
+            except Exception:
+                log.exception("live trial %s could not be handed to %s", trial_id, heir)
+                done = True  # asked again at the next renewal if it still is
+            if done:
+                with self._registry_lock:
+                    if self._asked_back.get(trial_id) == heir:
+                        del self._asked_back[trial_id]
+
+    def _hand_back(self, live: RunningTrial, heir: str) -> bool:
+        """Give the trial to `heir` (nginx sends its participant there): what it holds and a
+        snapshot written and the lease passed in one fenced unit of work, then it stops
+        hosting here. False: not now (a command under way or the lock taken), try again.
+
+        Under the trial's lock, with no participant's command under way: nothing is
+        applied that is not written, and a command that comes after finds the trial
+        moved (503, which the page retries and nginx sends to the heir).
+        """
+        assert self.leases is not None
+        if not live.lock.acquire(blocking=False):
+            return False
+        try:
+            with self._registry_lock:
+                if self._commanding[live.trial_id]:
+                    return False
+            now = self.clock()
+            self.advance(live, now)
+            if live.ended or live.moved or live.database_away_since is not None:
+                return True  # nothing to hand over, or not safely now (the next ask decides)
+            with kept_until_written(live), trial_transaction(self.database, live) as session:
+                record_progress(live, session)
+                handed = self.leases.hand_back(session, live.trial_id, heir, now)
+                if handed:
+                    write_snapshot(live, session, now)
+            if handed:
+                with self._registry_lock:
+                    if self._trials.get(live.trial_id) is live:
+                        del self._trials[live.trial_id]
+                live.move_away()  # its streams close; the page reconnects, to the heir
+                log.info("live trial %s handed back to %s", live.trial_id, heir)
+            return True
+        except (DBAPIError, LeaseLost):
+            log.warning("live trial %s: not handed back now", live.trial_id, exc_info=True)
+            return True
+        finally:
+            live.lock.release()
+
     def _take_hold(self, trial_ids: list[int]) -> None:
         """Make this process the holder of every lease of these trials (for a withdrawal).
 
@@ -422,7 +507,7 @@ class Runner:
             }
         started = self.leases.monotonic()
         try:
-            kept = self.leases.renew({t: f.epoch for t, f in held.items()}, now)
+            kept, asked = self.leases.renew_hearing_asks({t: f.epoch for t, f in held.items()}, now)
         except DBAPIError:
             if now - self._last_renewal < self.leases.lease_s:
                 log.debug("lease renewal failed; the next tick tries again", exc_info=True)
@@ -430,6 +515,8 @@ class Runner:
             kept = set()  # the database was away longer than a lease: another may host them
         else:
             self._last_renewal = now
+            with self._registry_lock:
+                self._asked_back = asked
         deadline = self.leases.deadline_after(started)
         for trial_id in kept:
             held[trial_id].deadline = max(held[trial_id].deadline, deadline)

@@ -31,3 +31,9 @@ class TrialLease(Base):
     epoch: Mapped[int] = mapped_column(Integer, default=1, server_default="1")
     expires_epoch: Mapped[float] = mapped_column(Double)
     taken_epoch: Mapped[float] = mapped_column(Double)
+    #: The process that asks for the trial back: nginx's hash sends the participant there
+    #: (a restarted process), so while another holds it every request takes a detour. The
+    #: holder hands it over at its next renewal; the first live asker keeps the request.
+    wanted_by: Mapped[str | None] = mapped_column(String(128), nullable=True)
+    #: When `wanted_by` last asked (the database's clock): an ask older than a lease is void.
+    wanted_epoch: Mapped[float | None] = mapped_column(Double, nullable=True)

@@ -181,12 +181,16 @@ class LocalNginx:
         *,
         port: int | None = None,
         tls: tuple[Path, Path] | None = None,
+        access_log: bool = False,
     ) -> None:
         self.servers = list(servers)
         self.prefix = Path(prefix)
         self.port = port or free_port()
         #: (certificate, key): nginx speaks HTTPS and tells the servers so (X-Forwarded-Proto).
         self.tls = tls
+        #: Log each request with the process(es) it was passed to and their answers
+        #: (`access_log_path`): a detour through a process that answered 503 shows there.
+        self.access_log = access_log
         self.process: subprocess.Popen[bytes] | None = None
 
     @classmethod
@@ -196,6 +200,11 @@ class LocalNginx:
     @property
     def url(self) -> str:
         return f"{'https' if self.tls else 'http'}://127.0.0.1:{self.port}"
+
+    @property
+    def access_log_path(self) -> Path:
+        """Lines of `$request_uri $status $upstream_addr $upstream_status` (with `access_log`)."""
+        return self.prefix / "access.log"
 
     def start(self, timeout_s: float = 10.0) -> LocalNginx:
         from hcss.platform.serving.nginx import standalone_config
@@ -210,6 +219,12 @@ class LocalNginx:
             # private folder: a body over the memory buffer (16 kB) then found its temp
             # file unwritable and nginx answered 500 itself (the fuzz through nginx).
             text = "user root;\n" + text
+        if self.access_log:
+            text = text.replace(
+                "access_log off;",
+                'log_format hcss_upstreams \'$msec $request_uri $status "$upstream_addr" '
+                f'"$upstream_status"\';\n    access_log {self.access_log_path} hcss_upstreams;',
+            )
         if self.tls is not None:
             certificate, key = self.tls
             text = text.replace(
