@@ -40,8 +40,8 @@ from hcss.platform.live.leases import HostedElsewhere
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.trial_log import newest_snapshot
 from hcss.platform.live.trials import start_bot_trial
-from hcss.platform.localserver import LocalNginx, LocalServer
 from hcss.platform.models import Interruption, Observation, TrialLease, TrialStatusChange
+from hcss.platform.serving.localserver import LocalNginx, LocalServer
 from hcss.simulation import Simulation
 from tests.support.leases import (
     LEASE_S,
