@@ -17,7 +17,7 @@ from hcss.analysis import report, rscript
 from hcss.analysis.report import run_analysis
 from hcss.analysis.rscript import write_r_script
 from hcss.analysis.sweeps import SweepInputError, load_sweep
-from hcss.analysis.tables import Table, write_checked, write_table
+from hcss.analysis.tables import Table, write_checked, write_paper_table
 from hcss.tablespec import TableSpec
 from hcss.tablespec.analysis import (
     ANALYSIS_TABLES,
@@ -56,10 +56,10 @@ def _frame(spec: TableSpec) -> pd.DataFrame:
 
 
 def _write(spec: TableSpec, frame: pd.DataFrame, directory: Path) -> Path:
-    """Through the writer the analysis uses for the table: write_table for the report's."""
+    """Through the writer the analysis uses for the table: write_paper_table for the report's."""
     name = _written_name(spec)
     if spec in REPORT_TABLES:
-        write_table(Table(name, "caption", ("a",), (("1",),), frame), directory)
+        write_paper_table(Table(name, "caption", ("a",), (("1",),), frame), directory)
     else:
         write_checked(directory / f"{name}.csv", frame, spec, name)
     return directory / f"{name}.csv"
@@ -141,7 +141,7 @@ def test_a_pattern_column_checks_its_columns_with_its_type(tmp_path: Path) -> No
 def test_a_report_table_without_a_contract_is_refused(tmp_path: Path) -> None:
     table = Table("planted_table", "caption", ("a",), (("1",),), pd.DataFrame({"a": [1]}))
     with pytest.raises(LookupError, match="'planted_table' that no spec in hcss.tablespec"):
-        write_table(table, tmp_path)
+        write_paper_table(table, tmp_path)
     assert list(tmp_path.iterdir()) == []
 
 

@@ -32,7 +32,7 @@ import httpx
 import pytest
 from sqlalchemy import func, select
 
-from hcss.platform.bots import ManualClock
+from hcss.platform.bots.participant import ManualClock
 from hcss.platform.cli import upgrade_database
 from hcss.platform.db import Database
 from hcss.platform.live.client import TrialClient
