@@ -194,10 +194,10 @@ def test_the_fast_answer_threshold_is_a_checked_study_setting() -> None:
     from hcss.platform.study.files import study_text
     from hcss.platform.study.studyfile import StudyFileError, load_study, parse_study
 
-    assert load_study("original").fast_answer_ms == 1000
+    assert load_study("original").probes.fast_answer_ms == 1000
     doc = tomllib.loads(study_text("demo")[1].decode())
     doc["probes"]["fast_answer_ms"] = 600
-    assert parse_study(doc, source="demo.toml").fast_answer_ms == 600
+    assert parse_study(doc, source="demo.toml").probes.fast_answer_ms == 600
     doc["probes"]["fast_answer_ms"] = -5
     with pytest.raises(StudyFileError, match="probes.fast_answer_ms"):
         parse_study(doc, source="demo.toml")

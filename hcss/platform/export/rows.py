@@ -150,7 +150,7 @@ def fast_answer_ms(session: Session, participant_id: int) -> int:
 def _fast_answer_ms(session: Session, participant_id: int) -> int:
     enrolment = current_enrolment(session, participant_id)
     try:
-        return load_study(enrolment.study).fast_answer_ms if enrolment else DEFAULT_FAST_MS
+        return load_study(enrolment.study).probes.fast_answer_ms if enrolment else DEFAULT_FAST_MS
     except StudyFileError:  # a study file since removed: its data still export
         return DEFAULT_FAST_MS
 

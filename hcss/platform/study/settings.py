@@ -256,12 +256,6 @@ class Study(BaseModel):
         from disk)."""
         return self._digest
 
-    @property
-    def fast_answer_ms(self) -> int:
-        """`probes.fast_answer_ms`, under the name the export reads (hcss/platform/export/rows.py,
-        left to the engineer of the export's table contracts; drop this when it reads the table)."""
-        return self.probes.fast_answer_ms
-
     def cell(self, number: int) -> Cell:
         for cell in self.cells:
             if cell.number == number:
