@@ -96,7 +96,7 @@ def unstamped(blob: bytes) -> dict[str, Any]:
     if found is not None and found > SNAPSHOT_FORMAT:
         raise NewerSnapshotFormat(found)
     try:
-        state = pickle.loads(blob)
+        state: dict[str, Any] = pickle.loads(blob)
     except Exception as error:  # any unpickling failure means "not a snapshot"
         raise SimulationError(f"not a simulation snapshot: {error}") from error
     found = state.pop(_STAMP, None) if isinstance(state, dict) else None
