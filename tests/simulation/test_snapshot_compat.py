@@ -78,9 +78,7 @@ def test_a_stored_snapshot_continues_bit_for_bit(path: Path) -> None:
     held = fixture["snapshot"]["commands_held"]
     assert 0 < held < len(commands)
     assert any(step == sim.step_count for step, _ in commands[held:])  # logged at its very step
-    sim = replay(
-        sim.scenario, sim.model, commands, fixture["until_step"], start=sim, held=held
-    )
+    sim = replay(sim.scenario, sim.model, commands, fixture["until_step"], start=sim, held=held)
     assert sim.step_count == fixture["until_step"]
     assert sim.state_digest() == fixture["digest"]
     assert len(sim.decisions) == fixture["decisions"]
@@ -102,7 +100,8 @@ def test_a_stored_trial_replays_from_its_start_bit_for_bit(path: Path) -> None:
 
 
 @pytest.mark.parametrize(
-    "path", [p for p in STORED if json.loads(p.read_text())["snapshot_format"] == SNAPSHOT_FORMAT],
+    "path",
+    [p for p in STORED if json.loads(p.read_text())["snapshot_format"] == SNAPSHOT_FORMAT],
     ids=_name,
 )
 def test_the_format_number_changes_when_the_layout_does(path: Path) -> None:

@@ -49,7 +49,9 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     folder = HERE / f"v{version('hcss')}"
     if folder.exists() and not args.replace:
-        print(f"{folder} exists: a released version's fixtures are never rewritten", file=sys.stderr)
+        print(
+            f"{folder} exists: a released version's fixtures are never rewritten", file=sys.stderr
+        )
         return 1
     folder.mkdir(exist_ok=True)
     for model in MODELS:
