@@ -6,15 +6,18 @@ docs/simulation-api.md.
 
 from hcss.simulation import jit  # noqa: F401 - sets the kernels' cache before they are defined
 from hcss.simulation.decisions import DECISION_COLUMNS, DecisionRecord
-from hcss.simulation.engine import Simulation, SimulationError
+from hcss.simulation.engine import Simulation
+from hcss.simulation.errors import SimulationError
 from hcss.simulation.params import MODELS, ROMAN, Params
 from hcss.simulation.requests import OperatorCommand, RequestOutcome, RequestState, StatusChange
 from hcss.simulation.scenario import Scenario, ScenarioError
+from hcss.simulation.snapshots import NewerSnapshotFormat
 from hcss.simulation.view import Display, Truth
 
 __all__ = [
     "DECISION_COLUMNS",
     "MODELS",
+    "NewerSnapshotFormat",
     "ROMAN",
     "DecisionRecord",
     "Display",

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import hashlib
 import math
-import pickle
 from dataclasses import asdict
 from types import SimpleNamespace
 from typing import Any
@@ -26,6 +25,7 @@ from hcss.simulation import decisions as dec
 from hcss.simulation import movement, rules
 from hcss.simulation import states as S
 from hcss.simulation.constants import constants_for
+from hcss.simulation.errors import SimulationError
 from hcss.simulation.ids import target_id, target_index
 from hcss.simulation.params import MODELS, Params
 from hcss.simulation.requests import (
@@ -40,18 +40,12 @@ from hcss.simulation.requests import (
     refusal,
 )
 from hcss.simulation.scenario import Scenario
+from hcss.simulation.snapshots import stamped, unstamped
 from hcss.simulation.step import ADVANCE, EXCHANGE, WHOLE, steps
 from hcss.simulation.view import Display, Truth, display_of, truth_of
 from hcss.simulation.world import World
 
-SNAPSHOT_VERSION = (
-    3  # 2: the compiled engine (World.stream, M2 geometry); 3: headings as unit vectors
-)
 DERIVED = ("rng", "scenario", "params", "_k", "_scratch")  # not pickled as such
-
-
-class SimulationError(ValueError):
-    """The simulation cannot be built or restored as asked."""
 
 
 class Simulation:
@@ -526,35 +520,31 @@ class Simulation:
 
     # ---------------------------------------------------------- persistence
     def snapshot(self) -> bytes:
-        """The whole state, including the generator's, as bytes."""
+        """The whole state, including the generator's, as bytes (format: `snapshots`)."""
         state = {name: value for name, value in vars(self).items() if name not in DERIVED}
         state.update(
-            version=SNAPSHOT_VERSION,
             scenario=self.scenario.to_dict(),
             params=self.params.to_dict(),
             rng=self.rng.bit_generator.state,
         )
-        return pickle.dumps(state, protocol=pickle.HIGHEST_PROTOCOL)
+        return stamped(state)
 
     @classmethod
     def restore(cls, blob: bytes) -> Simulation:
         """A simulation that continues exactly where the snapshot was taken.
 
-        Snapshots are pickles written by this class into our own database;
-        never restore one from an untrusted source.
+        Reads this version's format and the older ones `snapshots` converts;
+        raises `snapshots.NewerSnapshotFormat` for a newer version's and
+        SimulationError for anything else. Snapshots are pickles written by
+        this class into our own database; never restore one from an untrusted
+        source.
         """
-        try:
-            state = pickle.loads(blob)
-        except Exception as error:  # any unpickling failure means "not a snapshot"
-            raise SimulationError(f"not a simulation snapshot: {error}") from error
-        if not isinstance(state, dict) or state.get("version") != SNAPSHOT_VERSION:
-            raise SimulationError("not a simulation snapshot of this version")
+        state = unstamped(blob)
         sim = cls.__new__(cls)
         sim.scenario = Scenario.from_dict(state.pop("scenario"))
         sim.params = Params.from_dict(state.pop("params"))
         sim.rng = np.random.default_rng()
         sim.rng.bit_generator.state = state.pop("rng")
-        state.pop("version")
         state.setdefault("status_changes", [])  # snapshots from before the status queue
         vars(sim).update(state)
         sim._prepare()

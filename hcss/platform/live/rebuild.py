@@ -6,7 +6,9 @@ apply each logged command at the step it was applied live (the simulation's own
 step the wall clock says is due, not counting the outage itself
 (hcss.platform.live.outages: the trial clock stands still while the server is down). A trial that had been running in some server
 before (it has a snapshot) gets an `Interruption` row with the rebuilt
-state's digest.
+state's digest. A snapshot written by a newer version in a format this one
+does not read (a rolling upgrade) is not used: the trial is replayed from its
+start with the whole command log.
 """
 
 from __future__ import annotations
@@ -41,11 +43,13 @@ from hcss.platform.models import (
     ProbeEvent,
     RequestStatusChange,
     SimEvent,
+    Snapshot,
     Trial,
 )
 from hcss.platform.models.stored_names import Uninterpretable
 
 if TYPE_CHECKING:
+    from hcss.simulation import Simulation
     from hcss.simulation.requests import RequestOutcome
 
 
@@ -56,12 +60,13 @@ def load_trial(
 
     A trial that ran in a server that died (it has a snapshot, or its host's
     lease ran out before the host wrote one) gets its clock stopped for the
-    outage and an `Interruption` (`snapshot_step` -1 when there was no snapshot).
+    outage and an `Interruption` (`snapshot_step` -1 when it was rebuilt from
+    the start: no snapshot, or none this version reads).
     """
-    from hcss.simulation import Simulation
-
-    snapshot = newest_snapshot(session, trial.id)
-    sim = new_simulation(trial) if snapshot is None else Simulation.restore(snapshot.blob)
+    newest = newest_snapshot(session, trial.id)
+    restored = None if newest is None else _restored(session, newest)
+    snapshot = None if restored is None else newest  # the one the rebuild starts from
+    sim = new_simulation(trial) if restored is None else restored
     live = RunningTrial(
         trial_id=trial.id,
         participant_id=trial.participant_id,
@@ -86,7 +91,7 @@ def load_trial(
     live.stood_still(earlier_outages_s(session, trial.id))
     replayed = _replay_commands(session, trial, live)
     outage_s = 0.0
-    ran_before = snapshot is not None or host_died
+    ran_before = newest is not None or host_died
     if ran_before:  # it ran in a server that died: the outage stops its clock
         reached = max(last_reached_step(session, trial.id), sim.step_count)
         outage_s = stop_clock_for_outage(live, seen, reached, now)
@@ -111,6 +116,32 @@ def load_trial(
         )
     write_snapshot(live, session, now)
     return live
+
+
+def _restored(session: Session, snapshot: Snapshot) -> Simulation | None:
+    """The snapshot's simulation; None for a newer version's format (a rolling upgrade).
+
+    A newer format is never guessed at: the trial is rebuilt from its start
+    with the whole command log instead, exact by deterministic replay as long
+    as the two versions step alike, which each release proves on the previous
+    one's fixtures (docs/operations.md, "Rolling upgrade"); a trial problem
+    row says so. Any other snapshot that cannot be restored (an older format
+    no longer read, bytes that are no snapshot) raises SimulationError, and
+    the trial ends `rebuild_failed` with the reason.
+    """
+    from hcss.simulation import NewerSnapshotFormat, Simulation
+
+    try:
+        return Simulation.restore(snapshot.blob)
+    except NewerSnapshotFormat as newer:
+        trial_writer.write_problem(
+            session,
+            snapshot.trial_id,
+            "rebuild",
+            f"snapshot {snapshot.id}",
+            f"{newer}: rebuilt from the trial's start with its whole command log",
+        )
+        return None
 
 
 def _replay_commands(session: Session, trial: Trial, live: RunningTrial) -> int:

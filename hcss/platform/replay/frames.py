@@ -23,7 +23,7 @@ from hcss.platform.live.trials import latest_status
 from hcss.platform.models import Trial, TrialStatusChange
 from hcss.platform.models.latest import latest_row
 from hcss.platform.models.vocabularies import TrialStatus
-from hcss.simulation import Simulation
+from hcss.simulation import NewerSnapshotFormat, Simulation
 
 MAX_CHUNK = 300  # steps per frames request
 CACHED_TRIALS = 4
@@ -82,7 +82,7 @@ def recording_of(session: Session, trial: Trial) -> Recording:
     next step, as the live simulation applied it.
     """
     snapshot = newest_snapshot(session, trial.id)
-    digest = None if snapshot is None else Simulation.restore(snapshot.blob).state_digest()
+    digest = None if snapshot is None else _recorded_digest(snapshot.blob)
     if latest_status(session, trial.id) == TrialStatus.ENDED:
         end = latest_row(
             session,
@@ -103,6 +103,14 @@ def recording_of(session: Session, trial: Trial) -> Recording:
         recorded_digest=digest,
         last_command_id=snapshot.last_command_id or 0,
     )
+
+
+def _recorded_digest(blob: bytes) -> str | None:
+    """The snapshot's digest; None for a newer version's format (nothing to compare it with)."""
+    try:
+        return Simulation.restore(blob).state_digest()
+    except NewerSnapshotFormat:
+        return None
 
 
 class ReplayCache:
