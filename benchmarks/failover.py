@@ -98,7 +98,7 @@ def _server(url: str, workdir: Path, name: str) -> LocalServer:
     )
 
 
-def _started(*servers: LocalServer, timeout_s: float = 240.0) -> None:
+def start_ready(*servers: LocalServer, timeout_s: float = 240.0) -> None:
     """Start each and wait for its "simulation ready": a fresh instance compiles the kernels
     in the background (20-40 s under load), and a trial claimed before that waits for it,
     which a failover figure must not include."""
@@ -234,7 +234,7 @@ def fault_round(base: str, workdir: Path, fault: str) -> dict[str, Any]:
         pages: list[PageStream] = []
         stop_pages = threading.Event()
         try:
-            _started(victim, other)
+            start_ready(victim, other)
             nginx.start()
             tokens = start_trials(url, FAILOVER_TRIALS)
             clients = []
@@ -415,14 +415,14 @@ def survivor_round(base: str, workdir: Path, n_trials: int) -> dict[str, Any]:
         folder = workdir / f"survivor-{n_trials}"
         first, survivor = _server(url, folder, "first"), _server(url, folder, "survivor")
         try:
-            _started(first)
+            start_ready(first)
             tokens = start_trials(url, n_trials)
             for token in tokens:  # each page reaches the first process, whose look claims it
                 page = TrialClient(first.url, token)
                 page.open_page()
                 page.state()
                 page.close()
-            _started(survivor)
+            start_ready(survivor)
             assert _held(database, first)[0] == n_trials
             time.sleep(3.0)  # a snapshot of each
             first.kill()
@@ -484,66 +484,82 @@ def _held(database: Database, server: LocalServer) -> tuple[int, int]:
 
 
 def _spread(values: list[float | None]) -> str:
-    """min / median / max, and how many never came."""
+    """min / median / max of the values there are (a trial that never came back has None)."""
     got = sorted(v for v in values if v is not None)
-    missing = len(values) - len(got)
-    text = f"{got[0]:5.1f} / {statistics.median(got):5.1f} / {got[-1]:5.1f}" if got else "  -  "
-    return text + (f"  ({missing} never)" if missing else "")
+    return f"{got[0]:.1f} / {statistics.median(got):.1f} / {got[-1]:.1f}" if got else "-"
 
 
-def print_fault(f: dict[str, Any]) -> None:
-    pages = f["pages"]
+FAULT_ROWS = (
+    ("lease held by the other process", "takeover_s"),
+    ("stepping again through nginx", "stepping_s"),
+    ("longest gap between frames", "gap_s"),
+    ("largest clock jump between frames", "skipped_s"),
+    ("largest clock rewind in frames", "rewind_s"),
+    ("trial clock stood still (outage_s)", "clock_stop_s"),
+    ("stream requests per page", "reconnects"),
+)
+
+
+def print_faults(rounds: list[dict[str, Any]]) -> None:
+    """One column per fault; per taken-over trial min / median / max, then the checks."""
+    width = 22
+    cells = [f"{r['fault']} ({r['moved']} of {r['trials']})" for r in rounds]
     print(
-        f"    {f['fault']}: process 0 hosted {f['moved']} of {f['trials']} trials"
-        + ("" if f["fault"] == "kill" else f"; woke after {f['woke_after_s']:.1f} s"),
-        flush=True,
+        f"      {'seconds after the fault, per trial':<36}"
+        + "".join(f"{c:>{width}}" for c in cells)
     )
-    print("      per taken-over trial (s)        min /  med /  max")
-    for label, key in (
-        ("lease held by the other", "takeover_s"),
-        ("stepping again via nginx", "stepping_s"),
-        ("longest gap between frames", "gap_s"),
-        ("trial time skipped (jump)", "skipped_s"),
-        ("clock rewind in frames", "rewind_s"),
-        ("clock stood still (outage_s)", "clock_stop_s"),
-    ):
-        print(f"      {label:<30} {_spread([p[key] for p in pages])}")
-    print(f"      {'stream requests per page':<30} {_spread([p['reconnects'] for p in pages])}")
-    if f["others"]:
-        print(
-            f"      trials on the other process: longest gap "
-            f"{_spread([p['gap_s'] for p in f['others']])} s"
-        )
-    line = (
-        f"      rows lost {f['lost']} of {f['rows_before']}; decisions/events/statuses "
-        f"stored twice {f['doubled']}; rebuild_failed {f['rebuild_failed']}"
-    )
-    print(line)
-    if f["fault"] != "kill":
-        answers = ", ".join(f"{k}: {v}" for k, v in sorted(f["click_answers"].items()))
-        print(
-            f"      clicks queued at process 0: {f['clicks']} (answers {answers or 'none'}); "
-            f"observation rows written {f['observations']}; process 0 logged "
-            f"'lost the lease' {f['victim_lost_the_lease']}x; handed back to it after it "
-            f"woke {f['handed_back']}; never moved {f['unmoved_lease']}"
-        )
-        nxt = f["next_takeover"]
-        print(
-            f"      next takeover (kill -9 of the other): process 0 held all "
-            f"{nxt['taken_s']:.1f} s later; rebuild_failed {nxt['rebuild_failed']}"
-        )
-
-
-def print_survivor(s: dict[str, Any]) -> None:
-    all_s = f"{s['all_s']:.1f} s" if s["all_s"] is not None else "never (120 s)"
+    print(f"      {'(min / median / max)':<36}")
+    for label, key in FAULT_ROWS:
+        row = [_spread([p[key] for p in r["pages"]]) for r in rounds]
+        print(f"      {label:<36}" + "".join(f"{c:>{width}}" for c in row))
+    others = [_spread([p["gap_s"] for p in r["others"]]) for r in rounds]
     print(
-        f"    survivor, {s['trials']} trials: holds all after {all_s}; valid leases "
-        f"(every 1 s, PostgreSQL's clock) at least {s['valid_min_after_all']} of "
-        f"{s['trials']} over the {SURVIVOR_WATCH_S:.0f} s after (most at once "
-        f"{s['valid_max']}); 'lost the lease' {s['lost_the_lease']}x; interruptions "
-        f"{s['interruptions']} ({s['interruptions'] / s['trials']:.2f} per trial, most "
-        f"{s['interruptions_max']}, {s['untouched']} trials none); longest clock stop per "
-        f"trial median {s['outage_median_s']:.1f} s, max {s['outage_max_s']:.1f} s; "
-        f"rebuild_failed {s['rebuild_failed']}",
-        flush=True,
+        f"      {'gap, trials of the other process':<36}" + "".join(f"{c:>{width}}" for c in others)
     )
+    checks: list[tuple[str, Callable[[dict[str, Any]], object]]] = [
+        ("trials never stepping again", lambda r: sum(p["stepping_s"] is None for p in r["pages"])),
+        ("rows lost", lambda r: f"{r['lost']} of {r['rows_before']}"),
+        ("decisions/events/statuses twice", lambda r: r["doubled"]),
+        ("rebuild_failed", lambda r: r["rebuild_failed"]),
+        (
+            "clicks queued at process 0: answers",
+            lambda r: " ".join(f"{k}x{v}" for k, v in sorted(r["click_answers"].items())) or "-",
+        ),
+        ("observation rows of those clicks", lambda r: r["observations"] if r["clicks"] else "-"),
+        ("'lost the lease' in process 0's log", lambda r: r["victim_lost_the_lease"]),
+        ("handed back to process 0 once awake", lambda r: r["handed_back"] if r["clicks"] else "-"),
+        ("next kill -9: process 0 holds all", lambda r: _next(r, "taken_s", "{:.1f} s")),
+        ("next kill -9: rebuild_failed", lambda r: _next(r, "rebuild_failed", "{}")),
+    ]
+    for label, value in checks:
+        print(f"      {label:<36}" + "".join(f"{str(value(r)):>{width}}" for r in rounds))
+
+
+def _next(r: dict[str, Any], key: str, form: str) -> str:
+    return form.format(r["next_takeover"][key]) if "next_takeover" in r else "-"
+
+
+SURVIVOR_ROWS: tuple[tuple[str, Callable[[dict[str, Any]], str]], ...] = (
+    (
+        "survivor holds all (s after kill -9)",
+        lambda s: "never" if s["all_s"] is None else f"{s['all_s']:.1f}",
+    ),
+    ("valid leases, fewest after that", lambda s: f"{s['valid_min_after_all']} of {s['trials']}"),
+    ("'lost the lease' in its log", lambda s: str(s["lost_the_lease"])),
+    (
+        "interruptions (per trial)",
+        lambda s: f"{s['interruptions']} ({s['interruptions'] / s['trials']:.2f})",
+    ),
+    ("interruptions of one trial, most", lambda s: str(s["interruptions_max"])),
+    ("trials never interrupted", lambda s: str(s["untouched"])),
+    ("longest clock stop, median trial (s)", lambda s: f"{s['outage_median_s']:.1f}"),
+    ("longest clock stop, worst trial (s)", lambda s: f"{s['outage_max_s']:.1f}"),
+    ("rebuild_failed", lambda s: str(s["rebuild_failed"])),
+)
+
+
+def print_survivors(rounds: list[dict[str, Any]]) -> None:
+    width = 14
+    print(f"      {'':<38}" + "".join(f"{str(s['trials']) + ' trials':>{width}}" for s in rounds))
+    for label, value in SURVIVOR_ROWS:
+        print(f"      {label:<38}" + "".join(f"{value(s):>{width}}" for s in rounds))
