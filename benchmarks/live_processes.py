@@ -11,16 +11,16 @@ of processes gets its own schema.
   configuration `hcss deploy nginx` writes, every process a `--cluster` one
   (leases on), so the figures of 1 and 2 processes differ only in the number
   of processes; each group's capacity is searched by bisection.
-- failover (about 4 min): kill -9, SIGSTOP past the lease, and a partition
-  from the database, each of one of two processes behind nginx hosting about
-  half of 20 trials: per taken-over trial the failover time and what its
-  participant's page, reading the stream as live.js does, did not see; rows
-  lost or doubled; after a stop or a partition, whether the faulty process
-  wrote anything once it woke, and the next takeover (benchmarks/failover.py
-  says what each figure is).
-- survivor (about 4 min): 60 and then 120 trials on one process, a second
-  started, kill -9 of the first: how the survivor takes them all and keeps
-  its leases.
+- failover (about 5 min; 4.6 min under a load average of 8): kill -9,
+  SIGSTOP past the lease, and a partition from the database, each of one of
+  two processes behind nginx hosting about half of 20 trials: per taken-over
+  trial the failover time and what its participant's page, reading the
+  stream as live.js does, did not see; rows lost or doubled; after a stop or
+  a partition, whether the faulty process wrote anything once it woke, and
+  the next takeover (benchmarks/failover.py says what each figure is).
+- survivor (about 4 min; 3.4 min under a load average of 8): 60 and then 120
+  trials on one process, a second started, kill -9 of the first: how the
+  survivor takes them all and keeps its leases.
 """
 
 from __future__ import annotations
