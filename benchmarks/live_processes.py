@@ -5,20 +5,20 @@ parts named (all three, in that order, when none is). Needs PostgreSQL
 (HCSS_BENCH_DATABASE_URL, else HCSS_TEST_DATABASE_URL) and nginx; each group
 of processes gets its own schema.
 
-- capacity (20-40 min; on an idle 2-core machine 2026-12-02, 11 min): the same
-  clients as benchmarks/live.py (a stream per trial, a refused command every
+- capacity (11 min on an idle 2-core machine, 28 min under a load average
+  of 10): the same clients as benchmarks/live.py (a stream per trial, a refused command every
   2 s, its latency to the stream) reach the processes through the nginx
   configuration `hcss deploy nginx` writes, every process a `--cluster` one
   (leases on), so the figures of 1 and 2 processes differ only in the number
   of processes; each group's capacity is searched by bisection.
-- failover (about 5 min; 4.6 min under a load average of 8): kill -9,
+- failover (about 4 min; 3.6-4.6 min under a load average of 8-12): kill -9,
   SIGSTOP past the lease, and a partition from the database, each of one of
   two processes behind nginx hosting about half of 20 trials: per taken-over
   trial the failover time and what its participant's page, reading the
   stream as live.js does, did not see; rows lost or doubled; after a stop or
   a partition, whether the faulty process wrote anything once it woke, and
   the next takeover (benchmarks/failover.py says what each figure is).
-- survivor (about 4 min; 3.4 min under a load average of 8): 60 and then 120
+- survivor (about 4 min; 3.4-3.7 min under a load average of 8-12): 60 and then 120
   trials on one process, a second started, kill -9 of the first: how the
   survivor takes them all and keeps its leases.
 """
