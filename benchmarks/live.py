@@ -116,7 +116,9 @@ def start_trials(database_url: str, n_trials: int) -> list[str]:
     tokens = []
     with database.session_scope() as session:
         for i in range(n_trials):
-            participant, _ = start_bot_trial(session, seed=1000 + i, duration_s=STUDY.trial_s)
+            participant, _ = start_bot_trial(
+                session, seed=1000 + i, duration_s=STUDY.timing.trial_s
+            )
             tokens.append(participant.token)
     database.engine.dispose()
     return tokens

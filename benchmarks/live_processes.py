@@ -1,41 +1,55 @@
 """Live trials through nginx: one server process against two on one PostgreSQL database, and failover.
 
-The same clients as benchmarks/live.py (a stream per trial, a refused command
-every 2 s, its latency to the stream) reach the processes through the nginx
-configuration `hcss deploy nginx` writes, every process a `--cluster` one
-(leases on), so the two figures differ only in the number of processes. Then
-failover: two processes host trials, one is killed with SIGKILL, and each of
-its trials is timed until a frame through nginx shows it stepping again,
-taken over by the other; every row its trials had before the kill is looked
-for afterwards. Needs PostgreSQL (HCSS_BENCH_DATABASE_URL, else
-HCSS_TEST_DATABASE_URL) and nginx; each run gets its own schema.
+`python -m benchmarks live_processes [capacity] [failover] [survivor]` runs the
+parts named (all three, in that order, when none is). Needs PostgreSQL
+(HCSS_BENCH_DATABASE_URL, else HCSS_TEST_DATABASE_URL) and nginx; each group
+of processes gets its own schema.
+
+- capacity (11 min on an idle 2-core machine, 28 min under a load average
+  of 10): the same clients as benchmarks/live.py (a stream per trial, a refused command every
+  2 s, its latency to the stream) reach the processes through the nginx
+  configuration `hcss deploy nginx` writes, every process a `--cluster` one
+  (leases on), so the figures of 1 and 2 processes differ only in the number
+  of processes; each group's capacity is searched by bisection.
+- failover (about 4 min; 3.6-4.6 min under a load average of 8-12): kill -9,
+  SIGSTOP past the lease, and a partition from the database, each of one of
+  two processes behind nginx hosting about half of 20 trials: per taken-over
+  trial the failover time and what its participant's page, reading the
+  stream as live.js does, did not see; rows lost or doubled; after a stop or
+  a partition, whether the faulty process wrote anything once it woke, and
+  the next takeover (benchmarks/failover.py says what each figure is).
+- survivor (about 4 min; 3.4-3.7 min under a load average of 8-12): 60 and then 120
+  trials on one process, a second started, kill -9 of the first: how the
+  survivor takes them all and keeps its leases.
 """
 
 from __future__ import annotations
 
 import os
-import statistics
 import time
 from collections.abc import Iterator
+from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from pathlib import Path
 from tempfile import TemporaryDirectory
 
 import httpx
-from sqlalchemy import select
 
+from benchmarks.failover import (
+    FAILOVER_TRIALS,
+    FAULT_S,
+    FAULTS,
+    SURVIVOR_COUNTS,
+    SURVIVOR_WATCH_S,
+    fault_round,
+    print_faults,
+    print_survivors,
+    start_ready,
+    survivor_round,
+)
 from benchmarks.live import TARGET_P95_MS, TARGET_RATE_HZ, _process_cpu_s, drive, start_trials
 from hcss.platform.cli import DEFAULT_THREADS, upgrade_database
-from hcss.platform.db import Database
 from hcss.platform.live.client import TrialClient
-from hcss.platform.models import (
-    Command,
-    DecisionRow,
-    RequestStatusChange,
-    SimEvent,
-    Snapshot,
-    TrialLease,
-)
 from hcss.platform.serving.localserver import LocalNginx, LocalServer, postgres_schema
 
 #: Where each group's capacity search starts: a count it held and one it did not in the
@@ -49,7 +63,7 @@ TARGET_RATIO = 1.7
 #: As docs/operations.md says to run them: every client has nginx's address, so the
 #: per-address connection cap would refuse the streams.
 BEHIND_NGINX = {"HCSS_PROXY_HOPS": "1"}
-FAILOVER_TRIALS = 20
+PARTS = ("capacity", "failover", "survivor")
 
 
 def database_base_url() -> str | None:
@@ -73,8 +87,7 @@ def group(
     ]
     nginx = LocalNginx([f"127.0.0.1:{s.port}" for s in servers], workdir / "nginx")
     try:
-        for server in servers:
-            server.start(timeout_s=120)
+        start_ready(*servers)  # trials started before "simulation ready" would wait for it
         nginx.start()
         yield servers, nginx
     finally:
@@ -89,6 +102,7 @@ def measure(processes: int, n_trials: int, base: str, workdir: Path) -> dict[str
         with group(url, processes, workdir / f"{processes}x{n_trials}") as (servers, nginx):
             # Started now, as pages do: each is claimed by the process its token routes to.
             tokens = start_trials(url, n_trials)
+            claim(nginx.url, tokens)
             pids = [s.process.pid for s in servers if s.process is not None]
             assert nginx.process is not None
             nginx_pids = [nginx.process.pid, *_children(nginx.process.pid)]
@@ -100,76 +114,41 @@ def measure(processes: int, n_trials: int, base: str, workdir: Path) -> dict[str
             return result
 
 
+def claim(base_url: str, tokens: list[str]) -> None:
+    """Each trial's first look through `base_url`, which claims it where nginx sends it.
+
+    Before the streams open, as a study's pages open over minutes, not all at once: a
+    stream whose first look claims and loads the trial has no frame within nginx's 3-s
+    stream read timeout when 80+ open in the same second on a busy machine (504), and
+    a refused stream counts against the capacity.
+    """
+
+    def look(token: str) -> None:
+        client = TrialClient(base_url, token)
+        client.http.timeout = httpx.Timeout(30.0)
+        try:
+            client.open_page()
+            for _ in range(30):
+                try:
+                    client.state()
+                    return
+                except httpx.HTTPStatusError as error:
+                    if error.response.status_code not in (502, 503, 504):
+                        raise
+                time.sleep(1.0)
+        finally:
+            client.close()
+
+    with ThreadPoolExecutor(max_workers=8) as pool:
+        list(pool.map(look, tokens))
+
+
 def _children(pid: int) -> list[int]:
     try:
         with open(f"/proc/{pid}/task/{pid}/children") as children:
             return [int(child) for child in children.read().split()]
     except OSError:
         return []
-
-
-def failover(base: str, workdir: Path) -> dict[str, float]:
-    """Seconds from kill -9 to each taken-over trial's next step through nginx; rows lost."""
-    with postgres_schema(base, "hcss_bench") as url:
-        upgrade_database(url)
-        database = Database(url)
-        with group(url, 2, workdir / "failover") as (servers, nginx):
-            tokens = start_trials(url, FAILOVER_TRIALS)
-            clients = []
-            for token in tokens:
-                client = TrialClient(nginx.url, token)
-                client.open_page()
-                client.post("/requests", {"kind": "decide", "collective": 0, "target": 1})
-                clients.append(client)
-            owners = _owners(database)
-            victim = max(
-                servers, key=lambda s: sum(o.endswith(f":{s.port}") for o in owners.values())
-            )
-            moved = [c for c in clients if owners[c.trial_id or 0].endswith(f":{victim.port}")]
-            time.sleep(2.0)  # a snapshot of each, as a running study has
-            steps = {c.trial_id: c.state()["trial"]["step"] for c in moved}
-            rows = _row_ids(database, [c.trial_id or 0 for c in moved])
-            victim.kill()
-            killed = time.perf_counter()
-            waits = []
-            for client in moved:
-                while True:
-                    try:
-                        if client.state()["trial"]["step"] > steps[client.trial_id]:
-                            break
-                    except httpx.HTTPError:
-                        pass  # 503 (or nginx's 502) until a process takes the trial over
-                    if time.perf_counter() - killed > 60:
-                        raise TimeoutError(f"trial {client.trial_id} not taken over in 60 s")
-                    time.sleep(0.05)
-                waits.append(time.perf_counter() - killed)
-            after = _row_ids(database, [c.trial_id or 0 for c in moved])
-        database.engine.dispose()
-    lost = sum(len(ids - after[table]) for table, ids in rows.items())
-    return {
-        "moved": len(moved),
-        "first_s": min(waits),
-        "median_s": statistics.median(waits),
-        "last_s": max(waits),
-        "rows_before": sum(len(ids) for ids in rows.values()),
-        "lost": lost,
-    }
-
-
-def _owners(database: Database) -> dict[int, str]:
-    with database.session_scope() as session:
-        return dict(session.execute(select(TrialLease.trial_id, TrialLease.owner)).tuples().all())
-
-
-def _row_ids(database: Database, trial_ids: list[int]) -> dict[str, set[int]]:
-    tables = (Command, SimEvent, DecisionRow, RequestStatusChange, Snapshot)
-    with database.session_scope() as session:
-        return {
-            model.__tablename__: set(
-                session.scalars(select(model.id).where(model.trial_id.in_(trial_ids)))
-            )
-            for model in tables
-        }
 
 
 def held(r: dict[str, float]) -> bool:
@@ -225,26 +204,49 @@ def _measured(processes: int, n: int, base: str, workdir: Path) -> bool:
     return ok
 
 
-def run() -> None:
+def run(parts: list[str] | None = None) -> None:
+    chosen = parts or list(PARTS)
+    for part in chosen:
+        if part not in PARTS:
+            raise SystemExit(f"unknown part {part!r} of live_processes; choose from {PARTS}")
     base = database_base_url()
     if base is None or not LocalNginx.available():
         print("    skipped: needs HCSS_BENCH_DATABASE_URL (PostgreSQL) and nginx (make nginx)")
         return
     with TemporaryDirectory() as tmp:
-        found = {processes: capacity(processes, base, Path(tmp)) for processes in (1, 2)}
-        for processes, (most, fewest) in found.items():
-            above = f", not {fewest}" if fewest is not None else "+ (the top of the search)"
-            print(f"    capacity, {processes} process(es): {most} trials held{above}")
-        one, two = found[1][0], found[2][0]
-        ratio = f"{two / one:.2f}x" if one else "n/a"
-        print(
-            f"(4b) trials 2 processes hold / trials 1 holds: {ratio}   [target: "
-            f"{TARGET_RATIO}x, issue 20; each capacity to {RESOLUTION} trials]"
-        )
-        f = failover(base, Path(tmp))
-        print(
-            f"    failover: kill -9 of the process hosting {f['moved']:.0f} of "
-            f"{FAILOVER_TRIALS} trials; stepping again on the other after "
-            f"{f['first_s']:.1f} s (first) / {f['median_s']:.1f} s (median) / "
-            f"{f['last_s']:.1f} s (last); rows lost {f['lost']:.0f} of {f['rows_before']:.0f}"
-        )
+        for part in chosen:
+            started = time.perf_counter()
+            {"capacity": _capacities, "failover": _failovers, "survivor": _survivors}[part](
+                base, Path(tmp)
+            )
+            print(f"    ({part}: {time.perf_counter() - started:.0f} s)", flush=True)
+
+
+def _capacities(base: str, workdir: Path) -> None:
+    found = {processes: capacity(processes, base, workdir) for processes in (1, 2)}
+    for processes, (most, fewest) in found.items():
+        above = f", not {fewest}" if fewest is not None else "+ (the top of the search)"
+        print(f"    capacity, {processes} process(es): {most} trials held{above}")
+    one, two = found[1][0], found[2][0]
+    ratio = f"{two / one:.2f}x" if one else "n/a"
+    print(
+        f"(4b) trials 2 processes hold / trials 1 holds: {ratio}   [target: "
+        f"{TARGET_RATIO}x, issue 20; each capacity to {RESOLUTION} trials]"
+    )
+
+
+def _failovers(base: str, workdir: Path) -> None:
+    print(
+        f"    failover: 2 --cluster processes behind nginx, {FAILOVER_TRIALS} trials; process 0 "
+        f"is killed, stopped or cut off from the database (the last two for {FAULT_S:.0f} s); "
+        "each page reads its stream as live.js does"
+    )
+    print_faults([fault_round(base, workdir, fault) for fault in FAULTS])
+
+
+def _survivors(base: str, workdir: Path) -> None:
+    print(
+        "    survivor: n trials on one process, a second started, kill -9 of the first; "
+        f"watched {SURVIVOR_WATCH_S:.0f} s after the survivor holds all (leases every 1 s)"
+    )
+    print_survivors([survivor_round(base, workdir, n) for n in SURVIVOR_COUNTS])
