@@ -100,7 +100,7 @@ def test_the_stream_keeps_its_rate_when_each_frame_takes_time_to_send(app, make_
     waiting a full interval after it made 200 streams run at 1.7-1.8 Hz
     against a 2 Hz target.
     """
-    from hcss.platform.live.stream import event_stream
+    from hcss.platform.live.frames import event_stream
 
     trial = make_trial()
     interval_s, send_s, span_s = 0.2, 0.06, 2.0

@@ -21,7 +21,7 @@ from hcss.platform.guards.clients import request_client
 from hcss.platform.live import commands
 from hcss.platform.live.access import require_owner, runner, trial_for
 from hcss.platform.live.idempotency import idempotent
-from hcss.platform.live.streams import RETRY_AFTER_S, StreamSlots, client_share, study_share
+from hcss.platform.live.stream_slots import RETRY_AFTER_S, StreamSlots, client_share, study_share
 from hcss.platform.live.trial_writer import KeyedCommand
 
 _POSITION = re.compile(r"[0-9]{1,18}")

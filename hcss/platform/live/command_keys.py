@@ -39,7 +39,7 @@ from hcss.platform.live import trial_writer
 from hcss.platform.live.actions import ActionError
 from hcss.platform.live.leases import trial_transaction
 from hcss.platform.live.runner import Runner
-from hcss.platform.live.session import RunningTrial
+from hcss.platform.live.running_trial import RunningTrial
 from hcss.platform.live.trial_writer import KeyedCommand
 from hcss.platform.models import CommandKey
 

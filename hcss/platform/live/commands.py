@@ -32,10 +32,10 @@ from hcss.platform.db import Database
 from hcss.platform.live import actions, validation
 from hcss.platform.live.actions import ActionError
 from hcss.platform.live.command_keys import Answer, once
+from hcss.platform.live.frames import ended_stream, event_stream
 from hcss.platform.live.runner import Runner
-from hcss.platform.live.session import RunningTrial
-from hcss.platform.live.stream import ended_stream, event_stream
-from hcss.platform.live.streams import StreamSlots
+from hcss.platform.live.running_trial import RunningTrial
+from hcss.platform.live.stream_slots import StreamSlots
 from hcss.platform.live.trial_writer import KeyedCommand
 from hcss.platform.live.trials import end_reason
 from hcss.platform.models import Participant, StudyEnrolment, Trial

@@ -35,7 +35,7 @@ from sqlalchemy.orm import Session
 from hcss.platform.live import trial_writer
 from hcss.platform.live.probes import POSTPONE_S, PROBE_TIMEOUT_S, fill_probe
 from hcss.platform.live.progress import CurrentProbe
-from hcss.platform.live.session import RunningTrial
+from hcss.platform.live.running_trial import RunningTrial
 from hcss.questionnaires.probes import ProbeLevel
 from hcss.simulation.messages import event_text
 from hcss.tablespec.decisions import stored_decision

@@ -57,7 +57,7 @@ from hcss.platform.live.recorder import (
     record_progress,
     write_snapshot,
 )
-from hcss.platform.live.session import RunningTrial
+from hcss.platform.live.running_trial import RunningTrial
 from hcss.platform.live.trials import latest_status, running_trial_ids
 from hcss.platform.models import Trial
 from hcss.platform.models.vocabularies import TrialStatus

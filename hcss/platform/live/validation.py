@@ -23,7 +23,7 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from hcss.platform.live.actions import ActionError
-from hcss.platform.live.session import RunningTrial
+from hcss.platform.live.running_trial import RunningTrial
 from hcss.platform.models import COMMAND_KINDS, Observation
 from hcss.simulation import OperatorCommand
 

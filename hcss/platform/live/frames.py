@@ -1,4 +1,5 @@
-"""Server-Sent Events: the trial's state, at least twice a second and at once on change.
+"""What a stream is made of: frames of the trial's state (Server-Sent Events), at least
+twice a second and at once on change.
 
 Each event's id is the newest System Message number it carries; EventSource
 sends it back as Last-Event-ID on reconnect, so no message is shown twice or
@@ -11,8 +12,8 @@ import json
 import time as wallclock
 from collections.abc import Callable, Iterator
 
-from hcss.platform.live.session import RunningTrial
-from hcss.platform.live.streams import takeover_frame
+from hcss.platform.live.running_trial import RunningTrial
+from hcss.platform.live.stream_slots import takeover_frame
 from hcss.platform.models.vocabularies import TrialStatus
 
 MIN_GAP_S = 0.05  # at most 20 frames a second per stream, even under acceleration
@@ -30,7 +31,7 @@ def event_stream(
     """Frames until the trial ends or `max_s` passes (then the browser reconnects).
 
     When a newer stream of the same link takes over (`superseded`), this one
-    sends a ``takeover`` event and closes (see hcss.platform.live.streams).
+    sends a ``takeover`` event and closes (see hcss.platform.live.stream_slots).
     """
     yield "retry: 1000\n\n"
     stop_at = wallclock.monotonic() + max_s
