@@ -539,7 +539,7 @@ def test_another_objects_field_of_the_same_name_is_not_a_state_write(tmp_path: P
 
 
 #: The participant's HTTP side of live: it passes plain values to the live service
-#: (live/commands.py, live/command_keys.py), which holds the trial.
+#: (live/door.py, live/frames.py), which holds the trial.
 API_MODULES = (
     "hcss/platform/live/api.py",
     "hcss/platform/live/idempotency.py",

@@ -25,16 +25,13 @@ from collections import Counter
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
 
-from flask import Flask
 from sqlalchemy.exc import DBAPIError, InterfaceError, OperationalError, ProgrammingError
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
 from hcss.platform.errors import database_away
 from hcss.platform.live import trial_writer
-from hcss.platform.live.control import control_trial
 from hcss.platform.live.leases import (
-    LEASE_S,
     Fence,
     HostedElsewhere,
     LeaseLost,
@@ -78,8 +75,12 @@ class Runner:
         *,
         snapshot_interval_s: float = 5.0,
         leases: Leases | None = None,
+        carry_out_order: Callable[[Database, Runner, PendingOrder], object],
     ) -> None:
         self.database = database
+        #: The live service's door, through which a console's order for a trial hosted
+        #: here is carried out as a console served here would carry it out.
+        self._carry_out_order = carry_out_order
         #: None: this process hosts every running trial; else only those it holds the lease of.
         self.leases = leases
         self._last_renewal = -float("inf")
@@ -390,14 +391,7 @@ class Runner:
                 if order.action == HAND_OVER:
                     self._hand_over(live, order)
                     continue
-                control_trial(
-                    self,
-                    live,
-                    order.action,
-                    participant_id=order.participant_id,
-                    experimenter_id=order.experimenter_id,
-                    order_id=order.id,
-                )
+                self._carry_out_order(self.database, self, order)
             except Exception:
                 log.exception("console order %s for trial %s failed", order.id, order.trial_id)
 
@@ -638,20 +632,3 @@ def _missing_table(error: DBAPIError) -> bool:
     """SQLite says "no such table", PostgreSQL "relation ... does not exist"."""
     text = str(error.orig).lower()
     return "no such table" in text or ("relation" in text and "does not exist" in text)
-
-
-def init_runner(app: Flask) -> Runner:
-    """Attach a runner to the app; its thread starts only if LIVE_RUNNER (`hcss serve`) asks."""
-    database = app.extensions["hcss_db"]
-    process = app.config.get("PROCESS_NAME")
-    runner = Runner(
-        database,
-        snapshot_interval_s=float(app.config["SNAPSHOT_INTERVAL_S"]),
-        leases=None
-        if not process
-        else Leases(database, str(process), lease_s=float(app.config.get("LEASE_S", LEASE_S))),
-    )
-    app.extensions["hcss_runner"] = runner
-    if app.config["LIVE_RUNNER"]:
-        runner.start()
-    return runner
