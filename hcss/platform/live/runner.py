@@ -6,14 +6,16 @@ due, records what happened and wakes the streams. Commands do not wait for a
 tick: they take the trial's lock and apply between two steps.
 
 Blueprints use only the public methods below (host, loaded, holding, pause,
-resume, end, finish_overdue, forget, withdrawing, commanding); the registry and
+resume, end, finish_overdue, forget, withdrawing, commanding, let_go); the registry and
 its lock are private. The thread is started only where trials are served
 (`hcss serve`, the test server); an app built for a script or a check has a
 runner without one.
 
 With several processes, the runner also hands a trial back to the process
 nginx sends its participant to when that process asks (`hand_back_asked`,
-see hcss.platform.live.leases).
+see hcss.platform.live.leases), and over to a process that withdraws it; how
+is hcss.platform.live.hand_back. How one trial is stepped and recorded is
+hcss.platform.live.stepping.
 """
 
 from __future__ import annotations
@@ -29,32 +31,27 @@ from sqlalchemy.exc import DBAPIError, InterfaceError, OperationalError, Program
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
-from hcss.platform.errors import database_away
 from hcss.platform.live import trial_writer
+from hcss.platform.live.hand_back import hand_back, hand_over
 from hcss.platform.live.leases import (
     Fence,
     HostedElsewhere,
     LeaseLost,
     Leases,
-    trial_transaction,
 )
 from hcss.platform.live.orders import (
     HAND_OVER,
     POLL_S,
     PendingOrder,
-    mark_done,
     pending_orders,
     send_order,
 )
-from hcss.platform.live.outages import record_database_outage
 from hcss.platform.live.rebuild import load_trial
 from hcss.platform.live.recorder import (
     end_trial,
-    kept_until_written,
-    record_progress,
-    write_snapshot,
 )
 from hcss.platform.live.running_trial import RunningTrial
+from hcss.platform.live.stepping import advance_trial
 from hcss.platform.live.trials import latest_status, running_trial_ids
 from hcss.platform.models import Trial
 from hcss.platform.models.vocabularies import TrialStatus
@@ -233,6 +230,19 @@ class Runner:
                 if self._commanding[trial_id] <= 0:
                     del self._commanding[trial_id]
 
+    def commands_under_way(self, trial_id: int) -> bool:
+        """Whether a participant's command for the trial is under way (`commanding`)."""
+        with self._registry_lock:
+            return self._commanding[trial_id] > 0
+
+    def let_go(self, live: RunningTrial) -> None:
+        """Stop hosting this copy of the trial, whose lease another process holds now (a hand
+        over or back): it leaves the registry, its lease is not released here."""
+        with self._registry_lock:
+            if self._trials.get(live.trial_id) is live:
+                del self._trials[live.trial_id]
+        live.move_away()  # its streams close; the page reconnects, to the new host
+
     # --- controlling one trial --------------------------------------------------
 
     @contextmanager
@@ -389,23 +399,11 @@ class Runner:
                 continue
             try:
                 if order.action == HAND_OVER:
-                    self._hand_over(live, order)
+                    hand_over(self, live, order)
                     continue
                 self._carry_out_order(self.database, self, order)
             except Exception:
                 log.exception("console order %s for trial %s failed", order.id, order.trial_id)
-
-    def _hand_over(self, live: RunningTrial, order: PendingOrder) -> None:
-        """Stop hosting the trial and pass its lease to the process that asked for it."""
-        assert self.leases is not None
-        with live.lock:
-            with trial_transaction(self.database, live) as session:
-                now = self.clock()
-                self.leases.pass_on(session, live.trial_id, order.issued_by, now)
-                mark_done(session, order.id, now, "done")
-            with self._registry_lock:
-                self._trials.pop(live.trial_id, None)
-            live.move_away()  # its streams close; the page reconnects to the new host
 
     def hand_back_asked(self) -> None:
         """Hand the trials another process asked for (at the last renewal) to it, each at a
@@ -415,7 +413,7 @@ class Runner:
         for trial_id, heir in asked:
             live = self.loaded(trial_id)
             try:
-                done = live is None or self._hand_back(live, heir)
+                done = live is None or hand_back(self, live, heir)
             except Exception:
                 log.exception("live trial %s could not be handed to %s", trial_id, heir)
                 done = True  # asked again at the next renewal if it still is
@@ -423,44 +421,6 @@ class Runner:
                 with self._registry_lock:
                     if self._asked_back.get(trial_id) == heir:
                         del self._asked_back[trial_id]
-
-    def _hand_back(self, live: RunningTrial, heir: str) -> bool:
-        """Give the trial to `heir` (nginx sends its participant there): what it holds and a
-        snapshot written and the lease passed in one fenced unit of work, then it stops
-        hosting here. False: not now (a command under way or the lock taken), try again.
-
-        Under the trial's lock, with no participant's command under way: nothing is
-        applied that is not written, and a command that comes after finds the trial
-        moved (503, which the page retries and nginx sends to the heir).
-        """
-        assert self.leases is not None
-        if not live.lock.acquire(blocking=False):
-            return False
-        try:
-            with self._registry_lock:
-                if self._commanding[live.trial_id]:
-                    return False
-            now = self.clock()
-            self.advance(live, now)
-            if live.ended or live.moved or live.database_away_since is not None:
-                return True  # nothing to hand over, or not safely now (the next ask decides)
-            with kept_until_written(live), trial_transaction(self.database, live) as session:
-                record_progress(live, session)
-                handed = self.leases.hand_back(session, live.trial_id, heir, now)
-                if handed:
-                    write_snapshot(live, session, now)
-            if handed:
-                with self._registry_lock:
-                    if self._trials.get(live.trial_id) is live:
-                        del self._trials[live.trial_id]
-                live.move_away()  # its streams close; the page reconnects, to the heir
-                log.info("live trial %s handed back to %s", live.trial_id, heir)
-            return True
-        except (DBAPIError, LeaseLost):
-            log.warning("live trial %s: not handed back now", live.trial_id, exc_info=True)
-            return True
-        finally:
-            live.lock.release()
 
     def _take_hold(self, trial_ids: list[int]) -> None:
         """Make this process the holder of every lease of these trials (for a withdrawal).
@@ -526,60 +486,9 @@ class Runner:
                 lost.move_away()  # its streams close; the participant reconnects to the host
 
     def advance(self, live: RunningTrial, now: float) -> None:
-        """Step the trial to the step due at `now`, record it, end it at its time limit.
-
-        While the database is away or takes no writes (`database_away_since`;
-        `errors.database_away` says which errors mean that) the trial stands
-        still and each call tries again to write what it holds.
-        """
-        with live.lock:
-            if live.ended or live.moved:
-                return
-            due = live.due_step(now)
-            if live.database_away_since is None and live.fence and not live.fence.holds():
-                # The holder's own deadline passed with no renewal answered (a stall, a
-                # partition): it stops before anyone else may start, without asking.
-                live.database_away(now)
-                live.touch()
-                return
-            if live.database_away_since is None:
-                if due <= live.sim.step_count and due < live.total_steps:
-                    return
-                # The end is judged by `due`, not by the simulation's step: a simulation
-                # whose decisions are all made stops stepping early, and a trial rebuilt
-                # after its deadline (load_trial steps it to `due`) has nothing left to step.
-                live.sim.step(due - live.sim.step_count)
-                live.touch()
-            try:
-                with kept_until_written(live), trial_transaction(self.database, live) as session:
-                    record_progress(live, session)
-                    if live.database_away_since is not None:
-                        record_database_outage(live, session, now)
-                    if due >= live.total_steps:
-                        end_trial(live, session, "time_limit", now)
-                    elif now - live.last_snapshot_epoch >= self.snapshot_interval_s:
-                        write_snapshot(live, session, now)
-            except (DBAPIError, LeaseLost) as error:
-                if isinstance(error, DBAPIError) and not database_away(error):
-                    raise  # a bug, not an outage: the tick logs it
-                # Away, or the lease is not proved (its deadline passed before a renewal
-                # answered): the trial stands still until a renewal or a takeover decides.
-                if live.database_away_since is None:
-                    log.warning(
-                        "live trial %s: the database takes no writes; the trial stands "
-                        "still and what it holds is written when the database is back",
-                        live.trial_id,
-                        exc_info=True,
-                    )
-                    live.database_away(now)
-                    live.touch()
-                return
-            if live.database_away_since is not None:
-                live.database_back(now)
-                log.warning("live trial %s: the database is back; the trial goes on", live.trial_id)
-            live.touch()
-
-    # --- the thread --------------------------------------------------------------
+        """Step the trial to the step due at `now`, record it, end it at its time limit
+        (`stepping.advance_trial`)."""
+        advance_trial(self.database, live, now, snapshot_interval_s=self.snapshot_interval_s)
 
     def start(self) -> None:
         if self._thread is not None:
