@@ -31,12 +31,9 @@ from sqlalchemy.exc import DBAPIError, InterfaceError, OperationalError, Program
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
-from hcss.platform.live import trial_writer
 from hcss.platform.live.hand_back import hand_back, hand_over
 from hcss.platform.live.leases import (
-    Fence,
     HostedElsewhere,
-    LeaseLost,
     Leases,
 )
 from hcss.platform.live.orders import (
@@ -46,23 +43,18 @@ from hcss.platform.live.orders import (
     pending_orders,
     send_order,
 )
-from hcss.platform.live.rebuild import load_trial
 from hcss.platform.live.recorder import (
     end_trial,
 )
 from hcss.platform.live.running_trial import RunningTrial
 from hcss.platform.live.stepping import advance_trial
-from hcss.platform.live.trials import latest_status, running_trial_ids
-from hcss.platform.models import Trial
-from hcss.platform.models.vocabularies import TrialStatus
+from hcss.platform.live.takeover import take_up
+from hcss.platform.live.trials import running_trial_ids
 
 log = logging.getLogger(__name__)
 
 TICK_S = 0.05
 SYNC_EVERY_S = 1.0
-#: Seconds past a quiet holder's lease that a process asked for its trial claims it: the
-#: database's clock has moved on by then, whatever the two hosts' clocks say.
-QUIET_MARGIN_S = 0.05
 
 
 class Runner:
@@ -130,57 +122,11 @@ class Runner:
             live = self._trials.get(trial_id)
             if live is not None:
                 return live
-            live = self._load(trial_id, participant)
+            live = take_up(self, trial_id, participant)
             if live is not None:
                 with self._registry_lock:
                     self._trials[trial_id] = live
             return live
-
-    def _load(self, trial_id: int, participant: bool = False) -> RunningTrial | None:
-        """Claim and rebuild the trial (`host` holds its loader); None if it is not running."""
-        with self.database.session_scope() as session:
-            if latest_status(session, trial_id) != TrialStatus.RUNNING:
-                return None
-        # Another process's lease, run out: it hosted the trial and died, maybe before
-        # its first snapshot; the rebuild must still stop the clock for the outage.
-        earlier = None if self.leases is None else self.leases.owner_of(trial_id)
-        fence = None
-        if self.leases is not None:
-            claimed_at = self.leases.monotonic()
-            epoch = self.leases.claim(trial_id, self.clock())
-            quiet_for = (
-                None
-                if epoch is not None
-                else self.leases.runs_out_unrenewed(trial_id, self.clock())
-            )
-            if quiet_for is not None:  # its holder has gone quiet: wait its lease out
-                wallclock.sleep(quiet_for + QUIET_MARGIN_S)
-                epoch = self.leases.claim(trial_id, self.clock())
-            if epoch is None:
-                asked = self.leases.ask_back(trial_id, self.clock()) if participant else None
-                holder = asked or self.leases.holder(trial_id, self.clock())
-                raise HostedElsewhere(trial_id, holder or "")
-            fence = Fence(self.leases, trial_id, epoch, self.leases.deadline_after(claimed_at))
-        host_died = self.leases is not None and earlier not in (None, self.leases.owner)
-        try:
-            with self.database.session_scope() as session:
-                if fence is not None:
-                    fence.prove(session, self.clock())
-                trial = session.get(Trial, trial_id)
-                assert trial is not None  # it has a status, so it exists
-                live = load_trial(session, trial, self.clock(), host_died=host_died)
-                live.leased(fence)
-        except LeaseLost:
-            raise  # taken by another process while this one rebuilt it: nothing written
-        except DBAPIError:
-            self._release(trial_id)
-            raise  # the database is away: try again later, the trial is not at fault
-        except Exception as error:
-            log.exception("live trial %s cannot be rebuilt; ending it", trial_id)
-            self._give_up(trial_id, error, fence)
-            self._release(trial_id)
-            return None
-        return live
 
     def hosts(self, trial_id: int) -> bool:
         """Whether this process may host the trial now (always, without leases)."""
@@ -204,10 +150,10 @@ class Runner:
         with self._registry_lock:
             live = self._trials.pop(trial_id, None)
         if live is not None:
-            self._release(trial_id)
+            self.release_lease(trial_id)
         return live
 
-    def _release(self, trial_id: int) -> None:
+    def release_lease(self, trial_id: int) -> None:
         """Give up the trial's lease so another process need not wait for it to run out."""
         if self.leases is None:
             return
@@ -307,27 +253,7 @@ class Runner:
                 stale = self.forget(trial_id)
                 if stale is not None:
                     stale.mark_ended(reason)
-                self._release(trial_id)  # held for the deletion, never loaded
-
-    def _give_up(self, trial_id: int, error: Exception, fence: Fence | None) -> None:
-        """End a trial whose records cannot be rebuilt, saying why, instead of failing forever.
-
-        Without this, every tick would retry and log a traceback, and the
-        participant's stream, state and stage page would fail until someone
-        edited the database. The ended status lets the study move on; the
-        `TrialProblem` row tells the analyst the trial stopped here and why.
-        """
-        with self.database.session_scope() as session:
-            if fence is not None:
-                fence.prove(session, self.clock())
-            trial_writer.write_problem(
-                session,
-                trial_id,
-                "rebuild",
-                f"trial {trial_id}",
-                f"cannot be rebuilt: {type(error).__name__}: {error}",
-            )
-            trial_writer.write_status(session, trial_id, TrialStatus.ENDED, "rebuild_failed", 0)
+                self.release_lease(trial_id)  # held for the deletion, never loaded
 
     def sync(self) -> None:
         """Load every running trial not yet in memory (after a restart, or from the CLI)."""
