@@ -1,7 +1,6 @@
 """What a stream is made of: frames of the trial's state (Server-Sent Events), at least
 twice a second and at once on change; and the live service's reads for the participant's
-API: the stream (`open_stream`), one frame for scripts that poll (`frame`) and whose the
-trial held here is (`holds_for`). The participant's commands go through `door`.
+API: the stream (`open_stream`) and one frame for scripts that poll (`frame`). The participant's commands go through `door`.
 
 Each event's id is the newest System Message number it carries; EventSource
 sends it back as Last-Event-ID on reconnect, so no message is shown twice or
@@ -10,7 +9,6 @@ lost across a dropped connection or a server restart.
 
 from __future__ import annotations
 
-import hmac
 import json
 import time as wallclock
 from collections.abc import Callable, Iterator
@@ -84,18 +82,6 @@ def ended_stream(trial_id: int, duration_s: float, end_reason: str | None = None
         }
     }
     yield f"retry: 5000\ndata: {json.dumps(frame)}\n\n"
-
-
-def holds_for(runner: Runner, token: str, trial_id: int) -> bool:
-    """Whether this process holds the trial in memory for this token; False: ask the database.
-
-    The live API's looks and commands come several times a second per trial;
-    checking a held trial's owner in memory spares each of them a query and a
-    transaction. A trial not held, or held for another token, goes the
-    database's way, so every answer (404, 409) is the same either way.
-    """
-    live = runner.loaded(trial_id)
-    return live is not None and hmac.compare_digest(live.participant_token.encode(), token.encode())
 
 
 def _running(runner: Runner, trial_id: int) -> RunningTrial:

@@ -24,7 +24,6 @@ from typing import Any
 
 from flask import request
 
-from hcss.platform.live.access import require_owner
 from hcss.platform.live.door import ActionError
 from hcss.platform.live.trial_writer import KeyedCommand
 
@@ -62,6 +61,8 @@ def idempotent(view: Callable[..., Any]) -> Callable[..., Any]:
 
     The view is called with `key`: the request's key as a value (`KeyedCommand`),
     for the action to store with what it records; None when the POST has no key.
+    The view checks that the token owns the trial (404) before the key reaches the
+    door, so another participant's trial never has a key stored.
     """
 
     @wraps(view)
@@ -69,7 +70,6 @@ def idempotent(view: Callable[..., Any]) -> Callable[..., Any]:
         sent = command_key()
         if sent is None:
             return view(token, trial_id, key=None, **kwargs)
-        require_owner(token, trial_id)  # 404 for another participant's trial
         key = KeyedCommand(
             trial_id=trial_id, key=sent, endpoint=str(request.endpoint), fingerprint=_fingerprint()
         )

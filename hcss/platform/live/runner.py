@@ -6,7 +6,7 @@ due, records what happened and wakes the streams. Commands do not wait for a
 tick: they take the trial's lock and apply between two steps.
 
 Blueprints use only the public methods below (host, loaded, holding, pause,
-resume, end, finish_overdue, forget, withdrawing, commanding, let_go); the registry and
+resume, end, finish_overdue, forget, withdrawing, commanding, let_go, holds_for); the registry and
 its lock are private. The thread is started only where trials are served
 (`hcss serve`, the test server); an app built for a script or a check has a
 runner without one.
@@ -20,6 +20,7 @@ hcss.platform.live.stepping.
 
 from __future__ import annotations
 
+import hmac
 import logging
 import threading
 import time as wallclock
@@ -139,6 +140,20 @@ class Runner:
         """The live trial if this process holds it in memory; never loads it."""
         with self._registry_lock:
             return self._trials.get(trial_id)
+
+    def holds_for(self, token: str, trial_id: int) -> bool:
+        """Whether this process holds the trial in memory for this token; False: ask the
+        database.
+
+        The live API's looks and commands come several times a second per trial;
+        checking a held trial's owner in memory spares each of them a query and a
+        transaction. A trial not held, or held for another token, goes the
+        database's way, so every answer (404, 409) is the same either way.
+        """
+        live = self.loaded(trial_id)
+        return live is not None and hmac.compare_digest(
+            live.participant_token.encode(), token.encode()
+        )
 
     def loaded_ids(self) -> set[int]:
         """Ids of the trials held in memory (for tests and the console)."""
