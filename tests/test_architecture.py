@@ -141,7 +141,7 @@ def test_the_source_keeps_every_contract() -> None:
         ),
         (  # the console holding a trial in memory instead of asking the live service
             "hcss/platform/console/interventions.py",
-            "from hcss.platform.live.session import RunningTrial",
+            "from hcss.platform.live.running_trial import RunningTrial",
             "The console reaches live trials through the live service",
         ),
         (  # the study flow writing the trial log itself
@@ -156,7 +156,7 @@ def test_the_source_keeps_every_contract() -> None:
         ),
         (  # the participant's API holding the trial in memory
             "hcss/platform/live/api.py",
-            "from hcss.platform.live.session import RunningTrial",
+            "from hcss.platform.live.running_trial import RunningTrial",
             "The console reaches live trials through the live service",
         ),
         (  # the API's idempotency decorator writing keys beside the actions
@@ -366,7 +366,7 @@ def test_the_model_loads_none_of_its_experiments_analysis_or_their_libraries() -
 
 #: Where a live trial's state is defined, and the classes that hold it.
 STATE_MODULES = (
-    "hcss/platform/live/session.py",
+    "hcss/platform/live/running_trial.py",
     "hcss/platform/live/clock.py",
     "hcss/platform/live/progress.py",
 )
@@ -513,7 +513,7 @@ def test_a_running_trial_changes_only_through_its_methods() -> None:
             "reaches into ._clock",
         ),
         (  # the state class's own private field written from its owner, not itself
-            "hcss/platform/live/session.py",
+            "hcss/platform/live/running_trial.py",
             "def _planted(live):\n    live._probes._shown = 0",
             "writes ._shown",
         ),
@@ -539,7 +539,7 @@ def test_another_objects_field_of_the_same_name_is_not_a_state_write(tmp_path: P
 
 
 #: The participant's HTTP side of live: it passes plain values to the live service
-#: (live/commands.py, live/command_keys.py), which holds the trial.
+#: (live/door.py, live/frames.py), which holds the trial.
 API_MODULES = (
     "hcss/platform/live/api.py",
     "hcss/platform/live/idempotency.py",

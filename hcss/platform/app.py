@@ -30,7 +30,7 @@ from hcss.platform.guards import hardening
 from hcss.platform.guards.hardening import SchemeSecureSessions
 from hcss.platform.live import api as live_api
 from hcss.platform.live import views as live_views
-from hcss.platform.live.runner import init_runner
+from hcss.platform.live.service import init_runner
 from hcss.platform.replay import views as replay_views
 from hcss.platform.study import landing, recruitment
 from hcss.platform.study import views as study_views

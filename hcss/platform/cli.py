@@ -121,7 +121,7 @@ def serve(
     from hcss.platform.app import create_app
     from hcss.platform.config import database_url
     from hcss.platform.console.accounts import ensure_first_login
-    from hcss.platform.live.streams import reserve_for_pages
+    from hcss.platform.live.stream_slots import reserve_for_pages
     from hcss.platform.serving.announce import log_events_to_stderr, write_serving_file
     from hcss.platform.serving.connections import (
         bounded_server,

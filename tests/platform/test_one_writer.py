@@ -201,7 +201,7 @@ PLANTS = [
 
 #: A read of a trial's rows (select, filter, join), planted too: the check must not cry wolf.
 READ = (
-    "hcss/platform/live/stream.py",
+    "hcss/platform/live/frames.py",
     "def _planted(session):\n"
     "    return session.scalars(select(SimEvent).where(SimEvent.trial_id.in_([1])))",
 )

@@ -13,7 +13,7 @@ from __future__ import annotations
 import threading
 import time
 
-import hcss.platform.live.runner as runner_module
+import hcss.platform.live.takeover as takeover
 
 
 def _wait_until(predicate, timeout_s: float = 10.0) -> None:
@@ -59,7 +59,7 @@ def test_streams_waiting_for_a_trial_to_load_hold_no_connection(
     runner = trial.runner
     runner.forget(trial.trial_id)
     loading, finish = threading.Event(), threading.Event()
-    real_load = runner_module.load_trial
+    real_load = takeover.load_trial
     loads: list[int] = []
 
     def slow_load(*args, **kwargs):
@@ -68,7 +68,7 @@ def test_streams_waiting_for_a_trial_to_load_hold_no_connection(
         assert finish.wait(timeout=10)
         return real_load(*args, **kwargs)
 
-    monkeypatch.setattr(runner_module, "load_trial", slow_load)
+    monkeypatch.setattr(takeover, "load_trial", slow_load)
     pool = app.extensions["hcss_db"].engine.pool
     statuses: list[int] = []
 
@@ -100,7 +100,7 @@ def test_the_stream_keeps_its_rate_when_each_frame_takes_time_to_send(app, make_
     waiting a full interval after it made 200 streams run at 1.7-1.8 Hz
     against a 2 Hz target.
     """
-    from hcss.platform.live.stream import event_stream
+    from hcss.platform.live.frames import event_stream
 
     trial = make_trial()
     interval_s, send_s, span_s = 0.2, 0.06, 2.0

@@ -16,7 +16,7 @@ import pytest
 
 from hcss.platform.cli import upgrade_database
 from hcss.platform.db import Database
-from hcss.platform.live.streams import RETRY_AFTER_S
+from hcss.platform.live.stream_slots import RETRY_AFTER_S
 from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.serving.localserver import LocalServer
 from tests.support.trials import STUDY_TRIAL_S

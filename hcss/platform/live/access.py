@@ -6,7 +6,6 @@ from flask import abort, current_app, g
 from sqlalchemy import select
 
 from hcss.platform.db import database, get_session
-from hcss.platform.live import commands
 from hcss.platform.live.runner import Runner
 from hcss.platform.models import Participant, Trial
 
@@ -49,8 +48,8 @@ def trial_for(token: str, trial_id: int) -> Trial:
 
 def require_owner(token: str, trial_id: int) -> None:
     """404 unless the trial is the token's: in memory when this process holds it
-    (`commands.holds_for`, no query), else by `trial_for`."""
-    if not commands.holds_for(runner(), token, trial_id):
+    (`Runner.holds_for`, no query), else by `trial_for`."""
+    if not runner().holds_for(token, trial_id):
         trial_for(token, trial_id)
 
 

@@ -28,7 +28,7 @@ from hcss.platform.db import Database
 from hcss.platform.live import trial_writer
 from hcss.platform.live.leases import trial_transaction
 from hcss.platform.live.recorder import kept_until_written, record_request_statuses
-from hcss.platform.live.session import RunningTrial
+from hcss.platform.live.running_trial import RunningTrial
 from hcss.platform.live.trial_log import command_message
 from hcss.platform.live.trial_writer import KeyedCommand
 from hcss.platform.models import (

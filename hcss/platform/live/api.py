@@ -2,9 +2,10 @@
 
 Every route is under the participant's token and checks that the trial is
 theirs. A route parses HTTP (the JSON body, the headers) and hands the plain
-values to the live service's participant commands (hcss.platform.live.commands),
-which find the trial, take its lock and write; it never holds the trial
-itself. Every POST is CSRF-protected (X-CSRFToken header, from the page's
+values to the live service: a command as a value to its one door
+(`door.carry_out`), which finds the trial, takes its lock, checks, applies,
+writes and answers; the stream to `frames.open_stream`. It never holds the
+trial itself. Every POST is CSRF-protected (X-CSRFToken header, from the page's
 meta tag) and idempotent when it carries an Idempotency-Key header
 (hcss.platform.live.idempotency). Bad input gets a JSON error and changes nothing.
 """
@@ -18,10 +19,10 @@ from flask import Blueprint, Response, current_app, jsonify, request
 
 from hcss.platform.db import database
 from hcss.platform.guards.clients import request_client
-from hcss.platform.live import commands
+from hcss.platform.live import door, frames
 from hcss.platform.live.access import require_owner, runner, trial_for
 from hcss.platform.live.idempotency import idempotent
-from hcss.platform.live.streams import RETRY_AFTER_S, StreamSlots, client_share, study_share
+from hcss.platform.live.stream_slots import RETRY_AFTER_S, StreamSlots, client_share, study_share
 from hcss.platform.live.trial_writer import KeyedCommand
 
 _POSITION = re.compile(r"[0-9]{1,18}")
@@ -29,14 +30,10 @@ _POSITION = re.compile(r"[0-9]{1,18}")
 bp = Blueprint("api", __name__, url_prefix="/api/live/<token>/trials/<int:trial_id>")
 
 
-@bp.errorhandler(commands.ActionError)
-def _action_error(error: commands.ActionError):
-    # A trial that moved to another server process holds the command back: the page retries.
-    held = {"held_by": "server"} if error.code == "moved" else {}
-    response = jsonify(error=error.code, message=error.message, **held)
-    if error.status == 503:
-        response.headers["Retry-After"] = str(RETRY_AFTER_S)
-    return response, error.status
+@bp.errorhandler(door.ActionError)
+def _action_error(error: door.ActionError) -> Response:
+    """An input refused before the door (a malformed key, a full server's stream)."""
+    return _response(door.refusal(error))
 
 
 def stream_slots() -> StreamSlots:
@@ -75,7 +72,7 @@ def stream_position(text: str) -> int:
 def stream(token: str, trial_id: int) -> Response:
     trial = trial_for(token, trial_id)
     last = request.headers.get("Last-Event-ID", request.args.get("after", "0"))
-    opened = commands.open_stream(
+    opened = frames.open_stream(
         database(),
         runner(),
         stream_slots(),
@@ -99,44 +96,51 @@ def stream(token: str, trial_id: int) -> Response:
 def state(token: str, trial_id: int) -> Response:
     """One frame of the stream as plain JSON, for bots and scripts."""
     require_owner(token, trial_id)
-    return Response(commands.frame(runner(), trial_id), mimetype="application/json")
+    return Response(frames.frame(runner(), trial_id), mimetype="application/json")
 
 
 @bp.post("/requests")
 @idempotent
 def submit_request(token: str, trial_id: int, key: KeyedCommand | None):
     require_owner(token, trial_id)
-    return _response(commands.submit_request(database(), runner(), trial_id, _json(), key))
+    return _carried_out(door.SubmitRequest(trial_id, _json()), key)
 
 
 @bp.post("/observations")
 @idempotent
 def observe(token: str, trial_id: int, key: KeyedCommand | None):
     require_owner(token, trial_id)
-    return _response(commands.observe(database(), runner(), trial_id, _json(), key))
+    return _carried_out(door.Observe(trial_id, _json()), key)
 
 
 @bp.post("/probes/<int:probe_id>/ready")
 @idempotent
 def probe_ready(token: str, trial_id: int, probe_id: int, key: KeyedCommand | None):
     require_owner(token, trial_id)
-    return _response(commands.probe_ready(database(), runner(), trial_id, probe_id, key))
+    return _carried_out(door.ProbeReady(trial_id, probe_id), key)
 
 
 @bp.post("/probes/<int:probe_id>/answer")
 @idempotent
 def probe_answer(token: str, trial_id: int, probe_id: int, key: KeyedCommand | None):
     require_owner(token, trial_id)
-    body = _json()
-    return _response(commands.probe_answer(database(), runner(), trial_id, probe_id, body, key))
+    return _carried_out(door.ProbeAnswer(trial_id, probe_id, _json()), key)
 
 
-def _response(answer: commands.Answer) -> Response:
-    """The live service's answer as the page gets it (a repeat of a keyed command says so)."""
+def _carried_out(command: door.Command, key: KeyedCommand | None) -> Response:
+    """The command through the live service's door, its answer as the page gets it."""
+    return _response(door.carry_out(database(), runner(), command, key))
+
+
+def _response(answer: door.Answer) -> Response:
+    """The live service's answer as the page gets it (a repeat of a keyed command says so;
+    a 503, a trial moving to another process, says when to try again)."""
     response = jsonify(answer.body)
     response.status_code = answer.status
     if answer.replayed:
         response.headers["Idempotent-Replayed"] = "true"
+    if answer.status == 503:
+        response.headers["Retry-After"] = str(RETRY_AFTER_S)
     return response
 
 

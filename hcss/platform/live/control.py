@@ -19,7 +19,7 @@ from hcss.platform.models.participant_state import STATE_ACTIONS
 
 if TYPE_CHECKING:
     from hcss.platform.live.runner import Runner
-    from hcss.platform.live.session import RunningTrial
+    from hcss.platform.live.running_trial import RunningTrial
 
 #: What `control_trial` answers: carried out, or the trial had just reached its end.
 DONE = "done"

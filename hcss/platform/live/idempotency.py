@@ -3,9 +3,8 @@
 The Collective Interface sends an ``Idempotency-Key`` header (a fresh UUID)
 with every command. The route decorator here reads the key and a fingerprint
 of the command (route, arguments, raw body) and hands them to the view as a
-value, which passes it to the live service; the service's rule for keyed
-commands (hcss.platform.live.command_keys) carries the first POST with a key
-out once under the trial's lock and stores its answer with the key, in the
+value, which passes it to the live service's door (hcss.platform.live.door);
+the door carries the first POST with a key out once under the trial's lock and stores its answer with the key, in the
 action's own transaction when it records something; a repeat gets that answer
 back (header ``Idempotent-Replayed``), and a key reused for another command is
 refused with 422. The view itself never runs under the trial's lock.
@@ -25,8 +24,7 @@ from typing import Any
 
 from flask import request
 
-from hcss.platform.live.access import require_owner
-from hcss.platform.live.commands import ActionError
+from hcss.platform.live.door import ActionError
 from hcss.platform.live.trial_writer import KeyedCommand
 
 KEY_HEADER = "Idempotency-Key"
@@ -63,6 +61,8 @@ def idempotent(view: Callable[..., Any]) -> Callable[..., Any]:
 
     The view is called with `key`: the request's key as a value (`KeyedCommand`),
     for the action to store with what it records; None when the POST has no key.
+    The view checks that the token owns the trial (404) before the key reaches the
+    door, so another participant's trial never has a key stored.
     """
 
     @wraps(view)
@@ -70,7 +70,6 @@ def idempotent(view: Callable[..., Any]) -> Callable[..., Any]:
         sent = command_key()
         if sent is None:
             return view(token, trial_id, key=None, **kwargs)
-        require_owner(token, trial_id)  # 404 for another participant's trial
         key = KeyedCommand(
             trial_id=trial_id, key=sent, endpoint=str(request.endpoint), fingerprint=_fingerprint()
         )

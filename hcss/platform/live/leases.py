@@ -78,7 +78,7 @@ from hcss.platform.db import Database
 from hcss.platform.models import Trial, TrialLease
 
 if TYPE_CHECKING:
-    from hcss.platform.live.session import RunningTrial
+    from hcss.platform.live.running_trial import RunningTrial
 
 #: Seconds a lease lasts unless renewed; failover takes at most this long plus a sync.
 LEASE_S = 6.0

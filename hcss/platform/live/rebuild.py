@@ -29,7 +29,7 @@ from hcss.platform.live.outages import (
 from hcss.platform.live.probes import counts_of, probe_plan
 from hcss.platform.live.progress import CurrentProbe, Projection
 from hcss.platform.live.recorder import kept_until_written, record_progress, write_snapshot
-from hcss.platform.live.session import RunningTrial
+from hcss.platform.live.running_trial import RunningTrial
 from hcss.platform.live.trial_log import (
     build_simulation,
     new_simulation,

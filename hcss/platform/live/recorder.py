@@ -4,7 +4,9 @@ Called by the runner after each batch of steps, and once after a rebuild, with
 the trial's lock held. Everything is derived from the simulation's state, so a
 rebuild that replays the same steps writes only what had not been written.
 
-The rows are made by the trial log's writer (`trial_writer`), decisions,
+What happened comes from the trial in memory as typed facts (`live.facts`:
+its methods say what happened and move its cursors, with no I/O) and the
+rows are made from them by the trial log's writer (`trial_writer.write_facts`): decisions,
 events, probes, probe events and statuses if absent (the database's unique
 keys decide): a unit of work whose commit reached the database but
 whose answer was lost (a dropped line, a failover) is taken for failed and
@@ -27,7 +29,6 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from contextlib import contextmanager
-from typing import Any
 
 import numpy as np
 from sqlalchemy.orm import Session
@@ -35,10 +36,8 @@ from sqlalchemy.orm import Session
 from hcss.platform.live import trial_writer
 from hcss.platform.live.probes import POSTPONE_S, PROBE_TIMEOUT_S, fill_probe
 from hcss.platform.live.progress import CurrentProbe
-from hcss.platform.live.session import RunningTrial
+from hcss.platform.live.running_trial import RunningTrial
 from hcss.questionnaires.probes import ProbeLevel
-from hcss.simulation.messages import event_text
-from hcss.tablespec.decisions import stored_decision
 
 
 @contextmanager
@@ -71,64 +70,22 @@ def record_progress(live: RunningTrial, session: Session) -> None:
     _show_probe(live, session, sim.time)
 
 
-def _take_events(live: RunningTrial) -> None:
-    """The simulation's new events join the unwritten ones and the System Messages, once."""
-    for event in live.events_handed_over(live.sim.drain_events()):
-        live.add_message(float(event["time"]), str(event["kind"]), event_text(event))
-
-
 def _record_events(live: RunningTrial, session: Session) -> None:
-    _take_events(live)
-    trial_writer.write_events(
-        session,
-        live.trial_id,
-        (
-            {
-                "kind": str(event["kind"]),
-                "collective": _int_or_none(event.get("collective")),
-                "target": _int_or_none(event.get("target")),
-                "text": event_text(event)[:300],
-                "sim_time": float(event["time"]),
-            }
-            for event in live.unwritten_events
-        ),
-    )
+    """The simulation's new events join the unwritten ones and the System Messages (once);
+    every unwritten one is written."""
+    for event in live.events_handed_over(live.sim.drain_events()):
+        live.add_message(event.sim_time, event.kind, event.text)
+    trial_writer.write_facts(session, live.trial_id, live.unwritten_events)
     # Events of one step share its time and are written together, so the
     # newest time marks everything written.
     live.events_written_up_to(float(live.sim.time) - 1e-9)
 
 
 def _record_decisions(live: RunningTrial, session: Session) -> None:
-    records = live.sim.decisions
-    for record in records[live.decisions_recorded :]:
-        # The record itself, checked against the decisions table's contract; who and where
-        # (source, participant, trial, run) the export adds (hcss.tablespec.decisions).
-        row = stored_decision(record.as_row())
-        trial_writer.write_decision(  # skipped if written by a commit whose answer was lost
-            session,
-            live.trial_id,
-            collective=int(record.collective),
-            decision_index=int(row["decision_index"]),
-            step=live.sim.step_count,
-            correct=None if row.get("correct") is None else bool(row["correct"]),
-            record=row,
-        )
-        _score_projections(live, session, row["collective"], float(row["end_s"]))
-    live.decisions_written(len(records))
-
-
-def _score_projections(live: RunningTrial, session: Session, collective: str, end_s: float) -> None:
-    """Level-3 probes asked before this decision ended are scored by it."""
-    for probe_id, _shown_at, answer in live.projections_ended_by(end_s):
-        trial_writer.write_probe_event(
-            session,
-            probe_id,
-            "scored",
-            answer=answer,
-            truth=collective,
-            correct=None if answer is None else answer == collective,
-            step=live.sim.step_count,
-            sim_time=float(live.sim.time),
+    """Each new decision, and the level-3 probes asked before it ended, which it scores."""
+    for decision in live.decisions_made():
+        trial_writer.write_facts(
+            session, live.trial_id, [decision, *live.projections_scored_by(decision)]
         )
 
 
@@ -139,21 +96,16 @@ def record_request_statuses(live: RunningTrial, session: Session) -> None:
     the written ones (restored from the rows) are skipped.
     """
     changes = live.status_changes_to_write(live.sim.drain_status_changes())
-    trial_writer.write_request_statuses(
-        session,
-        live.trial_id,
-        [(c.request_id, str(c.status), c.step, float(c.time)) for c in changes],
-    )
+    trial_writer.write_facts(session, live.trial_id, changes)
 
 
 def _expire_probe(live: RunningTrial, session: Session, time: float) -> None:
     probe = live.current_probe
     if probe is None or time < probe.timeout_sim_time:
         return
-    live.probe_cleared()
-    trial_writer.write_probe_event(
-        session, probe.id, "timeout", step=live.sim.step_count, sim_time=float(time)
-    )
+    cleared = live.probe_cleared()
+    assert cleared is not None  # the probe above
+    trial_writer.write_facts(session, live.trial_id, [cleared])
 
 
 def _show_probe(live: RunningTrial, session: Session, time: float) -> None:
@@ -187,30 +139,18 @@ def _show_probe(live: RunningTrial, session: Session, time: float) -> None:
 
 
 def write_snapshot(live: RunningTrial, session: Session, now: float) -> None:
-    sim = live.sim
-    trial_writer.write_snapshot(
-        session,
-        live.trial_id,
-        step=sim.step_count,
-        sim_time=float(sim.time),
-        last_command_id=live.last_command_id,
-        blob=sim.snapshot(),
-    )
-    live.snapshot_written(now)
+    trial_writer.write_facts(session, live.trial_id, [live.snapshot_taken(now)])
 
 
 def end_trial(live: RunningTrial, session: Session, reason: str, now: float) -> None:
     """The time limit is reached: close the open probe, snapshot, and mark it ended."""
-    probe = live.probe_cleared()
-    if probe is not None:
-        trial_writer.write_probe_event(
-            session, probe.id, "timeout", step=live.sim.step_count, sim_time=float(live.sim.time)
-        )
-    write_snapshot(live, session, now)
-    trial_writer.write_ended_once(session, live.trial_id, reason, live.sim.step_count)
-    live.mark_ended(reason)
-
-
-def _int_or_none(value: Any) -> int | None:
-    """A record's integer field (numpy or Python), or None."""
-    return None if value is None else int(value)
+    cleared = live.probe_cleared()
+    trial_writer.write_facts(
+        session,
+        live.trial_id,
+        [
+            *([] if cleared is None else [cleared]),
+            live.snapshot_taken(now),
+            live.mark_ended(reason),
+        ],
+    )

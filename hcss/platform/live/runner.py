@@ -6,18 +6,21 @@ due, records what happened and wakes the streams. Commands do not wait for a
 tick: they take the trial's lock and apply between two steps.
 
 Blueprints use only the public methods below (host, loaded, holding, pause,
-resume, end, finish_overdue, forget, withdrawing, commanding); the registry and
+resume, end, finish_overdue, forget, withdrawing, commanding, let_go, holds_for); the registry and
 its lock are private. The thread is started only where trials are served
 (`hcss serve`, the test server); an app built for a script or a check has a
 runner without one.
 
 With several processes, the runner also hands a trial back to the process
 nginx sends its participant to when that process asks (`hand_back_asked`,
-see hcss.platform.live.leases).
+see hcss.platform.live.leases), and over to a process that withdraws it; how
+is hcss.platform.live.hand_back. How one trial is stepped and recorded is
+hcss.platform.live.stepping.
 """
 
 from __future__ import annotations
 
+import hmac
 import logging
 import threading
 import time as wallclock
@@ -25,50 +28,34 @@ from collections import Counter
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
 
-from flask import Flask
 from sqlalchemy.exc import DBAPIError, InterfaceError, OperationalError, ProgrammingError
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
-from hcss.platform.errors import database_away
-from hcss.platform.live import trial_writer
-from hcss.platform.live.control import control_trial
+from hcss.platform.live.hand_back import hand_back, hand_over
 from hcss.platform.live.leases import (
-    LEASE_S,
-    Fence,
     HostedElsewhere,
-    LeaseLost,
     Leases,
-    trial_transaction,
 )
 from hcss.platform.live.orders import (
     HAND_OVER,
     POLL_S,
     PendingOrder,
-    mark_done,
     pending_orders,
     send_order,
 )
-from hcss.platform.live.outages import record_database_outage
-from hcss.platform.live.rebuild import load_trial
 from hcss.platform.live.recorder import (
     end_trial,
-    kept_until_written,
-    record_progress,
-    write_snapshot,
 )
-from hcss.platform.live.session import RunningTrial
-from hcss.platform.live.trials import latest_status, running_trial_ids
-from hcss.platform.models import Trial
-from hcss.platform.models.vocabularies import TrialStatus
+from hcss.platform.live.running_trial import RunningTrial
+from hcss.platform.live.stepping import advance_trial
+from hcss.platform.live.takeover import take_up
+from hcss.platform.live.trials import running_trial_ids
 
 log = logging.getLogger(__name__)
 
 TICK_S = 0.05
 SYNC_EVERY_S = 1.0
-#: Seconds past a quiet holder's lease that a process asked for its trial claims it: the
-#: database's clock has moved on by then, whatever the two hosts' clocks say.
-QUIET_MARGIN_S = 0.05
 
 
 class Runner:
@@ -78,8 +65,12 @@ class Runner:
         *,
         snapshot_interval_s: float = 5.0,
         leases: Leases | None = None,
+        carry_out_order: Callable[[Database, Runner, PendingOrder], object],
     ) -> None:
         self.database = database
+        #: The live service's door, through which a console's order for a trial hosted
+        #: here is carried out as a console served here would carry it out.
+        self._carry_out_order = carry_out_order
         #: None: this process hosts every running trial; else only those it holds the lease of.
         self.leases = leases
         self._last_renewal = -float("inf")
@@ -132,57 +123,11 @@ class Runner:
             live = self._trials.get(trial_id)
             if live is not None:
                 return live
-            live = self._load(trial_id, participant)
+            live = take_up(self, trial_id, participant)
             if live is not None:
                 with self._registry_lock:
                     self._trials[trial_id] = live
             return live
-
-    def _load(self, trial_id: int, participant: bool = False) -> RunningTrial | None:
-        """Claim and rebuild the trial (`host` holds its loader); None if it is not running."""
-        with self.database.session_scope() as session:
-            if latest_status(session, trial_id) != TrialStatus.RUNNING:
-                return None
-        # Another process's lease, run out: it hosted the trial and died, maybe before
-        # its first snapshot; the rebuild must still stop the clock for the outage.
-        earlier = None if self.leases is None else self.leases.owner_of(trial_id)
-        fence = None
-        if self.leases is not None:
-            claimed_at = self.leases.monotonic()
-            epoch = self.leases.claim(trial_id, self.clock())
-            quiet_for = (
-                None
-                if epoch is not None
-                else self.leases.runs_out_unrenewed(trial_id, self.clock())
-            )
-            if quiet_for is not None:  # its holder has gone quiet: wait its lease out
-                wallclock.sleep(quiet_for + QUIET_MARGIN_S)
-                epoch = self.leases.claim(trial_id, self.clock())
-            if epoch is None:
-                asked = self.leases.ask_back(trial_id, self.clock()) if participant else None
-                holder = asked or self.leases.holder(trial_id, self.clock())
-                raise HostedElsewhere(trial_id, holder or "")
-            fence = Fence(self.leases, trial_id, epoch, self.leases.deadline_after(claimed_at))
-        host_died = self.leases is not None and earlier not in (None, self.leases.owner)
-        try:
-            with self.database.session_scope() as session:
-                if fence is not None:
-                    fence.prove(session, self.clock())
-                trial = session.get(Trial, trial_id)
-                assert trial is not None  # it has a status, so it exists
-                live = load_trial(session, trial, self.clock(), host_died=host_died)
-                live.leased(fence)
-        except LeaseLost:
-            raise  # taken by another process while this one rebuilt it: nothing written
-        except DBAPIError:
-            self._release(trial_id)
-            raise  # the database is away: try again later, the trial is not at fault
-        except Exception as error:
-            log.exception("live trial %s cannot be rebuilt; ending it", trial_id)
-            self._give_up(trial_id, error, fence)
-            self._release(trial_id)
-            return None
-        return live
 
     def hosts(self, trial_id: int) -> bool:
         """Whether this process may host the trial now (always, without leases)."""
@@ -196,6 +141,20 @@ class Runner:
         with self._registry_lock:
             return self._trials.get(trial_id)
 
+    def holds_for(self, token: str, trial_id: int) -> bool:
+        """Whether this process holds the trial in memory for this token; False: ask the
+        database.
+
+        The live API's looks and commands come several times a second per trial;
+        checking a held trial's owner in memory spares each of them a query and a
+        transaction. A trial not held, or held for another token, goes the
+        database's way, so every answer (404, 409) is the same either way.
+        """
+        live = self.loaded(trial_id)
+        return live is not None and hmac.compare_digest(
+            live.participant_token.encode(), token.encode()
+        )
+
     def loaded_ids(self) -> set[int]:
         """Ids of the trials held in memory (for tests and the console)."""
         with self._registry_lock:
@@ -206,10 +165,10 @@ class Runner:
         with self._registry_lock:
             live = self._trials.pop(trial_id, None)
         if live is not None:
-            self._release(trial_id)
+            self.release_lease(trial_id)
         return live
 
-    def _release(self, trial_id: int) -> None:
+    def release_lease(self, trial_id: int) -> None:
         """Give up the trial's lease so another process need not wait for it to run out."""
         if self.leases is None:
             return
@@ -231,6 +190,19 @@ class Runner:
                 self._commanding[trial_id] -= 1
                 if self._commanding[trial_id] <= 0:
                     del self._commanding[trial_id]
+
+    def commands_under_way(self, trial_id: int) -> bool:
+        """Whether a participant's command for the trial is under way (`commanding`)."""
+        with self._registry_lock:
+            return self._commanding[trial_id] > 0
+
+    def let_go(self, live: RunningTrial) -> None:
+        """Stop hosting this copy of the trial, whose lease another process holds now (a hand
+        over or back): it leaves the registry, its lease is not released here."""
+        with self._registry_lock:
+            if self._trials.get(live.trial_id) is live:
+                del self._trials[live.trial_id]
+        live.move_away()  # its streams close; the page reconnects, to the new host
 
     # --- controlling one trial --------------------------------------------------
 
@@ -296,27 +268,7 @@ class Runner:
                 stale = self.forget(trial_id)
                 if stale is not None:
                     stale.mark_ended(reason)
-                self._release(trial_id)  # held for the deletion, never loaded
-
-    def _give_up(self, trial_id: int, error: Exception, fence: Fence | None) -> None:
-        """End a trial whose records cannot be rebuilt, saying why, instead of failing forever.
-
-        Without this, every tick would retry and log a traceback, and the
-        participant's stream, state and stage page would fail until someone
-        edited the database. The ended status lets the study move on; the
-        `TrialProblem` row tells the analyst the trial stopped here and why.
-        """
-        with self.database.session_scope() as session:
-            if fence is not None:
-                fence.prove(session, self.clock())
-            trial_writer.write_problem(
-                session,
-                trial_id,
-                "rebuild",
-                f"trial {trial_id}",
-                f"cannot be rebuilt: {type(error).__name__}: {error}",
-            )
-            trial_writer.write_status(session, trial_id, TrialStatus.ENDED, "rebuild_failed", 0)
+                self.release_lease(trial_id)  # held for the deletion, never loaded
 
     def sync(self) -> None:
         """Load every running trial not yet in memory (after a restart, or from the CLI)."""
@@ -388,30 +340,11 @@ class Runner:
                 continue
             try:
                 if order.action == HAND_OVER:
-                    self._hand_over(live, order)
+                    hand_over(self, live, order)
                     continue
-                control_trial(
-                    self,
-                    live,
-                    order.action,
-                    participant_id=order.participant_id,
-                    experimenter_id=order.experimenter_id,
-                    order_id=order.id,
-                )
+                self._carry_out_order(self.database, self, order)
             except Exception:
                 log.exception("console order %s for trial %s failed", order.id, order.trial_id)
-
-    def _hand_over(self, live: RunningTrial, order: PendingOrder) -> None:
-        """Stop hosting the trial and pass its lease to the process that asked for it."""
-        assert self.leases is not None
-        with live.lock:
-            with trial_transaction(self.database, live) as session:
-                now = self.clock()
-                self.leases.pass_on(session, live.trial_id, order.issued_by, now)
-                mark_done(session, order.id, now, "done")
-            with self._registry_lock:
-                self._trials.pop(live.trial_id, None)
-            live.move_away()  # its streams close; the page reconnects to the new host
 
     def hand_back_asked(self) -> None:
         """Hand the trials another process asked for (at the last renewal) to it, each at a
@@ -421,7 +354,7 @@ class Runner:
         for trial_id, heir in asked:
             live = self.loaded(trial_id)
             try:
-                done = live is None or self._hand_back(live, heir)
+                done = live is None or hand_back(self, live, heir)
             except Exception:
                 log.exception("live trial %s could not be handed to %s", trial_id, heir)
                 done = True  # asked again at the next renewal if it still is
@@ -429,44 +362,6 @@ class Runner:
                 with self._registry_lock:
                     if self._asked_back.get(trial_id) == heir:
                         del self._asked_back[trial_id]
-
-    def _hand_back(self, live: RunningTrial, heir: str) -> bool:
-        """Give the trial to `heir` (nginx sends its participant there): what it holds and a
-        snapshot written and the lease passed in one fenced unit of work, then it stops
-        hosting here. False: not now (a command under way or the lock taken), try again.
-
-        Under the trial's lock, with no participant's command under way: nothing is
-        applied that is not written, and a command that comes after finds the trial
-        moved (503, which the page retries and nginx sends to the heir).
-        """
-        assert self.leases is not None
-        if not live.lock.acquire(blocking=False):
-            return False
-        try:
-            with self._registry_lock:
-                if self._commanding[live.trial_id]:
-                    return False
-            now = self.clock()
-            self.advance(live, now)
-            if live.ended or live.moved or live.database_away_since is not None:
-                return True  # nothing to hand over, or not safely now (the next ask decides)
-            with kept_until_written(live), trial_transaction(self.database, live) as session:
-                record_progress(live, session)
-                handed = self.leases.hand_back(session, live.trial_id, heir, now)
-                if handed:
-                    write_snapshot(live, session, now)
-            if handed:
-                with self._registry_lock:
-                    if self._trials.get(live.trial_id) is live:
-                        del self._trials[live.trial_id]
-                live.move_away()  # its streams close; the page reconnects, to the heir
-                log.info("live trial %s handed back to %s", live.trial_id, heir)
-            return True
-        except (DBAPIError, LeaseLost):
-            log.warning("live trial %s: not handed back now", live.trial_id, exc_info=True)
-            return True
-        finally:
-            live.lock.release()
 
     def _take_hold(self, trial_ids: list[int]) -> None:
         """Make this process the holder of every lease of these trials (for a withdrawal).
@@ -532,60 +427,9 @@ class Runner:
                 lost.move_away()  # its streams close; the participant reconnects to the host
 
     def advance(self, live: RunningTrial, now: float) -> None:
-        """Step the trial to the step due at `now`, record it, end it at its time limit.
-
-        While the database is away or takes no writes (`database_away_since`;
-        `errors.database_away` says which errors mean that) the trial stands
-        still and each call tries again to write what it holds.
-        """
-        with live.lock:
-            if live.ended or live.moved:
-                return
-            due = live.due_step(now)
-            if live.database_away_since is None and live.fence and not live.fence.holds():
-                # The holder's own deadline passed with no renewal answered (a stall, a
-                # partition): it stops before anyone else may start, without asking.
-                live.database_away(now)
-                live.touch()
-                return
-            if live.database_away_since is None:
-                if due <= live.sim.step_count and due < live.total_steps:
-                    return
-                # The end is judged by `due`, not by the simulation's step: a simulation
-                # whose decisions are all made stops stepping early, and a trial rebuilt
-                # after its deadline (load_trial steps it to `due`) has nothing left to step.
-                live.sim.step(due - live.sim.step_count)
-                live.touch()
-            try:
-                with kept_until_written(live), trial_transaction(self.database, live) as session:
-                    record_progress(live, session)
-                    if live.database_away_since is not None:
-                        record_database_outage(live, session, now)
-                    if due >= live.total_steps:
-                        end_trial(live, session, "time_limit", now)
-                    elif now - live.last_snapshot_epoch >= self.snapshot_interval_s:
-                        write_snapshot(live, session, now)
-            except (DBAPIError, LeaseLost) as error:
-                if isinstance(error, DBAPIError) and not database_away(error):
-                    raise  # a bug, not an outage: the tick logs it
-                # Away, or the lease is not proved (its deadline passed before a renewal
-                # answered): the trial stands still until a renewal or a takeover decides.
-                if live.database_away_since is None:
-                    log.warning(
-                        "live trial %s: the database takes no writes; the trial stands "
-                        "still and what it holds is written when the database is back",
-                        live.trial_id,
-                        exc_info=True,
-                    )
-                    live.database_away(now)
-                    live.touch()
-                return
-            if live.database_away_since is not None:
-                live.database_back(now)
-                log.warning("live trial %s: the database is back; the trial goes on", live.trial_id)
-            live.touch()
-
-    # --- the thread --------------------------------------------------------------
+        """Step the trial to the step due at `now`, record it, end it at its time limit
+        (`stepping.advance_trial`)."""
+        advance_trial(self.database, live, now, snapshot_interval_s=self.snapshot_interval_s)
 
     def start(self) -> None:
         if self._thread is not None:
@@ -638,20 +482,3 @@ def _missing_table(error: DBAPIError) -> bool:
     """SQLite says "no such table", PostgreSQL "relation ... does not exist"."""
     text = str(error.orig).lower()
     return "no such table" in text or ("relation" in text and "does not exist" in text)
-
-
-def init_runner(app: Flask) -> Runner:
-    """Attach a runner to the app; its thread starts only if LIVE_RUNNER (`hcss serve`) asks."""
-    database = app.extensions["hcss_db"]
-    process = app.config.get("PROCESS_NAME")
-    runner = Runner(
-        database,
-        snapshot_interval_s=float(app.config["SNAPSHOT_INTERVAL_S"]),
-        leases=None
-        if not process
-        else Leases(database, str(process), lease_s=float(app.config.get("LEASE_S", LEASE_S))),
-    )
-    app.extensions["hcss_runner"] = runner
-    if app.config["LIVE_RUNNER"]:
-        runner.start()
-    return runner

@@ -1,12 +1,15 @@
-"""The live service: what the console asks of live trials, in plain values.
+"""The live service for the console and the study flow, in plain values; and the runner's
+assembly with the service's door.
 
 The console names a trial by its id and an action by its word; it never holds
-a `RunningTrial`, its lock or a session of the trial log. Whether this
-process hosts the trial (then `control_trial` carries the action out under
-the trial's lock, in one unit of work) or another one does (then a
-`TrialOrder` asks that host, and this waits for its confirmation) is decided
-here. The import-linter contract "The console reaches live trials through the
-live service" (pyproject.toml) keeps it so.
+a `RunningTrial`, its lock or a session of the trial log. Its pause, resume
+and abort go through the same door as the participant's commands
+(`door.carry_out` with a `door.Control`), which decides whether this process
+hosts the trial (then the action is carried out under the trial's lock, in
+one unit of work) or another one does (then a `TrialOrder` asks that host,
+whose runner carries it out through the door, and this waits for its
+confirmation). The import-linter contract "The console reaches live trials
+through the live service" (pyproject.toml) keeps it so.
 """
 
 from __future__ import annotations
@@ -14,12 +17,12 @@ from __future__ import annotations
 from collections.abc import Iterator
 from contextlib import contextmanager
 
+from flask import Flask
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
-from hcss.platform.live.control import control_trial
-from hcss.platform.live.leases import HostedElsewhere
-from hcss.platform.live.orders import send_order
+from hcss.platform.live import door
+from hcss.platform.live.leases import LEASE_S, HostedElsewhere, Leases
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.trials import current_trial, latest_status
 from hcss.platform.models import Participant
@@ -30,6 +33,7 @@ __all__ = [
     "OrderUnconfirmed",
     "control_session_trial",
     "finish_overdue_trial",
+    "init_runner",
     "running_trial_id",
     "withdrawing",
 ]
@@ -71,21 +75,14 @@ def control_session_trial(
     live process: a `TrialOrder` for it, confirmed within the order's wait,
     else `OrderUnconfirmed` (the order stays and is carried out later).
     """
-    try:
-        live = runner.host(trial_id)
-    except HostedElsewhere:
-        issued_by = "" if runner.leases is None else runner.leases.owner
-        outcome = send_order(
-            database, trial_id, action, experimenter_id=experimenter_id, issued_by=issued_by
-        )
-        if outcome is None:
-            raise OrderUnconfirmed(trial_id, action) from None
-        return True
-    if live is None:
-        return False
-    control_trial(
-        runner, live, action, participant_id=participant_id, experimenter_id=experimenter_id
+    control = door.Control(
+        trial_id, action, participant_id=participant_id, experimenter_id=experimenter_id
     )
+    answer = door.carry_out(database, runner, control)
+    if answer.status == 404:
+        return False
+    if answer.status == 202:
+        raise OrderUnconfirmed(trial_id, action)
     return True
 
 
@@ -118,3 +115,25 @@ def finish_overdue_trial(runner: Runner, participant: Participant) -> None:
     if overdue:
         assert trial is not None
         runner.finish_overdue(trial.id)
+
+
+def init_runner(app: Flask) -> Runner:
+    """Attach a runner to the app; its thread starts only if LIVE_RUNNER (`hcss serve`) asks.
+
+    The runner carries out the console's orders for its trials through the
+    service's door (`door.carry_out_order`), the one way into a trial.
+    """
+    database = app.extensions["hcss_db"]
+    process = app.config.get("PROCESS_NAME")
+    runner = Runner(
+        database,
+        snapshot_interval_s=float(app.config["SNAPSHOT_INTERVAL_S"]),
+        leases=None
+        if not process
+        else Leases(database, str(process), lease_s=float(app.config.get("LEASE_S", LEASE_S))),
+        carry_out_order=door.carry_out_order,
+    )
+    app.extensions["hcss_runner"] = runner
+    if app.config["LIVE_RUNNER"]:
+        runner.start()
+    return runner

@@ -25,8 +25,7 @@ from hcss.platform.models import (
     Snapshot,
     Trial,
 )
-from hcss.platform.models.stored_names import Uninterpretable
-from hcss.platform.models.stored_names import stored_collective_name as collective_name
+from hcss.platform.models.stored_names import Uninterpretable, stored_collective_name
 from hcss.simulation.messages import accepted_text, refusal_text, request_subject
 
 if TYPE_CHECKING:
@@ -191,7 +190,7 @@ def command_message(
     """
     name = None
     if command.kind != "cancel":
-        name = collective_name(command.collective, n_collectives)
+        name = stored_collective_name(command.collective, n_collectives)
     subject = request_subject(command.kind, name, command.target, command.cancel_request_id)
     if accepted:
         return "accepted", accepted_text(subject, command.kind, request_id)

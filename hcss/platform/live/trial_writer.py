@@ -37,6 +37,16 @@ from sqlalchemy.dialects.sqlite import insert as sqlite_insert
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import session_now
+from hcss.platform.live.facts import (
+    DecisionMade,
+    EventHappened,
+    Fact,
+    ProbeTimedOut,
+    ProjectionScored,
+    RequestStatusChanged,
+    SnapshotTaken,
+    TrialEnded,
+)
 from hcss.platform.models import (
     Command,
     CommandKey,
@@ -227,6 +237,103 @@ def write_request_statuses(
             )
             for request_id, status, step, sim_time in changes
         ],
+    )
+
+
+def write_facts(session: Session, trial_id: int, facts: Iterable[Fact]) -> None:
+    """The rows of what happened in the trial (`live.facts`), in order; each once.
+
+    Events and request statuses in a row are inserted in one statement each
+    (a step hands over many); the others one by one, as they come.
+    """
+    events: list[EventHappened] = []
+    statuses: list[RequestStatusChanged] = []
+
+    def flush() -> None:
+        if events:
+            _write_events(session, trial_id, events)
+            events.clear()
+        if statuses:
+            _write_statuses(session, trial_id, statuses)
+            statuses.clear()
+
+    for fact in facts:
+        if isinstance(fact, EventHappened):
+            if statuses:
+                flush()
+            events.append(fact)
+            continue
+        if isinstance(fact, RequestStatusChanged):
+            if events:
+                flush()
+            statuses.append(fact)
+            continue
+        flush()
+        _write_fact(session, trial_id, fact)
+    flush()
+
+
+def _write_fact(
+    session: Session,
+    trial_id: int,
+    fact: DecisionMade | ProbeTimedOut | ProjectionScored | SnapshotTaken | TrialEnded,
+) -> None:
+    if isinstance(fact, DecisionMade):
+        write_decision(  # skipped if written by a commit whose answer was lost
+            session,
+            trial_id,
+            collective=fact.collective,
+            decision_index=fact.decision_index,
+            step=fact.step,
+            correct=fact.correct,
+            record=fact.record,
+        )
+    elif isinstance(fact, ProbeTimedOut):
+        write_probe_event(session, fact.probe_id, "timeout", step=fact.step, sim_time=fact.sim_time)
+    elif isinstance(fact, ProjectionScored):
+        write_probe_event(
+            session,
+            fact.probe_id,
+            "scored",
+            answer=fact.answer,
+            truth=fact.truth,
+            correct=fact.correct,
+            step=fact.step,
+            sim_time=fact.sim_time,
+        )
+    elif isinstance(fact, SnapshotTaken):
+        write_snapshot(
+            session,
+            trial_id,
+            step=fact.step,
+            sim_time=fact.sim_time,
+            last_command_id=fact.last_command_id,
+            blob=fact.blob,
+        )
+    else:
+        write_ended_once(session, trial_id, fact.reason, fact.step)
+
+
+def _write_events(session: Session, trial_id: int, events: list[EventHappened]) -> None:
+    write_events(
+        session,
+        trial_id,
+        (
+            {
+                "kind": event.kind,
+                "collective": event.collective,
+                "target": event.target,
+                "text": event.text[:300],
+                "sim_time": event.sim_time,
+            }
+            for event in events
+        ),
+    )
+
+
+def _write_statuses(session: Session, trial_id: int, changes: list[RequestStatusChanged]) -> None:
+    write_request_statuses(
+        session, trial_id, [(c.request_id, c.status, c.step, c.sim_time) for c in changes]
     )
 
 

@@ -10,8 +10,8 @@ a collective executing a move) stays a refusal from the simulation, logged
 and shown in System Messages as before.
 
 `parse_request`, `parse_observation` and `parse_answer` are the entry points,
-one per command that carries a body; the live service's commands
-(hcss.platform.live.commands) call them once they have found the trial, so a
+one per command that carries a body; the live service's door
+(hcss.platform.live.door) calls them once they have found the trial, so a
 trial that has ended or moved is answered as such whatever the body says.
 """
 
@@ -23,7 +23,7 @@ from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from hcss.platform.live.actions import ActionError
-from hcss.platform.live.session import RunningTrial
+from hcss.platform.live.running_trial import RunningTrial
 from hcss.platform.models import COMMAND_KINDS, Observation
 from hcss.simulation import OperatorCommand
 

@@ -101,7 +101,7 @@ class TrainingStage(LiveStage):
 
 class TrialStage(LiveStage):
     """The study's trial stage (the database row is `models.Trial`, the run in memory
-    `live.session.RunningTrial`)."""
+    `live.running_trial.RunningTrial`)."""
 
     name = "trial"
     title = "Trial"

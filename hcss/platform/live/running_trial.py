@@ -7,7 +7,11 @@ streams whenever the state moved, so a command's effect is sent at once.
 Its state changes only through its methods, named for what happened (a
 pause, a command applied, a probe shown, rows written), so the rules that
 keep it consistent (the recorder's cursors move only with a commit, the clock
-stands still while the database is away) have one place each. The clock, the
+stands still while the database is away) have one place each. Those that move
+its log on return what happened as typed facts (`live.facts`: events handed
+over, decisions made, request statuses changed, a probe timed out or scored,
+a snapshot taken, the trial ended), which the trial log's writer stores; none
+does I/O. The clock, the
 probes and the trial log's cursors are small classes of their own
 (`clock.TrialClock`, `progress.ProbeSchedule`, `progress.LogCursors`).
 """
@@ -20,6 +24,15 @@ import threading
 from typing import TYPE_CHECKING, Any
 
 from hcss.platform.live.clock import TrialClock
+from hcss.platform.live.facts import (
+    DecisionMade,
+    EventHappened,
+    ProbeTimedOut,
+    ProjectionScored,
+    RequestStatusChanged,
+    SnapshotTaken,
+    TrialEnded,
+)
 from hcss.platform.live.progress import (
     CurrentProbe,
     LogCursors,
@@ -30,7 +43,9 @@ from hcss.platform.live.progress import (
 from hcss.platform.models.vocabularies import TrialStatus
 from hcss.questionnaires.probes import ScheduledProbe
 from hcss.simulation import Display, Simulation
+from hcss.simulation.messages import event_text
 from hcss.simulation.requests import StatusChange
+from hcss.tablespec.decisions import stored_decision
 
 if TYPE_CHECKING:
     from hcss.platform.live.leases import Fence
@@ -92,7 +107,7 @@ class RunningTrial:
         # What the simulation handed over (and the page was shown) that no commit has
         # written yet; the recorder writes it first, in order, when the database takes
         # writes again (hcss.platform.live.recorder.kept_until_written).
-        self._unwritten_events: list[dict[str, Any]] = []
+        self._unwritten_events: list[EventHappened] = []
         self._unwritten_status_changes: list[StatusChange] = []
         self._view_cache: tuple[int, Display, dict[str, Any], str] | None = None
 
@@ -150,9 +165,10 @@ class RunningTrial:
         """The trial is hosted under this lease (claimed for it); every write proves it."""
         self.fence = fence
 
-    def mark_ended(self, reason: str) -> None:
+    def mark_ended(self, reason: str) -> TrialEnded:
         """The trial is over for `reason`; call with `lock` held (streams wake on `touch`)."""
         self._ended, self._end_reason = True, reason
+        return TrialEnded(reason, self._sim.step_count)
 
     def reopen(self) -> None:
         """Undo `mark_ended` whose row was not committed (the recorder's rollback)."""
@@ -265,17 +281,29 @@ class RunningTrial:
         """`probe` (its row written) is on screen from the next frame on."""
         self._probes.put_on_screen(probe)
 
-    def probe_cleared(self) -> CurrentProbe | None:
-        """The probe on screen (returned, if any) timed out or the trial ended under it."""
-        return self._probes.taken_off_screen()
+    def probe_cleared(self) -> ProbeTimedOut | None:
+        """The probe on screen (if any) timed out or the trial ended under it, now."""
+        probe = self._probes.taken_off_screen()
+        if probe is None:
+            return None
+        return ProbeTimedOut(probe.id, self._sim.step_count, float(self._sim.time))
 
     def probe_answered(self, answer: str) -> None:
         """The probe on screen is answered; a level-3 answer waits for the next decision."""
         self._probes.answered(answer)
 
-    def projections_ended_by(self, end_s: float) -> list[Projection]:
-        """The level-3 probes asked before a decision that ended at `end_s`, to score now."""
-        return self._probes.projections_ended_by(end_s)
+    def projections_scored_by(self, decision: DecisionMade) -> list[ProjectionScored]:
+        """The level-3 probes asked before `decision` ended, scored by it now."""
+        return [
+            ProjectionScored(
+                probe_id,
+                answer,
+                decision.collective_name,
+                self._sim.step_count,
+                float(self._sim.time),
+            )
+            for probe_id, _shown_at, answer in self._probes.projections_ended_by(decision.end_s)
+        ]
 
     def probes_restored(
         self, shown: int, current: CurrentProbe | None, projections: list[Projection]
@@ -294,14 +322,25 @@ class RunningTrial:
         return self._log.last_snapshot_epoch
 
     @property
-    def unwritten_events(self) -> list[dict[str, Any]]:
+    def unwritten_events(self) -> list[EventHappened]:
         """The events handed over that no commit wrote yet, oldest first; read-only."""
         return self._unwritten_events
 
-    def events_handed_over(self, events: list[dict[str, Any]]) -> list[dict[str, Any]]:
-        """The simulation's new events wait to be written; returns those not written before
-        (a rebuild replays the steps of events written before the interruption)."""
-        fresh = [e for e in events if self._log.unwritten_event(float(e["time"]))]
+    def events_handed_over(self, events: list[dict[str, Any]]) -> list[EventHappened]:
+        """The simulation's new events (`Simulation.drain_events`) wait to be written; returns
+        those not written before (a rebuild replays the steps of events written before the
+        interruption), worded as the page shows them."""
+        fresh = [
+            EventHappened(
+                kind=str(e["kind"]),
+                collective=_int_or_none(e.get("collective")),
+                target=_int_or_none(e.get("target")),
+                text=event_text(e),
+                sim_time=float(e["time"]),
+            )
+            for e in events
+            if self._log.unwritten_event(float(e["time"]))
+        ]
         self._unwritten_events.extend(fresh)
         return fresh
 
@@ -309,19 +348,49 @@ class RunningTrial:
         """Every event up to sim `time` is in the unit of work that writes the log."""
         self._log.events_written_up_to(time)
 
-    def decisions_written(self, count: int) -> None:
-        """The simulation's first `count` decision records are in the unit of work."""
-        self._log.decisions_written(count)
+    def decisions_made(self) -> list[DecisionMade]:
+        """The simulation's decisions not yet written, counted written from now on.
 
-    def status_changes_to_write(self, handed_over: list[StatusChange]) -> list[StatusChange]:
+        Each record is checked against the decisions table's contract; who and
+        where (source, participant, trial, run) the export adds
+        (hcss.tablespec.decisions).
+        """
+        records = self._sim.decisions
+        made = []
+        for record in records[self._log.decisions :]:
+            row = stored_decision(record.as_row())
+            made.append(
+                DecisionMade(
+                    collective=int(record.collective),
+                    decision_index=int(row["decision_index"]),
+                    step=self._sim.step_count,
+                    correct=None if row.get("correct") is None else bool(row["correct"]),
+                    record=row,
+                )
+            )
+        self._log.decisions_written(len(records))
+        return made
+
+    def status_changes_to_write(
+        self, handed_over: list[StatusChange]
+    ) -> list[RequestStatusChanged]:
         """The request status changes the simulation handed over wait with the unwritten
         ones; returns those with no row yet, counted written from now on."""
         self._unwritten_status_changes.extend(handed_over)
-        return self._log.statuses_to_write(self._unwritten_status_changes)
+        return [
+            RequestStatusChanged(c.request_id, str(c.status), c.step, float(c.time))
+            for c in self._log.statuses_to_write(self._unwritten_status_changes)
+        ]
 
-    def snapshot_written(self, now: float) -> None:
-        """A snapshot is in the unit of work; the next is due a snapshot interval after `now`."""
+    def snapshot_taken(self, now: float) -> SnapshotTaken:
+        """A snapshot for the unit of work; the next is due a snapshot interval after `now`."""
         self._log.snapshot_written(now)
+        return SnapshotTaken(
+            step=self._sim.step_count,
+            sim_time=float(self._sim.time),
+            last_command_id=self._last_command_id,
+            blob=self._sim.snapshot(),
+        )
 
     def log_restored(
         self, last_event_time: float, decisions: int, request_statuses: set[tuple[int, str]]
@@ -422,3 +491,8 @@ class RunningTrial:
         }
         text = json.dumps(head, separators=(",", ":"))
         return text[:-1] + ',"view":' + self.view_json() + "}", last_seq
+
+
+def _int_or_none(value: Any) -> int | None:
+    """An event's integer field (numpy or Python), or None."""
+    return None if value is None else int(value)

@@ -1,0 +1,170 @@
+"""What a stream is made of: frames of the trial's state (Server-Sent Events), at least
+twice a second and at once on change; and the live service's reads for the participant's
+API: the stream (`open_stream`) and one frame for scripts that poll (`frame`). The participant's commands go through `door`.
+
+Each event's id is the newest System Message number it carries; EventSource
+sends it back as Last-Event-ID on reconnect, so no message is shown twice or
+lost across a dropped connection or a server restart.
+"""
+
+from __future__ import annotations
+
+import json
+import time as wallclock
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+
+from sqlalchemy import select
+
+from hcss.platform.db import Database
+from hcss.platform.live import trials
+from hcss.platform.live.actions import ActionError
+from hcss.platform.live.runner import Runner
+from hcss.platform.live.running_trial import RunningTrial
+from hcss.platform.live.stream_slots import StreamSlots, takeover_frame
+from hcss.platform.models import Participant, StudyEnrolment, Trial
+from hcss.platform.models.vocabularies import TrialStatus
+
+MIN_GAP_S = 0.05  # at most 20 frames a second per stream, even under acceleration
+
+
+def event_stream(
+    live: RunningTrial,
+    *,
+    after_seq: int,
+    interval_s: float,
+    max_s: float,
+    clock: Callable[[], float],
+    superseded: Callable[[], bool] = lambda: False,
+) -> Iterator[str]:
+    """Frames until the trial ends or `max_s` passes (then the browser reconnects).
+
+    When a newer stream of the same link takes over (`superseded`), this one
+    sends a ``takeover`` event and closes (see hcss.platform.live.stream_slots).
+    """
+    yield "retry: 1000\n\n"
+    stop_at = wallclock.monotonic() + max_s
+    sent_version = -1
+    last_sent = 0.0
+    due = wallclock.monotonic()  # when the next frame is due even if nothing changed
+    while True:
+        with live.changed:
+            if live.version == sent_version and not live.ended:
+                live.changed.wait(timeout=max(0.0, due - wallclock.monotonic()))
+            if superseded():
+                break
+            if live.moved:
+                return  # closed without an ending: the browser reconnects, to the host
+            text, after_seq = live.frame(clock(), after_seq)
+            sent_version, ended = live.version, live.ended
+        # Due one interval after the last frame was: a send that takes time (200
+        # streams under load) must not stretch the period beyond the interval.
+        made = wallclock.monotonic()
+        due = due + interval_s if made - interval_s < due <= made else made + interval_s
+        yield f"id: {after_seq}\ndata: {text}\n\n"
+        if ended or wallclock.monotonic() >= stop_at:
+            return
+        gap = MIN_GAP_S - (wallclock.monotonic() - last_sent)
+        last_sent = wallclock.monotonic()
+        if gap > 0:
+            wallclock.sleep(gap)
+    yield takeover_frame()
+
+
+def ended_stream(trial_id: int, duration_s: float, end_reason: str | None = None) -> Iterator[str]:
+    """For a trial no longer live: one frame saying so (and why, when known), then close."""
+    frame = {
+        "trial": {
+            "id": trial_id,
+            "status": TrialStatus.ENDED,
+            "clock_s": duration_s,
+            "end_reason": end_reason,
+        }
+    }
+    yield f"retry: 5000\ndata: {json.dumps(frame)}\n\n"
+
+
+def _running(runner: Runner, trial_id: int) -> RunningTrial:
+    """The trial hosted here for the participant's request (which asks it back if another
+    process holds it: nginx sends this participant here)."""
+    live = runner.host(trial_id, participant=True)
+    if live is None:
+        raise ActionError("the trial has ended", 409, "ended")
+    return live
+
+
+def frame(runner: Runner, trial_id: int) -> str:
+    """One frame of the stream as JSON text, for bots and scripts that poll."""
+    live = _running(runner, trial_id)
+    with live.lock:
+        text, _ = live.frame(runner.clock(), 0)
+    return text
+
+
+@dataclass(frozen=True)
+class Stream:
+    """A trial's Server-Sent Events: its frames, and what to do once the connection closes."""
+
+    frames: Iterator[str]
+    closed: Callable[[], None] = lambda: None
+
+
+def open_stream(
+    database: Database,
+    runner: Runner,
+    slots: StreamSlots,
+    trial: Trial,
+    *,
+    token: str,
+    client: str,
+    after_seq: int,
+    interval_s: float,
+    max_s: float,
+) -> Stream:
+    """The trial's stream from message `after_seq` on; one closing frame if it is not live.
+
+    A live trial's stream takes one of the server's `slots` (503 "busy" when
+    none is free, released when the connection closes) and wakes the link's
+    older stream, which sees it is superseded and hands over.
+    """
+    live = runner.host(trial.id, participant=True)
+    if live is None:
+        with database.session_scope() as session:
+            reason = trials.end_reason(session, trial.id)
+        return Stream(ended_stream(trial.id, trial.duration_s, reason))
+    ticket = slots.acquire(token, client, _study_of(database, trial.participant_id))
+    if ticket is None:
+        raise ActionError(
+            "the server has as many live streams as it can hold; retrying shortly",
+            503,
+            "busy",
+        )
+    with live.changed:
+        live.changed.notify_all()
+    frames = event_stream(
+        live,
+        after_seq=after_seq,
+        interval_s=interval_s,
+        max_s=max_s,
+        clock=runner.clock,
+        superseded=lambda: slots.superseded(ticket),
+    )
+    return Stream(frames, lambda: slots.release(ticket))
+
+
+def _study_of(database: Database, participant_id: int) -> str:
+    """The study the participant is enrolled in (else invited to; "" for neither), for the
+    stream's per-study share; a read-only unit of work before the stream starts."""
+    with database.session_scope() as session:
+        enrolled = session.scalar(
+            select(StudyEnrolment.study)
+            .where(StudyEnrolment.participant_id == participant_id)
+            .order_by(StudyEnrolment.id.desc())
+            .limit(1)
+        )
+        invited = None
+        if enrolled is None:
+            invited = session.scalar(
+                select(Participant.study).where(Participant.id == participant_id)
+            )
+    return enrolled or invited or ""
