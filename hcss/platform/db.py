@@ -66,9 +66,10 @@ STATEMENT_TIMEOUT_MS = 15_000
 #: Milliseconds a transaction may wait on its client between statements. A process stopped
 #: (SIGSTOP, a hung VM) or cut off in the middle of a unit of work keeps every row it
 #: locked, the trial's lease row first, until PostgreSQL ends its transaction; the next
-#: host's claim would wait on that lock. Half a lease: the row is free before the lease
-#: runs out. The server's units of work are a few statements apart by milliseconds.
-IDLE_IN_TRANSACTION_MS = 3_000
+#: host's claim would wait on that lock. Less than a lease, so the row is free before the
+#: lease runs out, and far above the milliseconds between a unit of work's statements
+#: (at 3 s, a healthy process starved of CPU by a loaded machine once met it).
+IDLE_IN_TRANSACTION_MS = 5_000
 
 
 class RequestHoldsWrites(RuntimeError):
