@@ -80,14 +80,22 @@ def test_one_recovery_code_in_ten_simultaneous_sign_ins_gives_one_session(
     _, codes = _enrol(app, monkeypatch)
     with serving(app) as base_url:
         statuses = _at_once(base_url, 10, lambda _: {"password": PASSWORD, "code": codes[0]})
-        # Two different codes spent at once: both sign in, neither comes back.
-        both = _at_once(
-            base_url, 2, lambda number: {"password": PASSWORD, "code": codes[1 + number]}
-        )
-        again = _at_once(base_url, 3, lambda number: {"password": PASSWORD, "code": codes[number]})
     assert statuses.count(302) == 1, statuses
+
+
+def test_two_recovery_codes_spent_at_once_both_sign_in_and_neither_comes_back(
+    app, experimenter, monkeypatch
+) -> None:
+    """Apart from the ten-at-once test: its nine refused repeats are wrong codes, and when
+    the one that signed in was counted before them they stay on the account's tally, so
+    with two codes more in flight the tenth code failure refuses one of these (seen once
+    in CI as [401, 302]); that is the limit working, not the single use under test."""
+    _, codes = _enrol(app, monkeypatch)
+    with serving(app) as base_url:
+        both = _at_once(base_url, 2, lambda number: {"password": PASSWORD, "code": codes[number]})
+        again = _at_once(base_url, 2, lambda number: {"password": PASSWORD, "code": codes[number]})
     assert both == [302, 302]
-    assert again == [401, 401, 401]
+    assert again == [401, 401]
 
 
 def test_a_wrong_password_costs_the_code_checks_a_right_one_costs(
