@@ -62,7 +62,7 @@ from sqlalchemy.engine import make_url
 
 from benchmarks.live import start_trials
 from benchmarks.pages import PageStream, close_pages, open_pages
-from benchmarks.relay import StallingRelay
+from benchmarks.relay import CutProxy
 from hcss.platform.cli import DEFAULT_THREADS, upgrade_database
 from hcss.platform.db import Database
 from hcss.platform.live.client import TrialClient
@@ -223,7 +223,7 @@ def fault_round(base: str, workdir: Path, fault: str) -> dict[str, Any]:
         victim_url = url
         if fault == "partition":
             parsed = make_url(url)
-            relay = StallingRelay(parsed.host or "127.0.0.1", parsed.port or 5432)
+            relay = CutProxy(parsed.host or "127.0.0.1", parsed.port or 5432)
             victim_url = parsed.set(host="127.0.0.1", port=relay.port).render_as_string(
                 hide_password=False
             )

@@ -297,8 +297,8 @@ def test_a_host_cut_off_from_the_database_writes_nothing_after_the_takeover(
 
     from sqlalchemy.engine import make_url
 
+    from benchmarks.relay import CutProxy
     from hcss.platform.models import DecisionRow, Observation, RequestStatusChange, SimEvent
-    from tests.support.cut_proxy import CutProxy
 
     if not database_url.startswith("postgresql"):
         pytest.skip("several server processes share PostgreSQL; SQLite serves one process")

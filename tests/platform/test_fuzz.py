@@ -180,8 +180,8 @@ def test_fuzz_during_a_postgresql_outage(caplog) -> None:
     from sqlalchemy import create_engine
     from sqlalchemy.engine import make_url
 
+    from benchmarks.relay import CutProxy
     from hcss.platform.serving.localserver import postgres_schema
-    from tests.support.cut_proxy import CutProxy
     from tests.support.databases import PG_ENV
 
     base = os.environ.get(PG_ENV)
