@@ -32,7 +32,7 @@ from hcss.platform.live.client import TrialClient
 from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.models import Interruption, TrialLease
 from hcss.platform.serving.localserver import LocalNginx, LocalServer
-from tests.support.leases import lease_owner, skip_unless_group
+from tests.support.leases import lease_owner, skip_unless_group, two_cluster_processes
 from tests.support.replays import trial_records
 from tests.support.trials import STUDY_TRIAL_S, csrf_token_of
 
@@ -195,16 +195,7 @@ def test_a_host_stopped_past_its_lease_writes_nothing_it_held_when_it_resumes(
         pytest.skip("several server processes share PostgreSQL; SQLite serves one process")
     upgrade_database(database_url)
     database = Database(database_url)
-    servers = [
-        LocalServer(
-            database_url,
-            tmp_path / name,
-            snapshot_interval_s=1.0,
-            serve_args=["--cluster"],
-            host=address,
-        )
-        for name, address in (("a", "127.0.0.2"), ("b", "127.0.0.3"))
-    ]
+    servers = two_cluster_processes(database_url, tmp_path)
     try:
         for server in servers:
             server.start(timeout_s=120)

@@ -41,7 +41,7 @@ from hcss.platform.live.runner import Runner
 from hcss.platform.live.trial_log import newest_snapshot
 from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.models import Interruption, Observation, TrialLease, TrialStatusChange
-from hcss.platform.serving.localserver import LocalNginx, LocalServer
+from hcss.platform.serving.localserver import LocalNginx
 from hcss.simulation import Simulation
 from tests.support.leases import (
     LEASE_S,
@@ -49,6 +49,7 @@ from tests.support.leases import (
     leased_process,
     skip_unless_group,
     start_trial_on,
+    two_cluster_processes,
 )
 from tests.support.replays import replay_trial
 from tests.support.trials import STUDY_TRIAL_S
@@ -223,17 +224,7 @@ def test_a_restarted_process_gets_its_participants_trials_back_and_the_detour_en
     database_url = skip_unless_group(database_url)
     upgrade_database(database_url)
     database = Database(database_url)
-    servers = [
-        LocalServer(
-            database_url,
-            tmp_path / name,
-            snapshot_interval_s=1.0,
-            serve_args=["--cluster"],
-            host=address,
-            extra_env={"HCSS_PROXY_HOPS": "1"},
-        )
-        for name, address in (("a", "127.0.0.2"), ("b", "127.0.0.3"))
-    ]
+    servers = two_cluster_processes(database_url, tmp_path, extra_env={"HCSS_PROXY_HOPS": "1"})
     addresses = [f"{s.host}:{s.port}" for s in servers]
     nginx = LocalNginx(addresses, tmp_path / "nginx", access_log=True)
     participants: list[_Participant] = []

@@ -17,7 +17,7 @@ from hcss.platform.db import Database
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.models import TrialLease
-from hcss.platform.serving.localserver import LocalNginx
+from hcss.platform.serving.localserver import LocalNginx, LocalServer
 
 LEASE_S = 6.0
 
@@ -58,3 +58,21 @@ def skip_unless_group(database_url: str) -> str:
 def lease_owner(database: Database, trial_id: int) -> str | None:
     with database.session_scope() as session:
         return session.scalar(select(TrialLease.owner).where(TrialLease.trial_id == trial_id))
+
+
+def two_cluster_processes(
+    database_url: str, tmp_path, extra_env: dict[str, str] | None = None
+) -> list[LocalServer]:
+    """Two `hcss serve --cluster` processes of one group (not started), on two loopback
+    addresses, snapshotting every second."""
+    return [
+        LocalServer(
+            database_url,
+            tmp_path / name,
+            snapshot_interval_s=1.0,
+            serve_args=["--cluster"],
+            host=address,
+            extra_env=extra_env,
+        )
+        for name, address in (("a", "127.0.0.2"), ("b", "127.0.0.3"))
+    ]
