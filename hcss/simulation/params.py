@@ -8,6 +8,7 @@ every value: the models differ only in their rules, never in their parameters.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from typing import Any
@@ -257,9 +258,16 @@ class Params:
         return self.quorum_k / self.message_rate
 
     def discovery_rate(self, distance_m: float | np.ndarray) -> float | np.ndarray:
-        """g(d) = μ·e^(ξ·d)/d per second, d in 100 m units (works on arrays)."""
+        """g(d) = μ·e^(ξ·d)/d per second, d in 100 m units (works on arrays).
+
+        The exponential is libm's (`math.exp`), not numpy's: numpy picks its float64 exp
+        by CPU (AVX-512 or not), and the two differ in the last bit for a few arguments,
+        which made one trial's state differ between two hosts (and a release's snapshot
+        fixtures fail on another machine). g is computed per hub move, on a few values.
+        """
         d = np.asarray(distance_m, dtype=float) / self.discovery_unit_m
-        return self.discovery_mu * np.exp(self.discovery_xi * d) / d
+        exp = np.asarray(np.frompyfunc(math.exp, 1, 1)(self.discovery_xi * d), dtype=float)
+        return self.discovery_mu * exp / d
 
     def discovery_wait_gap_s(self, distance_m: np.ndarray) -> np.ndarray:
         """M2's discovery wait gap, scale·(1/g(d_max) − 1/g(d)), at M2's distance d (already

@@ -237,8 +237,8 @@ def _draw_position(
     for _ in range(_MAX_DRAWS):
         distance = rng.choice(distances)
         bearing = rng.uniform(0.0, 2.0 * np.pi)
-        x = hub[0] + distance * np.cos(bearing)
-        y = hub[1] + distance * np.sin(bearing)
+        x = hub[0] + distance * math.cos(bearing)  # libm's: numpy's differs by CPU
+        y = hub[1] + distance * math.sin(bearing)
         if abs(x) > half or abs(y) > half:
             continue
         if np.min(np.hypot(others[:, 0] - x, others[:, 1] - y)) < params.min_separation_m:

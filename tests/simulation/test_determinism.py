@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import math
 import pickle
+import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -149,3 +152,34 @@ def test_a_snapshot_from_before_the_status_queue_restores_and_continues():
     assert old.state_digest() == sim.state_digest()
     # Its requests' earlier statuses may be queued again; the platform writes each once.
     assert {c.status for c in old.drain_status_changes()} <= {"in_progress", "completed", "removed"}
+
+
+def test_the_discovery_rate_is_the_same_bits_on_every_machine():
+    """g(d) and M2's wait gap are libm's exp, not numpy's: numpy picks its exp by CPU (an
+    AVX-512 machine's differs from libm in the last bit for about 5% of arguments), so a
+    trial rebuilt on another host, or a release's snapshot fixture replayed on another
+    machine, drifted from the stored state (test_snapshot_compat failed on an AMD EPYC
+    with AVX-512 against fixtures written on a machine without it)."""
+    params = Params()
+    distances = np.linspace(params.hub_radius_m, 1500.0, 20_001)
+    in_units = [float(d) / params.discovery_unit_m for d in distances]
+    with_libm = [params.discovery_mu * math.exp(params.discovery_xi * d) / d for d in in_units]
+    assert np.asarray(params.discovery_rate(distances)).tolist() == with_libm
+    assert params.discovery_rate(float(distances[7])) == with_libm[7]
+
+
+def test_the_model_calls_none_of_numpy_s_cpu_dispatched_transcendentals():
+    """The model's exp, sin and cos are libm's (`math`, or the compiled kernels' calls):
+    numpy's float64 exp, log, sin, cos, tan, arctan2 and power pick an implementation by
+    CPU, so a scenario's layout or a rate could differ between two hosts of one trial."""
+    import hcss.simulation
+
+    package = Path(hcss.simulation.__file__).parent
+    dispatched = re.compile(r"np\.(exp|expm1|log|log1p|log2|log10|sin|cos|tan|arctan2|power)\(")
+    found = [
+        f"{path.name}:{number}"
+        for path in sorted(package.glob("*.py"))
+        for number, line in enumerate(path.read_text().splitlines(), 1)
+        if dispatched.search(line)
+    ]
+    assert found == []
