@@ -32,6 +32,7 @@ the six digits cannot be guessed there.
 
 from __future__ import annotations
 
+import functools
 import json
 import secrets
 import time
@@ -121,7 +122,7 @@ def check_nothing(code: str) -> None:
     if typed.isascii() and typed.isdigit() and len(typed) == 6:
         pyotp.TOTP(_DUMMY_SECRET).verify(typed, valid_window=DRIFT_STEPS)
         return
-    _matching(_DUMMY_HASHES, typed)
+    _matching(_dummy_hashes(), typed)
 
 
 def _typed(code: str) -> str:
@@ -180,7 +181,7 @@ def _take_recovery(database: Database, account_id: int, typed: str) -> bool:
 def _matching(hashes: list[str], typed: str) -> str | None:
     """The hash `typed` matches, checking as many as a full list holds whatever the list."""
     found = None
-    padded = hashes + _DUMMY_HASHES[len(hashes) :]
+    padded = hashes + _dummy_hashes()[len(hashes) :]
     for number, stored in enumerate(padded):
         if password_matches(stored, typed) and number < len(hashes) and found is None:
             found = stored
@@ -194,4 +195,10 @@ def _recovery_code() -> str:
 
 
 _DUMMY_SECRET = pyotp.random_base32()
-_DUMMY_HASHES = [_recovery_hasher.hash(secrets.token_hex(5)) for _ in range(RECOVERY_CODES)]
+
+
+@functools.cache
+def _dummy_hashes() -> list[str]:
+    """The dummy factor's recovery hashes, made at the first code checked, not at import
+    (every `hcss` command and server start paid for ten argon2 hashes)."""
+    return [_recovery_hasher.hash(secrets.token_hex(5)) for _ in range(RECOVERY_CODES)]
