@@ -427,3 +427,25 @@ def test_a_pause_whose_commit_answer_is_lost_holds_the_trial(group, monkeypatch)
         )
     assert pauses == 1
     assert host is not None and host.paused_since is not None
+
+
+def test_a_command_refused_by_a_database_away_leaves_the_trial_hosted(group, monkeypatch) -> None:
+    """The database refuses the command's first statement (it is away): nothing can have been
+    committed, so nothing is asked and the trial in memory stays hosted, its probe as it was;
+    only a failed commit, which may have landed, is settled by asking."""
+    a, _b, clock = group
+    trial_id, live = _with_a_probe_open(a, clock)
+    probe_id = live.current_probe.id
+    dialect = a.database.engine.dialect
+
+    def away(*_args, **_kwargs):
+        raise dialect.loaded_dbapi.OperationalError("could not connect to server")
+
+    monkeypatch.setattr(dialect, "do_execute", away)
+    with pytest.raises(DBAPIError):
+        door.carry_out(a.database, a, door.ProbeReady(trial_id, probe_id))
+    monkeypatch.undo()
+    assert not live.moved and a.loaded(trial_id) is live
+    assert live.current_probe is not None and not live.current_probe.ready
+    again = door.carry_out(a.database, a, door.ProbeReady(trial_id, probe_id))
+    assert again.status == 200 and live.current_probe.ready

@@ -78,6 +78,7 @@ def submit_request(
         step, sim_time = sim.step_count, float(sim.time)
         applied = CommandApplied(command, sim.apply(command), step, sim_time, selections)
         row_id: int | None = None
+        committing = False
         try:
             with (
                 kept_until_written(live, simulation_restored=True),
@@ -86,8 +87,9 @@ def submit_request(
                 row_id = trial_writer.write_fact(session, live.trial_id, applied)
                 record_request_statuses(live, session)
                 answer = _answered(session, key, _request_answer(row_id, applied))
+                committing = True  # what fails from here on is the commit: it may have landed
         except DBAPIError:
-            if not was_stored(database, live, applied, row_id):
+            if not committing or not was_stored(database, live, applied, row_id):
                 live.roll_back_to(before)
                 raise
             answer = _request_answer(row_id, applied)  # the command is in the log: it stays
@@ -180,14 +182,17 @@ def _written(
 ) -> int | None:
     """Write `fact` (and `key` with the answer `answer_of(row id)`) in one fenced unit of work;
     the row's id. A failed commit is settled by asking the database (`was_stored`): raised
-    again unless the row is stored."""
+    again unless the row is stored. A failure before the commit was sent (the database away
+    at the first statement) wrote nothing, and nothing is asked."""
     row_id: int | None = None
+    committing = False
     try:
         with trial_transaction(database, live) as session:
             row_id = trial_writer.write_fact(session, live.trial_id, fact)
             _answered(session, key, answer_of(row_id), status)
+            committing = True  # what fails from here on is the commit: it may have landed
     except DBAPIError:
-        if not was_stored(database, live, fact, row_id):
+        if not committing or not was_stored(database, live, fact, row_id):
             raise
     return row_id
 

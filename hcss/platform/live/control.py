@@ -79,6 +79,7 @@ def control_trial(
         detail=None if live.ended else f"trial clock {live.clock(now):.1f} s",
     )
     row_id: int | None = None
+    committing = False
     try:
         with kept_until_written(live), trial_transaction(runner.database, live) as session:
             if not live.ended:
@@ -86,12 +87,13 @@ def control_trial(
             if order_id is not None:
                 mark_done(session, order_id, now, ENDED if live.ended else DONE)
             row_id = trial_writer.write_fact(session, live.trial_id, acted)
-            if not acted.on_trial:  # reached its time limit just now: the session's state
-                return ENDED  # still changes
-            if action == "abort":
+            if action == "abort" and acted.on_trial:
                 runner.end(live, session, "aborted", now)
+            committing = True  # what fails from here on is the commit: it may have landed
+        if not acted.on_trial:  # reached its time limit just now: the session's state
+            return ENDED  # still changes
     except DBAPIError:
-        if not was_stored(runner.database, live, acted, row_id):
+        if not committing or not was_stored(runner.database, live, acted, row_id):
             raise
         live.move_away()  # the log holds the action, the trial in memory does not: rebuilt
         return DONE if acted.on_trial else ENDED
