@@ -31,16 +31,14 @@ at a time.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from sqlalchemy import select
-from sqlalchemy.dialects.postgresql import insert as pg_insert
-from sqlalchemy.dialects.sqlite import insert as sqlite_insert
 from sqlalchemy.orm import Session
 
-from hcss.platform.db import session_now
+from hcss.platform.db import add_all_if_absent, add_if_absent
 from hcss.platform.live.facts import (
     CommandApplied,
     ConsoleActed,
@@ -73,7 +71,6 @@ from hcss.platform.models import (
     TrialProblem,
     TrialStatusChange,
 )
-from hcss.platform.models.base import Base
 from hcss.platform.models.vocabularies import RequestStatus, TrialStatus
 
 if TYPE_CHECKING:
@@ -193,33 +190,9 @@ def write_probe(session: Session, trial_id: int, probe_index: int, **fields: Any
     ).one()
 
 
-def write_events(session: Session, trial_id: int, events: Iterable[dict[str, Any]]) -> None:
-    """System Message events (kind, collective, target, text, sim_time); each once."""
-    add_all_if_absent(session, [SimEvent(trial_id=trial_id, **event) for event in events])
-
-
 def write_decision(session: Session, trial_id: int, **fields: Any) -> bool:
     """A collective decision's record; once per collective and index."""
     return add_if_absent(session, DecisionRow(trial_id=trial_id, **fields))
-
-
-def write_request_statuses(
-    session: Session, trial_id: int, changes: Iterable[tuple[int, str, int, float]]
-) -> None:
-    """(request, status, step, time) of each status change; each once."""
-    add_all_if_absent(
-        session,
-        [
-            RequestStatusChange(
-                trial_id=trial_id,
-                request_id=request_id,
-                status=RequestStatus(status),
-                step=step,
-                sim_time=sim_time,
-            )
-            for request_id, status, step, sim_time in changes
-        ],
-    )
 
 
 def write_facts(session: Session, trial_id: int, facts: Iterable[Fact]) -> None:
@@ -408,62 +381,35 @@ def _write_log_fact(
 
 
 def _write_events(session: Session, trial_id: int, events: list[EventHappened]) -> None:
-    write_events(
+    """System Message events, in one statement; each once (kind, time and text are its key)."""
+    add_all_if_absent(
         session,
-        trial_id,
-        (
-            {
-                "kind": event.kind,
-                "collective": event.collective,
-                "target": event.target,
-                "text": event.text[:300],
-                "sim_time": event.sim_time,
-            }
-            for event in events
-        ),
+        [
+            SimEvent(
+                trial_id=trial_id,
+                kind=e.kind,
+                collective=e.collective,
+                target=e.target,
+                text=e.text[:300],
+                sim_time=e.sim_time,
+            )
+            for e in events
+        ],
     )
 
 
 def _write_statuses(session: Session, trial_id: int, changes: list[RequestStatusChanged]) -> None:
-    write_request_statuses(
-        session, trial_id, [(c.request_id, c.status, c.step, c.sim_time) for c in changes]
+    """Request status changes, in one statement; each once (request and status are its key)."""
+    add_all_if_absent(
+        session,
+        [
+            RequestStatusChange(
+                trial_id=trial_id,
+                request_id=c.request_id,
+                status=RequestStatus(c.status),
+                step=c.step,
+                sim_time=c.sim_time,
+            )
+            for c in changes
+        ],
     )
-
-
-def add_if_absent(session: Session, row: Base) -> bool:
-    """Insert `row` now unless its unique key is stored; True (and `row.id` set) if inserted."""
-    inserted = _insert(session, [row])
-    if not inserted:
-        return False
-    row.id = inserted[0]  # type: ignore[attr-defined]
-    return True
-
-
-def add_all_if_absent(session: Session, rows: Sequence[Base]) -> int:
-    """Insert every row of one model whose key is not stored, in one statement; how many were."""
-    return len(_insert(session, rows)) if rows else 0
-
-
-def _insert(session: Session, rows: Sequence[Base]) -> list[int]:
-    model = type(rows[0])
-    table = model.__table__
-    now = session_now(session)
-    values = [_values(row, table, now) for row in rows]
-    insert = pg_insert if session.get_bind().dialect.name == "postgresql" else sqlite_insert
-    statement = insert(model).values(values).on_conflict_do_nothing().returning(table.c.id)
-    return list(session.scalars(statement))
-
-
-def _values(row: Base, table: Any, now: Any) -> dict[str, Any]:
-    """The row's columns as an INSERT's values: unset ones take the column's default."""
-    values: dict[str, Any] = {}
-    for column in table.columns:
-        if column.key == "id":
-            continue
-        value = getattr(row, column.key)
-        if value is None and column.key == "created_at":
-            value = now
-        elif value is None and column.default is not None and column.default.is_scalar:
-            value = column.default.arg
-        values[column.key] = value
-    return values
