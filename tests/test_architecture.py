@@ -370,7 +370,7 @@ STATE_MODULES = (
     "hcss/platform/live/clock.py",
     "hcss/platform/live/progress.py",
 )
-STATE_CLASSES = {"RunningTrial", "TrialClock", "ProbeSchedule", "LogCursors"}
+STATE_CLASSES = {"RunningTrial", "TrialClock", "ProbeSchedule", "LogCursors", "LogQueue"}
 
 #: Methods of list, set and dict that change the container.
 MUTATORS = {

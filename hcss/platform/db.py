@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import functools
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from datetime import UTC, datetime
 from pathlib import Path
@@ -31,6 +31,8 @@ from typing import Any
 
 from flask import Flask, current_app, g, has_app_context
 from sqlalchemy import Engine, create_engine, event
+from sqlalchemy.dialects.postgresql import insert as pg_insert
+from sqlalchemy.dialects.sqlite import insert as sqlite_insert
 from sqlalchemy.orm import ORMExecuteState, Session, sessionmaker
 
 from hcss.platform import sqlite_recovery
@@ -316,6 +318,50 @@ def database() -> Database:
 def session_now(session: Session) -> datetime:
     """The clock of the `Database` whose session this is (see the module docstring)."""
     return session.info["database"].now()
+
+
+# --- insert if absent: a row whose unique key is stored is skipped, not an error -----------
+# (the trial log's writer, hcss.platform.live.trial_writer, stores each row of a trial once
+# this way, whether a retry or a second writer races it)
+
+
+def add_if_absent(session: Session, row: Base) -> bool:
+    """Insert `row` now unless its unique key is stored; True (and `row.id` set) if inserted."""
+    inserted = _insert(session, [row])
+    if not inserted:
+        return False
+    row.id = inserted[0]  # type: ignore[attr-defined]
+    return True
+
+
+def add_all_if_absent(session: Session, rows: Sequence[Base]) -> int:
+    """Insert every row of one model whose key is not stored, in one statement; how many were."""
+    return len(_insert(session, rows)) if rows else 0
+
+
+def _insert(session: Session, rows: Sequence[Base]) -> list[int]:
+    model = type(rows[0])
+    table = model.__table__
+    now = session_now(session)
+    values = [_values(row, table, now) for row in rows]
+    insert = pg_insert if session.get_bind().dialect.name == "postgresql" else sqlite_insert
+    statement = insert(model).values(values).on_conflict_do_nothing().returning(table.c.id)
+    return list(session.scalars(statement))
+
+
+def _values(row: Base, table: Any, now: Any) -> dict[str, Any]:
+    """The row's columns as an INSERT's values: unset ones take the column's default."""
+    values: dict[str, Any] = {}
+    for column in table.columns:
+        if column.key == "id":
+            continue
+        value = getattr(row, column.key)
+        if value is None and column.key == "created_at":
+            value = now
+        elif value is None and column.default is not None and column.default.is_scalar:
+            value = column.default.arg
+        values[column.key] = value
+    return values
 
 
 def get_session() -> Session:

@@ -14,11 +14,20 @@ from sqlalchemy import func, select
 from sqlalchemy.exc import DBAPIError
 
 from hcss.platform.bots.participant import ManualClock
-from hcss.platform.live import actions
+from hcss.platform.live import actions, door
 from hcss.platform.live.leases import UNCLAIMED_GRACE_S
 from hcss.platform.live.runner import Runner
+from hcss.platform.live.trial_writer import KeyedCommand
 from hcss.platform.live.trials import latest_status, start_bot_trial
-from hcss.platform.models import Command, CommandOutcome, Interruption, SimEvent, TrialProblem
+from hcss.platform.models import (
+    Command,
+    CommandOutcome,
+    ConsoleAction,
+    Interruption,
+    ProbeEvent,
+    SimEvent,
+    TrialProblem,
+)
 from hcss.simulation import OperatorCommand
 from tests.support.leases import leased_process
 
@@ -288,3 +297,155 @@ def test_a_command_nobody_can_say_was_committed_is_settled_by_a_rebuild(group, m
         logged = session.scalars(select(Command.id).where(Command.trial_id == trial_id)).all()
     assert len(logged) == 1
     assert rebuilt.sim.commands_applied == 1 and rebuilt.last_command_id == logged[0]
+
+
+def _answer_lost_after_writing(database, model, monkeypatch) -> None:
+    """The next commit of a transaction that inserted a `model` row reaches the database and
+    commits, and its answer never arrives: the driver raises as for a lost line."""
+    from sqlalchemy import event
+
+    dialect = database.engine.dialect
+    commit = dialect.do_commit
+    insert = f"INSERT INTO {model.__tablename__} "
+    wrote: set[int] = set()
+    left = [1]
+
+    def executed(_conn, cursor, statement, *_args) -> None:
+        if statement.lstrip().upper().startswith(insert.upper()):
+            wrote.add(id(cursor.connection))
+
+    def lost(dbapi_connection) -> None:
+        commit(dbapi_connection)
+        raw = id(getattr(dbapi_connection, "dbapi_connection", dbapi_connection))  # a pool's proxy
+        if raw in wrote and left[0] > 0:
+            left[0] -= 1
+            raise dialect.loaded_dbapi.OperationalError("server closed the connection")
+        wrote.discard(raw)
+
+    event.listen(database.engine, "before_cursor_execute", executed)  # the fixture's engine
+    monkeypatch.setattr(dialect, "do_commit", lost)
+
+
+def _with_a_probe_open(runner: Runner, clock) -> tuple[int, object]:
+    """A new trial hosted by `runner`, ticked until its first probe is on screen."""
+    trial_id = _start(runner)
+    live = runner.host(trial_id)
+    assert live is not None
+    for _ in range(400):
+        clock.now += 1.0
+        runner.tick()
+        if live.current_probe is not None:
+            return trial_id, live
+    raise AssertionError("no probe within 400 s")
+
+
+def _key(trial_id: int, key: str, endpoint: str) -> KeyedCommand:
+    return KeyedCommand(trial_id=trial_id, key=key, endpoint=endpoint, fingerprint=key)
+
+
+def test_a_ready_press_whose_commit_answer_is_lost_shows_the_question(group, monkeypatch) -> None:
+    """The Ready press committed (its event and its key are stored) but its answer was lost.
+    The trial in memory must say what the log says: the question is shown, so the answer
+    that follows is taken (before, the probe stayed "not ready" in memory while the log
+    held the press, and every answer was refused 409 until the probe timed out)."""
+    a, _b, clock = group
+    trial_id, live = _with_a_probe_open(a, clock)
+    probe_id = live.current_probe.id
+    ready = door.ProbeReady(trial_id, probe_id)
+    _answer_lost_after_writing(a.database, ProbeEvent, monkeypatch)
+    with suppress(DBAPIError):
+        door.carry_out(a.database, a, ready, _key(trial_id, "ready-0001", "ready"))
+    monkeypatch.undo()
+    again = door.carry_out(a.database, a, ready, _key(trial_id, "ready-0001", "ready"))
+    assert again.status == 200, again
+    clock.now += 0.5
+    a.tick()
+    host = a.host(trial_id)
+    assert host is not None and host.current_probe is not None
+    choice = host.current_probe.choices[0]
+    answered = door.carry_out(
+        a.database, a, door.ProbeAnswer(trial_id, probe_id, {"answer": choice})
+    )
+    assert answered.status == 200, answered
+
+
+def test_a_probe_answer_whose_commit_answer_is_lost_is_not_also_timed_out(
+    group, monkeypatch
+) -> None:
+    """The answer committed, its answer lost: the probe leaves the screen as the log says,
+    and no time-out is written for an answered probe (before, the probe stayed open in
+    memory and its time-out was stored beside the answer)."""
+    a, _b, clock = group
+    trial_id, live = _with_a_probe_open(a, clock)
+    probe_id = live.current_probe.id
+    choice = live.current_probe.choices[0]
+    door.carry_out(a.database, a, door.ProbeReady(trial_id, probe_id))
+    answer = door.ProbeAnswer(trial_id, probe_id, {"answer": choice})
+    _answer_lost_after_writing(a.database, ProbeEvent, monkeypatch)
+    with suppress(DBAPIError):
+        door.carry_out(a.database, a, answer, _key(trial_id, "answer-0001", "answer"))
+    monkeypatch.undo()
+    for _ in range(40):  # past the probe's time-out
+        clock.now += 1.0
+        a.tick()
+    with a.database.session_scope() as session:
+        kinds = session.scalars(
+            select(ProbeEvent.kind).where(ProbeEvent.probe_id == probe_id).order_by(ProbeEvent.id)
+        ).all()
+    assert "answer" in kinds and "timeout" not in kinds, kinds
+
+
+def test_a_pause_whose_commit_answer_is_lost_holds_the_trial(group, monkeypatch) -> None:
+    """The console's pause committed, its answer lost: the action log says paused, so the
+    trial must not run on (before, the trial in memory ran on while the log held the pause;
+    the experimenter's retry then wrote a second pause, and a rebuild stopped its clock at
+    the first)."""
+    from hcss.platform.live.service import control_session_trial
+    from hcss.platform.models import Trial
+
+    a, _b, clock = group
+    trial_id, _live = _hosted_for_20_s(a, clock)
+    with a.database.session_scope() as session:
+        participant_id = session.get(Trial, trial_id).participant_id
+
+    def pause() -> None:
+        control_session_trial(
+            a.database, a, trial_id, "pause", participant_id=participant_id, experimenter_id=None
+        )
+
+    _answer_lost_after_writing(a.database, ConsoleAction, monkeypatch)
+    with suppress(DBAPIError):
+        pause()
+    monkeypatch.undo()
+    clock.now += 1.0
+    a.tick()
+    pause()  # the experimenter's retry
+    host = a.host(trial_id)
+    with a.database.session_scope() as session:
+        pauses = session.scalar(
+            select(func.count()).select_from(ConsoleAction).where(ConsoleAction.action == "pause")
+        )
+    assert pauses == 1
+    assert host is not None and host.paused_since is not None
+
+
+def test_a_command_refused_by_a_database_away_leaves_the_trial_hosted(group, monkeypatch) -> None:
+    """The database refuses the command's first statement (it is away): nothing can have been
+    committed, so nothing is asked and the trial in memory stays hosted, its probe as it was;
+    only a failed commit, which may have landed, is settled by asking."""
+    a, _b, clock = group
+    trial_id, live = _with_a_probe_open(a, clock)
+    probe_id = live.current_probe.id
+    dialect = a.database.engine.dialect
+
+    def away(*_args, **_kwargs):
+        raise dialect.loaded_dbapi.OperationalError("could not connect to server")
+
+    monkeypatch.setattr(dialect, "do_execute", away)
+    with pytest.raises(DBAPIError):
+        door.carry_out(a.database, a, door.ProbeReady(trial_id, probe_id))
+    monkeypatch.undo()
+    assert not live.moved and a.loaded(trial_id) is live
+    assert live.current_probe is not None and not live.current_probe.ready
+    again = door.carry_out(a.database, a, door.ProbeReady(trial_id, probe_id))
+    assert again.status == 200 and live.current_probe.ready

@@ -8,8 +8,11 @@ leases (the fencing protocol) and the console's order mailbox only by the
 orders. No import graph sees who writes a table, so `_all_writes` reads
 the syntax trees of the whole package: a row is written where it is built
 (`SimEvent(...)`, `Command.applied(...)`), inserted, updated or deleted
-(`insert(Probe)`, `update(TrialOrder)`, `pg_insert(...)`), or named in raw
-SQL (``DELETE FROM sim_event``). Planted writes must be found; a read must not be.
+(`insert(Probe)`, `update(TrialOrder)`, `pg_insert(...)`), named in raw
+SQL (``DELETE FROM sim_event``), changed in place after it was loaded
+(`probe = session.get(Probe, i)` then `probe.truth = ...`: the session's
+flush writes it), or deleted or merged through the session (in the live
+wing, whatever its model). Planted writes must be found; a read must not be.
 The console's withdrawal deletes every table's rows of one participant
 through the table objects of the metadata (audited, under a deletion permit)
 and is not a writer of a trial's log in this sense.
@@ -59,6 +62,8 @@ SKIPPED = ("hcss/platform/models/", "hcss/platform/migrations/")
 
 
 def _allowed(model: str, module: str) -> bool:
+    if model not in MODELS:  # a row deleted or merged whose model the syntax does not say
+        return module == WRITER or not module.startswith("hcss/platform/live/")
     if model in OWNED:
         return module == OWNED[model]
     if model in LIVE_ONLY and not module.startswith(LIVE_ONLY[model]):
@@ -107,6 +112,60 @@ def _writes(node: ast.AST, names: dict[str, str]) -> list[tuple[str, str]]:
     return []
 
 
+def _loaded_rows(tree: ast.Module, names: dict[str, str]) -> dict[str, str]:
+    """Local names bound to a row loaded from the database: `row = session.get(Probe, i)`,
+    `row = session.scalars(select(Probe)...).one()`; name -> model."""
+    loaded = {}
+    for node in ast.walk(tree):
+        if not (isinstance(node, ast.Assign) and isinstance(node.value, ast.Call)):
+            continue
+        model = None
+        for inner in ast.walk(node.value):
+            if not (isinstance(inner, ast.Call) and inner.args):
+                continue
+            if (
+                getattr(inner.func, "attr", "") in ("get", "merge")  # session.get(Probe, i)
+                or getattr(inner.func, "id", "") == "select"  # select(Probe)...
+            ):
+                model = _named_model(inner.args[0], names)
+            if model is not None:
+                break
+        if model is not None:
+            for target in node.targets:
+                if isinstance(target, ast.Name):
+                    loaded[target.id] = model
+    return loaded
+
+
+def _row_writes(node: ast.AST, loaded: dict[str, str]) -> list[tuple[str, str]]:
+    """(model, how) of a loaded row changed in place (the session flushes it as an UPDATE), or
+    any row deleted or merged through the session: the writes no constructor shows."""
+    targets: list[ast.expr] = []
+    if isinstance(node, ast.Assign):
+        targets = node.targets
+    elif isinstance(node, ast.AugAssign | ast.AnnAssign):
+        targets = [node.target]
+    for target in targets:
+        if (
+            isinstance(target, ast.Attribute)
+            and isinstance(target.value, ast.Name)
+            and target.value.id in loaded
+        ):
+            return [(loaded[target.value.id], f"changes a loaded row's .{target.attr}")]
+    if (
+        isinstance(node, ast.Call)
+        and isinstance(node.func, ast.Attribute)
+        and node.func.attr in ("delete", "merge")
+        and isinstance(node.func.value, ast.Name)
+        and node.func.value.id == "session"
+        and node.args
+    ):
+        arg = node.args[0]
+        model = loaded.get(arg.id, "") if isinstance(arg, ast.Name) else ""
+        return [(model or "a row", f"session.{node.func.attr}")]
+    return []
+
+
 #: (module, line, model, how)
 Write = tuple[str, int, str, str]
 
@@ -120,8 +179,9 @@ def _all_writes(root: Path) -> list[Write]:
             continue
         tree = ast.parse(path.read_text())
         names = _model_names(tree)
+        loaded = _loaded_rows(tree, names)
         for node in ast.walk(tree):
-            for model, how in _writes(node, names):
+            for model, how in [*_writes(node, names), *_row_writes(node, loaded)]:
                 found.append((module, getattr(node, "lineno", 0), model, how))
     return found
 
@@ -196,14 +256,39 @@ PLANTS = [
         "def _planted():\n    return ConsoleAction(action='pause')",
         "builds ConsoleAction",
     ),
+    (  # a participant's request written by the action, as before the facts
+        "hcss/platform/live/actions.py",
+        "def _planted(session, c, o):\n    session.add(Command.applied(1, c, o, step=0, sim_time=0))",
+        "builds with .applied Command",
+    ),
+    (  # a loaded row changed in place: the session's flush writes it
+        "hcss/platform/live/control.py",
+        "def _planted(session):\n    trial = session.get(Trial, 1)\n    trial.duration_s = 0.0",
+        "changes a loaded row's .duration_s Trial",
+    ),
+    (  # ... found by a query
+        "hcss/platform/live/door.py",
+        "def _planted(session):\n"
+        "    probe = session.scalars(select(Probe).where(Probe.id == 1)).one()\n"
+        "    probe.truth += 'x'",
+        "changes a loaded row's .truth Probe",
+    ),
+    (  # a row deleted through the session, whatever its model
+        "hcss/platform/live/rebuild.py",
+        "def _planted(session, row):\n    session.delete(row)",
+        "session.delete a row",
+    ),
 ]
 
 
-#: A read of a trial's rows (select, filter, join), planted too: the check must not cry wolf.
+#: A read of a trial's rows (select, filter, join, a loaded row's fields), planted too: the
+#: check must not cry wolf.
 READ = (
     "hcss/platform/live/frames.py",
     "def _planted(session):\n"
-    "    return session.scalars(select(SimEvent).where(SimEvent.trial_id.in_([1])))",
+    "    trial = session.get(Trial, 1)\n"
+    "    seconds = trial.duration_s\n"
+    "    return seconds, session.scalars(select(SimEvent).where(SimEvent.trial_id.in_([1])))",
 )
 
 

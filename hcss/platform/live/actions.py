@@ -1,19 +1,29 @@
-"""What the participant does in a trial: requests, clicks and probe answers.
+"""What the participant does in a trial: requests, clicks and probe answers, applied and written.
 
-Each action takes the trial's lock, so it lands between two steps. A request
-(an `OperatorCommand`, checked by `validation.parse_request`) is applied to
-the simulation, and the command, its outcome and the request statuses it
-caused are written in one transaction: everything the rows say (support,
-decision index, intervention) is the simulation's `RequestOutcome`. Should
-that transaction fail, the simulation is put back as it was before the
-command, so the log (what a rebuild replays) and the trial in memory never
-disagree.
+The live service's door (hcss.platform.live.door) finds the trial, takes its
+lock and checks that the command may apply now (the trial runs, the probe is
+open); these functions are its apply-and-write step. Each says what happened
+as a typed fact (`live.facts`: `CommandApplied`, `ObservationMade`,
+`ProbeReadyPressed`, `ProbeAnswered`), which the trial log's writer turns
+into rows in one fenced unit of work (`trial_writer.write_fact`), with the
+command's idempotency key and its answer when one was sent: the command and
+its key are committed together or not at all, so a retry after a crash or a
+failed write can never carry the command out twice.
 
-An action sent with an idempotency key gets the key as a value
-(`trial_writer.KeyedCommand`, which the live service hands down) and stores it, with the answer
-it gives, in the same transaction as what it records: the command and its key
-are committed together or not at all, so a retry after a crash or a failed
-write can never carry the command out twice.
+A request (an `OperatorCommand`, checked by `validation.parse_request`) is
+applied to the simulation before it is written: everything the rows say
+(support, decision index, intervention) is the simulation's `RequestOutcome`.
+The rest moves the trial in memory only once its rows are committed.
+
+A commit that fails may have landed, its answer lost (a dropped line, a
+failover): the database is asked whether the command's row is stored
+(`trial_writer.stored`), not guessed at. Stored: the trial in memory moves
+on as the log says (a request stays applied; a probe's press or answer is
+taken) and the command's answer is given. Not stored: nothing moved (a
+request's simulation is put back). Nobody can say (the database is still
+away): the trial in memory is not trusted any longer; it is marked moved,
+the runner drops it, and the next request rebuilds it from what the database
+holds.
 """
 
 from __future__ import annotations
@@ -26,16 +36,20 @@ from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
 from hcss.platform.live import trial_writer
+from hcss.platform.live.facts import (
+    CommandApplied,
+    Fact,
+    ObservationMade,
+    ProbeAnswered,
+    ProbeReadyPressed,
+)
 from hcss.platform.live.leases import trial_transaction
+from hcss.platform.live.progress import CurrentProbe
 from hcss.platform.live.recorder import kept_until_written, record_request_statuses
 from hcss.platform.live.running_trial import RunningTrial
 from hcss.platform.live.trial_log import command_message
 from hcss.platform.live.trial_writer import KeyedCommand
-from hcss.platform.models import (
-    Command,
-)
 from hcss.simulation import OperatorCommand
-from hcss.simulation.requests import RequestOutcome
 
 log = logging.getLogger(__name__)
 
@@ -59,48 +73,38 @@ def submit_request(
 ) -> dict[str, Any]:
     """Apply `command` and log it with its outcome; the answer the participant's page gets."""
     with live.lock:
-        _require_running(live)
         sim = live.sim
-        step, sim_time = sim.step_count, float(sim.time)
         before = sim.snapshot()
-        outcome = sim.apply(command)
-        row: Command | None = None
+        step, sim_time = sim.step_count, float(sim.time)
+        applied = CommandApplied(command, sim.apply(command), step, sim_time, selections)
+        row_id: int | None = None
+        committing = False
         try:
             with (
                 kept_until_written(live, simulation_restored=True),
                 trial_transaction(database, live) as session,
             ):
-                row = trial_writer.write_command(
-                    session,
-                    live.trial_id,
-                    command,
-                    outcome,
-                    step=step,
-                    sim_time=sim_time,
-                    selections=selections,
-                )
+                row_id = trial_writer.write_fact(session, live.trial_id, applied)
                 record_request_statuses(live, session)
-                answer = _answered(session, key, _committed_answer(row, outcome, step))
+                answer = _answered(session, key, _request_answer(row_id, applied))
+                committing = True  # what fails from here on is the commit: it may have landed
         except DBAPIError:
-            committed = None if row is None else _was_committed(database, row)
-            if row is None or not committed:
+            if not committing or not was_stored(database, live, applied, row_id):
                 live.roll_back_to(before)
-                if committed is None and row is not None:
-                    # Nobody can say whether the command is logged: the trial in memory is
-                    # not trusted any longer; the runner drops it and the next request
-                    # rebuilds it from what the database holds.
-                    live.move_away()
                 raise
-            # The commit's answer was lost after the database committed (a dropped line, a
-            # failover): the command is in the log, so it stays applied in memory too.
-            log.warning("trial %s: command %s committed, its answer lost", live.trial_id, row.id)
-            answer = _committed_answer(row, outcome, step)
+            answer = _request_answer(row_id, applied)  # the command is in the log: it stays
         except BaseException:
             live.roll_back_to(before)
             raise
-        live.command_applied(row.id)
+        assert row_id is not None  # stored
+        live.command_applied(row_id)
+        outcome = applied.outcome
         kind, text = command_message(
-            row, outcome.accepted, outcome.request_id, outcome.reason, sim.scenario.n_collectives
+            applied,
+            outcome.accepted,
+            outcome.request_id,
+            outcome.reason,
+            sim.scenario.n_collectives,
         )
         live.add_message(sim_time, kind, text)
         live.touch()
@@ -119,121 +123,105 @@ def record_observation(
 ) -> dict[str, Any]:
     """A click on the map; the answer is the observation's id (201 Created)."""
     with live.lock:
-        _require_running(live)
-        display = live.display()
-        if kind == "collective":
-            if collective is None or not 0 <= collective < display.n_collectives:
-                raise ActionError("a collective observation needs a collective on the map")
-        elif target is None or display.column(target) is None:
-            raise ActionError("a target observation needs a visible target")
-        with trial_transaction(database, live) as session:
-            observation_id = trial_writer.write_observation(
-                session,
-                live.trial_id,
-                kind=kind,
-                collective=collective,
-                target=target,
-                button=button,
-                step=live.sim.step_count,
-                sim_time=float(live.sim.time),
-            )
-            return _answered(session, key, {"observation_id": observation_id}, status=201)
+        made = ObservationMade(kind, collective, target, button, **_when(live))
+        row_id = _written(database, live, made, key, lambda i: {"observation_id": i}, status=201)
+        return {"observation_id": row_id}
 
 
 def probe_ready(
     database: Database,
     live: RunningTrial,
-    probe_id: int,
+    probe: CurrentProbe,
     now: float | None = None,
     key: KeyedCommand | None = None,
 ) -> dict[str, Any]:
-    """The Ready press; `now` (the runner's wall clock) times it from the prompt's delivery."""
+    """The Ready press on the open `probe`; `now` (the runner's wall clock) times it from the
+    prompt's delivery."""
     with live.lock:
-        probe = _current_probe(live, probe_id)
-        if probe.ready:
-            raise ActionError("this probe's question is already shown", 409, "already_ready")
         running_s = None if now is None else live.running_wall_s(now)
-        with trial_transaction(database, live) as session:
-            trial_writer.write_probe_event(
-                session,
-                probe_id,
-                "ready",
-                latency_ms=_latency_ms(probe.delivered_s, running_s),
-                **_when(live),
-            )
-            answer = _answered(session, key, {"ok": True})
+        pressed = ProbeReadyPressed(
+            probe.id, _latency_ms(probe.delivered_s, running_s), **_when(live)
+        )
+        _written(database, live, pressed, key, lambda _i: {"ok": True})
         probe.ready_pressed(running_s)
         live.touch()
-        return answer
+        return {"ok": True}
 
 
 def probe_answer(
     database: Database,
     live: RunningTrial,
-    probe_id: int,
+    probe: CurrentProbe,
     answer: str,
     now: float | None = None,
     key: KeyedCommand | None = None,
 ) -> dict[str, Any]:
-    """The answer; timed from the question's delivery (or the Ready press, if never sent)."""
+    """The answer to the open `probe`; timed from the question's delivery (or the Ready press,
+    if never sent)."""
     with live.lock:
-        probe = _current_probe(live, probe_id)
-        if not probe.ready:
-            raise ActionError("press ready before answering", 409, "not_ready")
-        if answer not in probe.choices:
-            raise ActionError(f"{answer!r} is not one of the choices {probe.choices}")
-        correct = None if probe.truth is None else answer == probe.truth
         running_s = None if now is None else live.running_wall_s(now)
         asked_s = (
             probe.question_delivered_s if probe.question_delivered_s is not None else probe.ready_s
         )
-        with trial_transaction(database, live) as session:
-            trial_writer.write_probe_event(
-                session,
-                probe_id,
-                "answer",
-                answer=answer,
-                latency_ms=_latency_ms(asked_s, running_s),
-                **_when(live),
-            )
-            if probe.truth is not None:
-                trial_writer.write_probe_event(
-                    session,
-                    probe_id,
-                    "scored",
-                    answer=answer,
-                    truth=probe.truth,
-                    correct=correct,
-                    **_when(live),
-                )
-            reply = _answered(session, key, {"ok": True})
+        answered = ProbeAnswered(
+            probe.id, answer, probe.truth, _latency_ms(asked_s, running_s), **_when(live)
+        )
+        _written(database, live, answered, key, lambda _i: {"ok": True})
         live.probe_answered(answer)
         live.touch()
-        return reply
+        return {"ok": True}
 
 
-def _was_committed(database: Database, row: Command) -> bool | None:
-    """Whether the command's row is in the database after its commit failed: asked, not
-    guessed. None: the database cannot say (it is still away).
+def _written(
+    database: Database,
+    live: RunningTrial,
+    fact: Fact,
+    key: KeyedCommand | None,
+    answer_of: Any,
+    status: int = 200,
+) -> int | None:
+    """Write `fact` (and `key` with the answer `answer_of(row id)`) in one fenced unit of work;
+    the row's id. A failed commit is settled by asking the database (`was_stored`): raised
+    again unless the row is stored. A failure before the commit was sent (the database away
+    at the first statement) wrote nothing, and nothing is asked."""
+    row_id: int | None = None
+    committing = False
+    try:
+        with trial_transaction(database, live) as session:
+            row_id = trial_writer.write_fact(session, live.trial_id, fact)
+            _answered(session, key, answer_of(row_id), status)
+            committing = True  # what fails from here on is the commit: it may have landed
+    except DBAPIError:
+        if not committing or not was_stored(database, live, fact, row_id):
+            raise
+    return row_id
 
-    A row flushed before the failed commit has its id; the database says whether
-    the transaction that wrote it committed.
-    """
+
+def was_stored(database: Database, live: RunningTrial, fact: Fact, row_id: int | None) -> bool:
+    """Whether the row of `fact`, whose transaction's commit failed, is in the database: asked,
+    not guessed. When the database cannot say (it is still away), the trial in memory is not
+    trusted any longer: it is marked moved (the runner drops it, the next request rebuilds it
+    from the log) and the answer is False, so the caller raises (503, and the page retries)."""
     try:
         with database.session_scope() as session:
-            return session.get(Command, row.id) is not None
+            found = trial_writer.stored(session, fact, row_id)
     except DBAPIError:
-        log.warning("trial %s: cannot tell whether command %s committed", row.trial_id, row.id)
-        return None
+        log.warning("trial %s: cannot tell whether %s was stored", live.trial_id, fact)
+        live.move_away()
+        return False
+    if found:
+        log.warning("trial %s: %s committed, its answer lost", live.trial_id, type(fact).__name__)
+    return found
 
 
-def _committed_answer(row: Command, outcome: RequestOutcome, step: int) -> dict[str, Any]:
+def _request_answer(row_id: int | None, applied: CommandApplied) -> dict[str, Any]:
+    outcome = applied.outcome
     return {
-        "command_id": row.id,
+        "command_id": row_id,
         "accepted": outcome.accepted,
         "request_id": outcome.request_id if outcome.accepted else None,
         "reason": outcome.reason,
-        "step": step,
+        "step": applied.step,
     }
 
 
@@ -255,20 +243,3 @@ def _latency_ms(since_s: float | None, now_s: float | None) -> float | None:
     if since_s is None or now_s is None:
         return None
     return round(max(0.0, now_s - since_s) * 1000.0, 1)
-
-
-def _current_probe(live: RunningTrial, probe_id: int):
-    _require_running(live)
-    probe = live.current_probe
-    if probe is None or probe.id != probe_id:
-        raise ActionError("this probe is no longer open (answered or timed out)", 409, "closed")
-    return probe
-
-
-def _require_running(live: RunningTrial) -> None:
-    if live.moved:  # its lease was lost under this command: the new host must carry it out
-        raise ActionError("the trial moved to another server process; try again", 503, "moved")
-    if live.ended:
-        raise ActionError("the trial has ended", 409, "ended")
-    if live.paused_since is not None:
-        raise ActionError("the experimenter has paused the trial", 409, "paused")

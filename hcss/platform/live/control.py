@@ -1,8 +1,12 @@
-"""The experimenter's pause, resume and abort of a live trial hosted by this process.
+"""The experimenter's pause, resume and abort of a live trial hosted by this process: applied
+and written.
 
 One place carries them out, whether the console that asked is served by this
-process or by another one (whose `TrialOrder` the runner picked up): the
-`ConsoleAction` row is written first, inside the trial's lock, then the
+process or by another one (whose `TrialOrder` the runner picked up): the live
+service's door (hcss.platform.live.door) finds the trial, takes its lock,
+advances it to now and checks its state (ended, or already as asked); these
+functions are its apply-and-write step. The `ConsoleAction` row
+(`facts.ConsoleActed`) is written first, inside the trial's lock, then the
 clock stops or runs on (or the trial ends), so the runner, the participant's
 commands and the console never see a half-done pause.
 """
@@ -11,17 +15,20 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+from sqlalchemy.exc import DBAPIError
+
 from hcss.platform.live import trial_writer
+from hcss.platform.live.actions import was_stored
+from hcss.platform.live.facts import ConsoleActed
 from hcss.platform.live.leases import trial_transaction
 from hcss.platform.live.orders import mark_done
 from hcss.platform.live.recorder import kept_until_written, record_progress
-from hcss.platform.models.participant_state import STATE_ACTIONS
 
 if TYPE_CHECKING:
     from hcss.platform.live.runner import Runner
     from hcss.platform.live.running_trial import RunningTrial
 
-#: What `control_trial` answers: carried out, or the trial had just reached its end.
+#: What a console's command answers: carried out, or the trial had just reached its end.
 DONE = "done"
 ENDED = "ended"
 #: The trial was already as asked (a second pause of a paused trial, racing the first):
@@ -29,17 +36,26 @@ ENDED = "ended"
 ALREADY = "already"
 
 
+def as_it_was(runner: Runner, live: RunningTrial, now: float, order_id: int | None) -> str:
+    """The trial is as asked already: nothing is written but the order's confirmation."""
+    if order_id is not None:
+        with trial_transaction(runner.database, live) as session:
+            mark_done(session, order_id, now, DONE)
+    return ALREADY
+
+
 def control_trial(
     runner: Runner,
     live: RunningTrial,
     action: str,
+    now: float,
     *,
     participant_id: int,
     experimenter_id: int | None,
     order_id: int | None = None,
 ) -> str:
-    """Pause, resume or abort the trial now; `ENDED` if it ended first (then only logged);
-    `ALREADY` if it is paused (resumed) already, when nothing is written.
+    """Pause, resume or abort the trial at `now` (the door has checked that it may: its lock
+    held, advanced to `now`); `ENDED` if it reached its end first (then only logged).
 
     `order_id`: the `TrialOrder` this carries out, marked done in the same
     transaction as the action's row, so a host that dies in between leaves
@@ -49,50 +65,40 @@ def control_trial(
     its commit fails, an abort has ended nothing (the trial stays running in
     memory, its probe open), so the console's retry ends it once. It first
     writes what the trial holds unwritten (an advance that met a database
-    outage), since the guard counts the queue written when it commits.
+    outage), since the guard counts the queue written when it commits. A
+    commit that failed but landed (its answer lost) is found by asking the
+    database: the trial in memory is then marked moved, so the runner drops
+    it and the next request rebuilds it from the log, which holds the action.
     """
-    if action not in STATE_ACTIONS:
-        raise ValueError(f"unknown session action {action!r}")
-    now = runner.clock()
-    # Advanced to `now` first: the clock stops (or the trial ends) at this instant.
-    with runner.holding(live, now, advance=action != "resume"):
-        # The state is checked here, under the lock, not by the caller before it: two
-        # consoles pausing at once both saw a running trial, only the first pauses it.
-        paused = live.paused_since is not None
-        if not live.ended and (
-            (action == "pause" and paused) or (action == "resume" and not paused)
-        ):
-            if order_id is not None:
-                with trial_transaction(runner.database, live) as session:
-                    mark_done(session, order_id, now, DONE)
-            return ALREADY
+    acted = ConsoleActed(
+        participant_id=participant_id,
+        experimenter_id=experimenter_id,
+        action=action,
+        at_epoch=now,
+        on_trial=not live.ended,
+        detail=None if live.ended else f"trial clock {live.clock(now):.1f} s",
+    )
+    row_id: int | None = None
+    committing = False
+    try:
         with kept_until_written(live), trial_transaction(runner.database, live) as session:
             if not live.ended:
                 record_progress(live, session)
             if order_id is not None:
                 mark_done(session, order_id, now, ENDED if live.ended else DONE)
-            if live.ended:  # reached its time limit just now: the session's state still changes
-                trial_writer.write_console_action(
-                    session,
-                    participant_id=participant_id,
-                    experimenter_id=experimenter_id,
-                    action=action,
-                    at_epoch=now,
-                )
-                return ENDED
-            trial_writer.write_console_action(
-                session,
-                participant_id=participant_id,
-                experimenter_id=experimenter_id,
-                action=action,
-                trial_id=live.trial_id,
-                at_epoch=now,
-                detail=f"trial clock {live.clock(now):.1f} s",
-            )
-            if action == "abort":
+            row_id = trial_writer.write_fact(session, live.trial_id, acted)
+            if action == "abort" and acted.on_trial:
                 runner.end(live, session, "aborted", now)
-        if action == "pause":
-            runner.pause(live, now)
-        elif action == "resume":
-            runner.resume(live, now)
+            committing = True  # what fails from here on is the commit: it may have landed
+        if not acted.on_trial:  # reached its time limit just now: the session's state
+            return ENDED  # still changes
+    except DBAPIError:
+        if not committing or not was_stored(runner.database, live, acted, row_id):
+            raise
+        live.move_away()  # the log holds the action, the trial in memory does not: rebuilt
+        return DONE if acted.on_trial else ENDED
+    if action == "pause":
+        runner.pause(live, now)
+    elif action == "resume":
+        runner.resume(live, now)
     return DONE

@@ -13,11 +13,19 @@ experimenter's pause, resume and abort, are each a small frozen value
    first: a repeat, even one racing the first, waits for the lock and is
    answered from the stored row without touching the trial again, and a key
    sent with another command is refused (422);
-3. checks the trial's state under that lock (moved, ended, paused, the probe
-   still open; a console pause of a paused trial writes nothing);
+3. checks the trial's state under that lock, here and for every command
+   alike (moved, ended, paused, the probe still open and its question shown
+   or not, the click on the map; the console's: the trial advanced to now,
+   then ended, or paused or running already, when nothing is written), so
+   no command's own code decides whether it may apply;
 4. applies the command and writes it in one fenced unit of work (the
    participant's: hcss.platform.live.actions; the console's:
-   hcss.platform.live.control), the key stored with what it records;
+   hcss.platform.live.control), each saying what happened as a typed fact
+   (`live.facts`) that the trial log's writer stores, the key stored with it;
+   a commit that fails is settled by asking the database whether the
+   command's row is there (`actions.was_stored`): the trial in memory then
+   moves on as the log says, stays as it was, or, when nobody can say, is
+   marked moved and rebuilt from the log;
 5. answers with an `Answer`: HTTP status and JSON body, which is what the
    API sends and what a key's repeat gets back.
 
@@ -47,15 +55,16 @@ from sqlalchemy import select
 from sqlalchemy.exc import IntegrityError
 
 from hcss.platform.db import Database
-from hcss.platform.live import actions, trial_writer, validation
+from hcss.platform.live import actions, control, trial_writer, validation
 from hcss.platform.live.actions import ActionError
-from hcss.platform.live.control import control_trial
-from hcss.platform.live.leases import HostedElsewhere, trial_transaction
+from hcss.platform.live.leases import HostedElsewhere, LeaseLost, trial_transaction
 from hcss.platform.live.orders import PendingOrder, send_order
+from hcss.platform.live.progress import CurrentProbe
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.running_trial import RunningTrial
 from hcss.platform.live.trial_writer import KeyedCommand
 from hcss.platform.models import CommandKey
+from hcss.platform.models.participant_state import STATE_ACTIONS
 
 __all__ = [
     "ActionError",
@@ -216,33 +225,30 @@ def _applied(
     command: Command,
     key: KeyedCommand | None,
 ) -> Answer:
-    """Check and apply `command` to the trial (its lock held), written in one unit of work."""
+    """Check `command` against the trial's state (its lock held), then apply and write it."""
     try:
         if isinstance(command, Control):
             if live is None:
                 return Answer(404, {"error": NOT_RUNNING})
-            outcome = control_trial(
-                runner,
-                live,
-                command.action,
-                participant_id=command.participant_id,
-                experimenter_id=command.experimenter_id,
-                order_id=command.order_id,
-            )
-            return Answer(200, {"outcome": outcome})
+            return Answer(200, {"outcome": _controlled(runner, live, command)})
         if live is None:
             raise ActionError("the trial has ended", 409, "ended")
+        # The body is read first (a malformed one is refused whatever the trial's state),
+        # then the state is checked, then the command is applied and written.
         if isinstance(command, SubmitRequest):
             with database.session_scope() as session:  # read-only: back in the pool first
                 operator_command, selections = validation.parse_request(
                     command.body, live, session, command.trial_id
                 )
+            _check_running(live)
             return Answer(
                 200,
                 actions.submit_request(database, live, operator_command, selections, key=key),
             )
         if isinstance(command, Observe):
             kind, collective, target, button = validation.parse_observation(command.body, live)
+            _check_running(live)
+            _check_on_the_map(live, kind, collective, target)
             return Answer(
                 201,
                 actions.record_observation(
@@ -256,19 +262,89 @@ def _applied(
                 ),
             )
         if isinstance(command, ProbeReady):
+            _check_running(live)
+            probe = _open_probe(live, command.probe_id, ready=False)
             return Answer(
-                200,
-                actions.probe_ready(database, live, command.probe_id, now=runner.clock(), key=key),
+                200, actions.probe_ready(database, live, probe, now=runner.clock(), key=key)
             )
         answer = validation.parse_answer(command.body)
+        _check_running(live)
+        probe = _open_probe(live, command.probe_id, ready=True)
+        if answer not in probe.choices:
+            raise ActionError(f"{answer!r} is not one of the choices {probe.choices}")
         return Answer(
             200,
-            actions.probe_answer(
-                database, live, command.probe_id, answer, now=runner.clock(), key=key
-            ),
+            actions.probe_answer(database, live, probe, answer, now=runner.clock(), key=key),
         )
     except ActionError as error:
         return refusal(error)
+
+
+# --- the state checks: under the trial's lock, before anything is applied ----------------
+
+
+def _check_running(live: RunningTrial) -> None:
+    """The participant's command applies only to a trial that runs here, unpaused."""
+    if live.moved:  # its lease was lost under this command: the new host must carry it out
+        raise ActionError("the trial moved to another server process; try again", 503, "moved")
+    if live.ended:
+        raise ActionError("the trial has ended", 409, "ended")
+    if live.paused_since is not None:
+        raise ActionError("the experimenter has paused the trial", 409, "paused")
+
+
+def _check_on_the_map(
+    live: RunningTrial, kind: str, collective: int | None, target: int | None
+) -> None:
+    """A click names a collective on the map, or a target the participant sees now."""
+    display = live.display()
+    if kind == "collective":
+        if collective is None or not 0 <= collective < display.n_collectives:
+            raise ActionError("a collective observation needs a collective on the map")
+    elif target is None or display.column(target) is None:
+        raise ActionError("a target observation needs a visible target")
+
+
+def _open_probe(live: RunningTrial, probe_id: int, *, ready: bool) -> CurrentProbe:
+    """The probe on screen, if it is `probe_id` and its question is shown (`ready`) or not."""
+    probe = live.current_probe
+    if probe is None or probe.id != probe_id:
+        raise ActionError("this probe is no longer open (answered or timed out)", 409, "closed")
+    if probe.ready and not ready:
+        raise ActionError("this probe's question is already shown", 409, "already_ready")
+    if ready and not probe.ready:
+        raise ActionError("press ready before answering", 409, "not_ready")
+    return probe
+
+
+def _controlled(runner: Runner, live: RunningTrial, command: Control) -> str:
+    """The console's pause, resume or abort: the trial advanced to now (its clock stops, or it
+    ends, at this instant), its state checked, then carried out (hcss.platform.live.control).
+
+    The state is checked here, under the lock, not by the console before it:
+    two consoles pausing at once both saw a running trial; only the first
+    pauses it, the second finds it paused and writes nothing.
+    """
+    if command.action not in STATE_ACTIONS:
+        raise ValueError(f"unknown session action {command.action!r}")
+    now = runner.clock()
+    with runner.holding(live, now, advance=command.action != "resume"):
+        if live.moved:  # another process hosts it now: the order waits for that host
+            raise LeaseLost(live.trial_id)
+        paused = live.paused_since is not None
+        if not live.ended and (
+            (command.action == "pause" and paused) or (command.action == "resume" and not paused)
+        ):
+            return control.as_it_was(runner, live, now, command.order_id)
+        return control.control_trial(
+            runner,
+            live,
+            command.action,
+            now,
+            participant_id=command.participant_id,
+            experimenter_id=command.experimenter_id,
+            order_id=command.order_id,
+        )
 
 
 def _ordered(database: Database, runner: Runner, command: Control) -> Answer:

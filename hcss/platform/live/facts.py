@@ -3,17 +3,24 @@ stores it.
 
 `RunningTrial`'s methods that move the trial's log on (events handed over, a
 decision made, a request's status changed, a probe timed out or scored, a
-snapshot taken, the trial ended) return these small frozen values and do no
-I/O; `trial_writer.write_facts` turns them into rows, in the unit of work
-that proves the lease. A fact names no trial: the writer is told which trial
-it writes for, so one value cannot be written under another trial's id by
-mistake of its maker.
+snapshot taken, the trial ended) or that carry out a command (a request
+applied, a click on the map, a probe's Ready press or answer) return these
+small frozen values and do no I/O; so does the console's pause, resume or
+abort (`ConsoleActed`, made by hcss.platform.live.control). The trial log's
+writer (`trial_writer.write_fact`, `write_facts`) turns them into rows, in
+the unit of work that proves the lease. A fact names no trial: the writer is
+told which trial it writes for, so one value cannot be written under another
+trial's id by mistake of its maker.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from hcss.simulation import OperatorCommand
+    from hcss.simulation.requests import RequestOutcome
 
 
 @dataclass(frozen=True)
@@ -98,6 +105,89 @@ class TrialEnded:
     step: int
 
 
+@dataclass(frozen=True)
+class CommandApplied:
+    """The participant's request, applied at `step` with its outcome (every value the rows
+    say is the simulation's `RequestOutcome`); `selections`: the clicks it names."""
+
+    command: OperatorCommand
+    outcome: RequestOutcome
+    step: int
+    sim_time: float
+    selections: tuple[int, ...]
+
+    # What its row says (`models.Command.applied`): a cancel names the abandon it lifted.
+    @property
+    def kind(self) -> str:
+        return self.command.kind
+
+    @property
+    def collective(self) -> int | None:
+        cancel = self.command.kind == "cancel"
+        return self.outcome.collective if cancel else self.command.collective
+
+    @property
+    def target(self) -> int | None:
+        return self.outcome.target if self.command.kind == "cancel" else self.command.target
+
+    @property
+    def cancel_request_id(self) -> int | None:
+        return self.command.request_id if self.command.kind == "cancel" else None
+
+
+@dataclass(frozen=True)
+class ObservationMade:
+    """A click on the map, on a collective or a target the participant sees."""
+
+    kind: str
+    collective: int | None
+    target: int | None
+    button: str
+    step: int
+    sim_time: float
+
+
+@dataclass(frozen=True)
+class ProbeReadyPressed:
+    """The participant pressed Ready on the open probe; `latency_ms` from its prompt's delivery."""
+
+    probe_id: int
+    latency_ms: float | None
+    step: int
+    sim_time: float
+
+
+@dataclass(frozen=True)
+class ProbeAnswered:
+    """The open probe's answer; one with a `truth` is scored at once (a level-3 one, asked
+    about a decision to come, is scored by that decision: `ProjectionScored`)."""
+
+    probe_id: int
+    answer: str
+    truth: str | None
+    latency_ms: float | None
+    step: int
+    sim_time: float
+
+    @property
+    def correct(self) -> bool | None:
+        return None if self.truth is None else self.answer == self.truth
+
+
+@dataclass(frozen=True)
+class ConsoleActed:
+    """The experimenter paused, resumed or aborted the session at `at_epoch`; `on_trial`: the
+    trial was running then (False: it had just reached its end, and only the session's state
+    changes), `detail`: the trial clock it happened at."""
+
+    participant_id: int
+    experimenter_id: int | None
+    action: str
+    at_epoch: float
+    on_trial: bool
+    detail: str | None = None
+
+
 Fact = (
     EventHappened
     | DecisionMade
@@ -106,4 +196,9 @@ Fact = (
     | ProjectionScored
     | SnapshotTaken
     | TrialEnded
+    | CommandApplied
+    | ObservationMade
+    | ProbeReadyPressed
+    | ProbeAnswered
+    | ConsoleActed
 )

@@ -28,6 +28,41 @@ from hcss.platform.models.vocabularies import TrialStatus
 MIN_GAP_S = 0.05  # at most 20 frames a second per stream, even under acceleration
 
 
+def trial_frame(live: RunningTrial, now: float, after_seq: int) -> tuple[str, int]:
+    """One stream frame (JSON text) of the trial at `now`, with the System Messages after
+    `after_seq`, and the newest message seq it carries; call with the trial's lock held.
+
+    The probe on screen counts as delivered with the first frame that carries it.
+    """
+    probe = live.current_probe
+    if probe is not None:
+        probe.delivered(live.running_wall_s(now))
+    new_messages = [m for m in live.messages if m["seq"] > after_seq]
+    last_seq = new_messages[-1]["seq"] if new_messages else after_seq
+    head = {
+        "trial": {
+            "id": live.trial_id,
+            "kind": live.kind,
+            # The page's status: the trial's, or "paused" while the experimenter holds it.
+            "status": TrialStatus.ENDED
+            if live.ended
+            else ("paused" if live.paused_since is not None else TrialStatus.RUNNING),
+            "clock_s": round(live.clock(now), 2),
+            "duration_s": live.duration_s,
+            "step": live.sim.step_count,
+            "version": live.version,
+            # Why a pause the experimenter did not make: the database is away.
+            "held_by": None if live.database_away_since is None else "database",
+            # Why it ended ("time_limit", "aborted"): the page words it.
+            "end_reason": live.end_reason if live.ended else None,
+        },
+        "messages": new_messages,
+        "probe": None if probe is None else probe.public(),
+    }
+    text = json.dumps(head, separators=(",", ":"))
+    return text[:-1] + ',"view":' + live.view_json() + "}", last_seq
+
+
 def event_stream(
     live: RunningTrial,
     *,
@@ -55,7 +90,7 @@ def event_stream(
                 break
             if live.moved:
                 return  # closed without an ending: the browser reconnects, to the host
-            text, after_seq = live.frame(clock(), after_seq)
+            text, after_seq = trial_frame(live, clock(), after_seq)
             sent_version, ended = live.version, live.ended
         # Due one interval after the last frame was: a send that takes time (200
         # streams under load) must not stretch the period beyond the interval.
@@ -97,7 +132,7 @@ def frame(runner: Runner, trial_id: int) -> str:
     """One frame of the stream as JSON text, for bots and scripts that poll."""
     live = _running(runner, trial_id)
     with live.lock:
-        text, _ = live.frame(runner.clock(), 0)
+        text, _ = trial_frame(live, runner.clock(), 0)
     return text
 
 

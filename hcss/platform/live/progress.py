@@ -2,7 +2,8 @@
 
 Both are cursors of the recorder (hcss.platform.live.recorder): they say how
 far the trial's rows are written, so they move only with the commit that
-wrote them. A `RunningTrial` copies them (`saved`) before a unit of work and
+wrote them; the log's (`LogQueue`) also hold what was handed over and waits
+to be written. A `RunningTrial` copies them (`saved`) before a unit of work and
 takes the copy back when its commit fails; nothing else writes them.
 """
 
@@ -12,10 +13,19 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from hcss.platform.live.facts import (
+    DecisionMade,
+    EventHappened,
+    RequestStatusChanged,
+    SnapshotTaken,
+)
 from hcss.platform.live.probes import probe_subject
 from hcss.platform.models import Probe
 from hcss.questionnaires.probes import ScheduledProbe
+from hcss.simulation import Simulation
+from hcss.simulation.messages import event_text
 from hcss.simulation.requests import StatusChange
+from hcss.tablespec.decisions import stored_decision
 
 #: A level-3 probe waiting for the next decision: (probe id, shown sim time, answer or None).
 Projection = tuple[int, float, str | None]
@@ -208,12 +218,148 @@ class LogCursors:
 
 
 @dataclass(frozen=True)
+class SavedLog:
+    """A copy of a `LogQueue`'s cursors, and how many handed-over rows were waiting."""
+
+    cursors: LogCursors
+    events: int
+    status_changes: int
+
+
+class LogQueue:
+    """The trial log's progress: how far it is written (`LogCursors`), and what the simulation
+    handed over (and the page was shown) that no commit has written yet.
+
+    The recorder writes what waits first, in order, when the database takes
+    writes again (hcss.platform.live.recorder.kept_until_written). Its methods
+    say what happened as typed facts (`live.facts`) and move the cursors; they
+    are called by the `RunningTrial` that holds it, with its lock held.
+    """
+
+    def __init__(self) -> None:
+        self._cursors = LogCursors()
+        self._events: list[EventHappened] = []
+        self._status_changes: list[StatusChange] = []
+
+    @property
+    def decisions(self) -> int:
+        return self._cursors.decisions
+
+    @property
+    def last_snapshot_epoch(self) -> float:
+        return self._cursors.last_snapshot_epoch
+
+    @property
+    def unwritten_events(self) -> list[EventHappened]:
+        """The events handed over that no commit wrote yet, oldest first; read-only."""
+        return self._events
+
+    def events_handed_over(self, events: list[dict[str, Any]]) -> list[EventHappened]:
+        """The simulation's new events (`Simulation.drain_events`) wait to be written; returns
+        those not written before (a rebuild replays the steps of events written before the
+        interruption), worded as the page shows them."""
+        fresh = [
+            EventHappened(
+                kind=str(e["kind"]),
+                collective=_int_or_none(e.get("collective")),
+                target=_int_or_none(e.get("target")),
+                text=event_text(e),
+                sim_time=float(e["time"]),
+            )
+            for e in events
+            if self._cursors.unwritten_event(float(e["time"]))
+        ]
+        self._events.extend(fresh)
+        return fresh
+
+    def events_written_up_to(self, time: float) -> None:
+        """Every event up to sim `time` is in the unit of work that writes the log."""
+        self._cursors.events_written_up_to(time)
+
+    def decisions_made(self, sim: Simulation) -> list[DecisionMade]:
+        """The simulation's decisions not yet written, counted written from now on.
+
+        Each record is checked against the decisions table's contract; who and
+        where (source, participant, trial, run) the export adds
+        (hcss.tablespec.decisions).
+        """
+        records = sim.decisions
+        made = []
+        for record in records[self._cursors.decisions :]:
+            row = stored_decision(record.as_row())
+            made.append(
+                DecisionMade(
+                    collective=int(record.collective),
+                    decision_index=int(row["decision_index"]),
+                    step=sim.step_count,
+                    correct=None if row.get("correct") is None else bool(row["correct"]),
+                    record=row,
+                )
+            )
+        self._cursors.decisions_written(len(records))
+        return made
+
+    def status_changes_to_write(
+        self, handed_over: list[StatusChange]
+    ) -> list[RequestStatusChanged]:
+        """The request status changes the simulation handed over wait with the unwritten
+        ones; returns those with no row yet, counted written from now on."""
+        self._status_changes.extend(handed_over)
+        return [
+            RequestStatusChanged(c.request_id, str(c.status), c.step, float(c.time))
+            for c in self._cursors.statuses_to_write(self._status_changes)
+        ]
+
+    def snapshot_taken(
+        self, sim: Simulation, now: float, last_command_id: int | None
+    ) -> SnapshotTaken:
+        """A snapshot for the unit of work; the next is due a snapshot interval after `now`."""
+        self._cursors.snapshot_written(now)
+        return SnapshotTaken(
+            step=sim.step_count,
+            sim_time=float(sim.time),
+            last_command_id=last_command_id,
+            blob=sim.snapshot(),
+        )
+
+    def restored(
+        self, last_event_time: float, decisions: int, request_statuses: set[tuple[int, str]]
+    ) -> None:
+        """How far the rows are written, for a trial rebuilt after a restart."""
+        self._cursors.restored(last_event_time, decisions, request_statuses)
+
+    def saved(self) -> SavedLog:
+        """What is counted written now, to go back to if the unit of work does not commit."""
+        return SavedLog(self._cursors.saved(), len(self._events), len(self._status_changes))
+
+    def lost(self, saved: SavedLog, *, handed_over_dropped: bool) -> None:
+        """The unit of work begun at `saved` did not commit: the cursors go back to it.
+
+        What the simulation handed over stays queued for the next attempt,
+        unless the simulation itself went back (`handed_over_dropped`: a
+        command that was not logged), when it never happened.
+        """
+        self._cursors = saved.cursors
+        if handed_over_dropped:
+            del self._events[saved.events :]
+            del self._status_changes[saved.status_changes :]
+
+    def written(self) -> None:
+        """The unit of work committed: nothing it held waits any longer."""
+        self._events.clear()
+        self._status_changes.clear()
+
+
+@dataclass(frozen=True)
 class ProgressMark:
     """What a `RunningTrial` counted written before a unit of work (`progress_mark`): copies of
-    its cursors, whether it had ended, and how many handed-over rows were waiting."""
+    its log's progress and of its probes, and whether it had ended."""
 
-    log: LogCursors
+    log: SavedLog
     probes: ProbeSchedule
     ended: bool
-    unwritten_events: int
-    unwritten_status_changes: int
+
+
+def _int_or_none(value: Any) -> int | None:
+    """An event's integer field (numpy or Python), or None."""
+    return None if value is None else int(value)

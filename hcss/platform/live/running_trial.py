@@ -12,8 +12,9 @@ its log on return what happened as typed facts (`live.facts`: events handed
 over, decisions made, request statuses changed, a probe timed out or scored,
 a snapshot taken, the trial ended), which the trial log's writer stores; none
 does I/O. The clock, the
-probes and the trial log's cursors are small classes of their own
-(`clock.TrialClock`, `progress.ProbeSchedule`, `progress.LogCursors`).
+probes and the trial log's progress are small classes of their own
+(`clock.TrialClock`, `progress.ProbeSchedule`, `progress.LogQueue`), whose
+methods say why; the trial's are their one-line doors.
 """
 
 from __future__ import annotations
@@ -35,17 +36,14 @@ from hcss.platform.live.facts import (
 )
 from hcss.platform.live.progress import (
     CurrentProbe,
-    LogCursors,
+    LogQueue,
     ProbeSchedule,
     ProgressMark,
     Projection,
 )
-from hcss.platform.models.vocabularies import TrialStatus
 from hcss.questionnaires.probes import ScheduledProbe
 from hcss.simulation import Display, Simulation
-from hcss.simulation.messages import event_text
 from hcss.simulation.requests import StatusChange
-from hcss.tablespec.decisions import stored_decision
 
 if TYPE_CHECKING:
     from hcss.platform.live.leases import Fence
@@ -92,7 +90,7 @@ class RunningTrial:
         self._last_command_id = last_command_id
         self._clock = TrialClock(started_epoch, acceleration, duration_s)
         self._probes = ProbeSchedule(probe_plan)
-        self._log = LogCursors()
+        self._log = LogQueue()
         self._version = 0
         # Its lifecycle: read `ended`, `end_reason` and `moved`; written only by
         # `mark_ended` and `move_away`, with `lock` held.
@@ -104,11 +102,6 @@ class RunningTrial:
         self.fence: Fence | None = None
         # System Messages so far, oldest first: {"seq", "time", "kind", "text"}.
         self._messages: list[dict[str, Any]] = []
-        # What the simulation handed over (and the page was shown) that no commit has
-        # written yet; the recorder writes it first, in order, when the database takes
-        # writes again (hcss.platform.live.recorder.kept_until_written).
-        self._unwritten_events: list[EventHappened] = []
-        self._unwritten_status_changes: list[StatusChange] = []
         self._view_cache: tuple[int, Display, dict[str, Any], str] | None = None
 
     # --- what it is -----------------------------------------------------------
@@ -311,7 +304,7 @@ class RunningTrial:
         """The probes as their rows say, for a trial rebuilt after a restart."""
         self._probes.restored(shown, current, projections)
 
-    # --- what is written to the trial log (hcss.platform.live.recorder) --------------
+    # --- what is written to the trial log (progress.LogQueue; live.recorder) ---------------
 
     @property
     def decisions_recorded(self) -> int:
@@ -323,109 +316,44 @@ class RunningTrial:
 
     @property
     def unwritten_events(self) -> list[EventHappened]:
-        """The events handed over that no commit wrote yet, oldest first; read-only."""
-        return self._unwritten_events
+        return self._log.unwritten_events
 
     def events_handed_over(self, events: list[dict[str, Any]]) -> list[EventHappened]:
-        """The simulation's new events (`Simulation.drain_events`) wait to be written; returns
-        those not written before (a rebuild replays the steps of events written before the
-        interruption), worded as the page shows them."""
-        fresh = [
-            EventHappened(
-                kind=str(e["kind"]),
-                collective=_int_or_none(e.get("collective")),
-                target=_int_or_none(e.get("target")),
-                text=event_text(e),
-                sim_time=float(e["time"]),
-            )
-            for e in events
-            if self._log.unwritten_event(float(e["time"]))
-        ]
-        self._unwritten_events.extend(fresh)
-        return fresh
+        return self._log.events_handed_over(events)
 
     def events_written_up_to(self, time: float) -> None:
-        """Every event up to sim `time` is in the unit of work that writes the log."""
         self._log.events_written_up_to(time)
 
     def decisions_made(self) -> list[DecisionMade]:
-        """The simulation's decisions not yet written, counted written from now on.
-
-        Each record is checked against the decisions table's contract; who and
-        where (source, participant, trial, run) the export adds
-        (hcss.tablespec.decisions).
-        """
-        records = self._sim.decisions
-        made = []
-        for record in records[self._log.decisions :]:
-            row = stored_decision(record.as_row())
-            made.append(
-                DecisionMade(
-                    collective=int(record.collective),
-                    decision_index=int(row["decision_index"]),
-                    step=self._sim.step_count,
-                    correct=None if row.get("correct") is None else bool(row["correct"]),
-                    record=row,
-                )
-            )
-        self._log.decisions_written(len(records))
-        return made
+        return self._log.decisions_made(self._sim)
 
     def status_changes_to_write(
         self, handed_over: list[StatusChange]
     ) -> list[RequestStatusChanged]:
-        """The request status changes the simulation handed over wait with the unwritten
-        ones; returns those with no row yet, counted written from now on."""
-        self._unwritten_status_changes.extend(handed_over)
-        return [
-            RequestStatusChanged(c.request_id, str(c.status), c.step, float(c.time))
-            for c in self._log.statuses_to_write(self._unwritten_status_changes)
-        ]
+        return self._log.status_changes_to_write(handed_over)
 
     def snapshot_taken(self, now: float) -> SnapshotTaken:
-        """A snapshot for the unit of work; the next is due a snapshot interval after `now`."""
-        self._log.snapshot_written(now)
-        return SnapshotTaken(
-            step=self._sim.step_count,
-            sim_time=float(self._sim.time),
-            last_command_id=self._last_command_id,
-            blob=self._sim.snapshot(),
-        )
+        return self._log.snapshot_taken(self._sim, now, self._last_command_id)
 
     def log_restored(
         self, last_event_time: float, decisions: int, request_statuses: set[tuple[int, str]]
     ) -> None:
-        """How far the rows are written, for a trial rebuilt after a restart."""
         self._log.restored(last_event_time, decisions, request_statuses)
 
     def progress_mark(self) -> ProgressMark:
         """What is counted written now, to go back to if the unit of work does not commit."""
-        return ProgressMark(
-            log=self._log.saved(),
-            probes=self._probes.saved(),
-            ended=self._ended,
-            unwritten_events=len(self._unwritten_events),
-            unwritten_status_changes=len(self._unwritten_status_changes),
-        )
+        return ProgressMark(log=self._log.saved(), probes=self._probes.saved(), ended=self._ended)
 
     def progress_lost(self, mark: ProgressMark, *, handed_over_dropped: bool) -> None:
-        """The unit of work begun at `mark` did not commit: the cursors go back to `mark`.
-
-        What the simulation handed over stays queued for the next attempt,
-        unless the simulation itself went back (`handed_over_dropped`: a
-        command that was not logged), when it never happened.
-        """
-        self._log, self._probes = mark.log, mark.probes
+        """The unit of work begun at `mark` did not commit: its log, probes and end go back
+        (`LogQueue.lost` says what happens to what was handed over)."""
+        self._log.lost(mark.log, handed_over_dropped=handed_over_dropped)
+        self._probes = mark.probes
         if self._ended and not mark.ended:
             self.reopen()  # its end was not written: it runs on
-        if handed_over_dropped:
-            del self._unwritten_events[mark.unwritten_events :]
-            del self._unwritten_status_changes[mark.unwritten_status_changes :]
 
     def progress_written(self) -> None:
-        """The unit of work committed: nothing it held waits any longer."""
-        self._unwritten_events.clear()
-        self._unwritten_status_changes.clear()
+        self._log.written()
 
     # --- what the page sees ---------------------------------------------------------
 
@@ -462,37 +390,3 @@ class RunningTrial:
                 json.dumps(view, separators=(",", ":")),
             )
         return self._view_cache[1:]
-
-    def frame(self, now: float, after_seq: int) -> tuple[str, int]:
-        """One stream frame (JSON text) and the newest message seq it carries."""
-        if self.current_probe is not None:
-            self.current_probe.delivered(self.running_wall_s(now))
-        new_messages = [m for m in self._messages if m["seq"] > after_seq]
-        last_seq = new_messages[-1]["seq"] if new_messages else after_seq
-        head = {
-            "trial": {
-                "id": self.trial_id,
-                "kind": self.kind,
-                # The page's status: the trial's, or "paused" while the experimenter holds it.
-                "status": TrialStatus.ENDED
-                if self.ended
-                else ("paused" if self.paused_since is not None else TrialStatus.RUNNING),
-                "clock_s": round(self.clock(now), 2),
-                "duration_s": self.duration_s,
-                "step": self.sim.step_count,
-                "version": self.version,
-                # Why a pause the experimenter did not make: the database is away.
-                "held_by": None if self.database_away_since is None else "database",
-                # Why it ended ("time_limit", "aborted"): the page words it.
-                "end_reason": self.end_reason if self.ended else None,
-            },
-            "messages": new_messages,
-            "probe": None if self.current_probe is None else self.current_probe.public(),
-        }
-        text = json.dumps(head, separators=(",", ":"))
-        return text[:-1] + ',"view":' + self.view_json() + "}", last_seq
-
-
-def _int_or_none(value: Any) -> int | None:
-    """An event's integer field (numpy or Python), or None."""
-    return None if value is None else int(value)

@@ -12,7 +12,7 @@ worded by `command_message`, which the live command uses too.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 from sqlalchemy import select
 from sqlalchemy.orm import Session
@@ -177,8 +177,21 @@ def shown_messages(
     return [(time, kind, text) for time, _rank, _id, kind, text in sorted(events)]
 
 
+class LoggedRequest(Protocol):
+    """A request as its row names it: a `Command` row, or the `facts.CommandApplied` it is made of."""
+
+    @property
+    def kind(self) -> str: ...
+    @property
+    def collective(self) -> int | None: ...
+    @property
+    def target(self) -> int | None: ...
+    @property
+    def cancel_request_id(self) -> int | None: ...
+
+
 def command_message(
-    command: Command,
+    command: LoggedRequest,
     accepted: bool,
     request_id: int | None,
     reason: str,

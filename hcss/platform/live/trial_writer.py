@@ -7,7 +7,11 @@ probes and their events, decisions, System Message events, request statuses,
 and the console's actions on it. The callers (the recorder, the actions, the
 rebuild, the runner, the console's control) decide *what* happened, under the
 trial's lock and in a transaction that proves the lease
-(`leases.trial_transaction`); this module turns it into rows. A check in
+(`leases.trial_transaction`); this module turns it into rows. What a running
+trial and the commands on it do arrives as typed facts (`live.facts`,
+`write_fact` and `write_facts`); the trial's start, its outages, a rebuild's
+problems and replayed outcomes, the probes shown and the commands' keys have
+functions of their own. A check in
 tests/platform/test_one_writer.py finds any other code that builds, inserts,
 updates or deletes such a row (the lease and order tables are the leases' and
 orders' own; a withdrawal deletes a participant's rows wholesale).
@@ -27,20 +31,23 @@ at a time.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from sqlalchemy import select
-from sqlalchemy.dialects.postgresql import insert as pg_insert
-from sqlalchemy.dialects.sqlite import insert as sqlite_insert
 from sqlalchemy.orm import Session
 
-from hcss.platform.db import session_now
+from hcss.platform.db import add_all_if_absent, add_if_absent
 from hcss.platform.live.facts import (
+    CommandApplied,
+    ConsoleActed,
     DecisionMade,
     EventHappened,
     Fact,
+    ObservationMade,
+    ProbeAnswered,
+    ProbeReadyPressed,
     ProbeTimedOut,
     ProjectionScored,
     RequestStatusChanged,
@@ -64,11 +71,9 @@ from hcss.platform.models import (
     TrialProblem,
     TrialStatusChange,
 )
-from hcss.platform.models.base import Base
 from hcss.platform.models.vocabularies import RequestStatus, TrialStatus
 
 if TYPE_CHECKING:
-    from hcss.simulation import OperatorCommand
     from hcss.simulation.requests import RequestOutcome
 
 
@@ -149,26 +154,6 @@ def write_interruption(session: Session, trial_id: int, **fields: Any) -> bool:
     return add_if_absent(session, Interruption(trial_id=trial_id, **fields))
 
 
-def write_command(
-    session: Session,
-    trial_id: int,
-    command: OperatorCommand,
-    outcome: RequestOutcome,
-    *,
-    step: int,
-    sim_time: float,
-    selections: tuple[int, ...],
-) -> Command:
-    """A participant's request as applied, with its outcome; the row has its id."""
-    row = Command.applied(
-        trial_id, command, outcome, step=step, sim_time=sim_time, selections=selections
-    )
-    session.add(row)
-    session.flush()
-    session.add(CommandOutcome.of(row.id, outcome))
-    return row
-
-
 def write_command_outcome(session: Session, command_id: int, outcome: RequestOutcome) -> None:
     """The outcome of a logged command, replayed by a rebuild; one per command."""
     add_if_absent(session, CommandOutcome.of(command_id, outcome))
@@ -188,17 +173,11 @@ def write_command_key(session: Session, key: KeyedCommand, status: int, response
     )
 
 
-def write_observation(session: Session, trial_id: int, **fields: Any) -> int:
-    """A click on the map; its id."""
-    row = Observation(trial_id=trial_id, **fields)
-    session.add(row)
-    session.flush()
-    return row.id
-
-
-def write_probe_event(session: Session, probe_id: int, kind: str, **fields: Any) -> bool:
-    """A probe's ready press, answer, time-out or score; once per kind."""
-    return add_if_absent(session, ProbeEvent(probe_id=probe_id, kind=kind, **fields))
+def _write_probe_event(session: Session, probe_id: int, kind: str, **fields: Any) -> int | None:
+    """A probe's ready press, answer, time-out or score, once per kind; its id (None: stored
+    before, by a commit whose answer was lost)."""
+    row = ProbeEvent(probe_id=probe_id, kind=kind, **fields)
+    return row.id if add_if_absent(session, row) else None
 
 
 def write_probe(session: Session, trial_id: int, probe_index: int, **fields: Any) -> Probe:
@@ -211,40 +190,16 @@ def write_probe(session: Session, trial_id: int, probe_index: int, **fields: Any
     ).one()
 
 
-def write_events(session: Session, trial_id: int, events: Iterable[dict[str, Any]]) -> None:
-    """System Message events (kind, collective, target, text, sim_time); each once."""
-    add_all_if_absent(session, [SimEvent(trial_id=trial_id, **event) for event in events])
-
-
 def write_decision(session: Session, trial_id: int, **fields: Any) -> bool:
     """A collective decision's record; once per collective and index."""
     return add_if_absent(session, DecisionRow(trial_id=trial_id, **fields))
-
-
-def write_request_statuses(
-    session: Session, trial_id: int, changes: Iterable[tuple[int, str, int, float]]
-) -> None:
-    """(request, status, step, time) of each status change; each once."""
-    add_all_if_absent(
-        session,
-        [
-            RequestStatusChange(
-                trial_id=trial_id,
-                request_id=request_id,
-                status=RequestStatus(status),
-                step=step,
-                sim_time=sim_time,
-            )
-            for request_id, status, step, sim_time in changes
-        ],
-    )
 
 
 def write_facts(session: Session, trial_id: int, facts: Iterable[Fact]) -> None:
     """The rows of what happened in the trial (`live.facts`), in order; each once.
 
     Events and request statuses in a row are inserted in one statement each
-    (a step hands over many); the others one by one, as they come.
+    (a step hands over many); the others one by one, as they come (`write_fact`).
     """
     events: list[EventHappened] = []
     statuses: list[RequestStatusChanged] = []
@@ -269,11 +224,120 @@ def write_facts(session: Session, trial_id: int, facts: Iterable[Fact]) -> None:
             statuses.append(fact)
             continue
         flush()
-        _write_fact(session, trial_id, fact)
+        write_fact(session, trial_id, fact)
     flush()
 
 
-def _write_fact(
+def write_fact(session: Session, trial_id: int, fact: Fact) -> int | None:
+    """The row (or rows) of one fact of the trial; the id of its row, which a command's answer
+    names (None: a row stored before, by a commit whose answer was lost, or one with no id
+    worth naming)."""
+    if isinstance(fact, EventHappened):
+        _write_events(session, trial_id, [fact])
+    elif isinstance(fact, RequestStatusChanged):
+        _write_statuses(session, trial_id, [fact])
+    elif isinstance(fact, CommandApplied | ObservationMade | ConsoleActed):
+        return _write_command_row(session, trial_id, fact)
+    elif isinstance(fact, ProbeReadyPressed):
+        return _write_probe_event(
+            session,
+            fact.probe_id,
+            "ready",
+            latency_ms=fact.latency_ms,
+            step=fact.step,
+            sim_time=fact.sim_time,
+        )
+    elif isinstance(fact, ProbeAnswered):
+        return _write_answer(session, fact)
+    else:
+        _write_log_fact(session, trial_id, fact)
+    return None
+
+
+def _write_command_row(
+    session: Session, trial_id: int, fact: CommandApplied | ObservationMade | ConsoleActed
+) -> int:
+    """The row of a command carried out (the participant's or the console's); its id."""
+    row: Command | Observation | ConsoleAction
+    if isinstance(fact, CommandApplied):
+        row = Command.applied(
+            trial_id,
+            fact.command,
+            fact.outcome,
+            step=fact.step,
+            sim_time=fact.sim_time,
+            selections=fact.selections,
+        )
+    elif isinstance(fact, ObservationMade):
+        row = Observation(
+            trial_id=trial_id,
+            kind=fact.kind,
+            collective=fact.collective,
+            target=fact.target,
+            button=fact.button,
+            step=fact.step,
+            sim_time=fact.sim_time,
+        )
+    else:
+        row = ConsoleAction(
+            participant_id=fact.participant_id,
+            experimenter_id=fact.experimenter_id,
+            action=fact.action,
+            trial_id=trial_id if fact.on_trial else None,
+            at_epoch=fact.at_epoch,
+            detail=fact.detail,
+        )
+    session.add(row)
+    session.flush()
+    if isinstance(fact, CommandApplied):
+        session.add(CommandOutcome.of(row.id, fact.outcome))
+    return row.id
+
+
+def _write_answer(session: Session, fact: ProbeAnswered) -> int | None:
+    """The answer's event, and its score when the probe's truth is known now."""
+    when = {"step": fact.step, "sim_time": fact.sim_time}
+    answered = _write_probe_event(
+        session, fact.probe_id, "answer", answer=fact.answer, latency_ms=fact.latency_ms, **when
+    )
+    if fact.truth is not None:
+        _write_probe_event(
+            session,
+            fact.probe_id,
+            "scored",
+            answer=fact.answer,
+            truth=fact.truth,
+            correct=fact.correct,
+            **when,
+        )
+    return answered
+
+
+def stored(session: Session, fact: Fact, row_id: int | None) -> bool:
+    """Whether the row of a command's `fact` is in the database: asked after its transaction's
+    commit failed, when the commit may have landed and its answer been lost.
+
+    `row_id`: what `write_fact` answered (None: it never wrote the row, or the
+    row was there before). A probe's press or answer is looked up by its key,
+    a row without one by its id.
+    """
+    if isinstance(fact, ProbeReadyPressed | ProbeAnswered):
+        kind = "ready" if isinstance(fact, ProbeReadyPressed) else "answer"
+        found = session.scalar(
+            select(ProbeEvent.id).where(
+                ProbeEvent.probe_id == fact.probe_id, ProbeEvent.kind == kind
+            )
+        )
+        return found is not None
+    if row_id is None:
+        return False
+    model = {CommandApplied: Command, ObservationMade: Observation, ConsoleActed: ConsoleAction}[
+        type(fact)
+    ]
+    return session.get(model, row_id) is not None
+
+
+def _write_log_fact(
     session: Session,
     trial_id: int,
     fact: DecisionMade | ProbeTimedOut | ProjectionScored | SnapshotTaken | TrialEnded,
@@ -289,9 +353,11 @@ def _write_fact(
             record=fact.record,
         )
     elif isinstance(fact, ProbeTimedOut):
-        write_probe_event(session, fact.probe_id, "timeout", step=fact.step, sim_time=fact.sim_time)
+        _write_probe_event(
+            session, fact.probe_id, "timeout", step=fact.step, sim_time=fact.sim_time
+        )
     elif isinstance(fact, ProjectionScored):
-        write_probe_event(
+        _write_probe_event(
             session,
             fact.probe_id,
             "scored",
@@ -315,67 +381,35 @@ def _write_fact(
 
 
 def _write_events(session: Session, trial_id: int, events: list[EventHappened]) -> None:
-    write_events(
+    """System Message events, in one statement; each once (kind, time and text are its key)."""
+    add_all_if_absent(
         session,
-        trial_id,
-        (
-            {
-                "kind": event.kind,
-                "collective": event.collective,
-                "target": event.target,
-                "text": event.text[:300],
-                "sim_time": event.sim_time,
-            }
-            for event in events
-        ),
+        [
+            SimEvent(
+                trial_id=trial_id,
+                kind=e.kind,
+                collective=e.collective,
+                target=e.target,
+                text=e.text[:300],
+                sim_time=e.sim_time,
+            )
+            for e in events
+        ],
     )
 
 
 def _write_statuses(session: Session, trial_id: int, changes: list[RequestStatusChanged]) -> None:
-    write_request_statuses(
-        session, trial_id, [(c.request_id, c.status, c.step, c.sim_time) for c in changes]
+    """Request status changes, in one statement; each once (request and status are its key)."""
+    add_all_if_absent(
+        session,
+        [
+            RequestStatusChange(
+                trial_id=trial_id,
+                request_id=c.request_id,
+                status=RequestStatus(c.status),
+                step=c.step,
+                sim_time=c.sim_time,
+            )
+            for c in changes
+        ],
     )
-
-
-def write_console_action(session: Session, **fields: Any) -> None:
-    """The experimenter's pause, resume or abort of the trial (the console's record)."""
-    session.add(ConsoleAction(**fields))
-
-
-def add_if_absent(session: Session, row: Base) -> bool:
-    """Insert `row` now unless its unique key is stored; True (and `row.id` set) if inserted."""
-    inserted = _insert(session, [row])
-    if not inserted:
-        return False
-    row.id = inserted[0]  # type: ignore[attr-defined]
-    return True
-
-
-def add_all_if_absent(session: Session, rows: Sequence[Base]) -> int:
-    """Insert every row of one model whose key is not stored, in one statement; how many were."""
-    return len(_insert(session, rows)) if rows else 0
-
-
-def _insert(session: Session, rows: Sequence[Base]) -> list[int]:
-    model = type(rows[0])
-    table = model.__table__
-    now = session_now(session)
-    values = [_values(row, table, now) for row in rows]
-    insert = pg_insert if session.get_bind().dialect.name == "postgresql" else sqlite_insert
-    statement = insert(model).values(values).on_conflict_do_nothing().returning(table.c.id)
-    return list(session.scalars(statement))
-
-
-def _values(row: Base, table: Any, now: Any) -> dict[str, Any]:
-    """The row's columns as an INSERT's values: unset ones take the column's default."""
-    values: dict[str, Any] = {}
-    for column in table.columns:
-        if column.key == "id":
-            continue
-        value = getattr(row, column.key)
-        if value is None and column.key == "created_at":
-            value = now
-        elif value is None and column.default is not None and column.default.is_scalar:
-            value = column.default.arg
-        values[column.key] = value
-    return values
