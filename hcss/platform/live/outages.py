@@ -41,7 +41,7 @@ from hcss.platform.models import (
 )
 
 
-def _newest(session: Session, *newest: Select[tuple[Any]]) -> list[Any]:
+def _newest(session: Session, *newest: Select[Any]) -> list[Any]:
     """Each of these one-value queries' answers, asked in one statement (a rebuild asked them
     one by one: 13 of a takeover's 33 round trips)."""
     row = session.execute(select(*(query.scalar_subquery() for query in newest))).one()
