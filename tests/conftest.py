@@ -11,6 +11,8 @@ and so its module-scoped fixtures, stay as they are.
 from __future__ import annotations
 
 import csv
+import gc
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -78,6 +80,22 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
         module = item.nodeid.split("::")[0]
         rank[module] = min(rank.get(module, 2), _rank(item))
     items.sort(key=lambda item: rank[item.nodeid.split("::")[0]])  # stable: file order within
+
+
+@pytest.fixture(scope="module", autouse=True)
+def _collect_the_module_s_garbage() -> Iterator[None]:
+    """Collect garbage when a module is done, after its other fixtures are torn down.
+
+    An object a module leaves unclosed (a psycopg connection, say) is otherwise
+    collected whenever the garbage collector next runs, perhaps in another
+    module's test, and pytest reports the "unraisable" warning there: a module
+    whose warnings are errors (tests/analysis/test_report.py) then failed for a
+    connection some PostgreSQL test on the same worker had dropped (CI, once).
+    Collected here, in the module's last teardown, it is reported by the module
+    that leaked it (a warning, in the summary).
+    """
+    yield
+    gc.collect()
 
 
 def pytest_runtest_logreport(report: pytest.TestReport) -> None:
