@@ -301,16 +301,40 @@ def _write_answer(session: Session, fact: ProbeAnswered) -> int | None:
         session, fact.probe_id, "answer", answer=fact.answer, latency_ms=fact.latency_ms, **when
     )
     if fact.truth is not None:
-        _write_probe_event(
+        _write_score(
             session,
             fact.probe_id,
-            "scored",
-            answer=fact.answer,
-            truth=fact.truth,
-            correct=fact.correct,
-            **when,
+            fact.answer,
+            fact.truth,
+            fact.correct,
+            step=fact.step,
+            sim_time=fact.sim_time,
         )
     return answered
+
+
+def _write_score(
+    session: Session,
+    probe_id: int,
+    answer: str | None,
+    truth: str,
+    correct: bool | None,
+    *,
+    step: int,
+    sim_time: float,
+) -> None:
+    """A probe's score: at its answer when the truth is known then, or later for a
+    projection (`ProjectionScored`)."""
+    _write_probe_event(
+        session,
+        probe_id,
+        "scored",
+        answer=answer,
+        truth=truth,
+        correct=correct,
+        step=step,
+        sim_time=sim_time,
+    )
 
 
 def stored(session: Session, fact: Fact, row_id: int | None) -> bool:
@@ -357,13 +381,12 @@ def _write_log_fact(
             session, fact.probe_id, "timeout", step=fact.step, sim_time=fact.sim_time
         )
     elif isinstance(fact, ProjectionScored):
-        _write_probe_event(
+        _write_score(
             session,
             fact.probe_id,
-            "scored",
-            answer=fact.answer,
-            truth=fact.truth,
-            correct=fact.correct,
+            fact.answer,
+            fact.truth,
+            fact.correct,
             step=fact.step,
             sim_time=fact.sim_time,
         )
