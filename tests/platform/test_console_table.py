@@ -273,3 +273,67 @@ def test_bulk_pause_and_resume(app, console) -> None:
     with app.extensions["hcss_db"].session_scope() as session:
         kinds = [a.action for a in session.scalars(select(ConsoleAction)) if a.action != "create"]
     assert sorted(kinds) == ["pause", "pause", "resume", "resume"]
+
+
+@pytest.mark.parametrize("action", ["pause", "mark_pilot"])
+def test_two_experimenters_acting_at_once_on_a_session_between_trials_write_one_action(
+    app, console, monkeypatch, action
+) -> None:
+    """Two consoles press Pause (or Mark pilot) for one participant on a questionnaire page at
+    the same instant: one action is written, the other is told it is done already. No trial
+    runs, so no trial's lock orders them; both read the session's state before either writes
+    (held together at a barrier, which times out when the second cannot read yet)."""
+    import contextlib
+    import threading
+
+    from hcss.platform.console import interventions
+    from tests.support.study import visitor
+
+    console.post("/console/participants", {"count": "1", "study": "demo"})
+    (code,) = console.progress()
+    (link,) = LINK.findall(console.get("/console/links").get_data(as_text=True))
+    guest = visitor(app, link.rsplit("/", 1)[-1])
+    guest.page()
+    guest.submit({"decision": "agree"})
+    assert "pause" in console.progress()[code]["actions"]
+
+    together = threading.Barrier(2, timeout=1.0)
+    read = "participant_state" if action == "pause" else "is_pilot"
+    real = getattr(interventions, read)
+
+    def read_together(*args):
+        state = real(*args)
+        with contextlib.suppress(threading.BrokenBarrierError):
+            together.wait()
+        return state
+
+    monkeypatch.setattr(interventions, read, read_together)
+    database, runner = app.extensions["hcss_db"], app.extensions["hcss_runner"]
+    with database.session_scope() as session:
+        participant = session.scalars(select(Participant).where(Participant.code == code)).one()
+    answers: list[str] = []
+
+    def act() -> None:
+        with app.app_context():
+            try:
+                if action == "pause":
+                    change_participant_state(database, runner, participant, None, "pause")
+                else:
+                    interventions.set_pilot(database, runner, participant, None, True)
+                answers.append("done")
+            except ConsoleError as refused:
+                answers.append(str(refused))
+
+    consoles = [threading.Thread(target=act) for _ in range(2)]
+    for thread in consoles:
+        thread.start()
+    for thread in consoles:
+        thread.join(timeout=30)
+    already = {
+        "pause": f"{code}'s session is already paused",
+        "mark_pilot": f"{code} is already a pilot",
+    }
+    assert sorted(answers) == sorted(["done", already[action]])
+    with database.session_scope() as session:
+        written = session.scalars(select(ConsoleAction).where(ConsoleAction.action == action)).all()
+    assert len(written) == 1

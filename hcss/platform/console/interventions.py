@@ -9,6 +9,7 @@ hcss.platform.models.participant_state, which the study flow asks too).
 
 from __future__ import annotations
 
+from sqlalchemy import select, text
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
@@ -61,26 +62,70 @@ def study_status(session: Session, participant: Participant) -> str:
     return status
 
 
-def _record(
+def one_at_a_time(session: Session, participant_id: int) -> None:
+    """Hold the participant's console actions one at a time until this transaction ends.
+
+    Two experimenters acting at once must not both read the session as it was and
+    both write: the state is checked, and the row written, after this. On PostgreSQL
+    it takes the participant row's lock (`FOR UPDATE`); on SQLite, which has no row
+    locks, it takes the database's write lock, by an UPDATE that matches no row (SQLite
+    locks for any write statement, as `Database.write_refusal`'s probe relies on).
+    Participant rows are append-only, so none is changed by either.
+    """
+    if session.get_bind().dialect.name == "postgresql":
+        session.execute(
+            select(Participant.id).where(Participant.id == participant_id).with_for_update()
+        )
+    else:
+        session.execute(text("UPDATE participant SET id = id WHERE 1 = 0"))
+
+
+def _checked_state(session: Session, participant: Participant, action: str) -> None:
+    """Refuse (ConsoleError) an action the session's state does not allow now."""
+    state = participant_state(session, participant.id)
+    if state in ENDED_STATES:
+        ended = state.replace("_", " ")
+        raise ConsoleError(f"{participant.code}'s session was {ended}; it cannot change now")
+    if action == "pause" and state == "paused":
+        raise ConsoleError(f"{participant.code}'s session is already paused")
+    if action == "resume" and state != "paused":
+        raise ConsoleError(f"{participant.code}'s session is not paused")
+    row = session.get(Participant, participant.id)
+    if row is None:
+        raise ConsoleError("no such participant")
+    status = study_status(session, row)
+    if status in FINISHED:
+        raise ConsoleError(
+            f"{participant.code} has {status} the study; there is nothing to {action}"
+        )
+
+
+def _act_without_trial(
     database: Database,
     participant: Participant,
     experimenter: Experimenter | None,
     action: str,
     at_epoch: float,
-    trial_id: int | None = None,
-    detail: str = "",
-) -> None:
+    *,
+    trial_ended: bool = False,
+) -> int | None:
+    """Check the action and, if no trial runs (or the one that ran has ended since), write
+    its row; the running trial's id otherwise, whose live service checks and writes it."""
     with database.session_scope() as session:
-        session.add(
-            ConsoleAction(
-                participant_id=participant.id,
-                experimenter_id=None if experimenter is None else experimenter.id,
-                action=action,
-                trial_id=trial_id,
-                at_epoch=at_epoch,
-                detail=detail,
+        one_at_a_time(session, participant.id)
+        _checked_state(session, participant, action)
+        trial_id = None if trial_ended else running_trial_id(session, participant)
+        if trial_id is None:
+            session.add(
+                ConsoleAction(
+                    participant_id=participant.id,
+                    experimenter_id=None if experimenter is None else experimenter.id,
+                    action=action,
+                    at_epoch=at_epoch,
+                    detail="",
+                )
             )
-        )
+        return trial_id
 
 
 def change_participant_state(
@@ -90,33 +135,22 @@ def change_participant_state(
     experimenter: Experimenter | None,
     action: str,
 ) -> None:
-    """Pause, resume or abort; refuses an action the session's state does not allow."""
+    """Pause, resume or abort; refuses an action the session's state does not allow.
+
+    Between trials the check and the row are one transaction, one experimenter's at a
+    time (`one_at_a_time`). During a trial the trial's live service writes the row under
+    the trial's lock, after checking the trial's state again there.
+    """
     if action not in STATE_ACTIONS:
         raise ConsoleError(f"unknown session action {action!r}")
-    with database.session_scope() as session:
-        state = participant_state(session, participant.id)
-        trial_id = running_trial_id(session, participant)
     if action == "time_out":
         raise ConsoleError("only the server times a session out")
-    if state in ENDED_STATES:
-        ended = state.replace("_", " ")
-        raise ConsoleError(f"{participant.code}'s session was {ended}; it cannot change now")
-    if action == "pause" and state == "paused":
-        raise ConsoleError(f"{participant.code}'s session is already paused")
-    if action == "resume" and state != "paused":
-        raise ConsoleError(f"{participant.code}'s session is not paused")
-    with database.session_scope() as session:
-        row = session.get(Participant, participant.id)
-        if row is None:
-            raise ConsoleError("no such participant")
-        status = study_status(session, row)
-    if status in FINISHED:
-        raise ConsoleError(
-            f"{participant.code} has {status} the study; there is nothing to {action}"
-        )
+    trial_id = _act_without_trial(database, participant, experimenter, action, runner.clock())
+    if trial_id is None:
+        return
     experimenter_id = None if experimenter is None else experimenter.id
     try:
-        controlled = trial_id is not None and control_session_trial(
+        controlled = control_session_trial(
             database,
             runner,
             trial_id,
@@ -126,8 +160,10 @@ def change_participant_state(
         )
     except OrderUnconfirmed as pending:
         raise ConsoleError(str(pending)) from pending
-    if not controlled:  # no trial runs: the row alone holds the session
-        _record(database, participant, experimenter, action, runner.clock())
+    if not controlled:  # the trial ended meanwhile: the row alone holds the session
+        _act_without_trial(
+            database, participant, experimenter, action, runner.clock(), trial_ended=True
+        )
 
 
 def set_pilot(
@@ -139,6 +175,7 @@ def set_pilot(
 ) -> None:
     """Flag (or unflag) a pilot: an action row, the flag's history (hcss.platform.models.pilots)."""
     with database.session_scope() as session:
+        one_at_a_time(session, participant.id)
         row = session.get(Participant, participant.id)
         if row is None:
             raise ConsoleError("no such participant")
@@ -160,6 +197,7 @@ def reinstate(
     """Let a timed-out participant go on (a power cut, a lost connection): a `resume` row,
     from which the study's time-outs count afresh, and an audit row in the console's log."""
     with database.session_scope() as session:
+        one_at_a_time(session, participant.id)
         if participant_state(session, participant.id) != "timed_out":
             raise ConsoleError(f"{participant.code} was not timed out; nothing to reinstate")
         row = session.get(Participant, participant.id)
