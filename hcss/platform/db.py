@@ -135,7 +135,10 @@ class Database:
         #: Epoch seconds; replaced by a `ManualClock` in tests (the runner reads it too).
         self.clock = clock
         self.sessions = sessionmaker(self.engine, expire_on_commit=False, info={"database": self})
-        event.listen(self.sessions, "before_flush", self._stamp_new_rows)
+        # Module functions, never bound methods: SQLAlchemy keeps a sessionmaker's listeners
+        # in a class-level registry keyed weakly by its Session class, and a listener that
+        # held this Database would keep that key, and so every Database, alive for good.
+        event.listen(self.sessions, "before_flush", _stamp_new_rows)
         event.listen(self.sessions, "after_flush", _note_writes)
         event.listen(self.sessions, "do_orm_execute", _note_statement_writes)
         event.listen(self.sessions, "after_transaction_end", _forget_writes)
@@ -143,14 +146,6 @@ class Database:
     def now(self) -> datetime:
         """The clock's instant as an aware UTC datetime, for the rows' time columns."""
         return datetime.fromtimestamp(self.clock(), UTC)
-
-    def _stamp_new_rows(self, session: Session, _context: Any, _instances: Any) -> None:
-        """Stamp `created_at` of the rows this flush inserts (one instant per flush)."""
-        new = [row for row in session.new if isinstance(row, CreatedAt) and row.created_at is None]
-        if new:
-            now = self.now()
-            for row in new:
-                row.created_at = now
 
     @contextmanager
     def session_scope(self) -> Iterator[Session]:
@@ -270,6 +265,16 @@ def init_app(app: Flask) -> Database:
             session.close()
 
     return database
+
+
+def _stamp_new_rows(session: Session, _context: Any, _instances: Any) -> None:
+    """Stamp `created_at` of the rows this flush inserts (one instant per flush), on the
+    clock of the session's Database."""
+    new = [row for row in session.new if isinstance(row, CreatedAt) and row.created_at is None]
+    if new:
+        now = session.info["database"].now()
+        for row in new:
+            row.created_at = now
 
 
 def _note_writes(session: Session, _context: Any) -> None:
