@@ -21,6 +21,9 @@ import pytest
 #: a slow setup is a fixture's server or schema, a slow call the test's own work), longest
 #: first, so the suite's slow tests are known from a file, not from commit messages.
 DURATIONS_FILE = Path(__file__).resolve().parents[1] / "test-artifacts" / "durations.csv"
+#: The fast tier's own times, apart: a `make test-fast` after a full run must not overwrite
+#: the full run's record, the one that refreshes the tier.
+FAST_DURATIONS_FILE = DURATIONS_FILE.with_name("durations-fast.csv")
 #: A full run's durations, kept in the repository: the fast tier (`make test-fast`, `--fast`)
 #: leaves out every test that took longer than FAST_LIMIT_S there. A test not in the file
 #: (a new one) is in the fast tier until the file is refreshed from a full run
@@ -117,8 +120,9 @@ def pytest_runtest_logreport(report: pytest.TestReport) -> None:
 def pytest_sessionfinish(session: pytest.Session) -> None:
     if hasattr(session.config, "workerinput") or not _seconds:
         return  # an xdist worker: the controller writes the file
-    DURATIONS_FILE.parent.mkdir(exist_ok=True)
-    with DURATIONS_FILE.open("w", newline="") as out:
+    written = FAST_DURATIONS_FILE if session.config.getoption("fast") else DURATIONS_FILE
+    written.parent.mkdir(exist_ok=True)
+    with written.open("w", newline="") as out:
         table = csv.writer(out)
         table.writerow(["seconds", "outcome", "test", *PHASES])
         for nodeid, seconds in sorted(_seconds.items(), key=lambda kv: -kv[1]):
