@@ -76,7 +76,7 @@ def test_a_bot_whose_mental_rotation_part_times_out_goes_on(tmp_path, monkeypatc
     from hcss.platform.bots.participant import ParticipantBot
     from hcss.questionnaires import mrt
 
-    acceleration = 30.0
+    acceleration = 60.0
     real_choice = ParticipantBot.mrt_choice
     slept: list[float] = []
 
