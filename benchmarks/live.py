@@ -124,6 +124,16 @@ def start_trials(database_url: str, n_trials: int) -> list[str]:
     return tokens
 
 
+def participant_address(index: int) -> str:
+    """The loopback address the index-th participant connects from, one of its own.
+
+    A study's participants sit at machines of their own; the server counts streams per
+    client address (near its ceiling, a client holding 2 streams gets no third), so
+    200 pages from 127.0.0.1 measured that rule, not the server's capacity.
+    """
+    return f"127.0.{1 + index // 250}.{1 + index % 250}"
+
+
 def drive(base_url: str, tokens: list[str], server_pids: list[int]) -> dict[str, float]:
     """Each token's page through `base_url`: stream rate, command-to-stream latency, server CPU.
 
@@ -131,8 +141,8 @@ def drive(base_url: str, tokens: list[str], server_pids: list[int]) -> dict[str,
     """
     stop = threading.Event()
     readers = []
-    for token in tokens:
-        client = TrialClient(base_url, token)
+    for index, token in enumerate(tokens):
+        client = TrialClient(base_url, token, local_address=participant_address(index))
         client.open_page()
         readers.append(StreamReader(client, stop))
     for reader in readers:

@@ -47,7 +47,14 @@ from benchmarks.failover import (
     start_ready,
     survivor_round,
 )
-from benchmarks.live import TARGET_P95_MS, TARGET_RATE_HZ, _process_cpu_s, drive, start_trials
+from benchmarks.live import (
+    TARGET_P95_MS,
+    TARGET_RATE_HZ,
+    _process_cpu_s,
+    drive,
+    participant_address,
+    start_trials,
+)
 from hcss.platform.cli import DEFAULT_THREADS, upgrade_database
 from hcss.platform.live.client import TrialClient
 from hcss.platform.serving.localserver import LocalNginx, LocalServer, postgres_schema
@@ -123,8 +130,8 @@ def claim(base_url: str, tokens: list[str]) -> None:
     a refused stream counts against the capacity.
     """
 
-    def look(token: str) -> None:
-        client = TrialClient(base_url, token)
+    def look(index: int, token: str) -> None:
+        client = TrialClient(base_url, token, local_address=participant_address(index))
         client.http.timeout = httpx.Timeout(30.0)
         try:
             client.open_page()
@@ -140,7 +147,7 @@ def claim(base_url: str, tokens: list[str]) -> None:
             client.close()
 
     with ThreadPoolExecutor(max_workers=8) as pool:
-        list(pool.map(look, tokens))
+        list(pool.map(look, range(len(tokens)), tokens))
 
 
 def _children(pid: int) -> list[int]:

@@ -20,11 +20,16 @@ from httpx_sse import connect_sse
 
 
 class TrialClient:
-    def __init__(self, base_url: str, token: str) -> None:
+    def __init__(self, base_url: str, token: str, *, local_address: str | None = None) -> None:
+        """`local_address`: the loopback address this participant connects from (127.x.y.z),
+        so a benchmark's participants are as many clients as a study's, not one."""
         self.base_url = base_url.rstrip("/")
         self.token = token
         # httpx keeps the session cookie, as the browser does.
-        self.http = httpx.Client(timeout=10.0)
+        transport = (
+            None if local_address is None else httpx.HTTPTransport(local_address=local_address)
+        )
+        self.http = httpx.Client(timeout=10.0, transport=transport)
         self.csrf = ""
         self.trial_id: int | None = None
 
