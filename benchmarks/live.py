@@ -30,6 +30,7 @@ from httpx_sse import SSEError
 from hcss.platform.cli import DEFAULT_THREADS, upgrade_database
 from hcss.platform.db import Database
 from hcss.platform.live.client import TrialClient
+from hcss.platform.live.stream_slots import RETRY_AFTER_S
 from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.serving.localserver import LocalServer
 from hcss.platform.study.studyfile import load_study
@@ -47,6 +48,9 @@ BEFORE = {
     200: "2.37 Hz min, p95 60 ms",
 }
 MEASURE_S = 20.0
+#: Seconds a page waits before it opens a refused or dropped stream again: the server's
+#: Retry-After on a 503, which live.js heeds (it adds up to half again).
+REOPEN_S = float(RETRY_AFTER_S)
 COMMAND_EVERY_S = 2.0
 TARGET_RATE_HZ = 2.0
 TARGET_P95_MS = 100.0
@@ -63,27 +67,36 @@ class StreamReader(threading.Thread):
         self.sent: list[float] = []  # POST times of refusals not yet seen, oldest first
         self.latencies_ms: list[float] = []
         self.lock = threading.Lock()
-        #: Why this page's stream was refused (the server at its ceiling) or dropped, if it was.
+        #: Why this page's stream was last refused (the server at its ceiling, a trial
+        #: being handed over) or dropped, if it was; and how often the page opened it again.
         self.refused: str | None = None
+        self.reopened = 0
 
     def run(self) -> None:
-        frames = self.client.frames(timeout_s=15.0)
-        try:
-            for frame in frames:
-                now = time.perf_counter()
-                self.frame_times.append(now)
-                for message in frame.get("messages") or []:
-                    with self.lock:
-                        if message.get("kind") == "refusal" and self.sent:
-                            self.latencies_ms.append((now - self.sent.pop(0)) * 1000.0)
-                if self.stop.is_set():
-                    break
-        except (SSEError, httpx.HTTPError) as refusal:
-            # A 503 in JSON instead of a stream, or a stream the overloaded server
-            # dropped or let time out: a figure, not a crash.
-            self.refused = str(refusal)
-        finally:
-            frames.close()
+        """Read frames until told to stop. A refused or dropped stream is opened again after
+        REOPEN_S, as live.js does: a hand-back closes the page's stream, and its next one may
+        meet the hand-over (503). A page refused for good streams nothing: its rate is 0."""
+        while not self.stop.is_set():
+            frames = self.client.frames(timeout_s=15.0)
+            try:
+                for frame in frames:
+                    now = time.perf_counter()
+                    self.frame_times.append(now)
+                    for message in frame.get("messages") or []:
+                        with self.lock:
+                            if message.get("kind") == "refusal" and self.sent:
+                                self.latencies_ms.append((now - self.sent.pop(0)) * 1000.0)
+                    if self.stop.is_set():
+                        return
+            except (SSEError, httpx.HTTPError) as refusal:
+                # A 503 in JSON instead of a stream, or a stream the overloaded server
+                # dropped or let time out: a figure, not a crash.
+                self.refused = str(refusal)
+            finally:
+                frames.close()
+            if not self.stop.is_set():
+                self.reopened += 1
+                self.stop.wait(REOPEN_S)
 
     def command(self, number: int) -> None:
         sent_at = time.perf_counter()
@@ -179,6 +192,7 @@ def drive(base_url: str, tokens: list[str], server_pids: list[int]) -> dict[str,
         # The clients share the machine's two cores with the servers.
         "clients_cpu": clients_cpu_s / (ended - started),
         "refused": sum(r.refused is not None for r in readers),
+        "reopened": sum(r.reopened for r in readers),
     }
 
 

@@ -159,12 +159,15 @@ def _children(pid: int) -> list[int]:
 
 
 def held(r: dict[str, float]) -> bool:
-    """Every trial streamed at 2 Hz (5% slack), p95 command-to-stream under target, none lost."""
+    """Every trial streamed at 2 Hz (5% slack), p95 command-to-stream under target, none lost.
+
+    A page whose stream was refused opens it again after the Retry-After, as live.js does,
+    and its rate counts the frames it missed meanwhile; one refused for good has rate 0.
+    """
     return (
         r["min_rate_hz"] >= TARGET_RATE_HZ * 0.95
         and r["p95_ms"] < TARGET_P95_MS
         and r["unseen"] == 0
-        and r["refused"] == 0
     )
 
 
@@ -202,7 +205,7 @@ def _measured(processes: int, n: int, base: str, workdir: Path) -> bool:
         f"{r['min_rate_hz']:.2f} Hz min / {r['median_rate_hz']:.2f} Hz median; "
         f"command -> stream p50 {r['p50_ms']:.0f} ms, p95 {r['p95_ms']:.0f} ms "
         f"({r['unseen']:.0f} of {r['commands']:.0f} unseen); "
-        f"{r['refused']:.0f} streams refused or dropped; servers "
+        f"{r['refused']:.0f} pages refused or dropped, {r['reopened']:.0f} reopens; servers "
         f"{r['server_cpu']:.0%} of a core ({r['server_cpu'] / n:.2%} per trial), "
         f"nginx {r['nginx_cpu']:.0%}, clients {r['clients_cpu']:.0%}  "
         f"{'held' if ok else 'not held'}",
