@@ -301,39 +301,22 @@ def _write_answer(session: Session, fact: ProbeAnswered) -> int | None:
         session, fact.probe_id, "answer", answer=fact.answer, latency_ms=fact.latency_ms, **when
     )
     if fact.truth is not None:
-        _write_score(
-            session,
-            fact.probe_id,
-            fact.answer,
-            fact.truth,
-            fact.correct,
-            step=fact.step,
-            sim_time=fact.sim_time,
-        )
+        _write_score(session, fact)
     return answered
 
 
-def _write_score(
-    session: Session,
-    probe_id: int,
-    answer: str | None,
-    truth: str,
-    correct: bool | None,
-    *,
-    step: int,
-    sim_time: float,
-) -> None:
+def _write_score(session: Session, fact: ProbeAnswered | ProjectionScored) -> None:
     """A probe's score: at its answer when the truth is known then, or later for a
-    projection (`ProjectionScored`)."""
+    projection, scored by the decision it asked about."""
     _write_probe_event(
         session,
-        probe_id,
+        fact.probe_id,
         "scored",
-        answer=answer,
-        truth=truth,
-        correct=correct,
-        step=step,
-        sim_time=sim_time,
+        answer=fact.answer,
+        truth=fact.truth,
+        correct=fact.correct,
+        step=fact.step,
+        sim_time=fact.sim_time,
     )
 
 
@@ -381,15 +364,7 @@ def _write_log_fact(
             session, fact.probe_id, "timeout", step=fact.step, sim_time=fact.sim_time
         )
     elif isinstance(fact, ProjectionScored):
-        _write_score(
-            session,
-            fact.probe_id,
-            fact.answer,
-            fact.truth,
-            fact.correct,
-            step=fact.step,
-            sim_time=fact.sim_time,
-        )
+        _write_score(session, fact)
     elif isinstance(fact, SnapshotTaken):
         write_snapshot(
             session,
