@@ -277,16 +277,19 @@ def test_bulk_pause_and_resume(app, console) -> None:
 
 @pytest.mark.parametrize("action", ["pause", "mark_pilot"])
 def test_two_experimenters_acting_at_once_on_a_session_between_trials_write_one_action(
-    app, console, monkeypatch, action
+    app, console, experimenter, monkeypatch, action
 ) -> None:
-    """Two consoles press Pause (or Mark pilot) for one participant on a questionnaire page at
-    the same instant: one action is written, the other is told it is done already. No trial
-    runs, so no trial's lock orders them; both read the session's state before either writes
-    (held together at a barrier, which times out when the second cannot read yet)."""
+    """Two experimenters, each signed in to the console, press Pause (or Mark pilot) for one
+    participant on a questionnaire page at the same instant: one action is written, and the
+    other's page says it was done already. No trial runs, so no trial's lock orders them;
+    both read the session's state before either writes (held together at a barrier, which
+    times out when the second cannot read yet)."""
     import contextlib
+    import html
     import threading
 
     from hcss.platform.console import interventions
+    from tests.support.console import Console, sign_in
     from tests.support.study import visitor
 
     console.post("/console/participants", {"count": "1", "study": "demo"})
@@ -295,7 +298,10 @@ def test_two_experimenters_acting_at_once_on_a_session_between_trials_write_one_
     guest = visitor(app, link.rsplit("/", 1)[-1])
     guest.page()
     guest.submit({"decision": "agree"})
-    assert "pause" in console.progress()[code]["actions"]
+    assert action in console.progress()[code]["actions"]
+    other = Console(app=app, client=app.test_client())
+    assert sign_in(other.client, *experimenter).status_code == 302
+    other.get("/console/")
 
     together = threading.Barrier(2, timeout=1.0)
     read = "participant_state" if action == "pause" else "is_pilot"
@@ -308,32 +314,27 @@ def test_two_experimenters_acting_at_once_on_a_session_between_trials_write_one_
         return state
 
     monkeypatch.setattr(interventions, read, read_together)
-    database, runner = app.extensions["hcss_db"], app.extensions["hcss_runner"]
-    with database.session_scope() as session:
-        participant = session.scalars(select(Participant).where(Participant.code == code)).one()
-    answers: list[str] = []
+    pages: list[str] = []
 
-    def act() -> None:
-        with app.app_context():
-            try:
-                if action == "pause":
-                    change_participant_state(database, runner, participant, None, "pause")
-                else:
-                    interventions.set_pilot(database, runner, participant, None, True)
-                answers.append("done")
-            except ConsoleError as refused:
-                answers.append(str(refused))
+    def press(experimenter_s: Console) -> None:
+        pressed = experimenter_s.act(code, action)
+        assert pressed.status_code == 303
+        page = experimenter_s.get(pressed.headers["Location"]).get_data(as_text=True)
+        pages.append(html.unescape(page))
 
-    consoles = [threading.Thread(target=act) for _ in range(2)]
+    consoles = [threading.Thread(target=press, args=(each,)) for each in (console, other)]
     for thread in consoles:
         thread.start()
     for thread in consoles:
         thread.join(timeout=30)
+    done = f"{code}: {action.replace('_', ' ')} done"
     already = {
         "pause": f"{code}'s session is already paused",
         "mark_pilot": f"{code} is already a pilot",
-    }
-    assert sorted(answers) == sorted(["done", already[action]])
-    with database.session_scope() as session:
+    }[action]
+    assert len(pages) == 2
+    assert sorted(done in page for page in pages) == [False, True]
+    assert sorted(already in page for page in pages) == [False, True]
+    with app.extensions["hcss_db"].session_scope() as session:
         written = session.scalars(select(ConsoleAction).where(ConsoleAction.action == action)).all()
     assert len(written) == 1
