@@ -37,7 +37,10 @@ class Constants(NamedTuple):
     own_targets_only: bool  # params.foreign_targets == "own_only"
     discovery_delay: bool  # M2's mechanisms in force for this model
     reassessment_delay: bool
-    modulation: bool
+    modulation: bool  # some use of an F_I agent's messages carries M_i in this model
+    modulate_queue: bool  # params.modulated_uses(model): which ones
+    modulate_recruitment: bool
+    modulate_inhibition: bool
     abandon_rate: bool  # params.abandonment == "rate"
     g_value_inside: bool  # params.m2_g_reading == "value_inside"
 
@@ -66,7 +69,10 @@ def constants_for(params: Params, model: str) -> Constants:
         own_targets_only=params.foreign_targets == "own_only",
         discovery_delay=params.m2_uses(model, "discovery_delay"),
         reassessment_delay=params.m2_uses(model, "reassessment_delay"),
-        modulation=params.m2_uses(model, "modulation"),
+        modulation=bool(params.modulated_uses(model)),
+        modulate_queue="queue" in params.modulated_uses(model),
+        modulate_recruitment="recruitment" in params.modulated_uses(model),
+        modulate_inhibition="inhibition" in params.modulated_uses(model),
         abandon_rate=params.abandonment == "rate",
         g_value_inside=params.m2_g_reading == "value_inside",
     )

@@ -524,7 +524,7 @@ class Simulation:
         state = {name: value for name, value in vars(self).items() if name not in DERIVED}
         state.update(
             scenario=self.scenario.to_dict(),
-            params=self.params.to_dict(),
+            params=self.params.stored_dict(),
             rng=self.rng.bit_generator.state,
         )
         return stamped(state)
@@ -553,7 +553,7 @@ class Simulation:
     def state_digest(self) -> str:
         """A digest of the parameters, every state array, the clock, the generator and the requests."""
         h = hashlib.sha256()
-        h.update(repr(sorted(self.params.to_dict().items())).encode())
+        h.update(repr(sorted(self.params.stored_dict().items())).encode())
         for name, array in sorted(self.world.arrays().items()):
             h.update(name.encode())
             h.update(np.ascontiguousarray(array).tobytes())

@@ -27,6 +27,9 @@ G_READINGS = ("distance_only", "value_inside")
 EASY_LAYOUT_OTHERS = ("anywhere", "strictly_farther")
 DIFFICULTY_LABELS = ("best_nearest", "best_not_furthest")
 LABEL_DISTANCES = ("exact", "ring")
+MODULATION_USES = ("queue", "recruitment", "inhibition")
+M1_QUEUE_MODULATION = ("unmodulated", "modulated")
+M2_D_MIN = ("search_space", "nearest_site")
 
 
 @dataclass(frozen=True)
@@ -163,6 +166,29 @@ class Params:
     # "exact" (to the millimetre) or "ring" (by label_ring_m rings: 0-100 m, 100-200 m, ...).
     label_distances: str = "exact"
     label_ring_m: float = 100.0
+    # Which uses of an F_I(i) agent's messages carry M2's M_i (any non-empty set). The
+    # paper's Eq. 4 puts M_i on recruitment (P_ρ) and cross-inhibition (P_σ); its quorum
+    # text writes the queue's rate as M_i·P_U^L.
+    #   "queue": the message counts in the receiver's quorum window (k in a row);
+    #   "recruitment": it can recruit an uncommitted receiver;
+    #   "inhibition": it can cross-inhibit a receiver favouring another site.
+    # All three (the engine's reading before issue 39) send the whole stream at r·M_i.
+    # Otherwise the sender sends at r·max(f) (f = M_i for a modulated use, 1 for the
+    # others) and each message keeps each use with probability f_use/max(f), drawn
+    # independently: thinning one Poisson stream, so every use's rate is exactly
+    # r·f_use, and a message that keeps no use is not sent.
+    m2_modulation_uses: tuple[str, ...] = MODULATION_USES
+    # Whether M1's queue messages carry M_i too (the quorum's states are shared by the
+    # models, and the paper's quorum text has "M_i·P_U^L"): "modulated" sends an M1
+    # F_I(i) agent's queue messages at r·M_i, its recruitment and inhibition at r.
+    m1_queue_modulation: str = "unmodulated"
+    # d_min of M_i = d_i/d_min.
+    #   "search_space": site_d_min_m (150 m), the search space's minimum site distance;
+    #   "nearest_site": the distance of the nearest site of the collective's current
+    #     layout (active, in range, and its own under foreign_targets="own_only"),
+    #     recomputed whenever a hub moves or a section starts: the nearest site has
+    #     M_i = 1 after every move.
+    m2_d_min: str = "search_space"
     # The named preset these values came from (presets.py), stored with every
     # trial's params. Values changed after choosing a preset are stored beside it.
     preset: str = "literal"
@@ -191,6 +217,8 @@ class Params:
             ("easy_layout_others", EASY_LAYOUT_OTHERS),
             ("difficulty_label", DIFFICULTY_LABELS),
             ("label_distances", LABEL_DISTANCES),
+            ("m1_queue_modulation", M1_QUEUE_MODULATION),
+            ("m2_d_min", M2_D_MIN),
         ):
             if getattr(self, name) not in allowed:
                 raise ValueError(
@@ -201,6 +229,15 @@ class Params:
             raise ValueError(
                 f"m2_mechanisms must be among {', '.join(M2_MECHANISMS)}, not {sorted(unknown)}"
             )
+        uses = self.m2_modulation_uses
+        if not uses or set(uses) - set(MODULATION_USES) or len(set(uses)) != len(uses):
+            raise ValueError(
+                f"m2_modulation_uses must be a non-empty set of {', '.join(MODULATION_USES)}, "
+                f"not {list(uses)}"
+            )
+        # One order for one set, so that equal readings are equal params (and digests).
+        canonical = tuple(u for u in MODULATION_USES if u in uses)
+        object.__setattr__(self, "m2_modulation_uses", canonical)
         if not self.sensing_radius_m > 0 or not self.message_rate > 0:
             raise ValueError("sensing_radius_m and message_rate must be positive")
         if not self.m2_discovery_wait_scale > 0 or not self.label_ring_m > 0:
@@ -217,10 +254,42 @@ class Params:
         """Whether `model` runs one of M2's mechanisms (only M2 does; ablations remove them)."""
         return model == "M2" and mechanism in self.m2_mechanisms
 
+    def modulated_uses(self, model: str) -> frozenset[str]:
+        """The uses of an F_I agent's messages that carry M_i in `model` (may be empty)."""
+        uses: set[str] = set()
+        if self.m2_uses(model, "modulation"):
+            uses |= set(self.m2_modulation_uses)
+        if model == "M1" and self.m1_queue_modulation == "modulated":
+            uses.add("queue")
+        return frozenset(uses)
+
+    def stored_dict(self) -> dict[str, object]:
+        """The values a trial's snapshot stores and its state digest covers, in field order.
+
+        Readings added after a release's stored snapshots (its fixtures) are left out
+        while they hold their default, which is the behaviour from before they
+        existed: a run under them keeps its digest and its snapshot's layout, and
+        `from_dict` restores the default. (A previous version reading a snapshot that
+        sets one would ignore it: only new presets set them.)
+        """
+        return {
+            name: value
+            for name, value in self.to_dict().items()
+            if not (name in _LATER_READINGS and value == _LATER_READINGS[name])
+        }
+
     @property
     def m2_d_min_m(self) -> float:
         """d_min of M2's delays and modulation, under the chosen reading."""
         return self.site_d_min_m
+
+    def modulation_d_min_m(self, nearest_site_m: float | None) -> float:
+        """d_min of M_i = d_i/d_min under `m2_d_min`: the search space's (site_d_min_m) or
+        the nearest eligible site's distance (as M2 reads distances: clamped or not);
+        `nearest_site_m` None (no eligible site) falls back to the search space's."""
+        if self.m2_d_min == "nearest_site" and nearest_site_m is not None:
+            return float(self.m2_distance(np.asarray(nearest_site_m)))
+        return self.m2_d_min_m
 
     @property
     def m2_d_max_m(self) -> float:
@@ -289,11 +358,19 @@ class Params:
     @classmethod
     def from_dict(cls, values: Mapping[str, Any]) -> Params:
         known = {k: v for k, v in values.items() if k in cls.__dataclass_fields__}
-        for key in ("target_values", "target_distances_m", "m2_mechanisms"):
+        for key in ("target_values", "target_distances_m", "m2_mechanisms", "m2_modulation_uses"):
             if key in known:
                 known[key] = tuple(known[key])  # JSON turns tuples into lists
         return cls(**known)
 
+
+# Readings added after release 0.1.0 and their defaults (which reproduce the engine
+# before them): `Params.stored_dict` leaves them out of a state digest while default.
+_LATER_READINGS: dict[str, object] = {
+    "m2_modulation_uses": MODULATION_USES,
+    "m1_queue_modulation": "unmodulated",
+    "m2_d_min": "search_space",
+}
 
 MODELS: tuple[str, ...] = ("M1", "M2", "M3")
 

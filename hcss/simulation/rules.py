@@ -89,16 +89,28 @@ def _round_trip_gap(d: np.ndarray, params: Params) -> np.ndarray:
     return np.asarray(params.round_trip_s(params.m2_d_max_m) - params.round_trip_s(d))
 
 
-def frequency_modulation(distance_m: np.ndarray, params: Params) -> np.ndarray:
-    """M2's M_i = d_i / d_min: farther targets recruit and inhibit more often.
+def frequency_modulation(
+    distance_m: np.ndarray, params: Params, nearest_site_m: float | None = None
+) -> np.ndarray:
+    """M2's M_i = d_i / d_min: farther targets' messages count more often.
 
-    d_min and the treatment of sites beyond d_max follow the chosen reading.
+    d_min (`params.m2_d_min`: the search space's, or `nearest_site_m`, the nearest
+    eligible site's) and the treatment of sites beyond d_max follow the chosen
+    reading; which uses of a message M_i multiplies is `params.m2_modulation_uses`.
     """
-    return _frequency_modulation(params.m2_distance(distance_m), params)
+    return params.m2_distance(distance_m) / params.modulation_d_min_m(nearest_site_m)
 
 
-def _frequency_modulation(d: np.ndarray, params: Params) -> np.ndarray:
-    return d / params.m2_d_min_m
+def nearest_eligible_site_m(world: World, params: Params) -> list[float | None]:
+    """Per collective: the distance of the nearest site of its current layout (active, in
+    range, its own under foreign_targets="own_only"), or None when it has none."""
+    nearest: list[float | None] = []
+    for c in range(world.n_collectives):
+        ok = world.active & (world.hub_distance[c] <= params.exploration_range_m)
+        if params.foreign_targets == "own_only":
+            ok &= world.target_around == c
+        nearest.append(float(world.hub_distance[c, ok].min()) if ok.any() else None)
+    return nearest
 
 
 def site_rate(distance_m: np.ndarray, params: Params) -> np.ndarray:
@@ -121,7 +133,11 @@ def refresh_geometry(world: World, params: Params) -> None:
     with np.errstate(divide="ignore", invalid="ignore"):
         world.discovery_gap[:] = _discovery_gap(d, params)
     world.round_trip_gap[:] = _round_trip_gap(d, params)
-    world.send_factor[:] = _frequency_modulation(d, params)
+    if params.m2_d_min == "nearest_site":
+        for c, nearest in enumerate(nearest_eligible_site_m(world, params)):
+            world.send_factor[c] = d[c] / params.modulation_d_min_m(nearest)
+    else:
+        world.send_factor[:] = d / params.m2_d_min_m
     world.site_rate[:] = site_rate(world.hub_distance, params)
 
 
