@@ -580,6 +580,24 @@ def _structure_axes() -> tuple[
     help="Comma-separated sets of M2's mechanisms.",
 )
 @click.option(
+    "--uses",
+    default="queue+recruitment+inhibition",
+    show_default=True,
+    help="Comma-separated sets (each '+'-joined) of the uses carrying M2's M_i.",
+)
+@click.option(
+    "--m1-queue",
+    default="unmodulated",
+    show_default=True,
+    help="Comma-separated: M1's queue messages unmodulated or modulated by M_i.",
+)
+@click.option(
+    "--d-min",
+    default="search_space",
+    show_default=True,
+    help="Comma-separated d_min readings of M_i: search_space, nearest_site.",
+)
+@click.option(
     "--out",
     type=click.Path(file_okay=False, path_type=Path),
     default=Path("out/structure"),
@@ -592,6 +610,9 @@ def structure(
     d_max: str,
     wait_scale: str,
     mechanisms: str,
+    uses: str,
+    m1_queue: str,
+    d_min: str,
     out: Path,
 ) -> None:
     """Issue 28's structural question as a map: M1's and M2's P(best) and decision time on
@@ -616,12 +637,17 @@ def structure(
                 [float(v) for v in axis(d_max, "--d-max")],
                 [float(v) for v in axis(wait_scale, "--wait-scale")],
                 axis(mechanisms, "--mechanisms", tuple(st.MECHANISMS)),
+                axis(uses, "--uses"),
+                axis(m1_queue, "--m1-queue"),
+                axis(d_min, "--d-min"),
             )
         )
-        for cell in cells:  # a d_max or scale the params refuse, before any run
+        for cell in cells:  # a value the params refuse, before any run
             cell.params(preset_params(preset))
     except ValueError as error:  # a number that is not one, or one the params refuse
-        raise click.BadParameter(str(error), param_hint="--d-max/--wait-scale") from None
+        raise click.BadParameter(
+            str(error), param_hint="--d-max/--wait-scale/--uses/--m1-queue/--d-min"
+        ) from None
     click.echo(
         f"{len(cells)} cells × {len(st.LAYOUTS)} layouts × {runs} agent runs, preset {preset}."
     )

@@ -66,7 +66,17 @@ class Rates:
     abandon_rate: np.ndarray  # scale·α/v per second in F_I (0 under "per_visit")
     leave_delay: np.ndarray  # P_D(i); inf where the guard applies (M1: inf)
     leave_reassess: np.ndarray  # P_R(i)
-    modulation: np.ndarray  # M_i (M1: 1)
+    # M_i on each use of an F_I(i) agent's messages (1 where the use is not modulated):
+    # the quorum's queue, recruitment, cross-inhibition (params.modulated_uses).
+    queue_modulation: np.ndarray
+    recruit_modulation: np.ndarray
+    inhibit_modulation: np.ndarray
+
+    @property
+    def send_modulation(self) -> np.ndarray:
+        """The factor of an F_I(i) agent's whole stream: the largest of its uses' (thinning)."""
+        top = np.maximum(self.queue_modulation, self.recruit_modulation)
+        return np.asarray(np.maximum(top, self.inhibit_modulation))
 
     @classmethod
     def of(
@@ -82,11 +92,27 @@ class Rates:
             abandon = np.minimum(1.0, alpha * (d / params.abandon_unit_m) / v)
             abandon_rate = np.zeros(d.size)
         inf = np.full(d.size, np.inf)
+        dm = params.m2_distance(d)
+        # M_i = d_i/d_min; the sites are the collective's layout, so the nearest is theirs.
+        m_i = dm / params.modulation_d_min_m(float(d.min()))
+        uses = params.modulated_uses(model)
+        queue, recruit, inhibit = (
+            m_i if use in uses else np.ones(d.size)
+            for use in ("queue", "recruitment", "inhibition")
+        )
         if model != "M2":
             return cls(
-                discovery, v, d / params.speed_mps, abandon, abandon_rate, inf, inf, np.ones(d.size)
+                discovery,
+                v,
+                d / params.speed_mps,
+                abandon,
+                abandon_rate,
+                inf,
+                inf,
+                queue,
+                recruit,
+                inhibit,
             )
-        dm = params.m2_distance(d)
         gap_d = params.discovery_wait_gap_s(dm)
         gap_r = params.round_trip_s(params.m2_d_max_m) - params.round_trip_s(dm)
         if params.m2_g_reading == "value_inside":
@@ -94,14 +120,12 @@ class Rates:
         with np.errstate(divide="ignore"):
             leave_d = np.where(gap_d > 0, v / np.where(gap_d > 0, gap_d, 1.0), np.inf)
             leave_r = np.where(gap_r > 0, v / np.where(gap_r > 0, gap_r, 1.0), np.inf)
-        modulation = dm / params.m2_d_min_m
-        # An ablation removes a mechanism here as in the agent model (params.m2_uses).
+        # An ablation removes a mechanism here as in the agent model (params.m2_uses;
+        # M_i's through params.modulated_uses above).
         if not params.m2_uses(model, "discovery_delay"):
             leave_d = inf
         if not params.m2_uses(model, "reassessment_delay"):
             leave_r = inf
-        if not params.m2_uses(model, "modulation"):
-            modulation = np.ones(d.size)
         return cls(
             discovery,
             v,
@@ -110,7 +134,9 @@ class Rates:
             abandon_rate,
             leave_d,
             leave_r,
-            modulation,
+            queue,
+            recruit,
+            inhibit,
         )
 
 
@@ -155,12 +181,15 @@ def solve_meanfield(
         uL, uH, uI, a, go, back, fI, fD, fR, hazard, _surv, _win = unpack(y)
         fI, fD, fR = np.maximum(fI, 0), np.maximum(fD, 0), np.maximum(fR, 0)
         hub = max(uI + fI.sum() + fD.sum() + fR.sum(), 1e-12)
-        send = r * rates.modulation * fI  # F_I(i)'s messages per unit of N
+        # F_I(i)'s messages per unit of N, per use (each use at r·M_i or r: thinning).
+        send = r * rates.queue_modulation * fI  # counted in quorum windows
         total_send = r * max(uI, 0.0) + send.sum()
-        persuade = send * rates.value / hub  # per receiver fraction: v̂_s-weighted messages
+        weighted = r * fI * rates.value / hub  # per receiver fraction: v̂_s-weighted messages
+        persuade = weighted * rates.recruit_modulation
+        dissuade = weighted * rates.inhibit_modulation
         found = rates.discovery * rates.value * max(uL, 0.0)
         recruit = persuade * max(uI, 0.0)
-        inhibit_rate = persuade.sum() - persuade  # from every other site's F_I
+        inhibit_rate = dissuade.sum() - dissuade  # from every other site's F_I
         inhibited = inhibit_rate * (fI + fD + fR)
         returned = fly * back
         kept = returned * (1.0 - rates.abandon)

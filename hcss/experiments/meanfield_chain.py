@@ -4,7 +4,9 @@ Each agent has a state, a target, a flight timer and a quorum streak. Every
 step of dt: flights end, explorers discover sites at g(d)·scale per agent
 and adopt with probability v̂, the rates of spec §4–5 fire, and every hub
 agent in an interactive state sends Poisson(r_msg·M_i·dt) messages, each to
-one uniformly random member of its hub area (the whole hub: no 30 m range).
+one uniformly random member of its hub area (the whole hub: no 30 m range);
+M_i's uses (queue, recruitment, inhibition) are thinned from the stream as in
+the engine: sent at r·max(f), each use kept with probability f_use/max(f).
 Receivers apply the rules of spec §4 and §7 one message at a time, in rounds
 of distinct receivers, reading the sender's state from the step's start. The
 decision ends at the first D quorum, as in the agent model.
@@ -191,25 +193,11 @@ class Chain:
     # ---------------------------------------------------------- messages
     def exchange(self) -> bool:
         """One step of messages; True when a D quorum ends the decision."""
-        p, state, target = self.p, self.state, self.target
-        self.silence += p.dt_s
-        senders = np.flatnonzero(SENDS[state])
-        rate = np.full(senders.size, p.message_rate)
-        favouring = state[senders] == FI
-        if self.m2:
-            rate[favouring] *= self.rates.modulation[target[senders[favouring]]]
-        senders = np.repeat(senders, self.rng.poisson(rate * p.dt_s))
-        area = np.where(state == D, 1, np.where(IN_HUB[state], 0, -1))
-        receivers = np.full(senders.size, -1)
-        for a in (0, 1):
-            members = np.flatnonzero(area == a)
-            mine = np.flatnonzero(area[senders] == a)
-            if members.size > 1 and mine.size:
-                receivers[mine] = members[self.rng.integers(0, members.size, mine.size)]
-        ok = (receivers >= 0) & (receivers != senders)
-        senders, receivers = senders[ok], receivers[ok]
+        self.silence += self.p.dt_s
+        senders, receivers, uses = self.compose()
         if senders.size == 0:
             return False
+        state, target = self.state, self.target
         sender = (state[senders].copy(), target[senders].copy(), self.estimate[senders].copy())
         sender_key = PHASE[sender[0]] * 64 + sender[1]
         order = self.rng.permutation(receivers.size)
@@ -223,10 +211,52 @@ class Chain:
         for rnd in range(int(rank.max()) + 1):
             m = order[rank == rnd]
             if self.deliver(
-                receivers[m], sender[0][m], sender[1][m], sender[2][m], sender_key[m], draws[m]
+                receivers[m],
+                sender[0][m],
+                sender[1][m],
+                sender[2][m],
+                sender_key[m],
+                draws[m],
+                uses[:, m],
             ):
                 return True
         return False
+
+    def compose(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """This step's messages: senders, receivers and uses (3 × messages: queue,
+        recruitment, inhibition)."""
+        p, state, target = self.p, self.state, self.target
+        senders = np.flatnonzero(SENDS[state])
+        rate = np.full(senders.size, p.message_rate)
+        favouring = state[senders] == FI
+        top = self.rates.send_modulation
+        rate[favouring] *= top[target[senders[favouring]]]
+        senders = np.repeat(senders, self.rng.poisson(rate * p.dt_s))
+        # Each message's uses (queue, recruitment, inhibition): kept with f_use/max(f).
+        uses = np.ones((3, senders.size), dtype=bool)
+        fi = state[senders] == FI
+        site = target[senders[fi]]
+        for row, factor in enumerate(
+            (
+                self.rates.queue_modulation,
+                self.rates.recruit_modulation,
+                self.rates.inhibit_modulation,
+            )
+        ):
+            keep = factor[site] / top[site]
+            if np.any(keep < 1.0):
+                uses[row, fi] = self.rng.random(site.size) < keep
+        sent = uses.any(axis=0)
+        senders, uses = senders[sent], uses[:, sent]
+        area = np.where(state == D, 1, np.where(IN_HUB[state], 0, -1))
+        receivers = np.full(senders.size, -1)
+        for a in (0, 1):
+            members = np.flatnonzero(area == a)
+            mine = np.flatnonzero(area[senders] == a)
+            if members.size > 1 and mine.size:
+                receivers[mine] = members[self.rng.integers(0, members.size, mine.size)]
+        ok = (receivers >= 0) & (receivers != senders)
+        return senders[ok], receivers[ok], uses[:, ok]
 
     def deliver(
         self,
@@ -236,18 +266,23 @@ class Chain:
         s_estimate: np.ndarray,
         s_key: np.ndarray,
         draw: np.ndarray,
+        uses: np.ndarray,
     ) -> bool:
-        """Spec §4 and §7 for one message to each of the distinct receivers r."""
+        """Spec §4 and §7 for one message to each of the distinct receivers r; `uses` (3, n):
+        whether each message counts in the queue, can recruit, can inhibit."""
+        queue, recruits, inhibits = uses
         st, tg = self.state[r].copy(), self.target[r].copy()
         self.silence[r] = 0.0
-        streak = np.where(self.key(r) == s_key, self.streak[r] + 1, 0)
+        streak = np.where(
+            queue, np.where(self.key(r) == s_key, self.streak[r] + 1, 0), self.streak[r]
+        )
         self.streak[r] = streak
         commit = (s_state == C) & DELIBERATING[st]
         initiate = (s_state == INIT) & ((st == UI) | (st == FI) | ((st == C) & (tg == s_target)))
         persuaded = (s_state == FI) & (draw < s_estimate) & ~commit & ~initiate
-        recruit = persuaded & (st == UI)
-        inhibit = persuaded & ((st == FI) | (st == FD) | (st == FR)) & (tg != s_target)
-        quorum = (streak >= self.p.quorum_k) & ~(commit | initiate | recruit | inhibit)
+        recruit = persuaded & (st == UI) & recruits
+        inhibit = persuaded & ((st == FI) | (st == FD) | (st == FR)) & (tg != s_target) & inhibits
+        quorum = queue & (streak >= self.p.quorum_k) & ~(commit | initiate | recruit | inhibit)
         self.become(r[commit], C, s_target[commit])
         self.become(r[initiate], INIT, s_target[initiate])
         self.become(r[recruit], FGO, s_target[recruit])

@@ -20,12 +20,11 @@ The grid, over what the paper states loosely or fits rather than states:
   μ and ξ refitted to γ over 150–500 m and used wherever g is, F_D's wait too);
 - d_max of F_D and F_R (the sites' 352 m up to the search space's 500 m);
 - a scale on F_D's wait (the unit of d inside g);
-- M2's mechanisms: all three, F_R removed, M_i removed (M_i on recruitment
-  and inhibition alike is the engine's only reading; removing it bounds
-  every partial reading).
-
-The quorum's queue messages as a stream of their own (M_i·P_U^L) are not in
-the map: tried before and rejected (docs/simulation-notes.md).
+- M2's mechanisms: all three, F_R removed, M_i removed;
+- (issue 39) which uses of an F_I agent's messages carry M_i (a '+'-joined set
+  of queue, recruitment, inhibition: `Params.m2_modulation_uses`), whether M1's
+  queue messages carry it too (`m1_queue_modulation`, both models' cells), and
+  d_min from the search space or the layout's nearest site (`m2_d_min`).
 """
 
 from __future__ import annotations
@@ -40,7 +39,7 @@ import numpy as np
 
 from hcss.experiments.crosscheck import agent_decision
 from hcss.experiments.meanfield import Site, solve_meanfield
-from hcss.simulation.params import M2_MECHANISMS, Params
+from hcss.simulation.params import M1_QUEUE_MODULATION, M2_D_MIN, M2_MECHANISMS, Params
 from hcss.tidy_csv import write_rows
 
 # Best nearest (easy under every label), best in the middle ring (easy under the loose
@@ -58,11 +57,15 @@ MECHANISMS: dict[str, tuple[str, ...]] = {
     "no_F_R": tuple(m for m in M2_MECHANISMS if m != "reassessment_delay"),
     "no_M_i": tuple(m for m in M2_MECHANISMS if m != "modulation"),
 }
+ALL_USES = "queue+recruitment+inhibition"
 COLUMNS = (
     "discovery",
+    "m1_queue",
+    "d_min",
     "d_max_m",
     "wait_scale",
     "mechanisms",
+    "uses",
     "model",
     "layout",
     "method",
@@ -119,9 +122,13 @@ class Cell:
     d_max_m: float | None = None  # None for M1, which has no delays
     wait_scale: float | None = None
     mechanisms: str | None = None
+    uses: str | None = None  # M2: the uses carrying M_i, '+'-joined
+    m1_queue: str = "unmodulated"  # both models (shared): M1's queue messages × M_i or not
+    d_min: str = "search_space"  # both models (shared): d_min of M_i
 
     def params(self, base: Params) -> tuple[Params, float]:
         params, scale = reading_params(base, self.discovery)
+        params = params.with_changes(m1_queue_modulation=self.m1_queue, m2_d_min=self.d_min)
         if self.model == "M2":
             if self.d_max_m is None or self.wait_scale is None or self.mechanisms is None:
                 raise ValueError("an M2 cell needs d_max_m, wait_scale and mechanisms")
@@ -130,6 +137,7 @@ class Cell:
                 fitted_d_max_m=self.d_max_m,
                 m2_discovery_wait_scale=self.wait_scale,
                 m2_mechanisms=MECHANISMS[self.mechanisms],
+                m2_modulation_uses=tuple((self.uses or ALL_USES).split("+")),
             )
         return params, scale
 
@@ -139,15 +147,29 @@ def grid(
     d_max_m: Iterable[float] = D_MAX_M,
     wait_scales: Iterable[float] = WAIT_SCALES,
     mechanisms: Iterable[str] = tuple(MECHANISMS),
+    uses: Iterable[str] = (ALL_USES,),
+    m1_queue: Iterable[str] = ("unmodulated",),
+    d_min: Iterable[str] = ("search_space",),
 ) -> Iterator[Cell]:
-    """M1 once per discovery reading (nothing else in the grid reaches it), then M2's cells."""
+    """M1 once per discovery reading and shared reading (M1 runs none of M2's values), then
+    M2's cells."""
     d_max_m, wait_scales, mechanisms = tuple(d_max_m), tuple(wait_scales), tuple(mechanisms)
+    uses, m1_queue, d_min = tuple(uses), tuple(m1_queue), tuple(d_min)
+    for name in m1_queue:
+        if name not in M1_QUEUE_MODULATION:
+            raise ValueError(f"m1_queue must be among {', '.join(M1_QUEUE_MODULATION)}")
+    for name in d_min:
+        if name not in M2_D_MIN:
+            raise ValueError(f"d_min must be among {', '.join(M2_D_MIN)}")
     for reading in discovery:
-        yield Cell(reading, "M1")
-        for d_max in d_max_m:
-            for scale in wait_scales:
-                for kept in mechanisms:
-                    yield Cell(reading, "M2", d_max, scale, kept)
+        for queue in m1_queue:
+            for low in d_min:
+                yield Cell(reading, "M1", m1_queue=queue, d_min=low)
+                for d_max in d_max_m:
+                    for scale in wait_scales:
+                        for kept in mechanisms:
+                            for used in uses:
+                                yield Cell(reading, "M2", d_max, scale, kept, used, queue, low)
 
 
 def measure(cell: Cell, base: Params, runs: int, seed: int = 7) -> list[dict[str, Any]]:
@@ -156,9 +178,12 @@ def measure(cell: Cell, base: Params, runs: int, seed: int = 7) -> list[dict[str
     rows = []
     key = {
         "discovery": cell.discovery,
+        "m1_queue": cell.m1_queue,
+        "d_min": cell.d_min,
         "d_max_m": cell.d_max_m,
         "wait_scale": cell.wait_scale,
         "mechanisms": cell.mechanisms,
+        "uses": cell.uses if cell.model == "M2" else None,
         "model": cell.model,
     }
     for layout, sites in LAYOUTS.items():
@@ -234,21 +259,30 @@ def summary_markdown(rows: list[dict[str, Any]]) -> str:
     reach the study's M2 easy cell at its time with its difficult rate."""
     by_cell: dict[tuple[Any, ...], dict[str, dict[str, dict[str, Any]]]] = {}
     for row in rows:
-        key = (row["discovery"], row["model"], row["d_max_m"], row["wait_scale"], row["mechanisms"])
+        key = (
+            row["discovery"],
+            row.get("m1_queue", "unmodulated"),
+            row.get("d_min", "search_space"),
+            row["model"],
+            row["d_max_m"],
+            row["wait_scale"],
+            row["mechanisms"],
+            row.get("uses"),
+        )
         by_cell.setdefault(key, {}).setdefault(row["method"], {})[row["layout"]] = row
     lines = [
         "P(best), decision time (min) per layout: mean-field (MF) and agent model. "
         "Reaches: M2 within band of the study's easy cell (≥ 66.7% at 3.17–5.17 min) on the "
         "best-nearest layout and ≥ 54.0% on the best-furthest one, in that method.",
         "",
-        "| discovery | model | d_max | F_D wait | mechanisms | "
+        "| discovery | M1 queue | d_min | model | d_max | F_D wait | mechanisms | M_i on | "
         + " | ".join(f"{layout} {m}" for layout in LAYOUTS for m in ("MF", "agent"))
         + " | reaches (MF / agent) |",
-        "|---|---|---|---|---|" + "---|" * (2 * len(LAYOUTS)) + "---|",
+        "|---|---|---|---|---|---|---|---|" + "---|" * (2 * len(LAYOUTS)) + "---|",
     ]
     reached = {"mean-field": 0, "agent": 0}
     m2_cells = 0
-    for (discovery, model, d_max, scale, kept), methods in by_cell.items():
+    for (discovery, queue, low, model, d_max, scale, kept, used), methods in by_cell.items():
         cells = []
         for layout in LAYOUTS:
             cells += [
@@ -264,8 +298,9 @@ def summary_markdown(rows: list[dict[str, Any]]) -> str:
                 flags.append("yes" if ok else "no")
             verdict = " / ".join(flags)
         lines.append(
-            f"| {discovery} | {model} | {'–' if d_max is None else f'{d_max:.0f} m'} | "
-            f"{'–' if scale is None else f'{scale:g}'} | {kept or '–'} | "
+            f"| {discovery} | {queue} | {low} | {model} | "
+            f"{'–' if d_max is None else f'{d_max:.0f} m'} | "
+            f"{'–' if scale is None else f'{scale:g}'} | {kept or '–'} | {used or '–'} | "
             + " | ".join(cells)
             + f" | {verdict} |"
         )

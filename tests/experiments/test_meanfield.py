@@ -137,15 +137,15 @@ def test_the_odes_run_only_the_m2_mechanisms_the_params_keep() -> None:
     assert bare.win_probability == pytest.approx(m1.win_probability, abs=0.01)
     assert bare.quorum_s == pytest.approx(m1.quorum_s, rel=0.02)
     full = Rates.of(sites, "M2", params)
-    assert np.all(np.isfinite(full.leave_delay[[1, 2, 3]])) and np.any(full.modulation > 1)
+    assert np.all(np.isfinite(full.leave_delay[[1, 2, 3]])) and np.any(full.send_modulation > 1)
     for mechanism, field in (
         ("discovery_delay", "leave_delay"),
         ("reassessment_delay", "leave_reassess"),
-        ("modulation", "modulation"),
+        ("modulation", "send_modulation"),
     ):
         kept = tuple(m for m in params.m2_mechanisms if m != mechanism)
         rates = Rates.of(sites, "M2", params.with_changes(m2_mechanisms=kept))
-        removed = np.ones(4) if field == "modulation" else np.full(4, np.inf)
+        removed = np.ones(4) if field == "send_modulation" else np.full(4, np.inf)
         assert np.array_equal(getattr(rates, field), removed)
-        for other in {"leave_delay", "leave_reassess", "modulation"} - {field}:
+        for other in {"leave_delay", "leave_reassess", "send_modulation"} - {field}:
             assert np.array_equal(getattr(rates, other), getattr(full, other))

@@ -110,14 +110,68 @@ def test_the_structure_command_maps_the_grid_it_is_given(tmp_path: Path) -> None
         read = list(csv.DictReader(handle))
     assert len(read) == 2 * 3 * 2  # M1 and one M2 cell, three layouts, two methods
     assert {r["mechanisms"] for r in read if r["model"] == "M2"} == {"no_M_i"}
-    assert "| per_agent | M2 | 352 m | 1 | no_M_i |" in (tmp_path / "structure.md").read_text()
+    assert (
+        "| per_agent | unmodulated | search_space | M2 | 352 m | 1 | no_M_i | "
+        "queue+recruitment+inhibition |" in (tmp_path / "structure.md").read_text()
+    )
     bad_grids = (
         ["--mechanisms", "no_F_X"],
         ["--d-max", "far"],
         ["--d-max", "100"],  # not above d_min (150 m)
         ["--wait-scale", "0"],
         ["--discovery", ""],
+        ["--uses", "queue+bogus"],
+        ["--m1-queue", "sometimes"],
+        ["--d-min", "hub"],
     )
     for bad in bad_grids:
         result = CliRunner().invoke(main, [*args, *bad])
         assert result.exit_code == 2 and "Traceback" not in result.output, bad
+
+
+def test_the_map_carries_m_i_s_uses_m1_s_queue_and_d_min_to_both_methods(tmp_path: Path) -> None:
+    """Issue 39's readings are axes of the map: each cell's params carry them, and the
+    command writes them beside the cell's measurements."""
+    cells = list(
+        st.grid(
+            ["per_agent"],
+            [352.0],
+            [0.15],
+            ["all"],
+            ["recruitment", "queue+recruitment+inhibition"],
+            ["unmodulated", "modulated"],
+            ["nearest_site"],
+        )
+    )
+    assert [c.model for c in cells] == ["M1", "M2", "M2", "M1", "M2", "M2"]
+    m2, _ = cells[4].params(preset_params("study-units"))
+    assert m2.m2_modulation_uses == ("recruitment",)
+    assert (m2.m1_queue_modulation, m2.m2_d_min) == ("modulated", "nearest_site")
+    m1, _ = cells[3].params(preset_params("study-units"))
+    assert m1.m1_queue_modulation == "modulated" and m1.m2_d_min == "nearest_site"
+    args = ["simulate", "structure", "--runs", "1", "--out", str(tmp_path)]
+    one_cell = ["--discovery", "per_agent", "--d-max", "352", "--wait-scale", "0.15"]
+    result = CliRunner().invoke(
+        main,
+        [
+            *args,
+            *one_cell,
+            "--mechanisms",
+            "all",
+            "--uses",
+            "recruitment",
+            "--m1-queue",
+            "modulated",
+        ],
+    )
+    assert result.exit_code == 0, result.output
+    with (tmp_path / "structure.csv").open(newline="", encoding="utf-8") as handle:
+        read = list(csv.DictReader(handle))
+    assert {r["uses"] for r in read if r["model"] == "M2"} == {"recruitment"}
+    assert {r["m1_queue"] for r in read} == {"modulated"}
+    # M1's queue messages at r·M_i make its far sites' quorums likelier: the equations say so.
+    plain = st.measure(st.Cell("per_agent", "M1"), preset_params("study-units"), runs=1)
+    queued = [r for r in read if r["model"] == "M1" and r["method"] == "mean-field"]
+    far = {r["layout"]: float(r["p_best"]) for r in queued}
+    before = {r["layout"]: r["p_best"] for r in plain if r["method"] == "mean-field"}
+    assert far["best_furthest"] > before["best_furthest"]
