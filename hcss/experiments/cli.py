@@ -260,6 +260,14 @@ def _params_with(preset: str = DEFAULT_PRESET, **readings: Any) -> Params:
 )
 @click.option("--dask", "dask_address", default=None, help="--to study: Dask scheduler or 'local'.")
 @click.option(
+    "--space",
+    type=click.Choice(tuple(fs.SPACES)),
+    default="full",
+    show_default=True,
+    help="--to study: every reading and value, or M_i's readings with r_msg, d_max and "
+    "F_D's wait (the rest at the default preset's values).",
+)
+@click.option(
     "--out",
     type=click.Path(file_okay=False, path_type=Path),
     default=Path("out/calibration"),
@@ -278,6 +286,7 @@ def calibrate(
     final_runs: int,
     sampler_seed: int,
     dask_address: str | None,
+    space: str,
     out: Path,
     **readings: Any,
 ) -> None:
@@ -302,6 +311,7 @@ def calibrate(
                 finalists=finalists,
                 final_runs=final_runs,
                 seed=sampler_seed,
+                space=space,
             ),
             workers,
             dask_address,

@@ -11,9 +11,15 @@ split, and the units per split, 38 numbers):
   (best nearest or best not the furthest) and its distances (exact or ring);
 - values (continuous): r_msg, the sensing radius, d_max between the sites'
   350 m and R = 500 m, the scale of α, the walk's turning sd, the scale of
-  M2's discovery wait.
+  M2's discovery wait;
+- (issue 39) where M_i applies: the uses of an F_I agent's messages that
+  carry it (any non-empty set of queue, recruitment, inhibition), whether
+  M1's queue messages carry it too, and d_min (search space or nearest site).
 
-Everything else stays at the `literal` preset's values. The search is
+Everything else stays at the `literal` preset's values. The `modulation`
+space (`Settings.space`) searches only M_i's readings with the values they
+interact with, r_msg (shared by M1, M2 and M3), d_max and F_D's wait, the rest
+at the default preset's values. The search is
 optuna's TPE sampler (seeded) over the reduced experiment (28 scenarios × a
 few runs); its trials are stored in an SQLite file in the output directory,
 so an interrupted calibration resumes where it stopped. The best few
@@ -47,6 +53,9 @@ from hcss.simulation.params import (
     EASY_LAYOUT_OTHERS,
     G_READINGS,
     LABEL_DISTANCES,
+    M1_QUEUE_MODULATION,
+    M2_D_MIN,
+    MODULATION_USES,
     Params,
 )
 from hcss.tablespec import CALIBRATION_TRIALS
@@ -55,6 +64,17 @@ from hcss.tidy_csv import write_rows
 STUDY_NAME = "hcss-study-calibration"
 SEARCH_SEED_BLOCK = 20_150_000  # the experiment's default scenarios (exp.experiment_scenarios)
 MODELS = ("M1", "M2")
+
+# The non-empty sets of M_i's uses, each '+'-joined (optuna's choices are plain strings).
+USES_CHOICES: tuple[str, ...] = tuple(
+    "+".join(u for i, u in enumerate(MODULATION_USES) if mask >> i & 1) for mask in range(1, 8)
+)
+# M_i's readings (issue 39), in every space.
+MODULATION_SPACE: dict[str, tuple[Any, ...]] = {
+    "m2_modulation_uses": ("categorical", USES_CHOICES),
+    "m1_queue_modulation": ("categorical", M1_QUEUE_MODULATION),
+    "m2_d_min": ("categorical", M2_D_MIN),
+}
 
 # name -> ("categorical", choices) or ("float", low, high, log scale)
 SEARCH_SPACE: dict[str, tuple[Any, ...]] = {
@@ -70,6 +90,19 @@ SEARCH_SPACE: dict[str, tuple[Any, ...]] = {
     "difficulty_label": ("categorical", DIFFICULTY_LABELS),
     "label_distances": ("categorical", LABEL_DISTANCES),
     "m2_discovery_wait_scale": ("float", 0.05, 1.0, True),
+    **MODULATION_SPACE,
+}
+# The searches `calibrate --to study` offers (`--space`): everything, or M_i's readings
+# with r_msg, d_max and F_D's wait, the rest at the default preset's values.
+SPACES: dict[str, dict[str, tuple[Any, ...]]] = {
+    "full": SEARCH_SPACE,
+    "modulation": {
+        **MODULATION_SPACE,
+        **{
+            name: SEARCH_SPACE[name]
+            for name in ("message_rate", "fitted_d_max_m", "m2_discovery_wait_scale")
+        },
+    },
 }
 
 
@@ -86,6 +119,11 @@ class Settings:
     final_runs: int = 10  # per scenario and model for the finalists (the full experiment)
     seed: int = 1  # the sampler's seed
     scenario_seed: int = SEARCH_SEED_BLOCK
+    space: str = "full"  # a key of SPACES
+
+    @property
+    def search_space(self) -> dict[str, tuple[Any, ...]]:
+        return SPACES[self.space]
 
 
 @dataclass(frozen=True)
@@ -101,17 +139,26 @@ class Evaluation:
     m1_easy_success: float  # mean over units with an easy decision, %
     m2_easy_success: float
     m2_time_cost: float  # M2's overall mean decision time minus M1's, minutes
+    m2_easy_time: float  # mean over units with an easy decision, min
+    m2_difficult_success: float  # mean over units with a difficult decision, %
 
 
-def base_params() -> Params:
-    """The values the calibration does not search: the literal preset's, with d_max fitted."""
-    from hcss.simulation.presets import preset_params
+def base_params(space: str = "full") -> Params:
+    """The values the calibration does not search: the literal preset's with d_max fitted
+    (the full space), or the default preset's (the modulation space)."""
+    from hcss.simulation.presets import DEFAULT_PRESET, preset_params
 
+    if space == "modulation":
+        return preset_params(DEFAULT_PRESET).with_changes(m2_distance_bounds="fitted")
     return preset_params("literal").with_changes(m2_distance_bounds="fitted")
 
 
-def params_for(values: dict[str, Any]) -> Params:
-    return base_params().with_changes(**values)
+def params_for(values: dict[str, Any], space: str = "full") -> Params:
+    """The shared params of one point of the search ('+'-joined uses become their set)."""
+    changes = dict(values)
+    if isinstance(changes.get("m2_modulation_uses"), str):
+        changes["m2_modulation_uses"] = tuple(changes["m2_modulation_uses"].split("+"))
+    return base_params(space).with_changes(**changes)
 
 
 def evaluate(
@@ -121,9 +168,10 @@ def evaluate(
     scenario_seed: int,
     workers: int,
     dask_address: str | None = None,
+    space: str = "full",
 ) -> Evaluation:
     """Run M1 and M2 on one experiment and measure its distance from the study's tables."""
-    params = params_for(values)
+    params = params_for(values, space)
     jobs = exp.jobs_for(exp.experiment_scenarios(scenarios, scenario_seed, params), MODELS, runs)
     rows = exp.run_jobs(jobs, workers, dask_address, params=params)
     return evaluation_of(values, rows, scenarios)
@@ -133,8 +181,8 @@ def evaluation_of(values: dict[str, Any], rows: list[dict[str, Any]], scenarios:
     """The distance of an experiment's decisions from the study's tables, under its unit."""
     units = su.summarise(su.units(rows))
 
-    def easy(model: str) -> float:
-        cell = units.get((model, "easy", "success_pct"))
+    def mean(model: str, split: str, measure: str = "success_pct") -> float:
+        cell = units.get((model, split, measure))
         return cell.mean if cell else math.nan
 
     return Evaluation(
@@ -144,16 +192,18 @@ def evaluation_of(values: dict[str, Any], rows: list[dict[str, Any]], scenarios:
         scenarios=scenarios,
         loss=su.loss(units, scenarios),
         met=su.numbers_met(units, scenarios),
-        m1_easy_success=easy("M1"),
-        m2_easy_success=easy("M2"),
+        m1_easy_success=mean("M1", "easy"),
+        m2_easy_success=mean("M2", "easy"),
         m2_time_cost=st.overall_time(rows, "M2") - st.overall_time(rows, "M1"),
+        m2_easy_time=mean("M2", "easy", "time_min"),
+        m2_difficult_success=mean("M2", "difficult"),
     )
 
 
-def suggest(trial: Any) -> dict[str, Any]:
+def suggest(trial: Any, space: dict[str, tuple[Any, ...]] = SEARCH_SPACE) -> dict[str, Any]:
     """One point of the search space, drawn by the optuna trial."""
     values: dict[str, Any] = {}
-    for name, spec in SEARCH_SPACE.items():
+    for name, spec in space.items():
         if spec[0] == "categorical":
             values[name] = trial.suggest_categorical(name, list(spec[1]))
         else:
@@ -166,6 +216,8 @@ def _record(trial: Any, evaluation: Evaluation) -> None:
     trial.set_user_attr("m1_easy_success", evaluation.m1_easy_success)
     trial.set_user_attr("m2_easy_success", evaluation.m2_easy_success)
     trial.set_user_attr("m2_time_cost", evaluation.m2_time_cost)
+    trial.set_user_attr("m2_easy_time", evaluation.m2_easy_time)
+    trial.set_user_attr("m2_difficult_success", evaluation.m2_difficult_success)
     for (model, split), m in evaluation.measured.items():
         trial.set_user_attr(f"{model}_{split}_success", m.success_pct)
         trial.set_user_attr(f"{model}_{split}_time", m.time_min)
@@ -187,7 +239,7 @@ def open_study(out: Path, settings: Settings) -> Any:
         "runs": settings.runs,
         "sampler_seed": settings.seed,
         "scenario_seed": settings.scenario_seed,
-        "search_space": _jsonable(SEARCH_SPACE),
+        "search_space": _jsonable(settings.search_space),
     }
     if manifest.exists():
         stored = json.loads(manifest.read_text(encoding="utf-8"))
@@ -207,22 +259,39 @@ def open_study(out: Path, settings: Settings) -> Any:
         load_if_exists=True,
     )
     if not study.trials:
-        for values in starting_points():
+        for values in starting_points(settings.space):
             study.enqueue_trial(values)
     return study
 
 
-def starting_points() -> list[dict[str, Any]]:
-    """The presets' values, each under both labels: the search's first trials.
+def _searched_values(params: Params, space: dict[str, tuple[Any, ...]]) -> dict[str, Any]:
+    values = {name: getattr(params, name) for name in space}
+    values["fitted_d_max_m"] = params.m2_d_max_m
+    if "m2_modulation_uses" in values:
+        values["m2_modulation_uses"] = "+".join(params.m2_modulation_uses)
+    return values
 
-    A small budget then starts from what is known; TPE takes over after them.
+
+def starting_points(space: str = "full") -> list[dict[str, Any]]:
+    """The search's first trials; a small budget then starts from what is known and TPE
+    takes over after them.
+
+    Full space: the presets' values, each under both labels. Modulation space: the
+    default preset, then M_i where Eq. 4 prints it (recruitment and inhibition) and on
+    recruitment alone, each with M1's queue unmodulated and modulated.
     """
-    from hcss.simulation.presets import PRESETS
+    from hcss.simulation.presets import DEFAULT_PRESET, PRESETS
 
+    if space == "modulation":
+        default = _searched_values(PRESETS[DEFAULT_PRESET], SPACES[space])
+        return [default] + [
+            default | {"m2_modulation_uses": uses, "m1_queue_modulation": queue}
+            for uses in ("recruitment+inhibition", "recruitment")
+            for queue in M1_QUEUE_MODULATION
+        ]
     points = []
     for params in PRESETS.values():
-        values = {name: getattr(params, name) for name in SEARCH_SPACE}
-        values["fitted_d_max_m"] = params.m2_d_max_m
+        values = _searched_values(params, SEARCH_SPACE)
         for label in DIFFICULTY_LABELS:
             points.append(
                 values
@@ -254,12 +323,13 @@ def search(
     for _ in range(max(0, settings.budget - done)):
         trial = study.ask()
         evaluation = evaluate(
-            suggest(trial),
+            suggest(trial, settings.search_space),
             settings.scenarios,
             settings.runs,
             settings.scenario_seed,
             workers,
             dask_address,
+            settings.space,
         )
         _record(trial, evaluation)
         study.tell(trial, evaluation.loss)
@@ -279,32 +349,44 @@ def finalists(study: Any, settings: Settings) -> list[dict[str, Any]]:
     return [dict(t.params) for t in best]
 
 
-def pareto_front(study: Any) -> list[Any]:
-    """Search trials not dominated in (M1's easy success ↓, M2's easy success ↑).
+def pareto_front(
+    study: Any, down: str = "m1_easy_success", up: str = "m2_easy_success"
+) -> list[Any]:
+    """Search trials not dominated in (`down` ↓, `up` ↑), sorted by `down`.
 
-    The study has M1 weak (70.5%) and M2 strong (76.7%) on easy decisions; a
-    trial on the front at or beyond that point would meet both. Success is the
-    mean over units with an easy decision.
+    The default front is M1's easy success against M2's: the study has M1 weak
+    (70.5%) and M2 strong (76.7%) on easy decisions; a trial on the front at or
+    beyond that point would meet both. `time_front` is the other trade. Success
+    is the mean over units with an easy (difficult) decision.
     """
     points = [
         t
         for t in completed(study)
-        if math.isfinite(t.user_attrs.get("m1_easy_success", math.nan))
-        and math.isfinite(t.user_attrs.get("m2_easy_success", math.nan))
+        if math.isfinite(t.user_attrs.get(down, math.nan))
+        and math.isfinite(t.user_attrs.get(up, math.nan))
     ]
 
     def dominated(t: Any) -> bool:
-        m1, m2 = t.user_attrs["m1_easy_success"], t.user_attrs["m2_easy_success"]
+        low, high = t.user_attrs[down], t.user_attrs[up]
         return any(
-            o.user_attrs["m1_easy_success"] <= m1
-            and o.user_attrs["m2_easy_success"] >= m2
-            and (o.user_attrs["m1_easy_success"] < m1 or o.user_attrs["m2_easy_success"] > m2)
+            o.user_attrs[down] <= low
+            and o.user_attrs[up] >= high
+            and (o.user_attrs[down] < low or o.user_attrs[up] > high)
             for o in points
         )
 
-    return sorted(
-        (t for t in points if not dominated(t)), key=lambda t: t.user_attrs["m1_easy_success"]
-    )
+    return sorted((t for t in points if not dominated(t)), key=lambda t: t.user_attrs[down])
+
+
+def time_front(study: Any) -> list[Any]:
+    """Search trials not dominated in (M2's easy time ↓, M2's difficult success ↑).
+
+    The study's M2 is right on 64.0% of difficult units at 4.17 min on easy ones;
+    in this family the time M2 spends on easy decisions buys its value
+    discrimination on difficult ones (docs/simulation-notes.md), and this front
+    shows how much of each a reading gives up for the other.
+    """
+    return pareto_front(study, down="m2_easy_time", up="m2_difficult_success")
 
 
 def importances(study: Any) -> dict[str, float]:
@@ -328,6 +410,7 @@ class Calibration:
     finals: list[Evaluation]
     fit: Evaluation
     front: list[Any]
+    time_front: list[Any]
     importance: dict[str, float]
     trials: int
     wall_s: float
@@ -354,6 +437,7 @@ def calibrate(
             settings.scenario_seed,
             workers,
             dask_address,
+            settings.space,
         )
         finals.append(evaluation)
         if on_finalist is not None:
@@ -363,28 +447,29 @@ def calibrate(
         finals=finals,
         fit=fit,
         front=pareto_front(study),
+        time_front=time_front(study),
         importance=importances(study),
         trials=len(completed(study)),
         wall_s=time.perf_counter() - started,
     )
-    write_trials(study, out / "trials.csv")
+    write_trials(study, out / "trials.csv", settings.search_space)
     (out / "fit.json").write_text(json.dumps(fit.values, indent=2), encoding="utf-8")
     (out / "report.md").write_text(report(result, settings), encoding="utf-8")
     return result
 
 
-def write_trials(study: Any, path: Path) -> None:
+def write_trials(study: Any, path: Path, space: dict[str, tuple[Any, ...]] = SEARCH_SPACE) -> None:
     """Every search trial: its values, loss, cells met and measured cells
     (hcss.tablespec.CALIBRATION_TRIALS), by the one CSV writer."""
     trials = completed(study)
     attrs = sorted({k for t in trials for k in t.user_attrs})
     write_rows(
         path,
-        CALIBRATION_TRIALS.expand(parameter=list(SEARCH_SPACE), measure=attrs),
+        CALIBRATION_TRIALS.expand(parameter=list(space), measure=attrs),
         (
             {
                 "trial": t.number,
-                **{name: t.params.get(name) for name in SEARCH_SPACE},
+                **{name: t.params.get(name) for name in space},
                 "loss": t.value,
                 **{name: t.user_attrs.get(name) for name in attrs},
             }
@@ -402,6 +487,7 @@ def _values_line(values: dict[str, Any]) -> str:
 def report(result: Calibration, settings: Settings) -> str:
     """The calibration's outcome as Markdown."""
     fit = result.fit
+    space = settings.search_space
     n_numbers = len(su.distances(fit.units))
     lines = [
         "# Calibration to the study's published tables",
@@ -409,9 +495,10 @@ def report(result: Calibration, settings: Settings) -> str:
         f"Search: {result.trials} trials of the reduced experiment ({settings.scenarios} "
         f"scenarios × {settings.runs} run(s) × M1, M2; scenario seeds from "
         f"{settings.scenario_seed}); finalists: the best {settings.finalists} on "
-        f"{settings.scenarios} × {settings.final_runs}. Free values fitted: "
-        f"{len(SEARCH_SPACE)} ({sum(s[0] == 'categorical' for s in SEARCH_SPACE.values())} "
-        f"readings, {sum(s[0] == 'float' for s in SEARCH_SPACE.values())} continuous) against "
+        f"{settings.scenarios} × {settings.final_runs}. Search space {settings.space!r}; "
+        f"free values fitted: {len(space)} "
+        f"({sum(s[0] == 'categorical' for s in space.values())} "
+        f"readings, {sum(s[0] == 'float' for s in space.values())} continuous) against "
         f"{n_numbers} published numbers under the study's unit (means, SDs and medians of "
         f"both tables, units per split). Wall time of this invocation (a resumed search "
         f"counts only its own trials) {result.wall_s / 60:.1f} min.",
@@ -454,6 +541,22 @@ def report(result: Calibration, settings: Settings) -> str:
         lines.append(
             f"| {t.user_attrs['m1_easy_success']:.1f} | {t.user_attrs['m2_easy_success']:.1f} "
             f"| {t.user_attrs['m2_time_cost']:+.2f} | {t.value:.2f} | {t.user_attrs['met']} "
+            f"| {_values_line(dict(t.params))} |"
+        )
+    lines += [
+        "",
+        "## Pareto front of the search: M2's easy time against M2's difficult success",
+        "",
+        "Per unit; the study: M2 easy 4.17 min, difficult 64.04%. A point at or below "
+        "4.17 min with 64.04% or more would meet both.",
+        "",
+        "| M2 easy DT (min) | M2 difficult SR % | M2 easy SR % | loss | within band | values |",
+        "|---|---|---|---|---|---|",
+    ]
+    for t in result.time_front:
+        lines.append(
+            f"| {t.user_attrs['m2_easy_time']:.2f} | {t.user_attrs['m2_difficult_success']:.1f} "
+            f"| {t.user_attrs['m2_easy_success']:.1f} | {t.value:.2f} | {t.user_attrs['met']} "
             f"| {_values_line(dict(t.params))} |"
         )
     lines += ["", "## Which values matter (PED-ANOVA importance for the loss)", ""]

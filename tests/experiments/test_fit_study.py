@@ -150,3 +150,107 @@ def test_a_new_calibration_starts_from_the_presets_under_both_labels(tmp_path: P
     assert len(
         fs.open_study(tmp_path / "cal", fs.Settings(budget=1, scenarios=2, runs=1)).trials
     ) == len(queued)
+
+
+def test_m_i_s_readings_are_in_both_search_spaces_with_r_msg_d_max_and_f_d_s_wait() -> None:
+    import optuna
+
+    for name in ("m2_modulation_uses", "m1_queue_modulation", "m2_d_min"):
+        assert name in fs.SEARCH_SPACE and name in fs.SPACES["modulation"]
+    assert set(fs.SPACES["modulation"]) == {
+        "m2_modulation_uses",
+        "m1_queue_modulation",
+        "m2_d_min",
+        "message_rate",
+        "fitted_d_max_m",
+        "m2_discovery_wait_scale",
+    }
+    assert len(fs.USES_CHOICES) == 7 and "recruitment+inhibition" in fs.USES_CHOICES
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    study = optuna.create_study(sampler=optuna.samplers.RandomSampler(seed=3))
+    drawn = [fs.suggest(study.ask(), fs.SPACES["modulation"]) for _ in range(40)]
+    assert {d["m2_modulation_uses"] for d in drawn} == set(fs.USES_CHOICES)
+    for values in drawn[:5]:
+        params = fs.params_for(values, "modulation")
+        assert params.m2_modulation_uses == tuple(values["m2_modulation_uses"].split("+"))
+        assert params.m1_queue_modulation == values["m1_queue_modulation"]
+        assert params.m2_d_min == values["m2_d_min"]
+        assert params.message_rate == values["message_rate"]
+        # The rest is the default preset's (its layout and label readings too).
+        assert params.easy_layout_others == preset_params(DEFAULT_PRESET).easy_layout_others
+        assert params.sensing_radius_m == preset_params(DEFAULT_PRESET).sensing_radius_m
+
+
+def test_the_modulation_space_starts_from_the_default_and_eq_4(tmp_path: Path) -> None:
+    settings = fs.Settings(budget=1, scenarios=2, runs=1, space="modulation")
+    study = fs.open_study(tmp_path / "cal", settings)
+    queued = [t.system_attrs["fixed_params"] for t in study.trials]
+    assert queued[0]["m2_modulation_uses"] == "queue+recruitment+inhibition"
+    assert {q["m2_modulation_uses"] for q in queued[1:]} == {
+        "recruitment+inhibition",
+        "recruitment",
+    }
+    assert all(set(q) == set(fs.SPACES["modulation"]) for q in queued)
+    assert fs.params_for(queued[0], "modulation") == preset_params(DEFAULT_PRESET).with_changes(
+        m2_distance_bounds="fitted"
+    )
+    # The full space's manifest differs: the same directory refuses it.
+    with pytest.raises(ValueError, match="another experiment or search space"):
+        fs.open_study(tmp_path / "cal", fs.Settings(budget=1, scenarios=2, runs=1))
+
+
+def test_a_search_point_s_readings_reach_the_scenarios_and_the_engine() -> None:
+    """The experiment a search trial runs: its scenarios come from its params (the layout
+    readings), and its M1 and M2 runs change with M_i's readings."""
+    from hcss.experiments import experiment as exp
+
+    values = {
+        "m2_modulation_uses": "recruitment",
+        "m1_queue_modulation": "modulated",
+        "m2_d_min": "search_space",
+        "message_rate": 2.047,
+        "fitted_d_max_m": 430.0,
+        "m2_discovery_wait_scale": 0.153,
+    }
+    default = fs.params_for(
+        values
+        | {
+            "m2_modulation_uses": "queue+recruitment+inhibition",
+            "m1_queue_modulation": "unmodulated",
+        },
+        "modulation",
+    )
+    point = fs.params_for(values, "modulation")
+    scenarios = exp.experiment_scenarios(1, 20_150_000, point)
+    assert scenarios == exp.experiment_scenarios(1, 20_150_000, default)
+    assert scenarios != exp.experiment_scenarios(
+        1, 20_150_000, point.with_changes(easy_layout_others="anywhere")
+    )
+    for model in ("M1", "M2"):
+        (job,) = exp.jobs_for(scenarios, (model,), 1)
+        changed = exp.run_job(job, point)
+        assert changed != exp.run_job(job, default), model
+
+
+def test_the_time_front_keeps_trials_no_other_beats_on_m2_easy_time_down_and_difficult_up() -> None:
+    import optuna
+
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    study = optuna.create_study(direction="minimize")
+    # (M2 easy time, M2 difficult %): b beats a on both; c and d trade one for the other.
+    points = {"a": (5.5, 55), "b": (5.0, 60), "c": (6.0, 70), "d": (4.2, 40), "e": (6.1, 69)}
+    for name, (time_min, success) in points.items():
+        study.add_trial(
+            optuna.trial.create_trial(
+                params={"r": 1.0},
+                distributions={"r": optuna.distributions.FloatDistribution(0, 2)},
+                value=1.0,
+                user_attrs={
+                    "name": name,
+                    "m2_easy_time": time_min,
+                    "m2_difficult_success": success,
+                },
+            )
+        )
+    front = [t.user_attrs["name"] for t in fs.time_front(study)]
+    assert front == ["d", "b", "c"]
