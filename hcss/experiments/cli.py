@@ -15,11 +15,13 @@ from typing import Any, TypeVar
 import click
 from tqdm import tqdm
 
+from hcss import study_units
 from hcss.analysis.summary import summarise_decisions
 from hcss.experiments import calibrate as cal
 from hcss.experiments import experiment as exp
 from hcss.experiments import fidelity as fid
 from hcss.experiments import fit_study as fs
+from hcss.experiments import study_targets
 from hcss.simulation.cli import PRESET_OPTION
 from hcss.simulation.operators import OPERATORS
 from hcss.simulation.params import (
@@ -104,6 +106,14 @@ def _batch_options(command: F) -> F:
 @PRESET_OPTION
 @_size_options(runs=10, runs_help="Runs per scenario and model.")
 @click.option(
+    "--set",
+    "changes",
+    multiple=True,
+    metavar="NAME=VALUE",
+    help="Change one of the preset's values for this run (repeatable), e.g. "
+    "--set m2_modulation_uses=recruitment+inhibition --set message_rate=2.25.",
+)
+@click.option(
     "--models",
     default=None,
     help="Comma-separated models [default: M1,M2; M1,M2,M3 with --operator].",
@@ -132,6 +142,7 @@ def experiment(
     seed: int,
     out: Path,
     operator: str | None,
+    changes: tuple[str, ...],
 ) -> None:
     """The simulation-only experiment: scenarios × runs × models, no operator.
 
@@ -151,12 +162,15 @@ def experiment(
         raise click.BadParameter(
             f"models must be among {', '.join(MODELS)}; got {models!r}", param_hint="--models"
         )
-    params = preset_params(preset)
+    try:
+        params = preset_params(preset).with_changes(**exp.parse_changes(changes))
+    except (ValueError, TypeError) as error:
+        raise click.BadParameter(str(error), param_hint="--set") from None
     jobs = exp.jobs_for(exp.experiment_scenarios(scenarios, seed, params), chosen, runs, operator)
     where = f"Dask ({dask_address})" if dask_address else f"{workers} local process(es)"
     click.echo(
         f"{len(jobs)} runs ({scenarios} scenarios × {runs} runs × {', '.join(chosen)}) "
-        f"on {where}, preset {preset}."
+        f"on {where}, preset {preset}{' with ' + ', '.join(changes) if changes else ''}."
     )
     started = time.perf_counter()
     with tqdm(total=len(jobs), unit="run", desc="experiment", dynamic_ncols=True) as bar:
@@ -167,13 +181,21 @@ def experiment(
     table = summarise_decisions(out / "decisions.csv")
     (out / "summary.md").write_text(
         f"# {'Operated experiment: ' + operator if operator else 'Simulation-only experiment'}\n\n"
-        f"{len(jobs)} runs, {len(rows)} decisions, {elapsed:.0f} s, preset {preset}.\n\n"
+        f"{len(jobs)} runs, {len(rows)} decisions, {elapsed:.0f} s, preset {preset}"
+        f"{' with ' + ', '.join(changes) if changes else ''}.\n\n"
         "Unit: the scenario (each run's success rate and mean decision time, averaged over "
         "the scenario's runs), as `hcss analyze` computes it.\n\n"
         f"{table}\n",
         encoding="utf-8",
     )
     click.echo(table)
+    if operator is None and {"M1", "M2"} <= set(chosen):
+        units = study_units.summarise(study_units.units(rows))
+        click.echo(
+            f"\nUnder the study's unit: loss {study_units.loss(units, scenarios):.1f} over its "
+            f"38 numbers, {study_units.numbers_met(units, scenarios)} within band.\n"
+        )
+        click.echo(study_targets.shape_table(study_targets.decision_shape(rows)))
     click.echo(f"{len(rows)} decisions written to {out / 'decisions.csv'} in {elapsed:.0f} s.")
 
 

@@ -174,3 +174,27 @@ def _execute_dask(
 def write_decisions(rows: list[dict[str, Any]], path: Path) -> None:
     """The decisions table as CSV, with its contract's columns (hcss.tablespec.DECISIONS)."""
     write_rows(path, DECISIONS.names, rows)
+
+
+def parse_changes(changes: Iterable[str]) -> dict[str, Any]:
+    """`NAME=VALUE` texts as changes of Params: numbers, '+'-joined sets for tuple values
+    (m2_modulation_uses, m2_mechanisms), text for readings; an unknown name is refused."""
+    fields = Params.__dataclass_fields__
+    defaults = Params()
+    parsed: dict[str, Any] = {}
+    for text in changes:
+        name, sep, value = text.partition("=")
+        name = name.strip()
+        if not sep or name not in fields:
+            raise ValueError(f"{text!r} is not NAME=VALUE with NAME a parameter")
+        current = getattr(defaults, name)
+        if isinstance(current, tuple):
+            kind = type(current[0]) if current else str
+            parsed[name] = tuple(kind(v) for v in value.split("+") if v)
+        elif isinstance(current, bool) or current is None:
+            raise ValueError(f"{name} cannot be set here")
+        elif isinstance(current, int | float):
+            parsed[name] = type(current)(value)
+        else:
+            parsed[name] = value
+    return parsed

@@ -155,3 +155,81 @@ def comparison_table(measured: Mapping[tuple[str, str], Measured]) -> str:
             f"| {t.time_min} | {m.time_min:.2f} ± {m.time_se:.2f} | {within} |"
         )
     return "\n".join(lines)
+
+
+@dataclass(frozen=True)
+class DecisionShape:
+    """Which decisions of one model and split are slow, and whether the slow ones fail.
+
+    The study: "longer decision times tended to result in poor easy decisions by both
+    models". Per decision: the mean time of right and of wrong decisions, and the
+    success of the fastest and the slowest quarter (by decision time within the model
+    and split). `slow_fail_more` is the study's direction: the slowest quarter right
+    less often than the fastest.
+    """
+
+    model: str
+    split: str
+    decisions: int
+    right_time_min: float
+    wrong_time_min: float
+    fastest_quarter_pct: float
+    slowest_quarter_pct: float
+
+    @property
+    def slow_fail_more(self) -> bool:
+        return self.slowest_quarter_pct < self.fastest_quarter_pct
+
+
+def decision_shape(rows: Iterable[Mapping[str, object]]) -> dict[tuple[str, str], DecisionShape]:
+    """Per (model, split), from a run's decisions (timed-out ones count as wrong and slow)."""
+    grouped: dict[tuple[str, str], list[tuple[float, bool]]] = {}
+    for row in rows:
+        key = (str(row["model"]), str(row["difficulty"]))
+        grouped.setdefault(key, []).append(
+            (float(str(row["decision_time_s"])) / 60.0, _truth(row["correct"]))
+        )
+    out = {}
+    for (model, split), decisions in sorted(grouped.items()):
+        times = np.array([t for t, _ in decisions])
+        right = np.array([c for _, c in decisions])
+        order = np.argsort(times, kind="stable")
+        quarter = max(1, len(order) // 4)
+
+        def mean(values: np.ndarray) -> float:
+            return float(values.mean()) if values.size else math.nan
+
+        out[(model, split)] = DecisionShape(
+            model,
+            split,
+            len(decisions),
+            mean(times[right]),
+            mean(times[~right]),
+            100.0 * mean(right[order[:quarter]].astype(float)),
+            100.0 * mean(right[order[-quarter:]].astype(float)),
+        )
+    return out
+
+
+def _truth(value: object) -> bool:
+    """A decisions.csv cell or a row's bool as a bool."""
+    if isinstance(value, str):
+        return value.strip().lower() in ("true", "1", "yes")
+    return bool(value)
+
+
+def shape_table(shapes: Mapping[tuple[str, str], DecisionShape]) -> str:
+    """Markdown: per model and split, right and wrong decisions' times, and the success of
+    the fastest and slowest quarter."""
+    lines = [
+        "| model | split | decisions | right: DT min | wrong: DT min | fastest quarter SR % "
+        "| slowest quarter SR % | slow fail more (study: yes on easy) |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for s in shapes.values():
+        lines.append(
+            f"| {s.model} | {s.split} | {s.decisions} | {s.right_time_min:.2f} "
+            f"| {s.wrong_time_min:.2f} | {s.fastest_quarter_pct:.1f} "
+            f"| {s.slowest_quarter_pct:.1f} | {'yes' if s.slow_fail_more else 'no'} |"
+        )
+    return "\n".join(lines)

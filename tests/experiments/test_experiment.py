@@ -104,3 +104,53 @@ def test_demo_runs_a_paced_trial_and_prints_events():
     )
     assert result.exit_code == 0, result.output
     assert "discovered" in result.output and "decisions" in result.output
+
+
+def test_experiment_changes_values_with_set_and_prints_the_loss_and_the_shape(tmp_path):
+    args = ["simulate", "experiment", "--scenarios", "2", "--runs", "1", "--workers", "1"]
+    changes = ["--set", "m2_modulation_uses=recruitment+inhibition", "--set", "message_rate=2.25"]
+    result = CliRunner().invoke(main, [*args, *changes, "--out", str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    assert "with m2_modulation_uses=recruitment+inhibition, message_rate=2.25." in result.output
+    assert "message_rate=2.25" in (tmp_path / "summary.md").read_text()
+    assert "Under the study's unit: loss" in result.output
+    assert "| M2 | easy |" in result.output and "slowest quarter" in result.output
+    for bad in ("message_rate=fast", "bogus=1", "m2_modulation_uses=sometimes", "noequals"):
+        refused = CliRunner().invoke(main, [*args, "--set", bad, "--out", str(tmp_path / "x")])
+        assert refused.exit_code == 2 and "Traceback" not in refused.output, bad
+        assert not (tmp_path / "x").exists()
+
+
+def test_parse_changes_reads_numbers_sets_and_readings():
+    assert exp.parse_changes(
+        ["message_rate=2.5", "m2_modulation_uses=recruitment", "m2_d_min=nearest_site"]
+    ) == {
+        "message_rate": 2.5,
+        "m2_modulation_uses": ("recruitment",),
+        "m2_d_min": "nearest_site",
+    }
+    assert exp.parse_changes(["n_agents=50"]) == {"n_agents": 50}
+
+
+def test_decision_shape_says_whether_slow_decisions_fail_more():
+    from hcss.experiments.study_targets import decision_shape
+
+    rows = [
+        {"model": "M2", "difficulty": "easy", "decision_time_s": 60 * t, "correct": c}
+        for t, c in (
+            (1, True),
+            (2, True),
+            (3, True),
+            (4, False),
+            (5, True),
+            (6, False),
+            (7, False),
+            (8, False),
+        )
+    ]
+    shape = decision_shape(rows)[("M2", "easy")]
+    assert shape.decisions == 8
+    assert shape.right_time_min == pytest.approx((1 + 2 + 3 + 5) / 4)
+    assert shape.wrong_time_min == pytest.approx((4 + 6 + 7 + 8) / 4)
+    assert (shape.fastest_quarter_pct, shape.slowest_quarter_pct) == (100.0, 0.0)
+    assert shape.slow_fail_more
