@@ -227,13 +227,18 @@ def _sa_by_trial(probes: Iterable[Mapping[str, Any]]) -> dict[tuple[str, str, st
     return out
 
 
+#: What a cell with nothing to measure costs (a model that never decided): five bands' miss,
+#: so a fit cannot buy its way out of a model's cells by leaving them empty.
+MISSING_COST = 25.0
+
+
 def loss(measured: Mapping[tuple[str, str, str], Measured]) -> float:
-    """Sum of squared misses of the means in bands; a cell not measured costs 4 (two bands)."""
+    """Sum of squared misses of the means in bands; a cell not measured costs `MISSING_COST`."""
     total = 0.0
     for cell in STUDY_TEAMS:
         got = measured.get(cell.key)
         if got is None or not math.isfinite(got.mean):
-            total += 4.0
+            total += MISSING_COST
         else:
             total += ((got.mean - cell.mean) / cell.band) ** 2
     return total
