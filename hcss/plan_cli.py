@@ -38,11 +38,18 @@ def _ns(text: str) -> tuple[int, ...]:
 @click.option(
     "--pool-scenarios",
     type=click.IntRange(min=4),
-    default=60,
+    default=120,
     show_default=True,
     help="Simulation-only scenarios simulated once and resampled.",
 )
-@click.option("--runs", "scenario_runs", type=click.IntRange(min=1), default=5, show_default=True)
+@click.option(
+    "--runs",
+    "scenario_runs",
+    type=click.IntRange(min=1),
+    default=3,
+    show_default=True,
+    help="Runs per simulation-only scenario and model (a unit is their mean; the study: 10).",
+)
 @click.option(
     "--population",
     "population_path",

@@ -62,8 +62,8 @@ class PlanSettings:
     ns: tuple[int, ...] = DEFAULT_NS
     replications: int = 500
     pool_participants: int = 120
-    pool_scenarios: int = 60
-    scenario_runs: int = 5
+    pool_scenarios: int = 120
+    scenario_runs: int = 3
     alpha: float = 0.05
     seed: int = 1
     population: str = "the operator's default traits (uncalibrated)"
@@ -248,7 +248,9 @@ def assumptions(settings: PlanSettings, params: Params) -> list[str]:
         f"Pool: {settings.pool_participants} synthetic participants (seeds from "
         f"{PLAN_BLOCK}), {settings.pool_scenarios} simulation-only scenarios × "
         f"{settings.scenario_runs} runs per model (seeds from {SIMULATION_BLOCK}); a "
-        "simulation-only unit is a scenario's mean over its runs, as the analysis makes it.",
+        "simulation-only unit is a scenario's mean over its runs, as the analysis makes it "
+        "(the study's units were means over 10 runs: with fewer, a unit varies more and the "
+        "simulation-only groups' power is underestimated; --runs 10 costs more).",
         "Resampling: per replication N participants (with all their trials) and N scenarios "
         "per simulation-only model, without replacement while the pool holds N, else with; "
         "the simulation-only condition is assumed run with as many scenarios as participants.",
