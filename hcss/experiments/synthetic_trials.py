@@ -21,6 +21,8 @@ import heapq
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+
 from hcss.questionnaires.probes import PROBE_TIMEOUT_S, ProbeLevel
 from hcss.sa_probes import POSTPONE_S, fill_probe, probe_plan
 from hcss.simulation.engine import Simulation
@@ -169,8 +171,6 @@ def _ask(
 ) -> dict[str, Any] | None:
     """Fill a due probe as the live recorder does and take the operator's answer, or None
     when no subject makes sense yet (the caller asks again `POSTPONE_S` later)."""
-    import numpy as np
-
     rng = np.random.default_rng([sim.scenario.seed, 0x5B, index])
     display, truth = sim.display(), sim.truth()
     filled = fill_probe(level, display, truth, rng)

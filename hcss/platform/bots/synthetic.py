@@ -32,6 +32,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
+from hcss.experiments.synthetic_trials import glance_steps, reaction_steps
 from hcss.platform.live.idempotency import KEY_HEADER
 from hcss.simulation import Display
 from hcss.simulation.synthetic import Observation, SyntheticOperator
@@ -142,8 +143,6 @@ class SyntheticBot:
     # ---- supervising -------------------------------------------------------------
     def supervise(self) -> BotLog:
         """Look, click and answer probes until the trial's time limit."""
-        from hcss.experiments.synthetic_trials import glance_steps, reaction_steps
-
         react = reaction_steps(self.operator.traits, self.dt)
         last = int(round(self.duration_s / self.dt))
         queue: list[tuple[int, int, str, Any]] = []
