@@ -23,6 +23,16 @@ def _ns(text: str) -> tuple[int, ...]:
     return ns
 
 
+def _described(path: Path | None) -> str:
+    """The population in the plan's words: its file and the preset it was fitted on."""
+    import json
+
+    if path is None:
+        return "the operator's default traits (uncalibrated)"
+    preset = json.loads(path.read_text(encoding="utf-8")).get("preset", "an unnamed preset")
+    return f"{path} (fitted on preset {preset})"
+
+
 @click.command("plan")
 @click.option("--study", default="original", show_default=True, help="Study file name.")
 @click.option("--n", "ns", default="12,20,28,40,60", show_default=True, help="Ns of the curve.")
@@ -114,7 +124,7 @@ def plan_command(
         pool_scenarios=pool_scenarios,
         scenario_runs=scenario_runs,
         seed=seed,
-        population=str(population_path) if population_path else planning.PlanSettings.population,
+        population=_described(population_path),
     )
     params = preset_params(study_file.simulation.preset)
     bar = tqdm(total=3, unit="step", desc="hcss plan")

@@ -193,7 +193,8 @@ def calibrate(
     ]
     trials = sum(t.state == optuna.trial.TrialState.COMPLETE for t in study.trials)
     result = Calibration(fit, float(best.value), validations, trials, time.perf_counter() - started)
-    (out / "population.json").write_text(json.dumps(fit.to_dict(), indent=2), encoding="utf-8")
+    fitted = fit.to_dict() | {"preset": default_params().preset, "search_loss": result.search_loss}
+    (out / "population.json").write_text(json.dumps(fitted, indent=2), encoding="utf-8")
     (out / "report.md").write_text(report(result, settings), encoding="utf-8")
     return result
 
