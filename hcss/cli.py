@@ -12,6 +12,7 @@ import click
 
 from hcss.analysis.cli import analyze
 from hcss.experiments import cli as experiments_cli
+from hcss.plan_cli import plan_command
 from hcss.platform.bots.command import bots_command
 from hcss.platform.cli import db_group, demo_trial, deploy_group, serve
 from hcss.platform.console.cli import admin_group
@@ -52,6 +53,7 @@ COMMANDS = (
     admin_group,
     export,
     bots_command,
+    plan_command,
 )
 
 

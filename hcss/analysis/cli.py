@@ -54,6 +54,11 @@ from hcss.analysis.stats import MannWhitneyMethod
     is_flag=True,
     help="Analyse participants of different study files together (refused by default).",
 )
+@click.option(
+    "--pool-synthetic",
+    is_flag=True,
+    help="Analyse synthetic participants (`hcss plan`) together with real ones (refused by default).",
+)
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 def analyze(
     inputs: tuple[Path, ...],
@@ -63,6 +68,7 @@ def analyze(
     continuity: bool,
     study: str | None,
     pool_studies: bool,
+    pool_synthetic: bool,
     quiet: bool,
 ) -> None:
     """Analyse study exports and simulation decision tables.
@@ -102,6 +108,7 @@ def analyze(
             continuity=continuity,
             study=study,
             pool_studies=pool_studies,
+            pool_synthetic=pool_synthetic,
         )
     except AnalysisInputError as error:
         raise click.ClickException(str(error)) from error

@@ -33,6 +33,9 @@ from hcss.tablespec.frames import ContractError, check
 
 SIMULATION = "simulation"
 STUDY = "study"
+#: Synthetic participants' trials (`hcss plan`): read as a study's teams, never beside real
+#: participants unless asked (`pool_synthetic`).
+SYNTHETIC = "synthetic"
 
 #: Group labels in display order: simulation-only models first, then teams.
 GROUP_ORDER = ("M1SIM", "M2SIM", "M1", "M2", "M3")
@@ -236,10 +239,11 @@ def _decisions(frame: pd.DataFrame, where: str) -> pd.DataFrame:
     decisions = _checked(frame, where, "decisions", DECISION_COLUMNS)
     _numeric(decisions, where, NUMERIC_DECISION_COLUMNS)
     sources = set(decisions["source"].dropna())
-    unknown = sources - {SIMULATION, STUDY}
+    unknown = sources - {SIMULATION, STUDY, SYNTHETIC}
     if unknown or decisions["source"].isna().any():
         raise AnalysisInputError(
-            f"{where}: source must be 'simulation' or 'study', found {sorted(unknown) or 'empty'}"
+            f"{where}: source must be 'simulation', 'study' or 'synthetic', "
+            f"found {sorted(unknown) or 'empty'}"
         )
     difficulties = set(decisions["difficulty"].dropna()) - {"easy", "difficult"}
     if difficulties:
@@ -339,11 +343,32 @@ def _keep_study(combined: dict[str, pd.DataFrame], study: str) -> None:
             combined[table] = frame[keep]
 
 
+def _synthetic(decisions: pd.DataFrame, pool_synthetic: bool) -> tuple[str, ...]:
+    """Read synthetic participants' decisions as a study's (in place); refuse them beside real
+    participants' unless pooled. The warning that says so, or nothing."""
+    synthetic = decisions["source"] == SYNTHETIC
+    if not synthetic.any():
+        return ()
+    if (decisions["source"] == STUDY).any() and not pool_synthetic:
+        raise AnalysisInputError(
+            "the inputs hold synthetic participants (source = synthetic, from `hcss plan`) "
+            "beside real ones; they are never analysed together unless asked "
+            "(--pool-synthetic)"
+        )
+    decisions.loc[synthetic, "source"] = STUDY
+    people = decisions.loc[synthetic, "participant"].nunique()
+    return (
+        f"{people} synthetic participant(s) (source = synthetic): simulated operators, "
+        "not people; analysed as a study's teams",
+    )
+
+
 def load_inputs(
     paths: Iterable[str | Path],
     include_pilot: bool = False,
     study: str | None = None,
     pool_studies: bool = False,
+    pool_synthetic: bool = False,
 ) -> StudyTables:
     """Read and combine every INPUT, tag groups and drop flagged participants.
 
@@ -357,6 +382,10 @@ def load_inputs(
     ``study`` keeps one study's participants; participants of different
     study files (name or digest) are refused unless ``pool_studies``
     (`hcss.analysis.studies`).
+
+    Synthetic participants' decisions (``source = synthetic``) are analysed as a
+    study's teams, with a warning saying so; beside real participants' they are
+    refused unless ``pool_synthetic``.
     """
     inputs = [Path(path) for path in paths]
     if not inputs:
@@ -371,6 +400,7 @@ def load_inputs(
         else _empty(table)
         for table in ("decisions", *STUDY_TABLES)
     }
+    synthetic_note = _synthetic(combined["decisions"], pool_synthetic)
     combined["participants"], never_opened = set_aside_never_opened(combined["participants"])
     if study is not None:
         _keep_study(combined, study)
@@ -404,6 +434,7 @@ def load_inputs(
     )
     if len(warnings) == len(inputs):
         raise AnalysisInputError("no data to analyse: " + "; ".join(warnings))
+    warnings += synthetic_note
     for table in STUDY_TABLES:
         frame = combined[table]
         if "model" in frame.columns:

@@ -182,6 +182,7 @@ def run_analysis(
     continuity: bool = True,
     study: str | None = None,
     pool_studies: bool = False,
+    pool_synthetic: bool = False,
 ) -> Report:
     """Load INPUTs (one study's participants, or several study files only when pooled),
     compute measures and tests, write tables, figures and report.html."""
@@ -189,7 +190,11 @@ def run_analysis(
     steps = tqdm(total=5, desc="hcss analyze", unit="step", disable=not progress)
     steps.set_postfix_str("loading")
     tables = load_inputs(
-        inputs, include_pilot=include_pilot, study=study, pool_studies=pool_studies
+        inputs,
+        include_pilot=include_pilot,
+        study=study,
+        pool_studies=pool_studies,
+        pool_synthetic=pool_synthetic,
     )
     steps.update()
     steps.set_postfix_str("measures")

@@ -249,12 +249,20 @@ def _params_with(preset: str = DEFAULT_PRESET, **readings: Any) -> Params:
 @click.option(
     "--to",
     "to",
-    type=click.Choice(["published", "study"]),
+    type=click.Choice(["published", "study", "study-teams"]),
     default="published",
     show_default=True,
     help="published: the sensing radius to g(d) and r_msg to M1's 2.46 min, one at a time; "
     "study: readings and unstated values jointly to the study's tables in full, under "
-    "its unit (scenario, decision slot).",
+    "its unit (scenario, decision slot); study-teams: the synthetic operator population "
+    "to the human-team tables (SPEC-simulation.md §11) on the default preset.",
+)
+@click.option(
+    "--participants",
+    type=click.IntRange(min=2, max=10_000),
+    default=16,
+    show_default=True,
+    help="--to study-teams: synthetic participants per search trial (each runs M1, M2, M3).",
 )
 @click.option(
     "--budget",
@@ -310,6 +318,7 @@ def calibrate(
     dask_address: str | None,
     space: str,
     out: Path,
+    participants: int,
     **readings: Any,
 ) -> None:
     """Re-fit the shared calibrations from the engine and print the fit.
@@ -323,7 +332,23 @@ def calibrate(
     jointly for M1 and M2 to the study's tables in full under its unit (optuna
     over reduced experiments, then the finalists on the full one). Resumes an
     interrupted run in the same --out. Copy fit.json into presets.py.
+
+    --to study-teams: the synthetic operators' population (median traits and
+    spread) fitted to the human-team tables, all three models and both
+    difficulties jointly, then judged on two held-out scenario blocks
+    (hcss.experiments.operators_fit). Writes population.json (`hcss plan
+    --population`) and report.md to --out (default out/operators).
     """
+    if to == "study-teams":
+        from hcss.experiments import operators_fit as of
+
+        _calibrate_to_teams(
+            of.Settings(budget=budget, participants=participants, seed=sampler_seed),
+            workers,
+            dask_address,
+            Path("out/operators") if out == Path("out/calibration") else out,
+        )
+        return
     if to == "study":
         _calibrate_to_study(
             fs.Settings(
@@ -377,6 +402,28 @@ def calibrate(
             else ""
         )
     )
+
+
+def _calibrate_to_teams(settings: Any, workers: int, dask_address: str | None, out: Path) -> None:
+    from hcss.experiments import operators_fit as of
+
+    click.echo(
+        f"Calibrating the synthetic operators to the human-team tables: {settings.budget} "
+        f"search trials of {settings.participants} participants; trials kept in {out}."
+    )
+    try:
+        study = of.open_study(out, settings)
+    except ValueError as error:
+        raise click.BadParameter(str(error), param_hint="--out") from None
+    with tqdm(total=settings.budget, initial=min(len(study.trials), settings.budget)) as bar:
+
+        def on_trial(e: of.Evaluation) -> None:
+            bar.update(1)
+            bar.set_postfix_str(f"loss {e.loss:.1f}, {e.met} met", refresh=False)
+
+        result = of.calibrate(out, settings, workers, dask_address, on_trial=on_trial)
+    click.echo(of.report(result, settings))
+    click.echo(f"Written: {out / 'report.md'}, {out / 'population.json'}.")
 
 
 def _calibrate_to_study(

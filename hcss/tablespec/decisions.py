@@ -28,7 +28,8 @@ discarded, as the study does, and do not appear.
         Column(
             "source",
             "str",
-            "`simulation` (no human in the loop) or `study` (a human-collective team)",
+            "`simulation` (no human in the loop), `study` (a human-collective team) or "
+            "`synthetic` (a synthetic operator's team, `hcss plan`)",
             nullable=False,
             required=True,
         ),

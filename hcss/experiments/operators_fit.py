@@ -1,0 +1,237 @@
+"""`hcss simulate calibrate --to study-teams`: the synthetic operator population fitted to §11.
+
+Fits the population's median traits and its spread (`Population`) jointly
+over M1, M2 and M3 and both difficulties, on the default preset
+(`presets.DEFAULT_PRESET`, read at run time: a new default is re-fitted by
+running the command again), to the means of §11's cells within their bands
+(`study_teams`). The search is optuna's seeded TPE sampler, as the model's
+calibration (`fit_study`); its trials are kept in an SQLite file in the
+output directory, so an interrupted calibration resumes.
+
+Scenario blocks: the search runs participants (and their scenarios) seeded
+from `FIT_BLOCK`; the fit is then judged on `VALIDATION_BLOCKS`, which the
+search never saw. The study's tests on the human data are not read.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+from hcss.experiments import study_teams as teams
+from hcss.experiments.synthetic_teams import participants, pooled, run_participants
+from hcss.simulation.params import Params
+from hcss.simulation.synthetic import Population, Traits
+
+STUDY_NAME = "hcss-study-teams-calibration"
+FIT_BLOCK = 30_000_000
+VALIDATION_BLOCKS = (40_000_000, 41_000_000)
+
+# trait -> (low, high, log scale); "spread" is the population's
+SEARCH_SPACE: dict[str, tuple[float, float, bool]] = {
+    "glance_interval_s": (1.0, 10.0, True),
+    "reaction_time_s": (1.0, 8.0, True),
+    "value_noise": (0.01, 0.2, True),
+    "investigate_prob": (0.02, 1.0, True),
+    "stalled_investigate_prob": (0.05, 1.0, True),
+    "decide_support": (0.30, 0.6, False),
+    "decide_prob": (0.02, 1.0, True),
+    "abandon_support": (0.05, 0.4, False),
+    "abandon_gap": (0.02, 0.3, False),
+    "abandon_prob": (0.01, 1.0, True),
+    "slip_prob": (0.001, 0.2, True),
+    "observe_collective_prob": (0.02, 1.0, True),
+    "observe_target_prob": (0.01, 1.0, True),
+    "probe_lapse": (0.01, 0.5, True),
+    "spread": (0.05, 1.0, True),
+}
+
+
+@dataclass(frozen=True)
+class Settings:
+    budget: int = 60  # search trials
+    participants: int = 16  # per search trial (each runs M1, M2 and M3)
+    validation_participants: int = 28  # per validation block, the study's 28
+    seed: int = 1  # the sampler's
+    fit_block: int = FIT_BLOCK
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    population: Population
+    measured: dict[tuple[str, str, str], teams.Measured]
+    loss: float
+    met: int
+    block: int
+    participants: int
+
+
+def default_params() -> Params:
+    """The default preset's params, read now (another helper may change the default)."""
+    from hcss.simulation.presets import preset_params
+
+    return preset_params()
+
+
+def population_of(values: dict[str, float]) -> Population:
+    traits = {k: v for k, v in values.items() if k != "spread"}
+    return Population(Traits(**(asdict(Traits()) | traits)), values.get("spread", 0.3))
+
+
+def evaluate(
+    population: Population,
+    n: int,
+    block: int,
+    workers: int = 1,
+    dask_address: str | None = None,
+    params: Params | None = None,
+) -> Evaluation:
+    """Run n synthetic participants of block `block` and measure §11's cells on them."""
+    people = participants(n, block)
+    rows = pooled(
+        run_participants(people, population, params or default_params(), workers, dask_address)
+    )
+    measured = teams.measure(rows.decisions, rows.requests, rows.observations, rows.probes)
+    return Evaluation(
+        population,
+        measured,
+        teams.loss(measured),
+        len(teams.STUDY_TEAMS) - len(teams.misses(measured)),
+        block,
+        n,
+    )
+
+
+def open_study(out: Path, settings: Settings) -> Any:
+    """The optuna study in OUT/calibration.db, created or resumed (same experiment only)."""
+    import optuna
+
+    out.mkdir(parents=True, exist_ok=True)
+    manifest = out / "calibration.json"
+    wanted = {
+        "participants": settings.participants,
+        "sampler_seed": settings.seed,
+        "fit_block": settings.fit_block,
+        "search_space": {k: list(v) for k, v in SEARCH_SPACE.items()},
+        "preset": default_params().preset,
+    }
+    if manifest.exists() and json.loads(manifest.read_text(encoding="utf-8")) != wanted:
+        raise ValueError(
+            f"{out} holds a calibration of another experiment, preset or search space; "
+            "choose another --out"
+        )
+    manifest.write_text(json.dumps(wanted, indent=2), encoding="utf-8")
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    study = optuna.create_study(
+        study_name=STUDY_NAME,
+        storage=f"sqlite:///{out / 'calibration.db'}",
+        sampler=optuna.samplers.TPESampler(seed=settings.seed),
+        direction="minimize",
+        load_if_exists=True,
+    )
+    if not study.trials:
+        study.enqueue_trial({k: v for k, v in asdict(Traits()).items() if k in SEARCH_SPACE})
+    return study
+
+
+def search(
+    study: Any,
+    settings: Settings,
+    workers: int,
+    dask_address: str | None = None,
+    on_trial: Callable[[Evaluation], None] | None = None,
+) -> None:
+    import optuna
+
+    done = sum(t.state == optuna.trial.TrialState.COMPLETE for t in study.trials)
+    for _ in range(max(0, settings.budget - done)):
+        trial = study.ask()
+        values = {
+            name: trial.suggest_float(name, low, high, log=log)
+            for name, (low, high, log) in SEARCH_SPACE.items()
+        }
+        evaluation = evaluate(
+            population_of(values), settings.participants, settings.fit_block, workers, dask_address
+        )
+        trial.set_user_attr("met", evaluation.met)
+        study.tell(trial, evaluation.loss)
+        if on_trial is not None:
+            on_trial(evaluation)
+
+
+@dataclass(frozen=True)
+class Calibration:
+    fit: Population
+    search_loss: float
+    validations: list[Evaluation]
+    trials: int
+    wall_s: float
+
+
+def calibrate(
+    out: Path,
+    settings: Settings,
+    workers: int = 2,
+    dask_address: str | None = None,
+    on_trial: Callable[[Evaluation], None] | None = None,
+) -> Calibration:
+    """Search, judge the best on the validation blocks, and write OUT's files."""
+    import optuna
+
+    started = time.perf_counter()
+    study = open_study(out, settings)
+    search(study, settings, workers, dask_address, on_trial)
+    best = study.best_trial
+    fit = population_of(dict(best.params))
+    validations = [
+        evaluate(fit, settings.validation_participants, block, workers, dask_address)
+        for block in VALIDATION_BLOCKS
+    ]
+    trials = sum(t.state == optuna.trial.TrialState.COMPLETE for t in study.trials)
+    result = Calibration(fit, float(best.value), validations, trials, time.perf_counter() - started)
+    fitted = fit.to_dict() | {"preset": default_params().preset, "search_loss": result.search_loss}
+    (out / "population.json").write_text(json.dumps(fitted, indent=2), encoding="utf-8")
+    (out / "report.md").write_text(report(result, settings), encoding="utf-8")
+    return result
+
+
+def report(result: Calibration, settings: Settings) -> str:
+    lines = [
+        "# Synthetic operators calibrated to the study's human teams (§11)",
+        "",
+        f"Preset {default_params().preset}; search: {result.trials} trials of "
+        f"{settings.participants} participants (× M1, M2, M3) from seed block "
+        f"{settings.fit_block}; best search loss {result.search_loss:.2f}. Wall time of "
+        f"this invocation {result.wall_s / 60:.1f} min.",
+        "",
+        "## Fitted population (median person, spread on each trait's natural scale)",
+        "",
+        "| trait | median |",
+        "|---|---|",
+    ]
+    lines += [f"| {k} | {v:.3g} |" for k, v in result.fit.median.to_dict().items()]
+    lines += [f"| spread | {result.fit.spread:.3g} |", ""]
+    for e in result.validations:
+        lines += [
+            f"## Held-out block {e.block}: {e.participants} participants; loss {e.loss:.2f}, "
+            f"{e.met} of {len(teams.STUDY_TEAMS)} cells within band",
+            "",
+            teams.comparison_markdown(e.measured),
+            "",
+            "Misses: "
+            + (
+                ", ".join(f"{c.measure} {c.model} {c.column}" for c in teams.misses(e.measured))
+                or "none"
+            ),
+            "",
+        ]
+    return "\n".join(lines)
+
+
+def load_population(path: Path) -> Population:
+    """A fitted population from its population.json."""
+    return Population.from_dict(json.loads(path.read_text(encoding="utf-8")))

@@ -1,0 +1,274 @@
+"""The study's human-team tables (SPEC-simulation.md §11), and a synthetic team's distance from them.
+
+What is fitted: the means of §11's cells (per decision unless said), each
+within its band: success and observation shares 10 points, decision time
+1 min, requests per decision per minute 0.15, interventions per participant
+1.5, SA probe accuracy per participant 10 points. The SDs are printed beside
+them (the population's spread is judged by them, not fitted). The study's
+tests on the human data (Kruskal-Wallis, Tukey-Kramer, the correlations) are
+held back: nothing here reads them.
+
+Readings of §11 [choice]:
+- requests per decision per minute: a decision's accepted requests of a kind
+  over its time in minutes (the decisions table's counts, as `hcss analyze`);
+- observations per decision: a decision's actions are the requests on its
+  collective while it was under way (accepted or refused) and the observation
+  clicks on its collective then; a target click counts for the collective the
+  operator was attending. The share is over decisions with any action;
+- SA accuracy per participant: correct over scored probes of a trial, by level
+  and over all levels (SA0).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+SPLITS = ("overall", "easy", "difficult")
+MODELS = ("M1", "M2", "M3")
+REQUEST_KINDS = ("all", "investigate", "decide", "abandon")
+SA_LEVELS = ("SA0", "perception", "comprehension", "projection")
+
+BANDS = {
+    "success_pct": 10.0,
+    "time_min": 1.0,
+    "requests": 0.15,
+    "interventions": 1.5,
+    "observations_pct": 10.0,
+    "sa_pct": 10.0,
+}
+
+
+@dataclass(frozen=True)
+class Cell:
+    """One published number: measure, model, split or kind, its mean and SD."""
+
+    measure: str  # a key of BANDS
+    model: str
+    column: str  # split, request kind + split, observation kind + split, or SA level
+    mean: float
+    sd: float
+
+    @property
+    def key(self) -> tuple[str, str, str]:
+        return (self.measure, self.model, self.column)
+
+    @property
+    def band(self) -> float:
+        return BANDS[self.measure]
+
+
+def _cells() -> tuple[Cell, ...]:
+    cells: list[Cell] = []
+    success = {
+        "M1": [(78.57, 41.09), (95.31, 21.19), (56.25, 49.78)],
+        "M2": [(88.39, 32.08), (94.44, 22.97), (81.41, 39.03)],
+        "M3": [(92.86, 25.79), (95.94, 19.79), (88.49, 32.03)],
+    }
+    time = {
+        "M1": [(3.01, 1.56), (2.1, 0.75), (4.22, 1.54)],
+        "M2": [(3.97, 1.37), (3.37, 1.23), (4.67, 1.2)],
+        "M3": [(5.32, 2.22), (4.67, 1.96), (6.24, 2.24)],
+    }
+    for model in MODELS:
+        for split, (m, s) in zip(SPLITS, success[model], strict=True):
+            cells.append(Cell("success_pct", model, split, m, s))
+        for split, (m, s) in zip(SPLITS, time[model], strict=True):
+            cells.append(Cell("time_min", model, split, m, s))
+    requests = {  # (model, split): all, investigate, decide, abandon as (mean, sd)
+        ("M1", "overall"): [(0.57, 0.56), (0.44, 0.49), (0.1, 0.19), (0.02, 0.09)],
+        ("M1", "easy"): [(0.61, 0.61), (0.47, 0.54), (0.12, 0.22), (0.02, 0.08)],
+        ("M1", "difficult"): [(0.5, 0.47), (0.38, 0.42), (0.08, 0.12), (0.03, 0.1)],
+        ("M2", "overall"): [(0.66, 0.49), (0.47, 0.44), (0.15, 0.16), (0.02, 0.07)],
+        ("M2", "easy"): [(0.7, 0.56), (0.49, 0.5), (0.19, 0.18), (0.02, 0.07)],
+        ("M2", "difficult"): [(0.6, 0.4), (0.46, 0.37), (0.1, 0.13), (0.02, 0.07)],
+        ("M3", "overall"): [(1.33, 0.79), (1.07, 0.71), (0.23, 0.12), (0.03, 0.07)],
+        ("M3", "easy"): [(1.4, 0.87), (1.12, 0.79), (0.26, 0.12), (0.03, 0.07)],
+        ("M3", "difficult"): [(1.22, 0.65), (1.0, 0.58), (0.2, 0.12), (0.03, 0.07)],
+    }
+    for (model, split), values in requests.items():
+        for kind, (m, s) in zip(REQUEST_KINDS, values, strict=True):
+            cells.append(Cell("requests", model, f"{kind}/{split}", m, s))
+    for model, (m, s) in {"M1": (4.79, 2.97), "M2": (2.21, 1.99), "M3": (5.0, 5.11)}.items():
+        cells.append(Cell("interventions", model, "participant", m, s))
+    observations = {  # collective, target: overall / easy / difficult as (mean, sd)
+        "M1": [[(77.98, 41.5), (65.62, 47.62), (94.44, 22.99)],
+               [(20.54, 40.46), (10.94, 31.29), (33.33, 47.3)]],
+        "M2": [[(86.01, 34.74), (80.0, 40.11), (92.95, 25.68)],
+               [(22.62, 41.9), (21.11, 40.92), (24.36, 43.06)]],
+        "M3": [[(90.18, 29.8), (88.32, 32.19), (92.81, 25.93)],
+               [(41.07, 49.27), (41.12, 49.33), (41.01, 49.36)]],
+    }  # fmt: skip
+    for model, kinds in observations.items():
+        for kind, values in zip(("collective", "target"), kinds, strict=True):
+            for split, (m, s) in zip(SPLITS, values, strict=True):
+                cells.append(Cell("observations_pct", model, f"{kind}/{split}", m, s))
+    sa = {
+        "M1": [(85.12, 17.18), (86.31, 21.06), (87.32, 18.23), (78.57, 31.38)],
+        "M2": [(89.88, 10.96), (91.67, 11.11), (88.39, 14.6), (89.88, 20.46)],
+        "M3": [(87.2, 10.75), (94.05, 13.0), (91.43, 12.68), (76.79, 16.57)],
+    }
+    for model, values in sa.items():
+        for level, (m, s) in zip(SA_LEVELS, values, strict=True):
+            cells.append(Cell("sa_pct", model, level, m, s))
+    return tuple(cells)
+
+
+STUDY_TEAMS: tuple[Cell, ...] = _cells()
+"""§11's cells (the human teams), in the order the tables print them."""
+
+
+@dataclass(frozen=True)
+class Measured:
+    mean: float
+    sd: float
+    n: int
+
+
+def _summary(values: Iterable[float]) -> Measured:
+    array = np.array([v for v in values if v is not None and math.isfinite(v)], dtype=float)
+    if not array.size:
+        return Measured(math.nan, math.nan, 0)
+    sd = float(array.std(ddof=1)) if array.size > 1 else math.nan
+    return Measured(float(array.mean()), sd, int(array.size))
+
+
+def measure(
+    decisions: Iterable[Mapping[str, Any]],
+    requests: Iterable[Mapping[str, Any]],
+    observations: Iterable[Mapping[str, Any]],
+    probes: Iterable[Mapping[str, Any]],
+) -> dict[tuple[str, str, str], Measured]:
+    """Every §11 cell measured on synthetic teams' rows (keys as `Cell.key`)."""
+    decisions = list(decisions)
+    per: dict[tuple[str, str, str], list[float]] = defaultdict(list)
+    actions = _actions_by_decision(decisions, requests, observations)
+    interventions: dict[tuple[str, str], float] = defaultdict(float)
+    for d in decisions:
+        model = str(d["model"])
+        minutes = float(d["decision_time_s"]) / 60.0
+        interventions[(model, str(d["trial_id"]))] += float(d["n_interventions"])
+        counts = {
+            "investigate": float(d["n_investigate"]),
+            "decide": float(d["n_decide"]),
+            "abandon": float(d["n_abandon"]),
+        }
+        counts["all"] = sum(counts.values())
+        clicks = actions.get((str(d["trial_id"]), str(d["collective"]), int(d["decision_index"])))
+        for split in ("overall", str(d["difficulty"])):
+            per[("success_pct", model, split)].append(100.0 * bool(d["correct"]))
+            per[("time_min", model, split)].append(minutes)
+            if minutes > 0:
+                for kind, n in counts.items():
+                    per[("requests", model, f"{kind}/{split}")].append(n / minutes)
+            if clicks and clicks["total"] > 0:
+                for kind in ("collective", "target"):
+                    share = 100.0 * clicks[kind] / clicks["total"]
+                    per[("observations_pct", model, f"{kind}/{split}")].append(share)
+    for (model, _trial), n in interventions.items():
+        per[("interventions", model, "participant")].append(n)
+    for key, values in _sa_by_trial(probes).items():
+        per[key].extend(values)
+    return {key: _summary(values) for key, values in per.items()}
+
+
+def _actions_by_decision(
+    decisions: list[Mapping[str, Any]],
+    requests: Iterable[Mapping[str, Any]],
+    observations: Iterable[Mapping[str, Any]],
+) -> dict[tuple[str, str, int], dict[str, float]]:
+    """Per (trial, collective, decision index): its requests and observation clicks."""
+    spans: dict[tuple[str, str], list[tuple[float, float, int]]] = defaultdict(list)
+    for d in decisions:
+        spans[(str(d["trial_id"]), str(d["collective"]))].append(
+            (float(d["start_s"]), float(d["end_s"]), int(d["decision_index"]))
+        )
+    out: dict[tuple[str, str, int], dict[str, float]] = defaultdict(
+        lambda: {"collective": 0.0, "target": 0.0, "total": 0.0}
+    )
+
+    def count(trial: str, collective: Any, time: float, kind: str | None) -> None:
+        if collective is None:
+            return
+        for start, end, index in spans.get((trial, str(collective)), ()):
+            if start <= time < end:
+                cell = out[(trial, str(collective), index)]
+                cell["total"] += 1
+                if kind is not None:
+                    cell[kind] += 1
+                return
+
+    for r in requests:
+        count(str(r["trial_id"]), r.get("collective"), float(r["sim_time_s"]), None)
+    for o in observations:
+        who = o.get("collective") if o["kind"] == "collective" else o.get("attended")
+        count(str(o["trial_id"]), who, float(o["sim_time_s"]), str(o["kind"]))
+    return out
+
+
+def _sa_by_trial(probes: Iterable[Mapping[str, Any]]) -> dict[tuple[str, str, str], list[float]]:
+    scored: dict[tuple[str, str], dict[str, list[bool]]] = defaultdict(lambda: defaultdict(list))
+    for p in probes:
+        if p.get("correct") is None:
+            continue
+        level = SA_LEVELS[int(p["level"])]
+        trial = scored[(str(p["model"]), str(p["trial_id"]))]
+        trial[level].append(bool(p["correct"]))
+        trial["SA0"].append(bool(p["correct"]))
+    out: dict[tuple[str, str, str], list[float]] = defaultdict(list)
+    for (model, _trial), levels in scored.items():
+        for level, answers in levels.items():
+            out[("sa_pct", model, level)].append(100.0 * float(np.mean(answers)))
+    return out
+
+
+#: The most one cell can cost: a miss of five bands, and a cell with nothing to measure (a
+#: model that never decided). Capped, one cell the model cannot reach (M3's request rates
+#: under a preset whose M3 needs many more investigates than people made) cannot outweigh
+#: every other cell of that model, and a fit cannot leave a model's cells empty to save cost.
+MISSING_COST = 25.0
+
+
+def loss(measured: Mapping[tuple[str, str, str], Measured]) -> float:
+    """Sum of squared misses of the means in bands, each capped at `MISSING_COST`."""
+    total = 0.0
+    for cell in STUDY_TEAMS:
+        got = measured.get(cell.key)
+        if got is None or not math.isfinite(got.mean):
+            total += MISSING_COST
+        else:
+            total += min(MISSING_COST, ((got.mean - cell.mean) / cell.band) ** 2)
+    return total
+
+
+def misses(measured: Mapping[tuple[str, str, str], Measured]) -> list[Cell]:
+    """The cells whose mean is outside its band."""
+    return [
+        cell
+        for cell in STUDY_TEAMS
+        if (got := measured.get(cell.key)) is None
+        or not math.isfinite(got.mean)
+        or abs(got.mean - cell.mean) > cell.band
+    ]
+
+
+def comparison_markdown(measured: Mapping[tuple[str, str, str], Measured]) -> str:
+    """§11's cells beside the synthetic teams': mean (SD), the miss in bands, met or not."""
+    lines = [
+        "| measure | model | cell | study mean (SD) | synthetic mean (SD) | n | miss / band | within |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for cell in STUDY_TEAMS:
+        got = measured.get(cell.key, Measured(math.nan, math.nan, 0))
+        miss = (got.mean - cell.mean) / cell.band
+        lines.append(
+            f"| {cell.measure} | {cell.model} | {cell.column} | {cell.mean:g} ({cell.sd:g}) "
+            f"| {got.mean:.2f} ({got.sd:.2f}) | {got.n} | {miss:+.2f} "
+            f"| {'yes' if abs(miss) <= 1 else 'NO'} |"
+        )
+    return "\n".join(lines)

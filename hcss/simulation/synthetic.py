@@ -1,0 +1,340 @@
+"""A synthetic operator: a participant's behaviour with the parameters that matter, drawn per person.
+
+The scripted operators of `operators.py` are fixed by hand; this one has a
+`Traits` value per synthetic participant, drawn from a `Population` (each
+trait a distribution over people), so the spread between people and between
+decisions that the study's human tables show (SPEC-simulation.md §11) can be
+fitted (`hcss simulate calibrate --to study-teams`).
+
+It acts only on what the interface shows: each `look` takes a `Display` (in
+process `Simulation.display()`, over HTTP `Display.from_json` of a stream
+frame) and returns a `Glance` (its requests and observation clicks), and
+each probe answer comes from what it remembers of the displays it looked at.
+Nothing here can reach the simulation's truth, so a truth-only change cannot
+change its actions (tests/simulation/test_synthetic.py plants one).
+
+Its randomness is two streams of its own, seeded from the participant: one for
+looks, one for probes. A look draws the same numbers whatever the probes did,
+so the in-process path (`hcss.experiments.synthetic_trials`) and the HTTP bot
+(`hcss.platform.bots.synthetic`) give the same requests for the same seed and
+pace, however their probes interleave.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass, fields, replace
+from typing import Any
+
+import numpy as np
+
+from hcss.simulation.messages import collective_names
+from hcss.simulation.requests import OperatorCommand
+from hcss.simulation.view import Display
+
+DECIDE_FLOOR = 0.30  # the simulation refuses a decide below this support (spec §8)
+
+
+@dataclass(frozen=True)
+class Traits:
+    """One synthetic participant. Times in seconds, supports as fractions of the collective.
+
+    - `glance_interval_s`: how often attention turns to the next collective
+      (one collective at a time, round robin), so a collective is attended
+      every 4 glances.
+    - `reaction_time_s`: from a look to its clicks landing (reading the map,
+      filling the request form, Commit).
+    - `value_noise`: sd of a person's reading of a target's value from its
+      green opacity; which target "looks best" is the noisy reading's.
+    - `investigate_prob`: chance, when attending a collective whose best-looking
+      target is below `decide_support`, to send an investigate of it (10 more
+      agents to assess it; repeatable, as on the interface, even while one is
+      in progress).
+    - `stalled_investigate_prob`: the same chance when that target's support has
+      not grown since it last attended the collective (a collective that does
+      not move by itself, as M3, gets pushed more).
+    - `decide_support`: the support at which it considers deciding; never below
+      30% (below that the interface refuses a decide).
+    - `decide_prob`: chance, when support allows, to decide rather than let the
+      collective reach its own quorum.
+    - `abandon_support`, `abandon_gap`, `abandon_prob`: it abandons a target
+      its collective supports at `abandon_support` or more whose value looks
+      `abandon_gap` or more below the best-looking one, with this chance per
+      look (an intervention when support is 10% or more).
+    - `slip_prob`: chance that a request is erroneous (a decide under 30%, an
+      abandon of an unsupported target): the interface refuses it.
+    - `observe_collective_prob`, `observe_target_prob`: chance per look of a
+      right-click on the attended hub (its U/F/C/X detail), and on its
+      best-looking target (its support per collective).
+    - `probe_lapse`: chance of answering a probe at random (inattention)
+      rather than from what it remembers.
+    - `probe_ready_s`, `probe_answer_s`: from a probe showing to "ready", and
+      from the question showing to the answer; both inside the 30 s window.
+    """
+
+    glance_interval_s: float = 4.0
+    reaction_time_s: float = 3.0
+    value_noise: float = 0.05
+    investigate_prob: float = 0.3
+    stalled_investigate_prob: float = 0.5
+    decide_support: float = 0.35
+    decide_prob: float = 0.5
+    abandon_support: float = 0.10
+    abandon_gap: float = 0.15
+    abandon_prob: float = 0.3
+    slip_prob: float = 0.03
+    observe_collective_prob: float = 0.3
+    observe_target_prob: float = 0.1
+    probe_lapse: float = 0.1
+    probe_ready_s: float = 2.0
+    probe_answer_s: float = 4.0
+
+    def __post_init__(self) -> None:
+        if self.glance_interval_s <= 0 or self.reaction_time_s < 0:
+            raise ValueError("a glance interval must be positive and a reaction time not negative")
+        if self.decide_support < DECIDE_FLOOR:
+            raise ValueError(f"decide_support below {DECIDE_FLOOR} would only be refused")
+        for name in TRAIT_PROBABILITIES:
+            if not 0.0 <= getattr(self, name) <= 1.0:
+                raise ValueError(f"{name} is a probability, not {getattr(self, name)}")
+
+    def to_dict(self) -> dict[str, float]:
+        return asdict(self)
+
+
+TRAIT_PROBABILITIES = (
+    "investigate_prob",
+    "stalled_investigate_prob",
+    "decide_prob",
+    "abandon_prob",
+    "slip_prob",
+    "observe_collective_prob",
+    "observe_target_prob",
+    "probe_lapse",
+)
+#: Traits bounded to [0, 1]: drawn on the logit scale. The others are positive: log scale.
+_BOUNDED = frozenset((*TRAIT_PROBABILITIES, "abandon_support", "value_noise"))
+
+
+@dataclass(frozen=True)
+class Population:
+    """How synthetic participants differ: each trait's median person and spread.
+
+    A participant's trait is the median moved by `spread` standard normal
+    deviates on the trait's natural scale (logit for probabilities and
+    supports, log for times and gaps), so every draw is valid. One `spread`
+    for all traits keeps the fit small: people who glance often also tend to
+    act often is not assumed, each trait draws its own deviate.
+    `decide_support` is drawn above the 30% floor (its excess over 0.30 on
+    the log scale).
+    """
+
+    median: Traits = Traits()
+    spread: float = 0.3
+
+    def draw(self, rng: np.random.Generator) -> Traits:
+        values: dict[str, float] = {}
+        for f in fields(Traits):
+            centre = float(getattr(self.median, f.name))
+            z = float(rng.standard_normal()) * self.spread
+            if f.name == "decide_support":
+                excess = max(centre - DECIDE_FLOOR, 1e-3)
+                values[f.name] = min(0.95, DECIDE_FLOOR + excess * float(np.exp(z)))
+            elif f.name in _BOUNDED:
+                p = min(max(centre, 1e-4), 1 - 1e-4)
+                values[f.name] = float(1.0 / (1.0 + np.exp(-(np.log(p / (1 - p)) + z))))
+            else:
+                values[f.name] = centre * float(np.exp(z))
+        return Traits(**values)
+
+    def participant(self, seed: int) -> Traits:
+        """The traits of the synthetic participant with this seed."""
+        return self.draw(np.random.default_rng([seed, 0x7A17]))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"median": self.median.to_dict(), "spread": self.spread}
+
+    @classmethod
+    def from_dict(cls, values: dict[str, Any]) -> Population:
+        return cls(Traits(**values["median"]), float(values["spread"]))
+
+    def with_median(self, **changes: float) -> Population:
+        return replace(self, median=replace(self.median, **changes))
+
+
+@dataclass(frozen=True)
+class Observation:
+    """An observation click (not part of a request): a hub or a target, left or right button."""
+
+    kind: str  # "collective" or "target"
+    collective: int | None = None
+    target: int | None = None
+    button: str = "right"
+
+    def to_json(self) -> dict[str, Any]:
+        """The body the platform's observation endpoint takes."""
+        body: dict[str, Any] = {"kind": self.kind, "button": self.button}
+        if self.kind == "collective":
+            body["collective"] = self.collective
+        else:
+            body["target"] = self.target
+        return body
+
+
+@dataclass(frozen=True)
+class Glance:
+    """What one look produced: the collective attended and the clicks to land after the reaction time."""
+
+    collective: int | None
+    commands: tuple[OperatorCommand, ...] = ()
+    observations: tuple[Observation, ...] = ()
+
+
+@dataclass
+class _Memory:
+    """What the operator last saw of one collective (the whole map is seen at each look)."""
+
+    time: float
+    support: dict[int, float]  # target id -> this collective's support
+    closeness: float  # how near a decision it looked: moving > committed > supported
+
+
+class SyntheticOperator:
+    """One synthetic participant supervising one trial, from what the interface shows."""
+
+    def __init__(self, traits: Traits, seed: int) -> None:
+        self.traits = traits
+        root = np.random.SeedSequence([seed, 0x0B5])
+        looks, probes = root.spawn(2)
+        self.rng = np.random.default_rng(looks)
+        self.probe_rng = np.random.default_rng(probes)
+        self.focus = 0
+        self.memory: dict[int, _Memory] = {}
+        self.values: dict[int, float] = {}  # target id -> the mean of its values as read
+        self.reads: dict[int, int] = {}  # target id -> how often read
+        self.last_best: dict[int, tuple[int, float]] = {}  # collective -> (target, support)
+
+    def glance_times(self, until_s: float) -> list[float]:
+        """When it looks, from the trial's start: every glance interval."""
+        step = self.traits.glance_interval_s
+        return [k * step for k in range(1, int(until_s / step) + 1)]
+
+    def look(self, display: Display) -> Glance:
+        """See the map, attend the next collective and decide what to click on it."""
+        t, d = self.traits, display
+        if not d.n_collectives or d.finished:
+            return Glance(None)
+        c = self.focus % d.n_collectives
+        self.focus += 1
+        u = self.rng.random(8)  # a fixed number of draws per look: paths stay in step
+        noise = self.rng.standard_normal(len(d.target_ids)) * t.value_noise
+        read = np.asarray(d.value, dtype=float) + noise
+        ids = [int(x) for x in d.target_ids.tolist()]
+        self._remember(d, ids, read)
+        observations: list[Observation] = []
+        if u[0] < t.observe_collective_prob:
+            observations.append(Observation("collective", collective=c))
+        shown = np.flatnonzero(d.in_range[c] & d.drawn)
+        if d.executing[c] or not shown.size:
+            return Glance(c, (), tuple(observations))
+        best = int(shown[np.argmax(read[shown])])
+        if u[1] < t.observe_target_prob:
+            observations.append(Observation("target", target=ids[best]))
+        commands: list[OperatorCommand] = []
+        abandoned = {r.target for r in d.requests if r.collective == c and r.kind == "abandon"}
+        if u[2] < t.abandon_prob:
+            weak = [
+                v
+                for v in shown.tolist()
+                if v != best
+                and d.support[c, v] >= t.abandon_support
+                and read[v] <= read[best] - t.abandon_gap
+                and ids[v] not in abandoned
+            ]
+            if weak:
+                worst = max(weak, key=lambda v: float(d.support[c, v]))
+                commands.append(OperatorCommand("abandon", c, ids[worst]))
+        support = float(d.support[c, best])
+        before = self.last_best.get(c)
+        stalled = before is not None and before[0] == ids[best] and support <= before[1]
+        self.last_best[c] = (ids[best], support)
+        if support >= t.decide_support:
+            if u[3] < t.decide_prob:
+                commands.append(OperatorCommand("decide", c, ids[best]))
+        elif u[4] < (t.stalled_investigate_prob if stalled else t.investigate_prob):
+            commands.append(OperatorCommand("investigate", c, ids[best]))
+        if commands and u[5] < t.slip_prob:
+            slip = _slip(d, c, shown, u[6])
+            if slip is not None:
+                commands.append(slip)
+        return Glance(c, tuple(commands), tuple(observations))
+
+    def _remember(self, d: Display, ids: list[int], read: np.ndarray) -> None:
+        """What a look takes in of the whole map: values read, supports, who is near a decision."""
+        for v, target in enumerate(ids):  # a running mean: reading a target again firms it up
+            n = self.reads.get(target, 0) + 1
+            self.reads[target] = n
+            self.values[target] = (
+                self.values.get(target, 0.0) + (float(read[v]) - self.values.get(target, 0.0)) / n
+            )
+        n = max(d.n_agents, 1)
+        for c in range(d.n_collectives):
+            support = {ids[v]: float(d.support[c, v]) for v in range(len(ids))}
+            committed = float(d.state_counts[c, 2] + d.state_counts[c, 3]) / n
+            closeness = (
+                2.0 + float(d.move_progress[c])
+                if d.executing[c]
+                else committed + max(support.values(), default=0.0)
+            )
+            self.memory[c] = _Memory(d.time, support, closeness)
+
+    def answer(self, level: int, question: str, choices: Sequence[str]) -> str:
+        """A probe's answer from memory; at random on a lapse or with nothing remembered.
+
+        Level 1 (which collective is investigating target t): the collective it
+        last saw supporting t most. Level 2 (the best target for collective
+        c): the choice whose value it has read highest on average. Level 3 (which
+        collective decides next): the one it last saw closest to a decision
+        (moving, else the most committed and supported).
+        """
+        if not choices:
+            return ""
+        u, pick = self.probe_rng.random(), int(self.probe_rng.integers(len(choices)))
+        guess = choices[pick]
+        if u < self.traits.probe_lapse or not self.memory:
+            return guess
+        names = collective_names()
+        if level == 1:
+            target = _number_in(question)
+            seen = {c: m.support.get(target, -1.0) for c, m in self.memory.items()}
+            c = max(seen, key=lambda k: seen[k])
+            return names[c] if seen[c] > 0 and names[c] in choices else guess
+        if level == 2:
+            known = [x for x in choices if x.isdecimal() and int(x) in self.values]
+            return max(known, key=lambda x: self.values[int(x)]) if known else guess
+        c = max(self.memory, key=lambda k: self.memory[k].closeness)
+        return names[c] if names[c] in choices else guess
+
+
+def _slip(d: Display, c: int, shown: np.ndarray, u: float) -> OperatorCommand | None:
+    """An erroneous request the interface refuses: a decide under 30%, or an abandon of a
+    target with no supporters (the form filled for the wrong target)."""
+    weak = [v for v in shown.tolist() if d.support[c, v] < DECIDE_FLOOR]
+    if not weak:
+        return None
+    v = weak[int(u * len(weak))]
+    kind = "decide" if d.support[c, v] * d.n_agents >= 2 else "abandon"
+    return OperatorCommand(kind, c, int(d.target_ids[v]))
+
+
+def _number_in(text: str) -> int:
+    digits = "".join(ch if ch.isdigit() else " " for ch in text).split()
+    return int(digits[-1]) if digits else -1
+
+
+def _collective_in(question: str, names: Sequence[str]) -> int | None:
+    words = question.rstrip("?").split()
+    for c, name in enumerate(names):
+        if name in words:
+            return c
+    return None
