@@ -153,8 +153,7 @@ def _member_locations(index: int, server: str) -> str:
     }}
 
     location @hcss_{server}_stream {{
-{proxy}
-        proxy_read_timeout 3s;
+{proxy.replace("proxy_read_timeout 15s;", "proxy_read_timeout 3s;")}
         proxy_next_upstream off;
     }}
 """
