@@ -257,6 +257,12 @@ def _first_look(client: TrialClient) -> None:
             time.sleep(0.5)
 
 
+def _lease_row(database: Database, trial_id: int) -> tuple[str, int] | None:
+    with database.session_scope() as session:
+        row = session.get(TrialLease, trial_id)
+        return None if row is None else (row.owner, row.epoch)
+
+
 def _detours(log_lines: list[str], since: float, tokens: set[str]) -> tuple[int, int]:
     """(requests, requests answered 503 by a process before another answered) among the
     participants' requests nginx logged after `since` (epoch seconds)."""
@@ -337,6 +343,7 @@ def test_a_restarted_process_gets_its_participants_trials_back_and_the_detour_en
                     handed_back_s[page.trial_id] = time.monotonic() - restarted
         handed = time.time()
         time.sleep(1.0)  # requests begun before the last hand-back are logged by now
+        settled = {p.trial_id: _lease_row(database, p.trial_id) for p in participants}
 
         quiet_from = time.time()
         quiet_until = time.monotonic() + QUIET_S
@@ -355,6 +362,8 @@ def test_a_restarted_process_gets_its_participants_trials_back_and_the_detour_en
         assert after[1] == 0, f"{after[1]} of {after[0]} requests still took a detour"
         for page in theirs:  # hosted by the restarted process and staying there
             assert (lease_owner(database, page.trial_id) or "").startswith(victim_address + "/")
+        # Handed back once: no lease changed hands (or epoch) after the hand-backs.
+        assert {p.trial_id: _lease_row(database, p.trial_id) for p in participants} == settled
         with database.session_scope() as session:
             failed = session.scalar(
                 select(func.count())
