@@ -77,7 +77,7 @@ from hcss.platform.models import (
     TrialLease,
     TrialStatusChange,
 )
-from hcss.platform.serving.localserver import LocalNginx, LocalServer, postgres_schema
+from hcss.platform.serving.localserver import LocalNginx, LocalServer, as_group, postgres_schema
 
 FAILOVER_TRIALS = 20
 FAULTS = ("kill", "stop", "partition")
@@ -229,6 +229,7 @@ def fault_round(base: str, workdir: Path, fault: str) -> dict[str, Any]:
             )
         folder = workdir / f"failover-{fault}"
         victim, other = _server(victim_url, folder, "victim"), _server(url, folder, "other")
+        as_group([victim, other])  # placed where nginx sends their pages
         nginx = LocalNginx([f"127.0.0.1:{s.port}" for s in (victim, other)], folder / "nginx")
         watch = LeaseWatch(database)
         pages: list[PageStream] = []

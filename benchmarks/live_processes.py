@@ -1,7 +1,8 @@
 """Live trials through nginx: one server process against two on one PostgreSQL database, and failover.
 
-`python -m benchmarks live_processes [capacity] [failover] [survivor]` runs the
-parts named (all three, in that order, when none is). Needs PostgreSQL
+`python -m benchmarks live_processes [capacity] [failover] [survivor]
+[supervised] [growth]` runs the parts named (all five, in that order, when
+none is). Needs PostgreSQL
 (HCSS_BENCH_DATABASE_URL, else HCSS_TEST_DATABASE_URL) and nginx; each group
 of processes gets its own schema.
 
@@ -18,6 +19,16 @@ of processes gets its own schema.
   stream as live.js does, did not see; rows lost or doubled; after a stop or
   a partition, whether the faulty process wrote anything once it woke, and
   the next takeover (benchmarks/failover.py says what each figure is).
+  Each line also says how the trials split between the processes (placement)
+  and how many moved (a lease that changed owner or epoch) or were interrupted
+  while the pages were driven: 0 and 0 without a fault (issue 41).
+- supervised (about 2 min): the baseline a group is weighed against: one
+  `hcss serve` process (no group) and its trials, kill -9, started again at
+  once as a service manager does (systemd `Restart=always`): seconds until it
+  answers, until every trial steps again, and the longest clock stop.
+- growth (about 4 min): the database's growth per trial-hour: bot trials
+  hosted at 1x by one process, the size of every table of the schema before
+  and after, snapshots written and kept.
 - survivor (about 4 min; 3.4-3.7 min under a load average of 8-12): 60 and then 120
   trials on one process, a second started, kill -9 of the first: how the
   survivor takes them all and keeps its leases.
@@ -34,6 +45,7 @@ from pathlib import Path
 from tempfile import TemporaryDirectory
 
 import httpx
+from sqlalchemy import func, select, text
 
 from benchmarks.failover import (
     FAILOVER_TRIALS,
@@ -56,8 +68,11 @@ from benchmarks.live import (
     start_trials,
 )
 from hcss.platform.cli import DEFAULT_THREADS, upgrade_database
+from hcss.platform.db import Database
 from hcss.platform.live.client import TrialClient
-from hcss.platform.serving.localserver import LocalNginx, LocalServer, postgres_schema
+from hcss.platform.live.placement import address_of
+from hcss.platform.models import Interruption, Snapshot, TrialLease
+from hcss.platform.serving.localserver import LocalNginx, LocalServer, as_group, postgres_schema
 
 #: Where each group's capacity search starts: a count it held and one it did not in the
 #: runs of 2026-12-01 (one process held 140, not 160; two held 240, not 280), widened so
@@ -70,7 +85,11 @@ TARGET_RATIO = 1.7
 #: As docs/operations.md says to run them: every client has nginx's address, so the
 #: per-address connection cap would refuse the streams.
 BEHIND_NGINX = {"HCSS_PROXY_HOPS": "1"}
-PARTS = ("capacity", "failover", "survivor")
+PARTS = ("capacity", "failover", "survivor", "supervised", "growth")
+#: Trials and wall seconds of the growth part: 3 trial-hours at 1x.
+GROWTH_TRIALS, GROWTH_S = 60, 180.0
+#: Trials of the supervised restart.
+SUPERVISED_TRIALS = 60
 
 
 def database_base_url() -> str | None:
@@ -82,16 +101,18 @@ def group(
     url: str, processes: int, workdir: Path, extra_env: dict[str, str] | None = None
 ) -> Iterator[tuple[list[LocalServer], LocalNginx]]:
     """`processes` `--cluster` servers on one database behind one nginx, as operations.md deploys."""
-    servers = [
-        LocalServer(
-            url,
-            workdir / f"process-{i}",
-            threads=DEFAULT_THREADS,
-            serve_args=["--cluster"],
-            extra_env={**BEHIND_NGINX, **(extra_env or {})},
-        )
-        for i in range(processes)
-    ]
+    servers = as_group(  # each told the group: trials are claimed where nginx sends pages
+        [
+            LocalServer(
+                url,
+                workdir / f"process-{i}",
+                threads=DEFAULT_THREADS,
+                serve_args=["--cluster"],
+                extra_env={**BEHIND_NGINX, **(extra_env or {})},
+            )
+            for i in range(processes)
+        ]
+    )
     nginx = LocalNginx([f"127.0.0.1:{s.port}" for s in servers], workdir / "nginx")
     try:
         start_ready(*servers)  # trials started before "simulation ready" would wait for it
@@ -114,11 +135,33 @@ def measure(processes: int, n_trials: int, base: str, workdir: Path) -> dict[str
             assert nginx.process is not None
             nginx_pids = [nginx.process.pid, *_children(nginx.process.pid)]
             nginx_cpu = sum(_process_cpu_s(pid) for pid in nginx_pids)
+            database = Database(url)
+            leases_before = _leases(database)
             started = time.perf_counter()
             result = drive(nginx.url, tokens, pids)
             elapsed = time.perf_counter() - started
             result["nginx_cpu"] = (sum(_process_cpu_s(p) for p in nginx_pids) - nginx_cpu) / elapsed
+            leases_after = _leases(database)
+            result["moves"] = sum(
+                1 for t, lease in leases_before.items() if leases_after.get(t) != lease
+            )
+            split = [
+                sum(1 for owner, _ in leases_after.values() if address_of(owner) == address)
+                for address in (f"{s.host}:{s.port}" for s in servers)
+            ]
+            result["split"] = max(split) / max(1, sum(split))
+            with database.session_scope() as session:
+                result["interruptions"] = float(
+                    session.scalar(select(func.count()).select_from(Interruption)) or 0
+                )
+            database.engine.dispose()
             return result
+
+
+def _leases(database: Database) -> dict[int, tuple[str, int]]:
+    with database.session_scope() as session:
+        rows = session.execute(select(TrialLease.trial_id, TrialLease.owner, TrialLease.epoch))
+        return {trial_id: (owner, epoch) for trial_id, owner, epoch in rows}
 
 
 def claim(base_url: str, tokens: list[str]) -> None:
@@ -207,7 +250,8 @@ def _measured(processes: int, n: int, base: str, workdir: Path) -> bool:
         f"({r['unseen']:.0f} of {r['commands']:.0f} unseen); "
         f"{r['refused']:.0f} pages refused or dropped, {r['reopened']:.0f} reopens; servers "
         f"{r['server_cpu']:.0%} of a core ({r['server_cpu'] / n:.2%} per trial), "
-        f"nginx {r['nginx_cpu']:.0%}, clients {r['clients_cpu']:.0%}  "
+        f"nginx {r['nginx_cpu']:.0%}, clients {r['clients_cpu']:.0%}; largest share "
+        f"{r['split']:.0%}, {r['moves']:.0f} moved, {r['interruptions']:.0f} interrupted  "
         f"{'held' if ok else 'not held'}",
         flush=True,
     )
@@ -226,9 +270,13 @@ def run(parts: list[str] | None = None) -> None:
     with TemporaryDirectory() as tmp:
         for part in chosen:
             started = time.perf_counter()
-            {"capacity": _capacities, "failover": _failovers, "survivor": _survivors}[part](
-                base, Path(tmp)
-            )
+            {
+                "capacity": _capacities,
+                "failover": _failovers,
+                "survivor": _survivors,
+                "supervised": _supervised,
+                "growth": _growth,
+            }[part](base, Path(tmp))
             print(f"    ({part}: {time.perf_counter() - started:.0f} s)", flush=True)
 
 
@@ -260,3 +308,102 @@ def _survivors(base: str, workdir: Path) -> None:
         f"watched {SURVIVOR_WATCH_S:.0f} s after the survivor holds all (leases every 1 s)"
     )
     print_survivors([survivor_round(base, workdir, n) for n in SURVIVOR_COUNTS])
+
+
+def _supervised(base: str, workdir: Path) -> None:
+    """One process, kill -9, started again at once: how long its trials stand still."""
+    with postgres_schema(base, "hcss_bench") as url:
+        upgrade_database(url)
+        server = LocalServer(url, workdir / "supervised", threads=DEFAULT_THREADS)
+        database = Database(url)
+        try:
+            start_ready(server)
+            tokens = start_trials(url, SUPERVISED_TRIALS)
+            claim(server.url, tokens)
+            clients = [TrialClient(server.url, token) for token in tokens]
+            for client in clients:
+                client.open_page()
+            time.sleep(6.0)  # a snapshot of each (every 5 s)
+            steps = [client.state()["trial"]["step"] for client in clients]
+            server.kill()
+            killed = time.monotonic()
+            server.start(timeout_s=120)  # Restart=always: at once (RestartSec 100 ms)
+            answering = time.monotonic() - killed
+            stepping: list[float | None] = [None] * len(clients)
+            while any(s is None for s in stepping) and time.monotonic() - killed < 120:
+                for index, client in enumerate(clients):
+                    if stepping[index] is not None:
+                        continue
+                    try:
+                        if client.state()["trial"]["step"] > steps[index]:
+                            stepping[index] = time.monotonic() - killed
+                    except httpx.HTTPError:
+                        pass
+                time.sleep(0.2)
+            with database.session_scope() as session:
+                outages = list(session.scalars(select(Interruption.outage_s)))
+            done = sorted(s for s in stepping if s is not None)
+            print(
+                f"    supervised: 1 process, {len(tokens)} trials, kill -9 and started again "
+                f"at once: answering {answering:.1f} s after the kill; {len(done)} of "
+                f"{len(tokens)} trials stepping again, the last {done[-1]:.1f} s after "
+                f"(median {done[len(done) // 2]:.1f} s); {len(outages)} interruptions, "
+                f"longest clock stop {max(outages, default=0.0):.1f} s",
+                flush=True,
+            )
+            for client in clients:
+                client.close()
+        finally:
+            server.stop()
+            database.engine.dispose()
+
+
+def _growth(base: str, workdir: Path) -> None:
+    """The database's growth per trial-hour, with snapshots written and kept."""
+    with postgres_schema(base, "hcss_bench") as url:
+        upgrade_database(url)
+        server = LocalServer(url, workdir / "growth", threads=DEFAULT_THREADS)
+        database = Database(url)
+        try:
+            start_ready(server)
+            before = _schema_bytes(database)
+            tokens = start_trials(url, GROWTH_TRIALS)
+            claim(server.url, tokens)
+            time.sleep(GROWTH_S)
+            with database.session_scope() as session:
+                kept, last, first = session.execute(
+                    select(func.count(), func.max(Snapshot.id), func.min(Snapshot.id))
+                ).one()
+            server.stop()  # its last writes in, then measured
+            with database.engine.begin() as connection:
+                connection.execute(text("ANALYZE"))
+            after = _schema_bytes(database)
+            trial_hours = GROWTH_TRIALS * GROWTH_S / 3600
+            grown = {t: after.get(t, 0) - before.get(t, 0) for t in after}
+            total = sum(grown.values())
+            top = sorted(grown.items(), key=lambda item: -item[1])[:4]
+            print(
+                f"    growth: {GROWTH_TRIALS} bot trials hosted {GROWTH_S:.0f} s at 1x "
+                f"({trial_hours:.1f} trial-hours): the schema grew {total / 1e6:.1f} MB, "
+                f"{total / trial_hours / 1e6:.2f} MB per trial-hour ("
+                + ", ".join(f"{t} {b / 1e6:.1f} MB" for t, b in top)
+                + f"); snapshots: {last - first + 1 if kept else 0} written at most, "
+                f"{kept} kept ({kept / GROWTH_TRIALS:.1f} per trial)",
+                flush=True,
+            )
+        finally:
+            server.stop()
+            database.engine.dispose()
+
+
+def _schema_bytes(database: Database) -> dict[str, int]:
+    """Each table's size in the schema (heap, indexes and TOAST), in bytes."""
+    with database.session_scope() as session:
+        rows = session.execute(
+            text(
+                "SELECT c.relname, pg_total_relation_size(c.oid) FROM pg_class c "
+                "JOIN pg_namespace n ON n.oid = c.relnamespace "
+                "WHERE n.nspname = current_schema() AND c.relkind = 'r'"
+            )
+        )
+        return {name: int(size) for name, size in rows}

@@ -30,6 +30,7 @@ from hcss.platform.guards import hardening
 from hcss.platform.guards.hardening import SchemeSecureSessions
 from hcss.platform.live import api as live_api
 from hcss.platform.live import views as live_views
+from hcss.platform.live.forwarding import forwarded
 from hcss.platform.live.service import init_runner
 from hcss.platform.replay import views as replay_views
 from hcss.platform.study import landing, recruitment
@@ -92,6 +93,9 @@ def _register_json_errors(app: Flask) -> None:
 
     @app.errorhandler(HTTPException)
     def _http_error(error: HTTPException):
+        forward = forwarded(error)  # a trial held by another member: nginx sends it there
+        if forward is not None:
+            return forward
         if database_away(getattr(error, "original_exception", None)):
             return database_unavailable_page()  # the request's commit failed
         # A 503 that says when to ask again (a trial hosted by another server process,

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import os
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import click
 
@@ -91,7 +91,8 @@ def _redacted(url: str) -> str:
     show_default=True,
     envvar="HCSS_CONNECTIONS_PER_CLIENT",
     type=click.IntRange(0),
-    help="Open connections one address may hold (0: no cap; off behind HCSS_PROXY_HOPS).",
+    help="Open connections one address may hold (0: no cap); behind HCSS_PROXY_HOPS, "
+    "requests in progress per forwarded address.",
 )
 @click.option(
     "--processes",
@@ -124,6 +125,7 @@ def serve(
     from hcss.platform.live.stream_slots import reserve_for_pages
     from hcss.platform.serving.announce import log_events_to_stderr, write_serving_file
     from hcss.platform.serving.connections import (
+        RequestsPerClient,
         bounded_server,
         proxy_adjustments,
         say_untrusted_headers_once,
@@ -196,8 +198,12 @@ def serve(
     hops = int(app.config.get("PROXY_HOPS") or 0)
     proxied = hops > 0
     say_untrusted_headers_once()
+    ipv4_bits = int(app.config["CLIENT_PREFIX_V4"])
+    served: Any = app
+    if proxied and connections_per_client:  # the cap by the forwarded address, per request
+        served = RequestsPerClient(app, connections_per_client, ipv4_bits)
     server = bounded_server(
-        app,
+        served,
         host=host,
         port=port,
         threads=threads,
@@ -208,9 +214,9 @@ def serve(
         # them); poll, not select, which stops at descriptor 1024.
         connection_limit=2 * threads + 1024,
         asyncore_use_poll=True,
-        # Behind the proxy every visitor has its address: the proxy caps clients.
+        # Behind the proxy every connection is the proxy's: clients are capped above.
         per_client=0 if proxied else connections_per_client,
-        ipv4_bits=int(app.config["CLIENT_PREFIX_V4"]),
+        ipv4_bits=ipv4_bits,
         # Waitress passes X-Forwarded-* on only from the proxy it is told of.
         **proxy_adjustments(hops, str(app.config["TRUSTED_PROXY"])),
     )

@@ -134,6 +134,13 @@ def defaults() -> dict[str, object]:
         # (werkzeug's ProxyFix trusts that many hops); 0: the headers are ignored, so a
         # visitor cannot forge their address. Behind the README's nginx set HCSS_PROXY_HOPS=1.
         "PROXY_HOPS": int(os.environ.get("HCSS_PROXY_HOPS", "0") or 0),
+        # A group's members ("host:port", comma-separated) in the order `hcss deploy nginx`
+        # was given them (`hcss serve --processes` sets it for its workers): trials are
+        # placed where nginx sends their participants, and a request for a trial held by
+        # another member is forwarded there (hcss.platform.live.placement); empty: neither.
+        "GROUP_MEMBERS": [
+            m.strip() for m in os.environ.get("HCSS_GROUP", "").split(",") if m.strip()
+        ],
         # The address the nearest proxy connects from (waitress trusts its headers only
         # from there; "*": any peer); `hcss deploy nginx` on this host is 127.0.0.1.
         # Every per-client limit counts an IPv4 address by this prefix (32: each address;

@@ -29,6 +29,7 @@ from hcss.platform.cli import upgrade_database
 from hcss.platform.console.accounts import create_experimenter
 from hcss.platform.db import Database
 from hcss.platform.live.client import TrialClient
+from hcss.platform.live.placement import home
 from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.models import Interruption, TrialLease
 from hcss.platform.serving.localserver import LocalNginx, LocalServer
@@ -204,6 +205,9 @@ def test_a_host_stopped_past_its_lease_writes_nothing_it_held_when_it_resumes(
                 session, seed=2, duration_s=STUDY_TRIAL_S, time_acceleration=ACCELERATION
             )
             token, trial_id = participant.token, trial.id
+        addresses = [f"{s.host}:{s.port}" for s in servers]
+        if home(token, addresses, addresses) != addresses[0]:
+            servers.reverse()  # A is the trial's home: the one nginx would send its page to
         client = TrialClient(servers[0].url, token)
         client.open_page()  # A's page: A claims the trial
         _wait_for(lambda: client.state()["trial"]["step"] > 20, 30, "the trial to run")

@@ -1,23 +1,23 @@
-"""A restarted process gets its participants' trials back, so their requests stop taking a detour.
+"""Trials never move while their holder is alive; a restarted process gets its trials back once.
 
-Two `hcss serve --cluster` processes behind the nginx configuration `hcss
-deploy nginx` writes, on PostgreSQL. nginx hashes each participant's token to
-one process. After a kill -9 the survivor takes the dead process's trials
-over; once that process is back on its address, nginx sends those
-participants to it again, and while the survivor still holds their trials
-every request is answered 503 there and passed on: a detour per request,
-seen in nginx's access log as an upstream status "503, 200". The restarted
-process asks for each such trial, and the survivor hands it back at a safe
-point: within a bound, each participant hashed to the restarted process is
-hosted by it again and no request of theirs passes through a 503; no
-acknowledged command is lost or stored twice, no rebuild fails, and every
-trial's command log replays to its newest snapshot.
+Placement (hcss.platform.live.placement): every process computes, from the
+participant's token and the group's live members, the member nginx sends the
+participant to (the trial's home). Checked in-process first (apps on one
+database standing for processes, on a shared manual clock, as in
+test_leases.py): a never-opened trial is claimed by its home and no other; a
+request for a trial reaching a process that does not hold it never moves it
+(the request is forwarded to the holder); a trial taken over while its home
+was down goes home once when the home restarts, and stays there.
 
-The rules that keep a trial from moving to and fro are checked in-process
-first (apps on one database standing for processes, on a shared manual clock,
-as in test_leases.py): only a participant's request asks, the first asker
-keeps the ask, a trial moves at most once per lease, and never while a
-participant's command for it is under way.
+Then with two `hcss serve --cluster` processes behind the nginx configuration
+`hcss deploy nginx` writes, on PostgreSQL. After a kill -9 the survivor takes
+the dead process's trials over; once that process is back on its address,
+nginx sends those participants to it again, and the survivor's requests are
+forwarded to the survivor meanwhile; the survivor hands each trial back once at
+a safe point: within a bound, each participant hashed to the restarted
+process is hosted by it again, no trial moves again, no acknowledged command
+is lost or stored twice, no rebuild fails, and every trial's command log
+replays to its newest snapshot.
 """
 
 from __future__ import annotations
@@ -37,10 +37,18 @@ from hcss.platform.cli import upgrade_database
 from hcss.platform.db import Database
 from hcss.platform.live.client import TrialClient
 from hcss.platform.live.leases import HostedElsewhere
+from hcss.platform.live.placement import address_of, home
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.trial_log import newest_snapshot
 from hcss.platform.live.trials import start_bot_trial
-from hcss.platform.models import Interruption, Observation, TrialLease, TrialStatusChange
+from hcss.platform.models import (
+    Interruption,
+    Observation,
+    Participant,
+    Trial,
+    TrialLease,
+    TrialStatusChange,
+)
 from hcss.platform.serving.localserver import LocalNginx
 from hcss.simulation import Simulation
 from tests.support.leases import (
@@ -55,30 +63,31 @@ from tests.support.replays import replay_trial
 from tests.support.trials import STUDY_TRIAL_S
 
 NAMES = ("127.0.0.1:5001/a", "127.0.0.1:5002/b", "127.0.0.1:5003/c")
+ADDRESSES = tuple(address_of(name) for name in NAMES)
 
 
 @pytest.fixture
 def group(database_url: str) -> Iterator[tuple[list[Runner], ManualClock]]:
-    """Three processes of a group on one database and one manual clock (no runner threads)."""
+    """Three processes of a group on one database and one manual clock (no runner threads),
+    each told the group's members as nginx lists them."""
     clock = ManualClock(1_000_000.0)
-    apps = [leased_process(database_url, name, clock) for name in NAMES]
+    apps = [leased_process(database_url, name, clock, ADDRESSES) for name in NAMES]
     apps[0].extensions["hcss_db"].create_all()
     yield [app.extensions["hcss_runner"] for app in apps], clock
     for app in apps:
         app.extensions["hcss_db"].engine.dispose()
 
 
-def _asks(runner: Runner, trial_id: int) -> None:
-    """A participant's request reaching `runner` while another process hosts the trial."""
-    with pytest.raises(HostedElsewhere):
-        runner.host(trial_id, participant=True)
-
-
-def _lease(runner: Runner, trial_id: int) -> tuple[str, str | None]:
+def _lease(runner: Runner, trial_id: int) -> tuple[str, int]:
     with runner.database.session_scope() as session:
         row = session.get(TrialLease, trial_id)
         assert row is not None
-        return row.owner, row.wanted_by
+        return row.owner, row.epoch
+
+
+def _interruptions(runner: Runner) -> list[float]:
+    with runner.database.session_scope() as session:
+        return list(session.scalars(select(Interruption.outage_s)))
 
 
 def _run(runners: list[Runner], clock: ManualClock, seconds: float) -> None:
@@ -89,63 +98,107 @@ def _run(runners: list[Runner], clock: ManualClock, seconds: float) -> None:
             runner.tick()
 
 
-def test_the_holder_hands_a_trial_back_to_the_process_its_participant_asks_through(
+def _home(runner: Runner, trial_id: int, live: tuple[str, ...] = ADDRESSES) -> str:
+    """The member nginx sends the trial's participant to while the `live` ones are up."""
+    with runner.database.session_scope() as session:
+        trial = session.get(Trial, trial_id)
+        assert trial is not None
+        token = session.scalars(
+            select(Participant.token).where(Participant.id == trial.participant_id)
+        ).one()
+    there = home(token, ADDRESSES, live)
+    assert there is not None
+    return there
+
+
+def _trial_at_home(runner: Runner, address: str, live: tuple[str, ...] = ADDRESSES) -> int:
+    """A new trial whose home (among `live`) is `address`."""
+    for _ in range(60):
+        trial_id = start_trial_on(runner)
+        if _home(runner, trial_id, live) == address:
+            return trial_id
+    raise AssertionError(f"no trial's home was {address} in 60 tries")
+
+
+def test_a_never_opened_trial_is_claimed_by_its_home_and_no_other(group) -> None:
+    runners, clock = group
+    _run(runners, clock, 1)  # every member says it is alive
+    trials = [start_trial_on(runners[0]) for _ in range(12)]
+    _run(runners, clock, 2)  # a sync each: well inside the 30 s left to a first request before
+    homes = Counter()
+    for trial_id in trials:
+        owner, epoch = _lease(runners[0], trial_id)
+        assert address_of(owner) == _home(runners[0], trial_id)
+        assert epoch == 1  # claimed once, by its home
+        holders = [r for r in runners if trial_id in r.loaded_ids()]
+        assert [r.leases.owner for r in holders if r.leases] == [owner]
+        homes[address_of(owner)] += 1
+    assert len(homes) >= 2, homes  # the trials spread over the members
+    assert _interruptions(runners[0]) == []
+
+
+def test_a_request_reaching_a_process_that_does_not_hold_the_trial_never_moves_it(
     group,
 ) -> None:
-    (a, b, _), clock = group
-    trial_id = start_trial_on(a)
-    held = a.host(trial_id)  # A took the trial (B was down)
-    assert held is not None
-    _run([a], clock, 3)
-    with pytest.raises(HostedElsewhere):
-        b.host(trial_id)  # the console or a runner's look: no ask
-    assert _lease(a, trial_id) == (NAMES[0], None)
-    _asks(b, trial_id)  # the participant's request, hashed to B
-    assert _lease(a, trial_id) == (NAMES[0], NAMES[1])
-    _run([a], clock, 2)
-    assert trial_id in a.loaded_ids()  # held for less than a lease: not yet
-    _run([a], clock, 3)
-    assert trial_id not in a.loaded_ids() and held.moved  # handed back at a renewal
-    assert _lease(a, trial_id) == (NAMES[1], None)
-    with pytest.raises(HostedElsewhere):
-        a.host(trial_id)  # A writes nothing for it any more
-    rebuilt = b.host(trial_id, participant=True)  # the participant's next request, at B
-    assert rebuilt is not None
-    assert rebuilt.sim.step_count >= held.sim.step_count  # from the hand-back's snapshot
-    with b.database.session_scope() as session:
-        outages = session.scalars(select(Interruption.outage_s)).all()
-    assert len(outages) == 1 and outages[0] <= 1.0  # stood still from the hand-back to the claim
-
-    _asks(a, trial_id)  # a request reaching A (not nginx's choice for it): no move back
-    _run([a, b], clock, LEASE_S - 1)
-    assert trial_id in b.loaded_ids() and _lease(b, trial_id)[0] == NAMES[1]
-
-
-def test_the_first_process_to_ask_keeps_the_ask(group) -> None:
     (a, b, c), clock = group
-    trial_id = start_trial_on(a)
-    assert a.host(trial_id) is not None
-    _run([a], clock, 4)
-    _asks(b, trial_id)  # nginx's first choice for the participant asks first
-    _asks(c, trial_id)  # the next one on the ring, after B's 503: it does not displace B
-    assert _lease(a, trial_id)[1] == NAMES[1]
-    _run([a], clock, 4)
-    assert _lease(a, trial_id) == (NAMES[1], None)
+    _run([a, b, c], clock, 1)
+    trial_id = _trial_at_home(a, ADDRESSES[0])
+    assert a.host(trial_id, participant=True) is not None  # its participant's first request
+    _run([a, b, c], clock, 1)
+    held = _lease(a, trial_id)
+    assert held[0] == NAMES[0] and trial_id in a.loaded_ids()
+    for _ in range(3 * int(LEASE_S)):  # requests passed on to b and c (a busy 503, a timeout)
+        for other in (b, c):
+            with pytest.raises(HostedElsewhere) as elsewhere:
+                other.host(trial_id, participant=True)
+            assert elsewhere.value.owner == NAMES[0]  # forwarded there, not asked for
+        _run([a, b, c], clock, 1)
+    assert _lease(a, trial_id) == held  # 0 lease changes
+    assert trial_id in a.loaded_ids()
+    assert trial_id not in b.loaded_ids() | c.loaded_ids()
+    assert _interruptions(a) == []  # 0 interruptions
 
 
-def test_no_hand_back_while_a_participants_command_is_under_way(group) -> None:
-    (a, b, _), clock = group
-    trial_id = start_trial_on(a)
-    assert a.host(trial_id) is not None
-    _run([a], clock, 5)
-    _asks(b, trial_id)
-    with a.commanding(trial_id):
-        _run([a], clock, 3)
-        assert trial_id in a.loaded_ids()
-        assert _lease(a, trial_id) == (NAMES[0], NAMES[1])
-    a.tick()  # the command answered: the next tick hands it over
-    assert trial_id not in a.loaded_ids()
-    assert _lease(a, trial_id)[0] == NAMES[1]
+def test_a_trial_goes_home_once_after_its_home_restarts_and_never_while_both_live(
+    group, database_url: str
+) -> None:
+    (a, b, c), clock = group
+    _run([a, c], clock, 1)  # b is down
+    trial_id = _trial_at_home(a, ADDRESSES[1])  # b's participant
+    taker_address = _home(a, trial_id, (ADDRESSES[0], ADDRESSES[2]))
+    taker = a if taker_address == ADDRESSES[0] else c
+    assert taker.host(trial_id, participant=True) is not None  # nginx's next member for it
+    _run([a, c], clock, 1)
+    assert trial_id in taker.loaded_ids() and address_of(_lease(a, trial_id)[0]) == taker_address
+    _run([a, b, c], clock, int(LEASE_S) + 2)  # b back: started after the takeover
+    assert trial_id in b.loaded_ids() and trial_id not in taker.loaded_ids()
+    owner, epoch = _lease(a, trial_id)
+    assert owner == NAMES[1]
+    outages = _interruptions(a)
+    assert len(outages) == 1 and outages[0] <= 1.0  # stood still from the hand-back to the claim
+    _run([a, b, c], clock, 3 * int(LEASE_S))
+    assert _lease(a, trial_id) == (owner, epoch)  # once: nothing moves while both are alive
+
+    # A trial claimed elsewhere while its home was alive (here: by the console's hand):
+    # its home did not restart since, so it stays where it is.
+    kept = _trial_at_home(a, ADDRESSES[2])
+    assert a.leases is not None and a.leases.claim(kept, clock()) is not None
+    assert a.host(kept) is not None
+    _run([a, b, c], clock, 3 * int(LEASE_S))
+    assert kept in a.loaded_ids() and address_of(_lease(a, kept)[0]) == ADDRESSES[0]
+
+    # c restarts (a new process on its address): the trial goes home to it, once.
+    c2 = leased_process(database_url, "127.0.0.1:5003/c2", clock, ADDRESSES).extensions[
+        "hcss_runner"
+    ]
+    try:
+        _run([a, b, c2], clock, int(LEASE_S) + 2)
+        assert kept in c2.loaded_ids() and kept not in a.loaded_ids()
+        moved = _lease(a, kept)
+        _run([a, b, c2], clock, 3 * int(LEASE_S))
+        assert _lease(a, kept) == moved
+    finally:
+        c2.database.engine.dispose()
 
 
 #: Seconds from the restarted process answering to every one of its participants' trials
@@ -202,6 +255,12 @@ def _first_look(client: TrialClient) -> None:
             if time.monotonic() > deadline:
                 raise
             time.sleep(0.5)
+
+
+def _lease_row(database: Database, trial_id: int) -> tuple[str, int] | None:
+    with database.session_scope() as session:
+        row = session.get(TrialLease, trial_id)
+        return None if row is None else (row.owner, row.epoch)
 
 
 def _detours(log_lines: list[str], since: float, tokens: set[str]) -> tuple[int, int]:
@@ -284,6 +343,7 @@ def test_a_restarted_process_gets_its_participants_trials_back_and_the_detour_en
                     handed_back_s[page.trial_id] = time.monotonic() - restarted
         handed = time.time()
         time.sleep(1.0)  # requests begun before the last hand-back are logged by now
+        settled = {p.trial_id: _lease_row(database, p.trial_id) for p in participants}
 
         quiet_from = time.time()
         quiet_until = time.monotonic() + QUIET_S
@@ -302,6 +362,8 @@ def test_a_restarted_process_gets_its_participants_trials_back_and_the_detour_en
         assert after[1] == 0, f"{after[1]} of {after[0]} requests still took a detour"
         for page in theirs:  # hosted by the restarted process and staying there
             assert (lease_owner(database, page.trial_id) or "").startswith(victim_address + "/")
+        # Handed back once: no lease changed hands (or epoch) after the hand-backs.
+        assert {p.trial_id: _lease_row(database, p.trial_id) for p in participants} == settled
         with database.session_scope() as session:
             failed = session.scalar(
                 select(func.count())

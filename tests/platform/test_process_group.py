@@ -26,7 +26,17 @@ def test_deploy_nginx_routes_every_participant_path_by_token(tmp_path) -> None:
     assert result.exit_code == 0, result.output
     text = result.output
     assert "~^/(?:p|live|api/live)/(?<token>[^/]+) $token;" in text
-    assert "hash $hcss_token consistent;" in text
+    # nginx's plain hash, which the processes reproduce (hcss.platform.live.placement),
+    # and the group they must be told, in the same order.
+    assert "hash $hcss_token;" in text and "consistent" not in text
+    assert "HCSS_GROUP=10.0.0.2:5000,10.0.0.3:5000" in text
+    # A named location per member, for a request forwarded to a trial's holder.
+    assert (
+        "location @hcss_10.0.0.2:5000 {" in text and "location @hcss_10.0.0.3:5000_stream {" in text
+    )
+    # Each client capped and slow ones timed out (issue 41 item 8).
+    assert "limit_conn hcss_clients 64;" in text and "client_header_timeout 10s;" in text
+    assert "client_body_timeout 10s;" in text and "send_timeout 15s;" in text
     assert "server 10.0.0.2:5000" in text and "server 10.0.0.3:5000" in text
     assert "proxy_buffering off;" in text and "3600s" not in text  # a hung process times out
     assert "proxy_read_timeout 3s;" in text and "proxy_read_timeout 15s;" in text

@@ -17,13 +17,16 @@ from hcss.platform.db import Database
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.models import TrialLease
-from hcss.platform.serving.localserver import LocalNginx, LocalServer
+from hcss.platform.serving.localserver import LocalNginx, LocalServer, as_group
 
 LEASE_S = 6.0
 
 
-def leased_process(database_url: str, name: str | None, clock: ManualClock) -> Flask:
-    """One process of the group, named `name`, its runner on `clock`."""
+def leased_process(
+    database_url: str, name: str | None, clock: ManualClock, group: tuple[str, ...] = ()
+) -> Flask:
+    """One process of the group, named `name`, its runner on `clock`; `group`: the members'
+    addresses as nginx lists them (HCSS_GROUP), for placement (none: no placement)."""
     app = create_app(
         {
             "DATABASE_URL": database_url,
@@ -33,6 +36,7 @@ def leased_process(database_url: str, name: str | None, clock: ManualClock) -> F
             "SNAPSHOT_INTERVAL_S": 1.0,
             "PROCESS_NAME": name,
             "LEASE_S": LEASE_S,
+            "GROUP_MEMBERS": list(group),
         }
     )
     app.extensions["hcss_runner"].clock = clock
@@ -64,15 +68,17 @@ def two_cluster_processes(
     database_url: str, tmp_path, extra_env: dict[str, str] | None = None
 ) -> list[LocalServer]:
     """Two `hcss serve --cluster` processes of one group (not started), on two loopback
-    addresses, snapshotting every second."""
-    return [
+    addresses, snapshotting every second, each told the group (HCSS_GROUP) in the order
+    `LocalNginx` lists them."""
+    servers = [
         LocalServer(
             database_url,
             tmp_path / name,
             snapshot_interval_s=1.0,
             serve_args=["--cluster"],
             host=address,
-            extra_env=extra_env,
+            extra_env=dict(extra_env or {}),
         )
         for name, address in (("a", "127.0.0.2"), ("b", "127.0.0.3"))
     ]
+    return as_group(servers)

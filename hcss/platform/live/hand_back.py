@@ -1,5 +1,5 @@
-"""Passing a hosted trial to another process: back to the one nginx sends its participant
-to (`hand_back`), or over to one that withdraws it (`hand_over`).
+"""Passing a hosted trial to another process: home, once its home restarted (`hand_back`),
+or over to one that withdraws it (`hand_over`).
 
 Either way what the trial holds is written and the lease passed in one
 fenced unit of work under the trial's lock, and then this process lets the
@@ -37,9 +37,10 @@ def hand_over(runner: Runner, live: RunningTrial, order: PendingOrder) -> None:
 
 
 def hand_back(runner: Runner, live: RunningTrial, heir: str) -> bool:
-    """Give the trial to `heir` (nginx sends its participant there): what it holds and a
-    snapshot written and the lease passed in one fenced unit of work, then it stops
-    hosting here. False: not now (a command under way or the lock taken), try again.
+    """Give the trial to `heir`, its home's process (back after a restart; nginx sends its
+    participant there): what it holds and a snapshot written and the lease passed in one
+    fenced unit of work, then it stops hosting here. False: not now (a command under way
+    or the lock taken), try again at the next tick.
 
     Under the trial's lock, with no participant's command under way: nothing is
     applied that is not written, and a command that comes after finds the trial
@@ -54,10 +55,10 @@ def hand_back(runner: Runner, live: RunningTrial, heir: str) -> bool:
         now = runner.clock()
         runner.advance(live, now)
         if live.ended or live.moved or live.database_away_since is not None:
-            return True  # nothing to hand over, or not safely now (the next ask decides)
+            return True  # nothing to hand over, or not safely now (the next renewal decides)
         with kept_until_written(live), trial_transaction(runner.database, live) as session:
             record_progress(live, session)
-            handed = runner.leases.hand_back(session, live.trial_id, heir, now)
+            handed = runner.leases.send_home(session, live.trial_id, heir, now)
             if handed:
                 write_snapshot(live, session, now)
         if handed:

@@ -41,19 +41,28 @@ monotonic instant of the last renewal that succeeded plus the lease less a
 margin; past it, nothing is written for the trial until a renewal confirms
 the lease again, whatever the database answers (or does not).
 
-Hand-back. nginx hashes each participant to one process; while another
-process holds the trial (it took it over while that one was down), every
-request of the participant reaches the hashed process first, is answered
-503 and passed on: a detour per request. So a process that answers a
-participant's request that way asks for the trial (`ask_back`: its name in
-the lease's `wanted_by`), and the holder, at its next renewal, hears it
-(`renew_hearing_asks`) and hands the trial over at a safe point (`hand_back`, in a
-fenced unit of work that writes what it holds and a snapshot). Against
-ping-pong: only a participant's own request asks (the console and the
-runners' syncs never do); the first asker keeps the request while it is
-fresh (nginx tries the hashed process first, so its ask is written before
-any other process sees the request); and a trial is handed over only after
-its holder has held it for a lease, so at most once per lease period.
+Placement. nginx sends each participant to one member of the group, and
+every process computes the same member (`home`, hcss.platform.live.placement)
+from the participant's token and the members alive (hcss.platform.live.members).
+So trials never move while their holder is alive:
+
+- a runner's sync claims a trial nobody holds only if this process is the
+  trial's home (`to_take`): a never-opened trial is held where its
+  participant's first request arrives;
+- a request for a trial another live process holds is not a reason to take
+  it: the process forwards the request to the holder (hcss.platform.live.
+  forwarding; nginx re-sends it to the holder's address), whether nginx sent
+  it here first or passed it on after a busy 503 or a timeout of the holder;
+- a trial another process took over while its home was down goes home once,
+  when the home (re)started after that takeover: the holder sees it at a
+  renewal (`renew_and_look_home`) and hands it over at a safe point
+  (hcss.platform.live.hand_back); the home's next sync rebuilds it. With both
+  alive and the home not restarted since, nothing moves.
+
+Without a group list (HCSS_GROUP, written by `hcss serve --processes` for its
+workers) there is no placement: any process claims a trial nobody has opened
+after `UNCLAIMED_GRACE_S`, and a request for a trial held elsewhere is
+answered 503 (nginx passes it on).
 
 Only processes started as part of a group (`hcss serve --processes N`, or
 `--cluster`) lease; a lone server hosts every trial, as before.
@@ -62,7 +71,7 @@ Only processes started as part of a group (`hcss serve --processes N`, or
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -75,7 +84,9 @@ from sqlalchemy.sql.elements import ColumnElement
 from werkzeug.exceptions import ServiceUnavailable
 
 from hcss.platform.db import Database
-from hcss.platform.models import Trial, TrialLease
+from hcss.platform.live import members as group
+from hcss.platform.live.placement import address_of, home
+from hcss.platform.models import Participant, Trial, TrialLease
 
 if TYPE_CHECKING:
     from hcss.platform.live.running_trial import RunningTrial
@@ -93,9 +104,6 @@ MISSED_RENEWALS = 2
 #: Seconds before its lease runs out (by its own monotonic clock) that a holder stops writing:
 #: room for a transaction begun just before the deadline and for clock rate differences.
 STOP_MARGIN_S = 1.0
-#: Seconds between two asks of one process for one trial: the ask stays fresh for a lease,
-#: so the participant's requests need not each write it.
-ASK_EVERY_S = 1.0
 
 
 class HostedElsewhere(ServiceUnavailable):
@@ -120,12 +128,23 @@ class LeaseLost(HostedElsewhere):
 class Leases:
     """The leases of one process (`owner`), read and written by the database's clock."""
 
-    def __init__(self, database: Database, owner: str, *, lease_s: float = LEASE_S) -> None:
+    def __init__(
+        self,
+        database: Database,
+        owner: str,
+        *,
+        lease_s: float = LEASE_S,
+        members: Sequence[str] = (),
+    ) -> None:
         self.database = database
         self.owner = owner
         self.lease_s = lease_s
-        #: When this process last asked for each trial (monotonic), to write an ask once a second.
-        self._asked: dict[int, float] = {}
+        #: The group's members in nginx's upstream order (HCSS_GROUP); empty: no placement.
+        self.members = list(members)
+        #: This process's address among them.
+        self.address = address_of(owner)
+        #: Whether claims follow the placement (this process is one of the listed members).
+        self.placed = self.address in self.members
 
     @property
     def renew_every_s(self) -> float:
@@ -189,7 +208,7 @@ class Leases:
             dialect = session.get_bind().dialect.name
             insert = pg_insert if dialect == "postgresql" else sqlite_insert
             db_now = self._now(session, now)
-            inserted = session.execute(
+            inserted = session.scalar(
                 insert(TrialLease)
                 .values(
                     trial_id=trial_id,
@@ -199,10 +218,12 @@ class Leases:
                     taken_epoch=db_now,
                 )
                 .on_conflict_do_nothing(index_elements=["trial_id"])
+                # The row it inserted, if any: psycopg's rowcount here is not the rows
+                # inserted, so a new lease on PostgreSQL began at epoch 2 (a second claim).
+                .returning(TrialLease.epoch)
             )
-            # An INSERT/UPDATE answers a CursorResult; Session.execute is typed as any Result.
-            if inserted.rowcount == 1:  # type: ignore[attr-defined]
-                return 1
+            if inserted is not None:
+                return int(inserted)
             return session.scalar(
                 update(TrialLease)
                 .where(
@@ -221,17 +242,19 @@ class Leases:
 
     def renew(self, held: dict[int, int], now: float) -> set[int]:
         """Extend our leases of these trials (id: epoch) in one statement; the ids still ours."""
-        return self.renew_hearing_asks(held, now)[0]
+        return self.renew_and_look_home(held, now)[0]
 
-    def renew_hearing_asks(
+    def renew_and_look_home(
         self, held: dict[int, int], now: float
     ) -> tuple[set[int], dict[int, str]]:
-        """`renew`, and in the same transaction the asks for those trials (`_asks`):
-        one unit of work per renewal, as without asks."""
-        if not held:
-            return set(), {}
+        """`renew`, and in the same transaction: say this process is alive, and find the
+        trials held here whose home is back (`_homes_back`): id -> the home's process."""
         with self.database.session_scope() as session:
-            db_now = self._now(session, now)
+            db_now = self._db_now(session, now)
+            if self.placed:
+                group.say_alive(session, self.address, self.owner, db_now)
+            if not held:
+                return set(), {}
             rows = session.execute(
                 update(TrialLease)
                 .where(
@@ -249,7 +272,41 @@ class Leases:
                 .execution_options(synchronize_session=False)
             )
             kept = {trial_id for (trial_id,) in rows}
-            return kept, self._asks(session, kept, db_now)
+            return kept, self._homes_back(session, kept, db_now)
+
+    def _db_now(self, session: Session, now: float) -> float:
+        """`_now` read once, for comparisons made here rather than in a statement."""
+        if self._wall_clock and session.get_bind().dialect.name == "postgresql":
+            read = session.scalar(select(self._now(session, now)))
+            return now if read is None else float(read)
+        return now
+
+    def _homes_back(self, session: Session, held: set[int], db_now: float) -> dict[int, str]:
+        """Of the trials held here, those whose home is another live member that started
+        after this process took the trial (it was down then): id -> the home's process.
+
+        Only a restart sends a trial home, so each takeover is undone at most once, and a
+        trial that was claimed here while its home was alive (the home timed out on a
+        request, or the console withdrew it) stays.
+        """
+        if not self.placed or not held:
+            return {}
+        live = group.live_members(session, db_now, self.lease_s)
+        alive = set(live) | {self.address}
+        rows = session.execute(
+            select(TrialLease.trial_id, TrialLease.taken_epoch, Participant.token)
+            .join(Trial, Trial.id == TrialLease.trial_id)
+            .join(Participant, Participant.id == Trial.participant_id)
+            .where(TrialLease.trial_id.in_(held))
+        )
+        back = {}
+        for trial_id, taken, token in rows:
+            there = home(token, self.members, alive)
+            if there is None or there == self.address:
+                continue
+            if live[there].started_epoch > taken:
+                back[trial_id] = live[there].process
+        return back
 
     def pass_on(self, session: Session, trial_id: int, heir: str, now: float) -> None:
         """Give our lease of the trial to `heir`, in the caller's transaction (which proved
@@ -267,82 +324,18 @@ class Leases:
             .execution_options(synchronize_session=False)
         )
 
-    def ask_back(self, trial_id: int, now: float) -> str | None:
-        """Ask the live holder of the trial to hand it to this process; the holder asked,
-        or None (nobody else holds it, or another process asked first and still asks).
+    def send_home(self, session: Session, trial_id: int, heir: str, now: float) -> bool:
+        """Pass our lease of the trial to its home's process `heir`, in the caller's
+        transaction (which proved it); False if it is no longer ours.
 
-        Call it only for a participant's own request, which nginx's hash sent here. At
-        most one write per `ASK_EVERY_S` per trial: an ask stays fresh for a lease.
-        """
-        last = self._asked.get(trial_id)
-        if last is not None and time.monotonic() - last < ASK_EVERY_S:
-            return None
-        if len(self._asked) > 4096:  # forget asks too old to hold back a new one
-            self._asked = {
-                t: at for t, at in self._asked.items() if at > time.monotonic() - ASK_EVERY_S
-            }
-        self._asked[trial_id] = time.monotonic()
-        with self.database.session_scope() as session:
-            db_now = self._now(session, now)
-            return session.scalar(
-                update(TrialLease)
-                .where(
-                    TrialLease.trial_id == trial_id,
-                    TrialLease.owner != self.owner,
-                    TrialLease.expires_epoch >= db_now,
-                    or_(
-                        TrialLease.wanted_by.is_(None),
-                        TrialLease.wanted_by == self.owner,
-                        TrialLease.wanted_epoch < db_now - self.lease_s,
-                    ),
-                )
-                .values(wanted_by=self.owner, wanted_epoch=db_now)
-                .returning(TrialLease.owner)
-                .execution_options(synchronize_session=False)
-            )
-
-    def _handable(self, db_now: ColumnElement[float]) -> ColumnElement[bool]:
-        """A lease of ours that another process asks for (within a lease) and that we have
-        held for a lease at least (so a trial moves back at most once per lease period)."""
-        return and_(
-            TrialLease.owner == self.owner,
-            TrialLease.wanted_by.is_not(None),
-            TrialLease.wanted_by != self.owner,
-            TrialLease.wanted_epoch >= db_now - self.lease_s,
-            TrialLease.taken_epoch <= db_now - self.lease_s,
-        )
-
-    def _asks(
-        self, session: Session, trial_ids: Iterable[int], db_now: ColumnElement[float]
-    ) -> dict[int, str]:
-        """Of these trials held here, those another process asks for now: id -> the asker."""
-        held = list(trial_ids)
-        if not held:
-            return {}
-        rows = session.execute(
-            select(TrialLease.trial_id, TrialLease.wanted_by).where(
-                TrialLease.trial_id.in_(held), self._handable(db_now)
-            )
-        )
-        return {trial_id: str(asker) for trial_id, asker in rows}
-
-    def hand_back(self, session: Session, trial_id: int, heir: str, now: float) -> bool:
-        """Pass our lease of the trial to `heir`, which asks for it, in the caller's
-        transaction (which proved it); False when the ask is gone (void, or another's).
-
-        The lease goes to the asker itself, not to whoever claims first: its next
-        request for the trial claims it (a claim of its own lease) and rebuilds it, and
-        no runner's sync takes it meanwhile. The epoch rises, so nothing this process
-        still holds can write.
+        The lease goes to the home itself, not to whoever claims first: the home's next
+        sync (or its participant's next request) claims it (a claim of its own lease)
+        and rebuilds it. The epoch rises, so nothing this process still holds can write.
         """
         db_now = self._now(session, now)
         handed = session.execute(
             update(TrialLease)
-            .where(
-                TrialLease.trial_id == trial_id,
-                TrialLease.wanted_by == heir,
-                self._handable(db_now),
-            )
+            .where(TrialLease.trial_id == trial_id, TrialLease.owner == self.owner)
             .values(
                 owner=heir,
                 epoch=TrialLease.epoch + 1,
@@ -355,6 +348,28 @@ class Leases:
             .execution_options(synchronize_session=False)
         ).first()
         return handed is not None
+
+    def home_elsewhere(self, trial_id: int, now: float) -> str | None:
+        """The process of the trial's home when nobody holds the trial and its home is
+        another live member (it is to be claimed there, not here); else None."""
+        if not self.placed:
+            return None
+        with self.database.session_scope() as session:
+            db_now = self._db_now(session, now)
+            row = session.execute(
+                select(Participant.token, TrialLease.expires_epoch)
+                .select_from(Trial)
+                .join(Participant, Participant.id == Trial.participant_id)
+                .outerjoin(TrialLease, TrialLease.trial_id == Trial.id)
+                .where(Trial.id == trial_id)
+            ).first()
+            if row is None or (row.expires_epoch is not None and row.expires_epoch >= db_now):
+                return None  # held (by us or another): the claim decides
+            live = group.live_members(session, db_now, self.lease_s)
+        there = home(row.token, self.members, set(live) | {self.address})
+        if there is None or there == self.address:
+            return None
+        return live[there].process
 
     def release(self, trial_id: int) -> None:
         """Give the trial up now (it ended, or this process stops hosting it)."""
@@ -403,36 +418,47 @@ class Leases:
         quiet_below = self.lease_s - MISSED_RENEWALS * self.renew_every_s
         return float(left) if left is not None and 0 <= left <= quiet_below else None
 
-    def unhosted(self, trial_ids: Iterable[int], now: float) -> list[int]:
-        """Of these running trials, those nobody hosts: their lease ran out, or they have none.
+    def to_take(self, trial_ids: Iterable[int], now: float) -> list[int]:
+        """Of these running trials (not in memory here), those this process is to host now.
 
-        A trial without a lease row is left alone for `UNCLAIMED_GRACE_S` after
-        its start: the process whose participant started it claims it with
-        the participant's first request, and a runner elsewhere must not take
-        it first (every request of the participant would then take a detour
-        through nginx's next upstream). After that it is taken anyway, so a
-        trial nobody opens still ends on time.
+        A trial handed to this process (its lease names us) is taken. A trial nobody
+        holds (no lease, or it ran out) is taken by its home only (`placed`): the
+        member nginx sends its participant to among those alive. Without placement, a
+        trial without a lease row is left for `UNCLAIMED_GRACE_S` after its start to the
+        process whose participant started it, then taken by any process, so a trial
+        nobody opens still ends on time.
         """
         wanted = list(trial_ids)
         if not wanted:
             return []
         with self.database.session_scope() as session:
+            db_now = self._db_now(session, now)
             rows = session.execute(
-                select(Trial.id, Trial.started_at, TrialLease.expires_epoch)
+                select(
+                    Trial.id,
+                    Trial.started_at,
+                    Participant.token,
+                    TrialLease.owner,
+                    TrialLease.expires_epoch,
+                )
+                .join(Participant, Participant.id == Trial.participant_id)
                 .outerjoin(TrialLease, TrialLease.trial_id == Trial.id)
                 .where(Trial.id.in_(wanted))
-                .where(
-                    or_(
-                        TrialLease.expires_epoch < self._now(session, now),
-                        TrialLease.trial_id.is_(None),
-                    )
-                )
-            )
-            return sorted(
-                trial_id
-                for trial_id, started_at, expires in rows
-                if expires is not None or started_at.timestamp() <= now - UNCLAIMED_GRACE_S
-            )
+            ).all()
+            live = group.live_members(session, db_now, self.lease_s) if self.placed else {}
+        alive = set(live) | {self.address}
+        taken = []
+        for trial_id, started_at, token, owner, expires in rows:
+            if expires is not None and expires >= db_now:
+                if owner == self.owner:
+                    taken.append(trial_id)  # handed here, not yet rebuilt
+                continue
+            if self.placed:
+                if home(token, self.members, alive) == self.address:
+                    taken.append(trial_id)
+            elif expires is not None or started_at.timestamp() <= now - UNCLAIMED_GRACE_S:
+                taken.append(trial_id)
+        return sorted(taken)
 
 
 @dataclass

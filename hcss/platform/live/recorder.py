@@ -33,7 +33,7 @@ from contextlib import contextmanager
 import numpy as np
 from sqlalchemy.orm import Session
 
-from hcss.platform.live import trial_writer
+from hcss.platform.live import snapshots, trial_writer
 from hcss.platform.live.probes import POSTPONE_S, PROBE_TIMEOUT_S, fill_probe
 from hcss.platform.live.progress import CurrentProbe
 from hcss.platform.live.running_trial import RunningTrial
@@ -139,7 +139,9 @@ def _show_probe(live: RunningTrial, session: Session, time: float) -> None:
 
 
 def write_snapshot(live: RunningTrial, session: Session, now: float) -> None:
-    trial_writer.write_facts(session, live.trial_id, [live.snapshot_taken(now)])
+    """The trial's snapshot, if its state changed, and the older ones it supersedes
+    pruned (hcss.platform.live.snapshots)."""
+    snapshots.write_snapshot(live, session, now)
 
 
 def end_trial(live: RunningTrial, session: Session, reason: str, now: float) -> None:
@@ -154,3 +156,5 @@ def end_trial(live: RunningTrial, session: Session, reason: str, now: float) -> 
             live.mark_ended(reason),
         ],
     )
+    snapshots.written(live)
+    snapshots.prune(session, live.trial_id)

@@ -11,10 +11,10 @@ its lock are private. The thread is started only where trials are served
 (`hcss serve`, the test server); an app built for a script or a check has a
 runner without one.
 
-With several processes, the runner also hands a trial back to the process
-nginx sends its participant to when that process asks (`hand_back_asked`,
-see hcss.platform.live.leases), and over to a process that withdraws it; how
-is hcss.platform.live.hand_back. How one trial is stepped and recorded is
+With several processes, the runner also hands a trial back to its home (the
+process nginx sends its participant to) once, when that process restarted
+after this one took the trial over (`send_home`, see hcss.platform.live.leases),
+and over to a process that withdraws it; how is hcss.platform.live.hand_back. How one trial is stepped and recorded is
 hcss.platform.live.stepping.
 """
 
@@ -87,8 +87,8 @@ class Runner:
         self._told_unmigrated = False
         #: Participants' commands under way per trial (`commanding`): no hand-back meanwhile.
         self._commanding: Counter[int] = Counter()
-        #: Trials held here that another process asked for at the last renewal: id -> asker.
-        self._asked_back: dict[int, str] = {}
+        #: Trials held here whose home restarted (found at the last renewal): id -> its process.
+        self._going_home: dict[int, str] = {}
 
     @property
     def clock(self) -> Callable[[], float]:
@@ -106,11 +106,12 @@ class Runner:
         database says it is running and it is not in memory (None: it is not running).
 
         With leases, hosting means taking the trial's lease first (a takeover
-        when its owner died); `HostedElsewhere` (503) when another live
-        process holds it. `participant`: the participant's own request, which
-        nginx's hash sent here; then this process also asks the holder to hand
-        the trial back (`Leases.ask_back`), so the participant's later requests
-        stop taking a detour. `loaded` only looks.
+        when its owner died); `HostedElsewhere` naming the holder when another
+        live process holds it, or naming the trial's home when nobody holds it
+        and its home is another live member: a participant's request is
+        forwarded there, the trial does not move (hcss.platform.live.leases,
+        Placement). `participant` is kept for the callers; it changes nothing
+        now. `loaded` only looks.
         """
         live = self._trials.get(trial_id)
         if live is not None:
@@ -123,7 +124,7 @@ class Runner:
             live = self._trials.get(trial_id)
             if live is not None:
                 return live
-            live = take_up(self, trial_id, participant)
+            live = take_up(self, trial_id)
             if live is not None:
                 with self._registry_lock:
                     self._trials[trial_id] = live
@@ -278,7 +279,7 @@ class Runner:
         missing = [t for t in running if t not in self._trials]
         budget_s = float("inf")
         if self.leases is not None:  # take over only what nobody hosts
-            missing = self.leases.unhosted(missing, self.clock())
+            missing = self.leases.to_take(missing, self.clock())
             # In batches shorter than a renewal period: the trials held here advance between
             # two batches, so a survivor taking over many trials never stops its own clocks
             # for long (the leases are renewed on their own thread meanwhile).
@@ -318,8 +319,8 @@ class Runner:
         if self.leases is not None and wallclock.monotonic() - self._last_orders >= POLL_S:
             self._last_orders = wallclock.monotonic()
             self.carry_out_orders()
-        if self._asked_back:
-            self.hand_back_asked()
+        if self._going_home:
+            self.send_home()
         with self._registry_lock:
             live_trials = list(self._trials.values())
         for live in live_trials:
@@ -346,22 +347,22 @@ class Runner:
             except Exception:
                 log.exception("console order %s for trial %s failed", order.id, order.trial_id)
 
-    def hand_back_asked(self) -> None:
-        """Hand the trials another process asked for (at the last renewal) to it, each at a
+    def send_home(self) -> None:
+        """Hand the trials whose home restarted (found at the last renewal) to it, each at a
         safe point; one busy now (a command under way, its lock taken) waits for a tick."""
         with self._registry_lock:
-            asked = list(self._asked_back.items())
-        for trial_id, heir in asked:
+            going = list(self._going_home.items())
+        for trial_id, heir in going:
             live = self.loaded(trial_id)
             try:
                 done = live is None or hand_back(self, live, heir)
             except Exception:
                 log.exception("live trial %s could not be handed to %s", trial_id, heir)
-                done = True  # asked again at the next renewal if it still is
+                done = True  # found again at the next renewal if it still is to go
             if done:
                 with self._registry_lock:
-                    if self._asked_back.get(trial_id) == heir:
-                        del self._asked_back[trial_id]
+                    if self._going_home.get(trial_id) == heir:
+                        del self._going_home[trial_id]
 
     def _take_hold(self, trial_ids: list[int]) -> None:
         """Make this process the holder of every lease of these trials (for a withdrawal).
@@ -402,7 +403,9 @@ class Runner:
             }
         started = self.leases.monotonic()
         try:
-            kept, asked = self.leases.renew_hearing_asks({t: f.epoch for t, f in held.items()}, now)
+            kept, going = self.leases.renew_and_look_home(
+                {t: f.epoch for t, f in held.items()}, now
+            )
         except DBAPIError:
             if now - self._last_renewal < self.leases.lease_s:
                 log.debug("lease renewal failed; the next tick tries again", exc_info=True)
@@ -411,7 +414,7 @@ class Runner:
         else:
             self._last_renewal = now
             with self._registry_lock:
-                self._asked_back = asked
+                self._going_home = going
         deadline = self.leases.deadline_after(started)
         for trial_id in kept:
             held[trial_id].deadline = max(held[trial_id].deadline, deadline)

@@ -130,7 +130,12 @@ def init_runner(app: Flask) -> Runner:
         snapshot_interval_s=float(app.config["SNAPSHOT_INTERVAL_S"]),
         leases=None
         if not process
-        else Leases(database, str(process), lease_s=float(app.config.get("LEASE_S", LEASE_S))),
+        else Leases(
+            database,
+            str(process),
+            lease_s=float(app.config.get("LEASE_S", LEASE_S)),
+            members=[m.strip() for m in app.config.get("GROUP_MEMBERS") or ()],
+        ),
         carry_out_order=door.carry_out_order,
     )
     app.extensions["hcss_runner"] = runner

@@ -33,12 +33,15 @@ log = logging.getLogger(__name__)
 QUIET_MARGIN_S = 0.05
 
 
-def take_up(runner: Runner, trial_id: int, participant: bool = False) -> RunningTrial | None:
+def take_up(runner: Runner, trial_id: int) -> RunningTrial | None:
     """Claim and rebuild the trial (`Runner.host` holds its loader); None if it is not running.
 
     With leases, the claim takes a new epoch (the trial's `Fence`); a holder
     gone quiet is waited out; a trial another live process holds is
-    `HostedElsewhere` (the participant's own request also asks it back).
+    `HostedElsewhere`, naming the holder (a participant's request is forwarded
+    there, hcss.platform.live.forwarding), and so is one nobody holds whose
+    home is another live member (hcss.platform.live.placement): it is claimed
+    there, where its participant's requests arrive, never here.
     """
     with runner.database.session_scope() as session:
         if latest_status(session, trial_id) != TrialStatus.RUNNING:
@@ -48,6 +51,9 @@ def take_up(runner: Runner, trial_id: int, participant: bool = False) -> Running
     earlier = None if runner.leases is None else runner.leases.owner_of(trial_id)
     fence = None
     if runner.leases is not None:
+        home = runner.leases.home_elsewhere(trial_id, runner.clock())
+        if home is not None:
+            raise HostedElsewhere(trial_id, home)
         claimed_at = runner.leases.monotonic()
         epoch = runner.leases.claim(trial_id, runner.clock())
         quiet_for = (
@@ -59,8 +65,7 @@ def take_up(runner: Runner, trial_id: int, participant: bool = False) -> Running
             wallclock.sleep(quiet_for + QUIET_MARGIN_S)
             epoch = runner.leases.claim(trial_id, runner.clock())
         if epoch is None:
-            asked = runner.leases.ask_back(trial_id, runner.clock()) if participant else None
-            holder = asked or runner.leases.holder(trial_id, runner.clock())
+            holder = runner.leases.holder(trial_id, runner.clock())
             raise HostedElsewhere(trial_id, holder or "")
         fence = Fence(runner.leases, trial_id, epoch, runner.leases.deadline_after(claimed_at))
     host_died = runner.leases is not None and earlier not in (None, runner.leases.owner)

@@ -6,7 +6,7 @@ from hcss.platform.models.console import AuditRecord, ConsoleAction, Experimente
 from hcss.platform.models.group import GroupStudy
 from hcss.platform.models.idempotency import CommandKey
 from hcss.platform.models.join_start import JoinStart
-from hcss.platform.models.lease import TrialLease
+from hcss.platform.models.lease import GroupMember, TrialLease
 from hcss.platform.models.observation import Observation
 from hcss.platform.models.order import TrialOrder
 from hcss.platform.models.outcome import DecisionRow, SimEvent
@@ -71,6 +71,7 @@ __all__ = [
     "StudyEnrolment",
     "Trial",
     "TrialLease",
+    "GroupMember",
     "TrialOrder",
     "TrialProblem",
     "TrialStatusChange",

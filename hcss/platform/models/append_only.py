@@ -8,6 +8,13 @@ transaction holds a `DeletionPermit` row, which only the console's audited
 withdrawal writes (and removes before it commits). Other transactions never
 see an uncommitted permit, on SQLite (one writer at a time) or PostgreSQL.
 
+One exception, for room, not for the record: a `snapshot` row may be deleted
+once a newer snapshot of the same trial exists (a later step, or the same
+step written later). A rebuild needs only the newest, and the command log
+(append-only without exception) is what a trial is rebuilt and replayed from;
+so older snapshots are thinned as a trial ages (hcss.platform.live.snapshots),
+and the trigger makes sure no deletion ever leaves a trial without its newest.
+
 `experimenter` is not append-only (accounts change), nor are `deletion_permit`
 and `login_failure` (sign-in counters, cleared by a correct password and pruned;
 each lockout is also an `audit_record` row).
@@ -74,6 +81,27 @@ $$
 """
 
 
+#: Tables whose rows may be deleted once superseded: the condition, on the deleted row OLD.
+SUPERSEDED = {
+    "snapshot": (
+        "EXISTS (SELECT 1 FROM snapshot newer WHERE newer.trial_id = OLD.trial_id "
+        "AND (newer.step > OLD.step OR (newer.step = OLD.step AND newer.id > OLD.id)))"
+    ),
+}
+
+_PG_SUPERSEDED = """
+CREATE OR REPLACE FUNCTION hcss_{table}_superseded() RETURNS trigger LANGUAGE plpgsql AS $$
+BEGIN
+    IF TG_OP = 'DELETE' AND (EXISTS (SELECT 1 FROM deletion_permit) OR {condition}) THEN
+        RETURN OLD;
+    END IF;
+    RAISE EXCEPTION 'append-only table %: % refused', TG_TABLE_NAME, TG_OP
+        USING ERRCODE = 'restrict_violation';
+END
+$$
+"""
+
+
 def trigger_statements(dialect: str, tables: tuple[str, ...] = APPEND_ONLY_TABLES) -> list[str]:
     """The DDL that makes `tables` append-only on this dialect ("sqlite" or "postgresql").
 
@@ -82,10 +110,14 @@ def trigger_statements(dialect: str, tables: tuple[str, ...] = APPEND_ONLY_TABLE
     if dialect == "postgresql":
         statements = [_PG_FUNCTION]
         for table in tables:
+            function = "hcss_append_only"
+            if table in SUPERSEDED:
+                function = f"hcss_{table}_superseded"
+                statements.append(_PG_SUPERSEDED.format(table=table, condition=SUPERSEDED[table]))
             statements.append(f"DROP TRIGGER IF EXISTS append_only_{table} ON {table}")
             statements.append(
                 f"CREATE TRIGGER append_only_{table} BEFORE UPDATE OR DELETE ON {table} "
-                "FOR EACH ROW EXECUTE FUNCTION hcss_append_only()"
+                f"FOR EACH ROW EXECUTE FUNCTION {function}()"
             )
         return statements
     if dialect == "sqlite":
@@ -95,9 +127,10 @@ def trigger_statements(dialect: str, tables: tuple[str, ...] = APPEND_ONLY_TABLE
                 f"CREATE TRIGGER IF NOT EXISTS append_only_{table}_update BEFORE UPDATE ON {table} "
                 f"BEGIN SELECT RAISE(ABORT, 'append-only table {table}: UPDATE refused'); END"
             )
+            superseded = f"AND NOT {SUPERSEDED[table]} " if table in SUPERSEDED else ""
             statements.append(
                 f"CREATE TRIGGER IF NOT EXISTS append_only_{table}_delete BEFORE DELETE ON {table} "
-                "WHEN NOT EXISTS (SELECT 1 FROM deletion_permit) "
+                f"WHEN NOT EXISTS (SELECT 1 FROM deletion_permit) {superseded}"
                 f"BEGIN SELECT RAISE(ABORT, 'append-only table {table}: DELETE refused'); END"
             )
         return statements
@@ -106,9 +139,11 @@ def trigger_statements(dialect: str, tables: tuple[str, ...] = APPEND_ONLY_TABLE
 
 def drop_statements(dialect: str, tables: tuple[str, ...] = APPEND_ONLY_TABLES) -> list[str]:
     if dialect == "postgresql":
-        return [f"DROP TRIGGER IF EXISTS append_only_{t} ON {t}" for t in tables] + [
-            "DROP FUNCTION IF EXISTS hcss_append_only()"
-        ]
+        return (
+            [f"DROP TRIGGER IF EXISTS append_only_{t} ON {t}" for t in tables]
+            + [f"DROP FUNCTION IF EXISTS hcss_{t}_superseded()" for t in tables if t in SUPERSEDED]
+            + ["DROP FUNCTION IF EXISTS hcss_append_only()"]
+        )
     return [
         f"DROP TRIGGER IF EXISTS append_only_{t}_{op}"
         for t in tables

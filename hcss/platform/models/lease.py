@@ -31,9 +31,30 @@ class TrialLease(Base):
     epoch: Mapped[int] = mapped_column(Integer, default=1, server_default="1")
     expires_epoch: Mapped[float] = mapped_column(Double)
     taken_epoch: Mapped[float] = mapped_column(Double)
-    #: The process that asks for the trial back: nginx's hash sends the participant there
-    #: (a restarted process), so while another holds it every request takes a detour. The
-    #: holder hands it over at its next renewal; the first live asker keeps the request.
+    #: Unused since placement (hcss.platform.live.placement) decides where a trial goes
+    #: home: the hand-back request of i29, kept so an older version running beside this
+    #: one during a rolling upgrade still finds its columns.
     wanted_by: Mapped[str | None] = mapped_column(String(128), nullable=True)
     #: When `wanted_by` last asked (the database's clock): an ask older than a lease is void.
     wanted_epoch: Mapped[float | None] = mapped_column(Double, nullable=True)
+
+
+class GroupMember(Base):
+    """A process of the group, by the address nginx knows it under: who serves there now,
+    since when, and when it last said it is alive (with its lease renewals).
+
+    Placement (hcss.platform.live.placement) reads it: a trial's home is the first live
+    member in nginx's order for the participant's token, and a trial goes home from
+    another process only once, after its home (re)started. Not append-only (a heartbeat).
+    """
+
+    __tablename__ = "group_member"
+
+    #: "host:port", as in nginx's upstream (`hcss deploy nginx`, HCSS_GROUP).
+    address: Mapped[str] = mapped_column(String(128), primary_key=True)
+    #: The process serving there now (`process_name`, new at every start).
+    process: Mapped[str] = mapped_column(String(128))
+    #: When that process first said it is alive (the database's clock).
+    started_epoch: Mapped[float] = mapped_column(Double)
+    #: When it last did; a member unseen for a lease is gone.
+    seen_epoch: Mapped[float] = mapped_column(Double)

@@ -10,8 +10,10 @@ client from taking them all:
   connections are closed by waitress' own `channel_timeout`;
 - one address holds at most `per_client` connections; more are closed as
   they are accepted. Behind a reverse proxy every connection comes from the
-  proxy, so the cap is off there and the proxy bounds slow clients
-  (docs/operations.md gives its settings).
+  proxy (and carries many clients' requests in turn), so there the cap
+  counts requests in progress by the forwarded address instead
+  (`RequestsPerClient`, 429 beyond it), and the proxy bounds connections and
+  slow clients (`hcss deploy nginx` writes `limit_conn` and the timeouts).
 
 Behind a proxy (``HCSS_PROXY_HOPS``) waitress is told which peer to trust
 (`proxy_adjustments`): waitress 3 removes X-Forwarded-* from any peer it was
@@ -44,6 +46,7 @@ from typing import Any
 from waitress import wasyncore
 from waitress.channel import HTTPChannel
 from waitress.server import create_server
+from werkzeug.wsgi import ClosingIterator
 
 from hcss.platform.guards.clients import IPV4_PREFIX, client_prefix
 
@@ -141,6 +144,55 @@ def say_untrusted_headers_once() -> UntrustedHeadersOnce:
     once = UntrustedHeadersOnce()
     logger.addFilter(once)
     return once
+
+
+class RequestsPerClient:
+    """WSGI middleware: at most `per_client` requests in progress per client, counted by
+    the address the trusted proxy forwarded (waitress puts it in REMOTE_ADDR), by its
+    prefix as every per-client limit counts it; more are answered 429 at once.
+
+    Behind a proxy the connection cap cannot tell clients apart (every connection is
+    the proxy's, kept alive for many clients), so this is the app's own per-client
+    bound there. A request is in progress until its answer is closed: a live stream
+    counts for as long as it is open, as its connection did without the proxy.
+    """
+
+    def __init__(self, app: Any, per_client: int, ipv4_bits: int = IPV4_PREFIX) -> None:
+        self.app = app
+        self.per_client = per_client
+        self.ipv4_bits = ipv4_bits
+        self._held: Counter[str] = Counter()
+        self._lock = threading.Lock()
+
+    def __call__(self, environ: dict[str, Any], start_response: Any) -> Any:
+        client = client_prefix(environ.get("REMOTE_ADDR"), self.ipv4_bits)
+        with self._lock:
+            full = self._held[client] >= self.per_client
+            if not full:
+                self._held[client] += 1
+        if full:
+            body = b"Too many requests in progress from your address; try again shortly.\n"
+            start_response(
+                "429 Too Many Requests",
+                [
+                    ("Content-Type", "text/plain; charset=utf-8"),
+                    ("Content-Length", str(len(body))),
+                    ("Retry-After", "1"),
+                ],
+            )
+            return [body]
+        try:
+            answer = self.app(environ, start_response)
+        except BaseException:
+            self._release(client)
+            raise
+        return ClosingIterator(answer, lambda: self._release(client))
+
+    def _release(self, client: str) -> None:
+        with self._lock:
+            self._held[client] -= 1
+            if self._held[client] <= 0:
+                del self._held[client]
 
 
 def bounded_server(

@@ -165,6 +165,15 @@ class LocalServer:
         self.stop()
 
 
+def as_group(servers: Sequence[LocalServer]) -> list[LocalServer]:
+    """Tell each server the group it is a member of (HCSS_GROUP), in the order `LocalNginx`
+    is given their addresses, so trials are placed where nginx sends their participants."""
+    group = ",".join(f"{server.host}:{server.port}" for server in servers)
+    for server in servers:
+        server.extra_env.setdefault("HCSS_GROUP", group)
+    return list(servers)
+
+
 class LocalNginx:
     """nginx in the foreground, configured by `hcss deploy nginx --standalone`, on a loopback port.
 

@@ -4,12 +4,21 @@ A live trial is hosted by one process at a time (hcss.platform.live.leases),
 so every request of one participant should reach the same process: the
 upstream hashes the participant's token, taken from the path of the study
 pages (/p/<token>), the trial page (/live/<token>) and the live API and its
-stream (/api/live/<token>/...). `consistent` (ketama) hashing moves only the
-tokens of a process that leaves. Requests without a token (the console, study
-links, static files) have an empty key, which nginx spreads round-robin.
+stream (/api/live/<token>/...). It is nginx's plain `hash` (not the
+`consistent` ring, which split two processes 54-59 %), and the processes
+compute the same member for a token (hcss.platform.live.placement, with the
+members in the order given here: set HCSS_GROUP to the same list), so a
+trial is claimed where its participant arrives. Requests without a token
+(the console, study links, static files) have an empty key, which nginx
+spreads round-robin.
 
-When a process is down, or answers 503 because another process hosts the
-trial (`HostedElsewhere`), nginx tries the next one. Commands are POSTs, so
+When a process is down, or answers 503 (its stream ceiling is reached, or a
+trial is moving), nginx tries the next one. A process that gets a request
+for a trial another member holds forwards it there: it answers
+``X-Accel-Redirect: @hcss_<address>`` and nginx sends the same request (its
+method and body too) through that member's named location below
+(hcss.platform.live.forwarding); a forwarded request is marked (no
+``X-Hcss-Forward``), so it is never forwarded twice. Commands are POSTs, so
 `non_idempotent` lets nginx retry them too, but only those that carry an
 Idempotency-Key: a process that did it once answers a repeat with the first
 outcome. A POST without a key (a study page's form) goes through a location
@@ -23,6 +32,14 @@ like an error: 15 s for pages and commands, and 3 s for the stream, which
 sends a frame every half second while its trial runs (a silent stream is a
 hung host; the page's watchdog opens a new one, which nginx sends on).
 
+Clients are bounded here, as a server facing the internet needs (the
+processes behind see only nginx's connections): each address holds at most
+`PER_CLIENT` connections (`limit_conn`, 429 beyond), and a client must send
+a request's head and body, and read the answer, without long pauses
+(`client_header_timeout`, `client_body_timeout`, `send_timeout`): a slowloris
+is closed by nginx. The processes also count each client's requests in
+progress by the forwarded address (hcss.platform.serving.connections).
+
 The servers trust X-Forwarded-For and -Proto from this proxy only when told
 (``HCSS_PROXY_HOPS=1`` and ``HCSS_TRUSTED_PROXY``, the address nginx connects
 from; hcss.platform.serving.connections.proxy_adjustments).
@@ -34,6 +51,12 @@ from collections.abc import Sequence
 from pathlib import Path
 
 UPSTREAM = "hcss_processes"
+#: Connections one client address may hold through nginx (as `hcss serve` caps it directly).
+PER_CLIENT = 64
+#: Seconds a client may pause while sending a request's head or body, or reading an answer.
+CLIENT_HEADER_S = 10
+CLIENT_BODY_S = 10
+SEND_S = 15
 
 
 def site_config(servers: Sequence[str], *, listen: str = "8080") -> str:
@@ -44,8 +67,13 @@ def site_config(servers: Sequence[str], *, listen: str = "8080") -> str:
     # process down (nginx counts every http_503 it passes on as a failure), or after a
     # kill the survivor is "down" too until fail_timeout, while it takes the trials over.
     members = "\n".join(f"    server {server} max_fails=0;" for server in servers)
+    each = "".join(_member_upstream(index, server) for index, server in enumerate(servers))
+    forwards = "".join(_member_locations(index, server) for index, server in enumerate(servers))
+    group = ",".join(servers)
     return f"""\
 # Written by `hcss deploy nginx`: {len(servers)} hcss process(es), routed by participant token.
+# Start each process with HCSS_GROUP={group}
+# (the same members in the same order: the processes place trials as nginx hashes).
 map $uri $hcss_token {{
     ~^/(?:p|live|api/live)/(?<token>[^/]+) $token;
     default "";
@@ -58,14 +86,21 @@ map "$request_method:$http_idempotency_key" $hcss_unkeyed {{
 }}
 
 upstream {UPSTREAM} {{
-    hash $hcss_token consistent;
+    hash $hcss_token;
 {members}
     keepalive 32;
 }}
+{each}
+limit_conn_zone $binary_remote_addr zone=hcss_clients:10m;
 
 server {{
     listen {listen};
     client_max_body_size 256k;
+    limit_conn hcss_clients {PER_CLIENT};
+    limit_conn_status 429;
+    client_header_timeout {CLIENT_HEADER_S}s;
+    client_body_timeout {CLIENT_BODY_S}s;
+    send_timeout {SEND_S}s;
 
     location / {{
         if ($hcss_unkeyed) {{
@@ -91,11 +126,43 @@ server {{
         proxy_next_upstream_tries {len(servers)};
         proxy_next_upstream_timeout 15s;
     }}
+{forwards}}}
+"""
+
+
+def _member_upstream(index: int, server: str) -> str:
+    """One member alone, for requests forwarded to it (kept-alive connections)."""
+    return f"""
+upstream hcss_member_{index} {{
+    server {server};
+    keepalive 4;
 }}
 """
 
 
-#: The proxy settings of both locations.
+def _member_locations(index: int, server: str) -> str:
+    """The named locations a process's X-Accel-Redirect sends a request to the trial's
+    holder through (hcss.platform.live.forwarding): pages and commands, and streams."""
+    proxy = _PROXY.replace(f"http://{UPSTREAM}", f"http://hcss_member_{index}").replace(
+        f"proxy_set_header {FORWARD_HEADER} 1;", f'proxy_set_header {FORWARD_HEADER} "";'
+    )
+    return f"""
+    location @hcss_{server} {{
+{proxy}
+        proxy_next_upstream off;
+    }}
+
+    location @hcss_{server}_stream {{
+{proxy.replace("proxy_read_timeout 15s;", "proxy_read_timeout 3s;")}
+        proxy_next_upstream off;
+    }}
+"""
+
+
+#: The header a process's forwarding looks for (hcss.platform.live.forwarding.FORWARD_HEADER).
+FORWARD_HEADER = "X-Hcss-Forward"
+
+#: The proxy settings of both locations (and, sent to one member, of the forwarding ones).
 _PROXY = f"""\
         proxy_pass http://{UPSTREAM};
         proxy_http_version 1.1;
@@ -103,6 +170,7 @@ _PROXY = f"""\
         proxy_set_header Host $http_host;
         proxy_set_header X-Forwarded-For $proxy_add_x_forwarded_for;
         proxy_set_header X-Forwarded-Proto $scheme;
+        proxy_set_header X-Hcss-Forward 1;
 
         # Server-Sent Events: every frame at once. A read timeout is the silence between
         # two reads, not a stream's length: a stream's frames come every half second, so

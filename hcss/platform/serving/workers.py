@@ -55,7 +55,16 @@ def process_name(host: str, port: int) -> str:
 
 
 def run_group(processes: int, host: str, port: int, worker_args: Sequence[str]) -> int:
-    """Start the workers, wait until they stop; SIGTERM or Ctrl-C stops them all."""
+    """Start the workers, wait until they stop; SIGTERM or Ctrl-C stops them all.
+
+    Each worker is told the group (HCSS_GROUP: the members in the order `hcss deploy
+    nginx` lists them for the same --host, --port and --processes), unless set already.
+    """
+    import os
+
+    group = os.environ.get("HCSS_GROUP") or ",".join(
+        f"{host}:{port + index}" for index in range(processes)
+    )
     workers = [
         subprocess.Popen(
             [
@@ -69,7 +78,8 @@ def run_group(processes: int, host: str, port: int, worker_args: Sequence[str]) 
                 "--port",
                 str(port + index),
                 *worker_args,
-            ]
+            ],
+            env={**os.environ, "HCSS_GROUP": group},
         )
         for index in range(processes)
     ]
