@@ -17,6 +17,7 @@ from __future__ import annotations
 import json
 import re
 import time
+import uuid
 from collections import defaultdict
 from dataclasses import dataclass, field
 from html.parser import HTMLParser
@@ -26,6 +27,7 @@ import numpy as np
 from flask import Flask
 from sqlalchemy import select
 
+from hcss.platform.live.idempotency import KEY_HEADER
 from hcss.platform.models import Participant
 from hcss.platform.study.enrolment import assign_cell
 from hcss.platform.study.stage_protocol import Shown, SubmissionMustFail
@@ -326,7 +328,12 @@ class ParticipantBot:
             raise BotError(f"{stage}: the trial page names no stream")
         trial_id = int(stream.group(1))
         api = f"/api/live/{self.token}/trials/{trial_id}"
-        headers = {"X-CSRFToken": page.csrf}
+
+        def command(path: str, body: dict[str, Any]) -> dict[str, Any]:
+            """POST a command as the page does: its CSRF token and a fresh Idempotency-Key."""
+            headers = {"X-CSRFToken": page.csrf, KEY_HEADER: uuid.uuid4().hex}
+            return self._ok(self.client.post(api + path, json=body, headers=headers))
+
         report.trials.append(trial_id)
         policy = InvestigateThenDecide(abandon_below=0.3)
         next_policy = 0.0
@@ -348,31 +355,21 @@ class ParticipantBot:
                 raise BotError(f"trial {trial_id} is still running after its time limit")
             probe = frame.get("probe")
             if probe and probe["phase"] == "ready":
-                self._ok(
-                    self.client.post(f"{api}/probes/{probe['id']}/ready", json={}, headers=headers)
-                )
+                command(f"/probes/{probe['id']}/ready", {})
             elif probe:
                 answer = str(self.rng.choice(probe["choices"]))
-                self._ok(
-                    self.client.post(
-                        f"{api}/probes/{probe['id']}/answer",
-                        json={"answer": answer},
-                        headers=headers,
-                    )
-                )
+                command(f"/probes/{probe['id']}/answer", {"answer": answer})
                 report.probes_answered += 1
             if clock >= next_policy:
                 next_policy = clock + self.policy_every_s
-                for command in policy.commands(Display.from_json(frame["view"]))[:3]:
-                    outcome = self._ok(
-                        self.client.post(f"{api}/requests", json=command.to_json(), headers=headers)
-                    )
+                for request in policy.commands(Display.from_json(frame["view"]))[:3]:
+                    outcome = command("/requests", request.to_json())
                     report.requests += 1
                     report.accepted += bool(outcome.get("accepted"))
                 if frame["view"]["collectives"]:
                     hub = int(self.rng.integers(len(frame["view"]["collectives"])))
                     click = {"kind": "collective", "collective": hub, "button": "right"}
-                    self._ok(self.client.post(f"{api}/observations", json=click, headers=headers))
+                    command("/observations", click)
             self._next_look(frame)
         continue_url = page.interface.get("data-continue-url")
         if not continue_url:
