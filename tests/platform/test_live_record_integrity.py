@@ -237,7 +237,7 @@ def test_two_concurrent_pauses_write_one_console_action(group) -> None:
     writes nothing, so the session's history holds one pause."""
     import threading
 
-    from hcss.platform.live.service import control_session_trial
+    from hcss.platform.live.service import LiveTrials
     from hcss.platform.models import ConsoleAction, Trial
 
     a, _b, clock = group
@@ -251,9 +251,7 @@ def test_two_concurrent_pauses_write_one_console_action(group) -> None:
 
     def pause() -> None:
         start.wait()
-        control_session_trial(
-            a.database,
-            a,
+        LiveTrials(a.database, a).control(
             trial_id,
             "pause",
             participant_id=participant_id,
@@ -412,7 +410,7 @@ def test_a_pause_whose_commit_answer_is_lost_holds_the_trial(group, monkeypatch)
     trial must not run on (before, the trial in memory ran on while the log held the pause;
     the experimenter's retry then wrote a second pause, and a rebuild stopped its clock at
     the first)."""
-    from hcss.platform.live.service import control_session_trial
+    from hcss.platform.live.service import LiveTrials
     from hcss.platform.models import Trial
 
     a, _b, clock = group
@@ -421,8 +419,8 @@ def test_a_pause_whose_commit_answer_is_lost_holds_the_trial(group, monkeypatch)
         participant_id = session.get(Trial, trial_id).participant_id
 
     def pause() -> None:
-        control_session_trial(
-            a.database, a, trial_id, "pause", participant_id=participant_id, experimenter_id=None
+        LiveTrials(a.database, a).control(
+            trial_id, "pause", participant_id=participant_id, experimenter_id=None
         )
 
     _answer_lost_after_writing(a.database, ConsoleAction, monkeypatch)
