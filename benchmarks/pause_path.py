@@ -69,7 +69,9 @@ def main() -> None:
         with app.app_context():
             sys.settrace(trace)
             try:
-                change_participant_state(database, runner, participant, None, "pause")
+                change_participant_state(
+                    database, app.extensions["hcss_live"], participant, None, "pause"
+                )
             finally:
                 sys.settrace(None)
         assert runner.loaded(trial_id) is not None

@@ -164,6 +164,26 @@ def test_the_source_keeps_every_contract() -> None:
             "from hcss.platform.live.actions import submit_request",
             "The console reaches live trials through the live service",
         ),
+        (  # a console route holding the runner, as in `runner().host(id).paused(...)`
+            "hcss/platform/console/views.py",
+            "from hcss.platform.live.runner import Runner",
+            "Only the live service reaches into the live wing",
+        ),
+        (  # the study flow carrying a command out past the live service
+            "hcss/platform/study/views.py",
+            "def _late():\n    from hcss.platform.live import door",
+            "Only the live service reaches into the live wing",
+        ),
+        (  # a bot writing the trial log itself
+            "hcss/platform/bots/participant.py",
+            "from hcss.platform.live.trial_writer import write_fact",
+            "Only the live service reaches into the live wing",
+        ),
+        (  # the participant's API reaching past the service for the runner
+            "hcss/platform/live/api.py",
+            "from hcss.platform.live.runner import Runner",
+            "The console reaches live trials through the live service",
+        ),
         (  # a cycle inside a package, through an import in a function
             "hcss/platform/study/stage_protocol.py",
             "def _late():\n    from hcss.platform.study import flow",
@@ -187,6 +207,44 @@ def test_a_planted_import_breaks_a_contract(
     result = lint_imports(planted(tmp_path, module, line))
     assert result.returncode != 0, result.stdout
     assert f"{broken} BROKEN" in result.stdout, result.stdout
+
+
+#: The app extension that holds the runner: the wing's own (live.service puts it there).
+RUNNER_KEY = "hcss_runner"
+
+
+def runner_key_uses(root: Path) -> list[str]:
+    """Each module of hcss outside the live wing that names the runner's app extension: one
+    that could take the runner from `current_app.extensions` with no import a contract sees."""
+    found = []
+    for path in sorted((root / "hcss").rglob("*.py")):
+        relative = path.relative_to(root).as_posix()
+        if relative.startswith("hcss/platform/live/"):
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Constant) and node.value == RUNNER_KEY:
+                found.append(f"{relative}:{node.lineno}")
+    return found
+
+
+def test_nothing_outside_the_wing_takes_the_runner_from_the_app() -> None:
+    assert runner_key_uses(CHECKOUT) == []
+
+
+def test_a_planted_route_taking_the_runner_from_the_app_is_found(tmp_path: Path) -> None:
+    """The route issue 41 planted, `runner().host(id).paused(...)` with the runner read from
+    the app's extensions, imports nothing a contract sees: the key is found instead."""
+    line = (
+        "def _planted(trial_id):\n"
+        "    from flask import current_app\n"
+        "    current_app.extensions['hcss_runner'].host(trial_id).paused(0.0)"
+    )
+    root = planted(tmp_path, "hcss/platform/console/views.py", line)
+    assert runner_key_uses(root) == ["hcss/platform/console/views.py:" + str(_last_line(root))]
+
+
+def _last_line(root: Path) -> int:
+    return len((root / "hcss/platform/console/views.py").read_text().splitlines())
 
 
 def test_a_module_in_no_layer_breaks_the_layers(tmp_path: Path) -> None:

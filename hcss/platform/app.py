@@ -17,7 +17,7 @@ from werkzeug.exceptions import HTTPException
 from werkzeug.middleware.proxy_fix import ProxyFix
 
 from hcss.platform import config as platform_config
-from hcss.platform import db
+from hcss.platform import db, eventlog
 from hcss.platform.console import presence
 from hcss.platform.console import views as console_views
 from hcss.platform.errors import (
@@ -31,7 +31,7 @@ from hcss.platform.guards.hardening import SchemeSecureSessions
 from hcss.platform.live import api as live_api
 from hcss.platform.live import views as live_views
 from hcss.platform.live.forwarding import forwarded
-from hcss.platform.live.service import init_runner
+from hcss.platform.live.service import init_live
 from hcss.platform.replay import views as replay_views
 from hcss.platform.study import landing, recruitment
 from hcss.platform.study import views as study_views
@@ -72,7 +72,8 @@ def create_app(config: Mapping[str, Any] | None = None) -> Flask:
     _register_json_errors(app)
     for blueprint in BLUEPRINTS:
         app.register_blueprint(blueprint)
-    init_runner(app)
+    init_live(app)
+    eventlog.install(app)  # the server's terminal: one line per participant event
     return app
 
 

@@ -7,14 +7,22 @@ queue; a command that cannot be written leaves the trial as it was.
 
 from __future__ import annotations
 
+import uuid
+
 import pytest
 from sqlalchemy import select
 from sqlalchemy.exc import IntegrityError
 
 from hcss.platform.live import actions
+from hcss.platform.live.trial_writer import KeyedCommand
 from hcss.platform.models import Command, CommandOutcome, RequestStatusChange
 from hcss.simulation import OperatorCommand
 from tests.support.replays import operate, replay_trial
+
+
+def fresh_key(trial_id: int) -> KeyedCommand:
+    key = uuid.uuid4().hex
+    return KeyedCommand(trial_id=trial_id, key=key, endpoint="test", fingerprint=key)
 
 
 def _rows(app, model):
@@ -107,11 +115,11 @@ def test_a_command_that_cannot_be_written_leaves_the_trial_as_it_was(
     monkeypatch.setattr(CommandOutcome, "of", broken)
     command = OperatorCommand("investigate", 0, target["id"])
     with pytest.raises(IntegrityError):
-        actions.submit_request(database, live, command)
+        actions.submit_request(database, live, command, key=fresh_key(live.trial_id))
     assert live.sim.state_digest() == before
     assert live.sim.requests == [] and live.sim.drain_status_changes() == []
     assert _rows(trial.app, Command) == [] and _rows(trial.app, RequestStatusChange) == []
     monkeypatch.setattr(CommandOutcome, "of", good)
-    answer = actions.submit_request(database, live, command)
+    answer = actions.submit_request(database, live, command, key=fresh_key(live.trial_id))
     assert answer["accepted"] and answer["request_id"] == 1
     assert [r.status for r in _rows(trial.app, RequestStatusChange)][:1] == ["in_progress"]

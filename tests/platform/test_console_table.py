@@ -157,7 +157,7 @@ def test_a_participant_who_finished_shows_completed_and_cannot_be_paused(demo_ap
         for action in ("pause", "abort"):
             with pytest.raises(ConsoleError, match="completed the study"):
                 change_participant_state(
-                    database, demo_app.extensions["hcss_runner"], participant, None, action
+                    database, demo_app.extensions["hcss_live"], participant, None, action
                 )
     with database.session_scope() as session:
         assert session.scalars(select(ConsoleAction)).first() is None

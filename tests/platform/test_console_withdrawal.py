@@ -85,7 +85,7 @@ def test_a_failed_withdrawal_deletes_nothing(app, make_trial, console, monkeypat
 
     monkeypatch.setattr(withdrawal, "AuditRecord", broken_audit)
     with pytest.raises(RuntimeError):
-        withdrawal.withdraw(app.extensions["hcss_db"], app.extensions["hcss_runner"], code, "alice")
+        withdrawal.withdraw(app.extensions["hcss_db"], app.extensions["hcss_live"], code, "alice")
     with app.extensions["hcss_db"].session_scope() as session:
         assert rows_referencing(session, participant_id) == before
         assert session.scalar(select(func.count()).select_from(AuditRecord)) == 0
@@ -94,7 +94,7 @@ def test_a_failed_withdrawal_deletes_nothing(app, make_trial, console, monkeypat
 def test_withdrawing_an_unknown_code_is_refused(app, console) -> None:
     with pytest.raises(withdrawal.WithdrawalError, match="no participant"):
         withdrawal.withdraw(
-            app.extensions["hcss_db"], app.extensions["hcss_runner"], "PNOBODY", "alice"
+            app.extensions["hcss_db"], app.extensions["hcss_live"], "PNOBODY", "alice"
         )
     assert (
         console.post(

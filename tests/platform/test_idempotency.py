@@ -151,13 +151,28 @@ def test_a_key_reused_for_another_command_is_refused(make_trial) -> None:
     assert count_rows(trial.app, Command) == 1
 
 
-def test_without_a_key_a_command_is_carried_out_as_before(make_trial) -> None:
-    """Bots and scripts without keys still work; only keyed commands are deduplicated."""
+def test_a_command_without_a_key_is_refused_and_changes_nothing(make_trial) -> None:
+    """Every page and bot sends a key; a command without one gets a 400 that says to send
+    one, and nothing is written (before issue 41 it was carried out unprotected)."""
     trial = make_trial()
     body = investigate_request(trial)
-    assert trial.post("/requests", body).status_code == 200
-    assert trial.post("/requests", body).status_code == 200
-    assert (count_rows(trial.app, Command), count_rows(trial.app, CommandKey)) == (2, 0)
+    probe, _state, _second = until_probe(trial, 60)
+    for path, sent in (
+        ("/requests", body),
+        ("/observations", {"kind": "collective", "collective": 0, "button": "left"}),
+        (f"/probes/{probe['id']}/ready", {}),
+        (f"/probes/{probe['id']}/answer", {"answer": "x"}),
+    ):
+        response = trial.client.post(
+            trial.api + path, json=sent, headers={"X-CSRFToken": trial.csrf}
+        )
+        assert response.status_code == 400, (path, response.get_data(as_text=True))
+        assert response.get_json()["error"] == "idempotency_key_required"
+        assert "Idempotency-Key" in response.get_json()["message"]
+    assert count_rows(trial.app, Command) == 0
+    assert count_rows(trial.app, Observation) == 0
+    assert count_rows(trial.app, CommandKey) == 0
+    assert count_rows(trial.app, ProbeEvent) == 0
 
 
 def test_the_same_key_in_another_participants_trial_is_another_command(make_trial) -> None:

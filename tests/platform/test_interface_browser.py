@@ -128,7 +128,11 @@ def test_the_map_reads_at_1366_and_1024_and_a_double_enter_answers_no_probe(
         session.expunge(participant)
     with demo_server.app.app_context():
         change_participant_state(
-            demo_server.database, demo_server.runner, participant, None, "abort"
+            demo_server.database,
+            demo_server.app.extensions["hcss_live"],
+            participant,
+            None,
+            "abort",
         )
     expect(page.locator("#ended")).to_be_visible()
     expect(page.locator("#ended-title")).to_have_text("Ended by the experimenter")

@@ -143,16 +143,15 @@ def test_two_takeovers_racing_for_one_expired_lease_exactly_one_wins(database_ur
     setup.engine.dispose()
 
 
-@pytest.mark.parametrize("keyed", [False, True], ids=["without key", "with key"])
 def test_a_command_caught_by_a_lost_lease_is_held_back_with_held_by_and_retry_after(
-    database_url: str, keyed: bool
+    database_url: str,
 ) -> None:
     """A's renewal finds the lease gone while a click waits for the trial's lock: A records
     nothing and holds the click back (503), saying why (`held_by`, so the page shows "The
     trial is moving to another server") and when to retry, and B carries it out then.
 
-    With a key or without, the click goes through the live service's one door: it meets
-    the moved trial under its lock (error "moved")."""
+    The click goes through the live service's one door: it meets the moved trial under its
+    lock (error "moved")."""
     from tests.support.trials import csrf_token_of
 
     clock = ManualClock(1_000_000.0)
@@ -168,7 +167,7 @@ def test_a_command_caught_by_a_lost_lease_is_held_back_with_held_by_and_retry_af
         assert live is not None
         client = a.test_client()
         csrf = csrf_token_of(client.get(f"/live/{token}").get_data(as_text=True))
-        headers = {"X-CSRFToken": csrf, **({"Idempotency-Key": "click-0001"} if keyed else {})}
+        headers = {"X-CSRFToken": csrf, "Idempotency-Key": "click-0001"}
         answers = []
 
         def click() -> None:

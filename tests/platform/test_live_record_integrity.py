@@ -6,6 +6,7 @@ the clock is a `ManualClock`, so grace periods and leases pass at once.
 
 from __future__ import annotations
 
+import uuid
 from collections.abc import Iterator
 from contextlib import suppress
 
@@ -103,7 +104,7 @@ def test_the_rebuild_replays_the_commands_after_the_snapshots_last_one_by_identi
     a, b, clock = group
     trial_id, live = _hosted_for_20_s(a, clock)
     command = _command(a, trial_id)
-    actions.submit_request(a.database, live, command)
+    actions.submit_request(a.database, live, command, key=_fresh(live.trial_id))
     with a.database.session_scope() as session:  # a command in the log, not in memory
         stray = session.scalars(select(Command).where(Command.trial_id == trial_id)).one()
         session.add(
@@ -119,7 +120,12 @@ def test_the_rebuild_replays_the_commands_after_the_snapshots_last_one_by_identi
         )
     clock.now += 1.0
     a.tick()
-    actions.submit_request(a.database, live, OperatorCommand("investigate", 2, command.target))
+    actions.submit_request(
+        a.database,
+        live,
+        OperatorCommand("investigate", 2, command.target),
+        key=_fresh(live.trial_id),
+    )
     for _ in range(2):
         clock.now += 1.0
         a.tick()  # a snapshot holding the two commands applied
@@ -160,7 +166,7 @@ def test_a_command_whose_commit_answer_is_lost_stays_applied_as_logged(group, mo
     trial_id, live = _hosted_for_20_s(a, clock)
     command = _command(a, trial_id)
     _answer_lost_after_commit(a.database, monkeypatch)
-    answer = actions.submit_request(a.database, live, command)
+    answer = actions.submit_request(a.database, live, command, key=_fresh(live.trial_id))
     with a.database.session_scope() as session:
         logged = session.scalars(select(Command.id).where(Command.trial_id == trial_id)).all()
         outcomes = session.scalar(select(func.count()).select_from(CommandOutcome))
@@ -195,7 +201,7 @@ def test_runner_steps_whose_commit_answers_are_lost_store_every_row_once(
     for _ in range(10):
         clock.now += 1.0
         a.tick()
-    actions.submit_request(a.database, live, _command(a, trial_id))
+    actions.submit_request(a.database, live, _command(a, trial_id), key=_fresh(live.trial_id))
     _answer_lost_after_commit(a.database, monkeypatch, times=10_000, every=2)
     for _ in range(600):  # every other answer lost until the first decisions are made
         clock.now += 1.0
@@ -231,7 +237,7 @@ def test_two_concurrent_pauses_write_one_console_action(group) -> None:
     writes nothing, so the session's history holds one pause."""
     import threading
 
-    from hcss.platform.live.service import control_session_trial
+    from hcss.platform.live.service import LiveTrials
     from hcss.platform.models import ConsoleAction, Trial
 
     a, _b, clock = group
@@ -245,9 +251,7 @@ def test_two_concurrent_pauses_write_one_console_action(group) -> None:
 
     def pause() -> None:
         start.wait()
-        control_session_trial(
-            a.database,
-            a,
+        LiveTrials(a.database, a).control(
             trial_id,
             "pause",
             participant_id=participant_id,
@@ -287,7 +291,7 @@ def test_a_command_nobody_can_say_was_committed_is_settled_by_a_rebuild(group, m
 
     monkeypatch.setattr(dialect, "do_execute", still_down)
     with pytest.raises(DBAPIError):
-        actions.submit_request(a.database, live, command)
+        actions.submit_request(a.database, live, command, key=_fresh(live.trial_id))
     monkeypatch.undo()
     clock.now += 1.0
     a.tick()
@@ -339,6 +343,12 @@ def _with_a_probe_open(runner: Runner, clock) -> tuple[int, object]:
     raise AssertionError("no probe within 400 s")
 
 
+def _fresh(trial_id: int) -> KeyedCommand:
+    """A fresh key, as the page sends with every command."""
+    key = uuid.uuid4().hex
+    return KeyedCommand(trial_id=trial_id, key=key, endpoint="test", fingerprint=key)
+
+
 def _key(trial_id: int, key: str, endpoint: str) -> KeyedCommand:
     return KeyedCommand(trial_id=trial_id, key=key, endpoint=endpoint, fingerprint=key)
 
@@ -364,7 +374,7 @@ def test_a_ready_press_whose_commit_answer_is_lost_shows_the_question(group, mon
     assert host is not None and host.current_probe is not None
     choice = host.current_probe.choices[0]
     answered = door.carry_out(
-        a.database, a, door.ProbeAnswer(trial_id, probe_id, {"answer": choice})
+        a.database, a, door.ProbeAnswer(trial_id, probe_id, {"answer": choice}), _fresh(trial_id)
     )
     assert answered.status == 200, answered
 
@@ -379,7 +389,7 @@ def test_a_probe_answer_whose_commit_answer_is_lost_is_not_also_timed_out(
     trial_id, live = _with_a_probe_open(a, clock)
     probe_id = live.current_probe.id
     choice = live.current_probe.choices[0]
-    door.carry_out(a.database, a, door.ProbeReady(trial_id, probe_id))
+    door.carry_out(a.database, a, door.ProbeReady(trial_id, probe_id), _fresh(trial_id))
     answer = door.ProbeAnswer(trial_id, probe_id, {"answer": choice})
     _answer_lost_after_writing(a.database, ProbeEvent, monkeypatch)
     with suppress(DBAPIError):
@@ -400,7 +410,7 @@ def test_a_pause_whose_commit_answer_is_lost_holds_the_trial(group, monkeypatch)
     trial must not run on (before, the trial in memory ran on while the log held the pause;
     the experimenter's retry then wrote a second pause, and a rebuild stopped its clock at
     the first)."""
-    from hcss.platform.live.service import control_session_trial
+    from hcss.platform.live.service import LiveTrials
     from hcss.platform.models import Trial
 
     a, _b, clock = group
@@ -409,8 +419,8 @@ def test_a_pause_whose_commit_answer_is_lost_holds_the_trial(group, monkeypatch)
         participant_id = session.get(Trial, trial_id).participant_id
 
     def pause() -> None:
-        control_session_trial(
-            a.database, a, trial_id, "pause", participant_id=participant_id, experimenter_id=None
+        LiveTrials(a.database, a).control(
+            trial_id, "pause", participant_id=participant_id, experimenter_id=None
         )
 
     _answer_lost_after_writing(a.database, ConsoleAction, monkeypatch)
@@ -443,9 +453,9 @@ def test_a_command_refused_by_a_database_away_leaves_the_trial_hosted(group, mon
 
     monkeypatch.setattr(dialect, "do_execute", away)
     with pytest.raises(DBAPIError):
-        door.carry_out(a.database, a, door.ProbeReady(trial_id, probe_id))
+        door.carry_out(a.database, a, door.ProbeReady(trial_id, probe_id), _fresh(trial_id))
     monkeypatch.undo()
     assert not live.moved and a.loaded(trial_id) is live
     assert live.current_probe is not None and not live.current_probe.ready
-    again = door.carry_out(a.database, a, door.ProbeReady(trial_id, probe_id))
+    again = door.carry_out(a.database, a, door.ProbeReady(trial_id, probe_id), _fresh(trial_id))
     assert again.status == 200 and live.current_probe.ready

@@ -298,7 +298,9 @@ def supervise_first_trial(page, server: StudyServer, token: str) -> dict[str, in
         participant = session.scalars(select(Participant).where(Participant.token == token)).one()
         session.expunge(participant)
     with server.app.app_context():
-        change_participant_state(server.database, server.runner, participant, None, "pause")
+        change_participant_state(
+            server.database, server.app.extensions["hcss_live"], participant, None, "pause"
+        )
     expect(page.locator("#paused")).to_be_visible()
     expect(page.locator("#paused")).to_contain_text("Paused by the experimenter")
     expect(page.locator("#clock-state")).to_have_text("paused")
@@ -308,7 +310,9 @@ def supervise_first_trial(page, server: StudyServer, token: str) -> dict[str, in
     page.wait_for_timeout(300)  # frames keep coming; the clock does not move
     expect(page.locator("#clock")).to_have_text(shown)
     with server.app.app_context():
-        change_participant_state(server.database, server.runner, participant, None, "resume")
+        change_participant_state(
+            server.database, server.app.extensions["hcss_live"], participant, None, "resume"
+        )
     expect(page.locator("#paused")).to_be_hidden()
     expect(page.locator("#commit")).to_be_enabled()
 

@@ -165,11 +165,19 @@ def test_latencies_are_wall_clock_milliseconds_from_delivery(
             ).one()
             session.expunge(participant)
         change_participant_state(
-            trial.app.extensions["hcss_db"], trial.runner, participant, None, "pause"
+            trial.app.extensions["hcss_db"],
+            trial.app.extensions["hcss_live"],
+            participant,
+            None,
+            "pause",
         )
         clock.now += 5.0  # the pause: wall time that is no one's latency
         change_participant_state(
-            trial.app.extensions["hcss_db"], trial.runner, participant, None, "resume"
+            trial.app.extensions["hcss_db"],
+            trial.app.extensions["hcss_live"],
+            participant,
+            None,
+            "resume",
         )
     clock.now += 0.133
     assert trial.post(f"/probes/{probe['id']}/answer", {"answer": choice}).status_code == 200

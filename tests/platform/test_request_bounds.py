@@ -7,6 +7,8 @@ JSON nested past the recursion limit, and bodies of any size.
 
 from __future__ import annotations
 
+import uuid
+
 import pytest
 
 from tests.support.trials import csrf_token_of
@@ -93,7 +95,7 @@ def test_json_nested_past_the_recursion_limit_is_bad_json(make_trial, depth: int
             trial.api + path,
             data=body,
             content_type="application/json",
-            headers={"X-CSRFToken": trial.csrf},
+            headers={"X-CSRFToken": trial.csrf, "Idempotency-Key": uuid.uuid4().hex},
         )
         assert response.status_code == 400, path
         assert "JSON" in response.get_json()["message"]
@@ -115,7 +117,7 @@ def test_request_bodies_are_limited(make_trial) -> None:
         trial.api + "/requests",
         data=big,
         content_type="application/json",
-        headers={"X-CSRFToken": trial.csrf},
+        headers={"X-CSRFToken": trial.csrf, "Idempotency-Key": uuid.uuid4().hex},
     )
     assert response.status_code == 413 and response.get_json()["error"]
 

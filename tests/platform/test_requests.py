@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import uuid
+
 from sqlalchemy import select
 
 from hcss.platform.models import Command, CommandOutcome, RequestStatusChange
@@ -183,7 +185,9 @@ def test_bad_input_gets_a_json_error_and_changes_nothing(make_trial) -> None:
         error = response.get_json()
         assert error["message"], body
     not_json = trial.client.post(
-        trial.api + "/requests", data="kind=decide", headers={"X-CSRFToken": trial.csrf}
+        trial.api + "/requests",
+        data="kind=decide",
+        headers={"X-CSRFToken": trial.csrf, "Idempotency-Key": uuid.uuid4().hex},
     )
     assert not_json.status_code == 400 and "JSON" in not_json.get_json()["message"]
     assert count_rows(trial.app, Command) == 0

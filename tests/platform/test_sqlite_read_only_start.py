@@ -14,6 +14,7 @@ from __future__ import annotations
 import subprocess
 import sys
 import time
+import uuid
 
 import pytest
 
@@ -101,7 +102,7 @@ def _decide(client, api: str, csrf: str):
     return client.post(
         f"{api}/requests",
         json={"kind": "decide", "collective": 0, "target": 1},
-        headers={"X-CSRFToken": csrf},
+        headers={"X-CSRFToken": csrf, "Idempotency-Key": uuid.uuid4().hex},
     )
 
 

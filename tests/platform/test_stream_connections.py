@@ -145,7 +145,7 @@ def test_a_command_holds_one_connection_while_it_holds_its_trials_lock(make_tria
 
     event.listen(pool, "checkout", note_connections)
     sent = [
-        (selections, {}, 200),
+        (selections, {"Idempotency-Key": "k-one-connection-0"}, 200),
         (selections, {"Idempotency-Key": "k-one-connection-1"}, 200),
         # a refusal after the selections were read: its key is stored on its own
         (selections + [10**6], {"Idempotency-Key": "k-one-connection-2"}, 400),

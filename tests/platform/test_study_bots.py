@@ -7,9 +7,18 @@ from click.testing import CliRunner
 from sqlalchemy import select
 
 from hcss.cli import main
-from hcss.platform.bots.participant import BotError, run_bots
+from hcss.platform.bots.participant import BotError, ManualClock, run_bots
 from hcss.platform.db import Database
-from hcss.platform.models import ConsoleAction, Participant, StageEvent, StudyEnrolment
+from hcss.platform.models import (
+    Command,
+    CommandKey,
+    ConsoleAction,
+    Observation,
+    Participant,
+    ProbeEvent,
+    StageEvent,
+    StudyEnrolment,
+)
 from hcss.platform.study import participant_status
 from hcss.platform.study.stage_protocol import Submission, SubmissionMustFail
 from hcss.platform.study.stages import STAGES
@@ -36,6 +45,31 @@ def test_hcss_bots_fills_a_database_with_flagged_completed_bots(tmp_path) -> Non
     database.engine.dispose()
     bad = CliRunner().invoke(main, ["bots", "--study", "nope", "--database-url", url])
     assert bad.exit_code != 0 and "no study file nope.toml" in bad.output
+
+
+def test_every_command_of_an_in_process_bot_carries_its_key(demo_app) -> None:
+    """The in-process bot (`hcss bots`) sends an Idempotency-Key with every command, as the
+    page does: one key row per request, click, Ready press and answer it recorded.
+
+    Before issue 41 it sent none (one `hcss bots --n 1` run: 180 commands, 0 key rows), so
+    the study tests walked a door branch no page takes.
+    """
+    demo_app.extensions["hcss_runner"].clock = ManualClock()
+    (report,) = run_bots(demo_app, 1)
+    assert report.requests > 0
+    with demo_app.extensions["hcss_db"].session_scope() as session:
+        commands = (
+            len(session.scalars(select(Command.id)).all())
+            + len(session.scalars(select(Observation.id)).all())
+            + len(
+                session.scalars(
+                    select(ProbeEvent.id).where(ProbeEvent.kind.in_(("ready", "answer")))
+                ).all()
+            )
+        )
+        keys = len(session.scalars(select(CommandKey.id)).all())
+    assert commands >= report.requests
+    assert keys == commands
 
 
 def test_a_paused_or_aborted_session_holds_the_participant(demo_app) -> None:

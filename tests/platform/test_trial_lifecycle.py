@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import time
+import uuid
 
 from sqlalchemy import select
 
@@ -125,6 +126,7 @@ def test_an_ended_trial_answers_ended_to_every_command_whatever_its_body(make_tr
     headers = {"X-CSRFToken": trial.csrf, "Content-Type": "application/json"}
     for path in ("/requests", "/observations", "/probes/1/ready", "/probes/1/answer"):
         for body in ("not json", "[1, 2]", '{"kind": "investigate", "collective": 99}', ""):
-            refused = trial.client.post(trial.api + path, data=body, headers=headers)
+            keyed = {**headers, "Idempotency-Key": uuid.uuid4().hex}
+            refused = trial.client.post(trial.api + path, data=body, headers=keyed)
             assert refused.status_code == 409, (path, body, refused.get_data(as_text=True))
             assert refused.get_json()["error"] == "ended", (path, body)

@@ -8,6 +8,7 @@ tests/platform/conftest.py starts one).
 from __future__ import annotations
 
 import re
+import uuid
 from dataclasses import dataclass
 from typing import Any
 
@@ -61,7 +62,12 @@ class TrialHandle:
         self.runner.tick()
 
     def post(self, path: str, body: Any) -> Any:
-        return self.client.post(self.api + path, json=body, headers={"X-CSRFToken": self.csrf})
+        """POST a command as the page does: its CSRF token and a fresh Idempotency-Key."""
+        return self.client.post(
+            self.api + path,
+            json=body,
+            headers={"X-CSRFToken": self.csrf, "Idempotency-Key": uuid.uuid4().hex},
+        )
 
     def state(self) -> dict[str, Any]:
         response = self.client.get(self.api + "/state")

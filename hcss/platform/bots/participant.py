@@ -17,6 +17,7 @@ from __future__ import annotations
 import json
 import re
 import time
+import uuid
 from collections import defaultdict
 from dataclasses import dataclass, field
 from html.parser import HTMLParser
@@ -26,7 +27,9 @@ import numpy as np
 from flask import Flask
 from sqlalchemy import select
 
-from hcss.platform.models import Participant
+from hcss.platform.live.idempotency import KEY_HEADER
+from hcss.platform.live.service import LiveTrials
+from hcss.platform.models import Participant, Trial
 from hcss.platform.study.enrolment import assign_cell
 from hcss.platform.study.stage_protocol import Shown, SubmissionMustFail
 from hcss.platform.study.stages import STAGES
@@ -49,7 +52,7 @@ class ManualClock:
     """Wall-clock seconds since the epoch that move only when told to.
 
     The one fake clock of the project (public testing API, docs/architecture.md):
-    put on an app's database (`runner.clock = ManualClock()`), it times the
+    put on an app's database (`database.clock = ManualClock()`), it times the
     trials, the study's deadlines and every row's stamp alike.
     """
 
@@ -175,15 +178,20 @@ class ParticipantBot:
         self.look_every_wall_s = look_every_wall_s  # wall seconds per look (over HTTP)
         self.policy_every_s = policy_every_s
         self.mrt_accuracy = mrt_accuracy
-        self.runner = None
+        #: In-process: the app's live service, stepped on the bot's clock (None over HTTP).
+        self.live: LiveTrials | None = None
+        self.clock = ManualClock()
+        self._accelerations: dict[int, float] = {}
         if client is not None:
             self.client = client
             return
         assert app is not None
         self.client = app.test_client()
-        self.runner = app.extensions["hcss_runner"]
-        if not isinstance(self.runner.clock, ManualClock):
-            raise BotError("bots need the app's runner on a ManualClock (use bot_app)")
+        self.live = app.extensions["hcss_live"]
+        clock = app.extensions["hcss_db"].clock
+        if not isinstance(clock, ManualClock):
+            raise BotError("bots need the app's database on a ManualClock (use bot_app)")
+        self.clock = clock
 
     # --- HTTP ------------------------------------------------------------------------
 
@@ -278,7 +286,7 @@ class ParticipantBot:
         after it, as a participant reloading would find.
         """
         return (
-            self.runner is None
+            self.live is None
             and position + 1 < len(plan)
             and plan[position][1] == "run"
             and (page.stage, page.step) == plan[position + 1]
@@ -293,7 +301,7 @@ class ParticipantBot:
             except BotError as refusal:
                 # Over HTTP the part's time can run out under load (409, as for a slow
                 # participant); the server has moved on, and so does the bot.
-                if self.runner is not None or "answered 409" not in str(refusal):
+                if self.live is not None or "answered 409" not in str(refusal):
                     raise
                 html = self.get(f"/p/{self.token}/stage")[1]
             report.mrt_answers += page.hidden.get("action") == "answer"
@@ -326,7 +334,12 @@ class ParticipantBot:
             raise BotError(f"{stage}: the trial page names no stream")
         trial_id = int(stream.group(1))
         api = f"/api/live/{self.token}/trials/{trial_id}"
-        headers = {"X-CSRFToken": page.csrf}
+
+        def command(path: str, body: dict[str, Any]) -> dict[str, Any]:
+            """POST a command as the page does: its CSRF token and a fresh Idempotency-Key."""
+            headers = {"X-CSRFToken": page.csrf, KEY_HEADER: uuid.uuid4().hex}
+            return self._ok(self.client.post(api + path, json=body, headers=headers))
+
         report.trials.append(trial_id)
         policy = InvestigateThenDecide(abandon_below=0.3)
         next_policy = 0.0
@@ -348,31 +361,21 @@ class ParticipantBot:
                 raise BotError(f"trial {trial_id} is still running after its time limit")
             probe = frame.get("probe")
             if probe and probe["phase"] == "ready":
-                self._ok(
-                    self.client.post(f"{api}/probes/{probe['id']}/ready", json={}, headers=headers)
-                )
+                command(f"/probes/{probe['id']}/ready", {})
             elif probe:
                 answer = str(self.rng.choice(probe["choices"]))
-                self._ok(
-                    self.client.post(
-                        f"{api}/probes/{probe['id']}/answer",
-                        json={"answer": answer},
-                        headers=headers,
-                    )
-                )
+                command(f"/probes/{probe['id']}/answer", {"answer": answer})
                 report.probes_answered += 1
             if clock >= next_policy:
                 next_policy = clock + self.policy_every_s
-                for command in policy.commands(Display.from_json(frame["view"]))[:3]:
-                    outcome = self._ok(
-                        self.client.post(f"{api}/requests", json=command.to_json(), headers=headers)
-                    )
+                for request in policy.commands(Display.from_json(frame["view"]))[:3]:
+                    outcome = command("/requests", request.to_json())
                     report.requests += 1
                     report.accepted += bool(outcome.get("accepted"))
                 if frame["view"]["collectives"]:
                     hub = int(self.rng.integers(len(frame["view"]["collectives"])))
                     click = {"kind": "collective", "collective": hub, "button": "right"}
-                    self._ok(self.client.post(f"{api}/observations", json=click, headers=headers))
+                    command("/observations", click)
             self._next_look(frame)
         continue_url = page.interface.get("data-continue-url")
         if not continue_url:
@@ -381,16 +384,20 @@ class ParticipantBot:
 
     def _next_look(self, frame: dict[str, Any]) -> None:
         """In-process: move the clock and let the runner step. Over HTTP: wait."""
-        if self.runner is None:
+        if self.live is None:
             time.sleep(self.look_every_wall_s)
             return
-        self.runner.clock.now += self.tick_s / self._acceleration(frame)
-        self.runner.tick()
+        self.clock.now += self.tick_s / self._acceleration(frame["trial"]["id"])
+        self.live.catch_up()
 
-    def _acceleration(self, frame: dict[str, Any]) -> float:
-        assert self.runner is not None
-        live = self.runner.loaded(frame["trial"]["id"])
-        return live.acceleration if live is not None else 1.0
+    def _acceleration(self, trial_id: int) -> float:
+        """The trial's time acceleration, from its row (read once per trial)."""
+        if trial_id not in self._accelerations:
+            assert self.app is not None
+            with self.app.extensions["hcss_db"].session_scope() as session:
+                trial = session.get(Trial, trial_id)
+                self._accelerations[trial_id] = 1.0 if trial is None else trial.time_acceleration
+        return self._accelerations[trial_id]
 
     @staticmethod
     def _ok(response: Any) -> dict[str, Any]:
@@ -415,7 +422,7 @@ def bot_app(database_url: str, study: str, **config: Any) -> Flask:
             **config,
         }
     )
-    app.extensions["hcss_runner"].clock = ManualClock()
+    app.extensions["hcss_db"].clock = ManualClock()
     return app
 
 

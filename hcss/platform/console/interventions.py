@@ -13,8 +13,7 @@ from sqlalchemy import select, text
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
-from hcss.platform.live.runner import Runner
-from hcss.platform.live.service import OrderUnconfirmed, control_session_trial, running_trial_id
+from hcss.platform.live.service import LiveTrials, OrderUnconfirmed, running_trial_id
 from hcss.platform.models import AuditRecord, ConsoleAction, Experimenter, Participant
 from hcss.platform.models.participant_state import ENDED_STATES, STATE_ACTIONS, participant_state
 from hcss.platform.models.pilots import is_pilot
@@ -130,7 +129,7 @@ def _act_without_trial(
 
 def change_participant_state(
     database: Database,
-    runner: Runner,
+    live: LiveTrials,
     participant: Participant,
     experimenter: Experimenter | None,
     action: str,
@@ -145,14 +144,12 @@ def change_participant_state(
         raise ConsoleError(f"unknown session action {action!r}")
     if action == "time_out":
         raise ConsoleError("only the server times a session out")
-    trial_id = _act_without_trial(database, participant, experimenter, action, runner.clock())
+    trial_id = _act_without_trial(database, participant, experimenter, action, live.now())
     if trial_id is None:
         return
     experimenter_id = None if experimenter is None else experimenter.id
     try:
-        controlled = control_session_trial(
-            database,
-            runner,
+        controlled = live.control(
             trial_id,
             action,
             participant_id=participant.id,
@@ -162,13 +159,13 @@ def change_participant_state(
         raise ConsoleError(str(pending)) from pending
     if not controlled:  # the trial ended meanwhile: the row alone holds the session
         _act_without_trial(
-            database, participant, experimenter, action, runner.clock(), trial_ended=True
+            database, participant, experimenter, action, live.now(), trial_ended=True
         )
 
 
 def set_pilot(
     database: Database,
-    runner: Runner,
+    live: LiveTrials,
     participant: Participant,
     experimenter: Experimenter | None,
     pilot: bool,
@@ -186,13 +183,13 @@ def set_pilot(
                 participant_id=row.id,
                 experimenter_id=None if experimenter is None else experimenter.id,
                 action="mark_pilot" if pilot else "unmark_pilot",
-                at_epoch=runner.clock(),
+                at_epoch=live.now(),
             )
         )
 
 
 def reinstate(
-    database: Database, runner: Runner, participant: Participant, experimenter: Experimenter
+    database: Database, live: LiveTrials, participant: Participant, experimenter: Experimenter
 ) -> None:
     """Let a timed-out participant go on (a power cut, a lost connection): a `resume` row,
     from which the study's time-outs count afresh, and an audit row in the console's log."""
@@ -209,7 +206,7 @@ def reinstate(
                 participant_id=participant.id,
                 experimenter_id=experimenter.id,
                 action="resume",
-                at_epoch=runner.clock(),
+                at_epoch=live.now(),
                 detail=REINSTATED,
             )
         )

@@ -31,6 +31,7 @@ from sqlalchemy.orm import Session
 from hcss.platform.db import get_session
 from hcss.platform.errors import DATABASE_RETRY_S
 from hcss.platform.guards.hardening import takes_json
+from hcss.platform.live.service import live_trials
 from hcss.platform.models import Participant, ParticipantPresence, StageEvent
 
 HEARTBEAT_EVERY_S = 10.0
@@ -131,7 +132,7 @@ def heartbeat(token: str) -> Response:
         participant_id = session.scalar(select(Participant.id).where(Participant.token == token))
         if participant_id is None:
             abort(404)
-        now = current_app.extensions["hcss_runner"].clock()
+        now = live_trials().now()
         record_heartbeat(session, participant_id, now, body["page"], body["hidden"])
         session.commit()
         moved = body["stage"] is not None and _skipped(

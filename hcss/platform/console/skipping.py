@@ -24,8 +24,7 @@ from sqlalchemy.orm import Session
 
 from hcss.platform.console.interventions import ConsoleError
 from hcss.platform.db import Database, session_now
-from hcss.platform.live.runner import Runner
-from hcss.platform.live.service import finish_overdue_trial
+from hcss.platform.live.service import LiveTrials
 from hcss.platform.live.trials import latest_status
 from hcss.platform.models import ConsoleAction, Experimenter, Participant
 from hcss.platform.models.participant_state import ENDED_STATES, participant_state
@@ -40,7 +39,7 @@ NEVER_SKIPPED = ("consent",)
 
 def skip_step(
     database: Database,
-    runner: Runner,
+    live: LiveTrials,
     participant: Participant,
     experimenter: Experimenter | None,
     to_stage: int | None = None,
@@ -50,11 +49,11 @@ def skip_step(
     (``stage 4 introduction page_2``, ``stages 2-5 (9 steps) to stage 6 screen_check``).
 
     A trial past its deadline is ended first, as the participant's own page
-    would (`finish_overdue_trial`), so the step skipped is the one after it.
+    would (`LiveTrials.finish_overdue`), so the step skipped is the one after it.
     Nothing is skipped unless every step on the way may be: consent never, a
     running trial not.
     """
-    finish_overdue_trial(runner, participant)
+    live.finish_overdue(participant)
     with database.session_scope() as session:
         if participant_state(session, participant.id) in ENDED_STATES:
             raise ConsoleError(f"{participant.code}'s session has ended; nothing to skip")

@@ -31,7 +31,7 @@ from markupsafe import Markup, escape
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
-from hcss.platform.console import eventlog, forms
+from hcss.platform.console import forms
 from hcss.platform.console.audit import audit_entries
 from hcss.platform.console.interventions import (
     ConsoleError,
@@ -58,6 +58,7 @@ from hcss.platform.console.signin import answer_sign_in
 from hcss.platform.console.skipping import skip_step, skip_targets
 from hcss.platform.console.withdrawal import WithdrawalError, withdraw
 from hcss.platform.db import database, get_session, session_now
+from hcss.platform.live.service import LiveTrials, live_trials
 from hcss.platform.models import AuditRecord, ConsoleAction, Experimenter, Participant
 from hcss.platform.models.participant_state import participant_state
 from hcss.platform.models.pilots import is_pilot
@@ -99,7 +100,6 @@ def _sign_in_first() -> ResponseReturnValue:
 @bp.record_once
 def _init_login(state) -> None:
     login_manager.init_app(state.app)
-    eventlog.install(state.app)
 
 
 @bp.app_context_processor
@@ -133,8 +133,8 @@ def _load_experimenter(user_id: str) -> Experimenter | None:
     return experimenter_for_cookie(get_session(), user_id)
 
 
-def _runner():
-    return current_app.extensions["hcss_runner"]
+def _live() -> LiveTrials:
+    return live_trials()
 
 
 def _participant(code: str) -> Participant:
@@ -241,7 +241,7 @@ def _table_page():
     if time_out_abandoned(session, session_now(session)):  # the study files' [timeouts]
         session.commit()
     return progress_page(
-        session, _runner().clock(), page=number, hide=hide, search=request.args.get("q", "")
+        session, _live().now(), page=number, hide=hide, search=request.args.get("q", "")
     )
 
 
@@ -258,7 +258,7 @@ def create():
             get_session(),
             current_user,
             form.count.data,
-            _runner().clock(),
+            _live().now(),
             current_app.config.get("LINKS_PER_EXPERIMENTER"),
         )
     except LinkLimitReached as reached:
@@ -272,7 +272,7 @@ def create():
             pilot=form.pilot.data,
             cell=form.cell.data,
             experimenter=current_user,
-            now=_runner().clock(),
+            now=_live().now(),
             study=form.study.data,
         )
     except ConsoleError as error:
@@ -405,9 +405,9 @@ def bulk():  # type: ignore[no-untyped-def]
     for found in chosen:
         try:
             if action in ("pause", "resume", "abort"):
-                change_participant_state(database(), _runner(), found, current_user, action)
+                change_participant_state(database(), _live(), found, current_user, action)
             else:
-                set_pilot(database(), _runner(), found, current_user, action == "mark_pilot")
+                set_pilot(database(), _live(), found, current_user, action == "mark_pilot")
             done.append(found.code)
         except ConsoleError as error:
             refused.append(str(error))
@@ -432,15 +432,15 @@ def act(code: str, action: str):
     back = _safe_next(back) if back else url_for("console.participant", code=code)
     try:
         if action in ("mark_pilot", "unmark_pilot"):
-            set_pilot(database(), _runner(), found, current_user, action == "mark_pilot")
+            set_pilot(database(), _live(), found, current_user, action == "mark_pilot")
         elif action == "skip_stage":
-            skipped = skip_step(database(), _runner(), found, current_user, _to_stage())
+            skipped = skip_step(database(), _live(), found, current_user, _to_stage())
             flash(f"{code}: skipped {skipped}")
             return redirect(back), 303
         elif action == "reinstate":
-            reinstate(database(), _runner(), found, current_user)
+            reinstate(database(), _live(), found, current_user)
         else:
-            change_participant_state(database(), _runner(), found, current_user, action)
+            change_participant_state(database(), _live(), found, current_user, action)
     except ConsoleError as error:
         flash(str(error))
         return redirect(back), 303
@@ -468,7 +468,7 @@ def withdraw_participant(code: str):
         flash("The code typed does not match; nothing was deleted.")
         return redirect(url_for("console.participant", code=code)), 303
     try:
-        counts = withdraw(database(), _runner(), code, current_user.username)
+        counts = withdraw(database(), _live(), code, current_user.username)
     except WithdrawalError as error:
         flash(str(error))
         return redirect(url_for("console.index")), 303

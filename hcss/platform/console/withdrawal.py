@@ -14,8 +14,7 @@ from sqlalchemy import ColumnElement, MetaData, Select, Table, delete, false, or
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
-from hcss.platform.live.runner import Runner
-from hcss.platform.live.service import HostedElsewhere, withdrawing
+from hcss.platform.live.service import HostedElsewhere, LiveTrials
 from hcss.platform.models import AuditRecord, Base, DeletionPermit, Participant, Trial
 
 
@@ -62,7 +61,7 @@ def participant_row_counts(session: Session, participant_id: int) -> dict[str, i
 
 
 def withdraw(
-    database: Database, runner: Runner, participant_code: str, experimenter: str
+    database: Database, live: LiveTrials, participant_code: str, experimenter: str
 ) -> dict[str, int]:
     """Delete the participant's data and write the audit row; returns the row counts.
 
@@ -80,7 +79,7 @@ def withdraw(
             session.scalars(select(Trial.id).where(Trial.participant_id == participant_id))
         )
     try:
-        with withdrawing(runner, trial_ids, "withdrawn"):
+        with live.withdrawing(trial_ids, "withdrawn"):
             return _delete_all(database, participant_id, participant_code, experimenter)
     except HostedElsewhere as elsewhere:
         raise WithdrawalError(

@@ -69,7 +69,8 @@ def submit_request(
     live: RunningTrial,
     command: OperatorCommand,
     selections: tuple[int, ...] = (),
-    key: KeyedCommand | None = None,
+    *,
+    key: KeyedCommand,
 ) -> dict[str, Any]:
     """Apply `command` and log it with its outcome; the answer the participant's page gets."""
     with live.lock:
@@ -119,7 +120,7 @@ def record_observation(
     collective: int | None,
     target: int | None,
     button: str,
-    key: KeyedCommand | None = None,
+    key: KeyedCommand,
 ) -> dict[str, Any]:
     """A click on the map; the answer is the observation's id (201 Created)."""
     with live.lock:
@@ -133,7 +134,8 @@ def probe_ready(
     live: RunningTrial,
     probe: CurrentProbe,
     now: float | None = None,
-    key: KeyedCommand | None = None,
+    *,
+    key: KeyedCommand,
 ) -> dict[str, Any]:
     """The Ready press on the open `probe`; `now` (the runner's wall clock) times it from the
     prompt's delivery."""
@@ -154,7 +156,8 @@ def probe_answer(
     probe: CurrentProbe,
     answer: str,
     now: float | None = None,
-    key: KeyedCommand | None = None,
+    *,
+    key: KeyedCommand,
 ) -> dict[str, Any]:
     """The answer to the open `probe`; timed from the question's delivery (or the Ready press,
     if never sent)."""
@@ -176,7 +179,7 @@ def _written(
     database: Database,
     live: RunningTrial,
     fact: Fact,
-    key: KeyedCommand | None,
+    key: KeyedCommand,
     answer_of: Any,
     status: int = 200,
 ) -> int | None:
@@ -226,11 +229,10 @@ def _request_answer(row_id: int | None, applied: CommandApplied) -> dict[str, An
 
 
 def _answered(
-    session: Session, key: KeyedCommand | None, answer: dict[str, Any], status: int = 200
+    session: Session, key: KeyedCommand, answer: dict[str, Any], status: int = 200
 ) -> dict[str, Any]:
-    """`answer`, stored with the command's idempotency key (if sent) in the command's transaction."""
-    if key is not None:
-        trial_writer.write_command_key(session, key, status, answer)
+    """`answer`, stored with the command's idempotency key in the command's transaction."""
+    trial_writer.write_command_key(session, key, status, answer)
     return answer
 
 

@@ -6,7 +6,7 @@ values to the live service: a command as a value to its one door
 (`door.carry_out`), which finds the trial, takes its lock, checks, applies,
 writes and answers; the stream to `frames.open_stream`. It never holds the
 trial itself. Every POST is CSRF-protected (X-CSRFToken header, from the page's
-meta tag) and idempotent when it carries an Idempotency-Key header
+meta tag) and carries an Idempotency-Key header, without which it is refused
 (hcss.platform.live.idempotency). Bad input gets a JSON error and changes nothing.
 """
 
@@ -17,11 +17,11 @@ from typing import Any
 
 from flask import Blueprint, Response, current_app, jsonify, request
 
-from hcss.platform.db import database
 from hcss.platform.guards.clients import request_client
-from hcss.platform.live import door, frames
-from hcss.platform.live.access import require_owner, runner, trial_for
+from hcss.platform.live import door
+from hcss.platform.live.access import require_owner, trial_for
 from hcss.platform.live.idempotency import idempotent
+from hcss.platform.live.service import live_trials
 from hcss.platform.live.stream_slots import RETRY_AFTER_S, StreamSlots, client_share, study_share
 from hcss.platform.live.trial_writer import KeyedCommand
 
@@ -72,9 +72,7 @@ def stream_position(text: str) -> int:
 def stream(token: str, trial_id: int) -> Response:
     trial = trial_for(token, trial_id)
     last = request.headers.get("Last-Event-ID", request.args.get("after", "0"))
-    opened = frames.open_stream(
-        database(),
-        runner(),
+    opened = live_trials().open_stream(
         stream_slots(),
         trial,
         token=token,
@@ -96,40 +94,36 @@ def stream(token: str, trial_id: int) -> Response:
 def state(token: str, trial_id: int) -> Response:
     """One frame of the stream as plain JSON, for bots and scripts."""
     require_owner(token, trial_id)
-    return Response(frames.frame(runner(), trial_id), mimetype="application/json")
+    return Response(live_trials().frame(trial_id), mimetype="application/json")
 
 
 @bp.post("/requests")
 @idempotent
-def submit_request(token: str, trial_id: int, key: KeyedCommand | None):
-    require_owner(token, trial_id)
+def submit_request(token: str, trial_id: int, key: KeyedCommand):
     return _carried_out(door.SubmitRequest(trial_id, _json()), key)
 
 
 @bp.post("/observations")
 @idempotent
-def observe(token: str, trial_id: int, key: KeyedCommand | None):
-    require_owner(token, trial_id)
+def observe(token: str, trial_id: int, key: KeyedCommand):
     return _carried_out(door.Observe(trial_id, _json()), key)
 
 
 @bp.post("/probes/<int:probe_id>/ready")
 @idempotent
-def probe_ready(token: str, trial_id: int, probe_id: int, key: KeyedCommand | None):
-    require_owner(token, trial_id)
+def probe_ready(token: str, trial_id: int, probe_id: int, key: KeyedCommand):
     return _carried_out(door.ProbeReady(trial_id, probe_id), key)
 
 
 @bp.post("/probes/<int:probe_id>/answer")
 @idempotent
-def probe_answer(token: str, trial_id: int, probe_id: int, key: KeyedCommand | None):
-    require_owner(token, trial_id)
+def probe_answer(token: str, trial_id: int, probe_id: int, key: KeyedCommand):
     return _carried_out(door.ProbeAnswer(trial_id, probe_id, _json()), key)
 
 
-def _carried_out(command: door.Command, key: KeyedCommand | None) -> Response:
+def _carried_out(command: door.Command, key: KeyedCommand) -> Response:
     """The command through the live service's door, its answer as the page gets it."""
-    return _response(door.carry_out(database(), runner(), command, key))
+    return _response(live_trials().carry_out(command, key))
 
 
 def _response(answer: door.Answer) -> Response:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 import re
+import uuid
 from collections.abc import Iterator
 from typing import Any
 
@@ -52,10 +53,9 @@ class TrialClient:
     def post(
         self, path: str, body: dict[str, Any], *, key: str | None = None
     ) -> tuple[int, dict[str, Any]]:
-        """POST a command; with `key` as its Idempotency-Key (a repeat gets the first answer)."""
-        headers = {"X-CSRFToken": self.csrf}
-        if key is not None:
-            headers["Idempotency-Key"] = key
+        """POST a command with `key` as its Idempotency-Key (a repeat gets the first answer);
+        a fresh one when none is given, as the page sends with every command."""
+        headers = {"X-CSRFToken": self.csrf, "Idempotency-Key": key or uuid.uuid4().hex}
         response = self.http.post(self.api + path, json=body, headers=headers)
         return response.status_code, response.json() if response.content else {}
 

@@ -148,12 +148,17 @@ NOT_RUNNING = "not_running"
 def carry_out(
     database: Database, runner: Runner, command: Command, key: KeyedCommand | None = None
 ) -> Answer:
-    """Find, lock, check, apply, write and answer `command`; with `key`, carried out once.
+    """Find, lock, check, apply, write and answer `command`, carried out once per `key`.
 
-    Raises only what is not an answer of the command: `HostedElsewhere` for
-    the participant's command on a trial another process hosts, and the
+    A participant's command comes with its key (the API refuses one without);
+    a console's `Control` has none: it is carried out once by its state check
+    (a second pause finds the trial paused and writes nothing). Raises only
+    what is not an answer of the command: `HostedElsewhere` for the
+    participant's command on a trial another process hosts, and the
     database's errors (the app answers 503).
     """
+    if isinstance(command, Control) != (key is None):
+        raise ValueError("a participant's command carries its key, a console's control none")
     with runner.commanding(command.trial_id):  # not handed to another process meanwhile
         try:
             live = runner.host(command.trial_id, participant=not isinstance(command, Control))
@@ -162,7 +167,7 @@ def carry_out(
                 raise  # the page retries (503); an order waits for the trial's next host
             return _ordered(database, runner, command)
         with live.lock if live is not None else nullcontext():  # a key's repeats wait here
-            if key is None:
+            if key is None:  # the console's control
                 return _applied(database, runner, live, command, None)
             row = _stored(database, key)
             if row is not None:
@@ -231,6 +236,7 @@ def _applied(
             if live is None:
                 return Answer(404, {"error": NOT_RUNNING})
             return Answer(200, {"outcome": _controlled(runner, live, command)})
+        assert key is not None  # `carry_out` checked it
         if live is None:
             raise ActionError("the trial has ended", 409, "ended")
         # The body is read first (a malformed one is refused whatever the trial's state),

@@ -9,9 +9,10 @@ action's own transaction when it records something; a repeat gets that answer
 back (header ``Idempotent-Replayed``), and a key reused for another command is
 refused with 422. The view itself never runs under the trial's lock.
 
-A POST without the header is carried out as before, without protection
-against repeats: scripts and bots that predate keys keep working. A header
-that is present but malformed gets a 400 and changes nothing.
+A POST without the header is refused with a 400 (``idempotency_key_required``)
+and changes nothing: the page and both bots send a key with every command,
+so a command is carried out once however often its answer is lost. A header
+that is present but malformed gets a 400 too.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from typing import Any
 
 from flask import request
 
+from hcss.platform.live.access import require_owner
 from hcss.platform.live.door import ActionError
 from hcss.platform.live.trial_writer import KeyedCommand
 
@@ -31,11 +33,16 @@ KEY_HEADER = "Idempotency-Key"
 KEY_PATTERN = re.compile(r"[A-Za-z0-9_-]{8,64}")
 
 
-def command_key() -> str | None:
-    """The request's key; None when absent; ActionError (400) when malformed."""
+def command_key() -> str:
+    """The request's key; ActionError (400) when absent or malformed."""
     raw = request.headers.get(KEY_HEADER)
     if raw is None:
-        return None
+        raise ActionError(
+            f"send an '{KEY_HEADER}' header with every command (a fresh one per command, "
+            "e.g. a UUID), so that a command sent again is carried out once",
+            400,
+            "idempotency_key_required",
+        )
     if not KEY_PATTERN.fullmatch(raw):
         raise ActionError(
             f"'{KEY_HEADER}' must be 8 to 64 letters, digits, '-' or '_' "
@@ -60,18 +67,19 @@ def idempotent(view: Callable[..., Any]) -> Callable[..., Any]:
     """Route decorator: the request's key, read and checked, handed to the view as a value.
 
     The view is called with `key`: the request's key as a value (`KeyedCommand`),
-    for the action to store with what it records; None when the POST has no key.
-    The view checks that the token owns the trial (404) before the key reaches the
-    door, so another participant's trial never has a key stored.
+    for the action to store with what it records. The token's ownership of the
+    trial is checked first (404), so another participant's trial answers the
+    same whatever the headers, and never has a key stored.
     """
 
     @wraps(view)
     def wrapper(token: str, trial_id: int, **kwargs: Any) -> Any:
-        sent = command_key()
-        if sent is None:
-            return view(token, trial_id, key=None, **kwargs)
+        require_owner(token, trial_id)
         key = KeyedCommand(
-            trial_id=trial_id, key=sent, endpoint=str(request.endpoint), fingerprint=_fingerprint()
+            trial_id=trial_id,
+            key=command_key(),
+            endpoint=str(request.endpoint),
+            fingerprint=_fingerprint(),
         )
         return view(token, trial_id, key=key, **kwargs)
 

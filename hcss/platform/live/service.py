@@ -1,42 +1,56 @@
-"""The live service for the console and the study flow, in plain values; and the runner's
-assembly with the service's door.
+"""`LiveTrials`: the live wing as one service, the only live object the rest of the platform
+holds.
 
-The console names a trial by its id and an action by its word; it never holds
-a `RunningTrial`, its lock or a session of the trial log. Its pause, resume
-and abort go through the same door as the participant's commands
-(`door.carry_out` with a `door.Control`), which decides whether this process
-hosts the trial (then the action is carried out under the trial's lock, in
-one unit of work) or another one does (then a `TrialOrder` asks that host,
-whose runner carries it out through the door, and this waits for its
-confirmation). The import-linter contract "The console reaches live trials
-through the live service" (pyproject.toml) keeps it so.
+`create_app` builds it (`init_live`); the console, the study flow and the
+participant's JSON API get it (`live_trials()`) and nothing else. It answers
+in plain values: a command (`door.Command`) is carried out by `carry_out`,
+which gives an `Answer`; the console's pause, resume and abort by `control`;
+the stream's reads by `frame` and `open_stream`; the questions the others
+ask (is this trial held here for this token? what time is it for the
+trials?) by methods of their own. The runner, the trial in memory, its lock
+and the trial log's writer stay inside the wing: the import contract "Only
+the live service reaches into the live wing" (pyproject.toml) forbids them
+to every other package of the platform, and tests/test_architecture.py
+keeps every module outside the wing from the runner's app extension.
+
+The console's pause, resume and abort go through the same door as the
+participant's commands (`door.carry_out` with a `door.Control`), which
+decides whether this process hosts the trial (then the action is carried
+out under the trial's lock, in one unit of work) or another one does (then
+a `TrialOrder` asks that host, whose runner carries it out through the
+door, and this waits for its confirmation).
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterator
 from contextlib import contextmanager
+from typing import Any
 
-from flask import Flask
+from flask import Flask, current_app
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
-from hcss.platform.live import door
+from hcss.platform.live import door, frames
 from hcss.platform.live.leases import LEASE_S, HostedElsewhere, Leases
 from hcss.platform.live.runner import Runner
+from hcss.platform.live.stream_slots import StreamSlots
+from hcss.platform.live.trial_writer import KeyedCommand
 from hcss.platform.live.trials import current_trial, latest_status
-from hcss.platform.models import Participant
+from hcss.platform.models import Participant, Trial
 from hcss.platform.models.vocabularies import TrialStatus
 
 __all__ = [
+    "Answer",
     "HostedElsewhere",
+    "LiveTrials",
     "OrderUnconfirmed",
-    "control_session_trial",
-    "finish_overdue_trial",
-    "init_runner",
+    "init_live",
+    "live_trials",
     "running_trial_id",
-    "withdrawing",
 ]
+
+Answer = door.Answer
 
 
 class OrderUnconfirmed(Exception):
@@ -58,39 +72,6 @@ def running_trial_id(session: Session, participant: Participant) -> int | None:
     if trial is None or latest_status(session, trial.id) != TrialStatus.RUNNING:
         return None
     return trial.id
-
-
-def control_session_trial(
-    database: Database,
-    runner: Runner,
-    trial_id: int,
-    action: str,
-    *,
-    participant_id: int,
-    experimenter_id: int | None,
-) -> bool:
-    """Pause, resume or abort a running trial wherever it is hosted; False if it runs nowhere.
-
-    Hosted here (or taken over now): carried out at once. Hosted by another
-    live process: a `TrialOrder` for it, confirmed within the order's wait,
-    else `OrderUnconfirmed` (the order stays and is carried out later).
-    """
-    control = door.Control(
-        trial_id, action, participant_id=participant_id, experimenter_id=experimenter_id
-    )
-    answer = door.carry_out(database, runner, control)
-    if answer.status == 404:
-        return False
-    if answer.status == 202:
-        raise OrderUnconfirmed(trial_id, action)
-    return True
-
-
-@contextmanager
-def withdrawing(runner: Runner, trial_ids: list[int], reason: str) -> Iterator[None]:
-    """No process writes a row for these trials while the block deletes them (`Runner.withdrawing`)."""
-    with runner.withdrawing(trial_ids, reason):
-        yield
 
 
 def finish_overdue_trial(runner: Runner, participant: Participant) -> None:
@@ -117,11 +98,94 @@ def finish_overdue_trial(runner: Runner, participant: Participant) -> None:
         runner.finish_overdue(trial.id)
 
 
-def init_runner(app: Flask) -> Runner:
-    """Attach a runner to the app; its thread starts only if LIVE_RUNNER (`hcss serve`) asks.
+class LiveTrials:
+    """The live trials of this process, as the rest of the platform sees them."""
+
+    def __init__(self, database: Database, runner: Runner) -> None:
+        self._database = database
+        self._runner = runner
+
+    # --- commands -------------------------------------------------------------------
+
+    def carry_out(self, command: door.Command, key: KeyedCommand | None = None) -> door.Answer:
+        """The command carried out (once per `key`) and answered (`door.carry_out`)."""
+        return door.carry_out(self._database, self._runner, command, key)
+
+    def control(
+        self, trial_id: int, action: str, *, participant_id: int, experimenter_id: int | None
+    ) -> bool:
+        """Pause, resume or abort a running trial wherever it is hosted; False if it runs
+        nowhere.
+
+        Hosted here (or taken over now): carried out at once. Hosted by another
+        live process: a `TrialOrder` for it, confirmed within the order's wait,
+        else `OrderUnconfirmed` (the order stays and is carried out later).
+        """
+        control = door.Control(
+            trial_id, action, participant_id=participant_id, experimenter_id=experimenter_id
+        )
+        answer = self.carry_out(control)
+        if answer.status == 404:
+            return False
+        if answer.status == 202:
+            raise OrderUnconfirmed(trial_id, action)
+        return True
+
+    @contextmanager
+    def withdrawing(self, trial_ids: list[int], reason: str) -> Iterator[None]:
+        """No process writes a row for these trials while the block deletes them; then they
+        end (`reason`) and are let go (`Runner.withdrawing`). `HostedElsewhere` when their
+        host did not hand them over in time (nothing is deleted)."""
+        with self._runner.withdrawing(trial_ids, reason):
+            yield
+
+    def finish_overdue(self, participant: Participant) -> None:
+        """End the participant's trial if its deadline passed unstepped (`finish_overdue_trial`)."""
+        finish_overdue_trial(self._runner, participant)
+
+    # --- questions --------------------------------------------------------------------
+
+    def now(self) -> float:
+        """The clock the trials step by and their rows are stamped with (epoch seconds)."""
+        return self._runner.clock()
+
+    def holds_for(self, token: str, trial_id: int) -> bool:
+        """Whether this process holds the trial in memory for this token (`Runner.holds_for`);
+        False: ask the database."""
+        return self._runner.holds_for(token, trial_id)
+
+    # --- the stream's reads ---------------------------------------------------------------
+
+    def frame(self, trial_id: int) -> str:
+        """One frame of the trial's stream as JSON text (`frames.frame`)."""
+        return frames.frame(self._runner, trial_id)
+
+    def open_stream(self, slots: StreamSlots, trial: Trial, **reading: Any) -> frames.Stream:
+        """The trial's stream (`frames.open_stream`: token, client, position, pace)."""
+        return frames.open_stream(self._database, self._runner, slots, trial, **reading)
+
+    # --- the runner's thread ------------------------------------------------------------
+
+    def catch_up(self) -> None:
+        """Bring every trial hosted here up to the clock now (one pass of the runner): for
+        in-process bots and scripts that move a `ManualClock` instead of running the thread."""
+        self._runner.tick()
+
+    def start(self) -> None:
+        self._runner.start()
+
+    def stop(self) -> None:
+        self._runner.stop()
+
+
+def init_live(app: Flask) -> LiveTrials:
+    """Build the app's live service (`app.extensions["hcss_live"]`) around its runner; the
+    runner's thread starts only if LIVE_RUNNER (`hcss serve`) asks.
 
     The runner carries out the console's orders for its trials through the
-    service's door (`door.carry_out_order`), the one way into a trial.
+    service's door (`door.carry_out_order`), the one way into a trial. The
+    runner is kept among the app's extensions for the wing's own modules and
+    the tests; nothing outside the wing names it.
     """
     database = app.extensions["hcss_db"]
     process = app.config.get("PROCESS_NAME")
@@ -139,6 +203,12 @@ def init_runner(app: Flask) -> Runner:
         carry_out_order=door.carry_out_order,
     )
     app.extensions["hcss_runner"] = runner
+    live = app.extensions["hcss_live"] = LiveTrials(database, runner)
     if app.config["LIVE_RUNNER"]:
-        runner.start()
-    return runner
+        live.start()
+    return live
+
+
+def live_trials() -> LiveTrials:
+    """The current app's live service."""
+    return current_app.extensions["hcss_live"]

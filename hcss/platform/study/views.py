@@ -13,14 +13,14 @@ from __future__ import annotations
 from datetime import datetime
 from typing import Any
 
-from flask import Blueprint, Flask, current_app, g, redirect, render_template, request, url_for
+from flask import Blueprint, Flask, g, redirect, render_template, request, url_for
 from sqlalchemy import inspect, select
 from sqlalchemy.exc import IntegrityError, SQLAlchemyError
 from werkzeug.exceptions import NotFound
 from werkzeug.wrappers import Response
 
 from hcss.platform.db import get_session
-from hcss.platform.live.service import finish_overdue_trial
+from hcss.platform.live.service import live_trials
 from hcss.platform.models import Participant, StageEvent, StudyEnrolment
 from hcss.platform.models.participant_state import participant_state
 from hcss.platform.study.enrolment import current_enrolment, first_enrolment
@@ -101,7 +101,7 @@ def _flow(token: str) -> Flow:
     if _past_deadline(flow):
         # Before the flow writes: the live service ends a trial past its deadline in
         # units of work of its own (see trial_stage), and the flow then reads it ended.
-        finish_overdue_trial(current_app.extensions["hcss_runner"], flow.participant)
+        live_trials().finish_overdue(flow.participant)
     return flow
 
 

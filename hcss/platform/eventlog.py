@@ -2,10 +2,14 @@
 
 Enrolled, stage entered (and submitted or timed out), trial started and
 ended, and errors: read from the rows as they are committed, not from calls
-sprinkled through the study engine and the live runner. A listener on every
-SQLAlchemy session collects the rows each flush adds and logs them when the
+sprinkled through the study engine and the live runner. A listener on the
+app's own session factory (`Database.sessions`, not every SQLAlchemy session
+of the process) collects the rows each flush adds and logs them when the
 transaction commits; a rolled-back request logs nothing, so the terminal
-never shows an event the database does not hold.
+never shows an event the database does not hold. `create_app` installs it:
+the server's log is the app's, not the console's (before issue 41 the
+console's blueprint installed it on every session of the process, so every
+live write ran console code).
 
 The lines go to the ``hcss.events`` logger (Python logging); `hcss serve`
 sends it to stderr. Participants are named by code, never by token.
@@ -109,9 +113,10 @@ def _request_failed(app: Flask, exception: BaseException, **_extra: Any) -> None
 
 
 def install(app: Flask) -> None:
-    """Listen on every session, and on the app's failed requests (both idempotent)."""
-    if not event.contains(Session, "after_flush", _collect):
-        event.listen(Session, "after_flush", _collect)
-        event.listen(Session, "after_commit", _emit)
-        event.listen(Session, "after_rollback", _discard)
+    """Listen on the app's sessions, and on its failed requests (both idempotent)."""
+    sessions = app.extensions["hcss_db"].sessions
+    if not event.contains(sessions, "after_flush", _collect):
+        event.listen(sessions, "after_flush", _collect)
+        event.listen(sessions, "after_commit", _emit)
+        event.listen(sessions, "after_rollback", _discard)
     got_request_exception.connect(_request_failed, app)
