@@ -54,6 +54,10 @@ MTURK_SUBMIT_TO = "turkSubmitTo"
 #: ("Mechanical Turk appends ... turkSubmitTo=https://www.mturk.com/", How Mechanical
 #: Turk tasks are rendered; the sandbox's is https://workersandbox.mturk.com).
 MTURK_SUBMIT_ORIGINS = ("https://www.mturk.com", "https://workersandbox.mturk.com")
+#: Where the debrief's externalSubmit may go, redirects included: MTurk answers the post
+#: with a redirect to another of its hosts (www.mturk.com sends workers on to
+#: worker.mturk.com), and Chromium checks a form's CSP form-action on every redirect.
+MTURK_FORM_ACTION = ("https://*.mturk.com",)
 #: The pages that show a HIT's iframe: the worker site, the older www site and the sandbox.
 MTURK_FRAME_ORIGINS = (
     "https://worker.mturk.com",
@@ -229,6 +233,14 @@ class OnlineSettings:
         if not self.mturk:
             return ()
         return tuple(self.mturk_origins) or MTURK_SUBMIT_ORIGINS
+
+    @property
+    def mturk_form_action(self) -> tuple[str, ...]:
+        """Where the debrief's externalSubmit and MTurk's redirects after it may go: any
+        MTurk host (or every stand-in the study names)."""
+        if not self.mturk:
+            return ()
+        return tuple(self.mturk_origins) or MTURK_FORM_ACTION
 
     @field_validator("redirect")
     @classmethod

@@ -35,6 +35,7 @@ from hcss.platform.guards.hardening import allow_form_action_to, allow_framing_b
 from hcss.platform.guards.ratelimit import enrolment_refusal
 from hcss.platform.models import Participant, Recruitment, ReturnVisit
 from hcss.platform.study.enrolment import assign_cell, cell_counts, hold_assignment_lock
+from hcss.platform.study.flow import participant_status
 from hcss.platform.study.limits import Timeouts
 from hcss.platform.study.online import (
     HitPreview,
@@ -235,7 +236,8 @@ def enrol_or_resume(session: Session, study: Study, recruit: Recruit) -> Partici
 
 
 def mturk_submission(study: Study, recruit: Recruit) -> MTurkSubmission | None:
-    """The externalSubmit form for an MTurk worker; the answer may post there (form-action).
+    """The externalSubmit form for an MTurk worker; the answer may post there (form-action),
+    and follow MTurk's redirect to another of its hosts.
 
     `submit_to` was checked when the worker started; it is checked again against
     the study file as it is now, so a file that stops naming a server stops the posts.
@@ -245,7 +247,7 @@ def mturk_submission(study: Study, recruit: Recruit) -> MTurkSubmission | None:
         return None
     if submit_to not in study.online.mturk_submit_origins:
         return None
-    allow_form_action_to([submit_to])
+    allow_form_action_to(dict.fromkeys([submit_to, *study.online.mturk_form_action]))
     fields = {"assignmentId": assignment}
     if study.online.completion_code:
         fields["completionCode"] = study.online.completion_code
@@ -283,6 +285,7 @@ def join(study_name: str) -> Response | tuple[str, int] | str:
         if found is not None and not framed:
             record_return(get_session(), found, recruit)
             return redirect(url_for("study.enter", token=found.token))
+        finished = found is not None and _finished(get_session(), found)
         _check_anonymous(study, recruit)
         if found is None:
             _check_room(get_session(), study)
@@ -301,8 +304,29 @@ def join(study_name: str) -> Response | tuple[str, int] | str:
         parameters=recruitment_parameters(recruit),
         action=url_for("join.start", study_name=study.name),
         framed=framed,
+        finished=finished,
         own_window=request.full_path,
+        status_url=url_for("join.hit_status", study_name=study.name, **request.args),
     )
+
+
+@bp.get("/<study_name>/status")
+def hit_status(study_name: str) -> ResponseReturnValue:
+    """Whether the visitor of these recruitment ids has finished: MTurk's frame of the link
+    asks while the study runs in its own window, to stop offering it once it is done."""
+    try:
+        study = linked_study(study_name)
+        recruit = recruit_from(request.args)
+        check_submit_to(recruit, study.online.mturk_submit_origins)
+    except RecruitmentError as refusal:
+        return {"error": str(refusal)}, 404 if isinstance(refusal, NoStudyLink) else 400
+    found = returning_participant(get_session(), study, recruit)
+    return {"finished": found is not None and _finished(get_session(), found)}
+
+
+def _finished(session: Session, participant: Participant) -> bool:
+    """Done with the study: completed, or ended in any other way (nothing left to open)."""
+    return participant_status(session, participant) not in ("in_progress", "not_started")
 
 
 @bp.post("/<study_name>")
