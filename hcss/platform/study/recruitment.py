@@ -22,6 +22,7 @@ one of MTurk's servers when the worker starts.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from urllib.parse import urlencode
 
 from flask import Blueprint, redirect, render_template, request, url_for
 from flask.typing import ResponseReturnValue
@@ -306,7 +307,9 @@ def join(study_name: str) -> Response | tuple[str, int] | str:
         framed=framed,
         finished=finished,
         own_window=request.full_path,
-        status_url=url_for("join.hit_status", study_name=study.name, **request.args),
+        status_url=url_for("join.hit_status", study_name=study.name)
+        + "?"
+        + urlencode(list(request.args.items(multi=True))),
     )
 
 
