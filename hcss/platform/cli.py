@@ -349,7 +349,8 @@ def _warn_about_study_files(app: Flask) -> None:
     "--study",
     default=None,
     envvar="HCSS_STUDY",
-    help="The study whose trial length is used; default: the running server's study.",
+    help="The study whose trial length is used; default: the study of the server on --port "
+    "(or of the last one started).",
 )
 @click.option("--model", type=click.Choice(MODELS), default="M1", show_default=True)
 @click.option("--training", is_flag=True, help="A training trial (two collectives).")
@@ -376,7 +377,7 @@ def demo_trial(
     from hcss.platform.models import Participant
     from hcss.platform.serving.announce import read_serving_file
 
-    serving = read_serving_file()
+    serving = read_serving_file(port)  # the server on --port, else the last one started
     if base_url is None:
         base_url = (
             f"http://127.0.0.1:{port}"
