@@ -6,17 +6,10 @@ registers them here, so this module stays a short table of contents.
 
 from __future__ import annotations
 
+import importlib
 import os
 
 import click
-
-from hcss.analysis.cli import analyze
-from hcss.experiments import cli as experiments_cli
-from hcss.platform.bots.command import bots_command
-from hcss.platform.cli import db_group, demo_trial, deploy_group, serve
-from hcss.platform.console.cli import admin_group
-from hcss.platform.export.cli import export
-from hcss.simulation import cli as model_cli
 
 
 class ByAudience(click.CommandCollection):
@@ -35,27 +28,53 @@ class ByAudience(click.CommandCollection):
                 formatter.write_dl(rows)
 
 
-#: `hcss simulate ...`: the model's command and the experiments', one command line.
-simulate = ByAudience(
-    "simulate",
-    sources=[model_cli.simulate, experiments_cli.simulate],
-    help="Run the simulation: a live demo or the simulation-only experiment.",
-)
+def simulate_command() -> click.Command:
+    """`hcss simulate ...`: the model's command and the experiments', one command line."""
+    from hcss.experiments import cli as experiments_cli
+    from hcss.simulation import cli as model_cli
 
-COMMANDS = (
-    simulate,
-    analyze,
-    serve,
-    db_group,
-    demo_trial,
-    deploy_group,
-    admin_group,
-    export,
-    bots_command,
-)
+    return ByAudience(
+        "simulate",
+        sources=[model_cli.simulate, experiments_cli.simulate],
+        help="Run the simulation: a live demo or the simulation-only experiment.",
+    )
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+#: Each command, by name, as ``module:attribute`` (a callable making it when the attribute
+#: is a function ending in ``_command`` of this module). A command's module is imported
+#: only when that command runs (or `--help` lists them): importing them all (numba,
+#: pandas, scipy, SQLAlchemy's models) made `hcss --version` take 9.5 s under load.
+COMMANDS = {
+    "simulate": "hcss.cli:simulate_command",
+    "analyze": "hcss.analysis.cli:analyze",
+    "serve": "hcss.platform.cli:serve",
+    "db": "hcss.platform.cli:db_group",
+    "demo-trial": "hcss.platform.cli:demo_trial",
+    "deploy": "hcss.platform.cli:deploy_group",
+    "admin": "hcss.platform.console.cli:admin_group",
+    "export": "hcss.platform.export.cli:export",
+    "bots": "hcss.platform.bots.command:bots_command",
+}
+
+
+class LazyCommands(click.Group):
+    """A group whose commands are imported when asked for (click's documented pattern)."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted({*super().list_commands(ctx), *COMMANDS})
+
+    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
+        if cmd_name not in COMMANDS:
+            return super().get_command(ctx, cmd_name)
+        module, _, attribute = COMMANDS[cmd_name].partition(":")
+        found = getattr(importlib.import_module(module), attribute)
+        command = found() if attribute.endswith("_command") and module == __name__ else found
+        if not isinstance(command, click.Command) or command.name != cmd_name:
+            raise RuntimeError(f"{COMMANDS[cmd_name]} is not the command {cmd_name!r}")
+        return command
+
+
+@click.group(cls=LazyCommands, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="hcss")
 @click.option(
     "--studies",
@@ -69,10 +88,6 @@ def main(studies: str | None) -> None:
     if studies:
         # The environment, not a global: `hcss serve` and the bots' servers inherit it.
         os.environ["HCSS_STUDIES"] = os.path.abspath(studies)
-
-
-for command in COMMANDS:
-    main.add_command(command)
 
 
 if __name__ == "__main__":  # pragma: no cover
