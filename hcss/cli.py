@@ -6,8 +6,8 @@ registers them here, so this module stays a short table of contents.
 
 from __future__ import annotations
 
-import importlib
 import os
+from collections.abc import Callable
 
 import click
 
@@ -28,7 +28,7 @@ class ByAudience(click.CommandCollection):
                 formatter.write_dl(rows)
 
 
-def simulate_command() -> click.Command:
+def _simulate() -> click.Command:
     """`hcss simulate ...`: the model's command and the experiments', one command line."""
     from hcss.experiments import cli as experiments_cli
     from hcss.simulation import cli as model_cli
@@ -40,20 +40,67 @@ def simulate_command() -> click.Command:
     )
 
 
-#: Each command, by name, as ``module:attribute`` (a callable making it when the attribute
-#: is a function ending in ``_command`` of this module). A command's module is imported
+def _analyze() -> click.Command:
+    from hcss.analysis.cli import analyze
+
+    return analyze
+
+
+def _serve() -> click.Command:
+    from hcss.platform.cli import serve
+
+    return serve
+
+
+def _db() -> click.Command:
+    from hcss.platform.cli import db_group
+
+    return db_group
+
+
+def _demo_trial() -> click.Command:
+    from hcss.platform.cli import demo_trial
+
+    return demo_trial
+
+
+def _deploy() -> click.Command:
+    from hcss.platform.cli import deploy_group
+
+    return deploy_group
+
+
+def _admin() -> click.Command:
+    from hcss.platform.console.cli import admin_group
+
+    return admin_group
+
+
+def _export() -> click.Command:
+    from hcss.platform.export.cli import export
+
+    return export
+
+
+def _bots() -> click.Command:
+    from hcss.platform.bots.command import bots_command
+
+    return bots_command
+
+
+#: Each command by name, and the function that imports it. A command's module is imported
 #: only when that command runs (or `--help` lists them): importing them all (numba,
 #: pandas, scipy, SQLAlchemy's models) made `hcss --version` take 9.5 s under load.
-COMMANDS = {
-    "simulate": "hcss.cli:simulate_command",
-    "analyze": "hcss.analysis.cli:analyze",
-    "serve": "hcss.platform.cli:serve",
-    "db": "hcss.platform.cli:db_group",
-    "demo-trial": "hcss.platform.cli:demo_trial",
-    "deploy": "hcss.platform.cli:deploy_group",
-    "admin": "hcss.platform.console.cli:admin_group",
-    "export": "hcss.platform.export.cli:export",
-    "bots": "hcss.platform.bots.command:bots_command",
+COMMANDS: dict[str, Callable[[], click.Command]] = {
+    "simulate": _simulate,
+    "analyze": _analyze,
+    "serve": _serve,
+    "db": _db,
+    "demo-trial": _demo_trial,
+    "deploy": _deploy,
+    "admin": _admin,
+    "export": _export,
+    "bots": _bots,
 }
 
 
@@ -66,11 +113,9 @@ class LazyCommands(click.Group):
     def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
         if cmd_name not in COMMANDS:
             return super().get_command(ctx, cmd_name)
-        module, _, attribute = COMMANDS[cmd_name].partition(":")
-        found = getattr(importlib.import_module(module), attribute)
-        command = found() if attribute.endswith("_command") and module == __name__ else found
-        if not isinstance(command, click.Command) or command.name != cmd_name:
-            raise RuntimeError(f"{COMMANDS[cmd_name]} is not the command {cmd_name!r}")
+        command = COMMANDS[cmd_name]()
+        if command.name != cmd_name:
+            raise RuntimeError(f"{cmd_name!r} loaded the command {command.name!r}")
         return command
 
 

@@ -31,4 +31,3 @@ def test_the_version_comes_without_the_heavy_libraries() -> None:
     packages = {name.split(".")[0] for name in imported}
     assert "hcss.cli" in imported
     assert packages.isdisjoint(HEAVY), sorted(packages & set(HEAVY))
-
