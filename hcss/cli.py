@@ -70,6 +70,12 @@ def _deploy() -> click.Command:
     return deploy_group
 
 
+def _study() -> click.Command:
+    from hcss.platform.cli import study_group
+
+    return study_group
+
+
 def _admin() -> click.Command:
     from hcss.platform.console.cli import admin_group
 
@@ -98,6 +104,7 @@ COMMANDS: dict[str, Callable[[], click.Command]] = {
     "db": _db,
     "demo-trial": _demo_trial,
     "deploy": _deploy,
+    "study": _study,
     "admin": _admin,
     "export": _export,
     "bots": _bots,

@@ -21,6 +21,7 @@ one of MTurk's servers when the worker starts.
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 from urllib.parse import urlencode
 
@@ -36,6 +37,7 @@ from hcss.platform.guards.hardening import allow_form_action_to, allow_framing_b
 from hcss.platform.guards.ratelimit import enrolment_refusal
 from hcss.platform.models import Participant, Recruitment, ReturnVisit
 from hcss.platform.study.enrolment import assign_cell, cell_counts, hold_assignment_lock
+from hcss.platform.study.files import NoStudyFile
 from hcss.platform.study.flow import participant_status
 from hcss.platform.study.limits import Timeouts
 from hcss.platform.study.online import (
@@ -60,12 +62,18 @@ from hcss.platform.study.studyfile import Study, StudyFileError, load_study
 from hcss.platform.study.timeouts import time_out_abandoned
 
 bp = Blueprint("join", __name__, url_prefix="/join")
+#: The server's terminal (`hcss serve` prints it): a broken study file is named there.
+events = logging.getLogger("hcss.events")
 
 MAX_STUDY_NAME = 64
 
 
 class NoStudyLink(RecruitmentError):
     """No study of that name offers a link (a 404, not a 400)."""
+
+
+class StudyUnavailable(RecruitmentError):
+    """The study's file is there but cannot be read: the experimenter must repair it (503)."""
 
 
 class StudyFull(RecruitmentError):
@@ -140,8 +148,15 @@ def linked_study(name: str) -> Study:
         raise NoStudyLink("There is no study at this link.")
     try:
         study = load_study(name)
-    except StudyFileError as error:
+    except NoStudyFile as error:
         raise NoStudyLink("There is no study at this link.") from error
+    except StudyFileError as error:  # the file is there and broken: say so, on both sides
+        events.error("study %s cannot be opened by its link: %s", name, error)
+        raise StudyUnavailable(
+            "This study cannot be opened at the moment: its settings have a problem the "
+            "experimenter has to fix. Nothing about you was recorded. Please try again "
+            "later, or write to the experimenter."
+        ) from error
     if not study.online.link:
         raise NoStudyLink("This study is not open to online recruitment.")
     return study
@@ -296,6 +311,8 @@ def join(study_name: str) -> Response | tuple[str, int] | str:
         return render_template("study/join_preview.html", message=str(preview), study=study)
     except NoStudyLink as refusal:
         return render_template("study/join_refused.html", message=str(refusal)), 404
+    except StudyUnavailable as refusal:
+        return render_template("study/join_refused.html", message=str(refusal)), 503
     except RecruitmentError as refusal:
         return render_template("study/join_refused.html", message=str(refusal)), 400
     return render_template(
@@ -322,7 +339,8 @@ def hit_status(study_name: str) -> ResponseReturnValue:
         recruit = recruit_from(request.args)
         check_submit_to(recruit, study.online.mturk_submit_origins)
     except RecruitmentError as refusal:
-        return {"error": str(refusal)}, 404 if isinstance(refusal, NoStudyLink) else 400
+        status = {NoStudyLink: 404, StudyUnavailable: 503}.get(type(refusal), 400)
+        return {"error": str(refusal)}, status
     found = returning_participant(get_session(), study, recruit)
     return {"finished": found is not None and _finished(get_session(), found)}
 
@@ -344,6 +362,8 @@ def start(study_name: str) -> ResponseReturnValue:
         measured = measurement_from(request.form)
     except NoStudyLink as refusal:
         return render_template("study/join_refused.html", message=str(refusal)), 404
+    except StudyUnavailable as refusal:
+        return render_template("study/join_refused.html", message=str(refusal)), 503
     except RecruitmentError as refusal:
         return render_template("study/join_refused.html", message=str(refusal)), 400
     if returning_participant(session, study, recruit) is None:
