@@ -7,17 +7,9 @@ registers them here, so this module stays a short table of contents.
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 
 import click
-
-from hcss.analysis.cli import analyze
-from hcss.experiments import cli as experiments_cli
-from hcss.plan_cli import plan_command
-from hcss.platform.bots.command import bots_command
-from hcss.platform.cli import db_group, demo_trial, deploy_group, serve
-from hcss.platform.console.cli import admin_group
-from hcss.platform.export.cli import export
-from hcss.simulation import cli as model_cli
 
 
 class ByAudience(click.CommandCollection):
@@ -36,28 +28,112 @@ class ByAudience(click.CommandCollection):
                 formatter.write_dl(rows)
 
 
-#: `hcss simulate ...`: the model's command and the experiments', one command line.
-simulate = ByAudience(
-    "simulate",
-    sources=[model_cli.simulate, experiments_cli.simulate],
-    help="Run the simulation: a live demo or the simulation-only experiment.",
-)
+def _simulate() -> click.Command:
+    """`hcss simulate ...`: the model's command and the experiments', one command line."""
+    from hcss.experiments import cli as experiments_cli
+    from hcss.simulation import cli as model_cli
 
-COMMANDS = (
-    simulate,
-    analyze,
-    serve,
-    db_group,
-    demo_trial,
-    deploy_group,
-    admin_group,
-    export,
-    bots_command,
-    plan_command,
-)
+    return ByAudience(
+        "simulate",
+        sources=[model_cli.simulate, experiments_cli.simulate],
+        help="Run the simulation: a live demo or the simulation-only experiment.",
+    )
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+def _analyze() -> click.Command:
+    from hcss.analysis.cli import analyze
+
+    return analyze
+
+
+def _serve() -> click.Command:
+    from hcss.platform.cli import serve
+
+    return serve
+
+
+def _db() -> click.Command:
+    from hcss.platform.cli import db_group
+
+    return db_group
+
+
+def _demo_trial() -> click.Command:
+    from hcss.platform.cli import demo_trial
+
+    return demo_trial
+
+
+def _deploy() -> click.Command:
+    from hcss.platform.cli import deploy_group
+
+    return deploy_group
+
+
+def _study() -> click.Command:
+    from hcss.platform.cli import study_group
+
+    return study_group
+
+
+def _admin() -> click.Command:
+    from hcss.platform.console.cli import admin_group
+
+    return admin_group
+
+
+def _export() -> click.Command:
+    from hcss.platform.export.cli import export
+
+    return export
+
+
+def _bots() -> click.Command:
+    from hcss.platform.bots.command import bots_command
+
+    return bots_command
+
+
+def _plan() -> click.Command:
+    from hcss.plan_cli import plan_command
+
+    return plan_command
+
+
+#: Each command by name, and the function that imports it. A command's module is imported
+#: only when that command runs (or `--help` lists them): importing them all (numba,
+#: pandas, scipy, SQLAlchemy's models) made `hcss --version` take 9.5 s under load.
+COMMANDS: dict[str, Callable[[], click.Command]] = {
+    "simulate": _simulate,
+    "analyze": _analyze,
+    "serve": _serve,
+    "db": _db,
+    "demo-trial": _demo_trial,
+    "deploy": _deploy,
+    "study": _study,
+    "admin": _admin,
+    "export": _export,
+    "bots": _bots,
+    "plan": _plan,
+}
+
+
+class LazyCommands(click.Group):
+    """A group whose commands are imported when asked for (click's documented pattern)."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted({*super().list_commands(ctx), *COMMANDS})
+
+    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
+        if cmd_name not in COMMANDS:
+            return super().get_command(ctx, cmd_name)
+        command = COMMANDS[cmd_name]()
+        if command.name != cmd_name:
+            raise RuntimeError(f"{cmd_name!r} loaded the command {command.name!r}")
+        return command
+
+
+@click.group(cls=LazyCommands, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="hcss")
 @click.option(
     "--studies",
@@ -71,10 +147,6 @@ def main(studies: str | None) -> None:
     if studies:
         # The environment, not a global: `hcss serve` and the bots' servers inherit it.
         os.environ["HCSS_STUDIES"] = os.path.abspath(studies)
-
-
-for command in COMMANDS:
-    main.add_command(command)
 
 
 if __name__ == "__main__":  # pragma: no cover

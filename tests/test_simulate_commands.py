@@ -44,7 +44,7 @@ def documented_lines() -> list[tuple[str, str]]:
 
 
 def simulate_group() -> click.Group:
-    command = main.commands["simulate"]
+    command = main.get_command(click.Context(main), "simulate")
     assert isinstance(command, click.Group)
     return command
 

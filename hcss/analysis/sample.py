@@ -59,10 +59,13 @@ def sample_table(participants: pd.DataFrame, include_pilot: bool) -> Table:
 
 
 def attrition_table(stage_timings: pd.DataFrame) -> Table:
-    """Per stage, in protocol order: analysed participants who entered and submitted it.
+    """Per stage, in protocol order: analysed participants who entered, submitted, were
+    moved past it by the experimenter (the export's ``skipped``), or left it unsubmitted.
 
     ``stage_timings`` is the analysed table (bots, pilots and demos already
-    excluded unless --include-pilot).
+    excluded unless --include-pilot). A skipped stage has a submission time (when it was
+    skipped) and often no entry: it counts as skipped, not as submitted, so no column
+    is ever negative.
     """
     timings = stage_timings
     rows, records = [], []
@@ -71,6 +74,7 @@ def attrition_table(stage_timings: pd.DataFrame) -> Table:
             position = pd.to_numeric(timings["stage_index"], errors="coerce")
         else:  # older exports: the order rows were written in
             position = pd.Series(range(len(timings)), index=timings.index, dtype=float)
+        skipped = _skipped(timings)
         order = (
             timings.assign(position=position)
             .groupby("stage", sort=False)["position"]
@@ -78,25 +82,32 @@ def attrition_table(stage_timings: pd.DataFrame) -> Table:
             .sort_values(kind="stable")
         )
         for stage in order.index:
-            chosen = timings[timings["stage"] == stage]
+            here = timings["stage"] == stage
+            chosen = timings[here]
+            moved = skipped[here]
             entered = chosen[chosen["entered_at"].notna()]["participant"].nunique()
-            submitted = chosen[chosen["submitted_at"].notna()]["participant"].nunique()
-            rows.append((str(stage), str(entered), str(submitted), str(entered - submitted)))
-            records.append(
-                {
-                    "stage": stage,
-                    "entered": entered,
-                    "submitted": submitted,
-                    "lost": entered - submitted,
-                }
-            )
+            passed = set(chosen[moved]["participant"])
+            done = set(chosen[chosen["submitted_at"].notna()]["participant"]) - passed
+            left = set(chosen[chosen["entered_at"].notna()]["participant"]) - done - passed
+            counts = (entered, len(done), len(passed), len(left))
+            rows.append((str(stage), *(str(count) for count in counts)))
+            records.append(dict(zip(ATTRITION.names, (stage, *counts), strict=True)))
     return Table(
         "attrition",
-        "Attrition by stage (analysed participants who entered and submitted each stage)",
-        ("Stage", "Entered", "Submitted", "Did not submit"),
+        "Attrition by stage (analysed participants who entered each stage, submitted it, "
+        "were moved past it by the experimenter, or left it unsubmitted)",
+        ("Stage", "Entered", "Submitted", "Skipped by the experimenter", "Did not submit"),
         tuple(rows),
         pd.DataFrame(records, columns=list(ATTRITION.names)),
     )
+
+
+def _skipped(timings: pd.DataFrame) -> pd.Series:
+    """The export's ``skipped`` column as booleans (false when an older export lacks it)."""
+    if "skipped" not in timings:
+        return pd.Series(False, index=timings.index)
+    text = timings["skipped"].astype("string").str.strip().str.lower()
+    return text.isin(["true", "1"]).fillna(False).astype(bool)
 
 
 def demographics_table(participants: pd.DataFrame) -> Table:

@@ -14,6 +14,11 @@ cell), with the study it was created for. Such a link is no participant of
 any study: it is set aside before anything is counted (`set_aside_never_opened`),
 so it neither counts as a second study file nor enters the sample, and the
 report says how many there were.
+
+A trial started outside the study flow (`hcss demo-trial`) has a participant of the
+study but no enrolment, so no digest. It ran that study's trial settings and no file
+of its own: it is counted with its study's one file (and said to be outside the flow),
+never as a second file.
 """
 
 from __future__ import annotations
@@ -34,6 +39,7 @@ class StudyFile:
     name: str
     digest: str
     participants: int
+    outside_flow: int = 0  # of `participants`, those with a trial outside the study flow
 
     def label(self) -> str:
         """``demo (file 7dbeb0c2a4f1…): 4 participants``: the study's name, the start of
@@ -42,7 +48,14 @@ class StudyFile:
             f"file {self.digest[:12]}…" if self.digest else "file not identified by this export"
         )
         plural = "" if self.participants == 1 else "s"
-        return f"{self.name} ({digest}): {self.participants} participant{plural}"
+        label = f"{self.name} ({digest}): {self.participants} participant{plural}"
+        if self.outside_flow:
+            ran = "ran a trial" if self.outside_flow == 1 else "ran trials"
+            label += (
+                f" ({self.outside_flow} participant {ran} outside the study flow, "
+                "e.g. hcss demo-trial, and enrolled in no file)"
+            )
+        return label
 
 
 #: The export's status of a participant whose link was never opened.
@@ -95,16 +108,29 @@ def _column(participants: pd.DataFrame, name: str) -> pd.Series:
 
 
 def study_files(participants: pd.DataFrame) -> tuple[StudyFile, ...]:
-    """The (study, digest) pairs of these participants, largest first."""
+    """The (study, digest) pairs of these participants, largest first.
+
+    Participants without a digest in an export that has the column (trials outside the
+    study flow) join their study's file when it has exactly one."""
     if participants.empty:
         return ()
     pairs = pd.DataFrame(
         {"study": _column(participants, "study"), "digest": _column(participants, "study_digest")}
     )
     counts = pairs.value_counts(sort=False).reset_index(name="n")
-    counts = counts.sort_values(["n", "study", "digest"], ascending=[False, True, True])
+    files = {(str(row.study), str(row.digest)): int(row.n) for row in counts.itertuples()}
+    outside: dict[tuple[str, str], int] = {}
+    if "study_digest" in participants.columns:
+        for (study, digest), n in list(files.items()):
+            filed = [key for key in files if key[0] == study and key[1]]
+            if not digest and len(filed) == 1:
+                del files[(study, digest)]
+                files[filed[0]] += n
+                outside[filed[0]] = n
+    ordered = sorted(files.items(), key=lambda item: (-item[1], item[0][0], item[0][1]))
     return tuple(
-        StudyFile(str(row.study), str(row.digest), int(row.n)) for row in counts.itertuples()
+        StudyFile(study, digest, n, outside.get((study, digest), 0))
+        for (study, digest), n in ordered
     )
 
 

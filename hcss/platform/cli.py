@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import click
@@ -355,7 +356,8 @@ def _warn_about_study_files(app: Flask) -> None:
     "--study",
     default=None,
     envvar="HCSS_STUDY",
-    help="The study whose trial length is used; default: the running server's study.",
+    help="The study whose trial length is used; default: the study of the server on --port "
+    "(or of the last one started).",
 )
 @click.option("--model", type=click.Choice(MODELS), default="M1", show_default=True)
 @click.option("--training", is_flag=True, help="A training trial (two collectives).")
@@ -382,7 +384,7 @@ def demo_trial(
     from hcss.platform.models import Participant
     from hcss.platform.serving.announce import read_serving_file
 
-    serving = read_serving_file()
+    serving = read_serving_file(port)  # the server on --port, else the last one started
     if base_url is None:
         base_url = (
             f"http://127.0.0.1:{port}"
@@ -413,6 +415,29 @@ def demo_trial(
             f"{trial.duration_s / 60:g} min, study {study_file.name})"
         )
     click.echo(link)
+
+
+@click.group("study")
+def study_group() -> None:
+    """Study files: check one before serving it."""
+
+
+@study_group.command("check")
+@click.argument("file", type=click.Path(dir_okay=False, path_type=Path))
+def study_check(file: Path) -> None:
+    """Check the study file FILE as the server reads it: one line per problem
+    (FILE:LINE: the setting, and the known ones for a misspelt key); exit 1 if any."""
+    from hcss.platform.study.check import study_file_problems
+
+    study, problems = study_file_problems(file)
+    for problem in problems:
+        click.echo(problem)
+    if study is None:
+        raise SystemExit(1)
+    click.echo(
+        f"{file}: ok (study {study.name}, {len(study.cells)} counterbalancing cells, "
+        f"digest {study.digest[:12]}…)"
+    )
 
 
 def _study_file(name: str):

@@ -173,12 +173,26 @@ SAMPLE = TableSpec(
 ATTRITION = TableSpec(
     name="attrition",
     title="Report table `attrition`",
-    description="Per stage in protocol order: analysed participants who entered and submitted it.",
+    description=(
+        "Per stage in protocol order: analysed participants who entered it, submitted it, "
+        "were moved past it by the experimenter, or entered and left it unsubmitted."
+    ),
     columns=(
         Column("stage", "str", "the stage", nullable=False),
         Column("entered", "int", "participants who entered it", nullable=False),
-        Column("submitted", "int", "participants who submitted it", nullable=False),
-        Column("lost", "int", "`entered - submitted`", nullable=False),
+        Column("submitted", "int", "participants who submitted it (not skipped)", nullable=False),
+        Column(
+            "skipped",
+            "int",
+            "participants the experimenter moved past it (`stage_timings.skipped`), entered or not",
+            nullable=False,
+        ),
+        Column(
+            "lost",
+            "int",
+            "participants who entered it and neither submitted it nor were moved past it",
+            nullable=False,
+        ),
     ),
 )
 

@@ -320,6 +320,29 @@ STAGE_TIMINGS = TableSpec(
     ),
 )
 
+LATE_ANSWERS = TableSpec(
+    name="late_answers",
+    title="late_answers",
+    description="""
+Answers sent from a page after the experimenter had skipped its step (console "Skip
+stage"): the participant's page was still open and its Continue arrived late. The
+participant is told they were kept; they are kept here, apart, never as the step's
+answers (`questionnaire_items` holds only answers given while a step was open). One row
+per value sent (a field sent twice gives two rows); the first late submit of a step is
+kept, at most 200 fields of 200 characters.
+""".strip(),
+    columns=(
+        Column("participant", "str", "participant code", nullable=False),
+        Column("stage_index", "int", "position in the study's stage list", nullable=False),
+        Column("stage", "str", "stage name, e.g. `demographics`", nullable=False),
+        Column("step", "str", "the skipped step, e.g. `form`, `part_1`", nullable=False),
+        Column("model", "str", "for per-model stages"),
+        Column("answered_at", "str", "ISO 8601 UTC: when the late answer arrived"),
+        Column("item", "str", "the form field, e.g. `age_band`", nullable=False),
+        Column("value", "str", "the value sent"),
+    ),
+)
+
 INTERRUPTIONS = TableSpec(
     name="interruptions",
     title="interruptions",
@@ -395,6 +418,7 @@ EXPORT_TABLES: dict[str, TableSpec] = {
         QUESTIONNAIRE_ITEMS,
         SCORES,
         STAGE_TIMINGS,
+        LATE_ANSWERS,
         INTERRUPTIONS,
         EXPORT_PROBLEMS,
     )

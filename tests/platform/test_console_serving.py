@@ -106,3 +106,20 @@ def test_serve_refuses_an_unknown_study_before_listening(instance) -> None:
     result = CliRunner().invoke(main, ["serve", "--port", "1", "--study", "nope"])
     assert result.exit_code == 2 and "no study file nope.toml" in result.output
     assert "Traceback" not in result.output
+
+
+@pytest.mark.slow  # starts two real servers (about 6 s)
+def test_demo_trial_on_a_port_takes_the_study_of_the_server_on_that_port(instance) -> None:
+    """Two servers, the demo on one and the protocol on the other started last: a demo
+    trial for the first one's port is the demo's (2 minutes), not the last server's."""
+    folder, url = instance
+    with (
+        LocalServer(url, folder, extra_env={"HCSS_STUDY": "demo"}) as demo,
+        LocalServer(url, folder, extra_env={"HCSS_STUDY": "original"}) as protocol,
+    ):
+        summary, link = _demo_trial("--port", str(demo.port))
+        assert link.startswith(f"{demo.url}/live/")
+        assert "2 min, study demo" in summary
+        summary, link = _demo_trial("--port", str(protocol.port))
+        assert link.startswith(f"{protocol.url}/live/")
+        assert "20 min, study original" in summary

@@ -119,3 +119,54 @@ def test_an_mturk_worker_previews_accepts_walks_and_submits_the_assignment(
             assert stranger.submissions == []
             context.close()
         app.extensions["hcss_db"].engine.dispose()
+
+
+@pytest.mark.slow
+def test_the_submit_follows_mturks_redirect_and_the_hit_frame_then_says_the_study_is_done(
+    browser, database_url, tmp_path, monkeypatch
+) -> None:
+    """MTurk answers externalSubmit with a redirect to another of its hosts: the debrief's
+    form-action lets it through (Chromium checks form-action on each redirect of a form's
+    navigation), and the HIT's frame stops offering the study once it is done."""
+    from playwright.sync_api import expect
+
+    with mturk_standin() as mturk, mturk_standin() as worker_site:
+        mturk.redirect_to = worker_site.origin
+        name = demo_variant(
+            tmp_path / "studies",
+            monkeypatch,
+            "hitredirect",
+            {"mturk": "true", "mturk_origins": f'["{mturk.origin}", "{worker_site.origin}"]'},
+        )
+        app = bot_app(database_url, name)
+        app.extensions["hcss_db"].create_all()
+        with serving(app) as url:
+            context = browser.new_context(viewport={"width": 1366, "height": 657})
+            worker = context.new_page()
+            mturk.hit_url = f"{url}/join/{name}?{urlencode(HIT | {'turkSubmitTo': mturk.origin})}"
+            worker.goto(mturk.worker_page())
+            frame = worker.frame_locator("#hit")
+            with context.expect_page() as opened:
+                frame.locator("#join-own-window").click()
+            study = opened.value
+            study.locator("#join-start").click()
+            expect(study.locator("main.study")).to_have_attribute("data-stage", "consent")
+            with app.extensions["hcss_db"].session_scope() as session:
+                row = session.scalars(select(Recruitment)).one()
+                token = session.get(Participant, row.participant_id).token
+            ParticipantBot(app, token).run(load_study(name))
+
+            study.reload()
+            study.locator("#mturk-submit-button").click()
+            expect(study.locator("#submitted")).to_have_text("HIT submitted")
+            assert study.url == f"{worker_site.origin}/submitted"
+            assert len(mturk.submissions) == 1
+
+            # Back on MTurk's page: the frame learns the study is done, without a reload.
+            expect(frame.locator("#join-finished")).to_be_visible(timeout=15_000)
+            expect(frame.locator("#join-own-window")).to_be_hidden()
+            worker.reload()  # and so does the frame shown afresh
+            expect(frame.locator("#join-finished")).to_be_visible()
+            expect(frame.locator("#join-own-window")).to_be_hidden()
+            context.close()
+        app.extensions["hcss_db"].engine.dispose()

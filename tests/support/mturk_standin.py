@@ -7,6 +7,10 @@ server does both on `http://localhost:<port>`, a different *site* from the
 study's `http://127.0.0.1:<port>` (so the browser treats the frame as
 cross-site, as it does on MTurk: no cookies go to the framed study). A study
 names it in its file (`[online] mturk_origins`), the way a study names MTurk.
+
+MTurk answers an externalSubmit with a redirect to another of its hosts (the worker site);
+`redirect_to` plays that: the post is recorded, then answered with a 302 to that origin's
+`/submitted`, a page every stand-in serves.
 """
 
 from __future__ import annotations
@@ -26,6 +30,7 @@ class MTurkStandIn:
 
     origin: str
     hit_url: str = ""
+    redirect_to: str = ""
     submissions: list[dict[str, list[str]]] = field(default_factory=list)
 
     def worker_page(self) -> str:
@@ -49,6 +54,9 @@ def mturk_standin() -> Iterator[MTurkStandIn]:
             self.wfile.write(data)
 
         def do_GET(self) -> None:
+            if self.path == "/submitted":  # where MTurk's redirect after a submission lands
+                self._answer("<p id='submitted'>HIT submitted</p>")
+                return
             # MTurk's worker page: the HIT in an iframe of FrameHeight.
             self._answer(
                 f'<h1>HIT</h1><iframe id="hit" src="{escape(standin.hit_url)}" '
@@ -60,6 +68,12 @@ def mturk_standin() -> Iterator[MTurkStandIn]:
             form = parse_qs(self.rfile.read(length).decode())
             if self.path == "/mturk/externalSubmit":
                 standin.submissions.append(form)
+                if standin.redirect_to:
+                    self.send_response(302)
+                    self.send_header("Location", f"{standin.redirect_to}/submitted")
+                    self.send_header("Content-Length", "0")
+                    self.end_headers()
+                    return
                 self._answer("<p id='submitted'>HIT submitted</p>")
             else:
                 self.send_error(404)

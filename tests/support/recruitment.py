@@ -3,6 +3,7 @@ with the demo study's `[online]` table changed."""
 
 from __future__ import annotations
 
+import html
 import re
 from pathlib import Path
 from urllib.parse import urlencode
@@ -42,3 +43,24 @@ def join(client, study: str = "demo", device=LAPTOP, **params: str):
         return first
     fields = dict(HIDDEN.findall(first.get_data(as_text=True)))
     return client.post(f"/join/{study}", data=fields | dict(device))
+
+
+def console_outcomes(index_html: str, study: str) -> dict[str, dict[str, object]]:
+    """The console's outcome table of one study link: per outcome, its code, URL and counts
+    (``count``, and one per recruitment site)."""
+    table = re.search(
+        rf'<table class="link-outcomes" data-study="{re.escape(study)}">(.*?)</table>',
+        index_html,
+        re.S,
+    )
+    assert table, f"no outcome table for {study}"
+    rows = {}
+    for outcome, cells in re.findall(r'<tr data-outcome="(\w+)">(.*?)</tr>', table[1], re.S):
+        code = re.search(r'<td class="code">([^<]*)</td>', cells)[1]
+        url = re.search(r'<td class="url">([^<]*)</td>', cells)[1]
+        by_source = {
+            source: int(n) for source, n in re.findall(r'data-source="(\w+)">(\d+)<', cells)
+        }
+        total = int(re.search(r'class="count total">(\d+)<', cells)[1])
+        rows[outcome] = {"code": code, "url": html.unescape(url), "count": total, **by_source}
+    return rows

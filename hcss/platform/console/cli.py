@@ -59,8 +59,8 @@ def admin_unlock(username: str) -> None:
 def admin_second_factor(username: str, remove: bool) -> None:
     """Give USERNAME a second factor for console sign-in (a new one replaces the old).
 
-    Prints, once, the secret for an authenticator app (and its otpauth:// link,
-    which a QR code generator can show) and ten recovery codes, each good for
+    Prints, once, the secret for an authenticator app (and its otpauth:// link, which
+    some apps take pasted in) and ten recovery codes, each good for
     one sign-in without the app. From then on the console asks for a code.
     A valid code also signs in through a lockout of the experimenter's address.
     """
@@ -86,7 +86,7 @@ def admin_second_factor(username: str, remove: bool) -> None:
         enrolment = enrol(account)
     click.echo(f"second factor for {username.strip()!r} (shown once; keep it safe):")
     click.echo(f"  secret for the authenticator app: {enrolment.secret}")
-    click.echo(f"  or its link (as a QR code):       {enrolment.uri}")
+    click.echo(f"  or its otpauth:// link:           {enrolment.uri}")
     click.echo("  recovery codes, each good once:")
     for code in enrolment.recovery_codes:
         click.echo(f"    {code}")

@@ -214,14 +214,8 @@ def link_outcomes(session: Session) -> list[Outcomes]:
         except StudyFileError:
             continue
         if study.online.link:
-            counted = outcomes(session, name)
-            if (
-                counted.completed
-                + counted.in_progress
-                + counted.screened_out
-                + counted.returned
-                + counted.timed_out
-            ):
+            counted = outcomes(session, study)
+            if counted.total:
                 found.append(counted)
     return found
 

@@ -120,8 +120,13 @@ def _fill_study_columns(row: Row, records: dict[str, list[Any]]) -> None:
 
 
 def study_flow_rows(session: Session, participants: list[Participant]) -> dict[str, list[Row]]:
-    """questionnaire_items, scores and stage_timings rows."""
-    tables: dict[str, list[Row]] = {"questionnaire_items": [], "scores": [], "stage_timings": []}
+    """questionnaire_items, scores, stage_timings and late_answers rows."""
+    tables: dict[str, list[Row]] = {
+        "questionnaire_items": [],
+        "scores": [],
+        "stage_timings": [],
+        "late_answers": [],
+    }
     study = _study_records(session)
     for participant in participants:
         code = participant.code
@@ -153,7 +158,34 @@ def study_flow_rows(session: Session, participants: list[Participant]) -> dict[s
         tables["stage_timings"].extend(
             stage_timing_rows(code, study["stages"].get(participant.id, []))
         )
+        tables["late_answers"].extend(
+            late_answer_rows(code, study["stages"].get(participant.id, []))
+        )
     return tables
+
+
+def late_answer_rows(code: str, events: list[Any]) -> list[Row]:
+    """One row per value of each ``late_answer`` event (answers sent after a skip)."""
+    rows = []
+    for event in sorted(events, key=lambda e: e.id):
+        if event.kind != "late_answer":
+            continue
+        answers = (event.detail or {}).get("answers", {})
+        for item, values in answers.items():
+            for value in values if isinstance(values, list) else [values]:
+                rows.append(
+                    {
+                        "participant": code,
+                        "stage_index": event.stage_index,
+                        "stage": event.stage,
+                        "step": event.step,
+                        "model": event.model or None,
+                        "answered_at": iso(event.at),
+                        "item": str(item),
+                        "value": None if value is None else str(value),
+                    }
+                )
+    return rows
 
 
 def stage_timing_rows(code: str, events: list[Any]) -> list[Row]:

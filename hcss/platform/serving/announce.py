@@ -14,24 +14,33 @@ import logging
 import sys
 from pathlib import Path
 from typing import Any, TextIO
+from urllib.parse import urlsplit
 
 from hcss.platform.config import instance_path
 
 SERVING_FILE = "serving.json"
 
 
-def serving_path() -> Path:
-    return instance_path() / SERVING_FILE
+def serving_path(port: int | None = None) -> Path:
+    """The last server's file, or the file of the server on `port`."""
+    return instance_path() / (SERVING_FILE if port is None else f"serving-{port}.json")
 
 
 def write_serving_file(url: str, study: str) -> None:
-    serving_path().write_text(json.dumps({"url": url.rstrip("/"), "study": study}) + "\n")
+    """The last server's address and study, and the same under its port: several servers
+    run side by side (`make run PORT=8080 STUDY=demo` beside the protocol's)."""
+    text = json.dumps({"url": url.rstrip("/"), "study": study}) + "\n"
+    serving_path().write_text(text)
+    port = urlsplit(url).port
+    if port is not None:
+        serving_path(port).write_text(text)
 
 
-def read_serving_file() -> dict[str, Any]:
-    """The last server's address and study; empty when none ran here or the file is unreadable."""
+def read_serving_file(port: int | None = None) -> dict[str, Any]:
+    """The last server's address and study (or the one on `port`'s); empty when none ran
+    here or the file is unreadable."""
     try:
-        data = json.loads(serving_path().read_text())
+        data = json.loads(serving_path(port).read_text())
     except (OSError, ValueError):
         return {}
     return data if isinstance(data, dict) else {}

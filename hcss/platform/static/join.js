@@ -9,9 +9,27 @@
   "use strict";
   const box = document.getElementById("device-check");
   if (window.self !== window.top) {
-    document.getElementById("join-framed").hidden = false;
+    const offer = document.getElementById("join-framed");
+    const finished = document.getElementById("join-finished");
     document.getElementById("join-form").hidden = true;
     box.hidden = true;
+    if (!finished.hidden) return;
+    offer.hidden = false;
+    // Once the study runs in its own window, ask now and then whether it is done, and
+    // stop offering it then (the worker comes back to this frame after submitting).
+    let asking = null;
+    const ask = () => fetch(offer.dataset.statusUrl, { credentials: "omit" })
+      .then((answer) => (answer.ok ? answer.json() : {}))
+      .then((status) => {
+        if (!status.finished) return;
+        offer.hidden = true;
+        finished.hidden = false;
+        clearInterval(asking);
+      })
+      .catch(() => {});
+    document.getElementById("join-own-window").addEventListener("click", () => {
+      if (asking === null) asking = setInterval(ask, 3000);
+    });
     return;
   }
   const minW = Number(box.dataset.minWidth), minH = Number(box.dataset.minHeight);

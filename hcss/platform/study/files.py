@@ -23,6 +23,10 @@ class StudyFileError(ValueError):
     """A study file that cannot be run; the message names the file, the line and the setting."""
 
 
+class NoStudyFile(StudyFileError):
+    """No study file of that name (or a name no file can have): nothing to repair."""
+
+
 def bundled_directory() -> Traversable:
     return resources.files("hcss.platform.study") / "bundled"
 
@@ -58,9 +62,9 @@ def study_names() -> list[str]:
 def study_text(name: str) -> tuple[str, bytes]:
     """The file name and bytes of study `name`, from the first directory that has it."""
     if not name or not name.replace("-", "").replace("_", "").isalnum():
-        raise StudyFileError(f"a study name is letters, digits, - and _; got {name!r}")
+        raise NoStudyFile(f"a study name is letters, digits, - and _; got {name!r}")
     for directory in _directories():
         entry = directory / f"{name}{SUFFIX}"
         if entry.is_file():
             return entry.name, entry.read_bytes()
-    raise StudyFileError(f"no study file {name}{SUFFIX}; available: {study_names()}")
+    raise NoStudyFile(f"no study file {name}{SUFFIX}; available: {study_names()}")

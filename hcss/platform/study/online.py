@@ -54,6 +54,10 @@ MTURK_SUBMIT_TO = "turkSubmitTo"
 #: ("Mechanical Turk appends ... turkSubmitTo=https://www.mturk.com/", How Mechanical
 #: Turk tasks are rendered; the sandbox's is https://workersandbox.mturk.com).
 MTURK_SUBMIT_ORIGINS = ("https://www.mturk.com", "https://workersandbox.mturk.com")
+#: Where the debrief's externalSubmit may go, redirects included: MTurk answers the post
+#: with a redirect to another of its hosts (www.mturk.com sends workers on to
+#: worker.mturk.com), and Chromium checks a form's CSP form-action on every redirect.
+MTURK_FORM_ACTION = ("https://*.mturk.com",)
 #: The pages that show a HIT's iframe: the worker site, the older www site and the sandbox.
 MTURK_FRAME_ORIGINS = (
     "https://worker.mturk.com",
@@ -165,9 +169,22 @@ class OnlineSettings:
     screenout_code: StrictStr = ""
     screenout_url: StrictStr = ""
     # For a visitor who should return the submission rather than be screened out or paid:
-    # the study was full, they declined consent, or the experimenter ended their session.
+    # the study was full, they declined consent, or the experimenter ended their session;
+    # the default of the three outcomes below, each of which may have its own.
     return_code: StrictStr = ""
     return_url: StrictStr = ""
+    # Declined consent (without these nor a return code or URL: the screen-out's).
+    declined_code: StrictStr = ""
+    declined_url: StrictStr = ""
+    # Came while the study was full.
+    full_code: StrictStr = ""
+    full_url: StrictStr = ""
+    # The experimenter ended the session (a technical fault, a participant who asked):
+    # returned by default; `ended_paid = true` pays them (the completion code and URL
+    # unless `ended_code` or `ended_url` is given).
+    ended_code: StrictStr = ""
+    ended_url: StrictStr = ""
+    ended_paid: StrictBool = False
     # For a participant timed out by `[timeouts]`.
     timeout_code: StrictStr = ""
     timeout_url: StrictStr = ""
@@ -183,14 +200,30 @@ class OnlineSettings:
     target: Annotated[StrictInt, Field(ge=0)] = 0
     cell_target: Annotated[StrictInt, Field(ge=0)] = 0
 
-    @field_validator("completion_code", "screenout_code", "return_code", "timeout_code")
+    @field_validator(
+        "completion_code",
+        "screenout_code",
+        "return_code",
+        "declined_code",
+        "full_code",
+        "ended_code",
+        "timeout_code",
+    )
     @classmethod
     def _printable_code(cls, code: str) -> str:
         if code and not (code.isascii() and code.isprintable() and len(code) <= 64):
             raise ValueError("is up to 64 printable ASCII characters")
         return code
 
-    @field_validator("completion_url", "screenout_url", "return_url", "timeout_url")
+    @field_validator(
+        "completion_url",
+        "screenout_url",
+        "return_url",
+        "declined_url",
+        "full_url",
+        "ended_url",
+        "timeout_url",
+    )
     @classmethod
     def _web_address(cls, url: str) -> str:
         if url and (urlsplit(url).scheme not in ("https", "http") or not urlsplit(url).netloc):
@@ -229,6 +262,14 @@ class OnlineSettings:
         if not self.mturk:
             return ()
         return tuple(self.mturk_origins) or MTURK_SUBMIT_ORIGINS
+
+    @property
+    def mturk_form_action(self) -> tuple[str, ...]:
+        """Where the debrief's externalSubmit and MTurk's redirects after it may go: any
+        MTurk host (or every stand-in the study names)."""
+        if not self.mturk:
+            return ()
+        return tuple(self.mturk_origins) or MTURK_FORM_ACTION
 
     @field_validator("redirect")
     @classmethod

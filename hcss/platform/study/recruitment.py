@@ -21,7 +21,9 @@ one of MTurk's servers when the worker starts.
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
+from urllib.parse import urlencode
 
 from flask import Blueprint, redirect, render_template, request, url_for
 from flask.typing import ResponseReturnValue
@@ -35,6 +37,8 @@ from hcss.platform.guards.hardening import allow_form_action_to, allow_framing_b
 from hcss.platform.guards.ratelimit import enrolment_refusal
 from hcss.platform.models import Participant, Recruitment, ReturnVisit
 from hcss.platform.study.enrolment import assign_cell, cell_counts, hold_assignment_lock
+from hcss.platform.study.files import NoStudyFile
+from hcss.platform.study.flow import participant_status
 from hcss.platform.study.limits import Timeouts
 from hcss.platform.study.online import (
     HitPreview,
@@ -58,12 +62,18 @@ from hcss.platform.study.studyfile import Study, StudyFileError, load_study
 from hcss.platform.study.timeouts import time_out_abandoned
 
 bp = Blueprint("join", __name__, url_prefix="/join")
+#: The server's terminal (`hcss serve` prints it): a broken study file is named there.
+events = logging.getLogger("hcss.events")
 
 MAX_STUDY_NAME = 64
 
 
 class NoStudyLink(RecruitmentError):
     """No study of that name offers a link (a 404, not a 400)."""
+
+
+class StudyUnavailable(RecruitmentError):
+    """The study's file is there but cannot be read: the experimenter must repair it (503)."""
 
 
 class StudyFull(RecruitmentError):
@@ -138,8 +148,15 @@ def linked_study(name: str) -> Study:
         raise NoStudyLink("There is no study at this link.")
     try:
         study = load_study(name)
-    except StudyFileError as error:
+    except NoStudyFile as error:
         raise NoStudyLink("There is no study at this link.") from error
+    except StudyFileError as error:  # the file is there and broken: say so, on both sides
+        events.error("study %s cannot be opened by its link: %s", name, error)
+        raise StudyUnavailable(
+            "This study cannot be opened at the moment: its settings have a problem the "
+            "experimenter has to fix. Nothing about you was recorded. Please try again "
+            "later, or write to the experimenter."
+        ) from error
     if not study.online.link:
         raise NoStudyLink("This study is not open to online recruitment.")
     return study
@@ -235,7 +252,8 @@ def enrol_or_resume(session: Session, study: Study, recruit: Recruit) -> Partici
 
 
 def mturk_submission(study: Study, recruit: Recruit) -> MTurkSubmission | None:
-    """The externalSubmit form for an MTurk worker; the answer may post there (form-action).
+    """The externalSubmit form for an MTurk worker; the answer may post there (form-action),
+    and follow MTurk's redirect to another of its hosts.
 
     `submit_to` was checked when the worker started; it is checked again against
     the study file as it is now, so a file that stops naming a server stops the posts.
@@ -245,7 +263,7 @@ def mturk_submission(study: Study, recruit: Recruit) -> MTurkSubmission | None:
         return None
     if submit_to not in study.online.mturk_submit_origins:
         return None
-    allow_form_action_to([submit_to])
+    allow_form_action_to(dict.fromkeys([submit_to, *study.online.mturk_form_action]))
     fields = {"assignmentId": assignment}
     if study.online.completion_code:
         fields["completionCode"] = study.online.completion_code
@@ -283,6 +301,7 @@ def join(study_name: str) -> Response | tuple[str, int] | str:
         if found is not None and not framed:
             record_return(get_session(), found, recruit)
             return redirect(url_for("study.enter", token=found.token))
+        finished = found is not None and _finished(get_session(), found)
         _check_anonymous(study, recruit)
         if found is None:
             _check_room(get_session(), study)
@@ -292,6 +311,8 @@ def join(study_name: str) -> Response | tuple[str, int] | str:
         return render_template("study/join_preview.html", message=str(preview), study=study)
     except NoStudyLink as refusal:
         return render_template("study/join_refused.html", message=str(refusal)), 404
+    except StudyUnavailable as refusal:
+        return render_template("study/join_refused.html", message=str(refusal)), 503
     except RecruitmentError as refusal:
         return render_template("study/join_refused.html", message=str(refusal)), 400
     return render_template(
@@ -301,8 +322,32 @@ def join(study_name: str) -> Response | tuple[str, int] | str:
         parameters=recruitment_parameters(recruit),
         action=url_for("join.start", study_name=study.name),
         framed=framed,
+        finished=finished,
         own_window=request.full_path,
+        status_url=url_for("join.hit_status", study_name=study.name)
+        + "?"
+        + urlencode(list(request.args.items(multi=True))),
     )
+
+
+@bp.get("/<study_name>/status")
+def hit_status(study_name: str) -> ResponseReturnValue:
+    """Whether the visitor of these recruitment ids has finished: MTurk's frame of the link
+    asks while the study runs in its own window, to stop offering it once it is done."""
+    try:
+        study = linked_study(study_name)
+        recruit = recruit_from(request.args)
+        check_submit_to(recruit, study.online.mturk_submit_origins)
+    except RecruitmentError as refusal:
+        status = {NoStudyLink: 404, StudyUnavailable: 503}.get(type(refusal), 400)
+        return {"error": str(refusal)}, status
+    found = returning_participant(get_session(), study, recruit)
+    return {"finished": found is not None and _finished(get_session(), found)}
+
+
+def _finished(session: Session, participant: Participant) -> bool:
+    """Done with the study: completed, or ended in any other way (nothing left to open)."""
+    return participant_status(session, participant) not in ("in_progress", "not_started")
 
 
 @bp.post("/<study_name>")
@@ -317,6 +362,8 @@ def start(study_name: str) -> ResponseReturnValue:
         measured = measurement_from(request.form)
     except NoStudyLink as refusal:
         return render_template("study/join_refused.html", message=str(refusal)), 404
+    except StudyUnavailable as refusal:
+        return render_template("study/join_refused.html", message=str(refusal)), 503
     except RecruitmentError as refusal:
         return render_template("study/join_refused.html", message=str(refusal)), 400
     if returning_participant(session, study, recruit) is None:

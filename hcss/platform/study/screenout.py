@@ -6,13 +6,15 @@ happened (Prolific sorts submissions by the code they end with). The study
 file's `[online]` table gives one per outcome besides completion:
 
 - screened out (a device short of `[requirements]`): `screenout_code`, `screenout_url`;
-- returned (the study was full, consent declined, the session ended by the
-  experimenter): `return_code`, `return_url`; the visitor is asked to return the
-  submission. A declined consent falls back to the screen-out's when a study
-  gives no return code or URL, as studies did before there was one;
+- declined consent: `declined_code`, `declined_url`; else the return code and URL, else
+  the screen-out's (as studies did before there was either);
+- the study was full: `full_code`, `full_url`; else the return code and URL;
+- ended by the experimenter: `ended_code`, `ended_url`; else, as `ended_paid` decides,
+  the completion code and URL (paid) or the return code and URL (returned);
 - timed out (`[timeouts]`): `timeout_code`, `timeout_url`.
 
-Each URL's `{placeholders}` are filled with the visitor's recruitment ids.
+A returned outcome asks the visitor to return the submission. Each URL's
+`{placeholders}` are filled with the visitor's recruitment ids.
 """
 
 from __future__ import annotations
@@ -37,6 +39,7 @@ from hcss.platform.study.studyfile import Study
 __all__ = [
     "Leave",
     "leave_for",
+    "outcome_link",
     "measurement_from",
     "recruit_of",
     "record_screen_out",
@@ -47,7 +50,7 @@ __all__ = [
 ]
 
 #: Why a visitor leaves without completing; each has its own code and URL.
-Outcome = Literal["screened_out", "returned", "timed_out"]
+Outcome = Literal["screened_out", "declined", "full", "ended", "timed_out"]
 
 
 @dataclass(frozen=True)
@@ -55,16 +58,13 @@ class Leave:
     """The code to enter at the recruitment site and its address, for one outcome.
 
     `return_submission`: the visitor is asked to return the submission (the study
-    was full, they declined, their session was ended) rather than to submit it.
+    was full, they declined, their session was ended unpaid) rather than to submit it.
     """
 
     code: str
     url: str
     outcome: Outcome = "screened_out"
-
-    @property
-    def return_submission(self) -> bool:
-        return self.outcome == "returned"
+    return_submission: bool = False
 
 
 def _pixels(form: MultiDict[str, str], name: str) -> int:
@@ -112,29 +112,50 @@ def record_screen_out(
     return row
 
 
-def _leave(code: str, url: str, outcome: Outcome, recruit: Recruit) -> Leave | None:
+def _leave(
+    code: str, url: str, outcome: Outcome, recruit: Recruit | None, *, returned: bool = False
+) -> Leave | None:
     if not (code or url):
         return None
-    filled = fill_placeholders(url, recruitment_parameters(recruit)) if url else ""
-    return Leave(code, filled, outcome)
+    filled = fill_placeholders(url, recruitment_parameters(recruit)) if url and recruit else url
+    return Leave(code, filled, outcome, returned)
+
+
+def outcome_link(study: Study, recruit: Recruit | None, outcome: Outcome) -> Leave | None:
+    """The code and URL of one outcome, after the study file's fallbacks (module docstring);
+    a returned outcome always gets a Leave, for the request to return. Without `recruit`
+    the URL is the file's, its placeholders unfilled (the console's table shows it)."""
+    online = study.online
+    if outcome == "screened_out":
+        return _leave(online.screenout_code, online.screenout_url, outcome, recruit)
+    if outcome == "timed_out":
+        return _leave(online.timeout_code, online.timeout_url, outcome, recruit)
+    if outcome == "ended" and online.ended_paid:
+        own = _leave(online.ended_code, online.ended_url, outcome, recruit)
+        return own or _leave(online.completion_code, online.completion_url, outcome, recruit)
+    own_code, own_url = {
+        "declined": (online.declined_code, online.declined_url),
+        "full": (online.full_code, online.full_url),
+        "ended": (online.ended_code, online.ended_url),
+    }[outcome]
+    found = _leave(own_code, own_url, outcome, recruit, returned=True) or _leave(
+        online.return_code, online.return_url, outcome, recruit, returned=True
+    )
+    if found is None and outcome == "declined":
+        found = _leave(online.screenout_code, online.screenout_url, outcome, recruit)
+    return found or Leave("", "", outcome, return_submission=True)
 
 
 def screen_out_link(study: Study, recruit: Recruit) -> Leave | None:
     """The study's screen-out code and URL, when its file gives either."""
-    online = study.online
-    return _leave(online.screenout_code, online.screenout_url, "screened_out", recruit)
+    return outcome_link(study, recruit, "screened_out")
 
 
 def return_link(study: Study, recruit: Recruit) -> Leave:
-    """The study's return code and URL; always a Leave, for the request to return."""
-    online = study.online
-    found = _leave(online.return_code, online.return_url, "returned", recruit)
-    return found or Leave("", "", "returned")
-
-
-def timeout_link(study: Study, recruit: Recruit) -> Leave | None:
-    online = study.online
-    return _leave(online.timeout_code, online.timeout_url, "timed_out", recruit)
+    """The way back for a visitor who found the study full; always a Leave."""
+    found = outcome_link(study, recruit, "full")
+    assert found is not None
+    return found
 
 
 def recruit_of(session: Session, participant: Participant) -> Recruit | None:
@@ -159,12 +180,10 @@ def leave_for(session: Session, participant: Participant, study: Study, why: str
     recruit = recruit_of(session, participant)
     if recruit is None:
         return None
-    online = study.online
-    if why == "timed_out":
-        return timeout_link(study, recruit)
-    if why == "declined" and not (online.return_code or online.return_url):
-        return screen_out_link(study, recruit)
-    return return_link(study, recruit)
+    outcome: Outcome = (
+        "timed_out" if why == "timed_out" else "declined" if why == "declined" else "ended"
+    )
+    return outcome_link(study, recruit, outcome)
 
 
 def screen_out_for(session: Session, participant: Participant, study: Study) -> Leave | None:
