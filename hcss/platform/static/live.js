@@ -113,7 +113,7 @@
       update(glyph, item);
     }
     for (const [id, glyph] of glyphs[kind]) {
-      if (!seen.has(id)) { glyph.root.remove(); glyphs[kind].delete(id); }
+      if (!seen.has(id)) { glyph.root.remove(); glyph.labels?.remove(); glyphs[kind].delete(id); }
     }
   }
 
@@ -280,26 +280,33 @@
     return support > 0 ? SUPPORT_FLOOR + (1 - SUPPORT_FLOOR) * Math.min(1, support) : 0;
   }
 
+  // A hub is a button (its box and quadrants) with its letters drawn over it in a group of
+  // their own: letters inside the button would be its visible text, which its spoken label
+  // ("Collective I hub") must then contain (WCAG 2.5.3, label in name).
   function createCollective(c, layer) {
     const h = HUB / 2, q = HUB / 2;
     const root = el("g", { "data-collective": c.index }, layer);
-    el("text", { x: 0, y: -h - 6, class: "hub-name" }, root).textContent = NAMES[c.index];
+    const labels = el("g", { class: "collective-labels", "data-collective-labels": c.index, "aria-hidden": "true" }, layer);
+    el("text", { x: 0, y: -h - 6, class: "hub-name" }, labels).textContent = NAMES[c.index];
     el("rect", { x: -h, y: -h, width: HUB, height: HUB, class: "hub-box" }, root);
     const quads = {};
     for (const [name, qx, qy] of [["U", -h, -h], ["F", 0, -h], ["C", -h, 0], ["X", 0, 0]]) {
       quads[name] = el("rect", { x: qx, y: qy, width: q, height: q, class: "quad" }, root);
-      el("text", { x: qx + q / 2, y: qy + q / 2, class: "quad-label" }, root).textContent = name;
+      el("text", { x: qx + q / 2, y: qy + q / 2, class: "quad-label" }, labels).textContent = name;
     }
-    root.addEventListener("click", () => clickHub(c.index, "left"));
-    root.addEventListener("contextmenu", (e) => { e.preventDefault(); clickHub(c.index, "right"); });
+    for (const node of [root, labels]) {
+      node.addEventListener("click", () => clickHub(c.index, "left"));
+      node.addEventListener("contextmenu", (e) => { e.preventDefault(); clickHub(c.index, "right"); });
+    }
     makeKeyboardButton(root, `Collective ${NAMES[c.index]} hub`, (button) => clickHub(c.index, button));
-    return { root, quads };
+    return { root, labels, quads };
   }
 
   function updateCollective(glyph, c) {
     glyph.root.setAttribute("class", "collective" + (state.selectedHub === c.index ? " selected" : ""));
     glyph.root.setAttribute("aria-pressed", state.selectedHub === c.index ? "true" : "false");
     glyph.root.setAttribute("transform", placed(c.hub[0], c.hub[1]));
+    glyph.labels.setAttribute("transform", placed(c.hub[0], c.hub[1]));
     for (const name of ["U", "F", "C", "X"]) glyph.quads[name].setAttribute("fill-opacity", c.fractions[name]);
   }
 
@@ -466,8 +473,8 @@
       label.textContent = `${r.kind} · ${NAMES[r.collective]} → target ${r.target}`;
       li.append(dot, label);
       li.tabIndex = 0;
-      li.setAttribute("role", "button");
-      li.setAttribute("aria-pressed", r.id === state.selectedAssignment ? "true" : "false");
+      li.setAttribute("role", "option");
+      li.setAttribute("aria-selected", r.id === state.selectedAssignment ? "true" : "false");
       li.setAttribute("aria-label", `${r.kind}, collective ${NAMES[r.collective]}, target ${r.target}, ${r.status.replace("_", " ")}`);
       const select = () => { state.selectedAssignment = r.id; drawAssignments(state.view || view); };
       li.addEventListener("click", select);
