@@ -205,3 +205,78 @@ def test_every_page_of_the_demo_study_passes_axe_and_fits_the_smallest_window(
     page.close()
     assert len(findings.pages) >= 20, list(findings.pages)
     assert findings.failing() == [], findings.report()
+
+
+def test_the_console_pages_pass_axe_and_fit_the_smallest_window(
+    browser, app, make_trial, experimenter, capsys
+) -> None:
+    """Sign-in, the participants' table (a participant after a trial, a batch made), the
+    batch's links, a participant's page and a trial's replay, at 1024 x 620."""
+    from playwright.sync_api import expect
+
+    from tests.support.console import PASSWORD, USERNAME, code_of
+    from tests.support.inprocess import serving
+    from tests.support.replays import operate
+
+    trial = make_trial(seed=7, duration_s=60.0)
+    operate(trial, 60.0)
+    code = code_of(app, trial.token)
+    findings = Findings()
+    with serving(app) as url:
+        page = browser.new_page(viewport=SMALLEST)
+        page.goto(f"{url}/console/login")
+        findings.check(page, "console: sign in")
+        page.get_by_label("Username").fill(USERNAME)
+        page.get_by_label("Password").fill(PASSWORD)
+        page.get_by_role("button", name="Sign in").click()
+        expect(page.locator("h1")).to_have_text("Participants")
+        expect(page.locator(f'#progress tr[data-code="{code}"]')).to_be_visible()
+        findings.check(page, "console: participants")
+        page.fill("#count", "2")
+        page.click("#create-form button[type=submit]")
+        expect(page.locator("h1")).to_have_text("Participant links")
+        findings.check(page, "console: links")
+        page.goto(f"{url}/console/participants/{code}")
+        findings.check(page, "console: a participant")
+        page.locator(f'tr[data-trial="{trial.trial_id}"] a.replay-link').click()
+        expect(page.locator("#replay")).to_have_attribute("data-state", "ready")
+        findings.check(page, "console: a replay")
+        page.close()
+    with capsys.disabled():
+        print(f"\naxe-core and sideways scroll at 1024 x 620:\n{findings.report()}")
+    assert findings.failing() == [], findings.report()
+
+
+def test_the_pages_off_the_main_path_pass_axe(browser, demo_server: StudyServer, capsys) -> None:
+    """A window too small on the first page, a phone's screen-out, a declined consent, and a
+    link to no study: the pages a participant meets when the study does not go on."""
+    from playwright.sync_api import expect
+
+    findings = Findings()
+    page = browser.new_page(viewport={"width": 900, "height": 600})
+    page.goto(f"{demo_server.url}/join/demo")
+    expect(page.locator("#window-too-small")).to_be_visible()
+    findings.check(page, "join: window too small")
+    page.close()
+
+    phone = browser.new_page(viewport={"width": 390, "height": 844}, is_mobile=True, has_touch=True)
+    phone.goto(f"{demo_server.url}/join/demo")
+    expect(phone.locator("main.study")).to_have_attribute("data-stage", "screened_out")
+    findings.check(phone, "screened out (a phone)")
+    phone.close()
+
+    page = browser.new_page(viewport=SMALLEST)
+    page.goto(f"{demo_server.url}/p/{demo_server.participant()}")
+    page.get_by_label("I do not agree").check()
+    page.get_by_role("button", name="Continue").click()
+    expect(page.locator("#confirm-decline")).to_be_visible()
+    findings.check(page, "consent: asked to confirm declining")
+    page.get_by_role("button", name="Confirm").click()
+    expect(page.locator("main.study")).to_have_attribute("data-stage", "declined")
+    findings.check(page, "declined")
+    page.goto(f"{demo_server.url}/join/no-such-study")
+    findings.check(page, "a link to no study")
+    page.close()
+    with capsys.disabled():
+        print(f"\naxe-core and sideways scroll:\n{findings.report()}")
+    assert findings.failing() == [], findings.report()
