@@ -79,12 +79,15 @@ bench: install
 
 # ruff (style, banned dynamic imports, dead noqa), import-linter (the contracts of
 # docs/architecture.md, in pyproject.toml), mypy (settings in pyproject.toml).
-lint: install
+# Biome lints and checks the format of the platform's JavaScript and lints its CSS (biome.jsonc).
+lint: install node-tools
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
 	$(VENV)/bin/lint-imports
 	$(VENV)/bin/mypy
+	node_modules/.bin/biome ci
 
-format: install
+format: install node-tools
 	$(VENV)/bin/ruff check --fix .
 	$(VENV)/bin/ruff format .
+	node_modules/.bin/biome check --write
