@@ -64,7 +64,7 @@ def page_name(where: str) -> str:
         return re.sub(r"_\d+$", "", where)
     if stage in ("training", "trial"):
         return f"{stage}: start page"
-    return where if stage == "introduction" else stage
+    return where if stage in ("introduction", "instruction_check") else stage
 
 
 def answer_radios(page) -> None:
