@@ -278,6 +278,7 @@
       (g, t) => updateTarget(g, t, hub),
       $("layer-targets"),
     );
+    separateTargetLabels(view.targets);
     syncLayer(
       "collective",
       view.collectives,
@@ -328,7 +329,9 @@
       frame: el("rect", { x: -h, y: -h, width: TARGET, height: TARGET, class: "target-frame" }, root),
       mark: el("rect", { x: -h - 5, y: -h - 5, width: TARGET + 10, height: TARGET + 10, class: "range-mark" }, root),
     };
-    el("text", { x: h + 14, y: -h + 3, class: "target-id" }, root).textContent = t.id;
+    glyph.leader = el("line", { class: "target-leader", display: "none" }, root);
+    glyph.label = el("text", { x: LABEL_SPOTS[0][0], y: LABEL_SPOTS[0][1], class: "target-id" }, root);
+    glyph.label.textContent = t.id;
     root.addEventListener("click", () => clickTarget(t.id, "left"));
     root.addEventListener("contextmenu", (e) => {
       e.preventDefault();
@@ -336,6 +339,67 @@
     });
     makeKeyboardButton(root, `Target ${t.id}`, (button) => clickTarget(t.id, button));
     return glyph;
+  }
+
+  // A target's number sits at its top right. Where targets crowd together (two
+  // found at almost the same place), a number there would be drawn under a
+  // neighbour or over its number, while a probe may be asking about either; so
+  // each number takes the first of these spots (the end of its text, in screen
+  // pixels from the target's centre) that is clear of the other targets and of
+  // the numbers placed before it, in id order. A spot away from the box gets a
+  // leader line to it. Apart from crowding every number stays at the first spot.
+  const LABEL_SPOTS = [
+    [29, -12, false],
+    [29, 31, false],
+    [-19, -20, false],
+    [-19, 31, false],
+    [52, -34, true],
+    [-42, -42, true],
+    [52, 54, true],
+    [-42, 56, true],
+    [0, -48, true],
+    [0, 70, true],
+  ];
+  const LABEL_H = 16;
+  function labelBox(cx, cy, spot, digits) {
+    const w = 10 * digits + 2;
+    return [cx + spot[0] - w, cy + spot[1] - LABEL_H + 3, cx + spot[0], cy + spot[1] + 3];
+  }
+  function overlap(a, b) {
+    const x = Math.min(a[2], b[2]) - Math.max(a[0], b[0]);
+    const y = Math.min(a[3], b[3]) - Math.max(a[1], b[1]);
+    return x > 0 && y > 0 ? x * y : 0;
+  }
+  function separateTargetLabels(targets) {
+    const h = TARGET / 2;
+    const at = targets.map((t) => [t.id, t.position[0] / metresPerPx, -t.position[1] / metresPerPx]);
+    const boxes = at.map(([, x, y]) => [x - h, y - h, x + h, y + h]);
+    const placed = [];
+    for (const [index, [id, x, y]] of at.entries()) {
+      const glyph = glyphs.target.get(id);
+      if (!glyph) continue;
+      const digits = String(id).length;
+      let best = null;
+      for (const spot of LABEL_SPOTS) {
+        const box = labelBox(x, y, spot, digits);
+        let cost = 0;
+        for (const [other, b] of boxes.entries()) if (other !== index) cost += overlap(box, b);
+        for (const b of placed) cost += overlap(box, b);
+        if (best === null || cost < best[0]) best = [cost, spot, box];
+        if (cost === 0) break;
+      }
+      const [, spot, box] = best;
+      placed.push(box);
+      glyph.label.setAttribute("x", spot[0]);
+      glyph.label.setAttribute("y", spot[1]);
+      glyph.leader.setAttribute("display", spot[2] ? "" : "none");
+      if (spot[2]) {
+        const [ex, ey] = [Math.max(-h, Math.min(h, spot[0] - 5 * digits)), Math.max(-h, Math.min(h, spot[1] - 5))];
+        const end = [spot[0] - 5 * digits, spot[1] - 5];
+        for (const [k, v] of Object.entries({ x1: ex, y1: ey, x2: end[0], y2: end[1] }))
+          glyph.leader.setAttribute(k, v);
+      }
+    }
   }
 
   function updateTarget(glyph, t, hub) {
@@ -684,6 +748,7 @@
       return;
     }
     box.dataset.probe = probe.id;
+    $("probe-hint").textContent = "";
     box.querySelector(".probe-ready").hidden = probe.phase !== "ready";
     box.querySelector(".probe-question").hidden = probe.phase !== "question";
     if (probe.phase === "question") {
@@ -775,13 +840,18 @@
     box.style.left = `${best[1]}px`;
     box.style.top = `${best[2]}px`;
   }
-  // Keys in the probe box within this time of its question showing are ignored.
+  // Keys in the probe box within this time of its question showing are ignored, and the
+  // box says so: a key that did nothing without a word looked like a broken page.
   const PROBE_KEY_GUARD_MS = 500;
   function guardProbeKeys(e) {
     if (state.questionShownAt === undefined || $("probe").hidden) return;
-    if (performance.now() - state.questionShownAt < PROBE_KEY_GUARD_MS && (e.key === "Enter" || e.key === " ")) {
+    if (e.key !== "Enter" && e.key !== " ") return;
+    if (performance.now() - state.questionShownAt < PROBE_KEY_GUARD_MS) {
       e.preventDefault();
       e.stopPropagation();
+      $("probe-hint").textContent = "Read the question first, then choose an answer.";
+    } else if (e.target === $("probe-text")) {
+      $("probe-hint").textContent = "Choose an answer: click it, or Tab to it and press Enter.";
     }
   }
   function readyProbe() {
