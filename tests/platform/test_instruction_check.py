@@ -124,3 +124,46 @@ def test_a_badly_declared_check_is_refused_with_a_clear_message(change, message)
     with pytest.raises(StudyFileError) as refused:
         parse_study(doc, source="demo.toml")
     assert message in str(refused.value), str(refused.value)
+
+
+def test_after_wrong_retry_asks_again_at_once_with_the_missed_question_marked(
+    database_url, tmp_path, monkeypatch
+) -> None:
+    from hcss.platform.bots.participant import bot_app
+    from hcss.platform.models import Score
+    from hcss.platform.study.files import STUDIES_ENV, study_text
+
+    text = study_text("demo")[1].decode()
+    text = text.replace('name = "demo"', 'name = "retrying"')
+    text = text.replace('after_wrong = "reread"', 'after_wrong = "retry"').replace(
+        "tries = 2", "tries = 3"
+    )
+    (tmp_path / "studies").mkdir()
+    (tmp_path / "studies" / "retrying.toml").write_text(text)
+    monkeypatch.setenv(STUDIES_ENV, str(tmp_path / "studies"))
+    app = bot_app(database_url, "retrying")
+    app.extensions["hcss_db"].create_all()
+    try:
+        guest = visitor(app, new_participant(app))
+        page = walk_to(guest, "instruction_check", "try_1")
+        wrong = right_answers() | {"decide_when": "At any time"}
+        guest.submit(wrong, page)
+        again = guest.page()
+        assert (again.stage, again.step) == ("instruction_check", "try_2")  # no re-read
+        assert "Try 2 of 3: 1 of your answers was not right" in guest.html
+        assert guest.html.count('class="check-missed"') == 1
+        guest.submit(wrong, again)
+        third = guest.page()
+        assert third.step == "try_3"
+        guest.submit(right_answers(), third)
+        assert guest.page().stage == "screen_check"
+        with app.extensions["hcss_db"].session_scope() as session:
+            scores = {
+                s.scale: s.score
+                for s in session.scalars(
+                    select(Score).where(Score.instrument == "instruction_check")
+                )
+            }
+        assert scores == {"passed": 1.0, "tries": 3.0}
+    finally:
+        app.extensions["hcss_db"].engine.dispose()
