@@ -19,6 +19,7 @@ from hcss.questionnaires import ranking
 from hcss.questionnaires.demographics import ITEM_KEYS
 from tests.support.axe import axe_violations, node_count, summary
 from tests.support.pages import live_trial, wait_for
+from tests.support.study import visitor, walk_to
 from tests.support.study_server import StudyServer
 
 pytestmark = pytest.mark.browser
@@ -94,6 +95,20 @@ def run_to_end(page, server: StudyServer, at_the_end=lambda: None) -> None:
     expect(page.locator("main.study")).to_be_attached()
 
 
+def pause(server: StudyServer, action: str) -> None:
+    """The experimenter pauses or resumes the walking participant, as the console does."""
+    from sqlalchemy import select
+
+    from hcss.platform.console.interventions import change_participant_state
+    from hcss.platform.models import Participant
+
+    with server.app.app_context(), server.database.session_scope() as session:
+        (participant,) = session.scalars(select(Participant)).all()
+        session.expunge(participant)
+    with server.app.app_context():
+        change_participant_state(server.database, server.runner, participant, None, action)
+
+
 def live_pages(page, server: StudyServer, findings: Findings, kind: str) -> None:
     """The live trial's states, each checked: running, a hub and target chosen, an info box,
     a probe waiting and asked (trials only), then the ended overlay."""
@@ -129,6 +144,11 @@ def live_pages(page, server: StudyServer, findings: Findings, kind: str) -> None
         page.locator("#probe-choices button").first.click()
         expect(page.locator("#probe")).to_be_hidden()
         assert live.current_probe is None
+        pause(server, "pause")
+        expect(page.locator("#paused")).to_be_visible()
+        findings.check(page, "trial: paused by the experimenter")
+        pause(server, "resume")
+        expect(page.locator("#paused")).to_be_hidden()
     run_to_end(page, server, lambda: findings.check(page, f"{kind}: ended"))
 
 
@@ -276,6 +296,18 @@ def test_the_pages_off_the_main_path_pass_axe(browser, demo_server: StudyServer,
     findings.check(page, "declined")
     page.goto(f"{demo_server.url}/join/no-such-study")
     findings.check(page, "a link to no study")
+    page.goto(f"{demo_server.url}/join/demo?assignmentId=ASSIGNMENT_ID_NOT_AVAILABLE&hitId=3HITXYZ")
+    expect(page.locator("main")).to_contain_text("preview", ignore_case=True)
+    findings.check(page, "an MTurk HIT's preview")
+
+    # An MRT part whose time ran out before every item was answered.
+    token = demo_server.participant()
+    walk_to(visitor(demo_server.app, token), "mental_rotation", "part_1")
+    page.goto(f"{demo_server.url}/p/{token}")
+    demo_server.advance(61.0)
+    page.reload()
+    expect(page.locator("main.study")).to_have_attribute("data-step", "time_up_1")
+    findings.check(page, "mental_rotation/time_up")
     page.close()
     with capsys.disabled():
         print(f"\naxe-core and sideways scroll:\n{findings.report()}")
