@@ -4,7 +4,7 @@ PY     := $(VENV)/bin/python
 HCSS   := $(VENV)/bin/hcss
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: install run test test-fast bench lint format browser nginx fuzz r
+.PHONY: install run test test-fast bench lint format browser nginx node-tools fuzz r
 
 $(PY):
 	python3 -m venv $(VENV)
@@ -40,9 +40,14 @@ r:
 nginx:
 	bash scripts/ensure-nginx
 
+# axe-core for the browser tests' accessibility checks and Biome for `make lint`, pinned by
+# package-lock.json; scripts/ensure-node-tools installs them into node_modules/ when missing.
+node-tools:
+	bash scripts/ensure-node-tools
+
 # Three workers on two cores: most of the suite's time is waiting (leases expiring, servers
 # and browsers answering), and a third worker took a full run from 17 min 30 s to 15 min 1 s.
-test: install browser nginx
+test: install browser nginx node-tools
 	$(PY) -m pytest -q -n 3
 
 # The fast tier, before each commit: SQLite only, no slow or browser test, and none that took
@@ -74,12 +79,15 @@ bench: install
 
 # ruff (style, banned dynamic imports, dead noqa), import-linter (the contracts of
 # docs/architecture.md, in pyproject.toml), mypy (settings in pyproject.toml).
-lint: install
+# Biome lints and checks the format of the platform's JavaScript and lints its CSS (biome.jsonc).
+lint: install node-tools
 	$(VENV)/bin/ruff check .
 	$(VENV)/bin/ruff format --check .
 	$(VENV)/bin/lint-imports
 	$(VENV)/bin/mypy
+	node_modules/.bin/biome ci
 
-format: install
+format: install node-tools
 	$(VENV)/bin/ruff check --fix .
 	$(VENV)/bin/ruff format .
+	node_modules/.bin/biome check --write

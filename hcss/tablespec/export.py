@@ -264,7 +264,8 @@ QUESTIONNAIRE_ITEMS = TableSpec(
         Column(
             "instrument",
             "str",
-            "`demographics`, `mrt`, `post_trial`, `nasa_tlx`, `sart`, `ranking`",
+            "`demographics`, `mrt`, `instruction_check`, `post_trial`, `nasa_tlx`, `sart`, "
+            "`ranking`",
             required=True,
         ),
         Column(
@@ -273,7 +274,14 @@ QUESTIONNAIRE_ITEMS = TableSpec(
             "the model the answer is about; empty for per-participant instruments",
             required=True,
         ),
-        Column("item", "str", "item key, e.g. `mental_demand`, `pair_03`, `mrt_07`", required=True),
+        Column(
+            "item",
+            "str",
+            "item key, e.g. `mental_demand`, `pair_03`, `mrt_07`; an instruction check's answers "
+            "are `<question key>_try_<n>`, one per question and try (the study file's "
+            "`[instruction_check]` names the questions and their answers)",
+            required=True,
+        ),
         Column("value", "str", "the raw answer", required=True),
     ),
 )
@@ -285,14 +293,18 @@ SCORES = TableSpec(
     columns=(
         Column("participant", "str", "participant code", nullable=False, required=True),
         Column(
-            "instrument", "str", "`mrt`, `nasa_tlx`, `sart`, `post_trial`, `ranking`", required=True
+            "instrument",
+            "str",
+            "`mrt`, `instruction_check`, `nasa_tlx`, `sart`, `post_trial`, `ranking`",
+            required=True,
         ),
         Column("model", "str", "empty for per-participant instruments", required=True),
         Column(
             "scale",
             "str",
             "e.g. `overall`, `raw_tlx`, `mental_demand_weighted`, `SU`, `effectiveness`, "
-            "`responsiveness`",
+            "`responsiveness`; the instruction check's `passed` (1: a try answered every "
+            "question rightly, 0: the last try did not) and `tries` (how many were used)",
             required=True,
         ),
         Column("score", "float", "the instrument's score on that scale", required=True),

@@ -12,6 +12,7 @@ import pytest
 from sqlalchemy import func, select
 
 from hcss.platform.models import QuestionnaireItem, Score
+from hcss.platform.study.studyfile import load_study
 from hcss.questionnaires import mrt, ranking
 from hcss.questionnaires.demographics import ITEM_KEYS
 from tests.support.pages import contrast, live_trial, open_live_trial, start_live_trial, wait_for
@@ -348,6 +349,14 @@ def test_the_demo_study_from_the_link_to_the_debrief(browser, demo_server: Study
         step = page.locator("main.study").get_attribute("data-step")
         page.get_by_role("button", name="Continue").click()
         expect(page.locator("main.study")).not_to_have_attribute("data-step", step)
+
+    # The instruction check, answered rightly at the first try.
+    expect_stage(page, "instruction_check", "try_1")
+    check = load_study("demo").instruction_check
+    assert check is not None
+    for item in check.items:
+        page.get_by_role("radio", name=item.answer, exact=True).check()
+    page.get_by_role("button", name="Check my answers").click()
 
     # The screen check: too small a window is told so, and it clears when the window grows.
     expect_stage(page, "screen_check")

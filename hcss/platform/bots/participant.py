@@ -30,7 +30,7 @@ from sqlalchemy import select
 from hcss.platform.live.idempotency import KEY_HEADER
 from hcss.platform.live.service import LiveTrials
 from hcss.platform.models import Participant, Trial
-from hcss.platform.study.enrolment import assign_cell
+from hcss.platform.study.enrolment import assign_cell, current_enrolment
 from hcss.platform.study.stage_protocol import Shown, SubmissionMustFail
 from hcss.platform.study.stages import STAGES
 from hcss.platform.study.studyfile import Study, load_study
@@ -132,6 +132,7 @@ def expected_pages(study: Study) -> list[tuple[str, str]]:
         "training": ["ready", "run"],
         "trial": ["ready", "run"],
         "nasa_tlx": ["ratings", "comparisons"],
+        "instruction_check": ["try_1"],  # a bot answers it rightly at once
     }
     names = (
         list(study.sequence.before)
@@ -182,6 +183,7 @@ class ParticipantBot:
         self.live: LiveTrials | None = None
         self.clock = ManualClock()
         self._accelerations: dict[int, float] = {}
+        self.study: Study | None = None  # the study `run` walks
         if client is not None:
             self.client = client
             return
@@ -212,6 +214,7 @@ class ParticipantBot:
     # --- the walk --------------------------------------------------------------------
 
     def run(self, study: Study) -> BotReport:
+        self.study = study
         code = self.code
         if code is None and self.app is not None:
             with self.app.app_context():
@@ -308,7 +311,7 @@ class ParticipantBot:
             after = parse_page(html)
             done = (after.stage, after.step) != (stage, step)
             return html, done
-        shown = Shown(step, self.rng, page.radios)
+        shown = Shown(step, self.rng, page.radios, self.walked_study())
         html = ""
         for submission in STAGES[stage].bot_submissions(shown):
             html = self.post_form(page, dict(submission.fields))
@@ -318,6 +321,25 @@ class ParticipantBot:
                     raise BotError(f"{stage}/{step} took {dict(submission.fields)}: must refuse")
                 page = again  # the form shown again, with its errors
         return html, True
+
+    def walked_study(self) -> Study | None:
+        """The study `run` walks; for a bot driven page by page in-process, its participant's."""
+        if self.study is None and self.app is not None:
+            with self.app.app_context():
+                from hcss.platform.db import database
+
+                with database().session_scope() as session:
+                    participant_id = session.scalar(
+                        select(Participant.id).where(Participant.token == self.token)
+                    )
+                    enrolment = (
+                        None
+                        if participant_id is None
+                        else current_enrolment(session, participant_id)
+                    )
+                    if enrolment is not None:
+                        self.study = load_study(enrolment.study)
+        return self.study
 
     def mrt_choice(self, key: str) -> list[str]:
         item = next(i for i in (*mrt.item_bank(), *mrt.practice_items()) if i.key == key)

@@ -5,7 +5,14 @@ from __future__ import annotations
 from typing import Any
 
 from flask_wtf import FlaskForm
-from wtforms import BooleanField, IntegerField, PasswordField, SelectField, StringField
+from wtforms import (
+    BooleanField,
+    HiddenField,
+    IntegerField,
+    PasswordField,
+    SelectField,
+    StringField,
+)
 from wtforms.validators import DataRequired, InputRequired, Length, NumberRange, Optional
 
 from hcss.platform.study.enrolment import default_study_name
@@ -25,6 +32,13 @@ class LoginForm(FlaskForm):
     code = StringField(
         "One-time code (accounts with a second factor)", validators=[Optional(), Length(max=32)]
     )
+
+
+class SecondFactorForm(FlaskForm):
+    """The enrolment page's confirmation: a code of the secret offered, which it carries back."""
+
+    offer = HiddenField(validators=[DataRequired(), Length(max=512)])
+    code = StringField("Code the app shows", validators=[DataRequired(), Length(max=32)])
 
 
 class CreateParticipantsForm(FlaskForm):

@@ -26,13 +26,14 @@ from flask import (
     session as cookie_session,
 )
 from flask.typing import ResponseReturnValue
-from flask_login import LoginManager, current_user, login_required, logout_user
+from flask_login import LoginManager, current_user, login_required, login_user, logout_user
 from markupsafe import Markup, escape
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from hcss.platform.console import forms
 from hcss.platform.console.audit import audit_entries
+from hcss.platform.console.factor_enrolment import confirm, offer, offered_secret
 from hcss.platform.console.interventions import (
     ConsoleError,
     available_actions,
@@ -54,6 +55,7 @@ from hcss.platform.console.participants import (
     participants_by_code,
 )
 from hcss.platform.console.presence import CONNECTED_WITHIN_S
+from hcss.platform.console.second_factor import has_second_factor
 from hcss.platform.console.signin import answer_sign_in
 from hcss.platform.console.skipping import skip_step, skip_targets
 from hcss.platform.console.withdrawal import WithdrawalError, withdraw
@@ -168,6 +170,46 @@ def logout():
     logout_user()
     cookie_session.clear()
     return redirect(url_for("console.login"))
+
+
+@bp.route("/second-factor", methods=["GET", "POST"])
+@login_required
+def second_factor() -> ResponseReturnValue:
+    """Enrol (or replace) the signed-in experimenter's second factor: scan, confirm, keep
+    the recovery codes (hcss.platform.console.factor_enrolment)."""
+    form = forms.SecondFactorForm()
+    key = current_app.config["SECRET_KEY"]
+    posted = request.method == "POST"
+    carried = offered_secret(current_user, form.offer.data or "", key) if posted else None
+    error = None
+    if form.validate_on_submit():
+        if carried is None:
+            error = "That QR code is too old. Scan this new one and type its code."
+        else:
+            done = confirm(database(), current_user.id, carried, form.code.data)
+            if done is not None:
+                login_user(done.account)  # this browser stays in; the others are signed out
+                return render_template("console/second_factor_done.html", enrolment=done.enrolment)
+            error = (
+                "That is not the code the app shows for this QR code. Type the one it shows now."
+            )
+    elif posted:
+        error = "Type the six-digit code the app shows."
+    form.code.data = ""
+    return _factor_page(form, offer(current_user, key, carried), error)
+
+
+def _factor_page(form: forms.SecondFactorForm, offered, error: str | None) -> ResponseReturnValue:
+    form.offer.data = offered.signed
+    status = 400 if error else 200
+    page = render_template(
+        "console/second_factor.html",
+        form=form,
+        offered=offered,
+        error=error,
+        enrolled=has_second_factor(current_user),
+    )
+    return page, status
 
 
 @bp.get("/")

@@ -5,7 +5,7 @@
 // too small can be enlarged first. The server decides from what is posted.
 // In a frame (MTurk shows a HIT in one) the study opens in its own window instead:
 // the server says so when the browser tells it (Sec-Fetch-Dest), this when not.
-(function () {
+(() => {
   "use strict";
   const box = document.getElementById("device-check");
   if (window.self !== window.top) {
@@ -32,36 +32,45 @@
     });
     return;
   }
-  const minW = Number(box.dataset.minWidth), minH = Number(box.dataset.minHeight);
+  const minW = Number(box.dataset.minWidth),
+    minH = Number(box.dataset.minHeight);
   const desktopOnly = box.dataset.desktopOnly === "true";
   const wanted = box.dataset.features.split(",").filter(Boolean);
   const has = {
     eventsource: "EventSource" in window,
     fetch: "fetch" in window,
-    svg: !!(document.createElementNS && document.createElementNS("http://www.w3.org/2000/svg", "svg").createSVGRect),
+    svg: !!document.createElementNS?.("http://www.w3.org/2000/svg", "svg").createSVGRect,
     crypto: !!(window.crypto && crypto.getRandomValues),
   };
   const missing = wanted.filter((name) => !has[name]);
-  const agentMobile = navigator.userAgentData ? navigator.userAgentData.mobile
+  const agentMobile = navigator.userAgentData
+    ? navigator.userAgentData.mobile
     : /Mobi|Android|iPhone|iPad|iPod/i.test(navigator.userAgent);
   const touchOnly = matchMedia("(pointer: coarse)").matches && !matchMedia("(any-pointer: fine)").matches;
   const mobile = agentMobile || touchOnly;
   const form = document.getElementById("join-form");
-  const field = (id, value) => { document.getElementById(id).value = value; };
+  const field = (id, value) => {
+    document.getElementById(id).value = value;
+  };
   field("join-mobile", mobile ? "1" : "0");
   field("join-missing", missing.join(","));
   function check() {
-    const w = window.innerWidth, h = window.innerHeight, big = w >= minW && h >= minH;
+    const w = window.innerWidth,
+      h = window.innerHeight,
+      big = w >= minW && h >= minH;
     field("join-width", w);
     field("join-height", h);
-    document.getElementById("window-size").textContent = w + " x " + h;
+    document.getElementById("window-size").textContent = `${w} x ${h}`;
     document.getElementById("window-too-small").hidden = big;
     document.getElementById("join-cannot").hidden = big;
     document.getElementById("device-ok").hidden = !big;
     document.getElementById("join-start").disabled = !big;
   }
   check();
-  if ((desktopOnly && mobile) || missing.length) { form.submit(); return; }
+  if ((desktopOnly && mobile) || missing.length) {
+    form.submit();
+    return;
+  }
   // Maximising, full screen and zooming out all fire resize (zoom changes the CSS pixels).
   window.addEventListener("resize", check);
 })();

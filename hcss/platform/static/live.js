@@ -1,11 +1,12 @@
 // The Collective Interface: draws each streamed frame and sends the
 // participant's clicks, requests and probe answers. No framework, no build.
-(function () {
+(() => {
   "use strict";
   const SVG = "http://www.w3.org/2000/svg";
   // Glyph sizes in screen pixels: the map scales positions to the window, but a
   // hub, a target and their labels keep a size that can be read and clicked.
-  const HUB = 56, TARGET = 30;
+  const HUB = 56,
+    TARGET = 30;
   // The arena is 2 x ARENA metres square, centred on the origin.
   const ARENA = 707;
   const root = document.getElementById("interface");
@@ -17,10 +18,18 @@
   const csrf = document.querySelector('meta[name="csrf-token"]').content;
   const $ = (id) => document.getElementById(id);
   const state = {
-    view: null, probe: null, selectedHub: null, selectedTarget: null,
-    selectedAssignment: null, selections: { collective: null, target: null },
-    flag: null, ended: false, paused: false, committing: false, seenMessages: new Set(),
-    shownClockS: -Infinity,  // the newest trial clock shown; a frame behind it is held
+    view: null,
+    probe: null,
+    selectedHub: null,
+    selectedTarget: null,
+    selectedAssignment: null,
+    selections: { collective: null, target: null },
+    flag: null,
+    ended: false,
+    paused: false,
+    committing: false,
+    seenMessages: new Set(),
+    shownClockS: -Infinity, // the newest trial clock shown; a frame behind it is held
   };
 
   function el(name, attrs, parent) {
@@ -31,7 +40,7 @@
   }
   function clock(seconds) {
     const s = Math.max(0, Math.floor(seconds));
-    return Math.floor(s / 60) + ":" + String(s % 60).padStart(2, "0");
+    return `${Math.floor(s / 60)}:${String(s % 60).padStart(2, "0")}`;
   }
   // Every command carries a fresh Idempotency-Key: the server carries out a
   // key once and answers a repeat (a double click, a retry) with the first
@@ -63,20 +72,30 @@
       let response;
       try {
         response = await fetch(apiUrl + path, {
-          method: "POST", credentials: "same-origin",
+          method: "POST",
+          credentials: "same-origin",
           headers: { "Content-Type": "application/json", "X-CSRFToken": csrf, "Idempotency-Key": key },
           body: JSON.stringify(body || {}),
         });
-      } catch (e) {  // the connection dropped: the same key again is safe
+      } catch (_e) {
+        // the connection dropped: the same key again is safe
         if (attempt >= 2) throw new Error("No connection to the server; please try again.");
         await pause(300 * (attempt + 1));
         continue;
       }
       let payload = {};
-      try { payload = await response.json(); } catch (e) { /* empty body */ }
+      try {
+        payload = await response.json();
+      } catch (_e) {
+        /* empty body */
+      }
       if (response.ok) return payload;
       const waitS = Math.min(0.5 * 2 ** held, retryAfterS(response));
-      if (!PASSING_STATUS.has(response.status) || state.ended || Date.now() - started + waitS * 1000 > HELD_LIMIT_S * 1000) {
+      if (
+        !PASSING_STATUS.has(response.status) ||
+        state.ended ||
+        Date.now() - started + waitS * 1000 > HELD_LIMIT_S * 1000
+      ) {
         throw new Error(payload.message || response.statusText);
       }
       held++;
@@ -88,9 +107,18 @@
   // A button that sends a command is disabled until its answer is in.
   async function inFlight(buttons, action) {
     if (buttons.some((b) => b.disabled)) return;
-    buttons.forEach((b) => { b.disabled = true; });
-    try { await action(); } catch (e) { note(e.message); }
-    finally { buttons.forEach((b) => { b.disabled = false; }); }
+    buttons.forEach((b) => {
+      b.disabled = true;
+    });
+    try {
+      await action();
+    } catch (e) {
+      note(e.message);
+    } finally {
+      buttons.forEach((b) => {
+        b.disabled = false;
+      });
+    }
   }
   function note(text, ok) {
     $("request-note").textContent = text || "";
@@ -109,11 +137,18 @@
       const id = key(item);
       seen.add(id);
       let glyph = glyphs[kind].get(id);
-      if (!glyph) { glyph = create(item, layer); glyphs[kind].set(id, glyph); }
+      if (!glyph) {
+        glyph = create(item, layer);
+        glyphs[kind].set(id, glyph);
+      }
       update(glyph, item);
     }
     for (const [id, glyph] of glyphs[kind]) {
-      if (!seen.has(id)) { glyph.root.remove(); glyphs[kind].delete(id); }
+      if (!seen.has(id)) {
+        glyph.root.remove();
+        glyph.labels?.remove();
+        glyphs[kind].delete(id);
+      }
     }
   }
 
@@ -122,17 +157,25 @@
   // Zoom and pan (buttons, wheel, drag, keys) move the world under the glyphs:
   // a zoomed map spreads crowded targets apart while every label keeps its size.
   let metresPerPx = 1;
-  const ZOOM_STEP = 1.5, ZOOM_MAX = 4, PAN_PX = 80, DRAG_PX = 4;
-  const camera = { zoom: 1, x: 0, y: 0 };  // the view's centre, in SVG units (y down)
+  const ZOOM_STEP = 1.5,
+    ZOOM_MAX = 4,
+    PAN_PX = 80,
+    DRAG_PX = 4;
+  const camera = { zoom: 1, x: 0, y: 0 }; // the view's centre, in SVG units (y down)
   function fitMap() {
-    const map = $("map"), box = map.getBoundingClientRect();
+    const map = $("map"),
+      box = map.getBoundingClientRect();
     if (!box.width || !box.height) return;
     metresPerPx = (2 * ARENA) / Math.min(box.width, box.height) / camera.zoom;
-    const w = box.width * metresPerPx, h = box.height * metresPerPx;
+    const w = box.width * metresPerPx,
+      h = box.height * metresPerPx;
     // The view's centre stays over the arena, so the map cannot be lost off the panel.
     camera.x = Math.max(-ARENA, Math.min(ARENA, camera.x));
     camera.y = Math.max(-ARENA, Math.min(ARENA, camera.y));
-    if (camera.zoom === 1) { camera.x = 0; camera.y = 0; }
+    if (camera.zoom === 1) {
+      camera.x = 0;
+      camera.y = 0;
+    }
     const extent = [camera.x - w / 2, camera.y - h / 2, w, h];
     map.setAttribute("viewBox", extent.join(" "));
     const ground = map.querySelector(".ground");
@@ -153,7 +196,7 @@
     const dx = clientX === undefined ? 0 : clientX - (box.left + box.width / 2);
     const dy = clientY === undefined ? 0 : clientY - (box.top + box.height / 2);
     const before = metresPerPx;
-    const after = before * camera.zoom / zoom;
+    const after = (before * camera.zoom) / zoom;
     camera.x += dx * (before - after);
     camera.y += dy * (before - after);
     camera.zoom = zoom;
@@ -165,7 +208,10 @@
     camera.y -= dyPx * metresPerPx;
     fitMap();
   }
-  function resetZoom() { camera.zoom = 1; fitMap(); }
+  function resetZoom() {
+    camera.zoom = 1;
+    fitMap();
+  }
   // A drag pans; a press that does not move is a click on whatever is under it.
   let drag = null;
   function startDrag(e) {
@@ -174,10 +220,16 @@
   }
   function moveDrag(e) {
     if (!drag || e.pointerId !== drag.id) return;
-    const dx = e.clientX - drag.x, dy = e.clientY - drag.y;
+    const dx = e.clientX - drag.x,
+      dy = e.clientY - drag.y;
     if (!drag.moved && Math.hypot(dx, dy) < DRAG_PX) return;
-    if (!drag.moved) { drag.moved = true; $("map").setPointerCapture(e.pointerId); $("map").classList.add("dragging"); }
-    drag.x = e.clientX; drag.y = e.clientY;
+    if (!drag.moved) {
+      drag.moved = true;
+      $("map").setPointerCapture(e.pointerId);
+      $("map").classList.add("dragging");
+    }
+    drag.x = e.clientX;
+    drag.y = e.clientY;
     panBy(dx, dy);
   }
   function endDrag(e) {
@@ -186,7 +238,15 @@
     drag = null;
     $("map").classList.remove("dragging");
     // The click that ends a drag selects nothing and is no observation.
-    if (moved) window.addEventListener("click", (c) => { c.stopPropagation(); c.preventDefault(); }, { capture: true, once: true });
+    if (moved)
+      window.addEventListener(
+        "click",
+        (c) => {
+          c.stopPropagation();
+          c.preventDefault();
+        },
+        { capture: true, once: true },
+      );
   }
   // Keys anywhere on the map (a hub or target focused, or the zoom buttons):
   // + and - zoom, 0 resets, the arrow keys pan.
@@ -201,16 +261,40 @@
     e.preventDefault();
   }
   // A glyph's transform: at its world position, drawn in pixels.
-  function placed(x, y) { return `translate(${x},${-y}) scale(${metresPerPx})`; }
+  function placed(x, y) {
+    return `translate(${x},${-y}) scale(${metresPerPx})`;
+  }
 
   function drawMap(view) {
     const hub = state.selectedHub === null ? null : view.collectives[state.selectedHub];
     const ranges = $("layer-ranges");
     ranges.replaceChildren();
     if (hub) el("circle", { cx: hub.hub[0], cy: -hub.hub[1], r: hub.range_m, class: "range" }, ranges);
-    syncLayer("target", view.targets, (t) => t.id, createTarget, (g, t) => updateTarget(g, t, hub), $("layer-targets"));
-    syncLayer("collective", view.collectives, (c) => c.index, createCollective, updateCollective, $("layer-collectives"));
-    syncLayer("move", view.collectives.filter((c) => c.move), (c) => c.index, createMove, (g, c) => updateMove(g, c, view), $("layer-moves"));
+    syncLayer(
+      "target",
+      view.targets,
+      (t) => t.id,
+      createTarget,
+      (g, t) => updateTarget(g, t, hub),
+      $("layer-targets"),
+    );
+    separateTargetLabels(view.targets);
+    syncLayer(
+      "collective",
+      view.collectives,
+      (c) => c.index,
+      createCollective,
+      updateCollective,
+      $("layer-collectives"),
+    );
+    syncLayer(
+      "move",
+      view.collectives.filter((c) => c.move),
+      (c) => c.index,
+      createMove,
+      (g, c) => updateMove(g, c, view),
+      $("layer-moves"),
+    );
     drawFlag();
   }
 
@@ -221,9 +305,12 @@
     node.setAttribute("role", "button");
     node.setAttribute("aria-label", label);
     node.addEventListener("keydown", (e) => {
-      if (e.key === "Enter" || e.key === " ") { e.preventDefault(); onClick("left"); }
-      else if (e.key === "i" || e.key === "ContextMenu" || (e.key === "F10" && e.shiftKey)) {
-        e.preventDefault(); onClick("right");
+      if (e.key === "Enter" || e.key === " ") {
+        e.preventDefault();
+        onClick("left");
+      } else if (e.key === "i" || e.key === "ContextMenu" || (e.key === "F10" && e.shiftKey)) {
+        e.preventDefault();
+        onClick("right");
       }
     });
   }
@@ -242,11 +329,77 @@
       frame: el("rect", { x: -h, y: -h, width: TARGET, height: TARGET, class: "target-frame" }, root),
       mark: el("rect", { x: -h - 5, y: -h - 5, width: TARGET + 10, height: TARGET + 10, class: "range-mark" }, root),
     };
-    el("text", { x: h + 14, y: -h + 3, class: "target-id" }, root).textContent = t.id;
+    glyph.leader = el("line", { class: "target-leader", display: "none" }, root);
+    glyph.label = el("text", { x: LABEL_SPOTS[0][0], y: LABEL_SPOTS[0][1], class: "target-id" }, root);
+    glyph.label.textContent = t.id;
     root.addEventListener("click", () => clickTarget(t.id, "left"));
-    root.addEventListener("contextmenu", (e) => { e.preventDefault(); clickTarget(t.id, "right"); });
+    root.addEventListener("contextmenu", (e) => {
+      e.preventDefault();
+      clickTarget(t.id, "right");
+    });
     makeKeyboardButton(root, `Target ${t.id}`, (button) => clickTarget(t.id, button));
     return glyph;
+  }
+
+  // A target's number sits at its top right. Where targets crowd together (two
+  // found at almost the same place), a number there would be drawn under a
+  // neighbour or over its number, while a probe may be asking about either; so
+  // each number takes the first of these spots (the end of its text, in screen
+  // pixels from the target's centre) that is clear of the other targets and of
+  // the numbers placed before it, in id order. A spot away from the box gets a
+  // leader line to it. Apart from crowding every number stays at the first spot.
+  const LABEL_SPOTS = [
+    [29, -12, false],
+    [29, 31, false],
+    [-19, -20, false],
+    [-19, 31, false],
+    [52, -34, true],
+    [-42, -42, true],
+    [52, 54, true],
+    [-42, 56, true],
+    [0, -48, true],
+    [0, 70, true],
+  ];
+  const LABEL_H = 16;
+  function labelBox(cx, cy, spot, digits) {
+    const w = 10 * digits + 2;
+    return [cx + spot[0] - w, cy + spot[1] - LABEL_H + 3, cx + spot[0], cy + spot[1] + 3];
+  }
+  function overlap(a, b) {
+    const x = Math.min(a[2], b[2]) - Math.max(a[0], b[0]);
+    const y = Math.min(a[3], b[3]) - Math.max(a[1], b[1]);
+    return x > 0 && y > 0 ? x * y : 0;
+  }
+  function separateTargetLabels(targets) {
+    const h = TARGET / 2;
+    const at = targets.map((t) => [t.id, t.position[0] / metresPerPx, -t.position[1] / metresPerPx]);
+    const boxes = at.map(([, x, y]) => [x - h, y - h, x + h, y + h]);
+    const placed = [];
+    for (const [index, [id, x, y]] of at.entries()) {
+      const glyph = glyphs.target.get(id);
+      if (!glyph) continue;
+      const digits = String(id).length;
+      let best = null;
+      for (const spot of LABEL_SPOTS) {
+        const box = labelBox(x, y, spot, digits);
+        let cost = 0;
+        for (const [other, b] of boxes.entries()) if (other !== index) cost += overlap(box, b);
+        for (const b of placed) cost += overlap(box, b);
+        if (best === null || cost < best[0]) best = [cost, spot, box];
+        if (cost === 0) break;
+      }
+      const [, spot, box] = best;
+      placed.push(box);
+      glyph.label.setAttribute("x", spot[0]);
+      glyph.label.setAttribute("y", spot[1]);
+      glyph.leader.setAttribute("display", spot[2] ? "" : "none");
+      if (spot[2]) {
+        const [ex, ey] = [Math.max(-h, Math.min(h, spot[0] - 5 * digits)), Math.max(-h, Math.min(h, spot[1] - 5))];
+        const end = [spot[0] - 5 * digits, spot[1] - 5];
+        for (const [k, v] of Object.entries({ x1: ex, y1: ey, x2: end[0], y2: end[1] }))
+          glyph.leader.setAttribute(k, v);
+      }
+    }
   }
 
   function updateTarget(glyph, t, hub) {
@@ -257,8 +410,10 @@
     if (state.selectedTarget === t.id) classes.push("selected");
     glyph.root.setAttribute("class", classes.join(" "));
     glyph.root.setAttribute("transform", placed(t.position[0], t.position[1]));
-    const label = `Target ${t.id}` + (t.drawn ? `, highest support ${Math.round(t.max_support * 100)}%` : ", not yet reported")
-      + (state.selectedTarget === t.id ? ", selected" : "");
+    const label =
+      `Target ${t.id}` +
+      (t.drawn ? `, highest support ${Math.round(t.max_support * 100)}%` : ", not yet reported") +
+      (state.selectedTarget === t.id ? ", selected" : "");
     if (glyph.root.getAttribute("aria-label") !== label) glyph.root.setAttribute("aria-label", label);
     // Transparent until two agents have reported it.
     glyph.green.setAttribute("fill-opacity", t.drawn ? (t.value ?? 0) : 0);
@@ -267,7 +422,7 @@
     glyph.mark.style.display = inRange ? "" : "none";
     if (inRange) {
       const supported = t.support[hub.index] > 0;
-      glyph.mark.setAttribute("class", "range-mark " + (supported ? "supported" : "unsupported"));
+      glyph.mark.setAttribute("class", `range-mark ${supported ? "supported" : "unsupported"}`);
     }
   }
 
@@ -280,26 +435,46 @@
     return support > 0 ? SUPPORT_FLOOR + (1 - SUPPORT_FLOOR) * Math.min(1, support) : 0;
   }
 
+  // A hub is a button (its box and quadrants) with its letters drawn over it in a group of
+  // their own: letters inside the button would be its visible text, which its spoken label
+  // ("Collective I hub") must then contain (WCAG 2.5.3, label in name).
   function createCollective(c, layer) {
-    const h = HUB / 2, q = HUB / 2;
+    const h = HUB / 2,
+      q = HUB / 2;
     const root = el("g", { "data-collective": c.index }, layer);
-    el("text", { x: 0, y: -h - 6, class: "hub-name" }, root).textContent = NAMES[c.index];
+    const labels = el(
+      "g",
+      { class: "collective-labels", "data-collective-labels": c.index, "aria-hidden": "true" },
+      layer,
+    );
+    el("text", { x: 0, y: -h - 6, class: "hub-name" }, labels).textContent = NAMES[c.index];
     el("rect", { x: -h, y: -h, width: HUB, height: HUB, class: "hub-box" }, root);
     const quads = {};
-    for (const [name, qx, qy] of [["U", -h, -h], ["F", 0, -h], ["C", -h, 0], ["X", 0, 0]]) {
+    for (const [name, qx, qy] of [
+      ["U", -h, -h],
+      ["F", 0, -h],
+      ["C", -h, 0],
+      ["X", 0, 0],
+    ]) {
       quads[name] = el("rect", { x: qx, y: qy, width: q, height: q, class: "quad" }, root);
-      el("text", { x: qx + q / 2, y: qy + q / 2, class: "quad-label" }, root).textContent = name;
+      el("text", { x: qx + q / 2, y: qy + q / 2, class: "quad-label" }, labels).textContent = name;
     }
-    root.addEventListener("click", () => clickHub(c.index, "left"));
-    root.addEventListener("contextmenu", (e) => { e.preventDefault(); clickHub(c.index, "right"); });
+    for (const node of [root, labels]) {
+      node.addEventListener("click", () => clickHub(c.index, "left"));
+      node.addEventListener("contextmenu", (e) => {
+        e.preventDefault();
+        clickHub(c.index, "right");
+      });
+    }
     makeKeyboardButton(root, `Collective ${NAMES[c.index]} hub`, (button) => clickHub(c.index, button));
-    return { root, quads };
+    return { root, labels, quads };
   }
 
   function updateCollective(glyph, c) {
-    glyph.root.setAttribute("class", "collective" + (state.selectedHub === c.index ? " selected" : ""));
+    glyph.root.setAttribute("class", `collective${state.selectedHub === c.index ? " selected" : ""}`);
     glyph.root.setAttribute("aria-pressed", state.selectedHub === c.index ? "true" : "false");
     glyph.root.setAttribute("transform", placed(c.hub[0], c.hub[1]));
+    glyph.labels.setAttribute("transform", placed(c.hub[0], c.hub[1]));
     for (const name of ["U", "F", "C", "X"]) glyph.quads[name].setAttribute("fill-opacity", c.fractions[name]);
   }
 
@@ -315,27 +490,36 @@
   function updateMove(glyph, c, view) {
     const target = view.targets.find((t) => t.id === c.move.target);
     const goal = target ? target.position : c.move.position;
-    for (const [k, v] of Object.entries({ x1: c.hub[0], y1: -c.hub[1], x2: goal[0], y2: -goal[1] })) glyph.line.setAttribute(k, v);
+    for (const [k, v] of Object.entries({ x1: c.hub[0], y1: -c.hub[1], x2: goal[0], y2: -goal[1] }))
+      glyph.line.setAttribute(k, v);
     glyph.box.setAttribute("transform", placed(c.move.position[0], c.move.position[1]));
   }
 
-  const FLAG_WIDTH = 180, FLAG_LINE = 21;
+  const FLAG_WIDTH = 180,
+    FLAG_LINE = 21;
   function drawFlag() {
     const layer = $("layer-flags");
     const view = state.view;
-    if (!state.flag || !view) { layer.replaceChildren(); state.flagKey = null; return; }
+    if (!state.flag || !view) {
+      layer.replaceChildren();
+      state.flagKey = null;
+      return;
+    }
     let anchor, lines;
     if (state.flag.kind === "target") {
       const t = view.targets.find((x) => x.id === state.flag.id);
-      if (!t) { state.flag = null; layer.replaceChildren(); state.flagKey = null; return; }
+      if (!t) {
+        state.flag = null;
+        layer.replaceChildren();
+        state.flagKey = null;
+        return;
+      }
       anchor = t.position;
-      lines = [`Target ${t.id}: support`].concat(
-        t.support.map((s, i) => `${NAMES[i]}: ${Math.round(s * 100)}%`));
+      lines = [`Target ${t.id}: support`].concat(t.support.map((s, i) => `${NAMES[i]}: ${Math.round(s * 100)}%`));
     } else {
       const c = view.collectives[state.flag.id];
       anchor = c.hub;
-      lines = [`Collective ${NAMES[c.index]}`].concat(
-        ["U", "F", "C", "X"].map((k) => `${k}: ${c.counts[k]}`));
+      lines = [`Collective ${NAMES[c.index]}`].concat(["U", "F", "C", "X"].map((k) => `${k}: ${c.counts[k]}`));
     }
     const key = JSON.stringify([anchor, lines, $("map").getAttribute("viewBox")]);
     if (key === state.flagKey) return;
@@ -344,17 +528,24 @@
     // The box lets every click through to the map (pointer-events: none in live.css);
     // only its close control takes clicks. Escape closes it too.
     // Beside its hub or target, on the side with room, in pixels like the glyphs.
-    const width = FLAG_WIDTH, height = FLAG_LINE * lines.length + 10;
-    const right = Number($("map").getAttribute("viewBox").split(" ")[0]) + Number($("map").getAttribute("viewBox").split(" ")[2]);
+    const width = FLAG_WIDTH,
+      height = FLAG_LINE * lines.length + 10;
+    const right =
+      Number($("map").getAttribute("viewBox").split(" ")[0]) + Number($("map").getAttribute("viewBox").split(" ")[2]);
     const dx = anchor[0] + (36 + width) * metresPerPx > right ? -36 - width : 36;
     const g = el("g", { class: "flag", transform: `${placed(anchor[0], anchor[1])} translate(${dx},-30)` }, layer);
     el("rect", { x: 0, y: 0, width, height, rx: 5 }, g);
-    lines.forEach((line, i) => { el("text", { x: 10, y: 22 + FLAG_LINE * i }, g).textContent = line; });
+    lines.forEach((line, i) => {
+      el("text", { x: 10, y: 22 + FLAG_LINE * i }, g).textContent = line;
+    });
     const close = el("g", { class: "flag-close", transform: `translate(${width - 26},4)` }, g);
     el("rect", { x: 0, y: 0, width: 22, height: 22, rx: 4 }, close);
     el("text", { x: 11, y: 17 }, close).textContent = "×";
     makeKeyboardButton(close, "Close the info box", () => closeFlag());
-    close.addEventListener("click", (e) => { e.stopPropagation(); closeFlag(); });
+    close.addEventListener("click", (e) => {
+      e.stopPropagation();
+      closeFlag();
+    });
     $("sr-status").textContent = lines.join(", ");
   }
   function closeFlag() {
@@ -365,8 +556,12 @@
 
   // ---- clicks: selection and observation actions --------------------------
   async function observe(body) {
-    try { return (await post("/observations", body)).observation_id; }
-    catch (e) { note(e.message); return null; }
+    try {
+      return (await post("/observations", body)).observation_id;
+    } catch (e) {
+      note(e.message);
+      return null;
+    }
   }
   async function clickHub(index, button) {
     if (state.ended) return;
@@ -402,9 +597,12 @@
     for (const c of view.collectives) select.add(new Option(NAMES[c.index], String(c.index)));
   }
   function refreshTargetOptions() {
-    const select = $("request-target"), keep = select.value;
+    const select = $("request-target"),
+      keep = select.value;
     const ids = (state.view ? state.view.targets : []).map((t) => t.id).sort((a, b) => a - b);
-    const current = Array.from(select.options).slice(1).map((o) => Number(o.value));
+    const current = Array.from(select.options)
+      .slice(1)
+      .map((o) => Number(o.value));
     if (JSON.stringify(current) !== JSON.stringify(ids)) {
       select.replaceChildren(new Option("–", ""));
       for (const id of ids) select.add(new Option(String(id), String(id)));
@@ -413,7 +611,8 @@
   }
   function resetForm() {
     $("request-form").reset();
-    state.selectedHub = null; state.selectedTarget = null;
+    state.selectedHub = null;
+    state.selectedTarget = null;
     state.selections = { collective: null, target: null };
     note("");
     if (state.view) drawMap(state.view);
@@ -421,12 +620,19 @@
   async function commit(event) {
     event.preventDefault();
     if (state.committing) return;
-    const kind = $("request-kind").value, collective = $("request-collective").value;
+    const kind = $("request-kind").value,
+      collective = $("request-collective").value;
     const target = $("request-target").value;
-    if (!kind || collective === "" || target === "") { note("Choose a type, a collective and a target."); return; }
+    if (!kind || collective === "" || target === "") {
+      note("Choose a type, a collective and a target.");
+      return;
+    }
     // Clicks that filled the form are part of this request, not observations.
     const selections = [];
-    for (const [slot, value] of [["collective", collective], ["target", target]]) {
+    for (const [slot, value] of [
+      ["collective", collective],
+      ["target", target],
+    ]) {
       const s = state.selections[slot];
       if (s && s.id !== null && s.value === value) selections.push(s.id);
     }
@@ -435,11 +641,20 @@
     $("commit").disabled = true;
     note("Sending…");
     try {
-      const outcome = await post("/requests", { kind, collective: Number(collective), target: Number(target), selections });
+      const outcome = await post("/requests", {
+        kind,
+        collective: Number(collective),
+        target: Number(target),
+        selections,
+      });
       if (outcome.accepted) resetForm();
-      note(outcome.accepted ? `Request ${outcome.request_id} accepted.` : `Refused: ${outcome.reason}`, outcome.accepted);
-    } catch (e) { note(e.message); }
-    finally {
+      note(
+        outcome.accepted ? `Request ${outcome.request_id} accepted.` : `Refused: ${outcome.reason}`,
+        outcome.accepted,
+      );
+    } catch (e) {
+      note(e.message);
+    } finally {
       state.committing = false;
       $("commit").disabled = state.ended || state.paused;
     }
@@ -458,20 +673,33 @@
     list.replaceChildren();
     for (const r of view.requests) {
       const li = document.createElement("li");
-      li.dataset.request = r.id; li.dataset.kind = r.kind;
+      li.dataset.request = r.id;
+      li.dataset.kind = r.kind;
       if (r.id === state.selectedAssignment) li.classList.add("selected");
       const dot = document.createElement("span");
-      dot.className = "dot " + r.status; dot.title = r.status.replace("_", " ");
+      dot.className = `dot ${r.status}`;
+      dot.title = r.status.replace("_", " ");
       const label = document.createElement("span");
       label.textContent = `${r.kind} · ${NAMES[r.collective]} → target ${r.target}`;
       li.append(dot, label);
       li.tabIndex = 0;
-      li.setAttribute("role", "button");
-      li.setAttribute("aria-pressed", r.id === state.selectedAssignment ? "true" : "false");
-      li.setAttribute("aria-label", `${r.kind}, collective ${NAMES[r.collective]}, target ${r.target}, ${r.status.replace("_", " ")}`);
-      const select = () => { state.selectedAssignment = r.id; drawAssignments(state.view || view); };
+      li.setAttribute("role", "option");
+      li.setAttribute("aria-selected", r.id === state.selectedAssignment ? "true" : "false");
+      li.setAttribute(
+        "aria-label",
+        `${r.kind}, collective ${NAMES[r.collective]}, target ${r.target}, ${r.status.replace("_", " ")}`,
+      );
+      const select = () => {
+        state.selectedAssignment = r.id;
+        drawAssignments(state.view || view);
+      };
       li.addEventListener("click", select);
-      li.addEventListener("keydown", (e) => { if (e.key === "Enter" || e.key === " ") { e.preventDefault(); select(); } });
+      li.addEventListener("keydown", (e) => {
+        if (e.key === "Enter" || e.key === " ") {
+          e.preventDefault();
+          select();
+        }
+      });
       list.appendChild(li);
     }
     // A rebuild must not throw the keyboard user's focus away.
@@ -515,8 +743,12 @@
     if (key === state.probeKey) return;
     state.probeKey = key;
     box.hidden = !probe;
-    if (!probe) { state.probePlace = null; return; }
+    if (!probe) {
+      state.probePlace = null;
+      return;
+    }
     box.dataset.probe = probe.id;
+    $("probe-hint").textContent = "";
     box.querySelector(".probe-ready").hidden = probe.phase !== "ready";
     box.querySelector(".probe-question").hidden = probe.phase !== "question";
     if (probe.phase === "question") {
@@ -525,9 +757,12 @@
       choices.replaceChildren();
       for (const choice of probe.choices) {
         const button = document.createElement("button");
-        button.type = "button"; button.textContent = choice; button.dataset.answer = choice;
+        button.type = "button";
+        button.textContent = choice;
+        button.dataset.answer = choice;
         button.addEventListener("click", () => answerProbe(probe.id, choice));
-        if (probe.replay) {  // the replay marks what was chosen and what was true
+        if (probe.replay) {
+          // the replay marks what was chosen and what was true
           button.disabled = true;
           button.classList.toggle("chosen", choice === probe.replay.answer);
           button.classList.toggle("truth", choice === probe.replay.truth);
@@ -542,7 +777,7 @@
       if (!replaying) $("probe-text").focus();
     } else {
       placeProbe(null);
-      if (!replaying) $("probe-ready").focus();  // a question is waiting: Enter or Space answers "Ready"
+      if (!replaying) $("probe-ready").focus(); // a question is waiting: Enter or Space answers "Ready"
     }
     $("probe-ready").disabled = replaying;
     $("probe-replay").hidden = !probe.replay;
@@ -555,14 +790,16 @@
   // other target least.
   // It stays where it is unless another place is strictly better, so it moves
   // only when the question shows (it is taller then) or the window changes.
-  const PROBE_MARGIN = 12, PROBE_GRID = 7;
+  const PROBE_MARGIN = 12,
+    PROBE_GRID = 7;
   function placeProbe(subject) {
     const box = $("probe");
     if (box.hidden) return;
     if (subject !== undefined) state.probePlace = { subject };
     const asked = state.probePlace ? state.probePlace.subject : null;
     const area = box.parentElement.getBoundingClientRect();
-    const width = box.offsetWidth, height = box.offsetHeight;
+    const width = box.offsetWidth,
+      height = box.offsetHeight;
     const obstacles = [];
     for (const g of document.querySelectorAll("#layer-collectives g.collective")) {
       const mine = asked && asked.collective === Number(g.dataset.collective);
@@ -588,7 +825,8 @@
     const spanY = Math.max(0, area.height - height - 2 * PROBE_MARGIN);
     let best = null;
     if (box.style.left) {
-      const left = parseFloat(box.style.left), top = parseFloat(box.style.top);
+      const left = parseFloat(box.style.left),
+        top = parseFloat(box.style.top);
       if (left + width <= area.width && top + height <= area.height) best = [cost(left, top), left, top];
     }
     for (let j = 0; j < PROBE_GRID; j++) {
@@ -599,16 +837,21 @@
         if (best === null || c < best[0]) best = [c, left, top];
       }
     }
-    box.style.left = best[1] + "px";
-    box.style.top = best[2] + "px";
+    box.style.left = `${best[1]}px`;
+    box.style.top = `${best[2]}px`;
   }
-  // Keys in the probe box within this time of its question showing are ignored.
+  // Keys in the probe box within this time of its question showing are ignored, and the
+  // box says so: a key that did nothing without a word looked like a broken page.
   const PROBE_KEY_GUARD_MS = 500;
   function guardProbeKeys(e) {
     if (state.questionShownAt === undefined || $("probe").hidden) return;
-    if (performance.now() - state.questionShownAt < PROBE_KEY_GUARD_MS && (e.key === "Enter" || e.key === " ")) {
+    if (e.key !== "Enter" && e.key !== " ") return;
+    if (performance.now() - state.questionShownAt < PROBE_KEY_GUARD_MS) {
       e.preventDefault();
       e.stopPropagation();
+      $("probe-hint").textContent = "Read the question first, then choose an answer.";
+    } else if (e.target === $("probe-text")) {
+      $("probe-hint").textContent = "Choose an answer: click it, or Tab to it and press Enter.";
     }
   }
   function readyProbe() {
@@ -617,7 +860,10 @@
   }
   function answerProbe(id, answer) {
     const buttons = Array.from($("probe-choices").querySelectorAll("button"));
-    return inFlight(buttons, async () => { await post(`/probes/${id}/answer`, { answer }); $("probe").hidden = true; });
+    return inFlight(buttons, async () => {
+      await post(`/probes/${id}/answer`, { answer });
+      $("probe").hidden = true;
+    });
   }
 
   // ---- the stream ---------------------------------------------------------------
@@ -633,7 +879,10 @@
   const CONNECTING_NOTICE_MS = 1000;
   let connectingTimer = null;
   function onFrame(frame) {
-    if (connectingTimer !== null) { clearTimeout(connectingTimer); connectingTimer = null; }
+    if (connectingTimer !== null) {
+      clearTimeout(connectingTimer);
+      connectingTimer = null;
+    }
     $("connecting").hidden = true;
     // After a takeover the new host resumes from its newest row, which may be a little
     // behind what this page showed: hold the clock and the map until it catches up.
@@ -656,14 +905,17 @@
   }
   // Why the trial ended, in the participant's words; the time limit is the usual reason.
   const ENDINGS = {
-    aborted: ["Ended by the experimenter", "The experimenter has ended this session. Please wait for their instructions."],
+    aborted: [
+      "Ended by the experimenter",
+      "The experimenter has ended this session. Please wait for their instructions.",
+    ],
   };
   function endTrial(reason) {
     const ending = ENDINGS[reason];
     if (ending) {
       $("ended-title").textContent = ending[0];
       $("ended-text").textContent = ending[1];
-      $("clock-box").hidden = true;  // the clock stopped early; its time is not the limit
+      $("clock-box").hidden = true; // the clock stopped early; its time is not the limit
     }
     state.ended = true;
     if (stream) stream.close();
@@ -672,7 +924,10 @@
     $("commit").disabled = true;
     $("connection").textContent = "trial over";
     const next = root.dataset.continueUrl;
-    if (next) { $("continue").href = next; $("continue").hidden = false; }
+    if (next) {
+      $("continue").href = next;
+      $("continue").hidden = false;
+    }
   }
 
   // Another tab or window opened the same trial: the server tells this one
@@ -689,7 +944,7 @@
   }
 
   let stream = null;
-  let lastEventId = "";  // the newest System Message shown; a new stream resumes after it
+  let lastEventId = ""; // the newest System Message shown; a new stream resumes after it
   function streamUrl() {
     const url = new URL(root.dataset.streamUrl, window.location.href);
     if (lastEventId) url.searchParams.set("after", lastEventId);
@@ -702,7 +957,8 @@
   // OPENING_MS: the proxy waits out its own read timeout at the silent process before it
   // passes the stream on, and the next process may first wait out the silent one's lease
   // and rebuild the trial. Dropping it sooner sends it back to the silent process.
-  const STALLED_MS = 3000, OPENING_MS = 12000;
+  const STALLED_MS = 3000,
+    OPENING_MS = 12000;
   let lastFrameAt = Date.now();
   setInterval(() => {
     if (state.ended || !stream || stream.readyState === EventSource.CLOSED) return;
@@ -740,7 +996,9 @@
   // with HEAD, which the server answers like the stream without opening one,
   // wait as long as its Retry-After says (plus up to half again, so refused
   // pages do not all come back at once), and open a new stream.
-  const RETRY_DEFAULT_S = 5, RETRY_MAX_S = 60, PROXY_RETRY_S = 1;
+  const RETRY_DEFAULT_S = 5,
+    RETRY_MAX_S = 60,
+    PROXY_RETRY_S = 1;
   function retryAfterS(response) {
     const seconds = Number(response.headers.get("Retry-After"));
     return Number.isFinite(seconds) && seconds > 0 ? Math.min(seconds, RETRY_MAX_S) : RETRY_DEFAULT_S;
@@ -754,17 +1012,25 @@
       // The proxy's own answer: the process it tried first did not answer in time (a
       // stopped host) or at all. Another may host the trial by now: ask again soon.
       else if (response.status === 502 || response.status === 504) waitS = PROXY_RETRY_S;
-      else if (response.status < 500) {  // the link or the trial is gone: a reload says why
+      else if (response.status < 500) {
+        // the link or the trial is gone: a reload says why
         $("connection").textContent = "disconnected: reload the page";
         return;
       }
-    } catch (error) { /* the server is away: try again after the default wait */ }
+    } catch (_error) {
+      /* the server is away: try again after the default wait */
+    }
     const delayMs = waitS * 1000 * (1 + (waitS ? Math.random() / 2 : 0));
-    setTimeout(() => { if (!state.ended && stream === closed) connect(); }, delayMs);
+    setTimeout(() => {
+      if (!state.ended && stream === closed) connect();
+    }, delayMs);
   }
 
   document.addEventListener("keydown", (e) => {
-    if (e.key === "Escape" && state.flag) { e.preventDefault(); closeFlag(); }
+    if (e.key === "Escape" && state.flag) {
+      e.preventDefault();
+      closeFlag();
+    }
   });
   const fullscreen = $("fullscreen");
   if (document.fullscreenEnabled) {
@@ -795,10 +1061,14 @@
   $("zoom-in").addEventListener("click", () => zoomBy(ZOOM_STEP));
   $("zoom-out").addEventListener("click", () => zoomBy(1 / ZOOM_STEP));
   $("zoom-reset").addEventListener("click", resetZoom);
-  $("map").addEventListener("wheel", (e) => {
-    e.preventDefault();
-    zoomBy(e.deltaY < 0 ? ZOOM_STEP : 1 / ZOOM_STEP, e.clientX, e.clientY);
-  }, { passive: false });
+  $("map").addEventListener(
+    "wheel",
+    (e) => {
+      e.preventDefault();
+      zoomBy(e.deltaY < 0 ? ZOOM_STEP : 1 / ZOOM_STEP, e.clientX, e.clientY);
+    },
+    { passive: false },
+  );
   $("map").addEventListener("pointerdown", startDrag);
   $("map").addEventListener("pointermove", moveDrag);
   $("map").addEventListener("pointerup", endDrag);
@@ -808,11 +1078,17 @@
   fitMap();
   new ResizeObserver(fitMap).observe($("map"));
   if (replaying) {
-    const clearMessages = () => { $("messages").replaceChildren(); state.seenMessages.clear(); };
+    const clearMessages = () => {
+      $("messages").replaceChildren();
+      state.seenMessages.clear();
+    };
     window.hcssInterface = { onFrame, clearMessages };
   } else {
     if (root.dataset.status === "ended") endTrial();
-    else connectingTimer = setTimeout(() => { $("connecting").hidden = false; }, CONNECTING_NOTICE_MS);
+    else
+      connectingTimer = setTimeout(() => {
+        $("connecting").hidden = false;
+      }, CONNECTING_NOTICE_MS);
     connect();
   }
 })();

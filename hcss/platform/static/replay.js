@@ -1,7 +1,7 @@
 // The replay page: plays a recorded trial's rebuilt frames through the Collective
 // Interface's own drawing (live.js in replay mode, window.hcssInterface), with the
 // participant's requests and probe answers marked on a timeline. No framework.
-(function () {
+(() => {
   "use strict";
   const face = window.hcssInterface;
   const root = document.getElementById("replay");
@@ -9,14 +9,24 @@
   const chunk = Number(root.dataset.chunk);
   const AHEAD_S = 60; // wall seconds of frames to keep loaded ahead of the cursor
   const state = {
-    timeline: null, dt: 1, frames: [], horizon: 0, ended: false, digests: null,
-    t: 0, speed: 1, playing: false, shownStep: -1, messagesShown: 0, loading: false,
+    timeline: null,
+    dt: 1,
+    frames: [],
+    horizon: 0,
+    ended: false,
+    digests: null,
+    t: 0,
+    speed: 1,
+    playing: false,
+    shownStep: -1,
+    messagesShown: 0,
+    loading: false,
     lastTick: null,
   };
 
   function clock(seconds) {
     const s = Math.max(0, Math.floor(seconds));
-    return Math.floor(s / 60) + ":" + String(s % 60).padStart(2, "0");
+    return `${Math.floor(s / 60)}:${String(s % 60).padStart(2, "0")}`;
   }
   const loadedUpTo = () => state.frames.length - 1;
   const endTime = () => state.horizon * state.dt;
@@ -41,7 +51,7 @@
       if (body.replayed_digest && loadedUpTo() === body.horizon) {
         state.digests = { replayed: body.replayed_digest, recorded: body.recorded_digest };
       }
-      $("replay-buffered").style.width = percent(loadedUpTo() * state.dt) + "%";
+      $("replay-buffered").style.width = `${percent(loadedUpTo() * state.dt)}%`;
       // A live trial's recording grows: look again shortly for newer snapshots.
       if (!state.ended && !body.frames.length) await new Promise((r) => setTimeout(r, 2000));
     } catch (error) {
@@ -61,10 +71,13 @@
     marks.replaceChildren();
     const add = (time, className, title) => {
       const mark = document.createElement("span");
-      mark.className = "mark " + className;
-      mark.style.left = percent(time) + "%";
+      mark.className = `mark ${className}`;
+      mark.style.left = `${percent(time)}%`;
       mark.title = `${clock(time)} ${title}`;
-      mark.addEventListener("click", (e) => { e.stopPropagation(); seek(time); });
+      mark.addEventListener("click", (e) => {
+        e.stopPropagation();
+        seek(time);
+      });
       marks.appendChild(mark);
     };
     for (const c of state.timeline.commands) {
@@ -74,7 +87,11 @@
     for (const p of state.timeline.probes) {
       const verdict = p.correct === true ? "correct" : p.correct === false ? "wrong" : "missed";
       const answer = p.timed_out ? "timed out" : `answered ${p.answer}`;
-      add(p.shown, "probe-mark " + verdict, `probe ${p.index} (level ${p.level}): ${p.question} ${answer}; truth ${p.truth ?? "?"}`);
+      add(
+        p.shown,
+        `probe-mark ${verdict}`,
+        `probe ${p.index} (level ${p.level}): ${p.question} ${answer}; truth ${p.truth ?? "?"}`,
+      );
     }
   }
   // The probe on screen at time t, in the live page's own shape, so the Collective
@@ -87,13 +104,19 @@
     const asked = p.ready !== null && t >= p.ready;
     const verdict = p.correct === null ? "not scored" : p.correct ? "right" : "wrong";
     const note = p.timed_out
-      ? (asked ? `Ready at ${clock(p.ready)}; no answer: timed out at ${clock(p.closed)}.`
-        : `Ready was not pressed: timed out at ${clock(p.closed)}.`)
+      ? asked
+        ? `Ready at ${clock(p.ready)}; no answer: timed out at ${clock(p.closed)}.`
+        : `Ready was not pressed: timed out at ${clock(p.closed)}.`
       : `Answered ${p.answer} at ${clock(p.closed)}: ${verdict} (truth ${p.truth ?? "not yet known"}).`;
     return {
-      id: p.index, index: p.index, level: p.level, phase: asked ? "question" : "ready",
-      question: asked ? p.question : null, choices: asked ? p.choices : null,
-      subject: asked ? p.subject : null, timeout_s: p.timeout,
+      id: p.index,
+      index: p.index,
+      level: p.level,
+      phase: asked ? "question" : "ready",
+      question: asked ? p.question : null,
+      choices: asked ? p.choices : null,
+      subject: asked ? p.subject : null,
+      timeout_s: p.timeout,
       replay: { answer: p.answer, truth: p.truth, note },
     };
   }
@@ -128,32 +151,42 @@
       messages: fresh,
       probe: probeAt(state.t),
     };
-    if (step !== state.shownStep) { frame.view = state.frames[step]; state.shownStep = step; }
+    if (step !== state.shownStep) {
+      frame.view = state.frames[step];
+      state.shownStep = step;
+    }
     face.onFrame(frame);
     root.dataset.step = String(step);
     $("replay-clock").textContent = `${clock(state.t)} / ${clock(endTime())}`;
-    $("replay-cursor").style.left = percent(state.t) + "%";
+    $("replay-cursor").style.left = `${percent(state.t)}%`;
     showCommands(state.t);
   }
   function seek(time) {
     const target = Math.max(0, Math.min(time, endTime(), loadedUpTo() * state.dt));
-    if (target < state.t) { face.clearMessages(); state.messagesShown = 0; }
+    if (target < state.t) {
+      face.clearMessages();
+      state.messagesShown = 0;
+    }
     state.t = target;
     render();
   }
   function finish() {
     state.playing = false;
-    if (!state.ended) { $("replay-play").textContent = "Play on"; root.dataset.state = "caught-up"; return; }
+    if (!state.ended) {
+      $("replay-play").textContent = "Play on";
+      root.dataset.state = "caught-up";
+      return;
+    }
     $("replay-play").textContent = "Play again";
     root.dataset.state = "ended";
     const digests = state.digests;
     if (!digests) return;
     root.dataset.endDigest = digests.replayed;
     const same = digests.recorded && digests.recorded === digests.replayed;
-    $("replay-verdict").className = "verdict " + (same ? "same" : "different");
+    $("replay-verdict").className = `verdict ${same ? "same" : "different"}`;
     $("replay-verdict").textContent = digests.recorded
-      ? (same ? "End state identical to the recording" : "End state differs from the recording")
-        + ` (digest ${digests.replayed.slice(0, 12)}…)`
+      ? (same ? "End state identical to the recording" : "End state differs from the recording") +
+        ` (digest ${digests.replayed.slice(0, 12)}…)`
       : `End state digest ${digests.replayed.slice(0, 12)}… (no recorded end snapshot)`;
   }
   function tick(now) {
@@ -197,7 +230,9 @@
     render();
     $("replay-play").disabled = false;
     $("replay-play").addEventListener("click", play);
-    $("replay-speed").addEventListener("change", (e) => { state.speed = Number(e.target.value); });
+    $("replay-speed").addEventListener("change", (e) => {
+      state.speed = Number(e.target.value);
+    });
     $("replay-track").addEventListener("click", (e) => {
       const box = e.currentTarget.getBoundingClientRect();
       const span = Math.max(state.timeline.trial.duration_s, endTime(), 1);

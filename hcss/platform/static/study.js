@@ -1,6 +1,6 @@
 // Counts down the time left on a timed study page. The deadline is the
 // server's: at zero the page reloads and the server records the time-out.
-(function () {
+(() => {
   "use strict";
   const timer = document.getElementById("timer");
   if (!timer) return;
@@ -10,8 +10,11 @@
   function tick() {
     const left = Math.max(0, (end - Date.now()) / 1000);
     const s = Math.ceil(left * scale);
-    shown.textContent = Math.floor(s / 60) + ":" + String(s % 60).padStart(2, "0");
-    if (left <= 0) { window.location.replace(window.location.pathname.replace(/\/stage\/.*$/, "/stage")); return; }
+    shown.textContent = `${Math.floor(s / 60)}:${String(s % 60).padStart(2, "0")}`;
+    if (left <= 0) {
+      window.location.replace(window.location.pathname.replace(/\/stage\/.*$/, "/stage"));
+      return;
+    }
     window.setTimeout(tick, 250);
   }
   tick();

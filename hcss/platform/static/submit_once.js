@@ -3,11 +3,14 @@
 // participant an alarming "this page has already been submitted". The clicked
 // button keeps its name and value (it is not disabled, the form just ignores
 // further submits); the server still refuses any repeat that gets through.
-(function () {
+(() => {
   "use strict";
   for (const form of document.querySelectorAll("main.study form[method=post]")) {
     form.addEventListener("submit", (event) => {
-      if (form.dataset.sent === "yes") { event.preventDefault(); return; }
+      if (form.dataset.sent === "yes") {
+        event.preventDefault();
+        return;
+      }
       form.dataset.sent = "yes";
     });
   }

@@ -33,6 +33,7 @@ from pydantic import (
     model_validator,
 )
 
+from hcss.platform.study.instruction_items import InstructionCheck
 from hcss.platform.study.limits import Timeouts
 from hcss.platform.study.online import OnlineSettings
 from hcss.platform.study.requirements import Requirements
@@ -220,6 +221,8 @@ class Study(BaseModel):
     requirements: Requirements = Requirements()
     simulation: SimulationTable = SimulationTable()
     timeouts: Timeouts = Timeouts()
+    #: Questions on the introduction, asked where the sequence names instruction_check.
+    instruction_check: InstructionCheck | None = None
 
     _cells: tuple[Cell, ...] = PrivateAttr(())
     _digest: str = PrivateAttr("")
@@ -237,6 +240,19 @@ class Study(BaseModel):
         if version not in consent_versions():
             raise ValueError(f"names no consent text; have {consent_versions()}")
         return version
+
+    @model_validator(mode="after")
+    def _instruction_check_declared_where_asked(self) -> Study:
+        asked = "instruction_check" in self.sequence.before + self.sequence.after
+        if asked and self.instruction_check is None:
+            raise SettingError(
+                "sequence", "the sequence names instruction_check: declare [instruction_check]"
+            )
+        if self.instruction_check is not None and not asked:
+            raise SettingError(
+                "instruction_check", "[instruction_check] is declared but the sequence asks none"
+            )
+        return self
 
     @model_validator(mode="after")
     def _expand_the_design(self, info: ValidationInfo) -> Study:

@@ -142,6 +142,8 @@ class Shown:
     step: str
     rng: np.random.Generator
     radios: Mapping[str, Sequence[str]] = field(default_factory=dict)
+    #: The study the bot walks: what the page cannot say (an instruction check's answers).
+    study: Study | None = None
 
 
 def answered(items: Iterable[Item], rng: np.random.Generator) -> dict[str, str]:

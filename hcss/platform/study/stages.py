@@ -25,6 +25,7 @@ from hcss.platform.study.forms import (
     pair_field,
     rank_field,
 )
+from hcss.platform.study.instruction_check import InstructionCheck
 from hcss.platform.study.markdown import render_markdown
 from hcss.platform.study.mrt_stage import MentalRotation
 from hcss.platform.study.screen_check import ScreenCheck
@@ -323,6 +324,7 @@ for _stage in (
     Demographics,
     MentalRotation,
     Introduction,
+    InstructionCheck,
     ScreenCheck,
     TrainingStage,
     TrialStage,

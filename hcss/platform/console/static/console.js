@@ -1,11 +1,11 @@
 // The live participant table: refreshed every two seconds (CONSOLE_POLL_S) from /console/progress.json,
 // one page at a time, with filters that hide pilot, bot and demo participants (remembered in this
 // browser; the server filters, so a page is full).
-(function () {
+(() => {
   "use strict";
   // A button that asks first (Abort): one delegated handler, since inline script is forbidden (CSP).
   document.addEventListener("click", (event) => {
-    const button = event.target.closest && event.target.closest("button[data-confirm]");
+    const button = event.target.closest?.("button[data-confirm]");
     if (button && !window.confirm(button.dataset.confirm)) event.preventDefault();
   });
   const table = document.getElementById("progress");
@@ -19,14 +19,17 @@
   const search = document.getElementById("search");
   // The search's words, marked where they appear in a cell (the server found the rows).
   function marked(text) {
-    const words = (search ? search.value : "").trim().split(/\s+/).filter(Boolean)
+    const words = (search ? search.value : "")
+      .trim()
+      .split(/\s+/)
+      .filter(Boolean)
       .map((word) => word.replace(/[.*+?^${}()|[\]\\]/g, "\\$&"));
     const span = document.createElement("span");
     if (!words.length) {
       span.textContent = text;
       return span;
     }
-    text.split(new RegExp("(" + words.join("|") + ")", "i")).forEach((piece, index) => {
+    text.split(new RegExp(`(${words.join("|")})`, "i")).forEach((piece, index) => {
       if (index % 2) {
         const mark = document.createElement("mark");
         mark.textContent = piece;
@@ -37,7 +40,7 @@
     });
     return span;
   }
-  const minutes = (s) => Math.floor(s / 60) + ":" + String(Math.floor(s % 60)).padStart(2, "0");
+  const minutes = (s) => `${Math.floor(s / 60)}:${String(Math.floor(s % 60)).padStart(2, "0")}`;
 
   function cell(text, className) {
     const td = document.createElement("td");
@@ -51,7 +54,7 @@
     if (p.stage_number !== null) {
       const of = document.createElement("span");
       of.className = "stage-of";
-      of.textContent = "stage " + p.stage_number + " of " + p.stage_count;
+      of.textContent = `stage ${p.stage_number} of ${p.stage_count}`;
       const bar = document.createElement("progress");
       bar.max = p.stage_count;
       bar.value = p.status === "completed" ? p.stage_count : p.stage_number - 1;
@@ -65,13 +68,14 @@
   }
 
   function presenceCell(p) {
-    const td = cell(p.connected ? "connected" : "disconnected",
-                    "presence " + (p.connected ? "connected" : "disconnected"));
+    const td = cell(
+      p.connected ? "connected" : "disconnected",
+      `presence ${p.connected ? "connected" : "disconnected"}`,
+    );
     if (p.connected && p.page_hidden) td.append(" (tab hidden)");
     const seen = document.createElement("span");
     seen.className = "muted";
-    seen.textContent = p.last_seen_s === null ? "never seen"
-      : "seen " + Math.floor(p.last_seen_s) + " s ago";
+    seen.textContent = p.last_seen_s === null ? "never seen" : `seen ${Math.floor(p.last_seen_s)} s ago`;
     td.append(" ", seen);
     return td;
   }
@@ -82,9 +86,11 @@
       const form = document.createElement("form");
       form.method = "post";
       form.className = "inline";
-      form.action = table.dataset.actionUrl
-        .replace("CODE", encodeURIComponent(p.code)).replace("ACTION", action);
-      for (const [name, value] of [["csrf_token", csrf], ["next", table.dataset.indexUrl]]) {
+      form.action = table.dataset.actionUrl.replace("CODE", encodeURIComponent(p.code)).replace("ACTION", action);
+      for (const [name, value] of [
+        ["csrf_token", csrf],
+        ["next", table.dataset.indexUrl],
+      ]) {
         const input = document.createElement("input");
         input.type = "hidden";
         input.name = name;
@@ -120,10 +126,14 @@
       id.append(...marked(p.recruitment).childNodes);
       first.append(id);
     }
-    const shown = p.status === "not_enrolled" && p.state === "active" ? "not started"
-      : p.status === "completed" || p.status === "declined" ? p.status : p.state;
-    const clock = p.trial_clock_s === null ? "–"
-      : minutes(p.trial_clock_s) + " / " + Math.floor(p.trial_duration_s / 60) + " min";
+    const shown =
+      p.status === "not_enrolled" && p.state === "active"
+        ? "not started"
+        : p.status === "completed" || p.status === "declined"
+          ? p.status
+          : p.state;
+    const clock =
+      p.trial_clock_s === null ? "–" : `${minutes(p.trial_clock_s)} / ${Math.floor(p.trial_duration_s / 60)} min`;
     const flags = [p.is_pilot && "pilot", p.is_bot && "bot", p.is_demo && "demo"].filter(Boolean);
     // The row's checkbox belongs to the bulk form above the table (its form attribute).
     const select = document.createElement("input");
@@ -132,15 +142,15 @@
     select.value = p.code;
     select.className = "select";
     select.setAttribute("form", "bulk-form");
-    select.setAttribute("aria-label", "Select " + p.code);
+    select.setAttribute("aria-label", `Select ${p.code}`);
     const pick = document.createElement("td");
     pick.append(select);
     tr.append(
       pick,
       first,
-      cell(p.study + " · " + (p.cell === null ? "cell at first visit" : "cell " + p.cell), "study"),
+      cell(`${p.study} · ${p.cell === null ? "cell at first visit" : `cell ${p.cell}`}`, "study"),
       (() => {
-        const td = cell("", "session state-" + shown);
+        const td = cell("", `session state-${shown}`);
         td.append(...marked(shown).childNodes);
         return td;
       })(),
@@ -165,7 +175,7 @@
       tr.hidden = hidden.some((flag) => tr.dataset[flag] === "1");
     }
     if (shownCount && everyone !== null) {
-      shownCount.textContent = "showing " + found + " of " + everyone;
+      shownCount.textContent = `showing ${found} of ${everyone}`;
     }
   }
 
@@ -196,7 +206,7 @@
       const tr = document.createElement("tr");
       const td = cell("No participants yet.");
       td.colSpan = COLUMNS;
-      if (search && search.value.trim()) td.textContent = "No participant matches the search.";
+      if (search?.value.trim()) td.textContent = "No participant matches the search.";
       tr.append(td);
       body.append(tr);
     }
@@ -219,9 +229,15 @@
   function pageUrl() {
     const hidden = filters.filter((box) => box.checked).map((box) => box.dataset.flag);
     const page = pager ? pager.dataset.page : "1";
-    return table.dataset.url + "?page=" + encodeURIComponent(page)
-      + "&hide=" + encodeURIComponent(hidden.join(","))
-      + "&q=" + encodeURIComponent(search ? search.value.trim() : "");
+    return (
+      table.dataset.url +
+      "?page=" +
+      encodeURIComponent(page) +
+      "&hide=" +
+      encodeURIComponent(hidden.join(",")) +
+      "&q=" +
+      encodeURIComponent(search ? search.value.trim() : "")
+    );
   }
 
   async function poll() {
@@ -234,26 +250,39 @@
         if (pager) pager.dataset.page = String(answer.page);
         render(answer.participants);
         if (pageOf) {
-          pageOf.textContent = "page " + answer.page + " of " + answer.pages + " · "
-            + answer.total + " participants" + (answer.search ? " matching “" + answer.search + "”" : "");
+          pageOf.textContent =
+            "page " +
+            answer.page +
+            " of " +
+            answer.pages +
+            " · " +
+            answer.total +
+            " participants" +
+            (answer.search ? ` matching “${answer.search}”` : "");
         }
         pagerLinks(answer);
       }
-    } catch (error) {
+    } catch (_error) {
       // A dropped poll is retried by the next one.
     }
   }
 
   let pressing = false;
-  table.addEventListener("pointerdown", () => { pressing = true; });
-  const released = () => { setTimeout(() => { pressing = false; }, 0); };
+  table.addEventListener("pointerdown", () => {
+    pressing = true;
+  });
+  const released = () => {
+    setTimeout(() => {
+      pressing = false;
+    }, 0);
+  };
   for (const type of ["pointerup", "pointercancel"]) document.addEventListener(type, released);
   window.addEventListener("blur", released);
 
   for (const box of filters) {
-    box.checked = localStorage.getItem("hcss-hide-" + box.dataset.flag) === "1";
+    box.checked = localStorage.getItem(`hcss-hide-${box.dataset.flag}`) === "1";
     box.addEventListener("change", () => {
-      localStorage.setItem("hcss-hide-" + box.dataset.flag, box.checked ? "1" : "0");
+      localStorage.setItem(`hcss-hide-${box.dataset.flag}`, box.checked ? "1" : "0");
       applyFilters();
       poll();
     });
@@ -278,7 +307,7 @@
       }
       const query = new URLSearchParams({ page: String(page) });
       if (answer.search) query.set("q", answer.search);
-      link.href = table.dataset.indexUrl + "?" + query.toString();
+      link.href = `${table.dataset.indexUrl}?${query.toString()}`;
     }
   }
   let typing = null;
@@ -291,7 +320,7 @@
         if (search.value.trim()) query.set("q", search.value.trim());
         else query.delete("q");
         query.delete("page");
-        history.replaceState(null, "", "?" + query.toString());
+        history.replaceState(null, "", `?${query.toString()}`);
         poll();
       }, 250);
     });

@@ -1,12 +1,12 @@
 // Copy buttons of the batch links page: one link, or every link still usable one per line
 // (a completed, aborted, declined or timed-out participant's link leads nowhere new).
-(function () {
+(() => {
   "use strict";
 
   async function copy(text, button) {
     try {
       await navigator.clipboard.writeText(text);
-    } catch (error) {
+    } catch (_error) {
       // No clipboard API (a plain-http lab server that is not localhost): select and copy.
       const area = document.createElement("textarea");
       area.value = text;
@@ -30,8 +30,7 @@
   const all = document.getElementById("copy-all");
   if (all) {
     all.addEventListener("click", () => {
-      const links = Array.from(
-        document.querySelectorAll('button.copy[data-usable="1"]'), (b) => b.dataset.copy);
+      const links = Array.from(document.querySelectorAll('button.copy[data-usable="1"]'), (b) => b.dataset.copy);
       copy(links.join("\n"), all);
     });
   }

@@ -1,6 +1,6 @@
 // The participant page's small behaviours, kept out of the HTML so the
 // Content-Security-Policy can forbid inline script (hcss/platform/guards/hardening.py).
-(function () {
+(() => {
   "use strict";
   document.querySelectorAll("input.link").forEach((input) => {
     input.addEventListener("focus", () => input.select());

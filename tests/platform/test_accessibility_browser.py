@@ -1,0 +1,314 @@
+"""Every page of the demo study, and the console's, checked by axe-core in Chromium.
+
+A participant walks the demo study from its link to the debrief in the smallest
+window the study admits (1024 x 620). On each page it meets (each stage and
+step, the live trial's states: running, a hub selected, an info box, a probe
+waiting and asked, the ended overlay) axe-core's WCAG 2.1 A/AA rules must find
+nothing, and the page must not scroll sideways. The findings of all pages are
+gathered first and printed, so one run names every page that fails.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Any
+
+import pytest
+
+from hcss.questionnaires import ranking
+from hcss.questionnaires.demographics import ITEM_KEYS
+from tests.support.axe import axe_violations, node_count, summary
+from tests.support.pages import live_trial, wait_for
+from tests.support.study import visitor, walk_to
+from tests.support.study_server import StudyServer
+
+pytestmark = pytest.mark.browser
+
+#: The smallest window the demo study's [requirements] admit.
+SMALLEST = {"width": 1024, "height": 620}
+
+#: How far the page reaches past the window's right edge (px; 0: no sideways scroll).
+SIDEWAYS = "() => document.scrollingElement.scrollWidth - window.innerWidth"
+
+
+class Findings:
+    """What each page showed: axe's violations and the sideways scroll, by page name."""
+
+    def __init__(self) -> None:
+        self.pages: dict[str, dict[str, Any]] = {}
+
+    def check(self, page, name: str) -> None:
+        page.wait_for_load_state("load")  # the stylesheets applied
+        self.pages[name] = {"axe": axe_violations(page), "sideways": page.evaluate(SIDEWAYS)}
+
+    def report(self) -> str:
+        return "\n".join(
+            f"{name}: {node_count(f['axe'])} axe nodes, {f['sideways']} px sideways"
+            + (f" [{summary(f['axe'])}]" if f["axe"] else "")
+            for name, f in self.pages.items()
+        )
+
+    def failing(self) -> list[str]:
+        return [name for name, f in self.pages.items() if f["axe"] or f["sideways"] > 0]
+
+
+def stage_of(page) -> str:
+    study = page.locator("main.study")
+    return f"{study.get_attribute('data-stage')}/{study.get_attribute('data-step') or ''}"
+
+
+def page_name(where: str) -> str:
+    """A page's name in the findings: its stage, with the step where the steps differ
+    (the MRT's kinds of step, the introduction's pages); per-model stages once."""
+    stage = where.split("/")[0]
+    if stage == "mental_rotation":
+        return re.sub(r"_\d+$", "", where)
+    if stage in ("training", "trial"):
+        return f"{stage}: start page"
+    return where if stage in ("introduction", "instruction_check") else stage
+
+
+def answer_radios(page) -> None:
+    """The first option of every radio group in the page's form."""
+    groups = page.evaluate(
+        """() => { const groups = {};
+          for (const input of document.querySelectorAll('#stage-form input[type=radio]'))
+            (groups[input.name] = groups[input.name] || []).push(input.value);
+          return groups; }"""
+    )
+    for name, values in groups.items():
+        page.locator(f'input[name="{name}"][value="{values[0]}"]').check()
+
+
+def run_to_end(page, server: StudyServer, at_the_end=lambda: None) -> None:
+    """Advance the clock until the live page says the trial ended, then press Continue."""
+    from playwright.sync_api import expect
+
+    for _ in range(60):
+        if page.locator("#ended").is_visible():
+            break
+        server.advance(6.0)
+        page.wait_for_timeout(50)
+    expect(page.locator("#ended")).to_be_visible()
+    at_the_end()
+    page.locator("#continue").click()
+    expect(page.locator("main.study")).to_be_attached()
+
+
+def pause(server: StudyServer, action: str) -> None:
+    """The experimenter pauses or resumes the walking participant, as the console does."""
+    from sqlalchemy import select
+
+    from hcss.platform.console.interventions import change_participant_state
+    from hcss.platform.models import Participant
+
+    with server.app.app_context(), server.database.session_scope() as session:
+        (participant,) = session.scalars(select(Participant)).all()
+        session.expunge(participant)
+    with server.app.app_context():
+        change_participant_state(server.database, server.runner, participant, None, action)
+
+
+def live_pages(page, server: StudyServer, findings: Findings, kind: str) -> None:
+    """The live trial's states, each checked: running, a hub and target chosen, an info box,
+    a probe waiting and asked (trials only), then the ended overlay."""
+    from playwright.sync_api import expect
+
+    expect(page.locator("#connection")).to_have_text("live")
+    target = wait_for(
+        server,
+        lambda lv: next(
+            (t for t in lv.view()["targets"] if t["drawn"] and 0 in t["in_range_of"]), None
+        ),
+        50,
+    )
+    assert target, "no target in range of collective I"
+    findings.check(page, f"{kind}: running")
+    page.locator('g.collective[data-collective="0"]').click()
+    glyph = page.locator(f'g.target[data-target="{target["id"]}"]')
+    glyph.click()
+    page.select_option("#request-kind", "investigate")
+    page.locator("#commit").click()
+    expect(page.locator("#request-note")).to_contain_text("accepted")
+    glyph.click(button="right")
+    expect(page.locator("#layer-flags .flag")).to_have_count(1)
+    findings.check(page, f"{kind}: a request accepted, an info box open")
+    if kind == "trial":
+        live = live_trial(server)
+        assert wait_for(server, lambda lv: lv.current_probe is not None, 100), "no probe"
+        expect(page.locator("#probe")).to_be_visible()
+        findings.check(page, "trial: a probe waiting")
+        page.locator("#probe-ready").click()
+        expect(page.locator("#probe-text")).to_be_focused()
+        findings.check(page, "trial: a probe asked")
+        page.locator("#probe-choices button").first.click()
+        expect(page.locator("#probe")).to_be_hidden()
+        assert live.current_probe is None
+        pause(server, "pause")
+        expect(page.locator("#paused")).to_be_visible()
+        findings.check(page, "trial: paused by the experimenter")
+        pause(server, "resume")
+        expect(page.locator("#paused")).to_be_hidden()
+    run_to_end(page, server, lambda: findings.check(page, f"{kind}: ended"))
+
+
+def walk_the_demo_study(page, server: StudyServer, findings: Findings) -> None:
+    """From the study link to the debrief, checking each page the first time it shows."""
+    from playwright.sync_api import expect
+
+    page.goto(f"{server.url}/join/demo")
+    expect(page.locator("#device-ok")).to_be_visible()
+    findings.check(page, "join")
+    page.locator("#join-start").click()
+    expect(page.locator("#code-note")).to_contain_text("Your participant code is")
+    live_seen: set[str] = set()
+    for _ in range(200):
+        expect(page.locator("main.study, #interface").first).to_be_attached()
+        if page.locator("#interface").count():
+            kind = "training" if "Training" in page.title() else "trial"
+            if kind in live_seen:
+                expect(page.locator("#connection")).to_have_text("live")
+                run_to_end(page, server)
+            else:
+                live_seen.add(kind)
+                live_pages(page, server, findings, kind)
+            continue
+        where = stage_of(page)
+        stage = where.split("/")[0]
+        name = page_name(where)
+        if name not in findings.pages:
+            findings.check(page, name)
+        if stage == "debrief":
+            return
+        if stage == "consent":
+            page.get_by_label("I agree").check()
+        elif stage == "demographics":
+            for key in ITEM_KEYS:
+                page.locator(f'input[name="{key}"]').first.check()
+        elif stage == "ranking":
+            for dimension in ranking.DIMENSIONS:
+                for rank, label in enumerate(ranking.ORDER_LABELS, start=1):
+                    page.locator(
+                        f'input[name="{ranking.item_key(dimension.key, label)}"][value="{rank}"]'
+                    ).check()
+        elif page.locator('input[name="chosen"]').count():
+            page.locator('input[name="chosen"][value="0"]').check()
+        else:
+            answer_radios(page)
+        if stage == "screen_check":
+            page.locator("#screen-continue").click()
+        else:
+            page.locator("#stage-form button[type=submit]").last.click()
+        expect(page.locator("main.study, #interface").first).to_be_attached()
+        # The same step again: a practice item's feedback (or the next timed item).
+        again = page.locator("main.study").count() and stage_of(page) == where
+        if (
+            again
+            and page.locator(".feedback").count()
+            and f"{name}: feedback" not in findings.pages
+        ):
+            findings.check(page, f"{name}: feedback")
+    raise AssertionError(f"the walk did not reach the debrief: {list(findings.pages)}")
+
+
+@pytest.mark.slow  # about 30 s: the whole demo study with six live trials, in a browser
+def test_every_page_of_the_demo_study_passes_axe_and_fits_the_smallest_window(
+    browser, demo_server: StudyServer, capsys
+) -> None:
+    findings = Findings()
+    page = browser.new_page(viewport=SMALLEST)
+    try:
+        walk_the_demo_study(page, demo_server, findings)
+    finally:
+        with capsys.disabled():
+            print(f"\naxe-core and sideways scroll at 1024 x 620:\n{findings.report()}")
+    page.close()
+    assert len(findings.pages) >= 20, list(findings.pages)
+    assert findings.failing() == [], findings.report()
+
+
+def test_the_console_pages_pass_axe_and_fit_the_smallest_window(
+    browser, app, make_trial, experimenter, capsys
+) -> None:
+    """Sign-in, the participants' table (a participant after a trial, a batch made), the
+    batch's links, a participant's page and a trial's replay, at 1024 x 620."""
+    from playwright.sync_api import expect
+
+    from tests.support.console import PASSWORD, USERNAME, code_of
+    from tests.support.inprocess import serving
+    from tests.support.replays import operate
+
+    trial = make_trial(seed=7, duration_s=60.0)
+    operate(trial, 60.0)
+    code = code_of(app, trial.token)
+    findings = Findings()
+    with serving(app) as url:
+        page = browser.new_page(viewport=SMALLEST)
+        page.goto(f"{url}/console/login")
+        findings.check(page, "console: sign in")
+        page.get_by_label("Username").fill(USERNAME)
+        page.get_by_label("Password").fill(PASSWORD)
+        page.get_by_role("button", name="Sign in").click()
+        expect(page.locator("h1")).to_have_text("Participants")
+        expect(page.locator(f'#progress tr[data-code="{code}"]')).to_be_visible()
+        findings.check(page, "console: participants")
+        page.fill("#count", "2")
+        page.click("#create-form button[type=submit]")
+        expect(page.locator("h1")).to_have_text("Participant links")
+        findings.check(page, "console: links")
+        page.goto(f"{url}/console/participants/{code}")
+        findings.check(page, "console: a participant")
+        page.locator(f'tr[data-trial="{trial.trial_id}"] a.replay-link').click()
+        expect(page.locator("#replay")).to_have_attribute("data-state", "ready")
+        findings.check(page, "console: a replay")
+        page.close()
+    with capsys.disabled():
+        print(f"\naxe-core and sideways scroll at 1024 x 620:\n{findings.report()}")
+    assert findings.failing() == [], findings.report()
+
+
+def test_the_pages_off_the_main_path_pass_axe(browser, demo_server: StudyServer, capsys) -> None:
+    """A window too small on the first page, a phone's screen-out, a declined consent, and a
+    link to no study: the pages a participant meets when the study does not go on."""
+    from playwright.sync_api import expect
+
+    findings = Findings()
+    page = browser.new_page(viewport={"width": 900, "height": 600})
+    page.goto(f"{demo_server.url}/join/demo")
+    expect(page.locator("#window-too-small")).to_be_visible()
+    findings.check(page, "join: window too small")
+    page.close()
+
+    phone = browser.new_page(viewport={"width": 390, "height": 844}, is_mobile=True, has_touch=True)
+    phone.goto(f"{demo_server.url}/join/demo")
+    expect(phone.locator("main.study")).to_have_attribute("data-stage", "screened_out")
+    findings.check(phone, "screened out (a phone)")
+    phone.close()
+
+    page = browser.new_page(viewport=SMALLEST)
+    page.goto(f"{demo_server.url}/p/{demo_server.participant()}")
+    page.get_by_label("I do not agree").check()
+    page.get_by_role("button", name="Continue").click()
+    expect(page.locator("#confirm-decline")).to_be_visible()
+    findings.check(page, "consent: asked to confirm declining")
+    page.get_by_role("button", name="Confirm").click()
+    expect(page.locator("main.study")).to_have_attribute("data-stage", "declined")
+    findings.check(page, "declined")
+    page.goto(f"{demo_server.url}/join/no-such-study")
+    findings.check(page, "a link to no study")
+    page.goto(f"{demo_server.url}/join/demo?assignmentId=ASSIGNMENT_ID_NOT_AVAILABLE&hitId=3HITXYZ")
+    expect(page.locator("main")).to_contain_text("preview", ignore_case=True)
+    findings.check(page, "an MTurk HIT's preview")
+
+    # An MRT part whose time ran out before every item was answered.
+    token = demo_server.participant()
+    walk_to(visitor(demo_server.app, token), "mental_rotation", "part_1")
+    page.goto(f"{demo_server.url}/p/{token}")
+    demo_server.advance(61.0)
+    page.reload()
+    expect(page.locator("main.study")).to_have_attribute("data-step", "time_up_1")
+    findings.check(page, "mental_rotation/time_up")
+    page.close()
+    with capsys.disabled():
+        print(f"\naxe-core and sideways scroll:\n{findings.report()}")
+    assert findings.failing() == [], findings.report()
