@@ -11,7 +11,7 @@ from typing import Any
 
 from flask import Flask, Response, jsonify, request
 from flask_wtf.csrf import CSRFError, CSRFProtect
-from sqlalchemy.exc import InterfaceError, OperationalError
+from sqlalchemy.exc import DBAPIError, InterfaceError, OperationalError
 from sqlalchemy.exc import TimeoutError as PoolTimeout
 from werkzeug.exceptions import HTTPException
 from werkzeug.middleware.proxy_fix import ProxyFix
@@ -89,6 +89,14 @@ def _register_json_errors(app: Flask) -> None:
     @app.errorhandler(PoolTimeout)
     def _database_away(_error: Exception):
         return database_unavailable_page()
+
+    @app.errorhandler(DBAPIError)
+    def _database_error(error: DBAPIError):
+        # Not an OperationalError, yet the database is away: a connection the server closed
+        # (a transaction ended for idling, 25P03), a read-only standby. Anything else is a bug.
+        if database_away(error):
+            return database_unavailable_page()
+        raise error
 
     @app.errorhandler(HTTPException)
     def _http_error(error: HTTPException):

@@ -70,30 +70,41 @@ def participant_token() -> str | None:
 DATABASE_RETRY_S = 5
 
 
-#: SQLSTATE of a write in a read-only transaction (a PostgreSQL standby, or
-#: default_transaction_read_only): psycopg raises it as an InternalError.
-READ_ONLY_SQLSTATE = "25006"
+#: SQLSTATEs after which the database cannot be used just now, though the driver calls them
+#: no OperationalError: a write in a read-only transaction (25006: a standby, or
+#: default_transaction_read_only, raised as an InternalError), a transaction the server
+#: ended for idling (25P03, and the connection with it), a server shutting down or starting
+#: (57P01-57P03), too many connections (53300), a full disk (53100).
+AWAY_SQLSTATES = frozenset({"25006", "25P03", "57P01", "57P02", "57P03", "53300", "53100"})
+#: SQLSTATE classes of a lost connection (08: connection exception).
+AWAY_CLASSES = ("08",)
 
 
 def database_away(error: BaseException | None) -> bool:
     """Whether an exception means the database cannot be used just now (not a bug):
-    unreachable, restarting, read-only, full, locked, or its pool exhausted."""
+    unreachable, restarting, read-only, full, locked, its pool exhausted, or the connection
+    closed by the server (a transaction idle too long)."""
     from sqlalchemy.exc import DBAPIError, InterfaceError, OperationalError
     from sqlalchemy.exc import TimeoutError as PoolTimeout
 
     if isinstance(error, OperationalError | InterfaceError | PoolTimeout):
         return True
-    return (
-        isinstance(error, DBAPIError)
-        and getattr(error.orig, "sqlstate", None) == READ_ONLY_SQLSTATE
-    )
+    if not isinstance(error, DBAPIError):
+        return False
+    if error.connection_invalidated:
+        return True
+    sqlstate = getattr(error.orig, "sqlstate", None) or ""
+    return sqlstate in AWAY_SQLSTATES or sqlstate.startswith(AWAY_CLASSES)
 
 
 def database_unavailable_page() -> ResponseReturnValue:
     """503 with Retry-After: JSON for the API (the bots and the page retry), else a
     "please wait" page that reloads itself."""
-    from flask import jsonify
+    from flask import g, jsonify
 
+    failed = g.get("db_session")
+    if failed is not None:
+        failed.rollback()  # its transaction failed with the connection: none of it is kept
     headers = {"Retry-After": str(DATABASE_RETRY_S)}
     if request.path.startswith("/api/"):
         body = jsonify(error="database_unavailable", message=ADVICE[503][1], held_by="database")

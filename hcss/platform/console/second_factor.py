@@ -161,13 +161,16 @@ def _take_recovery(database: Database, account_id: int, typed: str) -> bool:
     """
     as_text = cast(Experimenter.recovery_hashes, String)
     for _ in range(RECOVERY_CODES + 1):
+        # Read, check, then take: the ten argon2 checks run with no transaction open (inside
+        # one, a loaded machine idled it past PostgreSQL's limit and the sign-in answered 500).
         with database.session_scope() as session:
             stored = session.scalar(select(as_text).where(Experimenter.id == account_id))
-            hashes = [str(h) for h in (json.loads(stored) if stored else None) or []]
-            found = _matching(hashes, typed)
-            if found is None:
-                return False
-            left = [h for h in hashes if h != found]
+        hashes = [str(h) for h in (json.loads(stored) if stored else None) or []]
+        found = _matching(hashes, typed)
+        if found is None:
+            return False
+        left = [h for h in hashes if h != found]
+        with database.session_scope() as session:
             taken = session.execute(
                 update(Experimenter)
                 .where(Experimenter.id == account_id, as_text == stored)

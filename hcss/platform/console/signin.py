@@ -40,13 +40,14 @@ from hcss.platform.console.second_factor import (
     has_second_factor,
 )
 from hcss.platform.console.second_factor import verify as verify_second_factor
-from hcss.platform.db import database, get_session
+from hcss.platform.db import database, get_session, hand_back_connection
 from hcss.platform.guards.clients import request_client
 
 
 def answer_sign_in(form: forms.LoginForm, next_url: str) -> ResponseReturnValue:
     """Sign the experimenter in and go to `next_url`, or the page that says why not."""
     throttle = _throttle()
+    hand_back_connection()  # no transaction open while this sign-in waits for its turn
     # One (account, client)'s sign-ins in turn, each seeing the last one's outcome.
     client = request_client()
     turn = throttle.in_turn(form.username.data, client) if throttle else nullcontext()
