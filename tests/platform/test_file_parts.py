@@ -57,7 +57,9 @@ def test_a_console_form_field_sent_as_a_file_answers_400(app, console, action, f
     fields = {name: (code if value == "CODE" else value) for name, value in fields.items()}
     fields["csrf_token"] = console.csrf
     name = next(iter(fields))
-    path = "/console/participants" if action == "create" else f"/console/participants/{code}/{action}"
+    path = (
+        "/console/participants" if action == "create" else f"/console/participants/{code}/{action}"
+    )
     participants, audits = _rows(app, Participant), _rows(app, AuditRecord)
     answer = console.client.post(path, data=_as_file(fields, name))
     assert answer.status_code == 400, answer.status_code
