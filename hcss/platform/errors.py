@@ -97,11 +97,12 @@ def database_away(error: BaseException | None) -> bool:
     return sqlstate in AWAY_SQLSTATES or sqlstate.startswith(AWAY_CLASSES)
 
 
-def database_unavailable_page() -> ResponseReturnValue:
+def database_unavailable_page(error: BaseException | None = None) -> ResponseReturnValue:
     """503 with Retry-After: JSON for the API (the bots and the page retry), else a
-    "please wait" page that reloads itself."""
+    "please wait" page that reloads itself. Logged as one line (`log_database_away`)."""
     from flask import g, jsonify
 
+    log_database_away(error)
     failed = g.get("db_session")
     if failed is not None:
         failed.rollback()  # its transaction failed with the connection: none of it is kept
@@ -114,6 +115,22 @@ def database_unavailable_page() -> ResponseReturnValue:
         page.headers.update(headers)
         return page
     return page[0], 503, headers
+
+
+def log_database_away(error: BaseException | None) -> None:
+    """One WARNING line for a request the database refused (an outage, expected), never a
+    traceback, so the log tells an outage from a bug; the driver's first line says why."""
+    from flask import current_app
+
+    cause = getattr(error, "orig", None) or error
+    words = str(cause).strip().splitlines()[0][:200] if cause is not None else "unknown"
+    current_app.logger.warning(
+        "database away on %s %s: %s: %s",
+        request.method,
+        request.path[:200],
+        type(cause).__name__,
+        words,
+    )
 
 
 def error_page(
