@@ -23,9 +23,10 @@ like an error: 15 s for pages and commands, and 3 s for the stream, which
 sends a frame every half second while its trial runs (a silent stream is a
 hung host; the page's watchdog opens a new one, which nginx sends on).
 
-The servers trust X-Forwarded-For and -Proto from this proxy only when told
-(``HCSS_PROXY_HOPS=1`` and ``HCSS_TRUSTED_PROXY``, the address nginx connects
-from; hcss.platform.serving.connections.proxy_adjustments).
+nginx sets X-Forwarded-Host and -Port itself: a client's own passed through, and
+changed the links the console prints. The servers trust the X-Forwarded headers from
+this proxy only when told (``HCSS_PROXY_HOPS=1`` and ``HCSS_TRUSTED_PROXY``, the
+address nginx connects from; hcss.platform.serving.connections.proxy_adjustments).
 """
 
 from __future__ import annotations
@@ -103,6 +104,9 @@ _PROXY = f"""\
         proxy_set_header Host $http_host;
         proxy_set_header X-Forwarded-For $proxy_add_x_forwarded_for;
         proxy_set_header X-Forwarded-Proto $scheme;
+        # Set here, never a client's own: the server builds its links (links.csv) on them.
+        proxy_set_header X-Forwarded-Host $http_host;
+        proxy_set_header X-Forwarded-Port $server_port;
 
         # Server-Sent Events: every frame at once. A read timeout is the silence between
         # two reads, not a stream's length: a stream's frames come every half second, so
