@@ -210,6 +210,24 @@ class LoginThrottle:
             session.add(LoginFailure(scope=scope, key=key, at_epoch=now, locked_until=None))
         return True
 
+    def wait_s(self, scope: str, key: str, count: int, window_s: float) -> float:
+        """Seconds until `take` of (`scope`, `key`) counts again (0: it would now); reads only."""
+        now = self.clock()
+        with self.database.session_scope() as session:
+            stamps = session.scalars(
+                select(LoginFailure.at_epoch)
+                .where(
+                    LoginFailure.scope == scope,
+                    LoginFailure.key == key,
+                    LoginFailure.at_epoch >= now - window_s,
+                )
+                .order_by(LoginFailure.at_epoch.desc())
+                .limit(count)
+            ).all()
+        if len(stamps) < count:
+            return 0.0
+        return max(0.0, stamps[-1] + window_s - now)
+
     def forget(self, scope: str, key: str) -> None:
         """Drop the events of (`scope`, `key`): the right code was never a wrong one."""
         with self._unit() as session:

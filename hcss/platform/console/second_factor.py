@@ -18,9 +18,11 @@ password (or an account without a second factor) checks the code against a
 dummy factor with as many recovery hashes (`check_nothing`), so the time of
 an answer does not tell a guesser that their password was right.
 
-Wrong codes are limited per account, from every address together and on
+Wrong TOTP codes are limited per account, from every address together and on
 every process (`CODE_FAILURES` in `CODE_WINDOW_S`, counted in the database):
-someone who has the password cannot try the six digits from many addresses.
+someone who has the password cannot try the six digits from many addresses. A
+recovery code (40 bits) is not capped, so that person cannot lock the lab out
+from anywhere (hcss.platform.console.signin says what the lab is shown).
 Enrolling, replacing or removing a factor ends the account's sessions.
 
 The second factor is also the lab's way in while a guesser has locked the
@@ -110,6 +112,13 @@ def verify(database: Database, account: Experimenter, code: str, now: float | No
     if typed.isascii() and typed.isdigit() and len(typed) == 6:
         return _take_totp(database, account, typed, time.time() if now is None else now)
     return _take_recovery(database, account.id, typed)
+
+
+def is_totp_shaped(code: str) -> bool:
+    """Whether `code` reads as an authenticator app's six digits (else a recovery code):
+    the guessable kind, which the account's cap on wrong codes is for."""
+    typed = _typed(code)
+    return typed.isascii() and typed.isdigit() and len(typed) == 6
 
 
 def check_nothing(code: str) -> None:
