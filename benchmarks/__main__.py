@@ -9,7 +9,16 @@ from __future__ import annotations
 import importlib
 import sys
 
-SUITES = ("simulation", "live", "live_processes", "console", "links", "analysis", "study")
+SUITES = (
+    "simulation",
+    "live",
+    "live_processes",
+    "console",
+    "links",
+    "analysis",
+    "study",
+    "chaos",
+)
 
 
 def main(argv: list[str]) -> None:
