@@ -4,7 +4,7 @@ PY     := $(VENV)/bin/python
 HCSS   := $(VENV)/bin/hcss
 STAMP  := $(VENV)/.installed-stamp
 
-.PHONY: install run test test-fast bench lint format browser nginx node-tools fuzz r
+.PHONY: install run test test-fast bench chaos lint format browser nginx node-tools fuzz r
 
 $(PY):
 	python3 -m venv $(VENV)
@@ -76,6 +76,12 @@ fuzz: install
 
 bench: install
 	$(PY) -m benchmarks
+
+# The chaos soak (benchmarks/chaos.py): 30 minutes of random faults under bots and a console,
+# then a verdict per invariant; needs PostgreSQL (HCSS_TEST_DATABASE_URL) and nginx.
+# HCSS_CHAOS_SEED=N reproduces a run, HCSS_CHAOS_S sets its length. Also part of `make bench`.
+chaos: install nginx
+	$(PY) -m benchmarks chaos
 
 # ruff (style, banned dynamic imports, dead noqa), import-linter (the contracts of
 # docs/architecture.md, in pyproject.toml), mypy (settings in pyproject.toml).

@@ -18,6 +18,7 @@ SUITES = (
     "analysis",
     "study",
     "plan",
+    "chaos",
 )
 
 

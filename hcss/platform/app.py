@@ -11,7 +11,7 @@ from typing import Any
 
 from flask import Flask, Response, jsonify, request
 from flask_wtf.csrf import CSRFError, CSRFProtect
-from sqlalchemy.exc import InterfaceError, OperationalError
+from sqlalchemy.exc import DBAPIError, InterfaceError, OperationalError
 from sqlalchemy.exc import TimeoutError as PoolTimeout
 from werkzeug.exceptions import HTTPException
 from werkzeug.middleware.proxy_fix import ProxyFix
@@ -51,8 +51,18 @@ BLUEPRINTS = (
 csrf = CSRFProtect()
 
 
+class Platform(Flask):
+    """Flask, but a request the database refused is no "Exception on ..." with a traceback:
+    its 503 handler logs one line (hcss.platform.errors.log_database_away)."""
+
+    def log_exception(self, exc_info: Any) -> None:
+        if database_away(exc_info[1]):
+            return
+        super().log_exception(exc_info)
+
+
 def create_app(config: Mapping[str, Any] | None = None) -> Flask:
-    app = Flask(__name__, instance_path=str(platform_config.instance_path()))
+    app = Platform(__name__, instance_path=str(platform_config.instance_path()))
     app.config.update(platform_config.defaults())
     if config:
         app.config.update(config)
@@ -89,16 +99,25 @@ def _register_json_errors(app: Flask) -> None:
     @app.errorhandler(OperationalError)
     @app.errorhandler(InterfaceError)
     @app.errorhandler(PoolTimeout)
-    def _database_away(_error: Exception):
-        return database_unavailable_page()
+    def _database_away(error: Exception):
+        return database_unavailable_page(error)
+
+    @app.errorhandler(DBAPIError)
+    def _database_error(error: DBAPIError):
+        # Not an OperationalError, yet the database is away: a connection the server closed
+        # (a transaction ended for idling, 25P03), a read-only standby. Anything else is a bug.
+        if database_away(error):
+            return database_unavailable_page(error)
+        raise error
 
     @app.errorhandler(HTTPException)
     def _http_error(error: HTTPException):
         forward = forwarded(error)  # a trial held by another member: nginx sends it there
         if forward is not None:
             return forward
-        if database_away(getattr(error, "original_exception", None)):
-            return database_unavailable_page()  # the request's commit failed
+        original = getattr(error, "original_exception", None)
+        if database_away(original):
+            return database_unavailable_page(original)  # the request's commit failed
         # A 503 that says when to ask again (a trial hosted by another server process,
         # not yet taken over) keeps its Retry-After, or bots and scripts give up at once.
         retry = {k: v for k, v in error.get_headers() if k == "Retry-After"}

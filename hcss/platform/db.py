@@ -29,10 +29,11 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from flask import Flask, current_app, g, has_app_context
+from flask import Flask, before_render_template, current_app, g, has_app_context
 from sqlalchemy import Engine, create_engine, event
 from sqlalchemy.dialects.postgresql import insert as pg_insert
 from sqlalchemy.dialects.sqlite import insert as sqlite_insert
+from sqlalchemy.exc import DBAPIError
 from sqlalchemy.orm import ORMExecuteState, Session, sessionmaker
 
 from hcss.platform import sqlite_recovery
@@ -72,6 +73,11 @@ STATEMENT_TIMEOUT_MS = 15_000
 #: lease runs out, and far above the milliseconds between a unit of work's statements
 #: (at 3 s, a healthy process starved of CPU by a loaded machine once met it).
 IDLE_IN_TRANSACTION_MS = 5_000
+
+
+#: SQLSTATEs with which PostgreSQL closes the connection: an idle transaction ended,
+#: an administrator's or a crash's shutdown, a server not yet taking connections.
+CLOSED_BY_THE_SERVER = frozenset({"25P03", "57P01", "57P02", "57P03"})
 
 
 class RequestHoldsWrites(RuntimeError):
@@ -115,6 +121,14 @@ def make_engine(url: str) -> Engine:
 
         return engine
     engine = create_engine(url, pool_pre_ping=True, connect_args=POSTGRESQL_LINK, **POOL)
+
+    @event.listens_for(engine, "handle_error")
+    def _closed_by_the_server(context) -> None:
+        # A transaction ended for idling (25P03) or a server shutting down (57P0x) closes the
+        # connection: the pool drops it at once instead of meeting it again.
+        sqlstate = getattr(context.original_exception, "sqlstate", None) or ""
+        if sqlstate in CLOSED_BY_THE_SERVER or sqlstate.startswith("08"):
+            context.is_disconnect = True
 
     @event.listens_for(engine, "connect")
     def _statement_timeout(dbapi_connection, _record) -> None:
@@ -256,6 +270,8 @@ def init_app(app: Flask) -> Database:
                 session.close()
         return response
 
+    before_render_template.connect(_end_read_before_page, app)
+
     @app.teardown_request
     def _rollback(_exc: BaseException | None) -> None:
         # Reached with a session still open only when the view raised.
@@ -265,6 +281,25 @@ def init_app(app: Flask) -> Database:
             session.close()
 
     return database
+
+
+def _end_read_before_page(_app: Flask, **_extra: Any) -> None:
+    """A page is built with no transaction open: a request that only read ends its read
+    before the template runs (a query the template makes opens its own). Under load a
+    page took longer to build than PostgreSQL lets a transaction idle, and the request's
+    commit met a closed connection. A request that wrote keeps its unit of work whole."""
+    session: Session | None = g.get("db_session")
+    if session is None or not session.in_transaction():
+        return
+    if session.info.get("unsaved_writes") or session.new or session.dirty or session.deleted:
+        return
+    transaction = session.get_transaction()
+    if transaction is None or not transaction.is_active:
+        return  # a failed request: its error handler rolls back
+    try:
+        session.commit()
+    except DBAPIError:
+        session.rollback()  # the connection was lost already; the page's own queries say so
 
 
 def _stamp_new_rows(session: Session, _context: Any, _instances: Any) -> None:
@@ -290,6 +325,18 @@ def _note_statement_writes(state: ORMExecuteState) -> None:
 def _forget_writes(session: Session, transaction: Any) -> None:
     if transaction.parent is None:  # the outermost transaction: committed or rolled back
         session.info.pop("unsaved_writes", None)
+
+
+def hand_back_connection() -> None:
+    """Before slow work (hashing a password, waiting on a lock, building a page): end the
+    request session's read-only transaction, so no transaction idles across the work.
+
+    PostgreSQL ends a transaction idle for `IDLE_IN_TRANSACTION_MS` and closes its
+    connection (SQLSTATE 25P03); an argon2 check on a loaded machine took longer than
+    that inside a sign-in's read, and the request answered 500. Its next query opens a
+    transaction of its own. A no-op outside a request or when nothing is open.
+    """
+    _hand_back_request_connection()
 
 
 def _hand_back_request_connection() -> None:

@@ -70,30 +70,42 @@ def participant_token() -> str | None:
 DATABASE_RETRY_S = 5
 
 
-#: SQLSTATE of a write in a read-only transaction (a PostgreSQL standby, or
-#: default_transaction_read_only): psycopg raises it as an InternalError.
-READ_ONLY_SQLSTATE = "25006"
+#: SQLSTATEs after which the database cannot be used just now, though the driver calls them
+#: no OperationalError: a write in a read-only transaction (25006: a standby, or
+#: default_transaction_read_only, raised as an InternalError), a transaction the server
+#: ended for idling (25P03, and the connection with it), a server shutting down or starting
+#: (57P01-57P03), too many connections (53300), a full disk (53100).
+AWAY_SQLSTATES = frozenset({"25006", "25P03", "57P01", "57P02", "57P03", "53300", "53100"})
+#: SQLSTATE classes of a lost connection (08: connection exception).
+AWAY_CLASSES = ("08",)
 
 
 def database_away(error: BaseException | None) -> bool:
     """Whether an exception means the database cannot be used just now (not a bug):
-    unreachable, restarting, read-only, full, locked, or its pool exhausted."""
+    unreachable, restarting, read-only, full, locked, its pool exhausted, or the connection
+    closed by the server (a transaction idle too long)."""
     from sqlalchemy.exc import DBAPIError, InterfaceError, OperationalError
     from sqlalchemy.exc import TimeoutError as PoolTimeout
 
     if isinstance(error, OperationalError | InterfaceError | PoolTimeout):
         return True
-    return (
-        isinstance(error, DBAPIError)
-        and getattr(error.orig, "sqlstate", None) == READ_ONLY_SQLSTATE
-    )
+    if not isinstance(error, DBAPIError):
+        return False
+    if error.connection_invalidated:
+        return True
+    sqlstate = getattr(error.orig, "sqlstate", None) or ""
+    return sqlstate in AWAY_SQLSTATES or sqlstate.startswith(AWAY_CLASSES)
 
 
-def database_unavailable_page() -> ResponseReturnValue:
+def database_unavailable_page(error: BaseException | None = None) -> ResponseReturnValue:
     """503 with Retry-After: JSON for the API (the bots and the page retry), else a
-    "please wait" page that reloads itself."""
-    from flask import jsonify
+    "please wait" page that reloads itself. Logged as one line (`log_database_away`)."""
+    from flask import g, jsonify
 
+    log_database_away(error)
+    failed = g.get("db_session")
+    if failed is not None:
+        failed.rollback()  # its transaction failed with the connection: none of it is kept
     headers = {"Retry-After": str(DATABASE_RETRY_S)}
     if request.path.startswith("/api/"):
         body = jsonify(error="database_unavailable", message=ADVICE[503][1], held_by="database")
@@ -103,6 +115,22 @@ def database_unavailable_page() -> ResponseReturnValue:
         page.headers.update(headers)
         return page
     return page[0], 503, headers
+
+
+def log_database_away(error: BaseException | None) -> None:
+    """One WARNING line for a request the database refused (an outage, expected), never a
+    traceback, so the log tells an outage from a bug; the driver's first line says why."""
+    from flask import current_app
+
+    cause = getattr(error, "orig", None) or error
+    words = str(cause).strip().splitlines()[0][:200] if cause is not None else "unknown"
+    current_app.logger.warning(
+        "database away on %s %s: %s: %s",
+        request.method,
+        request.path[:200],
+        type(cause).__name__,
+        words,
+    )
 
 
 def error_page(

@@ -24,6 +24,7 @@ from flask import Flask, got_request_exception, request
 from sqlalchemy import event, select
 from sqlalchemy.orm import Session
 
+from hcss.platform.errors import database_away
 from hcss.platform.models import Participant, StageEvent, StudyEnrolment, Trial, TrialStatusChange
 from hcss.platform.models.vocabularies import TrialStatus
 
@@ -99,9 +100,10 @@ def _discard(session: Session, *_args: Any) -> None:
 
 
 def _request_failed(app: Flask, exception: BaseException, **_extra: Any) -> None:
-    """A participant's request raised (the answer is a 500): say whose and where."""
+    """A participant's request raised (the answer is a 500): say whose and where. A database
+    away is no error of theirs: its 503 is logged as one line (hcss.platform.errors)."""
     token = (request.view_args or {}).get("token")
-    if not isinstance(token, str):
+    if not isinstance(token, str) or database_away(exception):
         return
     try:
         with app.extensions["hcss_db"].session_scope() as session:

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import httpx
 import pytest
+from sqlalchemy import select
 
 from hcss.platform.cli import DEFAULT_THREADS, upgrade_database
 from hcss.platform.console.accounts import create_experimenter
@@ -171,6 +172,25 @@ def test_an_untrusted_peer_cannot_claim_an_address_and_is_logged_once(proxied) -
     assert refused.status_code == 429  # the forged address did not move the guesser
     log = proxied.server.log_path.read_text()
     assert log.count("proxy headers from an untrusted peer were ignored") == 1
+
+
+def test_a_clients_own_forwarded_host_and_port_do_not_change_the_links(proxied) -> None:
+    """Issue 44 §6: nginx passed a client's X-Forwarded-Host and -Port on, and the server
+    (HCSS_PROXY_HOPS=1) built links.csv on them: http://evil.example:444/p/..."""
+    with proxied.visitor("127.0.0.71") as lab:
+        assert _sign_in(lab, PASSWORD).status_code == 302
+        csrf = csrf_token_of(lab.get("/console/").text)
+        made = lab.post(
+            "/console/participants", data={"csrf_token": csrf, "count": "1", "study": "demo"}
+        )
+        assert made.status_code in (302, 303), made.status_code
+        with proxied.database.session_scope() as session:
+            code = session.scalars(select(Participant.code).order_by(Participant.id.desc())).first()
+        forged = {"X-Forwarded-Host": "evil.example", "X-Forwarded-Port": "444"}
+        links = lab.get(f"/console/links.csv?codes={code}", headers=forged)
+    assert links.status_code == 200, links.status_code
+    assert "evil.example" not in links.text and ":444" not in links.text, links.text
+    assert f"{proxied.nginx.url}/p/" in links.text, (proxied.nginx.url, links.text)
 
 
 def test_sigterm_ends_the_open_streams_and_the_server_cleanly(proxied) -> None:

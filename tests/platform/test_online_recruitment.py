@@ -101,6 +101,11 @@ def test_sona_and_mturk_ids_and_anonymous_visits(app) -> None:
         ("id=%25SURVEY_CODE%25", "not filled in"),
         ("PROLIFIC_PID=ok&STUDY_ID=%00", "NUL byte"),
         ("PROLIFIC_PID=ok&SESSION_ID=" + "x" * 5000, "longer than 128"),
+        # A completion URL's path may hold {PROLIFIC_PID}: ".." would climb out of it.
+        ("PROLIFIC_PID=..", "only dots"),
+        ("PROLIFIC_PID=.", "only dots"),
+        ("PROLIFIC_PID=ok&STUDY_ID=...", "only dots"),
+        ("id=..", "only dots"),
     ],
 )
 def test_hostile_recruitment_parameters_are_refused_and_write_nothing(

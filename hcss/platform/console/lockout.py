@@ -31,7 +31,7 @@ from dataclasses import dataclass
 from sqlalchemy import ColumnElement, and_, delete, func, or_, select, text
 from sqlalchemy.orm import Session
 
-from hcss.platform.db import Database
+from hcss.platform.db import Database, hand_back_connection
 from hcss.platform.models import AuditRecord, LoginFailure
 
 WINDOW_S = 15 * 60.0
@@ -123,6 +123,14 @@ class LoginThrottle:
                 if not waiting[0]:
                     self._turns.pop(key, None)
 
+    @contextmanager
+    def _unit(self) -> Iterator[Session]:
+        """One count's unit of work, in this process's turn. The request's own read ends
+        first: no transaction idles while this thread waits for the turn."""
+        hand_back_connection()
+        with self._lock, self.database.session_scope() as session:
+            yield session
+
     def clock(self) -> float:
         return (self._clock or self.database.clock)()
 
@@ -133,7 +141,7 @@ class LoginThrottle:
         the lockout. A key's count starts again after each lockout.
         """
         key, now = client_key(username, address), self.clock()
-        with self._lock, self.database.session_scope() as session:
+        with self._unit() as session:
             _one_count_at_a_time(session, key)
             session.execute(  # rows that no count or lockout needs any more, any key
                 delete(LoginFailure).where(
@@ -173,7 +181,7 @@ class LoginThrottle:
         with self._turns_lock:
             turn = self._turns.get(attempt.key)
             burst = turn is not None and turn[1][0] > 1
-        with self._lock, self.database.session_scope() as session:
+        with self._unit() as session:
             if not burst:
                 session.execute(delete(LoginFailure).where(_of(attempt.key)))
                 return
@@ -188,7 +196,7 @@ class LoginThrottle:
         factor's codes per account): the rows are the `begin` count's, in turn per key.
         """
         now = self.clock()
-        with self._lock, self.database.session_scope() as session:
+        with self._unit() as session:
             _one_count_at_a_time(session, f"{scope}:{key}")
             taken = session.scalar(
                 select(func.count()).where(
@@ -202,16 +210,34 @@ class LoginThrottle:
             session.add(LoginFailure(scope=scope, key=key, at_epoch=now, locked_until=None))
         return True
 
+    def wait_s(self, scope: str, key: str, count: int, window_s: float) -> float:
+        """Seconds until `take` of (`scope`, `key`) counts again (0: it would now); reads only."""
+        now = self.clock()
+        with self.database.session_scope() as session:
+            stamps = session.scalars(
+                select(LoginFailure.at_epoch)
+                .where(
+                    LoginFailure.scope == scope,
+                    LoginFailure.key == key,
+                    LoginFailure.at_epoch >= now - window_s,
+                )
+                .order_by(LoginFailure.at_epoch.desc())
+                .limit(count)
+            ).all()
+        if len(stamps) < count:
+            return 0.0
+        return max(0.0, stamps[-1] + window_s - now)
+
     def forget(self, scope: str, key: str) -> None:
         """Drop the events of (`scope`, `key`): the right code was never a wrong one."""
-        with self._lock, self.database.session_scope() as session:
+        with self._unit() as session:
             session.execute(
                 delete(LoginFailure).where(LoginFailure.scope == scope, LoginFailure.key == key)
             )
 
     def unlock(self, username: str) -> int:
         """Clear an account's failures and lockouts from every client; returns the rows."""
-        with self._lock, self.database.session_scope() as session:
+        with self._unit() as session:
             result = session.execute(
                 delete(LoginFailure).where(
                     or_(

@@ -18,9 +18,11 @@ password (or an account without a second factor) checks the code against a
 dummy factor with as many recovery hashes (`check_nothing`), so the time of
 an answer does not tell a guesser that their password was right.
 
-Wrong codes are limited per account, from every address together and on
+Wrong TOTP codes are limited per account, from every address together and on
 every process (`CODE_FAILURES` in `CODE_WINDOW_S`, counted in the database):
-someone who has the password cannot try the six digits from many addresses.
+someone who has the password cannot try the six digits from many addresses. A
+recovery code (40 bits) is not capped, so that person cannot lock the lab out
+from anywhere (hcss.platform.console.signin says what the lab is shown).
 Enrolling, replacing or removing a factor ends the account's sessions.
 
 The second factor is also the lab's way in while a guesser has locked the
@@ -112,6 +114,13 @@ def verify(database: Database, account: Experimenter, code: str, now: float | No
     return _take_recovery(database, account.id, typed)
 
 
+def is_totp_shaped(code: str) -> bool:
+    """Whether `code` reads as an authenticator app's six digits (else a recovery code):
+    the guessable kind, which the account's cap on wrong codes is for."""
+    typed = _typed(code)
+    return typed.isascii() and typed.isdigit() and len(typed) == 6
+
+
 def check_nothing(code: str) -> None:
     """The work of checking `code` against a factor, for a sign-in that has none to check.
 
@@ -161,13 +170,16 @@ def _take_recovery(database: Database, account_id: int, typed: str) -> bool:
     """
     as_text = cast(Experimenter.recovery_hashes, String)
     for _ in range(RECOVERY_CODES + 1):
+        # Read, check, then take: the ten argon2 checks run with no transaction open (inside
+        # one, a loaded machine idled it past PostgreSQL's limit and the sign-in answered 500).
         with database.session_scope() as session:
             stored = session.scalar(select(as_text).where(Experimenter.id == account_id))
-            hashes = [str(h) for h in (json.loads(stored) if stored else None) or []]
-            found = _matching(hashes, typed)
-            if found is None:
-                return False
-            left = [h for h in hashes if h != found]
+        hashes = [str(h) for h in (json.loads(stored) if stored else None) or []]
+        found = _matching(hashes, typed)
+        if found is None:
+            return False
+        left = [h for h in hashes if h != found]
+        with database.session_scope() as session:
             taken = session.execute(
                 update(Experimenter)
                 .where(Experimenter.id == account_id, as_text == stored)

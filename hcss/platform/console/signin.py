@@ -9,6 +9,12 @@ An account with a second factor needs a valid code as well
 (hcss.platform.console.second_factor). While the (account, client) pair is
 locked, the password alone is not checked; the password with a valid code
 opens the lockout, and only a few codes per account may be tried that way.
+
+Wrong six-digit codes are capped per account (second_factor.CODE_FAILURES). While the cap
+is in force a six-digit code answers 429 saying so, whatever the password (the answer is
+no password oracle; it tells a stranger only that the account is under attack). The lab
+is never locked out from everywhere: a recovery code is checked whatever the cap, and the
+lab's network (CONSOLE_ALLOW) is not capped.
 """
 
 from __future__ import annotations
@@ -38,15 +44,17 @@ from hcss.platform.console.second_factor import (
     LOCKOUT_SCOPE,
     check_nothing,
     has_second_factor,
+    is_totp_shaped,
 )
 from hcss.platform.console.second_factor import verify as verify_second_factor
-from hcss.platform.db import database, get_session
+from hcss.platform.db import database, get_session, hand_back_connection
 from hcss.platform.guards.clients import request_client
 
 
 def answer_sign_in(form: forms.LoginForm, next_url: str) -> ResponseReturnValue:
     """Sign the experimenter in and go to `next_url`, or the page that says why not."""
     throttle = _throttle()
+    hand_back_connection()  # no transaction open while this sign-in waits for its turn
     # One (account, client)'s sign-ins in turn, each seeing the last one's outcome.
     client = request_client()
     turn = throttle.in_turn(form.username.data, client) if throttle else nullcontext()
@@ -60,6 +68,9 @@ def _sign_in(
     attempt = throttle.begin(form.username.data, client) if throttle else None
     locked = attempt is not None and attempt.wait_s > 0
     code = (form.code.data or "").strip()
+    paused_s = _codes_paused_s(form.username.data) if code and is_totp_shaped(code) else 0.0
+    if paused_s > 0:
+        return _codes_paused(form, paused_s)
     # Through a lockout only a second factor opens the door, and only a few codes a while.
     if locked and not (code and _code_tries(LOCKOUT_SCOPE, form.username.data)):
         return _locked_out(form, attempt)
@@ -89,7 +100,7 @@ def _code_is_right(account, code: str) -> bool:  # type: ignore[no-untyped-def]
     """Check a code of an account whose password was right, within the account's allowance
     of wrong codes (from every address, on every process); past it no code is checked,
     and the answer is the one a wrong code gets."""
-    if not _code_tries(FAILURE_SCOPE, account.username):
+    if is_totp_shaped(code) and not _code_tries(FAILURE_SCOPE, account.username):
         check_nothing(code)
         return False
     if not verify_second_factor(database(), account, code):
@@ -119,10 +130,36 @@ def _code_tries(scope: str, username: str) -> bool:
     ones (a right code clears them). Kept in the database, so the allowance is
     the account's on every server process.
     """
-    if not current_app.config.get("LOGIN_RATE_LIMIT", True):
+    if not current_app.config.get("LOGIN_RATE_LIMIT", True) or _labs_network():
         return True
     count = CODES_PER_LOCKOUT if scope == LOCKOUT_SCOPE else CODE_FAILURES
     return _throttle_of_app().take(scope, account_key(username), count, CODE_WINDOW_S)
+
+
+def _labs_network() -> bool:
+    return allowed(request.remote_addr, current_app.config.get("CONSOLE_ALLOW") or ())
+
+
+def _codes_paused_s(username: str) -> float:
+    """Seconds the account's six-digit codes stay refused (its wrong ones are at the cap);
+    0 from the lab's network or with the limits off."""
+    if not current_app.config.get("LOGIN_RATE_LIMIT", True) or _labs_network():
+        return 0.0
+    key = account_key(username)
+    return _throttle_of_app().wait_s(FAILURE_SCOPE, key, CODE_FAILURES, CODE_WINDOW_S)
+
+
+def _codes_paused(form: forms.LoginForm, wait_s: float) -> ResponseReturnValue:
+    """The cap's answer, the same whatever the password (no oracle): what is paused, the
+    ways in, and what the wrong codes mean."""
+    flash(
+        f"One-time codes for this account are paused for {ceil(wait_s / 60)} minute(s): too "
+        "many wrong ones were sent with its password. Sign in with a recovery code, from the "
+        "lab's network, or ask an administrator to run `hcss admin unlock`. If those codes "
+        "were not yours, someone knows the password: change it."
+    )
+    page = render_template("console/login.html", form=form)
+    return page, 429, {"Retry-After": str(ceil(wait_s))}
 
 
 def _locked_out(form: forms.LoginForm, attempt: Attempt | None) -> ResponseReturnValue:

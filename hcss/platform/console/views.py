@@ -7,6 +7,7 @@ and console URLs name participants by code, never by token.
 from __future__ import annotations
 
 import re
+import unicodedata
 from urllib.parse import urlsplit
 
 from flask import (
@@ -147,8 +148,15 @@ def _participant(code: str) -> Participant:
 
 
 def _safe_next(target: str | None) -> str:
-    """Only a console path: a login link must not redirect anywhere else."""
-    if target and target.startswith("/console/") and not urlsplit(target).netloc:
+    """Only a console path: a login link must not redirect anywhere else. A control or
+    line-separator character (CR/LF in a mailed link) makes it no page: werkzeug refuses
+    such a Location, and the right password answered 500."""
+    if (
+        target
+        and target.startswith("/console/")
+        and not urlsplit(target).netloc
+        and not any(unicodedata.category(char) in ("Cc", "Zl", "Zp") for char in target)
+    ):
         return target
     return url_for("console.index")
 

@@ -98,6 +98,14 @@ def _refuse_nul_bytes() -> None:
                 abort(400, description="A field contains a NUL byte.")
 
 
+def _refuse_file_parts() -> None:
+    """No page takes a file: a field sent as a multipart file part is a bad request, on
+    every form at once. Flask-WTF reads the files with the form, and a validator that
+    measured the field (``Length``) met a FileStorage: the sign-in page answered 500."""
+    if request.method == "POST" and request.files:
+        abort(400, description="No page of the study takes a file.")
+
+
 def content_security_policy(
     frame_ancestors: Iterable[str] = (), form_action: Iterable[str] = ()
 ) -> str:
@@ -154,4 +162,5 @@ def install(app: Flask) -> None:
     app.json = BoundedJSONProvider(app)
     app.before_request(_refuse_json_to_pages)
     app.before_request(_refuse_nul_bytes)
+    app.before_request(_refuse_file_parts)
     app.after_request(_security_headers)

@@ -42,7 +42,9 @@ progress by the forwarded address (hcss.platform.serving.connections).
 
 The servers trust X-Forwarded-For and -Proto from this proxy only when told
 (``HCSS_PROXY_HOPS=1`` and ``HCSS_TRUSTED_PROXY``, the address nginx connects
-from; hcss.platform.serving.connections.proxy_adjustments).
+from; hcss.platform.serving.connections.proxy_adjustments). nginx sets
+X-Forwarded-Host and -Port itself: a client's own passed through, and changed
+the links the console prints.
 """
 
 from __future__ import annotations
@@ -171,6 +173,9 @@ _PROXY = f"""\
         proxy_set_header X-Forwarded-For $proxy_add_x_forwarded_for;
         proxy_set_header X-Forwarded-Proto $scheme;
         proxy_set_header X-Hcss-Forward 1;
+        # Set here, never a client's own: the server builds its links (links.csv) on them.
+        proxy_set_header X-Forwarded-Host $http_host;
+        proxy_set_header X-Forwarded-Port $server_port;
 
         # Server-Sent Events: every frame at once. A read timeout is the silence between
         # two reads, not a stream's length: a stream's frames come every half second, so

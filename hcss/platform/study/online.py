@@ -302,6 +302,10 @@ def _value(args: MultiDict[str, str], name: str) -> str | None:
         )
     if not ID_CHARACTERS.fullmatch(value):
         raise RecruitmentError(f"The link's {name} holds characters an id cannot have.")
+    if not value.strip("."):
+        # A completion URL may name the id in its path (/s/{PROLIFIC_PID}/...): "." or ".."
+        # there is a path step, and the participant would be sent to another page.
+        raise RecruitmentError(f"The link's {name} is only dots, which no id is.")
     return value
 
 
