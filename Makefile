@@ -91,7 +91,7 @@ lint: install node-tools
 	$(VENV)/bin/ruff format --check .
 	$(VENV)/bin/lint-imports
 	$(VENV)/bin/mypy
-	node_modules/.bin/biome ci
+	node_modules/.bin/biome ci --colors=off
 
 format: install node-tools
 	$(VENV)/bin/ruff check --fix .

@@ -18,15 +18,16 @@
     // Once the study runs in its own window, ask now and then whether it is done, and
     // stop offering it then (the worker comes back to this frame after submitting).
     let asking = null;
-    const ask = () => fetch(offer.dataset.statusUrl, { credentials: "omit" })
-      .then((answer) => (answer.ok ? answer.json() : {}))
-      .then((status) => {
-        if (!status.finished) return;
-        offer.hidden = true;
-        finished.hidden = false;
-        clearInterval(asking);
-      })
-      .catch(() => {});
+    const ask = () =>
+      fetch(offer.dataset.statusUrl, { credentials: "omit" })
+        .then((answer) => (answer.ok ? answer.json() : {}))
+        .then((status) => {
+          if (!status.finished) return;
+          offer.hidden = true;
+          finished.hidden = false;
+          clearInterval(asking);
+        })
+        .catch(() => {});
     document.getElementById("join-own-window").addEventListener("click", () => {
       if (asking === null) asking = setInterval(ask, 3000);
     });
