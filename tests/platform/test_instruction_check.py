@@ -115,7 +115,6 @@ def _demo_file() -> dict:
         (lambda d: d["instruction_check"].update(after_wrong="end"), "'reread' or 'retry'"),
         (lambda d: d["instruction_check"]["items"][2].update(key="blue_half"), "must differ"),
         (lambda d: d.pop("instruction_check"), "declare [instruction_check]"),
-        (lambda d: d["sequence"]["before"].remove("instruction_check"), "asks none"),
     ],
 )
 def test_a_badly_declared_check_is_refused_with_a_clear_message(change, message) -> None:
@@ -124,6 +123,14 @@ def test_a_badly_declared_check_is_refused_with_a_clear_message(change, message)
     with pytest.raises(StudyFileError) as refused:
         parse_study(doc, source="demo.toml")
     assert message in str(refused.value), str(refused.value)
+
+
+def test_a_declared_check_the_sequence_leaves_out_is_not_asked() -> None:
+    doc = _demo_file()
+    doc["sequence"]["before"].remove("instruction_check")
+    study = parse_study(doc, source="demo.toml")
+    assert study.instruction_check is not None
+    assert "instruction_check" not in study.sequence.before
 
 
 def test_after_wrong_retry_asks_again_at_once_with_the_missed_question_marked(

@@ -5,6 +5,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+from hcss.platform.study import instruction_check
 from hcss.questionnaires import demographics, post_trial, ranking, sart, tlx
 from hcss.questionnaires.mrt import mental_rotations_test
 
@@ -26,6 +27,7 @@ def test_instrument_names_are_those_of_the_questionnaire_items_table() -> None:
         tlx.INSTRUMENT,
         sart.INSTRUMENT,
         ranking.INSTRUMENT,
+        instruction_check.INSTRUMENT,
     }
     assert ours == allowed
 
@@ -42,6 +44,7 @@ def test_item_keys_follow_the_dictionary_examples() -> None:
 def test_score_scales_include_the_dictionary_examples() -> None:
     examples = set(re.findall(r"`([A-Za-z_]+)`", table_row("scores", "scale")))
     scales = {"overall", "raw_tlx", "SU", "effectiveness", "responsiveness"}
+    scales |= {"passed", "tries"}  # the instruction check's (hcss.platform.study.instruction_check)
     scales |= {f"{key}_weighted" for key in tlx.SUBSCALE_KEYS}
     assert examples <= scales
     sart_scales = {row.scale for row in sart.score(dict.fromkeys(sart.ITEM_KEYS, 4)).rows()}

@@ -243,14 +243,13 @@ class Study(BaseModel):
 
     @model_validator(mode="after")
     def _instruction_check_declared_where_asked(self) -> Study:
+        """A sequence that asks the check needs its questions. A declared check the
+        sequence leaves out is kept and not asked: a variant of a study that goes
+        straight from consent to the debrief keeps the parent's sections."""
         asked = "instruction_check" in self.sequence.before + self.sequence.after
         if asked and self.instruction_check is None:
             raise SettingError(
                 "sequence", "the sequence names instruction_check: declare [instruction_check]"
-            )
-        if self.instruction_check is not None and not asked:
-            raise SettingError(
-                "instruction_check", "[instruction_check] is declared but the sequence asks none"
             )
         return self
 
