@@ -54,6 +54,12 @@ from hcss.analysis.stats import MannWhitneyMethod
     is_flag=True,
     help="Analyse participants of different study files together (refused by default).",
 )
+@click.option(
+    "--completers-only",
+    is_flag=True,
+    help="Analyse only participants who completed (default: the partial trials of those "
+    "who stopped or are in progress count too, and the report says how many).",
+)
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 def analyze(
     inputs: tuple[Path, ...],
@@ -63,6 +69,7 @@ def analyze(
     continuity: bool,
     study: str | None,
     pool_studies: bool,
+    completers_only: bool,
     quiet: bool,
 ) -> None:
     """Analyse study exports and simulation decision tables.
@@ -102,6 +109,7 @@ def analyze(
             continuity=continuity,
             study=study,
             pool_studies=pool_studies,
+            completers_only=completers_only,
         )
     except AnalysisInputError as error:
         raise click.ClickException(str(error)) from error
