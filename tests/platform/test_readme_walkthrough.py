@@ -76,6 +76,11 @@ def test_the_readmes_analysis_of_a_walked_participant_and_a_demo_trial_exits_0(
             "1 analysed participant who did not complete (aborted, timed out, declined or in "
             "progress): their partial trials and answers enter the per-model measures" in html
         )
+        # The demo's MRT is one part of 4 items: no label claims the original's two of 12.
+        assert "total of both parts" not in html and "(0–24)" not in html
+        assert "MRT score: items right over the study&#x27;s timed parts" in html or (
+            "MRT score: items right over the study's timed parts" in html
+        )
         # An MRT family table over the "All" column names it as such.
         assert "mean (SD) per model (All: measured once per participant, not per model)" in html
 
