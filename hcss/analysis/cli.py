@@ -58,6 +58,10 @@ from hcss.analysis.stats import MannWhitneyMethod
     "--pool-synthetic",
     is_flag=True,
     help="Analyse synthetic participants (`hcss plan`) together with real ones (refused by default).",
+    "--completers-only",
+    is_flag=True,
+    help="Analyse only participants who completed (default: the partial trials of those "
+    "who stopped or are in progress count too, and the report says how many).",
 )
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 def analyze(
@@ -69,6 +73,7 @@ def analyze(
     study: str | None,
     pool_studies: bool,
     pool_synthetic: bool,
+    completers_only: bool,
     quiet: bool,
 ) -> None:
     """Analyse study exports and simulation decision tables.
@@ -109,6 +114,7 @@ def analyze(
             study=study,
             pool_studies=pool_studies,
             pool_synthetic=pool_synthetic,
+            completers_only=completers_only,
         )
     except AnalysisInputError as error:
         raise click.ClickException(str(error)) from error

@@ -24,6 +24,7 @@ from hcss.analysis.studies import (
     StudyFile,
     StudyPoolingError,
     in_study,
+    not_completed,
     refuse_pooling,
     set_aside_never_opened,
     study_files,
@@ -134,6 +135,9 @@ class StudyTables:
     warnings: tuple[str, ...] = ()
     studies: tuple[StudyFile, ...] = ()  # the study files of the analysed participants
     never_opened: int = 0  # links in the inputs nobody opened (set aside, not participants)
+    partial: int = 0  # analysed participants who did not complete (their partial data are in)
+    completers_only: bool = False
+    left_out_partial: int = 0  # with completers_only: the participants it left out
 
     @property
     def groups(self) -> list[str]:
@@ -326,6 +330,13 @@ def _contributions(
     return tuple(summaries)
 
 
+def _drop_participants(combined: dict[str, pd.DataFrame], codes: set[str]) -> None:
+    """Leave these participants' rows out of every table (simulation decisions stay), in place."""
+    for table, frame in combined.items():
+        if "participant" in frame.columns and len(frame):
+            combined[table] = frame[~frame["participant"].astype(str).isin(codes)]
+
+
 def _keep_study(combined: dict[str, pd.DataFrame], study: str) -> None:
     """Keep one study's participants in every table (simulation decisions stay), in place."""
     kept = in_study(combined["participants"], study)
@@ -369,6 +380,7 @@ def load_inputs(
     study: str | None = None,
     pool_studies: bool = False,
     pool_synthetic: bool = False,
+    completers_only: bool = False,
 ) -> StudyTables:
     """Read and combine every INPUT, tag groups and drop flagged participants.
 
@@ -386,6 +398,9 @@ def load_inputs(
     Synthetic participants' decisions (``source = synthetic``) are analysed as a
     study's teams, with a warning saying so; beside real participants' they are
     refused unless ``pool_synthetic``.
+
+    ``completers_only`` keeps only participants who completed; otherwise
+    ``partial`` counts those who did not (their partial trials are analysed).
     """
     inputs = [Path(path) for path in paths]
     if not inputs:
@@ -414,6 +429,9 @@ def load_inputs(
                 "--include-pilot"
             )
         _exclude(combined)
+    partial = not_completed(combined["participants"])
+    if completers_only and partial:
+        _drop_participants(combined, partial)
     studies = study_files(combined["participants"])
     if not pool_studies:
         try:
@@ -448,4 +466,7 @@ def load_inputs(
         warnings=warnings,
         studies=studies,
         never_opened=never_opened,
+        partial=0 if completers_only else len(partial),
+        completers_only=completers_only,
+        left_out_partial=len(partial) if completers_only else 0,
     )

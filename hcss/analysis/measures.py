@@ -38,7 +38,7 @@ MEASURE_LABELS = {
     "nasa_tlx.overall": "NASA-TLX: weighted total",
     "nasa_tlx.raw_tlx": "NASA-TLX: raw total",
     "sart.overall": "SART: total SU − (DAR − SAR)",
-    "mrt.total": "MRT score: total of both parts (0–24)",
+    "mrt.total": "MRT score: items right over the study's timed parts",
 }
 
 INSTRUMENT_LABELS = {
@@ -49,7 +49,8 @@ INSTRUMENT_LABELS = {
     "mrt": "MRT score",
 }
 
-#: The MRT's one measure: the total of both parts (0–24), per participant.
+#: The MRT's one measure: the total over the study file's timed parts (the original's two
+#: parts of 12 give 0–24; the demo's one part of 4, 0–4), per participant.
 MRT_MEASURE = "mrt.total"
 
 

@@ -91,7 +91,13 @@ def family_table(
     header, rows = _without_untested(header, rows)
     return Table(
         f"family_{family.key}",
-        f"{family.title}: mean (SD) per model. n: participants (simulation scenarios for "
+        f"{family.title}: mean (SD) per "
+        + (
+            "model (All: measured once per participant, not per model)"
+            if "All" in groups
+            else "model"
+        )
+        + ". n: participants (simulation scenarios for "
         "simulated rows) with a value in that split, one number when every model has the same, "
         "else one per model in the order of the header; a split has fewer when some trials had "
         "no decision of that kind.",

@@ -108,8 +108,29 @@ def _excluded_text(tables: StudyTables, include_pilot: bool) -> str:
             counts.append(f"{count} {word}{'' if count == 1 else 's'}")
     listed = ", ".join(counts) or "none flagged"
     if include_pilot:
-        return f"Bot, pilot and demo participants are included (--include-pilot): {listed}."
-    return f"Left out (bot, pilot and demo participants; --include-pilot keeps them): {listed}."
+        text = f"Bot, pilot and demo participants are included (--include-pilot): {listed}."
+    else:
+        text = f"Left out (bot, pilot and demo participants; --include-pilot keeps them): {listed}."
+    return f"{text} {_partial_text(tables)}".strip()
+
+
+def _partial_text(tables: StudyTables) -> str:
+    """Whether participants who did not complete contribute their partial trials."""
+    if tables.completers_only:
+        n = tables.left_out_partial
+        return (
+            f"Completers only (--completers-only): {n} participant{'' if n == 1 else 's'} "
+            "who did not complete left out."
+        )
+    if not tables.partial:
+        return ""
+    n = tables.partial
+    who = "participant who did" if n == 1 else "participants who did"
+    return (
+        f"{n} analysed {who} not complete (aborted, timed out, declined or in progress): "
+        "their partial trials and answers enter the per-model measures; "
+        "--completers-only leaves them out."
+    )
 
 
 def _table_html(table: Table) -> str:
@@ -183,6 +204,7 @@ def run_analysis(
     study: str | None = None,
     pool_studies: bool = False,
     pool_synthetic: bool = False,
+    completers_only: bool = False,
 ) -> Report:
     """Load INPUTs (one study's participants, or several study files only when pooled),
     compute measures and tests, write tables, figures and report.html."""
@@ -195,6 +217,7 @@ def run_analysis(
         study=study,
         pool_studies=pool_studies,
         pool_synthetic=pool_synthetic,
+        completers_only=completers_only,
     )
     steps.update()
     steps.set_postfix_str("measures")

@@ -150,3 +150,17 @@ def refuse_pooling(files: tuple[StudyFile, ...]) -> None:
         "timings and designs may differ, so they are not analysed together by default: pass "
         "--study NAME to analyse one, or --pool-studies to analyse them together."
     )
+
+
+#: The export's status of a participant who reached the debrief.
+COMPLETED = "completed"
+
+
+def not_completed(participants: pd.DataFrame) -> set[str]:
+    """Codes of the participants who did not complete (aborted, timed out, declined, in
+    progress): their partial trials and answers enter the analysis unless
+    ``--completers-only``, and the report says how many there are."""
+    if participants.empty:
+        return set()
+    status = _column(participants, "status")
+    return set(participants.loc[status != COMPLETED, "participant"].astype(str))

@@ -54,7 +54,12 @@ PARTICIPANTS = TableSpec(
             "trial runs, `completed` after",
         ),
         *(Column(name, "str", "demographics answers") for name in DEMOGRAPHICS),
-        Column("mrt_score", "int", "Mental Rotations Test score, 0–24"),
+        Column(
+            "mrt_score",
+            "int",
+            "Mental Rotations Test score: items right over the study's timed parts (0–24 in "
+            "the original's two parts of 12)",
+        ),
         *(
             Column(f"tlx_overall_{model}", "float", f"weighted NASA-TLX of {model}")
             for model in MODELS

@@ -275,7 +275,7 @@ def test_the_mrt_score_is_the_whole_test_one_row_per_participant(measures):
     assert sorted(mrt["participant"]) == ["P1", "P2"]
     assert value(measures, "mrt.total", "P1") == 17.0  # not part 2's 8
     assert value(measures, "mrt.total", "P2") == 9.0  # 4 + 5
-    assert measure_label("mrt.total") == "MRT score: total of both parts (0–24)"
+    assert measure_label("mrt.total") == "MRT score: items right over the study's timed parts"
     assert measure_label("nasa_tlx.effort_weighted") == "NASA-TLX: effort weighted"
 
 

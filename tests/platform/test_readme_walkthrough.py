@@ -71,5 +71,26 @@ def test_the_readmes_analysis_of_a_walked_participant_and_a_demo_trial_exits_0(
         ) in html
         sample = pd.read_csv(report / "tables" / "sample.csv").set_index("row")["n"]
         assert sample["Completed"] == 1 and sample["Included: demos"] == 1
+        # The demo trial is still running: its partial trial is analysed, and said so.
+        assert (
+            "1 analysed participant who did not complete (aborted, timed out, declined or in "
+            "progress): their partial trials and answers enter the per-model measures" in html
+        )
+        # The demo's MRT is one part of 4 items: no label claims the original's two of 12.
+        assert "total of both parts" not in html and "(0–24)" not in html
+        assert "MRT score: items right over the study&#x27;s timed parts" in html or (
+            "MRT score: items right over the study's timed parts" in html
+        )
+        # An MRT family table over the "All" column names it as such.
+        assert "mean (SD) per model (All: measured once per participant, not per model)" in html
+
+        completers = tmp_path / "out" / "completers"
+        words = readme_command("analyze")
+        words[words.index("--out") + 1] = str(completers)
+        only = runner.invoke(main, [*words, "--completers-only", "--quiet"])
+        assert only.exit_code == 0, only.output
+        html = (completers / "report.html").read_text(encoding="utf-8")
+        assert "Completers only (--completers-only): 1 participant who did not complete" in html
+        assert f"demo (file {digest[:12]}…): 1 participant." in html
     finally:
         app.extensions["hcss_db"].engine.dispose()

@@ -8,11 +8,14 @@
 (() => {
   "use strict";
   const box = document.getElementById("device-check");
-  if (window.self !== window.top) {
+  if (window.self !== window.top || !box) {
     const offer = document.getElementById("join-framed");
     const finished = document.getElementById("join-finished");
-    document.getElementById("join-form").hidden = true;
-    box.hidden = true;
+    const intro = document.getElementById("join-intro");
+    if (intro) intro.hidden = true;  // the frame checks nothing: no words about a check
+    const form = document.getElementById("join-form");
+    if (form) form.hidden = true;  // left out by the server when it knew of the frame
+    if (box) box.hidden = true;
     if (!finished.hidden) return;
     offer.hidden = false;
     // Once the study runs in its own window, ask now and then whether it is done, and

@@ -154,8 +154,7 @@ def linked_study(name: str) -> Study:
         events.error("study %s cannot be opened by its link: %s", name, error)
         raise StudyUnavailable(
             "This study cannot be opened at the moment: its settings have a problem the "
-            "experimenter has to fix. Nothing about you was recorded. Please try again "
-            "later, or write to the experimenter."
+            "experimenter has to fix. Please try again later, or write to the experimenter."
         ) from error
     if not study.online.link:
         raise NoStudyLink("This study is not open to online recruitment.")
