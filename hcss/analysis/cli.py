@@ -58,6 +58,8 @@ from hcss.analysis.stats import MannWhitneyMethod
     "--pool-synthetic",
     is_flag=True,
     help="Analyse synthetic participants (`hcss plan`) together with real ones (refused by default).",
+)
+@click.option(
     "--completers-only",
     is_flag=True,
     help="Analyse only participants who completed (default: the partial trials of those "
