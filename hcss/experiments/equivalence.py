@@ -94,6 +94,10 @@ PRE_CHANGE_PARAMS: dict[str, object] = {
     "difficulty_label": "best_nearest",
     "label_distances": "exact",
     "label_ring_m": 100.0,
+    # The readings of issue 39 (M_i's uses, M1's queue, d_min): the pre-change rules.
+    "m2_modulation_uses": ("queue", "recruitment", "inhibition"),
+    "m1_queue_modulation": "unmodulated",
+    "m2_d_min": "search_space",
 }
 
 REFERENCE_SCENARIOS = 28

@@ -241,6 +241,10 @@ def open_study(out: Path, settings: Settings) -> Any:
         "scenario_seed": settings.scenario_seed,
         "search_space": _jsonable(settings.search_space),
     }
+    if settings.space == "modulation":  # its unsearched values are the default preset's
+        from hcss.simulation.presets import DEFAULT_PRESET
+
+        wanted["base_preset"] = DEFAULT_PRESET
     if manifest.exists():
         stored = json.loads(manifest.read_text(encoding="utf-8"))
         if stored != wanted:

@@ -10,6 +10,7 @@ from click.testing import CliRunner
 from hcss.cli import main
 from hcss.experiments import experiment as exp
 from hcss.simulation import DECISION_COLUMNS
+from hcss.simulation.presets import DEFAULT_PRESET
 
 
 @pytest.fixture(scope="module")
@@ -86,8 +87,8 @@ def test_experiment_command_writes_the_decisions_table_and_summary(tmp_path):
     assert {r["source"] for r in rows} == {"simulation"} and {r["model"] for r in rows} == {"M2"}
     assert "| M2 | overall |" in (tmp_path / "summary.md").read_text()
     # Without --preset the command runs the default, named in what it prints and writes.
-    assert "preset study-units." in result.output
-    assert "preset study-units." in (tmp_path / "summary.md").read_text()
+    assert f"preset {DEFAULT_PRESET}." in result.output
+    assert f"preset {DEFAULT_PRESET}." in (tmp_path / "summary.md").read_text()
 
 
 def test_unknown_models_are_refused_without_a_traceback(tmp_path):

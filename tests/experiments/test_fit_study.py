@@ -58,18 +58,58 @@ def test_loss_is_squared_distance_in_bands_and_counts_cells_within_them() -> Non
 
 
 def test_presets_are_named_in_the_params_they_give_and_share_every_value_across_models() -> None:
-    assert set(PRESETS) == {"literal", "study-calibrated", "study-units"}
+    assert set(PRESETS) == {
+        "literal",
+        "study-calibrated",
+        "study-units",
+        "study-units-foreign",
+        "study-units-eq4",
+        "study-units-recruitment",
+    }
     assert preset_params("literal") == Params()
     for name, params in PRESETS.items():
         assert params.preset == name
         assert Params.from_dict(json.loads(json.dumps(params.to_dict()))) == params
     # The default is the preset with the lowest out-of-sample loss over the study's tables
     # under its unit (docs/simulation-notes.md); its layout and label readings come with it.
-    assert DEFAULT_PRESET == "study-units"
+    assert DEFAULT_PRESET == "study-units-foreign"
     assert preset_params().difficulty_label == "best_not_furthest"
     assert preset_params().easy_layout_others == "strictly_farther"
+    assert preset_params().foreign_targets == "eligible"
     with pytest.raises(ValueError, match="literal, study-calibrated, study-units"):
         preset_params("bogus")
+    # Issue 39's presets differ from study-units only in the readings they are named for
+    # (and the recruitment preset's three refitted values): every other value is shared.
+    units = preset_params("study-units").to_dict()
+    for name, differ in (
+        ("study-units-foreign", {"foreign_targets"}),
+        ("study-units-eq4", {"m2_modulation_uses"}),
+        (
+            "study-units-recruitment",
+            {"m2_modulation_uses", "message_rate", "fitted_d_max_m", "m2_discovery_wait_scale"},
+        ),
+    ):
+        mine = preset_params(name).to_dict()
+        assert {k for k in units if units[k] != mine[k]} == differ | {"preset"}, name
+
+
+@pytest.mark.parametrize(
+    "name", ["study-units-foreign", "study-units-eq4", "study-units-recruitment"]
+)
+def test_issue_39_presets_reach_the_scenarios_and_the_runs(name: str) -> None:
+    """A preset's params reach the scenario generator (its layout readings) and the engine."""
+    from hcss.experiments import experiment as exp
+
+    params = preset_params(name)
+    scenarios = exp.experiment_scenarios(2, 50_000_000, params)
+    # study-units' strictly-farther easy layouts, which all of them keep.
+    assert scenarios == exp.experiment_scenarios(2, 50_000_000, preset_params("study-units"))
+    assert scenarios != exp.experiment_scenarios(
+        2, 50_000_000, params.with_changes(easy_layout_others="anywhere")
+    )
+    job = exp.jobs_for(scenarios[:1], ("M2",), 1)[0]
+    rows = exp.run_job(job, params)
+    assert rows != exp.run_job(job, preset_params("study-units"))
 
 
 def test_an_unknown_preset_is_a_usage_error_on_every_simulate_command() -> None:

@@ -10,13 +10,14 @@ import pytest
 from hcss.simulation import Params, Scenario, Simulation
 from hcss.simulation import states as S
 from hcss.simulation.messaging import ALL_USES, INHIBITION, QUEUE, RECRUITMENT, Inbox, compose
-from hcss.simulation.presets import DEFAULT_PRESET, preset_params
+from hcss.simulation.presets import DEFAULT_PRESET, STUDY_UNITS, preset_params
 from hcss.simulation.rules import refresh_geometry
 from tests.support.worlds import agents_of, lay_out, make_sim, place, send
 
-# State digests of default-preset trials (Scenario.generate(11, first_section="easy"), run 2,
-# 900 steps), computed on the engine before M_i's uses were split (main at 6af1375): the
-# default reading must reproduce them.
+# State digests of trials under study-units, the default preset before issue 39
+# (Scenario.generate(11, first_section="easy"), run 2, 900 steps), computed on the engine
+# before M_i's uses were split (main at 6af1375): the default readings of M_i must
+# reproduce them.
 DIGESTS_BEFORE_SPLIT = {
     "M1": (665, "e3e7eb8e39babd859e9ad09084d961ddd0f7421ebf50d6c8f8499b7c19402cbb"),
     "M2": (900, "4c898326f232b88ef9e4554f53cb61b9a732676d1a45c55bbe758bd667570a64"),
@@ -26,13 +27,15 @@ BIT = {"queue": QUEUE, "recruitment": RECRUITMENT, "inhibition": INHIBITION}
 
 
 @pytest.mark.parametrize("model", sorted(DIGESTS_BEFORE_SPLIT))
-def test_the_default_preset_runs_bit_for_bit_as_before_the_split(model: str) -> None:
+def test_the_default_readings_run_bit_for_bit_as_before_the_split(model: str) -> None:
+    """study-units (the default before issue 39) keeps its stream: the new readings at their
+    defaults draw nothing; the new default differs from it only in foreign_targets."""
     assert preset_params(DEFAULT_PRESET).m2_modulation_uses == (
         "queue",
         "recruitment",
         "inhibition",
     )
-    params = preset_params(DEFAULT_PRESET)
+    params = preset_params(STUDY_UNITS)
     sim = Simulation(
         Scenario.generate(11, first_section="easy", params=params), model, params, run=2
     )
