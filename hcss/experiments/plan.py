@@ -252,8 +252,9 @@ def assumptions(settings: PlanSettings, params: Params) -> list[str]:
         "(the study's units were means over 10 runs: with fewer, a unit varies more and the "
         "simulation-only groups' power is underestimated; --runs 10 costs more).",
         "Resampling: per replication N participants (with all their trials) and N scenarios "
-        "per simulation-only model, without replacement while the pool holds N, else with; "
-        "the simulation-only condition is assumed run with as many scenarios as participants.",
+        "per simulation-only model, with replacement from the pool, which stands for the "
+        "population (a pool much larger than N keeps repeats rare); the simulation-only "
+        "condition is assumed run with as many scenarios as participants.",
         f"Tests: the analysis's own (hcss.analysis.stats, posthoc), two-sided, alpha = "
         f"{settings.alpha:g}, unadjusted for the number of hypotheses; Tukey-Kramer on mean "
         "ranks over the five groups; Mann-Whitney with R's wilcox.test rule.",
