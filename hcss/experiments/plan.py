@@ -265,9 +265,23 @@ def assumptions(settings: PlanSettings, params: Params) -> list[str]:
     ]
 
 
+def figured(points: Sequence[pw.PowerPoint], most: int = 6) -> list[pw.Hypothesis]:
+    """The omnibus tests on success and time, then the hypotheses whose power moves most
+    over the grid (the ones N decides; flat curves at 0 or 1 say little in a figure)."""
+    by: dict[pw.Hypothesis, list[float]] = {}
+    for p in points:
+        by.setdefault(p.hypothesis, []).append(p.power)
+    moving = sorted(
+        (h for h in by if h.test != "kruskal_wallis"),
+        key=lambda h: max(by[h]) - min(by[h]),
+        reverse=True,
+    )
+    return [*FIGURED[:2], *moving[:most]]
+
+
 def _figure_png(points: Sequence[pw.PowerPoint]) -> str:
     buffer = io.BytesIO()
-    pw.power_figure(points, FIGURED).savefig(buffer, format="png", dpi=110)
+    pw.power_figure(points, figured(points)).savefig(buffer, format="png", dpi=110)
     return base64.b64encode(buffer.getvalue()).decode("ascii")
 
 
