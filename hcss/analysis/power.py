@@ -4,8 +4,9 @@ A pool is the analysis's own per-unit measures (`decision_measures`, the
 `measures.csv` that `hcss analyze` writes) of many synthetic participants and
 simulation-only scenarios. A replication at N draws N participants (each with
 all its trials, so M1, M2 and M3 stay one person's) and N scenarios for each
-simulation-only model, without replacement while the pool is large enough,
-and runs the analysis's tests on them: Kruskal-Wallis across the five groups
+simulation-only model, with replacement (the pool stands for the population:
+drawn without replacement, N near the pool's size would leave no sampling
+variation, and power would read 0 or 1), and runs the analysis's tests on them: Kruskal-Wallis across the five groups
 (the p of `stats.kruskal_wallis`, scipy's tie-corrected H as R's
 `kruskal.test`; its bootstrap interval is not needed for a p), Tukey-Kramer
 on mean ranks (`posthoc.tukey_kramer_ranks`) and Mann-Whitney
@@ -100,7 +101,7 @@ def unit_pool(measures: pd.DataFrame) -> UnitPool:
 
 
 def _draw(rng: np.random.Generator, size: int, n: int) -> np.ndarray:
-    return np.asarray(rng.choice(size, size=n, replace=n > size))
+    return np.asarray(rng.integers(size, size=n))
 
 
 def rejections(

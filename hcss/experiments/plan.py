@@ -252,8 +252,9 @@ def assumptions(settings: PlanSettings, params: Params) -> list[str]:
         "(the study's units were means over 10 runs: with fewer, a unit varies more and the "
         "simulation-only groups' power is underestimated; --runs 10 costs more).",
         "Resampling: per replication N participants (with all their trials) and N scenarios "
-        "per simulation-only model, without replacement while the pool holds N, else with; "
-        "the simulation-only condition is assumed run with as many scenarios as participants.",
+        "per simulation-only model, with replacement from the pool, which stands for the "
+        "population (a pool much larger than N keeps repeats rare); the simulation-only "
+        "condition is assumed run with as many scenarios as participants.",
         f"Tests: the analysis's own (hcss.analysis.stats, posthoc), two-sided, alpha = "
         f"{settings.alpha:g}, unadjusted for the number of hypotheses; Tukey-Kramer on mean "
         "ranks over the five groups; Mann-Whitney with R's wilcox.test rule.",
@@ -264,9 +265,23 @@ def assumptions(settings: PlanSettings, params: Params) -> list[str]:
     ]
 
 
+def figured(points: Sequence[pw.PowerPoint], most: int = 6) -> list[pw.Hypothesis]:
+    """The omnibus tests on success and time, then the hypotheses whose power moves most
+    over the grid (the ones N decides; flat curves at 0 or 1 say little in a figure)."""
+    by: dict[pw.Hypothesis, list[float]] = {}
+    for p in points:
+        by.setdefault(p.hypothesis, []).append(p.power)
+    moving = sorted(
+        (h for h in by if h.test != "kruskal_wallis"),
+        key=lambda h: max(by[h]) - min(by[h]),
+        reverse=True,
+    )
+    return [*FIGURED[:2], *moving[:most]]
+
+
 def _figure_png(points: Sequence[pw.PowerPoint]) -> str:
     buffer = io.BytesIO()
-    pw.power_figure(points, FIGURED).savefig(buffer, format="png", dpi=110)
+    pw.power_figure(points, figured(points)).savefig(buffer, format="png", dpi=110)
     return base64.b64encode(buffer.getvalue()).decode("ascii")
 
 
