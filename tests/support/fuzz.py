@@ -320,16 +320,14 @@ def console_requests(draw: st.DrawFn, target: Target) -> tuple[str, str, dict[st
     if route == "login":
         if draw(st.booleans()):
             return "POST", "/console/login", _body_options(draw, form_fields=LOGIN_FIELDS)
-        # The right password now and then, so `next` and the code reach the redirect.
-        fields = {
-            "username": draw(st.sampled_from(["alice"]) | texts),
-            "password": draw(st.sampled_from(["correct horse battery"]) | texts),
-            "code": draw(texts),
-        }
+        # The right password, so `next` (a console page, then anything) and the code reach
+        # the redirect: a next with CR/LF there answered 500.
+        fields = {"username": "alice", "password": "correct horse battery", "code": draw(texts)}
+        page = draw(st.sampled_from(["/console/", "/console/links?codes=", ""])) + draw(texts)
         if draw(st.integers(0, 4)) == 0:
             name = draw(st.sampled_from(LOGIN_FIELDS))
             fields[name] = as_file_part(fields[name], draw(st.sampled_from(FILE_NAMES)))
-        return "POST", f"/console/login?next={quote(draw(texts), safe='')}", {"data": fields}
+        return "POST", f"/console/login?next={quote(page, safe='')}", {"data": fields}
     if route == "logout":
         return "POST", "/console/logout", {"headers": {"X-Logout": "anonymous"}}
     if route == "index":
