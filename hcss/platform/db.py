@@ -33,7 +33,7 @@ from flask import Flask, before_render_template, current_app, g, has_app_context
 from sqlalchemy import Engine, create_engine, event
 from sqlalchemy.dialects.postgresql import insert as pg_insert
 from sqlalchemy.dialects.sqlite import insert as sqlite_insert
-from sqlalchemy.exc import DBAPIError
+from sqlalchemy.exc import SQLAlchemyError
 from sqlalchemy.orm import ORMExecuteState, Session, sessionmaker
 
 from hcss.platform import sqlite_recovery
@@ -298,8 +298,10 @@ def _end_read_before_page(_app: Flask, **_extra: Any) -> None:
         return  # a failed request: its error handler rolls back
     try:
         session.commit()
-    except DBAPIError:
-        session.rollback()  # the connection was lost already; the page's own queries say so
+    except SQLAlchemyError:
+        # The connection was lost already (a swallowed error left the transaction invalid,
+        # PendingRollbackError): the page is built all the same; its own queries say so.
+        session.rollback()
 
 
 def _stamp_new_rows(session: Session, _context: Any, _instances: Any) -> None:

@@ -11,6 +11,7 @@ the same sign-ins run as a control.
 
 from __future__ import annotations
 
+import contextlib
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -150,3 +151,27 @@ def test_a_transaction_the_server_ended_answers_503_with_retry_after(short_idle)
     answer = short_idle.test_client().get("/slow-read")
     assert answer.status_code == 503
     assert answer.headers["Retry-After"] == "5"
+
+
+def test_a_page_after_a_swallowed_lost_connection_still_renders(app) -> None:
+    """Found by the chaos soak (seed 44, 30 min): an error page looked the participant up,
+    the connection had been ended by the server (57P01, the run's sessions ended), the
+    lookup's error was swallowed, and ending the request's read before the page raised
+    PendingRollbackError: a 500 instead of the please-wait page."""
+    if not app.config["DATABASE_URL"].startswith("postgresql"):
+        pytest.skip("the server ends the connection: PostgreSQL's pg_terminate_backend")
+    from flask import render_template
+    from sqlalchemy import text
+    from sqlalchemy.exc import OperationalError
+
+    @app.get("/lost-then-page")
+    def lost_then_page() -> str:
+        session = db.get_session()
+        session.scalar(select(Experimenter.id))
+        # Swallowed, as errors.participant_token does: the database may be what failed.
+        with contextlib.suppress(OperationalError):
+            session.execute(text("SELECT pg_terminate_backend(pg_backend_pid())"))
+        return render_template("error.html", code=503, heading="h", detail=None, advice="a")
+
+    answer = app.test_client().get("/lost-then-page")
+    assert answer.status_code == 200, answer.status_code

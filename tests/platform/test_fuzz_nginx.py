@@ -108,17 +108,22 @@ def _send(proxied: Proxied, client: httpx.Client, request: tuple[str, str, dict[
     }
     content: bytes | None = None
     form: dict[str, str] | None = None
+    files: dict[str, tuple[str, bytes]] | None = None
     if "json" in options:
         content = json.dumps(options["json"]).encode()
         headers["Content-Type"] = b"application/json"
     elif isinstance(options.get("data"), dict):
-        form = options["data"]
+        fields = options["data"]
+        form = {k: v for k, v in fields.items() if not isinstance(v, tuple)}
+        files = {k: (v[1], v[0].getvalue()) for k, v in fields.items() if isinstance(v, tuple)}
     elif "data" in options:
         data = options["data"]
         content = data if isinstance(data, bytes) else data.encode("utf-8", "surrogatepass")
         headers["Content-Type"] = str(options.get("content_type", "")).encode("latin-1", "replace")
     try:
-        with client.stream(method, path, headers=headers, content=content, data=form) as answer:
+        with client.stream(
+            method, path, headers=headers, content=content, data=form, files=files or None
+        ) as answer:
             if not answer.headers.get("content-type", "").startswith("text/event-stream"):
                 answer.read()  # a live stream's status is enough; its frames never end
     except (h11.LocalProtocolError, httpx.LocalProtocolError, UnicodeEncodeError):

@@ -3,6 +3,7 @@ and test_fuzz_nginx.py: what a hostile or clumsy client sends to each route."""
 
 from __future__ import annotations
 
+import io
 import logging
 import os
 from collections import Counter
@@ -47,8 +48,30 @@ NASTY_TEXT = [
     "",
 ]
 
+#: Values shaped like a header or a line of one: a client hoping a field reaches a header
+#: (a redirect's Location, a CSV cell, a log line) unescaped.
+HEADER_SHAPED = [
+    "\r\nSet-Cookie: planted=1",
+    "/console/\r\nLocation: https://evil.example/",
+    "x\nX-Forwarded-Host: evil.example",
+    "evil.example:444",
+    "Host: evil.example",
+    '=HYPERLINK("https://evil.example")',
+]
+#: Control characters (C0, DEL, C1) and the Unicode line and paragraph separators.
+CONTROLS = [chr(code) for code in (*range(1, 32), *range(127, 160))] + ["\u2028", "\u2029"]
+
 ints = st.one_of(st.integers(-5, 40), st.sampled_from(HUGE), st.integers())
-texts = st.one_of(st.sampled_from(NASTY_TEXT), st.text(max_size=40))
+#: Text with a control character inside, so every string field meets one.
+controlled = st.builds(
+    lambda head, control, tail: head + control + tail,
+    st.text(max_size=12),
+    st.sampled_from(CONTROLS),
+    st.text(max_size=12),
+)
+texts = st.one_of(
+    st.sampled_from(NASTY_TEXT), st.text(max_size=40), controlled, st.sampled_from(HEADER_SHAPED)
+)
 scalars = st.one_of(st.none(), st.booleans(), ints, st.floats(), texts)
 json_values = st.recursive(
     scalars, lambda inner: st.lists(inner, max_size=4) | st.dictionaries(texts, inner, max_size=4)
@@ -179,7 +202,22 @@ def _body_options(draw: st.DrawFn, *, form_fields: tuple[str, ...] = ()) -> dict
             "content_type": draw(st.sampled_from(["application/json", "text/plain", ""])),
         }
     names = form_fields or ("x",)
-    return {"data": draw(st.dictionaries(st.sampled_from(names) | texts, texts, max_size=4))}
+    fields = draw(st.dictionaries(st.sampled_from(names) | texts, texts, max_size=4))
+    if fields and draw(st.integers(0, 4)) == 0:
+        # A field sent as a multipart file part (a file's name and bytes): no page takes one.
+        name = draw(st.sampled_from(sorted(fields)))
+        fields[name] = as_file_part(fields[name], draw(st.sampled_from(FILE_NAMES)))
+    return {"data": fields}
+
+
+#: The file names a file part carries (an empty one is still a file part to werkzeug).
+FILE_NAMES = ["field.txt", "", "../../etc/passwd", "a\x00b", "x" * 300]
+
+
+def as_file_part(value: Any, filename: str) -> tuple[io.BytesIO, str]:
+    """A form value as werkzeug's test client (and tests/platform/test_fuzz_nginx) sends a
+    file: its bytes and a file name."""
+    return io.BytesIO(str(value).encode("utf-8", "surrogatepass")), filename
 
 
 @st.composite
@@ -252,6 +290,9 @@ def _stage_fields(step: str) -> tuple[str, ...]:
     )
 
 
+LOGIN_FIELDS = ("username", "password", "code")
+
+
 @st.composite
 def console_requests(draw: st.DrawFn, target: Target) -> tuple[str, str, dict[str, Any]]:
     code = _segment(draw, target.code)
@@ -277,7 +318,16 @@ def console_requests(draw: st.DrawFn, target: Target) -> tuple[str, str, dict[st
     if route == "login_get":
         return "GET", f"/console/login?next={quote(draw(texts), safe='')}", {}
     if route == "login":
-        return "POST", "/console/login", _body_options(draw, form_fields=("username", "password"))
+        if draw(st.booleans()):
+            return "POST", "/console/login", _body_options(draw, form_fields=LOGIN_FIELDS)
+        # The right password, so `next` (a console page, then anything) and the code reach
+        # the redirect: a next with CR/LF there answered 500.
+        fields = {"username": "alice", "password": "correct horse battery", "code": draw(texts)}
+        page = draw(st.sampled_from(["/console/", "/console/links?codes=", ""])) + draw(texts)
+        if draw(st.integers(0, 4)) == 0:
+            name = draw(st.sampled_from(LOGIN_FIELDS))
+            fields[name] = as_file_part(fields[name], draw(st.sampled_from(FILE_NAMES)))
+        return "POST", f"/console/login?next={quote(page, safe='')}", {"data": fields}
     if route == "logout":
         return "POST", "/console/logout", {"headers": {"X-Logout": "anonymous"}}
     if route == "index":
@@ -337,6 +387,25 @@ BAD_HOSTS = [
     "h\u00e9.example",
     "1.2.3.4:99999",
 ]
+#: Headers a proxy sets, and headers the app reads from a client.
+FORWARDED_HEADERS = [
+    "X-Forwarded-Host",
+    "X-Forwarded-Port",
+    "X-Forwarded-For",
+    "X-Forwarded-Proto",
+    "X-Forwarded-Prefix",
+    "Idempotency-Key",
+    "Referer",
+    "Origin",
+]
+
+
+def _header_value(value: str) -> str:
+    """What a header can carry: any bytes but line breaks, UTF-8 read back as Latin-1."""
+    value = value.encode("utf-8", "replace").decode("latin-1")
+    return value.replace("\r", "").replace("\n", "")
+
+
 #: Multipart field names werkzeug reads oddly (a lone backslash parses to no name).
 BAD_FIELD_NAMES = ["\\", '\\"', "", "a\x00b", "\u00b2", "x" * 500]
 
@@ -353,6 +422,12 @@ def envelopes(
             **options.get("headers", {}),
             "Host": draw(st.sampled_from(BAD_HOSTS)),
         }
+    if draw(st.integers(0, 3)) == 0:
+        # A client's own forwarding headers (trusted only from the proxy) and header-shaped
+        # values in the headers the app reads.
+        name = draw(st.sampled_from(FORWARDED_HEADERS))
+        value = draw(st.one_of(st.sampled_from(HEADER_SHAPED + BAD_HOSTS), texts))
+        options["headers"] = {**options.get("headers", {}), name: _header_value(value)}
     if method == "POST" and draw(st.integers(0, 3)) == 0:
         name = draw(st.sampled_from(BAD_FIELD_NAMES))
         boundary = "fuzz-boundary"
