@@ -18,10 +18,10 @@ from sqlalchemy import select
 
 from hcss.platform.db import Database
 from hcss.platform.live import trials
-from hcss.platform.live.actions import ActionError
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.running_trial import RunningTrial
 from hcss.platform.live.stream_slots import StreamSlots, takeover_frame
+from hcss.platform.live.validation import ActionError
 from hcss.platform.models import Participant, StudyEnrolment, Trial
 from hcss.platform.models.vocabularies import TrialStatus
 

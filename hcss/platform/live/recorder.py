@@ -27,9 +27,6 @@ event once, when the simulation hands it over.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from contextlib import contextmanager
-
 import numpy as np
 from sqlalchemy.orm import Session
 
@@ -37,27 +34,12 @@ from hcss.platform.live import trial_writer
 from hcss.platform.live.probes import POSTPONE_S, PROBE_TIMEOUT_S, fill_probe
 from hcss.platform.live.progress import CurrentProbe
 from hcss.platform.live.running_trial import RunningTrial
+
+# The cursors are marked by the trial unit of work; rebuild and hand_back mark them by this name.
+from hcss.platform.live.unit_of_work import kept_until_written as kept_until_written
+
+# The trial unit of work marks the cursors; rebuild and hand_back still mark them by name.
 from hcss.questionnaires.probes import ProbeLevel
-
-
-@contextmanager
-def kept_until_written(live: RunningTrial, *, simulation_restored: bool = False) -> Iterator[None]:
-    """Around a unit of work that records progress: its cursors stand if it commits.
-
-    When the block raises (the commit failed, the database is away), the
-    cursors go back to what was written and the handed-over events and status
-    changes stay queued, so the next attempt writes them all; nothing the
-    participant saw is dropped. A caller that puts the simulation back as it
-    was before the block (`simulation_restored`: a command that was not
-    logged) drops what the block handed over instead: it never happened.
-    """
-    mark = live.progress_mark()
-    try:
-        yield
-    except BaseException:
-        live.progress_lost(mark, handed_over_dropped=simulation_restored)
-        raise
-    live.progress_written()
 
 
 def record_progress(live: RunningTrial, session: Session) -> None:

@@ -14,15 +14,11 @@ from sqlalchemy.exc import DBAPIError
 
 from hcss.platform.db import Database
 from hcss.platform.errors import database_away
-from hcss.platform.live.leases import LeaseLost, trial_transaction
+from hcss.platform.live.leases import LeaseLost
 from hcss.platform.live.outages import record_database_outage
-from hcss.platform.live.recorder import (
-    end_trial,
-    kept_until_written,
-    record_progress,
-    write_snapshot,
-)
+from hcss.platform.live.recorder import end_trial, record_progress, write_snapshot
 from hcss.platform.live.running_trial import RunningTrial
+from hcss.platform.live.unit_of_work import trial_unit
 
 log = logging.getLogger(__name__)
 
@@ -55,14 +51,14 @@ def advance_trial(
             live.sim.step(due - live.sim.step_count)
             live.touch()
         try:
-            with kept_until_written(live), trial_transaction(database, live) as session:
-                record_progress(live, session)
+            with trial_unit(database, live) as unit:
+                record_progress(live, unit.session)
                 if live.database_away_since is not None:
-                    record_database_outage(live, session, now)
+                    record_database_outage(live, unit.session, now)
                 if due >= live.total_steps:
-                    end_trial(live, session, "time_limit", now)
+                    end_trial(live, unit.session, "time_limit", now)
                 elif now - live.last_snapshot_epoch >= snapshot_interval_s:
-                    write_snapshot(live, session, now)
+                    write_snapshot(live, unit.session, now)
         except (DBAPIError, LeaseLost) as error:
             if isinstance(error, DBAPIError) and not database_away(error):
                 raise  # a bug, not an outage: the tick logs it
