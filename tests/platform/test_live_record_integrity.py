@@ -213,7 +213,9 @@ def test_runner_steps_whose_commit_answers_are_lost_store_every_row_once(
     monkeypatch.undo()
     clock.now += 1.0
     a.tick()
-    assert live.database_away_since is None and live.decisions_recorded == len(live.sim.decisions)
+    assert live.trial_clock.database_away_since is None and live.log.decisions == len(
+        live.sim.decisions
+    )
     with a.database.session_scope() as session:
 
         def rows(*columns):
@@ -267,7 +269,7 @@ def test_two_concurrent_pauses_write_one_console_action(group) -> None:
         pauses = session.scalar(
             select(func.count()).select_from(ConsoleAction).where(ConsoleAction.action == "pause")
         )
-    assert pauses == 1 and live.paused_since is not None
+    assert pauses == 1 and live.trial_clock.paused_since is not None
 
 
 def test_a_command_nobody_can_say_was_committed_is_settled_by_a_rebuild(group, monkeypatch) -> None:
@@ -341,7 +343,7 @@ def _with_a_probe_open(runner: Runner, clock) -> tuple[int, object]:
     for _ in range(400):
         clock.now += 1.0
         runner.tick()
-        if live.current_probe is not None:
+        if live.probes.current is not None:
             return trial_id, live
     raise AssertionError("no probe within 400 s")
 
@@ -369,7 +371,7 @@ def test_a_ready_press_whose_commit_answer_is_lost_shows_the_question(group, mon
     held the press, and every answer was refused 409 until the probe timed out)."""
     a, _b, clock = group
     trial_id, live = _with_a_probe_open(a, clock)
-    probe_id = live.current_probe.id
+    probe_id = live.probes.current.id
     ready = ProbeReady(trial_id, probe_id)
     _answer_lost_after_writing(a.database, ProbeEvent, monkeypatch)
     with suppress(DBAPIError):
@@ -380,8 +382,8 @@ def test_a_ready_press_whose_commit_answer_is_lost_shows_the_question(group, mon
     clock.now += 0.5
     a.tick()
     host = a.host(trial_id)
-    assert host is not None and host.current_probe is not None
-    choice = host.current_probe.choices[0]
+    assert host is not None and host.probes.current is not None
+    choice = host.probes.current.choices[0]
     answered = door.carry_out(
         a.database, a, ProbeAnswer(trial_id, probe_id, {"answer": choice}), _fresh(trial_id)
     )
@@ -396,8 +398,8 @@ def test_a_probe_answer_whose_commit_answer_is_lost_is_not_also_timed_out(
     memory and its time-out was stored beside the answer)."""
     a, _b, clock = group
     trial_id, live = _with_a_probe_open(a, clock)
-    probe_id = live.current_probe.id
-    choice = live.current_probe.choices[0]
+    probe_id = live.probes.current.id
+    choice = live.probes.current.choices[0]
     door.carry_out(a.database, a, ProbeReady(trial_id, probe_id), _fresh(trial_id))
     answer = ProbeAnswer(trial_id, probe_id, {"answer": choice})
     _answer_lost_after_writing(a.database, ProbeEvent, monkeypatch)
@@ -445,7 +447,7 @@ def test_a_pause_whose_commit_answer_is_lost_holds_the_trial(group, monkeypatch)
             select(func.count()).select_from(ConsoleAction).where(ConsoleAction.action == "pause")
         )
     assert pauses == 1
-    assert host is not None and host.paused_since is not None
+    assert host is not None and host.trial_clock.paused_since is not None
 
 
 def test_a_command_refused_by_a_database_away_leaves_the_trial_hosted(group, monkeypatch) -> None:
@@ -454,7 +456,7 @@ def test_a_command_refused_by_a_database_away_leaves_the_trial_hosted(group, mon
     only a failed commit, which may have landed, is settled by asking."""
     a, _b, clock = group
     trial_id, live = _with_a_probe_open(a, clock)
-    probe_id = live.current_probe.id
+    probe_id = live.probes.current.id
     dialect = a.database.engine.dialect
 
     def away(*_args, **_kwargs):
@@ -465,6 +467,6 @@ def test_a_command_refused_by_a_database_away_leaves_the_trial_hosted(group, mon
         door.carry_out(a.database, a, ProbeReady(trial_id, probe_id), _fresh(trial_id))
     monkeypatch.undo()
     assert not live.moved and a.loaded(trial_id) is live
-    assert live.current_probe is not None and not live.current_probe.ready
+    assert live.probes.current is not None and not live.probes.current.ready
     again = door.carry_out(a.database, a, ProbeReady(trial_id, probe_id), _fresh(trial_id))
-    assert again.status == 200 and live.current_probe.ready
+    assert again.status == 200 and live.probes.current.ready

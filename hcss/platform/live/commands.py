@@ -275,7 +275,7 @@ def _observation_made(live: RunningTrial, click: Click, _now: float) -> Observat
 
 def _open_probe(live: RunningTrial, probe_id: int, *, ready: bool) -> CurrentProbe:
     """The probe on screen, if it is `probe_id` and its question is shown (`ready`) or not."""
-    probe = live.current_probe
+    probe = live.probes.current
     if probe is None or probe.id != probe_id:
         raise ActionError("this probe is no longer open (answered or timed out)", 409, "closed")
     if probe.ready and not ready:
@@ -293,7 +293,9 @@ def _ready_pressed(live: RunningTrial, press: ProbeReady, now: float) -> ProbeRe
     """Timed from the prompt's delivery."""
     probe = _open_probe(live, press.probe_id, ready=False)
     return ProbeReadyPressed(
-        probe.id, _latency_ms(probe.delivered_s, live.running_wall_s(now)), **_when(live)
+        probe.id,
+        _latency_ms(probe.delivered_s, live.trial_clock.running_wall_s(now)),
+        **_when(live),
     )
 
 
@@ -305,7 +307,9 @@ def _ready_taken(
     now: float,
 ) -> None:
     """The question is shown from the next frame on."""
-    _open_probe(live, press.probe_id, ready=False).ready_pressed(live.running_wall_s(now))
+    _open_probe(live, press.probe_id, ready=False).ready_pressed(
+        live.trial_clock.running_wall_s(now)
+    )
 
 
 @dataclass(frozen=True)
@@ -339,7 +343,7 @@ def _probe_answered(live: RunningTrial, answer: CheckedAnswer, now: float) -> Pr
         probe.id,
         answer.answer,
         probe.truth,
-        _latency_ms(asked_s, live.running_wall_s(now)),
+        _latency_ms(asked_s, live.trial_clock.running_wall_s(now)),
         **_when(live),
     )
 

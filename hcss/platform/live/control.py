@@ -73,7 +73,7 @@ def control_trial(
         action=action,
         at_epoch=now,
         on_trial=not live.ended,
-        detail=None if live.ended else f"trial clock {live.clock(now):.1f} s",
+        detail=None if live.ended else f"trial clock {live.trial_time(now):.1f} s",
     )
     with trial_unit(runner.database, live) as unit:
         if not live.ended:

@@ -245,7 +245,7 @@ def _check_running(live: RunningTrial) -> None:
         raise ActionError("the trial moved to another server process; try again", 503, "moved")
     if live.ended:
         raise ActionError("the trial has ended", 409, "ended")
-    if live.paused_since is not None:
+    if live.trial_clock.paused_since is not None:
         raise ActionError("the experimenter has paused the trial", 409, "paused")
 
 
@@ -263,7 +263,7 @@ def _controlled(runner: Runner, live: RunningTrial, command: Control) -> str:
     with runner.holding(live, now, advance=command.action != "resume"):
         if live.moved:  # another process hosts it now: the order waits for that host
             raise LeaseLost(live.trial_id)
-        paused = live.paused_since is not None
+        paused = live.trial_clock.paused_since is not None
         if not live.ended and (
             (command.action == "pause" and paused) or (command.action == "resume" and not paused)
         ):

@@ -34,11 +34,6 @@ from hcss.platform.live import trial_writer
 from hcss.platform.live.probes import POSTPONE_S, PROBE_TIMEOUT_S, fill_probe
 from hcss.platform.live.progress import CurrentProbe
 from hcss.platform.live.running_trial import RunningTrial
-
-# The cursors are marked by the trial unit of work; rebuild and hand_back mark them by this name.
-from hcss.platform.live.unit_of_work import kept_until_written as kept_until_written
-
-# The trial unit of work marks the cursors; rebuild and hand_back still mark them by name.
 from hcss.questionnaires.probes import ProbeLevel
 
 
@@ -57,7 +52,7 @@ def _record_events(live: RunningTrial, session: Session) -> None:
     every unwritten one is written."""
     for event in live.events_handed_over(live.sim.drain_events()):
         live.add_message(event.sim_time, event.kind, event.text)
-    trial_writer.write_facts(session, live.trial_id, live.unwritten_events)
+    trial_writer.write_facts(session, live.trial_id, live.log.unwritten_events)
     # Events of one step share its time and are written together, so the
     # newest time marks everything written.
     live.events_written_up_to(float(live.sim.time) - 1e-9)
@@ -82,7 +77,7 @@ def record_request_statuses(live: RunningTrial, session: Session) -> None:
 
 
 def _expire_probe(live: RunningTrial, session: Session, time: float) -> None:
-    probe = live.current_probe
+    probe = live.probes.current
     if probe is None or time < probe.timeout_sim_time:
         return
     cleared = live.probe_cleared()
@@ -91,7 +86,7 @@ def _expire_probe(live: RunningTrial, session: Session, time: float) -> None:
 
 
 def _show_probe(live: RunningTrial, session: Session, time: float) -> None:
-    due = live.probe_due(time)
+    due = live.probes.due(time)
     if due is None:
         return
     probe_index, planned = due

@@ -36,13 +36,13 @@ def advance_trial(
         if live.ended or live.moved:
             return
         due = live.due_step(now)
-        if live.database_away_since is None and live.fence and not live.fence.holds():
+        if live.trial_clock.database_away_since is None and live.fence and not live.fence.holds():
             # The holder's own deadline passed with no renewal answered (a stall, a
             # partition): it stops before anyone else may start, without asking.
             live.database_away(now)
             live.touch()
             return
-        if live.database_away_since is None:
+        if live.trial_clock.database_away_since is None:
             if due <= live.sim.step_count and due < live.total_steps:
                 return
             # The end is judged by `due`, not by the simulation's step: a simulation
@@ -53,18 +53,18 @@ def advance_trial(
         try:
             with trial_unit(database, live) as unit:
                 record_progress(live, unit.session)
-                if live.database_away_since is not None:
+                if live.trial_clock.database_away_since is not None:
                     record_database_outage(live, unit.session, now)
                 if due >= live.total_steps:
                     end_trial(live, unit.session, "time_limit", now)
-                elif now - live.last_snapshot_epoch >= snapshot_interval_s:
+                elif now - live.log.last_snapshot_epoch >= snapshot_interval_s:
                     write_snapshot(live, unit.session, now)
         except (DBAPIError, LeaseLost) as error:
             if isinstance(error, DBAPIError) and not database_away(error):
                 raise  # a bug, not an outage: the tick logs it
             # Away, or the lease is not proved (its deadline passed before a renewal
             # answered): the trial stands still until a renewal or a takeover decides.
-            if live.database_away_since is None:
+            if live.trial_clock.database_away_since is None:
                 log.warning(
                     "live trial %s: the database takes no writes; the trial stands "
                     "still and what it holds is written when the database is back",
@@ -74,7 +74,7 @@ def advance_trial(
                 live.database_away(now)
                 live.touch()
             return
-        if live.database_away_since is not None:
+        if live.trial_clock.database_away_since is not None:
             live.database_back(now)
             log.warning("live trial %s: the database is back; the trial goes on", live.trial_id)
         live.touch()
