@@ -34,12 +34,49 @@ import grimp
 LIVE = "hcss.platform.live"
 ROOT = Path(__file__).resolve().parents[1]
 
-#: The names each participant command's code goes by, before and after issue 41.
+#: The names each participant command's code goes by, before and after issue 41 (its value,
+#: fact, parser, checks, action, answer and route).
 COMMAND_NAMES = {
-    "request": {"SubmitRequest", "CommandApplied", "parse_request", "submit_request"},
-    "click": {"Observe", "ObservationMade", "parse_observation", "record_observation", "observe"},
-    "ready": {"ProbeReady", "ProbeReadyPressed", "probe_ready"},
-    "answer": {"ProbeAnswer", "ProbeAnswered", "parse_answer", "probe_answer"},
+    "request": {
+        "SubmitRequest",
+        "CommandApplied",
+        "parse_request",
+        "submit_request",
+        "CheckedRequest",
+        "_request_applied",
+        "_request_answer",
+        "_request_taken",
+        "_statuses_written",
+    },
+    "click": {
+        "Observe",
+        "ObservationMade",
+        "parse_observation",
+        "record_observation",
+        "observe",
+        "Click",
+        "_on_the_map",
+        "_observation_made",
+        "_check_on_the_map",
+    },
+    "ready": {
+        "ProbeReady",
+        "ProbeReadyPressed",
+        "probe_ready",
+        "_ready_checked",
+        "_ready_pressed",
+        "_ready_taken",
+    },
+    "answer": {
+        "ProbeAnswer",
+        "ProbeAnswered",
+        "parse_answer",
+        "probe_answer",
+        "CheckedAnswer",
+        "_answer_checked",
+        "_probe_answered",
+        "_answer_taken",
+    },
 }
 
 

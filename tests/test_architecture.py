@@ -151,7 +151,7 @@ def test_the_source_keeps_every_contract() -> None:
         ),
         (  # the participant's API carrying a command out itself, past the live service
             "hcss/platform/live/api.py",
-            "from hcss.platform.live import actions",
+            "from hcss.platform.live import unit_of_work",
             "The console reaches live trials through the live service",
         ),
         (  # the participant's API holding the trial in memory
@@ -161,7 +161,7 @@ def test_the_source_keeps_every_contract() -> None:
         ),
         (  # the API's idempotency decorator writing keys beside the actions
             "hcss/platform/live/idempotency.py",
-            "from hcss.platform.live.actions import submit_request",
+            "from hcss.platform.live.unit_of_work import trial_unit",
             "The console reaches live trials through the live service",
         ),
         (  # a console route holding the runner, as in `runner().host(id).paused(...)`
@@ -546,7 +546,7 @@ def test_a_running_trial_changes_only_through_its_methods() -> None:
     ("module", "line", "found"),
     [
         (  # a field assigned from outside (it is a read-only property now)
-            "hcss/platform/live/actions.py",
+            "hcss/platform/live/commands.py",
             "def _planted(live):\n    live.paused_since = None",
             "writes .paused_since",
         ),
@@ -730,3 +730,41 @@ def test_a_planted_import_between_test_modules_is_found(
     assert [f.split(" imports ")[0].split(":")[0] for f in imports_between_test_modules(root)] == [
         f"tests/{module}"
     ]
+
+
+def calls_of(root: Path, name: str) -> list[str]:
+    """Each call of `name` (a bare name or an attribute) in the live package."""
+    found = []
+    for path in sorted((root / "hcss/platform/live").glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Call):
+                called = node.func
+                called_name = getattr(called, "id", None) or getattr(called, "attr", None)
+                if called_name == name:
+                    found.append(path.name)
+    return found
+
+
+def test_a_lost_commit_is_settled_in_one_place() -> None:
+    """The trial unit of work asks whether a command's row landed; before issue 41 the
+    `committing` flag and `was_stored` were written out three times (actions twice, control)."""
+    assert calls_of(CHECKOUT, "was_stored") == ["unit_of_work.py"]
+    assert calls_of(CHECKOUT, "kept_until_written") == [
+        "hand_back.py",
+        "rebuild.py",
+        "unit_of_work.py",
+    ]
+
+
+def test_the_door_and_the_writer_dispatch_by_declaration() -> None:
+    """No `isinstance` ladder over commands in the door, nor over facts in the writer: each
+    participant command is a declaration in `commands.COMMANDS`, each fact writes itself."""
+    for module in ("door.py", "trial_writer.py"):
+        tree = ast.parse((CHECKOUT / "hcss/platform/live" / module).read_text())
+        checked = [
+            ast.unparse(node.args[1])
+            for node in ast.walk(tree)
+            if isinstance(node, ast.Call) and getattr(node.func, "id", "") == "isinstance"
+        ]
+        # The door tells the console's `Control` from a participant's command, nothing more.
+        assert set(checked) <= ({"Control"} if module == "door.py" else set()), (module, checked)

@@ -25,10 +25,10 @@ def test_an_abort_whose_commit_fails_is_retried_without_lost_or_doubled_rows(
     trial = make_trial(duration_s=600.0)
     code = code_of(app, trial.token)
     live = trial.live()
-    first_probe = live.probe_plan[0].at_s
+    first_probe = live.probes.plan[0].at_s
     trial.run_to(first_probe + 1.0)
-    assert live.current_probe is not None  # the abort must close it
-    probe_id = live.current_probe.id
+    assert live.probes.current is not None  # the abort must close it
+    probe_id = live.probes.current.id
 
     database = app.extensions["hcss_db"]
     failures = []
@@ -59,7 +59,7 @@ def test_an_abort_whose_commit_fails_is_retried_without_lost_or_doubled_rows(
 
     # Nothing was written, and the trial in memory says so.
     assert not live.ended and not live.end_reason
-    assert live.current_probe is not None and live.current_probe.id == probe_id
+    assert live.probes.current is not None and live.probes.current.id == probe_id
     assert trial.runner.loaded(trial.trial_id) is live
     trial.run_to(first_probe + 2.0)  # a tick does not forget it
     assert trial.runner.loaded(trial.trial_id) is live

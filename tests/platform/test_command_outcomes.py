@@ -13,11 +13,19 @@ import pytest
 from sqlalchemy import select
 from sqlalchemy.exc import IntegrityError
 
-from hcss.platform.live import actions
+from hcss.platform.live import door
+from hcss.platform.live.commands import SubmitRequest
 from hcss.platform.live.trial_writer import KeyedCommand
 from hcss.platform.models import Command, CommandOutcome, RequestStatusChange
 from hcss.simulation import OperatorCommand
 from tests.support.replays import operate, replay_trial
+
+
+def _submit(trial, command: OperatorCommand) -> dict:
+    """The participant's request through the live service's door, with a fresh key."""
+    request = SubmitRequest(trial.trial_id, command.to_json())
+    runner = trial.runner
+    return door.carry_out(runner.database, runner, request, fresh_key(trial.trial_id)).body
 
 
 def fresh_key(trial_id: int) -> KeyedCommand:
@@ -104,7 +112,6 @@ def test_a_command_that_cannot_be_written_leaves_the_trial_as_it_was(
     target = _favoured(trial)
     live = trial.live()
     before = live.sim.state_digest()
-    database = trial.app.extensions["hcss_db"]
     good = CommandOutcome.of
 
     def broken(command_id, outcome):
@@ -115,11 +122,11 @@ def test_a_command_that_cannot_be_written_leaves_the_trial_as_it_was(
     monkeypatch.setattr(CommandOutcome, "of", broken)
     command = OperatorCommand("investigate", 0, target["id"])
     with pytest.raises(IntegrityError):
-        actions.submit_request(database, live, command, key=fresh_key(live.trial_id))
+        _submit(trial, command)
     assert live.sim.state_digest() == before
     assert live.sim.requests == [] and live.sim.drain_status_changes() == []
     assert _rows(trial.app, Command) == [] and _rows(trial.app, RequestStatusChange) == []
     monkeypatch.setattr(CommandOutcome, "of", good)
-    answer = actions.submit_request(database, live, command, key=fresh_key(live.trial_id))
+    answer = _submit(trial, command)
     assert answer["accepted"] and answer["request_id"] == 1
     assert [r.status for r in _rows(trial.app, RequestStatusChange)][:1] == ["in_progress"]

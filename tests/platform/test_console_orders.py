@@ -80,7 +80,9 @@ def test_a_pause_and_resume_on_one_process_reach_the_host_of_the_trial(host_and_
         took_s = time.monotonic() - started
         assert f"{code}: {action} done" in answer.get_data(as_text=True)
         assert took_s < ORDER_LIMIT_S, took_s
-        assert (live.paused_since is not None) is paused  # carried out in the host's memory
+        assert (
+            live.trial_clock.paused_since is not None
+        ) is paused  # carried out in the host's memory
         assert trial_id not in console.extensions["hcss_runner"].loaded_ids()
 
     with host.extensions["hcss_db"].session_scope() as session:

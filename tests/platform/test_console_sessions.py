@@ -73,7 +73,7 @@ def test_a_restart_during_a_pause_keeps_the_trial_paused(
     try:
         rebuilt = restarted.extensions["hcss_runner"].host(trial.trial_id)
         assert rebuilt.sim.step_count == paused_step
-        assert rebuilt.paused_since == trial.started_epoch + 30.0
+        assert rebuilt.trial_clock.paused_since == trial.started_epoch + 30.0
     finally:
         restarted.extensions["hcss_db"].engine.dispose()
 

@@ -18,6 +18,7 @@ from sqlalchemy import func, insert, select
 from hcss.platform.export.problems import ProblemLog
 from hcss.platform.export.rows import decision_rows
 from hcss.platform.live import trial_writer
+from hcss.platform.live.facts import DecisionMade
 from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.models import DecisionRow, Trial
 from hcss.tablespec import DECISIONS
@@ -92,25 +93,17 @@ def test_the_live_writer_refuses_a_planted_record_and_writes_nothing_of_its_unit
         for index, record in enumerate(
             (stored_record(), stored_record(decision_index=2) | {"planted": 1}), start=1
         ):
-            trial_writer.write_decision(
+            trial_writer.write_fact(
                 session,
                 trial_id,
-                collective=0,
-                decision_index=index,
-                step=index,
-                correct=True,
-                record=record,
+                DecisionMade(0, index, index, True, record),
             )
     assert _count(app, trial_id) == 0  # the good first decision went with the refused one
     with app.extensions["hcss_db"].session_scope() as session:
-        trial_writer.write_decision(
+        trial_writer.write_fact(
             session,
             trial_id,
-            collective=0,
-            decision_index=1,
-            step=1,
-            correct=True,
-            record=stored_record(),
+            DecisionMade(0, 1, 1, True, stored_record()),
         )
     assert _count(app, trial_id) == 1
 

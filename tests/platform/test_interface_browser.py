@@ -96,7 +96,7 @@ def test_the_map_reads_at_1366_and_1024_and_a_double_enter_answers_no_probe(
 
     # A probe: Ready by Enter, then Enter again as the question shows. Nothing is answered.
     live = live_trial(demo_server)
-    assert wait_for(demo_server, lambda lv: lv.current_probe, 150), "no probe within 150 s"
+    assert wait_for(demo_server, lambda lv: lv.probes.current, 150), "no probe within 150 s"
     expect(page.locator("#probe-ready")).to_be_focused()
     page.keyboard.press("Enter")
     expect(page.locator("#probe-choices button").first).to_be_visible()
@@ -107,7 +107,7 @@ def test_the_map_reads_at_1366_and_1024_and_a_double_enter_answers_no_probe(
     page.keyboard.press("Enter")
     expect(page.locator("#probe-text")).to_be_focused()
     expect(page.locator("#probe-choices button:focus")).to_have_count(0)
-    probe = live.current_probe
+    probe = live.probes.current
     assert probe is not None and probe.ready, "the probe was answered by the second Enter"
     with demo_server.database.session_scope() as session:
         answers = session.scalars(

@@ -268,13 +268,13 @@ def test_a_holder_stops_writing_on_its_own_deadline_until_a_renewal_answers(pair
     clock.now += LEASE_S - 1.5  # the lease is still A's in the database, not by A's own clock
     assert not live.fence.holds()
     a.advance(live, clock.now)
-    assert live.sim.step_count == step and live.database_away_since is not None
+    assert live.sim.step_count == step and live.trial_clock.database_away_since is not None
     assert _rows_written(a, trial_id) == written
 
     a.tick()  # a renewal answers: the lease was A's all along, and the trial goes on
     clock.now += 1.0
     a.tick()
-    assert live.fence.holds() and live.database_away_since is None
+    assert live.fence.holds() and live.trial_clock.database_away_since is None
     assert live.sim.step_count > step
     assert _rows_written(a, trial_id)["sim_event"] >= written["sim_event"]
 

@@ -6,6 +6,7 @@ the clock is a `ManualClock`, so grace periods and leases pass at once.
 
 from __future__ import annotations
 
+import re
 import uuid
 from collections.abc import Iterator
 from contextlib import suppress
@@ -15,7 +16,8 @@ from sqlalchemy import func, select
 from sqlalchemy.exc import DBAPIError
 
 from hcss.platform.bots.participant import ManualClock
-from hcss.platform.live import actions, door
+from hcss.platform.live import door
+from hcss.platform.live.commands import ProbeAnswer, ProbeReady, SubmitRequest
 from hcss.platform.live.leases import UNCLAIMED_GRACE_S
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.trial_writer import KeyedCommand
@@ -104,7 +106,7 @@ def test_the_rebuild_replays_the_commands_after_the_snapshots_last_one_by_identi
     a, b, clock = group
     trial_id, live = _hosted_for_20_s(a, clock)
     command = _command(a, trial_id)
-    actions.submit_request(a.database, live, command, key=_fresh(live.trial_id))
+    _submit(a, live, command)
     with a.database.session_scope() as session:  # a command in the log, not in memory
         stray = session.scalars(select(Command).where(Command.trial_id == trial_id)).one()
         session.add(
@@ -120,12 +122,7 @@ def test_the_rebuild_replays_the_commands_after_the_snapshots_last_one_by_identi
         )
     clock.now += 1.0
     a.tick()
-    actions.submit_request(
-        a.database,
-        live,
-        OperatorCommand("investigate", 2, command.target),
-        key=_fresh(live.trial_id),
-    )
+    _submit(a, live, OperatorCommand("investigate", 2, command.target))
     for _ in range(2):
         clock.now += 1.0
         a.tick()  # a snapshot holding the two commands applied
@@ -140,18 +137,21 @@ def test_the_rebuild_replays_the_commands_after_the_snapshots_last_one_by_identi
     assert rebuilt.sim.state_digest() != ""
 
 
-def _answer_lost_after_commit(database, monkeypatch, times: int = 1, every: int = 1) -> None:
-    """Of the next commits, every `every`-th (`times` in all) reaches the database and
-    commits, and its answer never arrives (the connection drops after the server sent
-    it): the driver raises as for a lost line."""
+def _answer_lost_after_commit(
+    database, monkeypatch, times: int = 1, every: int = 1, skip: int = 0
+) -> None:
+    """Of the next commits after `skip`, every `every`-th (`times` in all) reaches the
+    database and commits, and its answer never arrives (the connection drops after the
+    server sent it): the driver raises as for a lost line. A command through the door
+    commits its key's lookup first (`skip=1` passes it)."""
     dialect = database.engine.dialect
     commit = dialect.do_commit
-    left, seen = [times], [0]
+    left, seen = [times], [-skip]
 
     def lost(dbapi_connection) -> None:
         commit(dbapi_connection)
         seen[0] += 1
-        if left[0] > 0 and seen[0] % every == 0:
+        if left[0] > 0 and seen[0] > 0 and seen[0] % every == 0:
             left[0] -= 1
             raise dialect.loaded_dbapi.OperationalError("server closed the connection")
 
@@ -165,8 +165,8 @@ def test_a_command_whose_commit_answer_is_lost_stays_applied_as_logged(group, mo
     a, b, clock = group
     trial_id, live = _hosted_for_20_s(a, clock)
     command = _command(a, trial_id)
-    _answer_lost_after_commit(a.database, monkeypatch)
-    answer = actions.submit_request(a.database, live, command, key=_fresh(live.trial_id))
+    _answer_lost_after_commit(a.database, monkeypatch, skip=1)
+    answer = _submit(a, live, command)
     with a.database.session_scope() as session:
         logged = session.scalars(select(Command.id).where(Command.trial_id == trial_id)).all()
         outcomes = session.scalar(select(func.count()).select_from(CommandOutcome))
@@ -201,7 +201,7 @@ def test_runner_steps_whose_commit_answers_are_lost_store_every_row_once(
     for _ in range(10):
         clock.now += 1.0
         a.tick()
-    actions.submit_request(a.database, live, _command(a, trial_id), key=_fresh(live.trial_id))
+    _submit(a, live, _command(a, trial_id))
     _answer_lost_after_commit(a.database, monkeypatch, times=10_000, every=2)
     for _ in range(600):  # every other answer lost until the first decisions are made
         clock.now += 1.0
@@ -213,7 +213,9 @@ def test_runner_steps_whose_commit_answers_are_lost_store_every_row_once(
     monkeypatch.undo()
     clock.now += 1.0
     a.tick()
-    assert live.database_away_since is None and live.decisions_recorded == len(live.sim.decisions)
+    assert live.trial_clock.database_away_since is None and live.log.decisions == len(
+        live.sim.decisions
+    )
     with a.database.session_scope() as session:
 
         def rows(*columns):
@@ -267,7 +269,7 @@ def test_two_concurrent_pauses_write_one_console_action(group) -> None:
         pauses = session.scalar(
             select(func.count()).select_from(ConsoleAction).where(ConsoleAction.action == "pause")
         )
-    assert pauses == 1 and live.paused_since is not None
+    assert pauses == 1 and live.trial_clock.paused_since is not None
 
 
 def test_a_command_nobody_can_say_was_committed_is_settled_by_a_rebuild(group, monkeypatch) -> None:
@@ -277,13 +279,16 @@ def test_a_command_nobody_can_say_was_committed_is_settled_by_a_rebuild(group, m
     a, _b, clock = group
     trial_id, live = _hosted_for_20_s(a, clock)
     command = _command(a, trial_id)
-    _answer_lost_after_commit(a.database, monkeypatch)
+    _answer_lost_after_commit(a.database, monkeypatch, skip=1)
     dialect = a.database.engine.dialect
     execute = dialect.do_execute
     asked = [0]
 
     def still_down(cursor, statement, parameters, context=None):
-        if statement.lstrip().upper().startswith("SELECT") and "FROM command" in statement:
+        # the question whether the command's row landed (not its key's lookup, before)
+        if statement.lstrip().upper().startswith("SELECT") and re.search(
+            r"FROM command\b", statement
+        ):
             asked[0] += 1
             if asked[0] == 1:  # the question right after the lost answer
                 raise dialect.loaded_dbapi.OperationalError("no route to host")
@@ -291,7 +296,7 @@ def test_a_command_nobody_can_say_was_committed_is_settled_by_a_rebuild(group, m
 
     monkeypatch.setattr(dialect, "do_execute", still_down)
     with pytest.raises(DBAPIError):
-        actions.submit_request(a.database, live, command, key=_fresh(live.trial_id))
+        _submit(a, live, command)
     monkeypatch.undo()
     clock.now += 1.0
     a.tick()
@@ -338,9 +343,15 @@ def _with_a_probe_open(runner: Runner, clock) -> tuple[int, object]:
     for _ in range(400):
         clock.now += 1.0
         runner.tick()
-        if live.current_probe is not None:
+        if live.probes.current is not None:
             return trial_id, live
     raise AssertionError("no probe within 400 s")
+
+
+def _submit(runner: Runner, live, command: OperatorCommand) -> dict:
+    """The participant's request through the live service's door, with a fresh key."""
+    request = SubmitRequest(live.trial_id, command.to_json())
+    return door.carry_out(runner.database, runner, request, _fresh(live.trial_id)).body
 
 
 def _fresh(trial_id: int) -> KeyedCommand:
@@ -360,8 +371,8 @@ def test_a_ready_press_whose_commit_answer_is_lost_shows_the_question(group, mon
     held the press, and every answer was refused 409 until the probe timed out)."""
     a, _b, clock = group
     trial_id, live = _with_a_probe_open(a, clock)
-    probe_id = live.current_probe.id
-    ready = door.ProbeReady(trial_id, probe_id)
+    probe_id = live.probes.current.id
+    ready = ProbeReady(trial_id, probe_id)
     _answer_lost_after_writing(a.database, ProbeEvent, monkeypatch)
     with suppress(DBAPIError):
         door.carry_out(a.database, a, ready, _key(trial_id, "ready-0001", "ready"))
@@ -371,10 +382,10 @@ def test_a_ready_press_whose_commit_answer_is_lost_shows_the_question(group, mon
     clock.now += 0.5
     a.tick()
     host = a.host(trial_id)
-    assert host is not None and host.current_probe is not None
-    choice = host.current_probe.choices[0]
+    assert host is not None and host.probes.current is not None
+    choice = host.probes.current.choices[0]
     answered = door.carry_out(
-        a.database, a, door.ProbeAnswer(trial_id, probe_id, {"answer": choice}), _fresh(trial_id)
+        a.database, a, ProbeAnswer(trial_id, probe_id, {"answer": choice}), _fresh(trial_id)
     )
     assert answered.status == 200, answered
 
@@ -387,10 +398,10 @@ def test_a_probe_answer_whose_commit_answer_is_lost_is_not_also_timed_out(
     memory and its time-out was stored beside the answer)."""
     a, _b, clock = group
     trial_id, live = _with_a_probe_open(a, clock)
-    probe_id = live.current_probe.id
-    choice = live.current_probe.choices[0]
-    door.carry_out(a.database, a, door.ProbeReady(trial_id, probe_id), _fresh(trial_id))
-    answer = door.ProbeAnswer(trial_id, probe_id, {"answer": choice})
+    probe_id = live.probes.current.id
+    choice = live.probes.current.choices[0]
+    door.carry_out(a.database, a, ProbeReady(trial_id, probe_id), _fresh(trial_id))
+    answer = ProbeAnswer(trial_id, probe_id, {"answer": choice})
     _answer_lost_after_writing(a.database, ProbeEvent, monkeypatch)
     with suppress(DBAPIError):
         door.carry_out(a.database, a, answer, _key(trial_id, "answer-0001", "answer"))
@@ -436,7 +447,7 @@ def test_a_pause_whose_commit_answer_is_lost_holds_the_trial(group, monkeypatch)
             select(func.count()).select_from(ConsoleAction).where(ConsoleAction.action == "pause")
         )
     assert pauses == 1
-    assert host is not None and host.paused_since is not None
+    assert host is not None and host.trial_clock.paused_since is not None
 
 
 def test_a_command_refused_by_a_database_away_leaves_the_trial_hosted(group, monkeypatch) -> None:
@@ -445,7 +456,7 @@ def test_a_command_refused_by_a_database_away_leaves_the_trial_hosted(group, mon
     only a failed commit, which may have landed, is settled by asking."""
     a, _b, clock = group
     trial_id, live = _with_a_probe_open(a, clock)
-    probe_id = live.current_probe.id
+    probe_id = live.probes.current.id
     dialect = a.database.engine.dialect
 
     def away(*_args, **_kwargs):
@@ -453,9 +464,9 @@ def test_a_command_refused_by_a_database_away_leaves_the_trial_hosted(group, mon
 
     monkeypatch.setattr(dialect, "do_execute", away)
     with pytest.raises(DBAPIError):
-        door.carry_out(a.database, a, door.ProbeReady(trial_id, probe_id), _fresh(trial_id))
+        door.carry_out(a.database, a, ProbeReady(trial_id, probe_id), _fresh(trial_id))
     monkeypatch.undo()
     assert not live.moved and a.loaded(trial_id) is live
-    assert live.current_probe is not None and not live.current_probe.ready
-    again = door.carry_out(a.database, a, door.ProbeReady(trial_id, probe_id), _fresh(trial_id))
-    assert again.status == 200 and live.current_probe.ready
+    assert live.probes.current is not None and not live.probes.current.ready
+    again = door.carry_out(a.database, a, ProbeReady(trial_id, probe_id), _fresh(trial_id))
+    assert again.status == 200 and live.probes.current.ready

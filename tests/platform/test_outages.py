@@ -125,14 +125,14 @@ def test_a_trial_whose_simulation_finished_early_loses_only_the_outage(
     for _ in range(60):
         seconds += 5.0
         trial.run_to(seconds)
-    clock_at_crash = trial.live().clock(trial.runner.clock.now)
+    clock_at_crash = trial.live().trial_time(trial.runner.clock.now)
     crash_wall = trial.runner.clock.now
 
     restarted = _restart(database_url, crash_wall + 6.0)
     try:
         live = restarted.extensions["hcss_runner"].host(trial.trial_id)
         assert live is not None
-        assert live.clock(crash_wall + 6.0) == pytest.approx(clock_at_crash, abs=0.5)
+        assert live.trial_time(crash_wall + 6.0) == pytest.approx(clock_at_crash, abs=0.5)
         with restarted.extensions["hcss_db"].session_scope() as session:
             (interruption,) = session.scalars(select(Interruption)).all()
         assert interruption.outage_s == pytest.approx(6.0, abs=0.5)

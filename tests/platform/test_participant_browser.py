@@ -281,7 +281,7 @@ def supervise_first_trial(page, server: StudyServer, token: str) -> dict[str, in
     )
     assert target, "no drawn target in range of collective I within a minute"
     answered = 0
-    if live.current_probe is not None:  # it would cover the hub
+    if live.probes.current is not None:  # it would cover the hub
         answer_probe(page, server)
         answered += 1
     page.locator('g.collective[data-collective="0"]').click()
@@ -317,8 +317,8 @@ def supervise_first_trial(page, server: StudyServer, token: str) -> dict[str, in
     expect(page.locator("#paused")).to_be_hidden()
     expect(page.locator("#commit")).to_be_enabled()
 
-    coming = live.probes_shown < len(live.probe_plan) or live.current_probe is not None
-    if coming and wait_for(server, lambda lv: lv.current_probe is not None, 120):
+    coming = live.probes.shown < len(live.probes.plan) or live.probes.current is not None
+    if coming and wait_for(server, lambda lv: lv.probes.current is not None, 120):
         answer_probe(page, server)
         answered += 1
     return {"target": target["id"], "probes": answered}
@@ -391,7 +391,7 @@ def test_the_demo_study_from_the_link_to_the_debrief(browser, demo_server: Study
             supervised = supervise_first_trial(page, demo_server, token)
             probes_answered += supervised["probes"]
         elif probes_answered == 0 and wait_for(
-            demo_server, lambda lv: lv.current_probe is not None, 110
+            demo_server, lambda lv: lv.probes.current is not None, 110
         ):
             answer_probe(page, demo_server)
             probes_answered += 1

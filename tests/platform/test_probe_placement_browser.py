@@ -51,7 +51,7 @@ def _ask(server: StudyServer, level: ProbeLevel, subject: str | int, choices: li
         now = float(live.sim.time)
         row = Probe(
             trial_id=live.trial_id,
-            probe_index=live.probes_shown + 1,
+            probe_index=live.probes.shown + 1,
             level=int(level),
             question=question,
             choices=choices,

@@ -217,12 +217,12 @@ def test_the_study_files_probe_counts_reach_the_runner_and_survive_a_rebuild(
     """A study asking 2/0/1 probes per 20 minutes gets exactly that, before and after a restart."""
     trial = make_trial(seed=11, duration_s=1200.0, probe_counts={1: 2, 2: 0, 3: 1})
     runner = app.extensions["hcss_runner"]
-    levels = [p.level for p in runner.host(trial.trial_id).probe_plan]
+    levels = [p.level for p in runner.host(trial.trial_id).probes.plan]
     assert sorted(levels) == [1, 1, 3]
     runner.forget(trial.trial_id)  # rebuilt from the database: the trial row keeps the counts
-    assert [p.level for p in runner.host(trial.trial_id).probe_plan] == levels
+    assert [p.level for p in runner.host(trial.trial_id).probes.plan] == levels
     default = make_trial(seed=11, duration_s=1200.0)
-    assert len(runner.host(default.trial_id).probe_plan) == 12
+    assert len(runner.host(default.trial_id).probes.plan) == 12
 
 
 def test_a_study_file_with_other_probe_counts_is_accepted_and_bad_ones_refused() -> None:
@@ -257,15 +257,15 @@ def test_a_probe_with_no_subject_until_the_end_is_still_asked(make_trial, monkey
     monkeypatch.setattr(recorder, "fill_probe", nothing_to_ask_about_yet)
     for seed in range(3):
         trial = make_trial(seed=seed, duration_s=120.0)
-        (planned,) = trial.live().probe_plan
+        (planned,) = trial.live().probes.plan
         shown = []
         for second in range(2, 121, 2):
             trial.run_to(float(second))
             live = trial.live()
             if live is None:  # the trial ended
                 break
-            if live.current_probe is not None:
-                shown.append((second, live.current_probe.level))
+            if live.probes.current is not None:
+                shown.append((second, live.probes.current.level))
                 break
         assert shown, f"seed {seed}: the planned level-{planned.level} probe was never asked"
         at, level = shown[0]

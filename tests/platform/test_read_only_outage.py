@@ -29,14 +29,14 @@ def test_a_read_only_database_under_a_running_trial_stops_its_clock(app, make_tr
     event.listen(database.sessions, "before_flush", read_only)
     try:
         trial.run_to(36.0)  # a snapshot is due: the runner writes
-        assert live.database_away_since is not None  # held, as for an outage
+        assert live.trial_clock.database_away_since is not None  # held, as for an outage
         step = live.sim.step_count
         trial.run_to(60.0)
         assert live.sim.step_count == step  # the trial stands still
     finally:
         event.remove(database.sessions, "before_flush", read_only)
     trial.run_to(61.0)
-    assert live.database_away_since is None and not live.ended
+    assert live.trial_clock.database_away_since is None and not live.ended
     with database.session_scope() as session:
         (interruption,) = session.scalars(select(Interruption)).all()
         assert interruption.trial_id == trial.trial_id and interruption.outage_s >= 24.0

@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-from flask import abort, g
+from flask import abort, current_app, g
 from sqlalchemy import select
 
 from hcss.platform.db import database, get_session
-from hcss.platform.live.service import live_trials
 from hcss.platform.models import Participant, Trial
 
 
@@ -49,5 +48,5 @@ def trial_for(token: str, trial_id: int) -> Trial:
 def require_owner(token: str, trial_id: int) -> None:
     """404 unless the trial is the token's: in memory when this process holds it
     (`Runner.holds_for`, no query), else by `trial_for`."""
-    if not live_trials().holds_for(token, trial_id):
+    if not current_app.extensions["hcss_live"].holds_for(token, trial_id):
         trial_for(token, trial_id)

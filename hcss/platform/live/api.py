@@ -13,27 +13,30 @@ meta tag) and carries an Idempotency-Key header, without which it is refused
 from __future__ import annotations
 
 import re
+from collections.abc import Callable
 from typing import Any
 
 from flask import Blueprint, Response, current_app, jsonify, request
 
 from hcss.platform.guards.clients import request_client
-from hcss.platform.live import door
 from hcss.platform.live.access import require_owner, trial_for
+from hcss.platform.live.commands import COMMANDS, Declaration
+from hcss.platform.live.door import Answer, refusal
 from hcss.platform.live.idempotency import idempotent
 from hcss.platform.live.service import live_trials
 from hcss.platform.live.stream_slots import RETRY_AFTER_S, StreamSlots, client_share, study_share
 from hcss.platform.live.trial_writer import KeyedCommand
+from hcss.platform.live.validation import ActionError
 
 _POSITION = re.compile(r"[0-9]{1,18}")
 
 bp = Blueprint("api", __name__, url_prefix="/api/live/<token>/trials/<int:trial_id>")
 
 
-@bp.errorhandler(door.ActionError)
-def _action_error(error: door.ActionError) -> Response:
+@bp.errorhandler(ActionError)
+def _action_error(error: ActionError) -> Response:
     """An input refused before the door (a malformed key, a full server's stream)."""
-    return _response(door.refusal(error))
+    return _response(refusal(error))
 
 
 def stream_slots() -> StreamSlots:
@@ -97,36 +100,28 @@ def state(token: str, trial_id: int) -> Response:
     return Response(live_trials().frame(trial_id), mimetype="application/json")
 
 
-@bp.post("/requests")
-@idempotent
-def submit_request(token: str, trial_id: int, key: KeyedCommand):
-    return _carried_out(door.SubmitRequest(trial_id, _json()), key)
+def _command_view(declared: Declaration[Any, Any]) -> Callable[..., Response]:
+    """The route of one participant command: its value made from the route's values and the
+    body, carried out by the live service with the request's key."""
+
+    def view(token: str, trial_id: int, key: KeyedCommand, **values: Any) -> Response:
+        command = declared.make(trial_id, values, _json())
+        return _response(live_trials().carry_out(command, key))
+
+    return view
 
 
-@bp.post("/observations")
-@idempotent
-def observe(token: str, trial_id: int, key: KeyedCommand):
-    return _carried_out(door.Observe(trial_id, _json()), key)
+# One route per command declaration (hcss.platform.live.commands), each idempotent.
+for _declared in COMMANDS.values():
+    bp.add_url_rule(
+        _declared.route,
+        endpoint=_declared.endpoint,
+        view_func=idempotent(_command_view(_declared)),
+        methods=["POST"],
+    )
 
 
-@bp.post("/probes/<int:probe_id>/ready")
-@idempotent
-def probe_ready(token: str, trial_id: int, probe_id: int, key: KeyedCommand):
-    return _carried_out(door.ProbeReady(trial_id, probe_id), key)
-
-
-@bp.post("/probes/<int:probe_id>/answer")
-@idempotent
-def probe_answer(token: str, trial_id: int, probe_id: int, key: KeyedCommand):
-    return _carried_out(door.ProbeAnswer(trial_id, probe_id, _json()), key)
-
-
-def _carried_out(command: door.Command, key: KeyedCommand) -> Response:
-    """The command through the live service's door, its answer as the page gets it."""
-    return _response(live_trials().carry_out(command, key))
-
-
-def _response(answer: door.Answer) -> Response:
+def _response(answer: Answer) -> Response:
     """The live service's answer as the page gets it (a repeat of a keyed command says so;
     a 503, a trial moving to another process, says when to try again)."""
     response = jsonify(answer.body)

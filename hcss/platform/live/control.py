@@ -15,14 +15,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from sqlalchemy.exc import DBAPIError
-
-from hcss.platform.live import trial_writer
-from hcss.platform.live.actions import was_stored
 from hcss.platform.live.facts import ConsoleActed
-from hcss.platform.live.leases import trial_transaction
 from hcss.platform.live.orders import mark_done
-from hcss.platform.live.recorder import kept_until_written, record_progress
+from hcss.platform.live.recorder import record_progress
+from hcss.platform.live.unit_of_work import trial_unit
 
 if TYPE_CHECKING:
     from hcss.platform.live.runner import Runner
@@ -39,8 +35,8 @@ ALREADY = "already"
 def as_it_was(runner: Runner, live: RunningTrial, now: float, order_id: int | None) -> str:
     """The trial is as asked already: nothing is written but the order's confirmation."""
     if order_id is not None:
-        with trial_transaction(runner.database, live) as session:
-            mark_done(session, order_id, now, DONE)
+        with trial_unit(runner.database, live) as unit:
+            mark_done(unit.session, order_id, now, DONE)
     return ALREADY
 
 
@@ -61,14 +57,15 @@ def control_trial(
     transaction as the action's row, so a host that dies in between leaves
     either both or neither, and the next host never does it twice.
 
-    The transaction is a recorder unit of work (`kept_until_written`): when
-    its commit fails, an abort has ended nothing (the trial stays running in
-    memory, its probe open), so the console's retry ends it once. It first
+    The transaction is a trial unit of work (hcss.platform.live.unit_of_work):
+    when its commit fails, an abort has ended nothing (the trial stays running
+    in memory, its probe open), so the console's retry ends it once. It first
     writes what the trial holds unwritten (an advance that met a database
-    outage), since the guard counts the queue written when it commits. A
-    commit that failed but landed (its answer lost) is found by asking the
-    database: the trial in memory is then marked moved, so the runner drops
-    it and the next request rebuilds it from the log, which holds the action.
+    outage), since the unit counts the queue written when it commits. A
+    commit that failed but landed (its answer lost) is found by the unit
+    asking the database: the trial in memory is then marked moved, so the
+    runner drops it and the next request rebuilds it from the log, which
+    holds the action.
     """
     acted = ConsoleActed(
         participant_id=participant_id,
@@ -76,27 +73,21 @@ def control_trial(
         action=action,
         at_epoch=now,
         on_trial=not live.ended,
-        detail=None if live.ended else f"trial clock {live.clock(now):.1f} s",
+        detail=None if live.ended else f"trial clock {live.trial_time(now):.1f} s",
     )
-    row_id: int | None = None
-    committing = False
-    try:
-        with kept_until_written(live), trial_transaction(runner.database, live) as session:
-            if not live.ended:
-                record_progress(live, session)
-            if order_id is not None:
-                mark_done(session, order_id, now, ENDED if live.ended else DONE)
-            row_id = trial_writer.write_fact(session, live.trial_id, acted)
-            if action == "abort" and acted.on_trial:
-                runner.end(live, session, "aborted", now)
-            committing = True  # what fails from here on is the commit: it may have landed
-        if not acted.on_trial:  # reached its time limit just now: the session's state
-            return ENDED  # still changes
-    except DBAPIError:
-        if not committing or not was_stored(runner.database, live, acted, row_id):
-            raise
+    with trial_unit(runner.database, live) as unit:
+        if not live.ended:
+            record_progress(live, unit.session)
+        if order_id is not None:
+            mark_done(unit.session, order_id, now, ENDED if live.ended else DONE)
+        unit.command(acted)
+        if action == "abort" and acted.on_trial:
+            runner.end(live, unit.session, "aborted", now)
+    if unit.answer_lost:
         live.move_away()  # the log holds the action, the trial in memory does not: rebuilt
         return DONE if acted.on_trial else ENDED
+    if not acted.on_trial:  # reached its time limit just now: the session's state still
+        return ENDED  # changes
     if action == "pause":
         runner.pause(live, now)
     elif action == "resume":

@@ -2,8 +2,10 @@
 
 The participant's request, map click, probe Ready and probe answer, and the
 experimenter's pause, resume and abort, are each a small frozen value
-(`SubmitRequest`, `Observe`, `ProbeReady`, `ProbeAnswer`, `Control`), and
-`carry_out` is the one function that takes them. For every command it
+(hcss.platform.live.commands: `SubmitRequest`, `Observe`, `ProbeReady`,
+`ProbeAnswer`, each with its declaration in the table `COMMANDS`; here:
+`Control`), and `carry_out` is the one function that takes them. For every
+command it
 
 1. finds the trial: hosted here, claimed and rebuilt now, or hosted by
    another process (the participant's command: `HostedElsewhere`, a 503 the
@@ -13,19 +15,18 @@ experimenter's pause, resume and abort, are each a small frozen value
    first: a repeat, even one racing the first, waits for the lock and is
    answered from the stored row without touching the trial again, and a key
    sent with another command is refused (422);
-3. checks the trial's state under that lock, here and for every command
-   alike (moved, ended, paused, the probe still open and its question shown
-   or not, the click on the map; the console's: the trial advanced to now,
-   then ended, or paused or running already, when nothing is written), so
-   no command's own code decides whether it may apply;
-4. applies the command and writes it in one fenced unit of work (the
-   participant's: hcss.platform.live.actions; the console's:
-   hcss.platform.live.control), each saying what happened as a typed fact
-   (`live.facts`) that the trial log's writer stores, the key stored with it;
-   a commit that fails is settled by asking the database whether the
-   command's row is there (`actions.was_stored`): the trial in memory then
-   moves on as the log says, stays as it was, or, when nobody can say, is
-   marked moved and rebuilt from the log;
+3. checks the trial's state under that lock: here for every participant's
+   command alike (moved, ended, paused), then by the command's declaration
+   (the probe still open and its question shown or not, the click on the
+   map); the console's: the trial advanced to now, then ended, or paused or
+   running already, when nothing is written;
+4. applies the command and writes it in one trial unit of work
+   (hcss.platform.live.unit_of_work; the participant's by its declaration,
+   the console's by hcss.platform.live.control), which says what happened
+   as a typed fact (`live.facts`) written with the key, and settles a commit
+   that fails by asking the database whether the command's row is there: the
+   trial in memory then moves on as the log says, stays as it was, or, when
+   nobody can say, is marked moved and rebuilt from the log;
 5. answers with an `Answer`: HTTP status and JSON body, which is what the
    API sends and what a key's repeat gets back.
 
@@ -55,29 +56,19 @@ from sqlalchemy import select
 from sqlalchemy.exc import IntegrityError
 
 from hcss.platform.db import Database
-from hcss.platform.live import actions, control, trial_writer, validation
-from hcss.platform.live.actions import ActionError
+from hcss.platform.live import control, trial_writer
+from hcss.platform.live.commands import COMMANDS, Declaration, ParticipantCommand
 from hcss.platform.live.leases import HostedElsewhere, LeaseLost, trial_transaction
 from hcss.platform.live.orders import PendingOrder, send_order
-from hcss.platform.live.progress import CurrentProbe
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.running_trial import RunningTrial
 from hcss.platform.live.trial_writer import KeyedCommand
+from hcss.platform.live.unit_of_work import trial_unit
+from hcss.platform.live.validation import ActionError
 from hcss.platform.models import CommandKey
 from hcss.platform.models.participant_state import STATE_ACTIONS
 
-__all__ = [
-    "ActionError",
-    "Answer",
-    "Command",
-    "Control",
-    "Observe",
-    "ProbeAnswer",
-    "ProbeReady",
-    "SubmitRequest",
-    "carry_out",
-    "carry_out_order",
-]
+__all__ = ["ActionError", "Answer", "Command", "Control", "carry_out", "carry_out_order"]
 
 
 @dataclass(frozen=True)
@@ -87,39 +78,6 @@ class Answer:
     status: int
     body: Any
     replayed: bool = False  # from the store: the command was carried out (or refused) before
-
-
-@dataclass(frozen=True)
-class SubmitRequest:
-    """The participant's request (the POST body, unparsed: the door checks it)."""
-
-    trial_id: int
-    body: Any
-
-
-@dataclass(frozen=True)
-class Observe:
-    """The participant's click on the map (the POST body, unparsed)."""
-
-    trial_id: int
-    body: Any
-
-
-@dataclass(frozen=True)
-class ProbeReady:
-    """The participant's Ready press on the open probe."""
-
-    trial_id: int
-    probe_id: int
-
-
-@dataclass(frozen=True)
-class ProbeAnswer:
-    """The participant's answer to the open probe (the POST body, unparsed)."""
-
-    trial_id: int
-    probe_id: int
-    body: Any
 
 
 @dataclass(frozen=True)
@@ -134,7 +92,7 @@ class Control:
     order_id: int | None = None
 
 
-Command = SubmitRequest | Observe | ProbeReady | ProbeAnswer | Control
+Command = ParticipantCommand | Control
 
 #: What a `Control` answers (body ``{"outcome": ...}``): carried out, or the trial had
 #: reached its end first, or it was as asked already (nothing written); or the order is
@@ -239,51 +197,43 @@ def _applied(
         assert key is not None  # `carry_out` checked it
         if live is None:
             raise ActionError("the trial has ended", 409, "ended")
+        declared = COMMANDS[type(command)]
         # The body is read first (a malformed one is refused whatever the trial's state),
         # then the state is checked, then the command is applied and written.
-        if isinstance(command, SubmitRequest):
-            with database.session_scope() as session:  # read-only: back in the pool first
-                operator_command, selections = validation.parse_request(
-                    command.body, live, session, command.trial_id
-                )
-            _check_running(live)
-            return Answer(
-                200,
-                actions.submit_request(database, live, operator_command, selections, key=key),
-            )
-        if isinstance(command, Observe):
-            kind, collective, target, button = validation.parse_observation(command.body, live)
-            _check_running(live)
-            _check_on_the_map(live, kind, collective, target)
-            return Answer(
-                201,
-                actions.record_observation(
-                    database,
-                    live,
-                    kind=kind,
-                    collective=collective,
-                    target=target,
-                    button=button,
-                    key=key,
-                ),
-            )
-        if isinstance(command, ProbeReady):
-            _check_running(live)
-            probe = _open_probe(live, command.probe_id, ready=False)
-            return Answer(
-                200, actions.probe_ready(database, live, probe, now=runner.clock(), key=key)
-            )
-        answer = validation.parse_answer(command.body)
+        parsed = declared.parse(command, live, database)
         _check_running(live)
-        probe = _open_probe(live, command.probe_id, ready=True)
-        if answer not in probe.choices:
-            raise ActionError(f"{answer!r} is not one of the choices {probe.choices}")
-        return Answer(
-            200,
-            actions.probe_answer(database, live, probe, answer, now=runner.clock(), key=key),
-        )
+        declared.check(live, parsed)
+        return _carried(database, live, declared, parsed, key, runner.clock())
     except ActionError as error:
         return refusal(error)
+
+
+def _carried(
+    database: Database,
+    live: RunningTrial,
+    declared: Declaration[Any, Any],
+    parsed: Any,
+    key: KeyedCommand,
+    now: float,
+) -> Answer:
+    """A participant's command applied and written in one trial unit of work, by its
+    declaration; the trial in memory moves on once it is committed (or its commit's lost
+    answer is found stored)."""
+    before = live.sim.snapshot() if declared.changes_simulation else None
+    fact = declared.fact(live, parsed, now)
+    try:
+        with trial_unit(database, live, simulation_restored=before is not None) as unit:
+            row_id = unit.command(
+                fact, key, lambda row: declared.answer(fact, row), declared.status
+            )
+            declared.also_written(unit)
+    except BaseException:
+        if before is not None:
+            live.roll_back_to(before)  # it was not logged: it never happened
+        raise
+    declared.taken(live, parsed, fact, row_id, now)
+    live.touch()
+    return Answer(declared.status, declared.answer(fact, row_id))
 
 
 # --- the state checks: under the trial's lock, before anything is applied ----------------
@@ -295,32 +245,8 @@ def _check_running(live: RunningTrial) -> None:
         raise ActionError("the trial moved to another server process; try again", 503, "moved")
     if live.ended:
         raise ActionError("the trial has ended", 409, "ended")
-    if live.paused_since is not None:
+    if live.trial_clock.paused_since is not None:
         raise ActionError("the experimenter has paused the trial", 409, "paused")
-
-
-def _check_on_the_map(
-    live: RunningTrial, kind: str, collective: int | None, target: int | None
-) -> None:
-    """A click names a collective on the map, or a target the participant sees now."""
-    display = live.display()
-    if kind == "collective":
-        if collective is None or not 0 <= collective < display.n_collectives:
-            raise ActionError("a collective observation needs a collective on the map")
-    elif target is None or display.column(target) is None:
-        raise ActionError("a target observation needs a visible target")
-
-
-def _open_probe(live: RunningTrial, probe_id: int, *, ready: bool) -> CurrentProbe:
-    """The probe on screen, if it is `probe_id` and its question is shown (`ready`) or not."""
-    probe = live.current_probe
-    if probe is None or probe.id != probe_id:
-        raise ActionError("this probe is no longer open (answered or timed out)", 409, "closed")
-    if probe.ready and not ready:
-        raise ActionError("this probe's question is already shown", 409, "already_ready")
-    if ready and not probe.ready:
-        raise ActionError("press ready before answering", 409, "not_ready")
-    return probe
 
 
 def _controlled(runner: Runner, live: RunningTrial, command: Control) -> str:
@@ -337,7 +263,7 @@ def _controlled(runner: Runner, live: RunningTrial, command: Control) -> str:
     with runner.holding(live, now, advance=command.action != "resume"):
         if live.moved:  # another process hosts it now: the order waits for that host
             raise LeaseLost(live.trial_id)
-        paused = live.paused_since is not None
+        paused = live.trial_clock.paused_since is not None
         if not live.ended and (
             (command.action == "pause" and paused) or (command.action == "resume" and not paused)
         ):

@@ -13,15 +13,15 @@ import json
 import time as wallclock
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+from typing import Protocol
 
 from sqlalchemy import select
 
 from hcss.platform.db import Database
 from hcss.platform.live import trials
-from hcss.platform.live.actions import ActionError
-from hcss.platform.live.runner import Runner
 from hcss.platform.live.running_trial import RunningTrial
 from hcss.platform.live.stream_slots import StreamSlots, takeover_frame
+from hcss.platform.live.validation import ActionError
 from hcss.platform.models import Participant, StudyEnrolment, Trial
 from hcss.platform.models.vocabularies import TrialStatus
 
@@ -34,9 +34,9 @@ def trial_frame(live: RunningTrial, now: float, after_seq: int) -> tuple[str, in
 
     The probe on screen counts as delivered with the first frame that carries it.
     """
-    probe = live.current_probe
+    probe = live.probes.current
     if probe is not None:
-        probe.delivered(live.running_wall_s(now))
+        probe.delivered(live.trial_clock.running_wall_s(now))
     new_messages = [m for m in live.messages if m["seq"] > after_seq]
     last_seq = new_messages[-1]["seq"] if new_messages else after_seq
     head = {
@@ -46,13 +46,13 @@ def trial_frame(live: RunningTrial, now: float, after_seq: int) -> tuple[str, in
             # The page's status: the trial's, or "paused" while the experimenter holds it.
             "status": TrialStatus.ENDED
             if live.ended
-            else ("paused" if live.paused_since is not None else TrialStatus.RUNNING),
-            "clock_s": round(live.clock(now), 2),
+            else ("paused" if live.trial_clock.paused_since is not None else TrialStatus.RUNNING),
+            "clock_s": round(live.trial_time(now), 2),
             "duration_s": live.duration_s,
             "step": live.sim.step_count,
             "version": live.version,
             # Why a pause the experimenter did not make: the database is away.
-            "held_by": None if live.database_away_since is None else "database",
+            "held_by": None if live.trial_clock.database_away_since is None else "database",
             # Why it ended ("time_limit", "aborted"): the page words it.
             "end_reason": live.end_reason if live.ended else None,
         },
@@ -119,7 +119,17 @@ def ended_stream(trial_id: int, duration_s: float, end_reason: str | None = None
     yield f"retry: 5000\ndata: {json.dumps(frame)}\n\n"
 
 
-def _running(runner: Runner, trial_id: int) -> RunningTrial:
+class Hosting(Protocol):
+    """What a stream needs of the runner: the trial hosted here, and the clock it steps by
+    (`runner.Runner` is one; frames do not import it, so the runner stays below the stream)."""
+
+    def host(self, trial_id: int, *, participant: bool = False) -> RunningTrial | None: ...
+
+    @property
+    def clock(self) -> Callable[[], float]: ...
+
+
+def _running(runner: Hosting, trial_id: int) -> RunningTrial:
     """The trial hosted here for the participant's request (which asks it back if another
     process holds it: nginx sends this participant here)."""
     live = runner.host(trial_id, participant=True)
@@ -128,7 +138,7 @@ def _running(runner: Runner, trial_id: int) -> RunningTrial:
     return live
 
 
-def frame(runner: Runner, trial_id: int) -> str:
+def frame(runner: Hosting, trial_id: int) -> str:
     """One frame of the stream as JSON text, for bots and scripts that poll."""
     live = _running(runner, trial_id)
     with live.lock:
@@ -146,7 +156,7 @@ class Stream:
 
 def open_stream(
     database: Database,
-    runner: Runner,
+    runner: Hosting,
     slots: StreamSlots,
     trial: Trial,
     *,

@@ -16,8 +16,9 @@ from sqlalchemy.exc import DBAPIError
 
 from hcss.platform.live.leases import LeaseLost, trial_transaction
 from hcss.platform.live.orders import PendingOrder, mark_done
-from hcss.platform.live.recorder import kept_until_written, record_progress, write_snapshot
+from hcss.platform.live.recorder import record_progress, write_snapshot
 from hcss.platform.live.running_trial import RunningTrial
+from hcss.platform.live.unit_of_work import kept_until_written
 
 if TYPE_CHECKING:
     from hcss.platform.live.runner import Runner
@@ -54,7 +55,7 @@ def hand_back(runner: Runner, live: RunningTrial, heir: str) -> bool:
             return False
         now = runner.clock()
         runner.advance(live, now)
-        if live.ended or live.moved or live.database_away_since is not None:
+        if live.ended or live.moved or live.trial_clock.database_away_since is not None:
             return True  # nothing to hand over, or not safely now (the next renewal decides)
         with kept_until_written(live), trial_transaction(runner.database, live) as session:
             record_progress(live, session)

@@ -111,8 +111,8 @@ def stop_clock_for_outage(
     alive_wall_s = reached_step * live.dt / live.acceleration
     if seen is not None:
         seen_epoch = (seen if seen.tzinfo else seen.replace(tzinfo=UTC)).timestamp()
-        alive_wall_s = max(alive_wall_s, live.running_wall_s(min(now, seen_epoch)))
-    outage_s = max(0.0, live.running_wall_s(now) - alive_wall_s)
+        alive_wall_s = max(alive_wall_s, live.trial_clock.running_wall_s(min(now, seen_epoch)))
+    outage_s = max(0.0, live.trial_clock.running_wall_s(now) - alive_wall_s)
     live.stood_still(outage_s)
     return outage_s
 
@@ -127,8 +127,8 @@ def record_database_outage(live: RunningTrial, session: Session, now: float) -> 
     append-only), and this one adds only the stretch after them, so the rows
     add up to the time the clock stood still and none counts it twice.
     """
-    assert live.database_away_since is not None
-    since = datetime.fromtimestamp(live.database_away_since, UTC)
+    assert live.trial_clock.database_away_since is not None
+    since = datetime.fromtimestamp(live.trial_clock.database_away_since, UTC)
     covered_s = float(
         session.scalar(
             select(func.coalesce(func.sum(Interruption.outage_s), 0.0)).where(
@@ -139,7 +139,7 @@ def record_database_outage(live: RunningTrial, session: Session, now: float) -> 
         )
         or 0.0
     )
-    outage_s = max(0.0, now - live.database_away_since) - covered_s
+    outage_s = max(0.0, now - live.trial_clock.database_away_since) - covered_s
     if covered_s and outage_s <= 0.0:
         return
     trial_writer.write_interruption(
@@ -149,6 +149,6 @@ def record_database_outage(live: RunningTrial, session: Session, now: float) -> 
         resumed_step=live.sim.step_count,
         replayed_commands=0,
         state_digest=live.sim.state_digest(),
-        last_seen_at=datetime.fromtimestamp(live.database_away_since + covered_s, UTC),
+        last_seen_at=datetime.fromtimestamp(live.trial_clock.database_away_since + covered_s, UTC),
         outage_s=max(0.0, outage_s),
     )

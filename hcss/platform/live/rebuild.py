@@ -28,7 +28,7 @@ from hcss.platform.live.outages import (
 )
 from hcss.platform.live.probes import counts_of, probe_plan
 from hcss.platform.live.progress import CurrentProbe, Projection
-from hcss.platform.live.recorder import kept_until_written, record_progress, write_snapshot
+from hcss.platform.live.recorder import record_progress, write_snapshot
 from hcss.platform.live.running_trial import RunningTrial
 from hcss.platform.live.trial_log import (
     build_simulation,
@@ -36,6 +36,7 @@ from hcss.platform.live.trial_log import (
     newest_snapshot,
     shown_messages,
 )
+from hcss.platform.live.unit_of_work import kept_until_written
 from hcss.platform.models import (
     Command,
     DecisionRow,

@@ -27,9 +27,6 @@ event once, when the simulation hands it over.
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-from contextlib import contextmanager
-
 import numpy as np
 from sqlalchemy.orm import Session
 
@@ -38,26 +35,6 @@ from hcss.platform.live.probes import POSTPONE_S, PROBE_TIMEOUT_S, fill_probe
 from hcss.platform.live.progress import CurrentProbe
 from hcss.platform.live.running_trial import RunningTrial
 from hcss.questionnaires.probes import ProbeLevel
-
-
-@contextmanager
-def kept_until_written(live: RunningTrial, *, simulation_restored: bool = False) -> Iterator[None]:
-    """Around a unit of work that records progress: its cursors stand if it commits.
-
-    When the block raises (the commit failed, the database is away), the
-    cursors go back to what was written and the handed-over events and status
-    changes stay queued, so the next attempt writes them all; nothing the
-    participant saw is dropped. A caller that puts the simulation back as it
-    was before the block (`simulation_restored`: a command that was not
-    logged) drops what the block handed over instead: it never happened.
-    """
-    mark = live.progress_mark()
-    try:
-        yield
-    except BaseException:
-        live.progress_lost(mark, handed_over_dropped=simulation_restored)
-        raise
-    live.progress_written()
 
 
 def record_progress(live: RunningTrial, session: Session) -> None:
@@ -75,7 +52,7 @@ def _record_events(live: RunningTrial, session: Session) -> None:
     every unwritten one is written."""
     for event in live.events_handed_over(live.sim.drain_events()):
         live.add_message(event.sim_time, event.kind, event.text)
-    trial_writer.write_facts(session, live.trial_id, live.unwritten_events)
+    trial_writer.write_facts(session, live.trial_id, live.log.unwritten_events)
     # Events of one step share its time and are written together, so the
     # newest time marks everything written.
     live.events_written_up_to(float(live.sim.time) - 1e-9)
@@ -100,7 +77,7 @@ def record_request_statuses(live: RunningTrial, session: Session) -> None:
 
 
 def _expire_probe(live: RunningTrial, session: Session, time: float) -> None:
-    probe = live.current_probe
+    probe = live.probes.current
     if probe is None or time < probe.timeout_sim_time:
         return
     cleared = live.probe_cleared()
@@ -109,7 +86,7 @@ def _expire_probe(live: RunningTrial, session: Session, time: float) -> None:
 
 
 def _show_probe(live: RunningTrial, session: Session, time: float) -> None:
-    due = live.probe_due(time)
+    due = live.probes.due(time)
     if due is None:
         return
     probe_index, planned = due

@@ -14,7 +14,10 @@ a snapshot taken, the trial ended), which the trial log's writer stores; none
 does I/O. The clock, the
 probes and the trial log's progress are small classes of their own
 (`clock.TrialClock`, `progress.ProbeSchedule`, `progress.LogQueue`), whose
-methods say why; the trial's are their one-line doors.
+methods say why. Others read them as read-only parts (`trial_clock`, `probes`,
+`log`: protocols without their changing methods) and change them only
+through the trial's verbs (before issue 41, 32 one-line pass-throughs did
+both).
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ from __future__ import annotations
 import json
 import math
 import threading
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 from hcss.platform.live.clock import TrialClock
 from hcss.platform.live.facts import (
@@ -47,6 +50,51 @@ from hcss.simulation.requests import StatusChange
 
 if TYPE_CHECKING:
     from hcss.platform.live.leases import Fence
+
+
+class ClockReading(Protocol):
+    """A trial's clock as others read it (`clock.TrialClock`; `RunningTrial.trial_clock`)."""
+
+    @property
+    def paused_since(self) -> float | None:
+        """When its clock stopped (a pause, or the database away); None while it runs."""
+
+    @property
+    def database_away_since(self) -> float | None:
+        """When the database stopped taking its rows; None while it takes them."""
+
+    def running_wall_s(self, now: float) -> float:
+        """Wall seconds the trial clock has run: pauses do not count (live/clock.py)."""
+
+
+class ProbesReading(Protocol):
+    """A trial's probes as others read them (`progress.ProbeSchedule`; `RunningTrial.probes`)."""
+
+    @property
+    def plan(self) -> list[ScheduledProbe]: ...
+
+    @property
+    def shown(self) -> int: ...
+
+    @property
+    def current(self) -> CurrentProbe | None:
+        """The probe on screen; None when none is."""
+
+    def due(self, time: float) -> tuple[int, ScheduledProbe] | None:
+        """The next planned probe (its 1-based index) if it is due at sim `time`."""
+
+
+class LogReading(Protocol):
+    """How far a trial's log is written (`progress.LogQueue`; `RunningTrial.log`)."""
+
+    @property
+    def decisions(self) -> int: ...
+
+    @property
+    def last_snapshot_epoch(self) -> float: ...
+
+    @property
+    def unwritten_events(self) -> list[EventHappened]: ...
 
 
 class RunningTrial:
@@ -113,6 +161,7 @@ class RunningTrial:
 
     @property
     def started_epoch(self) -> float:
+        """When the trial started (epoch seconds): the identity of its clock (`trial_clock` reads it)."""
         return self._clock.started_epoch
 
     @property
@@ -122,6 +171,23 @@ class RunningTrial:
     @property
     def duration_s(self) -> float:
         return self._clock.duration_s
+
+    # --- its read-only parts: how its clock, probes and log read now ------------------------
+
+    @property
+    def trial_clock(self) -> ClockReading:
+        """Its clock (`clock.TrialClock`), to read: changed only by the trial's verbs below."""
+        return self._clock
+
+    @property
+    def probes(self) -> ProbesReading:
+        """Its probes (`progress.ProbeSchedule`), to read: changed only by the trial's verbs."""
+        return self._probes
+
+    @property
+    def log(self) -> LogReading:
+        """How far its log is written and what waits (`progress.LogQueue`), to read."""
+        return self._log
 
     @property
     def version(self) -> int:
@@ -181,28 +247,14 @@ class RunningTrial:
 
     def due_step(self, now: float) -> int:
         """The step the wall clock says the trial should have reached."""
-        elapsed = self.running_wall_s(now) * self.acceleration
+        elapsed = self._clock.running_wall_s(now) * self.acceleration
         return min(self.total_steps, int(math.floor(elapsed / self.dt + 1e-9)))
 
-    def running_wall_s(self, now: float) -> float:
-        """Wall seconds the trial clock has run: pauses do not count (live/clock.py)."""
-        return self._clock.running_wall_s(now)
-
-    def clock(self, now: float) -> float:
+    def trial_time(self, now: float) -> float:
         """Trial time by the wall clock, for the page's timer (runs between steps)."""
         if self.ended:
             return self.duration_s
         return self._clock.trial_time_s(now)
-
-    @property
-    def paused_since(self) -> float | None:
-        """When its clock stopped (a pause, or the database away); None while it runs."""
-        return self._clock.paused_since
-
-    @property
-    def database_away_since(self) -> float | None:
-        """When the database stopped taking its rows; None while it takes them."""
-        return self._clock.database_away_since
 
     def pauses_restored(self, paused_s: float, paused_since: float | None) -> None:
         """The experimenter's pauses from the action log; call before stepping a loaded trial."""
@@ -249,23 +301,6 @@ class RunningTrial:
 
     # --- its probes (hcss.platform.live.progress.ProbeSchedule) ---------------------
 
-    @property
-    def probe_plan(self) -> list[ScheduledProbe]:
-        return self._probes.plan
-
-    @property
-    def probes_shown(self) -> int:
-        return self._probes.shown
-
-    @property
-    def current_probe(self) -> CurrentProbe | None:
-        """The probe on screen; None when none is."""
-        return self._probes.current
-
-    def probe_due(self, time: float) -> tuple[int, ScheduledProbe] | None:
-        """The next planned probe (its 1-based index) if it is due at sim `time`."""
-        return self._probes.due(time)
-
     def probe_postponed(self, until: float) -> None:
         """No probe is shown before sim time `until` (the due one has no sensible subject yet)."""
         self._probes.postponed(until)
@@ -305,18 +340,6 @@ class RunningTrial:
         self._probes.restored(shown, current, projections)
 
     # --- what is written to the trial log (progress.LogQueue; live.recorder) ---------------
-
-    @property
-    def decisions_recorded(self) -> int:
-        return self._log.decisions
-
-    @property
-    def last_snapshot_epoch(self) -> float:
-        return self._log.last_snapshot_epoch
-
-    @property
-    def unwritten_events(self) -> list[EventHappened]:
-        return self._log.unwritten_events
 
     def events_handed_over(self, events: list[dict[str, Any]]) -> list[EventHappened]:
         return self._log.events_handed_over(events)

@@ -14,15 +14,11 @@ from sqlalchemy.exc import DBAPIError
 
 from hcss.platform.db import Database
 from hcss.platform.errors import database_away
-from hcss.platform.live.leases import LeaseLost, trial_transaction
+from hcss.platform.live.leases import LeaseLost
 from hcss.platform.live.outages import record_database_outage
-from hcss.platform.live.recorder import (
-    end_trial,
-    kept_until_written,
-    record_progress,
-    write_snapshot,
-)
+from hcss.platform.live.recorder import end_trial, record_progress, write_snapshot
 from hcss.platform.live.running_trial import RunningTrial
+from hcss.platform.live.unit_of_work import trial_unit
 
 log = logging.getLogger(__name__)
 
@@ -40,13 +36,13 @@ def advance_trial(
         if live.ended or live.moved:
             return
         due = live.due_step(now)
-        if live.database_away_since is None and live.fence and not live.fence.holds():
+        if live.trial_clock.database_away_since is None and live.fence and not live.fence.holds():
             # The holder's own deadline passed with no renewal answered (a stall, a
             # partition): it stops before anyone else may start, without asking.
             live.database_away(now)
             live.touch()
             return
-        if live.database_away_since is None:
+        if live.trial_clock.database_away_since is None:
             if due <= live.sim.step_count and due < live.total_steps:
                 return
             # The end is judged by `due`, not by the simulation's step: a simulation
@@ -55,20 +51,20 @@ def advance_trial(
             live.sim.step(due - live.sim.step_count)
             live.touch()
         try:
-            with kept_until_written(live), trial_transaction(database, live) as session:
-                record_progress(live, session)
-                if live.database_away_since is not None:
-                    record_database_outage(live, session, now)
+            with trial_unit(database, live) as unit:
+                record_progress(live, unit.session)
+                if live.trial_clock.database_away_since is not None:
+                    record_database_outage(live, unit.session, now)
                 if due >= live.total_steps:
-                    end_trial(live, session, "time_limit", now)
-                elif now - live.last_snapshot_epoch >= snapshot_interval_s:
-                    write_snapshot(live, session, now)
+                    end_trial(live, unit.session, "time_limit", now)
+                elif now - live.log.last_snapshot_epoch >= snapshot_interval_s:
+                    write_snapshot(live, unit.session, now)
         except (DBAPIError, LeaseLost) as error:
             if isinstance(error, DBAPIError) and not database_away(error):
                 raise  # a bug, not an outage: the tick logs it
             # Away, or the lease is not proved (its deadline passed before a renewal
             # answered): the trial stands still until a renewal or a takeover decides.
-            if live.database_away_since is None:
+            if live.trial_clock.database_away_since is None:
                 log.warning(
                     "live trial %s: the database takes no writes; the trial stands "
                     "still and what it holds is written when the database is back",
@@ -78,7 +74,7 @@ def advance_trial(
                 live.database_away(now)
                 live.touch()
             return
-        if live.database_away_since is not None:
+        if live.trial_clock.database_away_since is not None:
             live.database_back(now)
             log.warning("live trial %s: the database is back; the trial goes on", live.trial_id)
         live.touch()
