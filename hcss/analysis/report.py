@@ -182,16 +182,33 @@ def run_analysis(
     continuity: bool = True,
     study: str | None = None,
     pool_studies: bool = False,
+    drop_exact_duplicates: bool = False,
 ) -> Report:
     """Load INPUTs (one study's participants, or several study files only when pooled),
     compute measures and tests, write tables, figures and report.html."""
-    directory = Path(out)
-    steps = tqdm(total=5, desc="hcss analyze", unit="step", disable=not progress)
-    steps.set_postfix_str("loading")
     tables = load_inputs(
-        inputs, include_pilot=include_pilot, study=study, pool_studies=pool_studies
+        inputs,
+        include_pilot=include_pilot,
+        study=study,
+        pool_studies=pool_studies,
+        drop_exact_duplicates=drop_exact_duplicates,
     )
-    steps.update()
+    return analyse_tables(tables, out, include_pilot, progress, mann_whitney_method, continuity)
+
+
+def analyse_tables(
+    tables: StudyTables,
+    out: str | Path,
+    include_pilot: bool = False,
+    progress: bool = True,
+    mann_whitney_method: MannWhitneyMethod = "auto",
+    continuity: bool = True,
+) -> Report:
+    """Measures, tests, tables, figures and report.html from inputs already loaded and
+    checked (:func:`hcss.analysis.load.load_inputs`): the command loads first, so a refused
+    input never waits for the statistics libraries to import."""
+    directory = Path(out)
+    steps = tqdm(total=4, desc="hcss analyze", unit="step", disable=not progress)
     steps.set_postfix_str("measures")
     measures = all_measures(tables)
     if measures.empty and tables.all_participants.empty:
