@@ -119,8 +119,18 @@ guard("measures", {
   for (person in unique(mrt_rows$participant)) {
     own <- mrt_rows[mrt_rows$participant == person, ]
     own <- own[!duplicated(own$scale, fromLast = TRUE), ]  # a corrected score is a later row
-    total <- if ("total" %in% own$scale) own$score[own$scale == "total"] else
-      sum(own$score[startsWith(own$scale, "part_")])
+    # the total row, else both parts, else the participants table's stored total: one part
+    # alone is half the test, not its score
+    total <- if ("total" %in% own$scale) {
+      own$score[own$scale == "total"]
+    } else if (all(c("part_1", "part_2") %in% own$scale)) {
+      sum(own$score[own$scale %in% c("part_1", "part_2")])
+    } else if ("stored" %in% own$scale) {
+      own$score[own$scale == "stored"]
+    } else {
+      NA
+    }
+    if (is.na(total)) next
     add_measure("mrt.total", "overall", "All", person,
                 hcss_value("mrt.total", "overall", "All", person), total)
   }

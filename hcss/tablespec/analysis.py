@@ -130,7 +130,12 @@ that analysis.R recomputes the MRT measure from the export, not from hcss.
 """.strip(),
     columns=(
         Column("participant", "str", "participant code", nullable=False),
-        Column("scale", "str", "`total`, `part_1` or `part_2`", nullable=False),
+        Column(
+            "scale",
+            "str",
+            "`total`, `part_1` or `part_2` (the export's rows), or `stored` (participants table)",
+            nullable=False,
+        ),
         SCORES.column("score"),
     ),
 )

@@ -7,9 +7,12 @@ demographics table showed the stored total, so the report had two MRT means.
 
 from __future__ import annotations
 
+import shutil
+import subprocess
 from pathlib import Path
 
 import pandas as pd
+import pytest
 
 from hcss.analysis.instrument_measures import incomplete_mrt_note, mrt_scores
 from hcss.analysis.load import load_inputs
@@ -52,3 +55,20 @@ def test_the_report_says_which_mrt_scores_are_incomplete(tmp_path: Path):
     report = run_analysis([export], tmp_path / "out", progress=False)
     page = report.html_path.read_text()
     assert "have one MRT part only" in page
+
+
+@pytest.mark.skipif(shutil.which("Rscript") is None, reason="R is not installed (make r)")
+def test_analysis_r_recomputes_the_same_mrt_from_the_export_rows(tmp_path: Path):
+    """analysis.R summed the parts a participant had, as hcss did: both reported half a test."""
+    export = study_export(tmp_path / "export", participants=8)
+    people = pd.read_csv(export / "participants.csv", dtype={"participant": str})
+    stored = dict(zip(people["participant"], people["mrt_score"], strict=True))
+    _one_part_only(export, {"P00": True, "P01": False})
+    report = run_analysis([export], tmp_path / "out", progress=False)
+    subprocess.run(["Rscript", "analysis.R"], cwd=report.directory, check=True, capture_output=True)
+    measures = pd.read_csv(report.directory / "r_measures.csv", dtype={"participant": str})
+    mrt = measures[measures["measure"] == "mrt.total"]
+    by_person = mrt.set_index("participant")
+    assert by_person.loc["P00", "value_r"] == stored["P00"] == by_person.loc["P00", "value_hcss"]
+    assert "P01" not in by_person.index
+    assert (mrt["value_r"] == mrt["value_hcss"]).all()
