@@ -390,6 +390,40 @@ def _one_row_per_decision(decisions: pd.DataFrame, drop_exact: bool) -> tuple[pd
     )
 
 
+def _one_row_per_participant(combined: dict[str, pd.DataFrame], drop_exact: bool) -> int:
+    """Refuse a participant listed twice (the same export given twice doubles every
+    questionnaire and probe too); with ``drop_exact``, drop rows identical in every column
+    of every export table instead, in place, and return how many."""
+    dropped = 0
+    if drop_exact:
+        for table in STUDY_TABLES:
+            frame = combined[table]
+            content = [name for name in frame.columns if name != "input"]
+            exact = frame.duplicated(subset=content, keep="first") if len(frame) else frame.index
+            if len(frame) and exact.any():
+                dropped += int(exact.sum())
+                combined[table] = frame[~exact]
+    people = combined["participants"]
+    if not len(people):
+        return dropped
+    coded = people[people["participant"].notna() & (people["participant"].astype(str) != "")]
+    repeated = coded[coded["participant"].astype(str).duplicated(keep=False)]
+    if len(repeated):
+        code = str(repeated["participant"].iloc[0])
+        places = sorted(
+            {
+                str(place)
+                for place in repeated.loc[repeated["participant"].astype(str) == code, "input"]
+            }
+        )
+        raise AnalysisInputError(
+            f"{repeated['participant'].astype(str).nunique()} participants appear more than "
+            f"once in the participants tables; first: {code} in {' and '.join(places)} "
+            "(the same export given twice, or two exports that overlap?)"
+        )
+    return dropped
+
+
 def _empty(table: str) -> pd.DataFrame:
     columns = DECISION_COLUMNS + ("group",) if table == "decisions" else STUDY_TABLES[table]
     return pd.DataFrame({name: pd.Series(dtype="object") for name in (*columns, "input")})
@@ -506,6 +540,7 @@ def load_inputs(
         combined["decisions"], drop_exact_duplicates
     )
     combined["decisions"] = combined["decisions"].drop(columns=["_where", "_row"], errors="ignore")
+    dropped += _one_row_per_participant(combined, drop_exact_duplicates)
     combined["participants"], never_opened = set_aside_never_opened(combined["participants"])
     if study is not None:
         _keep_study(combined, study)
@@ -541,7 +576,7 @@ def load_inputs(
         raise AnalysisInputError("no data to analyse: " + "; ".join(warnings))
     if dropped:
         warnings += (
-            f"dropped {dropped} exact duplicate decision rows (--drop-exact-duplicates): rows "
+            f"dropped {dropped} exact duplicate rows (--drop-exact-duplicates): rows "
             "identical in every column to one read before",
         )
     for table in STUDY_TABLES:

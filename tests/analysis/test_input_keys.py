@@ -9,6 +9,7 @@ start + decision time moved a decision into another slot of the study's unit.
 from __future__ import annotations
 
 import os
+import shutil
 import subprocess
 import sys
 import time
@@ -24,6 +25,7 @@ from tests.support.synthetic import (
     DECISION_COLUMNS,
     decision_row,
     simulation_decisions,
+    study_export,
     write_table,
 )
 
@@ -56,7 +58,7 @@ def test_exact_duplicates_are_dropped_with_a_count_when_asked(tmp_path: Path):
     path = write_table(doubled, tmp_path / "decisions.csv")
     tables = load_inputs([path], drop_exact_duplicates=True)
     assert len(tables.decisions) == len(decisions)
-    assert any("dropped 24 exact duplicate decision rows" in text for text in tables.warnings)
+    assert any("dropped 24 exact duplicate rows" in text for text in tables.warnings)
 
 
 def test_a_key_given_twice_with_different_values_is_refused_even_when_dropping(tmp_path: Path):
@@ -164,6 +166,29 @@ def test_the_command_drops_exact_duplicates_when_asked(tmp_path: Path):
         ],
     )
     assert result.exit_code == 0, result.output
-    assert "dropped 4 exact duplicate decision rows" in result.output
+    assert "dropped 4 exact duplicate rows" in result.output
     report = (tmp_path / "out" / "report.html").read_text()
-    assert "dropped 4 exact duplicate decision rows" in report
+    assert "dropped 4 exact duplicate rows" in report
+
+
+def test_the_same_export_twice_is_refused_and_dropped_whole_when_asked(tmp_path: Path):
+    """With --drop-exact-duplicates the decisions were single but questionnaires doubled."""
+    export = study_export(tmp_path / "export", participants=4)
+    copy = tmp_path / "copy"
+    shutil.copytree(export, copy)
+    with pytest.raises(AnalysisInputError, match="appear more than once"):
+        load_inputs([export, copy])
+    once = load_inputs([export])
+    both = load_inputs([export, copy], drop_exact_duplicates=True)
+    for table in ("decisions", "scores", "probes", "questionnaire_items", "participants"):
+        assert len(getattr(both, table)) == len(getattr(once, table)), table
+
+
+def test_a_participant_in_two_exports_is_refused(tmp_path: Path):
+    export = study_export(tmp_path / "export", participants=4)
+    other = study_export(tmp_path / "other", participants=4, seed=3)
+    decisions = pd.read_csv(other / "decisions.csv")
+    decisions["trial_id"] = "other-" + decisions["trial_id"].astype(str)
+    decisions.to_csv(other / "decisions.csv", index=False)
+    with pytest.raises(AnalysisInputError, match="participants appear more than once.*P00 in"):
+        load_inputs([export, other])
