@@ -76,7 +76,30 @@ def large_decisions_file(scenarios: int = 420, runs: int = 10) -> None:
         print(completed.stderr[-2000:])
 
 
+def refused_large_file(gigabytes: float = 1.0) -> None:
+    """(4) `hcss analyze` refusing a decisions CSV of 1 GB, as its own process.
+
+    Every input check runs before the statistics libraries are imported, so the
+    refusal costs the command's start-up and the check, not a full analysis's imports.
+    """
+    with tempfile.TemporaryDirectory() as scratch:
+        path = Path(scratch) / "decisions.csv"
+        with path.open("wb") as handle:  # sparse: the size is what the check reads first
+            handle.truncate(int(gigabytes * 1e9))
+        command = [sys.executable, "-c", "from hcss.cli import main; main()", "analyze"]
+        command += [str(path), "--out", str(Path(scratch) / "report")]
+        wall = time.perf_counter()
+        completed = subprocess.run(command, capture_output=True, text=True, check=False)
+        wall = time.perf_counter() - wall
+    refused = completed.returncode != 0 and "larger than a study export" in completed.stderr
+    print(
+        f"(4) hcss analyze on a {gigabytes:g} GB decisions file: "
+        f"{'refused' if refused else 'NOT refused'} after {wall:.1f} s"
+    )
+
+
 def run() -> None:
     studentized_range_p()
     full_report()
     large_decisions_file()
+    refused_large_file()

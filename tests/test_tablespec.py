@@ -119,6 +119,7 @@ def _decision(**values: object) -> dict[str, object]:
         difficulty="easy",
         timed_out=False,
         correct=True,
+        start_s=0,  # end_s − start_s = decision_time_s, as the loader checks
     )
     row.update(values)
     return row
@@ -141,7 +142,7 @@ def test_the_analysis_refuses_a_decisions_table_that_breaks_the_contract(
     write_rows(path, DECISIONS.names, [_decision(), _decision(**values)])
     with pytest.raises(AnalysisInputError, match=f"{path}: {message}"):
         load_inputs([path])
-    write_rows(path, DECISIONS.names, [_decision(), _decision()])
+    write_rows(path, DECISIONS.names, [_decision(), _decision(decision_index=2)])
     assert len(load_inputs([path]).decisions) == 2
 
 

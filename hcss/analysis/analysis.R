@@ -21,7 +21,8 @@
 #                         participants the jackknife from geepack's leave-one-out refits,
 #                         (K - 1)/K, with t on K - p df (as hcss; its p_method says which)
 #   mixed model (time)    lme4::lmer, REML, Wald z p from the t value; below 40 participants
-#                         t on nlme::lme's between/within df (as hcss)
+#                         t on nlme::lme's between/within df (as hcss); and its CR2
+#                         cluster-robust p on Satterthwaite df, clubSandwich::coef_test
 #   logistic mixed model  lme4::glmer(binomial), Laplace: the subject-specific fit hcss does
 #                         not compute (Python has only a variational Bayes approximation);
 #                         printed, not compared
@@ -118,8 +119,18 @@ guard("measures", {
   for (person in unique(mrt_rows$participant)) {
     own <- mrt_rows[mrt_rows$participant == person, ]
     own <- own[!duplicated(own$scale, fromLast = TRUE), ]  # a corrected score is a later row
-    total <- if ("total" %in% own$scale) own$score[own$scale == "total"] else
-      sum(own$score[startsWith(own$scale, "part_")])
+    # the total row, else both parts, else the participants table's stored total: one part
+    # alone is half the test, not its score
+    total <- if ("total" %in% own$scale) {
+      own$score[own$scale == "total"]
+    } else if (all(c("part_1", "part_2") %in% own$scale)) {
+      sum(own$score[own$scale %in% c("part_1", "part_2")])
+    } else if ("stored" %in% own$scale) {
+      own$score[own$scale == "stored"]
+    } else {
+      NA
+    }
+    if (is.na(total)) next
     add_measure("mrt.total", "overall", "All", person,
                 hcss_value("mrt.total", "overall", "All", person), total)
   }
@@ -313,6 +324,21 @@ if (nrow(d) && (nrow(gee) || nrow(mixed))) {
     }
     compare("mixedlm_time", mixed, beta, NULL, p, "time_ratio")
     print(as.data.frame(VarCorr(fit)))
+    # CR2 cluster-robust errors on Satterthwaite df (Bell-McCaffrey), as the report's CR2 columns
+    if (!requireNamespace("clubSandwich", quietly = TRUE)) {
+      add("mixedlm_time (CR2)", "", "", "", NA, NA, note = "clubSandwich is not installed")
+    } else if ("robust_p" %in% names(mixed)) {
+      robust <- clubSandwich::coef_test(fit, vcov = "CR2", test = "Satterthwaite",
+                                        cluster = timed$participant)
+      for (term in rownames(robust)[-1]) {
+        match <- mixed[mixed$term == label(term), ]
+        if (nrow(match)) {
+          add("mixedlm_time (CR2)", "", "", label(term), match$robust_p[1],
+              robust[term, "p_Satt"], match$robust_df[1], robust[term, "df_Satt"],
+              note = "statistic: Satterthwaite df")
+        }
+      }
+    }
   })
 }
 

@@ -99,7 +99,8 @@ def _not_run(units: dict[str, int], complete: int, people: int) -> list[str]:
     if human and people < MIN_PARTICIPANTS:
         reasons.append(
             f"Decision-level GEE and mixed model: they need {MIN_PARTICIPANTS} or more "
-            f"participants ({people}); robust errors from fewer clusters are not trustworthy"
+            f"participants ({people}); the GEE's robust errors and the mixed model's "
+            "participant variance from fewer participants are not trustworthy"
         )
     simulation = {group: units[group] for group in SIMULATION_PAIR if group in units}
     if len(simulation) == 2 and min(simulation.values()) < MIN_UNITS:

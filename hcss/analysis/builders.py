@@ -140,7 +140,9 @@ def kruskal_table(comparisons: list[OmnibusComparison]) -> Table:
     return Table(
         "kruskal_wallis",
         "Kruskal-Wallis tests across models; ε² = H/(n − 1) with a percentile bootstrap "
-        "interval (2,000 resamples within groups, seeded)",
+        "interval (2,000 resamples within groups, seeded). Not rstatix's kruskal_effsize, "
+        "which reports η²[H] = (H − k + 1)/(n − k): a different effect size, smaller at few "
+        "units, not a disagreement",
         header,
         tuple(rows),
         pd.DataFrame(records, columns=list(KRUSKAL_WALLIS.names)),
@@ -254,8 +256,10 @@ def mann_whitney_table(comparisons: list[TwoSampleComparison]) -> Table:
     )
     return Table(
         "mann_whitney",
-        f"Mann-Whitney-Wilcoxon tests, {a} vs {b} (U = min(U₁, U₂); W as R prints it); "
-        "rank-biserial r with its Fisher-z interval",
+        f"Mann-Whitney-Wilcoxon tests per scenario (runs averaged), {a} vs {b} "
+        "(U = min(U₁, U₂); W as R prints it); rank-biserial r with its Fisher-z interval. "
+        "Scenarios are the independent units; the study's own test over its units is in "
+        '"The study\'s own tests"',
         header,
         tuple(rows),
         pd.DataFrame(records),

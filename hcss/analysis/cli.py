@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import cast
+from typing import TYPE_CHECKING, cast
 
 import click
 
-from hcss.analysis.load import AnalysisInputError
-from hcss.analysis.stats import MannWhitneyMethod
+from hcss.analysis.load import AnalysisInputError, load_inputs
+
+if TYPE_CHECKING:  # stats imports scipy; the command checks its inputs before that
+    from hcss.analysis.stats import MannWhitneyMethod
 
 
 @click.command("analyze")
@@ -65,6 +67,12 @@ from hcss.analysis.stats import MannWhitneyMethod
     help="Analyse only participants who completed (default: the partial trials of those "
     "who stopped or are in progress count too, and the report says how many).",
 )
+@click.option(
+    "--drop-exact-duplicates",
+    is_flag=True,
+    help="Drop decision rows identical in every column to one read before (counted); "
+    "by default a decision given twice is refused.",
+)
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 def analyze(
     inputs: tuple[Path, ...],
@@ -76,6 +84,7 @@ def analyze(
     pool_studies: bool,
     pool_synthetic: bool,
     completers_only: bool,
+    drop_exact_duplicates: bool,
     quiet: bool,
 ) -> None:
     """Analyse study exports and simulation decision tables.
@@ -87,10 +96,9 @@ def analyze(
     rows after exclusions is named in a warning. Participants of different
     study files (a demo beside the protocol) are refused unless --study picks
     one or --pool-studies is given; the report names each study file it used.
+    Every input check runs before the statistics libraries are imported, so a
+    refused input is refused in seconds.
     """
-    # Imported here so `hcss --help` stays fast: the analysis pulls in
-    # scipy, statsmodels and matplotlib.
-    from hcss.analysis.report import run_analysis
     from hcss.analysis.sweeps import SweepInputError, analyse_sweep, is_sweep
 
     if any(is_sweep(path) for path in inputs):  # `hcss simulate sweep` output
@@ -106,17 +114,25 @@ def analyze(
         return
 
     try:
-        report = run_analysis(
+        tables = load_inputs(
             list(inputs),
-            out,
             include_pilot=include_pilot,
-            progress=not quiet,
-            mann_whitney_method=cast(MannWhitneyMethod, mw_method),  # a click.Choice of them
-            continuity=continuity,
             study=study,
             pool_studies=pool_studies,
             pool_synthetic=pool_synthetic,
             completers_only=completers_only,
+            drop_exact_duplicates=drop_exact_duplicates,
+        )
+        # Imported only now: the analysis pulls in scipy, statsmodels and matplotlib.
+        from hcss.analysis.report import analyse_tables
+
+        report = analyse_tables(
+            tables,
+            out,
+            include_pilot=include_pilot,
+            progress=not quiet,
+            mann_whitney_method=cast("MannWhitneyMethod", mw_method),  # a click.Choice of them
+            continuity=continuity,
         )
     except AnalysisInputError as error:
         raise click.ClickException(str(error)) from error

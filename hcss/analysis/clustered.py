@@ -46,9 +46,10 @@ Optimiser warnings are not printed as captions: the fit's status is.
 
 from __future__ import annotations
 
+import math
 import warnings
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import partial
 from typing import Any
 
@@ -58,6 +59,7 @@ import statsmodels.api as sm
 import statsmodels.formula.api as smf
 from scipy import stats
 
+from hcss.analysis.cr2 import RobustErrors, cr2_errors
 from hcss.analysis.mixed_errors import lme4_covariance, refine_intercept_fit
 
 HUMAN_MODELS = ("M1", "M2", "M3")
@@ -97,6 +99,14 @@ class ModelTerm:
     lower: float
     upper: float
     p: float
+    #: CR2 cluster-robust interval, p and Satterthwaite df (mixed model only; NaN elsewhere)
+    robust_lower: float = math.nan
+    robust_upper: float = math.nan
+    robust_p: float = math.nan
+    robust_df: float = math.nan
+    #: The smallest ratio the robust t-test detects with 80% power (a ratio above 1; its
+    #: inverse below 1 likewise): exp((t₀.₉₇₅ + t₀.₈) · SE) on the robust df
+    detectable: float = math.nan
 
 
 @dataclass(frozen=True)
@@ -226,21 +236,31 @@ def _separation(data: pd.DataFrame) -> str:
     return ""
 
 
-def too_small_reason(participants: int, rules: SampleRules = REPORT_RULES) -> str:
-    """Why a decision-level model is not fitted to ``participants`` clusters, or ``""``."""
+#: What a model estimates from its participants, and so cannot from too few of them.
+FROM_PARTICIPANTS = {
+    "gee": "its robust (sandwich) errors from fewer participants are not trustworthy",
+    "mixed": "its participant variance and errors from fewer participants are not trustworthy",
+}
+
+
+def too_small_reason(
+    participants: int, rules: SampleRules = REPORT_RULES, kind: str = "gee"
+) -> str:
+    """Why a decision-level model (``kind`` gee or mixed) is not fitted to ``participants``
+    clusters, or ``""``."""
     if participants < max(rules.min_participants, 2):
         return (
-            f"needs {rules.min_participants} or more participants ({participants}): robust errors "
-            "and variance components from fewer clusters are not trustworthy"
+            f"needs {rules.min_participants} or more participants ({participants}): "
+            + FROM_PARTICIPANTS[kind]
         )
     return ""
 
 
-def _too_small(data: pd.DataFrame, parameters: int, rules: SampleRules) -> str:
+def _too_small(data: pd.DataFrame, parameters: int, rules: SampleRules, kind: str) -> str:
     clusters = data["participant"].nunique()
     if data["model"].nunique() < 2 or data["difficulty"].nunique() < 2:
         return "needs two or more models and difficulties"
-    reason = too_small_reason(clusters, rules)
+    reason = too_small_reason(clusters, rules, kind)
     small = clusters < rules.small_sample_below
     if not reason and small and clusters <= parameters:
         reason = (
@@ -289,7 +309,7 @@ def success_gee(
         )
 
     outcome = "success"
-    size = _too_small(data, coefficients, rules)
+    size = _too_small(data, coefficients, rules, "gee")
     if size:
         return empty(size, too_small=True)
     reason = _separation(data)
@@ -390,7 +410,7 @@ def time_mixed_model(
             outcome, method, ratio_name, n, clusters, (), note, p_method, too_small=too_small
         )
 
-    reason = _too_small(data, _coefficients(covariates), rules)
+    reason = _too_small(data, _coefficients(covariates), rules, "mixed")
     if reason:
         return empty(reason, too_small=True)
     model = smf.mixedlm(_formula("log_time", covariates), data, groups=data["participant"])
@@ -423,7 +443,17 @@ def time_mixed_model(
     if start is None:
         notes.append("statsmodels' REML fit did not converge: lme4's optimum by a search over θ")
     df = between_within_df(model) if small else None
-    terms = _ratio_terms(refined.fe_params, errors, df)
+    terms = _with_robust(
+        _ratio_terms(refined.fe_params, errors, df),
+        refined.fe_params,
+        cr2_errors(
+            model.exog_li,
+            model.endog_li,
+            refined.fe_params.to_numpy(),
+            refined.scale,
+            refined.participant_variance,
+        ),
+    )
     return ClusteredModel(
         outcome,
         method,
@@ -436,6 +466,32 @@ def time_mixed_model(
         components,
         covariates,
     )
+
+
+def _with_robust(
+    terms: tuple[ModelTerm, ...], params: pd.Series, robust: RobustErrors
+) -> tuple[ModelTerm, ...]:
+    """The terms with their CR2 interval, p and Satterthwaite df beside the model-based ones,
+    and the smallest ratio the robust test would detect with 80% power."""
+    errors = np.sqrt(np.diag(robust.covariance))
+    positions = {name: index for index, name in enumerate(params.index)}
+    out = []
+    names = [n for n in params.index if n != "Intercept" and not n.endswith(" Var")]
+    for term, name in zip(terms, names, strict=True):
+        index = positions[name]
+        df, se, beta = float(robust.df[index]), float(errors[index]), float(params[name])
+        critical = float(stats.t.ppf(0.975, df))
+        out.append(
+            replace(
+                term,
+                robust_lower=math.exp(beta - critical * se),
+                robust_upper=math.exp(beta + critical * se),
+                robust_p=float(2 * stats.t.sf(abs(beta / se), df)),
+                robust_df=df,
+                detectable=math.exp((critical + float(stats.t.ppf(0.8, df))) * se),
+            )
+        )
+    return tuple(out)
 
 
 def between_within_df(model: Any) -> pd.Series:

@@ -278,6 +278,8 @@ def correlations(measures: pd.DataFrame) -> list[Correlation]:
     human = units[units["group"].isin(HUMAN_GROUPS) & (units["participant"].astype(str) != "")]
     if human["group"].nunique() > 1:
         means = human.drop(columns=["group", "source", "unit"]).groupby("participant").mean()
+        # a participant without an MRT score is a gap (pd.NA in an object column): NaN first
+        means = means.apply(pd.to_numeric, errors="coerce").astype(float)
         means = means.apply(snapped)  # equal means tie, as in R
         subsets.append((POOLED_HUMAN, means.reset_index()))
     results = []

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import pandas as pd
 
 from hcss.analysis.builders import SPLIT_LABELS
@@ -114,6 +116,7 @@ def model_table(name: str, model: ClusteredModel) -> Table:
     The caption names the method, the order covariates and the cluster
     counts; a model that was not fitted is one row saying why.
     """
+    robust = any(not math.isnan(term.robust_p) for term in model.terms)
     rows = [
         (
             term.term,
@@ -121,10 +124,20 @@ def model_table(name: str, model: ClusteredModel) -> Table:
             f"[{format_number(term.lower, 3)}, {format_number(term.upper, 3)}]",
             format_p(term.p),
         )
+        + (
+            (
+                f"[{format_number(term.robust_lower, 3)}, {format_number(term.robust_upper, 3)}]",
+                f"{format_p(term.robust_p)} ({term.robust_df:.1f} df)",
+                format_number(term.detectable, 2),
+            )
+            if robust
+            else ()
+        )
         for term in model.terms
     ]
+    blank = ("", "", "") if robust else ()
     rows += [
-        (f"Variance: {component.name}", f"{component.variance:.3g}", "", "")
+        (f"Variance: {component.name}", f"{component.variance:.3g}", "", "", *blank)
         for component in model.variance
         if model.terms
     ]
@@ -146,12 +159,25 @@ def model_table(name: str, model: ClusteredModel) -> Table:
             f"p from {model.p_method}; "
             f"{model.n_decisions} decisions of {model.n_participants} participants"
             + (f" ({model.note})" if model.note else "")
+            + (ROBUST_NOTE if robust else "")
+            + (GEE_QUESTION if name == "gee_success" else "")
         )
     spec = analysis_table(name)
     ratio = spec.column(model.ratio_name.replace(" ", "_")).name  # KeyError: not this table's
     records = [
         {"term": t.term, ratio: t.ratio, "lower": t.lower}
         | {"upper": t.upper, "p": t.p, "p_method": model.p_method, "note": model.note}
+        | (
+            {
+                "robust_lower": t.robust_lower,
+                "robust_upper": t.robust_upper,
+                "robust_p": t.robust_p,
+                "robust_df": t.robust_df,
+                "detectable_ratio": t.detectable,
+            }
+            if robust
+            else {}
+        )
         for t in model.terms
     ] + [
         {"term": f"variance: {component.name}", "variance": component.variance}
@@ -165,11 +191,39 @@ def model_table(name: str, model: ClusteredModel) -> Table:
     return Table(
         name,
         caption,
-        ("Term (vs M1, easy)", model.ratio_name.capitalize(), "95% CI", f"p ({model.p_method})"),
+        ("Term (vs M1, easy)", model.ratio_name.capitalize(), "95% CI", f"p ({model.p_method})")
+        + (
+            (
+                "CR2 95% CI",
+                "CR2 p (Satterthwaite df)",
+                "Detectable ratio (80% power)",
+            )
+            if robust
+            else ()
+        ),
         tuple(rows),
         frame,
     )
 
+
+#: What the mixed model assumes, and what the robust columns add (the caption's last words).
+ROBUST_NOTE = (
+    ". The model-based errors assume a random intercept only: every participant shifted "
+    "alike, reacting to M2, M3 and difficulty alike. The CR2 columns keep the estimates but "
+    "take the errors from each participant's residuals (cluster-robust CR2, Satterthwaite "
+    "df, Bell–McCaffrey; clubSandwich's coef_test), valid without that assumption; few df "
+    "mean few participants carry the term. Detectable ratio: the smallest time ratio (or "
+    "its inverse) the CR2 test finds with 80% power at α = .05, exp((t.975 + t.80)·SE)"
+)
+
+#: Which question the GEE answers, beside analysis.R's glmer (the GEE caption's last words).
+GEE_QUESTION = (
+    ". Population-averaged: how the odds of success differ between models over the "
+    "participants as a whole. analysis.R's glmer answers the subject-specific question (for "
+    "one participant, holding their intercept), whose odds ratios are further from 1 and "
+    "whose Laplace p uses no small-sample correction, so the two p can differ at few "
+    "participants without either being wrong"
+)
 
 COVARIATE_LABELS = {
     "position": "trial position 1–3",

@@ -111,35 +111,78 @@ def questionnaire_measures(scores: pd.DataFrame, items: pd.DataFrame) -> pd.Data
     return pd.concat(frames, ignore_index=True)
 
 
-def mrt_scores(scores: pd.DataFrame, participants: pd.DataFrame) -> pd.Series:
-    """Each participant's MRT score: the total over both parts (0–24), by participant code.
+#: The MRT's parts: a total is the sum of both, never of one.
+MRT_PARTS = ("part_1", "part_2")
 
-    The export's ``scores`` rows are ``total``, ``part_1`` and ``part_2``; the
-    score is ``total`` (``overall`` in older exports), else the sum of the
-    parts a participant has, never one part alone. The participants table's
-    ``mrt_score`` (the stored total) is the fallback for a participant with
-    no score rows.
-    """
+
+def _mrt_rows(scores: pd.DataFrame) -> dict[str, dict[str, float]]:
+    """participant -> scale -> score, the latest row of each (a corrected score comes later)."""
     mrt = _latest(scores[scores["instrument"] == "mrt"], ["participant", "scale"]).assign(
         score=lambda frame: pd.to_numeric(frame["score"], errors="coerce")
     )
     mrt = mrt.dropna(subset=["score"])
     mrt = mrt.assign(participant=mrt["participant"].astype(str))
-    totals = {}
-    for participant, rows in mrt.groupby("participant", sort=True):
-        by_scale = dict(zip(rows["scale"].astype(str), rows["score"], strict=True))
-        parts = [score for scale, score in by_scale.items() if scale.startswith("part_")]
-        for whole in ("total", "overall"):
-            if whole in by_scale:
-                totals[participant] = float(by_scale[whole])
-                break
-        else:
-            if parts:
-                totals[participant] = float(sum(parts))
+    return {
+        str(participant): dict(zip(rows["scale"].astype(str), rows["score"], strict=True))
+        for participant, rows in mrt.groupby("participant", sort=True)
+    }
+
+
+def _whole(by_scale: dict[str, float]) -> float | None:
+    """The total of one participant's rows: `total` (`overall` in older exports), else the
+    sum of both parts; None with one part only (half the test is not its score)."""
+    for whole in ("total", "overall"):
+        if whole in by_scale:
+            return float(by_scale[whole])
+    if all(part in by_scale for part in MRT_PARTS):
+        return float(sum(by_scale[part] for part in MRT_PARTS))
+    return None
+
+
+def _stored(participants: pd.DataFrame) -> pd.Series:
+    if "mrt_score" not in participants.columns or not len(participants):
+        return pd.Series(dtype=float)
+    stored = participants.assign(participant=participants["participant"].astype(str))
+    return pd.to_numeric(stored.set_index("participant")["mrt_score"], errors="coerce").dropna()
+
+
+def mrt_scores(scores: pd.DataFrame, participants: pd.DataFrame) -> pd.Series:
+    """Each participant's MRT score: the total over both parts (0–24), by participant code.
+
+    The export's ``scores`` rows are ``total``, ``part_1`` and ``part_2``; the
+    score is ``total`` (``overall`` in older exports), else the sum of both
+    parts, never one part alone. The participants table's ``mrt_score`` (the
+    stored total) is used for a participant without either; one without any
+    total is left out (:func:`incomplete_mrt_note` says who).
+    """
+    totals = {
+        participant: whole
+        for participant, by_scale in _mrt_rows(scores).items()
+        if (whole := _whole(by_scale)) is not None
+    }
     found = pd.Series(totals, dtype=float)
-    if "mrt_score" in participants.columns and len(participants):
-        stored = participants.assign(participant=participants["participant"].astype(str))
-        stored = pd.to_numeric(stored.set_index("participant")["mrt_score"], errors="coerce")
-        stored = stored.dropna()
-        found = pd.concat([found, stored[~stored.index.isin(found.index)]])
+    stored = _stored(participants)
+    found = pd.concat([found, stored[~stored.index.isin(found.index)]])
     return found.sort_index()
+
+
+def incomplete_mrt_note(scores: pd.DataFrame, participants: pd.DataFrame) -> str:
+    """Who has one MRT part only, and what their score became; "" when nobody."""
+    one_part = sorted(
+        participant
+        for participant, by_scale in _mrt_rows(scores).items()
+        if _whole(by_scale) is None
+    )
+    if not one_part:
+        return ""
+    stored = _stored(participants)
+    used = [participant for participant in one_part if participant in stored.index]
+    shown = ", ".join(one_part[:10]) + (
+        f" and {len(one_part) - 10} more" if len(one_part) > 10 else ""
+    )
+    return (
+        f"{len(one_part)} participant{'s have' if len(one_part) != 1 else ' has'} one MRT part "
+        f"only ({shown}): half the test is not its score, so the stored total is used where "
+        f"the participants table has one and the participant is left out otherwise (stored "
+        f"total used for {len(used)}, left out: {len(one_part) - len(used)})."
+    )

@@ -89,6 +89,14 @@ DECISION_RANGES: dict[str, tuple[float, float, bool]] = {
         for name in ("n_requests", "n_investigate", "n_abandon", "n_decide", "n_interventions")
     },
 }
+#: The key of a decision across every INPUT: one row per key (the study's database has the
+#: same unique index on a trial's decisions).
+DECISION_KEY = ("source", "trial_id", "collective", "decision_index")
+#: How far end_s − start_s may stray from decision_time_s: a hundredth of a second, above
+#: the rounding of any CSV writer and below the whole seconds the study's clock counts.
+TIME_TOLERANCE_S = 0.01
+#: Offending values named in a refusal; the rest are counted.
+SHOWN_VALUES = 3
 TEXT_COLUMNS = frozenset(
     column.name for column in DECISIONS.columns if column.required and column.dtype == "str"
 )
@@ -96,6 +104,22 @@ TEXT_COLUMNS = frozenset(
 
 class AnalysisInputError(ValueError):
     """An input the analysis cannot use, explained for the command line."""
+
+
+def _first_values(values: pd.Series, rows: pd.Series) -> str:
+    """The first few offending values with their rows, the rest counted: a refusal stays a
+    line or two however many rows break the rule."""
+    shown = ", ".join(
+        f"{str(value)[:60]!r} (row {row})"
+        for value, row in zip(values.iloc[:SHOWN_VALUES], rows.iloc[:SHOWN_VALUES], strict=True)
+    )
+    more = len(values) - SHOWN_VALUES
+    return shown + (f" and {more} more" if more > 0 else "")
+
+
+def _spreadsheet_rows(mask: pd.Series) -> pd.Series:
+    """Rows as a spreadsheet counts them (header = row 1) where ``mask`` holds."""
+    return pd.Series(np.flatnonzero(mask.to_numpy()) + 2)
 
 
 @dataclass(frozen=True)
@@ -239,22 +263,72 @@ def _numeric(frame: pd.DataFrame, where: str, columns: Sequence[str]) -> None:
         frame[name] = values
 
 
+def _one_of(frame: pd.DataFrame, where: str, column: str, allowed: tuple[str, ...]) -> None:
+    """Refuse a text column holding anything but ``allowed``, naming the first values."""
+    bad = ~frame[column].isin(allowed)
+    if bad.any():
+        raise AnalysisInputError(
+            f"{where}: {column} must be "
+            + " or ".join(repr(value) for value in allowed)
+            + f", found {_first_values(frame.loc[bad, column].fillna('(empty)'), _spreadsheet_rows(bad))}"
+        )
+
+
+def _refuse_foreign_delimiter(frame: pd.DataFrame, where: str) -> None:
+    """A comma header over rows written with another delimiter: each row is one field.
+
+    pandas reads such a row into the first column and leaves the others empty; without
+    this the first rule to notice (the source's values) listed every row in one line.
+    """
+    first = frame[frame.columns[0]].astype("string")
+    others = frame[[name for name in DECISION_COLUMNS if name != frame.columns[0]]]
+    for delimiter, name in ((";", "semicolons"), ("\t", "tabs"), ("|", "bars")):
+        one_field = first.str.contains(delimiter, regex=False).fillna(False) & others.isna().all(
+            axis=1
+        )
+        if one_field.any():
+            position = int(np.flatnonzero(one_field.to_numpy())[0])
+            raise AnalysisInputError(
+                f"{where}: row {position + 2} is one field separated by {name} "
+                f"({str(first.iloc[position])[:60]!r}) under a comma-separated header; the "
+                "export's tables are comma-separated CSV (save as CSV with commas)"
+            )
+
+
+def _times_agree(decisions: pd.DataFrame, where: str) -> None:
+    """Refuse a decision whose end_s − start_s is not its decision_time_s.
+
+    end_s orders the decisions into the study's slots and decision_time_s is what the
+    tables average; if they disagree, one of them is wrong and the tables would mix both.
+    """
+    if not {"start_s", "end_s"} <= set(decisions.columns):
+        return
+    start = pd.to_numeric(decisions["start_s"], errors="coerce").astype(float)
+    end = pd.to_numeric(decisions["end_s"], errors="coerce").astype(float)
+    duration = decisions["decision_time_s"].astype(float)
+    with np.errstate(invalid="ignore"):
+        apart = (end - start - duration).abs() > TIME_TOLERANCE_S
+    apart &= start.notna() & end.notna() & duration.notna()
+    if apart.any():
+        rows = np.flatnonzero(apart.to_numpy())
+        first = rows[0]
+        raise AnalysisInputError(
+            f"{where}: {len(rows)} decision(s) whose end_s − start_s is not decision_time_s "
+            f"(tolerance {TIME_TOLERANCE_S:g} s); first, row {first + 2}: end_s "
+            f"{end.iloc[first]:g} − start_s {start.iloc[first]:g} = "
+            f"{end.iloc[first] - start.iloc[first]:g} s, but decision_time_s is "
+            f"{duration.iloc[first]:g}"
+        )
+
+
 def _decisions(frame: pd.DataFrame, where: str) -> pd.DataFrame:
     decisions = _checked(frame, where, "decisions", DECISION_COLUMNS)
+    _refuse_foreign_delimiter(decisions, where)
     _numeric(decisions, where, NUMERIC_DECISION_COLUMNS)
-    sources = set(decisions["source"].dropna())
-    unknown = sources - {SIMULATION, STUDY, SYNTHETIC}
-    if unknown or decisions["source"].isna().any():
-        raise AnalysisInputError(
-            f"{where}: source must be 'simulation', 'study' or 'synthetic', "
-            f"found {sorted(unknown) or 'empty'}"
-        )
-    difficulties = set(decisions["difficulty"].dropna()) - {"easy", "difficult"}
-    if difficulties:
-        raise AnalysisInputError(
-            f"{where}: difficulty must be 'easy' or 'difficult', found {sorted(difficulties)}"
-        )
+    _one_of(decisions, where, "source", (SIMULATION, STUDY, SYNTHETIC))
+    _one_of(decisions, where, "difficulty", ("easy", "difficult"))
     _keeps_contract(decisions, where, DECISIONS)
+    _times_agree(decisions, where)  # once every cell has its type
     decisions["participant"] = decisions["participant"].fillna("")
     decisions["group"] = pd.Series(
         [
@@ -264,10 +338,97 @@ def _decisions(frame: pd.DataFrame, where: str) -> pd.DataFrame:
         index=decisions.index,
         dtype="object",
     )
-    unknown_groups = set(decisions["group"]) - set(GROUP_ORDER)
-    if unknown_groups:
-        raise AnalysisInputError(f"{where}: unknown model(s) {sorted(unknown_groups)}")
-    return decisions
+    unknown_groups = ~decisions["group"].isin(GROUP_ORDER)
+    if unknown_groups.any():
+        raise AnalysisInputError(
+            f"{where}: unknown model(s) "
+            + _first_values(
+                decisions.loc[unknown_groups, "model"], _spreadsheet_rows(unknown_groups)
+            )
+        )
+    return decisions.assign(_where=where, _row=np.arange(len(decisions)) + 2)
+
+
+#: Columns that say where a decision row was read, not what it holds.
+_PLACE = ("input", "_where", "_row")
+
+
+def _same(left: object, right: object) -> bool:
+    return bool(pd.isna(left) and pd.isna(right)) or bool(left == right)
+
+
+def _one_row_per_decision(decisions: pd.DataFrame, drop_exact: bool) -> tuple[pd.DataFrame, int]:
+    """The decisions with each key once, and how many exact copies were dropped.
+
+    A key given twice is refused naming both places: the same INPUT given twice, or a
+    row copied inside one, would otherwise double every count and N. With ``drop_exact``
+    rows identical in every read column are dropped (first kept) and counted; copies that
+    differ in any column are refused still, since which one is right cannot be known.
+    """
+    if decisions.empty:
+        return decisions, 0
+    content = [name for name in decisions.columns if name not in _PLACE]
+    dropped = 0
+    if drop_exact:
+        exact = decisions.duplicated(subset=content, keep="first")
+        dropped = int(exact.sum())
+        decisions = decisions[~exact]
+    key = list(DECISION_KEY)
+    repeated = decisions.duplicated(subset=key, keep=False)
+    if not repeated.any():
+        return decisions, dropped
+    clash = decisions[repeated]
+    keys = clash[key].drop_duplicates()
+    first = clash[(clash[key] == keys.iloc[0]).all(axis=1)]
+    one, other = first.iloc[0], first.iloc[1]
+    differing = [name for name in content if not _same(one[name], other[name])]
+    source, trial, collective, index = (one[name] for name in key)
+    why = (
+        f"they differ in {', '.join(differing[:SHOWN_VALUES])}"
+        if differing
+        else "the rows are identical (an INPUT given twice?); --drop-exact-duplicates drops "
+        "rows identical in every column and counts them"
+    )
+    raise AnalysisInputError(
+        f"{len(keys)} decisions appear more than once across the inputs (one row per source, "
+        f"trial, collective and decision index); first: {source} trial {trial}, collective "
+        f"{collective}, decision {int(float(index))} in {one['_where']} row {one['_row']} and "
+        f"{other['_where']} row {other['_row']};\n{why}"
+    )
+
+
+def _one_row_per_participant(combined: dict[str, pd.DataFrame], drop_exact: bool) -> int:
+    """Refuse a participant listed twice (the same export given twice doubles every
+    questionnaire and probe too); with ``drop_exact``, drop rows identical in every column
+    of every export table instead, in place, and return how many."""
+    dropped = 0
+    if drop_exact:
+        for table in STUDY_TABLES:
+            frame = combined[table]
+            content = [name for name in frame.columns if name != "input"]
+            exact = frame.duplicated(subset=content, keep="first") if len(frame) else frame.index
+            if len(frame) and exact.any():
+                dropped += int(exact.sum())
+                combined[table] = frame[~exact]
+    people = combined["participants"]
+    if not len(people):
+        return dropped
+    coded = people[people["participant"].notna() & (people["participant"].astype(str) != "")]
+    repeated = coded[coded["participant"].astype(str).duplicated(keep=False)]
+    if len(repeated):
+        code = str(repeated["participant"].iloc[0])
+        places = sorted(
+            {
+                str(place)
+                for place in repeated.loc[repeated["participant"].astype(str) == code, "input"]
+            }
+        )
+        raise AnalysisInputError(
+            f"{repeated['participant'].astype(str).nunique()} participants appear more than "
+            f"once in the participants tables; first: {code} in {' and '.join(places)} "
+            "(the same export given twice, or two exports that overlap?)"
+        )
+    return dropped
 
 
 def _empty(table: str) -> pd.DataFrame:
@@ -381,6 +542,7 @@ def load_inputs(
     pool_studies: bool = False,
     pool_synthetic: bool = False,
     completers_only: bool = False,
+    drop_exact_duplicates: bool = False,
 ) -> StudyTables:
     """Read and combine every INPUT, tag groups and drop flagged participants.
 
@@ -393,7 +555,9 @@ def load_inputs(
 
     ``study`` keeps one study's participants; participants of different
     study files (name or digest) are refused unless ``pool_studies``
-    (`hcss.analysis.studies`).
+    (`hcss.analysis.studies`). Each decision key (:data:`DECISION_KEY`) appears once over
+    all INPUTs; ``drop_exact_duplicates`` drops rows identical in every column (counted in
+    ``warnings``) instead of refusing them.
 
     Synthetic participants' decisions (``source = synthetic``) are analysed as a
     study's teams, with a warning saying so; beside real participants' they are
@@ -415,6 +579,11 @@ def load_inputs(
         else _empty(table)
         for table in ("decisions", *STUDY_TABLES)
     }
+    combined["decisions"], dropped = _one_row_per_decision(
+        combined["decisions"], drop_exact_duplicates
+    )
+    combined["decisions"] = combined["decisions"].drop(columns=["_where", "_row"], errors="ignore")
+    dropped += _one_row_per_participant(combined, drop_exact_duplicates)
     synthetic_note = _synthetic(combined["decisions"], pool_synthetic)
     combined["participants"], never_opened = set_aside_never_opened(combined["participants"])
     if study is not None:
@@ -453,6 +622,11 @@ def load_inputs(
     if len(warnings) == len(inputs):
         raise AnalysisInputError("no data to analyse: " + "; ".join(warnings))
     warnings += synthetic_note
+    if dropped:
+        warnings += (
+            f"dropped {dropped} exact duplicate rows (--drop-exact-duplicates): rows "
+            "identical in every column to one read before",
+        )
     for table in STUDY_TABLES:
         frame = combined[table]
         if "model" in frame.columns:

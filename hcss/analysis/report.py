@@ -205,12 +205,10 @@ def run_analysis(
     pool_studies: bool = False,
     pool_synthetic: bool = False,
     completers_only: bool = False,
+    drop_exact_duplicates: bool = False,
 ) -> Report:
     """Load INPUTs (one study's participants, or several study files only when pooled),
     compute measures and tests, write tables, figures and report.html."""
-    directory = Path(out)
-    steps = tqdm(total=5, desc="hcss analyze", unit="step", disable=not progress)
-    steps.set_postfix_str("loading")
     tables = load_inputs(
         inputs,
         include_pilot=include_pilot,
@@ -218,8 +216,24 @@ def run_analysis(
         pool_studies=pool_studies,
         pool_synthetic=pool_synthetic,
         completers_only=completers_only,
+        drop_exact_duplicates=drop_exact_duplicates,
     )
-    steps.update()
+    return analyse_tables(tables, out, include_pilot, progress, mann_whitney_method, continuity)
+
+
+def analyse_tables(
+    tables: StudyTables,
+    out: str | Path,
+    include_pilot: bool = False,
+    progress: bool = True,
+    mann_whitney_method: MannWhitneyMethod = "auto",
+    continuity: bool = True,
+) -> Report:
+    """Measures, tests, tables, figures and report.html from inputs already loaded and
+    checked (:func:`hcss.analysis.load.load_inputs`): the command loads first, so a refused
+    input never waits for the statistics libraries to import."""
+    directory = Path(out)
+    steps = tqdm(total=4, desc="hcss analyze", unit="step", disable=not progress)
     steps.set_postfix_str("measures")
     measures = all_measures(tables)
     if measures.empty and tables.all_participants.empty:

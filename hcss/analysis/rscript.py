@@ -51,6 +51,21 @@ def write_r_script(
         written.append(directory / MODEL_DECISIONS)
     if scores is not None and (scores["instrument"] == "mrt").any():
         mrt = scores.loc[scores["instrument"] == "mrt", list(MRT_SCORES_TABLE.names)]
+        if "mrt_score" in participants.columns:  # the stored total, R's last resort as hcss's
+            stored = participants[["participant", "mrt_score"]].dropna()
+            mrt = pd.concat(
+                [
+                    mrt,
+                    pd.DataFrame(
+                        {
+                            "participant": stored["participant"].astype(str),
+                            "scale": "stored",
+                            "score": pd.to_numeric(stored["mrt_score"]),
+                        }
+                    ),
+                ],
+                ignore_index=True,
+            )
         write_checked(directory / MRT_SCORES, mrt, MRT_SCORES_TABLE)
         written.append(directory / MRT_SCORES)
     return written

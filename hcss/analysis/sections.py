@@ -8,7 +8,7 @@ tests are computed once here and shared by the tables that show them.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import partial
 
 import pandas as pd
@@ -32,11 +32,12 @@ from hcss.analysis.descriptive import descriptive_frame
 from hcss.analysis.design_tables import friedman_table, model_table, paired_wilcoxon_table
 from hcss.analysis.families import FAMILIES, Family
 from hcss.analysis.figures import comparison_figure, family_figure, profile_figure
+from hcss.analysis.instrument_measures import incomplete_mrt_note
 from hcss.analysis.load import StudyTables
 from hcss.analysis.measures import MRT_MEASURE
 from hcss.analysis.paired import RepeatedComparison, repeated_comparisons
 from hcss.analysis.paper_tables import family_table, pvalue_matrix
-from hcss.analysis.paper_units import paper_unit_tables
+from hcss.analysis.paper_units import paper_unit_tables, simulation_units
 from hcss.analysis.sample import (
     attrition_table,
     counterbalancing_table,
@@ -44,6 +45,7 @@ from hcss.analysis.sample import (
     sample_table,
 )
 from hcss.analysis.stats import MannWhitneyMethod
+from hcss.analysis.study_tests import five_group_tables, study_tables
 from hcss.analysis.tables import Table
 
 INDEPENDENT_NOTE = (
@@ -52,13 +54,28 @@ INDEPENDENT_NOTE = (
     "so these tests do not respect the repeated-measures design; their tables say so where "
     "groups share participants."
 )
-REPEATED_NOTE = (
+RANK_REPEATED_NOTE = (
     "Tests that respect the design: Friedman with Kendall's W and paired Wilcoxon signed-rank "
-    "tests (Holm) on participants with all three models; a logistic GEE of success per decision "
-    "(population-averaged odds ratios; the subject-specific glmer fit is in analysis.R) and a "
-    "linear mixed model of log decision time, both with the participant as cluster and the "
-    "counterbalancing (trial position, first section) as covariates when it varies."
+    "tests (Holm) on participants with all three models."
 )
+MODEL_REPEATED_NOTE = (
+    "Decision-level models with the participant as cluster and the counterbalancing (trial "
+    "position, first section) as covariates when it varies: a logistic GEE of success "
+    "(population-averaged odds ratios; the subject-specific glmer fit is in analysis.R) and a "
+    "linear mixed model of log decision time (random intercept; model-based and CR2 "
+    "cluster-robust errors side by side)."
+)
+
+
+def repeated_note(rank_tests: bool, models: bool) -> str:
+    """The section's introduction, naming only the analyses it shows."""
+    return " ".join(
+        text
+        for text, shown in ((RANK_REPEATED_NOTE, rank_tests), (MODEL_REPEATED_NOTE, models))
+        if shown
+    )
+
+
 MULTIPLICITY_NOTE = (
     "Multiplicity: Holm's correction is applied within a family of tests, and only there. "
     "The families are (1) the three pairwise comparisons of one measure and split after "
@@ -66,6 +83,14 @@ MULTIPLICITY_NOTE = (
     "themselves) and (2) the three paired Wilcoxon tests of one measure and split. Omnibus "
     "tests, model terms and correlations across measures are not corrected: read them as "
     "exploratory, one confirmatory hypothesis per pre-registered measure."
+)
+STUDY_TESTS_NOTE = (
+    "The study's tests as it ran them, to set a run beside the paper's printed N, DOF, U and "
+    "p: over its simulation units (trial scenario, decision slot; runs averaged) and, for "
+    "human-collective teams, over single decisions. Those values are not independent (slots "
+    "share a scenario and its runs, decisions share a participant), so these p-values "
+    "describe the study's tests; the per-scenario and per-participant tests above are the "
+    "report's primary inference."
 )
 DESIGN_NOTE = (
     "The counterbalancing achieved (participants per cell and model order, by status) and "
@@ -161,6 +186,10 @@ def build_sections(
             mrt = [c for c in correlation_results if c.x == MRT_MEASURE]
             extra = [_renamed(spearman_table(mrt), "spearman_mrt")] if mrt else []
         section = _family_section(family, measures, summary, kruskal, friedman, extra)
+        if section and family.key == "mrt":
+            section = replace(
+                section, intro=incomplete_mrt_note(tables.scores, tables.participants)
+            )
         if section:
             sections.append(section)
             covered.update(family.members(measures))
@@ -207,25 +236,27 @@ def _test_sections(
                 details_label="Every pair of every post-hoc test (the matrices above summarise them)",
             )
         )
-    design = []
+    ranks: list[Table] = []
     paired: tuple[Table, ...] = ()
     if repeated:
-        design.append(friedman_table(repeated))
+        ranks = [t for t in [friedman_table(repeated)] if t.rows]
         paired = tuple(t for t in [paired_wilcoxon_table(repeated)] if t.rows)
+    models = []
     if (tables.decisions["source"] == "study").any():
         for name, model in (
             ("gee_success", success_gee(tables.decisions, tables.participants)),
             ("mixedlm_time", time_mixed_model(tables.decisions, tables.participants)),
         ):
             if model.terms or not model.too_small:  # too small: listed in the banner
-                design.append(model_table(name, model))
-    design = [table for table in design if table.rows]
+                models.append(model_table(name, model))
+    design = ranks + [table for table in models if table.rows]
     if design:
+        intro = repeated_note(bool(ranks or paired), len(design) > len(ranks))
         sections.append(
             Section(
                 "repeated",
                 "Repeated-measures analyses",
-                f"{REPEATED_NOTE} {MULTIPLICITY_NOTE}",
+                f"{intro} {MULTIPLICITY_NOTE}",
                 tuple(design),
                 details=paired,
                 details_label="Paired Wilcoxon tests, every pair (their Holm p is below the "
@@ -242,16 +273,31 @@ def _simulation_sections(
     continuity: bool,
 ) -> list[Section]:
     two_sample = simulation_comparisons(measures, mann_whitney_method, continuity)
-    if not two_sample:
-        return []
-    return [
-        Section(
-            "simulation",
-            "Simulation-only models",
-            "",
-            (mann_whitney_table(two_sample), *paper_unit_tables(decisions)),
+    units = simulation_units(decisions)  # computed once for the three uses below
+    sections = []
+    if two_sample:
+        sections.append(
+            Section(
+                "simulation",
+                "Simulation-only models",
+                "",
+                (mann_whitney_table(two_sample), *paper_unit_tables(decisions, units)),
+            )
         )
-    ]
+    own = study_tables(decisions, units)
+    five = five_group_tables(decisions, units)
+    if own or five:
+        sections.append(
+            Section(
+                "study_tests",
+                "The study's own tests, under its units",
+                STUDY_TESTS_NOTE,
+                (*own, *five[:1]),
+                details=tuple(five[1:]),
+                details_label="Tukey-Kramer pairs of the five groups",
+            )
+        )
+    return sections
 
 
 def _renamed(table: Table, name: str) -> Table:

@@ -130,7 +130,12 @@ that analysis.R recomputes the MRT measure from the export, not from hcss.
 """.strip(),
     columns=(
         Column("participant", "str", "participant code", nullable=False),
-        Column("scale", "str", "`total`, `part_1` or `part_2`", nullable=False),
+        Column(
+            "scale",
+            "str",
+            "`total`, `part_1` or `part_2` (the export's rows), or `stored` (participants table)",
+            nullable=False,
+        ),
         SCORES.column("score"),
     ),
 )
@@ -426,6 +431,15 @@ fitted` with the reason in `note`.
             Column("p_method", "str", "how p was computed"),
             _NOTE,
             Column("variance", "float", "a variance component's estimate"),
+            Column("robust_lower", "float", "CR2 cluster-robust 95% interval, lower (mixed model)"),
+            Column("robust_upper", "float", "CR2 cluster-robust 95% interval, upper"),
+            Column("robust_p", "float", "p from CR2 errors on Satterthwaite df (Bell–McCaffrey)"),
+            Column("robust_df", "float", "the Satterthwaite df of the CR2 test"),
+            Column(
+                "detectable_ratio",
+                "float",
+                "the smallest ratio (> 1) the CR2 test detects with 80% power at α = .05",
+            ),
         ),
     )
 
@@ -453,6 +467,75 @@ study's published numbers.
         ),
     )
 
+
+_UNIT_MEASURE = _measure("`success_pct` or `time_min`")
+STUDY_UNITS_MANN_WHITNEY = TableSpec(
+    name="study_units_mann_whitney",
+    title="Report table `study_units_mann_whitney`",
+    description="""
+The study's Mann-Whitney tests of the simulation-only models (M2 vs M1) over
+its own units (`paper_units_*`), as the study prints them; the units are not
+independent.
+""".strip(),
+    columns=(
+        _UNIT_MEASURE,
+        _SPLIT,
+        Column("n_m1", "int", "units of M1", nullable=False),
+        Column("n_m2", "int", "units of M2", nullable=False),
+        Column("N", "int", "n₁ + n₂, as the study prints it", nullable=False),
+        Column("dof", "int", "groups − 1, as the study prints it", nullable=False),
+        Column("U", "float", "U = min(U₁, U₂), the paper's statistic"),
+        Column("W", "float", "W of M2 over M1, as R's `wilcox.test(m2, m1)` prints it"),
+        _P,
+        *_effect("rank_biserial_r", "rank-biserial r (positive: M2 larger)"),
+        Column("shift", "float", "Hodges–Lehmann shift M2 − M1 (points or minutes)"),
+        Column("shift_lower", "float", "lower end of its 95% interval (R's wilcox.test)"),
+        Column("shift_upper", "float", "upper end of its 95% interval"),
+        Column("shift_method", "str", "how the interval was found"),
+        _METHOD,
+    ),
+)
+STUDY_UNITS_SPEARMAN = TableSpec(
+    name="study_units_spearman",
+    title="Report table `study_units_spearman`",
+    description="Spearman ρ of decision time with success over the study's units, per model and split.",
+    columns=(
+        _GROUP,
+        _SPLIT,
+        Column("n", "int", "units", nullable=False),
+        Column("rho", "float", "Spearman's ρ"),
+        Column("rho_lower", "float", "lower end of its 95% interval (Fisher z)"),
+        Column("rho_upper", "float", "upper end of its 95% interval"),
+        _P,
+        _METHOD,
+        _NOTE,
+    ),
+)
+STUDY_FIVE_GROUPS_KRUSKAL = TableSpec(
+    name="study_five_groups_kruskal",
+    title="Report table `study_five_groups_kruskal`",
+    description="""
+The study's Kruskal-Wallis over M1 SIM, M2 SIM (its units) and M1–M3 (single
+human decisions), when the inputs hold both.
+""".strip(),
+    columns=(
+        _UNIT_MEASURE,
+        _SPLIT,
+        Column("groups", "str", "the groups tested, space-separated", nullable=False),
+        Column("n", "int", "values in all groups", nullable=False),
+        Column("df", "float", "groups − 1"),
+        Column("chi2", "float", "Kruskal-Wallis χ² (tie-corrected)"),
+        _P,
+        _METHOD,
+        _NOTE,
+    ),
+)
+STUDY_FIVE_GROUPS_TUKEY_KRAMER = _posthoc(
+    "study_five_groups_tukey_kramer",
+    "Tukey-Kramer comparisons of the five groups' mean ranks",
+    "q",
+    "studentized range statistic",
+)
 
 PAPER_UNITS_SUCCESS = _paper_units("paper_units_success", "success rate (%)")
 PAPER_UNITS_TIME = _paper_units("paper_units_time", "decision time (minutes)")
@@ -501,6 +584,10 @@ REPORT_TABLES: tuple[TableSpec, ...] = (
     MIXEDLM_TIME,
     PAPER_UNITS_SUCCESS,
     PAPER_UNITS_TIME,
+    STUDY_UNITS_MANN_WHITNEY,
+    STUDY_UNITS_SPEARMAN,
+    STUDY_FIVE_GROUPS_KRUSKAL,
+    STUDY_FIVE_GROUPS_TUKEY_KRAMER,
     SUMMARY,
 )
 

@@ -34,7 +34,8 @@ def test_six_participants_run_every_rank_test_and_list_only_the_models(tmp_path:
     tables = load_inputs([study_export(tmp_path / "export", participants=6)])
     assert sample_banner(tables).not_run == (
         "Decision-level GEE and mixed model: they need 10 or more participants (6); "
-        "robust errors from fewer clusters are not trustworthy",
+        "the GEE's robust errors and the mixed model's participant variance from fewer "
+        "participants are not trustworthy",
     )
     keys = [section.key for section in build_sections(tables, all_measures(tables))]
     assert {"independent", "repeated", "correlations", "design"} <= set(keys)

@@ -33,7 +33,8 @@ def test_groups_are_tagged_by_source_and_model(tmp_path: Path):
 def test_directory_and_file_inputs_combine(tmp_path: Path):
     decisions = simulation_decisions(scenarios=2, runs=2)
     write_table(decisions, tmp_path / "run" / "decisions.csv")
-    write_table(decisions.head(5), tmp_path / "extra.csv")
+    extra = decisions.head(5).assign(trial_id=lambda frame: "extra-" + frame["trial_id"])
+    write_table(extra, tmp_path / "extra.csv")
     tables = load_inputs([tmp_path / "run", tmp_path / "extra.csv"])
     assert len(tables.decisions) == len(decisions) + 5
 

@@ -14,7 +14,13 @@ import pytest
 from hcss.analysis.comparisons import correlations
 from hcss.analysis.load import load_inputs
 from hcss.analysis.measures import all_measures, measure_label
-from tests.support.synthetic import DECISION_COLUMNS, decision_row, study_export, write_table
+from tests.support.synthetic import (
+    DECISION_COLUMNS,
+    decision_row,
+    numbered,
+    study_export,
+    write_table,
+)
 
 
 def _study_decisions() -> list[dict]:
@@ -96,7 +102,10 @@ def _rows(participant: str, trial: str, count: int, **values) -> list[dict]:
 @pytest.fixture()
 def tiny_export(tmp_path: Path) -> Path:
     study = tmp_path / "study"
-    write_table(pd.DataFrame(_study_decisions(), columns=DECISION_COLUMNS), study / "decisions.csv")
+    write_table(
+        pd.DataFrame(numbered(_study_decisions()), columns=DECISION_COLUMNS),
+        study / "decisions.csv",
+    )
     request = {
         "request_id": 1,
         "collective": "I",
@@ -179,7 +188,8 @@ def tiny_export(tmp_path: Path) -> Path:
     )
     write_table(participants, study / "participants.csv")
     write_table(
-        pd.DataFrame(_simulation_decisions(), columns=DECISION_COLUMNS), tmp_path / "simulation.csv"
+        pd.DataFrame(numbered(_simulation_decisions()), columns=DECISION_COLUMNS),
+        tmp_path / "simulation.csv",
     )
     return tmp_path
 

@@ -47,6 +47,7 @@ RELATIVE = {
     "tukey_hsd": 1e-6,
     "gee_success": 1e-4,  # iterative fits with different stopping rules
     "mixedlm_time": 1e-5,
+    "mixedlm_time (CR2)": 1e-5,  # clubSandwich's coef_test on lme4's fit
 }
 ABSOLUTE = 1e-12
 
@@ -93,7 +94,11 @@ def test_statistics_and_effect_sizes_are_reproduced_too(r_pvalues):
     for column, name in (("stat", "statistics"), ("effect", "effect sizes")):
         rows = table[table[f"{column}_hcss"].notna() & table[f"{column}_r"].notna()]
         assert len(rows) > 100, name
-        tolerance = rows["table"].map({"gee_success": 1e-5, "mixedlm_time": 1e-6}).fillna(1e-9)
+        tolerance = (
+            rows["table"]
+            .map({"gee_success": 1e-5, "mixedlm_time": 1e-6, "mixedlm_time (CR2)": 1e-5})
+            .fillna(1e-9)
+        )
         relative = (rows[f"{column}_r"] - rows[f"{column}_hcss"]).abs() / rows[
             f"{column}_hcss"
         ].abs().clip(lower=1e-12)

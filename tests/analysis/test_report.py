@@ -77,7 +77,7 @@ def test_a_simulation_experiment_plus_bot_export(bot_export, tmp_path):
     write_table(simulation_decisions(scenarios=6, runs=2), tmp_path / "sim" / "decisions.csv")
     out = tmp_path / "report"
     page, sections, stderr = analyse(str(tmp_path / "sim"), str(export), "--out", str(out))
-    assert sections == ["sample", "performance", "simulation", "correlations"]
+    assert sections == ["sample", "performance", "simulation", "study_tests", "correlations"]
     assert_complete(page, sections, out)
     # the bot export is named in a warning instead of vanishing
     assert f"Warning: {export.name} contributes nothing" in page  # no path in the report

@@ -116,7 +116,8 @@ def test_two_participants_get_no_model_and_one_banner_line(tmp_path: Path):
     banner = sample_banner(tables)
     assert (
         "Decision-level GEE and mixed model: they need 10 or more participants (2); "
-        "robust errors from fewer clusters are not trustworthy"
+        "the GEE's robust errors and the mixed model's participant variance from fewer "
+        "participants are not trustworthy"
     ) in banner.not_run
     model = success_gee(tables.decisions, tables.participants)
     assert model.terms == () and model.too_small

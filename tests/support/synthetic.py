@@ -66,7 +66,21 @@ def decision_row(**values) -> dict:
     unknown = set(values) - set(row)
     assert not unknown, unknown
     row.update(values)
+    time = values.get("decision_time_s")
+    if "end_s" not in values and isinstance(time, int | float) and not isinstance(time, bool):
+        row["end_s"] = row["start_s"] + time  # the loader checks end − start = time
     return row
+
+
+def numbered(rows: list[dict]) -> list[dict]:
+    """The rows with decision_index counted 1, 2, ... per trial and collective, in order: one
+    key per decision, as the loader requires."""
+    seen: dict[tuple, int] = {}
+    for row in rows:
+        key = (row["source"], row["trial_id"], row["collective"])
+        seen[key] = seen.get(key, 0) + 1
+        row["decision_index"] = seen[key]
+    return rows
 
 
 def stored_record(**values) -> dict:
@@ -96,6 +110,7 @@ def _trial_decisions(rng, source, model, participant, trial_id, scenario_id, run
     success = {"M1": (0.9, 0.3), "M2": (0.9, 0.7), "M3": (0.8, 0.6)}[model]
     mean_minutes = {"M1": 4.0, "M2": 6.0, "M3": 5.0}[model]
     rows, clock = [], {c: 0.0 for c in COLLECTIVES}
+    made = {c: 0 for c in COLLECTIVES}  # decisions per collective: the decision_index
     for section, kind in ((1, "easy"), (2, "difficult")):
         for index in range(6):
             collective = COLLECTIVES[index % 4]
@@ -109,6 +124,7 @@ def _trial_decisions(rng, source, model, participant, trial_id, scenario_id, run
             decide = int(rng.poisson(0.7)) if human else 0
             start = clock[collective]
             clock[collective] = start + minutes * 60
+            made[collective] += 1
             rows.append(
                 decision_row(
                     source=source,
@@ -121,7 +137,7 @@ def _trial_decisions(rng, source, model, participant, trial_id, scenario_id, run
                     section=section,
                     section_kind=kind,
                     collective=collective,
-                    decision_index=index // 4 + 1,
+                    decision_index=made[collective],
                     difficulty=difficulty,
                     start_s=start,
                     end_s=start + minutes * 60,
