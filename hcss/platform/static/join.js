@@ -12,9 +12,9 @@
     const offer = document.getElementById("join-framed");
     const finished = document.getElementById("join-finished");
     const intro = document.getElementById("join-intro");
-    if (intro) intro.hidden = true;  // the frame checks nothing: no words about a check
+    if (intro) intro.hidden = true; // the frame checks nothing: no words about a check
     const form = document.getElementById("join-form");
-    if (form) form.hidden = true;  // left out by the server when it knew of the frame
+    if (form) form.hidden = true; // left out by the server when it knew of the frame
     if (box) box.hidden = true;
     if (!finished.hidden) return;
     offer.hidden = false;
