@@ -19,8 +19,10 @@ import pytest
 
 from hcss.platform.console import second_factor
 from hcss.platform.console.second_factor import CODE_FAILURES
-from tests.platform.test_console_second_factor import _enrol, _next_step_code, _sign_in
 from tests.support.console import PASSWORD
+from tests.support.second_factor import enrol as _enrol
+from tests.support.second_factor import next_step_code as _next_step_code
+from tests.support.second_factor import sign_in as _sign_in
 
 pytestmark = pytest.mark.slow  # a dozen argon2-checked sign-ins
 

@@ -6,10 +6,6 @@ made with pyotp from the printed secret, as an authenticator app makes them.
 
 from __future__ import annotations
 
-import re
-import time
-
-import pyotp
 from click.testing import CliRunner
 from sqlalchemy import select
 
@@ -17,33 +13,9 @@ from hcss.platform.console.lockout import CLIENT_FAILURES
 from hcss.platform.console.second_factor import CODES_PER_LOCKOUT
 from hcss.platform.models import Experimenter
 from tests.support.console import PASSWORD, USERNAME
-from tests.support.trials import csrf_token_of
-
-
-def _sign_in(app, password: str, code: str = "", address: str = "10.0.0.1"):
-    client = app.test_client()
-    client.environ_base["REMOTE_ADDR"] = address
-    form = client.get("/console/login").get_data(as_text=True)
-    fields = {"csrf_token": csrf_token_of(form), "username": USERNAME, "password": password}
-    return client.post("/console/login", data={**fields, "code": code})
-
-
-def _enrol(app, monkeypatch) -> tuple[pyotp.TOTP, list[str]]:
-    from hcss.cli import main as cli
-
-    monkeypatch.setenv("DATABASE_URL", app.config["DATABASE_URL"])
-    result = CliRunner().invoke(cli, ["admin", "second-factor", USERNAME])
-    assert result.exit_code == 0, result.output
-    secret = re.search(r"authenticator app: ([A-Z2-7]+)", result.output)
-    assert secret and "otpauth://totp/" in result.output
-    codes = re.findall(r"^ +([0-9a-f]{5}-[0-9a-f]{5})$", result.output, re.MULTILINE)
-    assert len(codes) == 10 and len(set(codes)) == 10
-    return pyotp.TOTP(secret.group(1)), codes
-
-
-def _next_step_code(totp: pyotp.TOTP) -> str:
-    """A code of a later step than any used (the app shows a new one every 30 s)."""
-    return totp.at(time.time() + totp.interval)
+from tests.support.second_factor import enrol as _enrol
+from tests.support.second_factor import next_step_code as _next_step_code
+from tests.support.second_factor import sign_in as _sign_in
 
 
 def test_an_enrolled_account_needs_its_code_once_and_a_code_is_not_taken_twice(

@@ -8,35 +8,21 @@ client play no part: only the database decides which sign-in gets the code.
 
 from __future__ import annotations
 
-import re
 import threading
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 
 import httpx
-import pyotp
 import pytest
-from click.testing import CliRunner
 
 from hcss.platform.console import second_factor
 from hcss.platform.console.second_factor import CODE_FAILURES
 from tests.support.console import PASSWORD, USERNAME
 from tests.support.inprocess import serving
+from tests.support.second_factor import enrol as _enrol
 from tests.support.trials import csrf_token_of
 
 pytestmark = pytest.mark.slow  # sign-ins at once: each checks an argon2 password
-
-
-def _enrol(app, monkeypatch) -> tuple[pyotp.TOTP, list[str]]:
-    from hcss.cli import main as cli
-
-    monkeypatch.setenv("DATABASE_URL", app.config["DATABASE_URL"])
-    result = CliRunner().invoke(cli, ["admin", "second-factor", USERNAME])
-    assert result.exit_code == 0, result.output
-    secret = re.search(r"authenticator app: ([A-Z2-7]+)", result.output)
-    codes = re.findall(r"^ +([0-9a-f]{5}-[0-9a-f]{5})$", result.output, re.MULTILINE)
-    assert secret is not None and len(codes) == 10
-    return pyotp.TOTP(secret.group(1)), codes
 
 
 def _browser(base_url: str, address: str) -> httpx.Client:

@@ -25,9 +25,9 @@ from sqlalchemy import select
 from hcss.platform import db
 from hcss.platform.console import accounts, second_factor
 from hcss.platform.models import Experimenter
-from tests.platform.test_console_second_factor_races import _enrol
 from tests.support.console import PASSWORD, USERNAME
 from tests.support.inprocess import serving
+from tests.support.second_factor import enrol as _enrol
 from tests.support.trials import csrf_token_of
 
 #: Milliseconds: below an argon2 check among 40 at once on 2 cores (seconds), far above
