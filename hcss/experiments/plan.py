@@ -45,7 +45,7 @@ from hcss.experiments.synthetic_trials import TRIAL_S, TrialRows
 from hcss.simulation.params import Params
 from hcss.simulation.synthetic import Population
 from hcss.tablespec import DECISIONS, EXPORT_TABLES
-from hcss.tidy_csv import write_rows
+from hcss.tidy_csv import write_frame, write_rows
 
 PLAN_BLOCK = 50_000_000  # participants' and their scenarios' seeds: apart from calibration's
 SIMULATION_BLOCK = 60_000_000  # the simulation-only pool's scenarios
@@ -289,7 +289,7 @@ def write_plan(out: Path, plan: Plan, params: Params) -> Path:
     """plan.html (and plan.json, power.csv) in OUT."""
     out.mkdir(parents=True, exist_ok=True)
     table = pw.power_table(plan.points)
-    table.to_csv(out / "power.csv", index=False)
+    write_frame(out / "power.csv", table)
     figure = _figure_png(plan.points)
     (out / "power.png").write_bytes(base64.b64decode(figure))
     (out / "plan.json").write_text(

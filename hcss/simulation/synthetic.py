@@ -22,6 +22,7 @@ pace, however their probes interleave.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, fields, replace
 from typing import Any
@@ -139,12 +140,12 @@ class Population:
             z = float(rng.standard_normal()) * self.spread
             if f.name == "decide_support":
                 excess = max(centre - DECIDE_FLOOR, 1e-3)
-                values[f.name] = min(0.95, DECIDE_FLOOR + excess * float(np.exp(z)))
+                values[f.name] = min(0.95, DECIDE_FLOOR + excess * math.exp(z))
             elif f.name in _BOUNDED:
                 p = min(max(centre, 1e-4), 1 - 1e-4)
-                values[f.name] = float(1.0 / (1.0 + np.exp(-(np.log(p / (1 - p)) + z))))
+                values[f.name] = 1.0 / (1.0 + math.exp(-(math.log(p / (1 - p)) + z)))
             else:
-                values[f.name] = centre * float(np.exp(z))
+                values[f.name] = centre * math.exp(z)
         return Traits(**values)
 
     def participant(self, seed: int) -> Traits:
