@@ -73,7 +73,6 @@ from hcss.platform.models import (
     Observation,
     RequestStatusChange,
     SimEvent,
-    Snapshot,
     TrialLease,
     TrialStatusChange,
 )
@@ -148,7 +147,9 @@ class LeaseWatch(threading.Thread):
 
 
 def _row_ids(database: Database, trial_ids: list[int]) -> dict[str, set[int]]:
-    tables = (Command, SimEvent, DecisionRow, RequestStatusChange, Snapshot)
+    """The ids of the record's rows of these trials. Not snapshots: older ones are pruned
+    by design once a newer one is written (hcss.platform.live.snapshots)."""
+    tables = (Command, SimEvent, DecisionRow, RequestStatusChange)
     with database.session_scope() as session:
         return {
             model.__tablename__: set(
