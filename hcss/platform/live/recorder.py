@@ -133,5 +133,5 @@ def end_trial(live: RunningTrial, session: Session, reason: str, now: float) -> 
             live.mark_ended(reason),
         ],
     )
-    snapshots.written(live)
+    snapshots.written(live, now)
     snapshots.prune(session, live.trial_id)

@@ -6,8 +6,9 @@ Every hosted trial used to write a 55-69 KB snapshot every 5 s and keep all of
 them: 2.2 GB for 61 trials in 47 minutes (issue 41). Now, in the unit of work
 that writes a snapshot:
 
-- nothing is written when the simulation is where the last snapshot of this
-  trial in memory left it (same step, same last command);
+- nothing is written when the trial is where the last snapshot of this
+  trial in memory left it (same step, same last command, its clock at the
+  same step: paused, or standing still while the database is away);
 - older snapshots are deleted once the new one is in the same transaction,
   so a snapshot is gone only when a newer one commits with it. What stays:
   the newest `KEEP_NEWEST`, and of the older ones the oldest in each age
@@ -24,7 +25,7 @@ from __future__ import annotations
 
 from weakref import WeakKeyDictionary
 
-from sqlalchemy import delete, select
+from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from hcss.platform.live import trial_writer
@@ -34,14 +35,21 @@ from hcss.platform.models import Snapshot
 #: Newest snapshots kept whatever their age: the one a rebuild reads, and the one before.
 KEEP_NEWEST = 2
 
-#: The (step, last command) each trial in memory last wrote a snapshot at.
-_written: WeakKeyDictionary[RunningTrial, tuple[int, int | None]] = WeakKeyDictionary()
+#: The (step, last command, clock's step) each trial in memory last wrote a snapshot at.
+_written: WeakKeyDictionary[RunningTrial, tuple[int, int | None, int]] = WeakKeyDictionary()
 
 
 def write_snapshot(live: RunningTrial, session: Session, now: float) -> bool:
     """Write the trial's snapshot in `session` unless its state is the one last written
-    from this process, and prune what it supersedes; whether one was written."""
-    state = (live.sim.step_count, live.last_command_id)
+    from this process, and prune what it supersedes; whether one was written.
+
+    The state includes the step the trial's clock has reached (`due_step`): a trial
+    whose simulation finished early still runs to its deadline, and its newest row's
+    time is when its host was last seen alive (hcss.platform.live.outages), so it
+    goes on writing (and pruning); a paused trial, or one standing still while the
+    database is away, does not.
+    """
+    state = (live.sim.step_count, live.last_command_id, live.due_step(now))
     if _written.get(live) == state:
         return False
     trial_writer.write_facts(session, live.trial_id, [live.snapshot_taken(now)])
@@ -50,9 +58,9 @@ def write_snapshot(live: RunningTrial, session: Session, now: float) -> bool:
     return True
 
 
-def written(live: RunningTrial) -> None:
+def written(live: RunningTrial, now: float) -> None:
     """A snapshot of the trial's present state was written by another path (its end)."""
-    _written[live] = (live.sim.step_count, live.last_command_id)
+    _written[live] = (live.sim.step_count, live.last_command_id, live.due_step(now))
 
 
 def prune(session: Session, trial_id: int) -> int:
@@ -65,11 +73,7 @@ def prune(session: Session, trial_id: int) -> int:
     keep = kept([(row.id, row.step) for row in rows])
     dropped = [row.id for row in rows if row.id not in keep]
     if dropped:
-        session.execute(
-            delete(Snapshot)
-            .where(Snapshot.id.in_(dropped))
-            .execution_options(synchronize_session=False)
-        )
+        trial_writer.delete_snapshots(session, dropped)
     return len(dropped)
 
 

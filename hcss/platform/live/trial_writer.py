@@ -40,7 +40,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from sqlalchemy import select
+from sqlalchemy import delete, select
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import add_if_absent
@@ -50,6 +50,7 @@ from hcss.platform.models import (
     CommandOutcome,
     Interruption,
     Probe,
+    Snapshot,
     Trial,
     TrialProblem,
     TrialStatusChange,
@@ -93,6 +94,16 @@ def write_problem(session: Session, trial_id: int, source: str, record: str, pro
     """A stored record that could not be used, or a trial that could not be rebuilt."""
     session.add(
         TrialProblem(trial_id=trial_id, source=source, record=record, problem=problem[:300])
+    )
+
+
+def delete_snapshots(session: Session, snapshot_ids: list[int]) -> None:
+    """Delete these superseded snapshots (hcss.platform.live.snapshots chooses them; the
+    table's trigger refuses any that is a trial's newest)."""
+    session.execute(
+        delete(Snapshot)
+        .where(Snapshot.id.in_(snapshot_ids))
+        .execution_options(synchronize_session=False)
     )
 
 
