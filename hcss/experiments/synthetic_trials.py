@@ -30,7 +30,7 @@ from hcss.simulation.messages import collective_name
 from hcss.simulation.params import Params
 from hcss.simulation.requests import OperatorCommand
 from hcss.simulation.scenario import Scenario
-from hcss.simulation.synthetic import Observation, SyntheticOperator, Traits
+from hcss.simulation.synthetic import ObservationClick, SyntheticOperator, Traits
 
 SYNTHETIC = "synthetic"  # the decisions table's `source` of a synthetic participant's trials
 TRIAL_S = 1200.0  # the original protocol's trial length (the study file's timing.trial_s)
@@ -147,7 +147,7 @@ def _request_row(base: dict[str, Any], sim: Simulation, command: OperatorCommand
 
 
 def _observation_row(
-    base: dict[str, Any], time: float, click: Observation, attended: int | None
+    base: dict[str, Any], time: float, click: ObservationClick, attended: int | None
 ) -> dict[str, Any]:
     """The export's row, and `attended`: the collective the operator was looking at (not
     exported; `study_teams` counts a target click for that collective's decision)."""

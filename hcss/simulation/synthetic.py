@@ -164,7 +164,7 @@ class Population:
 
 
 @dataclass(frozen=True)
-class Observation:
+class ObservationClick:
     """An observation click (not part of a request): a hub or a target, left or right button."""
 
     kind: str  # "collective" or "target"
@@ -188,7 +188,7 @@ class Glance:
 
     collective: int | None
     commands: tuple[OperatorCommand, ...] = ()
-    observations: tuple[Observation, ...] = ()
+    observations: tuple[ObservationClick, ...] = ()
 
 
 @dataclass
@@ -232,15 +232,15 @@ class SyntheticOperator:
         read = np.asarray(d.value, dtype=float) + noise
         ids = [int(x) for x in d.target_ids.tolist()]
         self._remember(d, ids, read)
-        observations: list[Observation] = []
+        observations: list[ObservationClick] = []
         if u[0] < t.observe_collective_prob:
-            observations.append(Observation("collective", collective=c))
+            observations.append(ObservationClick("collective", collective=c))
         shown = np.flatnonzero(d.in_range[c] & d.drawn)
         if d.executing[c] or not shown.size:
             return Glance(c, (), tuple(observations))
         best = int(shown[np.argmax(read[shown])])
         if u[1] < t.observe_target_prob:
-            observations.append(Observation("target", target=ids[best]))
+            observations.append(ObservationClick("target", target=ids[best]))
         commands: list[OperatorCommand] = []
         abandoned = {r.target for r in d.requests if r.collective == c and r.kind == "abandon"}
         if u[2] < t.abandon_prob:

@@ -106,7 +106,9 @@ def pause(server: StudyServer, action: str) -> None:
         (participant,) = session.scalars(select(Participant)).all()
         session.expunge(participant)
     with server.app.app_context():
-        change_participant_state(server.database, server.runner, participant, None, action)
+        change_participant_state(
+            server.database, server.app.extensions["hcss_live"], participant, None, action
+        )
 
 
 def live_pages(page, server: StudyServer, findings: Findings, kind: str) -> None:
@@ -135,7 +137,7 @@ def live_pages(page, server: StudyServer, findings: Findings, kind: str) -> None
     findings.check(page, f"{kind}: a request accepted, an info box open")
     if kind == "trial":
         live = live_trial(server)
-        assert wait_for(server, lambda lv: lv.current_probe is not None, 100), "no probe"
+        assert wait_for(server, lambda lv: lv.probes.current is not None, 100), "no probe"
         expect(page.locator("#probe")).to_be_visible()
         findings.check(page, "trial: a probe waiting")
         page.locator("#probe-ready").click()
@@ -143,7 +145,7 @@ def live_pages(page, server: StudyServer, findings: Findings, kind: str) -> None
         findings.check(page, "trial: a probe asked")
         page.locator("#probe-choices button").first.click()
         expect(page.locator("#probe")).to_be_hidden()
-        assert live.current_probe is None
+        assert live.probes.current is None
         pause(server, "pause")
         expect(page.locator("#paused")).to_be_visible()
         findings.check(page, "trial: paused by the experimenter")

@@ -83,7 +83,7 @@ def test_a_key_too_soon_after_the_question_says_why_it_did_nothing(
 
     _, page = open_live_trial(browser, demo_server, {"width": 1024, "height": 620})
     live = live_trial(demo_server)
-    assert wait_for(demo_server, lambda lv: lv.current_probe, 150), "no probe within 150 s"
+    assert wait_for(demo_server, lambda lv: lv.probes.current, 150), "no probe within 150 s"
     expect(page.locator("#probe-ready")).to_be_focused()
     expect(page.locator("#probe-hint")).to_have_text("")
     page.keyboard.press("Enter")  # Ready
@@ -97,7 +97,7 @@ def test_a_key_too_soon_after_the_question_says_why_it_did_nothing(
     expect(page.locator("#probe-hint")).to_have_text(
         "Choose an answer: click it, or Tab to it and press Enter."
     )
-    probe = live.current_probe
+    probe = live.probes.current
     assert probe is not None and probe.ready
     page.keyboard.press("Tab")
     page.keyboard.press("Enter")

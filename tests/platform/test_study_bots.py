@@ -32,7 +32,8 @@ def test_hcss_bots_fills_a_database_with_flagged_completed_bots(tmp_path) -> Non
         main, ["bots", "--n", "2", "--study", "demo", "--database-url", url]
     )
     assert result.exit_code == 0, result.output
-    assert result.output.count("39 pages, 6 trials") == 2  # the MRT part ends on "part done"
+    # 40: the MRT part ends on "part done"; the instruction check is answered at its first try
+    assert result.output.count("40 pages, 6 trials") == 2
     database = Database(url)
     with database.session_scope() as session:
         participants = list(session.scalars(select(Participant)))

@@ -35,7 +35,7 @@ from typing import Any, Protocol
 from hcss.experiments.synthetic_trials import glance_steps, reaction_steps
 from hcss.platform.live.idempotency import KEY_HEADER
 from hcss.simulation import Display
-from hcss.simulation.synthetic import Observation, SyntheticOperator
+from hcss.simulation.synthetic import ObservationClick, SyntheticOperator
 
 #: Answers that mean "not now" (the server holds the command back, or a proxy lost its answer).
 PASSING = frozenset({502, 503, 504})
@@ -196,7 +196,7 @@ class SyntheticBot:
                 return frame
             self.sleep(0.05)
 
-    def _observe(self, step: int, click: Observation) -> None:
+    def _observe(self, step: int, click: ObservationClick) -> None:
         self.send("/observations", click.to_json())
         self.log.observations.append({"step": step, **click.to_json()})
 
