@@ -122,6 +122,10 @@ def test_the_probe_box_hides_no_hub_and_not_what_it_asks_about(
         )
         page.locator("#probe-choices button").first.click()
         expect(page.locator("#probe")).to_be_hidden()
+        # The answer is carried out (its probe closed in the trial) before the next is put:
+        # the page hides its box at once, and a probe put before the answer's commit would
+        # be closed by it, as a probe of the study never is (they are minutes apart).
+        assert wait_for(demo_server, lambda lv: lv.probes.current is None, 30), "answer lost"
 
         # A question about the corner's target: that target is never hidden, nor any hub.
         _ask(demo_server, ProbeLevel.PERCEPTION, corner, names)
