@@ -84,6 +84,17 @@ class _RowById(Fact):
         return row_id is not None and session.get(self.model, row_id) is not None
 
 
+class _InOneStatement(Fact):
+    """A fact whose kind is written a run at a time (`write_all`, one statement): one alone
+    is a run of one."""
+
+    __slots__ = ()
+
+    def write(self, session: Session, trial_id: int) -> int | None:
+        type(self).write_all(session, trial_id, [self])
+        return None
+
+
 def _probe_event(session: Session, probe_id: int, kind: str, **fields: Any) -> int | None:
     """A probe's ready press, answer, time-out or score, once per kind; its id (None: stored
     before, by a commit whose answer was lost)."""
@@ -99,7 +110,7 @@ def _probe_event_stored(session: Session, probe_id: int, kind: str) -> bool:
 
 
 @dataclass(frozen=True)
-class EventHappened(Fact):
+class EventHappened(_InOneStatement):
     """A System Message event the simulation handed over (its text as the page shows it)."""
 
     kind: str
@@ -107,10 +118,6 @@ class EventHappened(Fact):
     target: int | None
     text: str
     sim_time: float
-
-    def write(self, session: Session, trial_id: int) -> int | None:
-        EventHappened.write_all(session, trial_id, [self])
-        return None
 
     @classmethod
     def write_all(cls, session: Session, trial_id: int, facts: Sequence[Fact]) -> None:
@@ -167,17 +174,13 @@ class DecisionMade(Fact):
 
 
 @dataclass(frozen=True)
-class RequestStatusChanged(Fact):
+class RequestStatusChanged(_InOneStatement):
     """A request's status changed (accepted, in progress, completed, removed) at `step`."""
 
     request_id: int
     status: str
     step: int
     sim_time: float
-
-    def write(self, session: Session, trial_id: int) -> int | None:
-        RequestStatusChanged.write_all(session, trial_id, [self])
-        return None
 
     @classmethod
     def write_all(cls, session: Session, trial_id: int, facts: Sequence[Fact]) -> None:
