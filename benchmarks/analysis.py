@@ -5,7 +5,6 @@ Figures are printed, never asserted.
 
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
 import tempfile
@@ -58,17 +57,30 @@ class _Measured:
 
 
 def _run_measured(command: list[str], stderr_path: Path) -> _Measured:
-    """Run `command` and read its own peak resident memory from wait4.
+    """Run `command` and read its own peak resident memory from wait4, through a small
+    launcher process.
 
     Not RUSAGE_CHILDREN: that is the largest child this process ever had, and the
-    simulation pool that made the benchmark's decisions has larger ones (640 MB
-    against the command's 430).
+    simulation pool that made the benchmark's decisions has larger ones. Nor this
+    process's own child: a child's high-water mark starts from the fork of this
+    (large) process before its exec, so a small launcher forks the command.
     """
+    launcher = (
+        "import os, subprocess, sys\n"
+        "child = subprocess.Popen(sys.argv[1:], stdout=subprocess.DEVNULL)\n"
+        "_, status, usage = os.wait4(child.pid, 0)\n"
+        "print(usage.ru_maxrss, os.waitstatus_to_exitcode(status))\n"
+    )
     with stderr_path.open("w") as stderr:
-        child = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=stderr)
-        _, status, usage = os.wait4(child.pid, 0)
-    child.returncode = os.waitstatus_to_exitcode(status)
-    return _Measured(child.returncode, stderr_path.read_text(), usage.ru_maxrss)
+        done = subprocess.run(
+            [sys.executable, "-c", launcher, *command],
+            stdout=subprocess.PIPE,
+            stderr=stderr,
+            text=True,
+            check=False,
+        )
+    peak_kb, returncode = (int(word) for word in done.stdout.split())
+    return _Measured(returncode, stderr_path.read_text(), peak_kb)
 
 
 def large_decisions_file(scenarios: int = 420, runs: int = 10) -> None:
