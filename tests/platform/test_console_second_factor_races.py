@@ -9,7 +9,6 @@ client play no part: only the database decides which sign-in gets the code.
 from __future__ import annotations
 
 import threading
-from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 
 import httpx
@@ -20,6 +19,7 @@ from hcss.platform.console.second_factor import CODE_FAILURES
 from tests.support.console import PASSWORD, USERNAME
 from tests.support.inprocess import serving
 from tests.support.second_factor import enrol as _enrol
+from tests.support.second_factor import sign_ins_at_once
 from tests.support.trials import csrf_token_of
 
 pytestmark = pytest.mark.slow  # sign-ins at once: each checks an argon2 password
@@ -30,32 +30,13 @@ def _browser(base_url: str, address: str) -> httpx.Client:
     return httpx.Client(base_url=base_url, transport=transport, timeout=60.0)
 
 
-def _at_once(base_url: str, count: int, fields: Callable[[int], dict[str, str]]) -> list[int]:
-    """`count` sign-ins from `count` addresses, sent together; their statuses."""
-    browsers = [_browser(base_url, f"127.0.5.{10 + number}") for number in range(count)]
-    tokens = [csrf_token_of(b.get("/console/login").text) for b in browsers]
-    start = threading.Barrier(count)
-
-    def sign_in(number: int) -> int:
-        form = {"csrf_token": tokens[number], "username": USERNAME, **fields(number)}
-        start.wait()
-        return browsers[number].post("/console/login", data=form).status_code
-
-    try:
-        with ThreadPoolExecutor(count) as pool:
-            return list(pool.map(sign_in, range(count)))
-    finally:
-        for browser in browsers:
-            browser.close()
-
-
 def test_one_totp_code_in_ten_simultaneous_sign_ins_gives_one_session(
     app, experimenter, monkeypatch
 ) -> None:
     totp, _ = _enrol(app, monkeypatch)
     with serving(app) as base_url:
         code = totp.now()
-        statuses = _at_once(base_url, 10, lambda _: {"password": PASSWORD, "code": code})
+        statuses = sign_ins_at_once(base_url, 10, lambda _: {"password": PASSWORD, "code": code})
     assert statuses.count(302) == 1, statuses
     assert statuses.count(401) == 9
 
@@ -65,7 +46,9 @@ def test_one_recovery_code_in_ten_simultaneous_sign_ins_gives_one_session(
 ) -> None:
     _, codes = _enrol(app, monkeypatch)
     with serving(app) as base_url:
-        statuses = _at_once(base_url, 10, lambda _: {"password": PASSWORD, "code": codes[0]})
+        statuses = sign_ins_at_once(
+            base_url, 10, lambda _: {"password": PASSWORD, "code": codes[0]}
+        )
     assert statuses.count(302) == 1, statuses
 
 
@@ -78,8 +61,12 @@ def test_two_recovery_codes_spent_at_once_both_sign_in_and_neither_comes_back(
     in CI as [401, 302]); that is the limit working, not the single use under test."""
     _, codes = _enrol(app, monkeypatch)
     with serving(app) as base_url:
-        both = _at_once(base_url, 2, lambda number: {"password": PASSWORD, "code": codes[number]})
-        again = _at_once(base_url, 2, lambda number: {"password": PASSWORD, "code": codes[number]})
+        both = sign_ins_at_once(
+            base_url, 2, lambda number: {"password": PASSWORD, "code": codes[number]}
+        )
+        again = sign_ins_at_once(
+            base_url, 2, lambda number: {"password": PASSWORD, "code": codes[number]}
+        )
     assert both == [302, 302]
     assert again == [401, 401]
 

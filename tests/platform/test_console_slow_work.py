@@ -12,12 +12,9 @@ the same sign-ins run as a control.
 from __future__ import annotations
 
 import contextlib
-import threading
 import time
 from collections.abc import Callable, Iterator
-from concurrent.futures import ThreadPoolExecutor
 
-import httpx
 import pytest
 from flask import Flask
 from sqlalchemy import select
@@ -28,6 +25,7 @@ from hcss.platform.models import Experimenter
 from tests.support.console import PASSWORD, USERNAME
 from tests.support.inprocess import serving
 from tests.support.second_factor import enrol as _enrol
+from tests.support.second_factor import sign_ins_at_once
 from tests.support.trials import csrf_token_of
 
 #: Milliseconds: below an argon2 check among 40 at once on 2 cores (seconds), far above
@@ -41,32 +39,6 @@ def short_idle(app: Flask, monkeypatch) -> Iterator[Flask]:
     monkeypatch.setattr(db, "IDLE_IN_TRANSACTION_MS", SHORT_IDLE_MS)
     app.extensions["hcss_db"].engine.dispose()
     yield app
-
-
-def _at_once(base_url: str, count: int, fields: Callable[[int], dict[str, str]]) -> list[int]:
-    """`count` sign-ins from `count` loopback addresses, sent together; their statuses."""
-    browsers = [
-        httpx.Client(
-            base_url=base_url,
-            transport=httpx.HTTPTransport(local_address=f"127.0.6.{10 + number}"),
-            timeout=120.0,
-        )
-        for number in range(count)
-    ]
-    tokens = [csrf_token_of(b.get("/console/login").text) for b in browsers]
-    start = threading.Barrier(count)
-
-    def sign_in(number: int) -> int:
-        form = {"csrf_token": tokens[number], "username": USERNAME, **fields(number)}
-        start.wait()
-        return browsers[number].post("/console/login", data=form).status_code
-
-    try:
-        with ThreadPoolExecutor(count) as pool:
-            return list(pool.map(sign_in, range(count)))
-    finally:
-        for browser in browsers:
-            browser.close()
 
 
 def test_no_connection_is_held_while_a_password_or_a_code_is_checked(
@@ -112,7 +84,9 @@ def test_forty_wrong_password_sign_ins_at_once_answer_no_500(short_idle, experim
     longer than the lowered limit between two statements of the throttle's count: that
     answers 503 with Retry-After, the database being away for it, and is allowed rarely."""
     with serving(short_idle) as base_url:
-        statuses = _at_once(base_url, 40, lambda _: {"password": "wrong password"})
+        statuses = sign_ins_at_once(
+            base_url, 40, lambda _: {"password": "wrong password"}, subnet="127.0.6", timeout=120.0
+        )
     assert statuses.count(500) == 0, statuses
     assert set(statuses) <= {401, 503}, statuses
     assert statuses.count(401) >= 36, statuses
@@ -126,7 +100,13 @@ def test_one_recovery_code_in_twenty_sign_ins_at_once_answers_no_500(
     _, codes = _enrol(short_idle, monkeypatch)
     short_idle.extensions["hcss_db"].engine.dispose()
     with serving(short_idle) as base_url:
-        statuses = _at_once(base_url, 20, lambda _: {"password": PASSWORD, "code": codes[0]})
+        statuses = sign_ins_at_once(
+            base_url,
+            20,
+            lambda _: {"password": PASSWORD, "code": codes[0]},
+            subnet="127.0.6",
+            timeout=120.0,
+        )
     assert statuses.count(500) == 0, statuses
     assert statuses.count(302) == 1, statuses
     with short_idle.extensions["hcss_db"].session_scope() as session:

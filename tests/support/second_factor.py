@@ -4,8 +4,12 @@
 from __future__ import annotations
 
 import re
+import threading
 import time
+from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 
+import httpx
 import pyotp
 from click.testing import CliRunner
 
@@ -39,3 +43,37 @@ def sign_in(app, password: str, code: str = "", address: str = "10.0.0.1"):
 def next_step_code(totp: pyotp.TOTP) -> str:
     """A code of a later step than any used (the app shows a new one every 30 s)."""
     return totp.at(time.time() + totp.interval)
+
+
+def sign_ins_at_once(
+    base_url: str,
+    count: int,
+    fields: Callable[[int], dict[str, str]],
+    *,
+    subnet: str = "127.0.5",
+    timeout: float = 60.0,
+) -> list[int]:
+    """`count` sign-ins from `count` loopback addresses (`subnet`.10 on), held at a barrier
+    and sent together, as a crowd of browsers would; their statuses."""
+    browsers = [
+        httpx.Client(
+            base_url=base_url,
+            transport=httpx.HTTPTransport(local_address=f"{subnet}.{10 + number}"),
+            timeout=timeout,
+        )
+        for number in range(count)
+    ]
+    tokens = [csrf_token_of(b.get("/console/login").text) for b in browsers]
+    start = threading.Barrier(count)
+
+    def sign_in(number: int) -> int:
+        form = {"csrf_token": tokens[number], "username": USERNAME, **fields(number)}
+        start.wait()
+        return browsers[number].post("/console/login", data=form).status_code
+
+    try:
+        with ThreadPoolExecutor(count) as pool:
+            return list(pool.map(sign_in, range(count)))
+    finally:
+        for browser in browsers:
+            browser.close()
