@@ -20,13 +20,12 @@ from flask import Blueprint, Response, current_app, jsonify, request
 
 from hcss.platform.guards.clients import request_client
 from hcss.platform.live.access import require_owner, trial_for
-from hcss.platform.live.commands import COMMANDS, Declaration
+from hcss.platform.live.commands import COMMANDS, ActionError, Declaration
 from hcss.platform.live.door import Answer, refusal
 from hcss.platform.live.idempotency import idempotent
 from hcss.platform.live.service import live_trials
 from hcss.platform.live.stream_slots import RETRY_AFTER_S, StreamSlots, client_share, study_share
 from hcss.platform.live.trial_writer import KeyedCommand
-from hcss.platform.live.validation import ActionError
 
 _POSITION = re.compile(r"[0-9]{1,18}")
 

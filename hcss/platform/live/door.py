@@ -57,14 +57,13 @@ from sqlalchemy.exc import IntegrityError
 
 from hcss.platform.db import Database
 from hcss.platform.live import control, trial_writer
-from hcss.platform.live.commands import COMMANDS, Declaration, ParticipantCommand
-from hcss.platform.live.leases import HostedElsewhere, LeaseLost, trial_transaction
+from hcss.platform.live.commands import COMMANDS, ActionError, Declaration, ParticipantCommand
+from hcss.platform.live.leases import HostedElsewhere, LeaseLost
 from hcss.platform.live.orders import PendingOrder, send_order
 from hcss.platform.live.runner import Runner
 from hcss.platform.live.running_trial import RunningTrial
 from hcss.platform.live.trial_writer import KeyedCommand
-from hcss.platform.live.unit_of_work import trial_unit
-from hcss.platform.live.validation import ActionError
+from hcss.platform.live.unit_of_work import trial_transaction, trial_unit
 from hcss.platform.models import CommandKey
 from hcss.platform.models.participant_state import STATE_ACTIONS
 

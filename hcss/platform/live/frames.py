@@ -19,9 +19,9 @@ from sqlalchemy import select
 
 from hcss.platform.db import Database
 from hcss.platform.live import trials
+from hcss.platform.live.commands import ActionError
 from hcss.platform.live.running_trial import RunningTrial
 from hcss.platform.live.stream_slots import StreamSlots, takeover_frame
-from hcss.platform.live.validation import ActionError
 from hcss.platform.models import Participant, StudyEnrolment, Trial
 from hcss.platform.models.vocabularies import TrialStatus
 

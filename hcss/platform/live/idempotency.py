@@ -26,8 +26,8 @@ from typing import Any
 from flask import request
 
 from hcss.platform.live.access import require_owner
+from hcss.platform.live.commands import ActionError
 from hcss.platform.live.trial_writer import KeyedCommand
-from hcss.platform.live.validation import ActionError
 
 KEY_HEADER = "Idempotency-Key"
 KEY_PATTERN = re.compile(r"[A-Za-z0-9_-]{8,64}")

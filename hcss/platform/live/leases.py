@@ -43,7 +43,7 @@ the lease again, whatever the database answers (or does not).
 
 Placement. nginx sends each participant to one member of the group, and
 every process computes the same member (`home`, hcss.platform.live.placement)
-from the participant's token and the members alive (hcss.platform.live.members).
+from the participant's token and the members alive (hcss.platform.live.placement).
 So trials never move while their holder is alive:
 
 - a runner's sync claims a trial nobody holds only if this process is the
@@ -71,10 +71,8 @@ Only processes started as part of a group (`hcss serve --processes N`, or
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Iterable, Iterator, Sequence
-from contextlib import contextmanager
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 from sqlalchemy import Double, and_, cast, delete, func, literal, or_, select, update
 from sqlalchemy.dialects.postgresql import insert as pg_insert
@@ -84,12 +82,8 @@ from sqlalchemy.sql.elements import ColumnElement
 from werkzeug.exceptions import ServiceUnavailable
 
 from hcss.platform.db import Database
-from hcss.platform.live import members as group
-from hcss.platform.live.placement import address_of, home
+from hcss.platform.live.placement import address_of, home, live_members, say_alive
 from hcss.platform.models import Participant, Trial, TrialLease
-
-if TYPE_CHECKING:
-    from hcss.platform.live.running_trial import RunningTrial
 
 #: Seconds a lease lasts unless renewed; failover takes at most this long plus a sync.
 LEASE_S = 6.0
@@ -252,7 +246,7 @@ class Leases:
         with self.database.session_scope() as session:
             db_now = self._db_now(session, now)
             if self.placed:
-                group.say_alive(session, self.address, self.owner, db_now)
+                say_alive(session, self.address, self.owner, db_now)
             if not held:
                 return set(), {}
             rows = session.execute(
@@ -291,7 +285,7 @@ class Leases:
         """
         if not self.placed or not held:
             return {}
-        live = group.live_members(session, db_now, self.lease_s)
+        live = live_members(session, db_now, self.lease_s)
         alive = set(live) | {self.address}
         rows = session.execute(
             select(TrialLease.trial_id, TrialLease.taken_epoch, Participant.token)
@@ -365,7 +359,7 @@ class Leases:
             ).first()
             if row is None or (row.expires_epoch is not None and row.expires_epoch >= db_now):
                 return None  # held (by us or another): the claim decides
-            live = group.live_members(session, db_now, self.lease_s)
+            live = live_members(session, db_now, self.lease_s)
         there = home(row.token, self.members, set(live) | {self.address})
         if there is None or there == self.address:
             return None
@@ -445,7 +439,7 @@ class Leases:
                 .outerjoin(TrialLease, TrialLease.trial_id == Trial.id)
                 .where(Trial.id.in_(wanted))
             ).all()
-            live = group.live_members(session, db_now, self.lease_s) if self.placed else {}
+            live = live_members(session, db_now, self.lease_s) if self.placed else {}
         alive = set(live) | {self.address}
         taken = []
         for trial_id, started_at, token, owner, expires in rows:
@@ -480,13 +474,3 @@ class Fence:
         if not self.holds():
             raise LeaseLost(self.trial_id)
         self.leases.prove(session, self.trial_id, self.epoch, now)
-
-
-@contextmanager
-def trial_transaction(database: Database, live: RunningTrial) -> Iterator[Session]:
-    """A unit of work that writes for the trial: with leases it proves the lease first,
-    in the same transaction, and rolls back with `LeaseLost` if it cannot."""
-    with database.session_scope() as session:
-        if live.fence is not None:
-            live.fence.prove(session, database.clock())
-        yield session

@@ -13,7 +13,7 @@ whose answer was lost (a dropped line, a failover) is taken for failed and
 written again by the next, whose rows (an event by kind, time and text; a
 decision by collective and index; a status by request and status; a probe by
 its index; a probe event by its kind) are then skipped. Only the lease's
-holder writes (`leases.trial_transaction`); should a second writer race it
+holder writes (`unit_of_work.trial_transaction`); should a second writer race it
 anyway, the keys still store each row once.
 
 The cursors that say "written up to here" (the last event time, the decisions

@@ -7,7 +7,7 @@ probes and their events, decisions, System Message events, request statuses,
 and the console's actions on it. The callers (the recorder, the actions, the
 rebuild, the runner, the console's control) decide *what* happened, under the
 trial's lock and in a transaction that proves the lease
-(`leases.trial_transaction`, in a trial unit of work:
+(`unit_of_work.trial_transaction`, in a trial unit of work:
 hcss.platform.live.unit_of_work); this module turns it into rows. What a
 running trial and the commands on it do arrives as typed facts (`live.facts`),
 each of which declares its own rows: `write_fact` and `write_facts` write a

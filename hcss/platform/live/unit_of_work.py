@@ -6,7 +6,7 @@ out for another process), and the runner's steps (hcss.platform.live.stepping),
 write through `trial_unit`, which
 
 1. proves the fence: the transaction proves the trial's lease first
-   (`leases.trial_transaction`), so a process that lost it writes nothing;
+   (`trial_transaction`), so a process that lost it writes nothing;
 2. marks the cursors: what the trial counts written (its log's cursors,
    its probes, its end) stands only if the unit commits, and goes back when
    it does not (`kept_until_written`);
@@ -45,11 +45,20 @@ from sqlalchemy.orm import Session
 from hcss.platform.db import Database
 from hcss.platform.live import trial_writer
 from hcss.platform.live.facts import Fact
-from hcss.platform.live.leases import trial_transaction
 from hcss.platform.live.running_trial import RunningTrial
 from hcss.platform.live.trial_writer import KeyedCommand
 
 log = logging.getLogger(__name__)
+
+
+@contextmanager
+def trial_transaction(database: Database, live: RunningTrial) -> Iterator[Session]:
+    """A unit of work that writes for the trial: with leases it proves the lease first,
+    in the same transaction, and rolls back with `LeaseLost` if it cannot."""
+    with database.session_scope() as session:
+        if live.fence is not None:
+            live.fence.prove(session, database.clock())
+        yield session
 
 
 @contextmanager
