@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from flask import Blueprint, Response, current_app, jsonify, request
 
@@ -25,7 +25,9 @@ from hcss.platform.live.door import Answer, refusal
 from hcss.platform.live.idempotency import idempotent
 from hcss.platform.live.service import live_trials
 from hcss.platform.live.stream_slots import RETRY_AFTER_S, StreamSlots, client_share, study_share
-from hcss.platform.live.trial_writer import KeyedCommand
+
+if TYPE_CHECKING:
+    from hcss.platform.live.trial_writer import KeyedCommand
 
 _POSITION = re.compile(r"[0-9]{1,18}")
 

@@ -44,7 +44,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any, Generic, TypeVar
+from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
 from sqlalchemy import select
 from sqlalchemy.orm import Session
@@ -57,12 +57,14 @@ from hcss.platform.live.facts import (
     ProbeAnswered,
     ProbeReadyPressed,
 )
-from hcss.platform.live.progress import CurrentProbe
-from hcss.platform.live.running_trial import RunningTrial
 from hcss.platform.live.trial_log import command_message
-from hcss.platform.live.unit_of_work import TrialUnit
 from hcss.platform.models import COMMAND_KINDS, Observation
 from hcss.simulation import OperatorCommand
+
+if TYPE_CHECKING:
+    from hcss.platform.live.progress import CurrentProbe
+    from hcss.platform.live.running_trial import RunningTrial
+    from hcss.platform.live.unit_of_work import TrialUnit
 
 # --- the checks: every field against the trial's real ranges, before anything is written ---
 

@@ -50,7 +50,7 @@ from __future__ import annotations
 
 from contextlib import nullcontext
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from sqlalchemy import select
 from sqlalchemy.exc import IntegrityError
@@ -60,12 +60,14 @@ from hcss.platform.live import control, trial_writer
 from hcss.platform.live.commands import COMMANDS, ActionError, Declaration, ParticipantCommand
 from hcss.platform.live.leases import HostedElsewhere, LeaseLost
 from hcss.platform.live.orders import PendingOrder, send_order
-from hcss.platform.live.runner import Runner
-from hcss.platform.live.running_trial import RunningTrial
 from hcss.platform.live.trial_writer import KeyedCommand
 from hcss.platform.live.unit_of_work import trial_transaction, trial_unit
 from hcss.platform.models import CommandKey
 from hcss.platform.models.participant_state import STATE_ACTIONS
+
+if TYPE_CHECKING:
+    from hcss.platform.live.runner import Runner
+    from hcss.platform.live.running_trial import RunningTrial
 
 __all__ = ["ActionError", "Answer", "Command", "Control", "carry_out", "carry_out_order"]
 

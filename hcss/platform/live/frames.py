@@ -13,17 +13,19 @@ import json
 import time as wallclock
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 from sqlalchemy import select
 
 from hcss.platform.db import Database
 from hcss.platform.live import trials
 from hcss.platform.live.commands import ActionError
-from hcss.platform.live.running_trial import RunningTrial
 from hcss.platform.live.stream_slots import StreamSlots, takeover_frame
 from hcss.platform.models import Participant, StudyEnrolment, Trial
 from hcss.platform.models.vocabularies import TrialStatus
+
+if TYPE_CHECKING:
+    from hcss.platform.live.running_trial import RunningTrial
 
 MIN_GAP_S = 0.05  # at most 20 frames a second per stream, even under acceleration
 

@@ -17,11 +17,11 @@ from sqlalchemy.exc import DBAPIError
 from hcss.platform.live.leases import LeaseLost
 from hcss.platform.live.orders import PendingOrder, mark_done
 from hcss.platform.live.recorder import record_progress, write_snapshot
-from hcss.platform.live.running_trial import RunningTrial
 from hcss.platform.live.unit_of_work import kept_until_written, trial_transaction
 
 if TYPE_CHECKING:
     from hcss.platform.live.runner import Runner
+    from hcss.platform.live.running_trial import RunningTrial
 
 log = logging.getLogger(__name__)
 

@@ -20,13 +20,12 @@ The database going away while the server lives stops the clock the same way
 from __future__ import annotations
 
 from datetime import UTC, datetime
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from sqlalchemy import Select, func, select
 from sqlalchemy.orm import Session
 
 from hcss.platform.live import trial_writer
-from hcss.platform.live.running_trial import RunningTrial
 from hcss.platform.models import (
     Command,
     DecisionRow,
@@ -39,6 +38,9 @@ from hcss.platform.models import (
     Snapshot,
     TrialStatusChange,
 )
+
+if TYPE_CHECKING:
+    from hcss.platform.live.running_trial import RunningTrial
 
 
 def _newest(session: Session, *newest: Select[Any]) -> list[Any]:

@@ -27,14 +27,18 @@ event once, when the simulation hands it over.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 from sqlalchemy.orm import Session
 
 from hcss.platform.live import snapshots, trial_writer
 from hcss.platform.live.probes import POSTPONE_S, PROBE_TIMEOUT_S, fill_probe
 from hcss.platform.live.progress import CurrentProbe
-from hcss.platform.live.running_trial import RunningTrial
 from hcss.questionnaires.probes import ProbeLevel
+
+if TYPE_CHECKING:
+    from hcss.platform.live.running_trial import RunningTrial
 
 
 def record_progress(live: RunningTrial, session: Session) -> None:

@@ -27,6 +27,7 @@ import time as wallclock
 from collections import Counter
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
+from typing import TYPE_CHECKING
 
 from sqlalchemy.exc import DBAPIError, InterfaceError, OperationalError, ProgrammingError
 from sqlalchemy.orm import Session
@@ -47,10 +48,12 @@ from hcss.platform.live.orders import (
 from hcss.platform.live.recorder import (
     end_trial,
 )
-from hcss.platform.live.running_trial import RunningTrial
 from hcss.platform.live.stepping import advance_trial
 from hcss.platform.live.takeover import take_up
 from hcss.platform.live.trials import running_trial_ids
+
+if TYPE_CHECKING:
+    from hcss.platform.live.running_trial import RunningTrial
 
 log = logging.getLogger(__name__)
 

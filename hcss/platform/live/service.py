@@ -25,7 +25,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator
 from contextlib import contextmanager
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from flask import Flask, current_app
 from sqlalchemy.orm import Session
@@ -34,11 +34,13 @@ from hcss.platform.db import Database
 from hcss.platform.live import door, frames
 from hcss.platform.live.leases import LEASE_S, HostedElsewhere, Leases
 from hcss.platform.live.runner import Runner
-from hcss.platform.live.stream_slots import StreamSlots
-from hcss.platform.live.trial_writer import KeyedCommand
 from hcss.platform.live.trials import current_trial, latest_status
 from hcss.platform.models import Participant, Trial
 from hcss.platform.models.vocabularies import TrialStatus
+
+if TYPE_CHECKING:
+    from hcss.platform.live.stream_slots import StreamSlots
+    from hcss.platform.live.trial_writer import KeyedCommand
 
 __all__ = [
     "Answer",

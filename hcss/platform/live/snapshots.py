@@ -23,14 +23,17 @@ the same trial exists; updates stay refused.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
 from weakref import WeakKeyDictionary
 
 from sqlalchemy import select
 from sqlalchemy.orm import Session
 
 from hcss.platform.live import trial_writer
-from hcss.platform.live.running_trial import RunningTrial
 from hcss.platform.models import Snapshot
+
+if TYPE_CHECKING:
+    from hcss.platform.live.running_trial import RunningTrial
 
 #: Newest snapshots kept whatever their age: the one a rebuild reads, and the one before.
 KEEP_NEWEST = 2

@@ -9,6 +9,7 @@ a console action (to stop the clock at the instant it acts) and a hand-back
 from __future__ import annotations
 
 import logging
+from typing import TYPE_CHECKING
 
 from sqlalchemy.exc import DBAPIError
 
@@ -17,8 +18,10 @@ from hcss.platform.errors import database_away
 from hcss.platform.live.leases import LeaseLost
 from hcss.platform.live.outages import record_database_outage
 from hcss.platform.live.recorder import end_trial, record_progress, write_snapshot
-from hcss.platform.live.running_trial import RunningTrial
 from hcss.platform.live.unit_of_work import trial_unit
+
+if TYPE_CHECKING:
+    from hcss.platform.live.running_trial import RunningTrial
 
 log = logging.getLogger(__name__)
 

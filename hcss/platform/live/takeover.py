@@ -18,13 +18,13 @@ from sqlalchemy.exc import DBAPIError
 from hcss.platform.live import trial_writer
 from hcss.platform.live.leases import Fence, HostedElsewhere, LeaseLost
 from hcss.platform.live.rebuild import load_trial
-from hcss.platform.live.running_trial import RunningTrial
 from hcss.platform.live.trials import latest_status
 from hcss.platform.models import Trial
 from hcss.platform.models.vocabularies import TrialStatus
 
 if TYPE_CHECKING:
     from hcss.platform.live.runner import Runner
+    from hcss.platform.live.running_trial import RunningTrial
 
 log = logging.getLogger(__name__)
 

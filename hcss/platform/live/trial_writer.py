@@ -44,7 +44,6 @@ from sqlalchemy import delete, select
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import add_if_absent
-from hcss.platform.live.facts import Fact
 from hcss.platform.models import (
     CommandKey,
     CommandOutcome,
@@ -58,6 +57,7 @@ from hcss.platform.models import (
 from hcss.platform.models.vocabularies import TrialStatus
 
 if TYPE_CHECKING:
+    from hcss.platform.live.facts import Fact
     from hcss.simulation.requests import RequestOutcome
 
 

@@ -37,16 +37,18 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from sqlalchemy.exc import DBAPIError
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
 from hcss.platform.live import trial_writer
-from hcss.platform.live.facts import Fact
-from hcss.platform.live.running_trial import RunningTrial
 from hcss.platform.live.trial_writer import KeyedCommand
+
+if TYPE_CHECKING:
+    from hcss.platform.live.facts import Fact
+    from hcss.platform.live.running_trial import RunningTrial
 
 log = logging.getLogger(__name__)
 
