@@ -126,36 +126,45 @@ def group(
 
 def measure(processes: int, n_trials: int, base: str, workdir: Path) -> dict[str, float]:
     with postgres_schema(base, "hcss_bench") as url:
-        upgrade_database(url)
-        with group(url, processes, workdir / f"{processes}x{n_trials}") as (servers, nginx):
-            # Started now, as pages do: each is claimed by the process its token routes to.
-            tokens = start_trials(url, n_trials)
-            claim(nginx.url, tokens)
-            pids = [s.process.pid for s in servers if s.process is not None]
-            assert nginx.process is not None
-            nginx_pids = [nginx.process.pid, *_children(nginx.process.pid)]
-            nginx_cpu = sum(_process_cpu_s(pid) for pid in nginx_pids)
-            database = Database(url)
-            leases_before = _leases(database)
-            started = time.perf_counter()
-            result = drive(nginx.url, tokens, pids)
-            elapsed = time.perf_counter() - started
-            result["nginx_cpu"] = (sum(_process_cpu_s(p) for p in nginx_pids) - nginx_cpu) / elapsed
-            leases_after = _leases(database)
-            result["moves"] = sum(
-                1 for t, lease in leases_before.items() if leases_after.get(t) != lease
+        return capacity_run(url, processes, n_trials, workdir)
+
+
+def capacity_run(url: str, processes: int, n_trials: int, workdir: Path) -> dict[str, float]:
+    """One capacity measurement on the (migrated or empty) database at `url`: `n_trials`
+    pages driven through nginx in front of `processes` `--cluster` processes, with the
+    trials' moves (a lease that changed owner or epoch) and interruptions counted, which
+    are 0 without a fault (issue 41; tests/platform/test_capacity_moves.py)."""
+    upgrade_database(url)
+    with group(url, processes, workdir / f"{processes}x{n_trials}") as (servers, nginx):
+        # Started now, as pages do: each is claimed by the process its token routes to.
+        tokens = start_trials(url, n_trials)
+        claim(nginx.url, tokens)
+        pids = [s.process.pid for s in servers if s.process is not None]
+        assert nginx.process is not None
+        nginx_pids = [nginx.process.pid, *_children(nginx.process.pid)]
+        nginx_cpu = sum(_process_cpu_s(pid) for pid in nginx_pids)
+        database = Database(url)
+        leases_before = _leases(database)
+        started = time.perf_counter()
+        result = drive(nginx.url, tokens, pids)
+        elapsed = time.perf_counter() - started
+        result["nginx_cpu"] = (sum(_process_cpu_s(p) for p in nginx_pids) - nginx_cpu) / elapsed
+        leases_after = _leases(database)
+        result["leased"] = float(len(leases_before))  # every trial, once its page opened
+        result["moves"] = sum(
+            1 for t, lease in leases_before.items() if leases_after.get(t) != lease
+        )
+        split = [
+            sum(1 for owner, _ in leases_after.values() if address_of(owner) == address)
+            for address in (f"{s.host}:{s.port}" for s in servers)
+        ]
+        result["split"] = max(split) / max(1, sum(split))
+        with database.session_scope() as session:
+            result["interruptions"] = float(
+                session.scalar(select(func.count()).select_from(Interruption)) or 0
             )
-            split = [
-                sum(1 for owner, _ in leases_after.values() if address_of(owner) == address)
-                for address in (f"{s.host}:{s.port}" for s in servers)
-            ]
-            result["split"] = max(split) / max(1, sum(split))
-            with database.session_scope() as session:
-                result["interruptions"] = float(
-                    session.scalar(select(func.count()).select_from(Interruption)) or 0
-                )
-            database.engine.dispose()
-            return result
+        database.engine.dispose()
+        return result
 
 
 def _leases(database: Database) -> dict[int, tuple[str, int]]:
