@@ -768,3 +768,61 @@ def test_the_door_and_the_writer_dispatch_by_declaration() -> None:
         ]
         # The door tells the console's `Control` from a participant's command, nothing more.
         assert set(checked) <= ({"Control"} if module == "door.py" else set()), (module, checked)
+
+
+#: The runner's verbs for "stop hosting a trial", one per reason (docs/architecture.md).
+STOP_HOSTING = {"forget": "end", "let_go": "hand-over", "lose": "crash"}
+
+
+def registry_removals(root: Path) -> list[str]:
+    """Where a trial leaves a runner's registry (`_trials` popped, deleted from or cleared)
+    in a function other than the three verbs of `STOP_HOSTING`."""
+    found = []
+
+    class Removals(ast.NodeVisitor):
+        def __init__(self, where: Path) -> None:
+            self.where, self.functions = where, ["<module>"]
+
+        def visit_FunctionDef(self, node: ast.FunctionDef) -> None:
+            self.functions.append(node.name)
+            self.generic_visit(node)
+            self.functions.pop()
+
+        def _registry(self, node: ast.expr) -> bool:
+            return isinstance(node, ast.Attribute) and node.attr == "_trials"
+
+        def _found(self, node: ast.AST) -> None:
+            if self.functions[-1] not in STOP_HOSTING:
+                found.append(f"{self.where}:{node.lineno}: {self.functions[-1]}")
+
+        def visit_Delete(self, node: ast.Delete) -> None:
+            if any(isinstance(t, ast.Subscript) and self._registry(t.value) for t in node.targets):
+                self._found(node)
+            self.generic_visit(node)
+
+        def visit_Call(self, node: ast.Call) -> None:
+            func = node.func
+            if (
+                isinstance(func, ast.Attribute)
+                and func.attr in ("pop", "popitem", "clear")
+                and self._registry(func.value)
+            ):
+                self._found(node)
+            self.generic_visit(node)
+
+    for path in sorted((root / "hcss/platform/live").rglob("*.py")):
+        Removals(path.relative_to(root)).visit(ast.parse(path.read_text()))
+    return found
+
+
+def test_a_trial_stops_being_hosted_only_by_the_runners_three_verbs() -> None:
+    assert registry_removals(CHECKOUT) == []
+
+
+def test_a_planted_fourth_way_to_stop_hosting_is_found(tmp_path: Path) -> None:
+    root = planted(
+        tmp_path,
+        "hcss/platform/live/runner.py",
+        "def _planted(runner, trial_id):\n    runner._trials.pop(trial_id, None)",
+    )
+    assert [f.rsplit(": ", 1)[1] for f in registry_removals(root)] == ["_planted"]

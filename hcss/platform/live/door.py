@@ -7,9 +7,11 @@ experimenter's pause, resume and abort, are each a small frozen value
 `Control`), and `carry_out` is the one function that takes them. For every
 command it
 
-1. finds the trial: hosted here, claimed and rebuilt now, or hosted by
-   another process (the participant's command: `HostedElsewhere`, a 503 the
-   page retries and a proxy sends to the next process; the console's: a
+1. finds the trial: hosted here, claimed and rebuilt now (only by its
+   placement home, or after its holder's lease ran out), or hosted by
+   another process, which keeps it (the participant's command:
+   `HostedElsewhere`, which the API forwards to the holder through nginx,
+   hcss.platform.live.forwarding, writing nothing here; the console's: a
    `TrialOrder` that the host carries out through this same door);
 2. takes the trial's lock, and with an idempotency key looks the key up
    first: a repeat, even one racing the first, waits for the lock and is

@@ -132,8 +132,10 @@ class Hosting(Protocol):
 
 
 def _running(runner: Hosting, trial_id: int) -> RunningTrial:
-    """The trial hosted here for the participant's request (which asks it back if another
-    process holds it: nginx sends this participant here)."""
+    """The trial hosted here for the participant's request: claimed here if nobody holds it
+    and this process is its placement home; `HostedElsewhere` (the request is forwarded to
+    the holder, hcss.platform.live.forwarding) if another live process holds it or is its
+    home. The trial never moves for a request."""
     live = runner.host(trial_id, participant=True)
     if live is None:
         raise ActionError("the trial has ended", 409, "ended")

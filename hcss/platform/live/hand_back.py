@@ -27,7 +27,8 @@ log = logging.getLogger(__name__)
 
 
 def hand_over(runner: Runner, live: RunningTrial, order: PendingOrder) -> None:
-    """Stop hosting the trial and pass its lease to the process that asked for it."""
+    """Stop hosting the trial and pass its lease to the process withdrawing it, which sent a
+    hand-over order for it (`Runner.withdrawing`)."""
     assert runner.leases is not None
     with live.lock:
         with trial_transaction(runner.database, live) as session:

@@ -92,8 +92,8 @@ LEASE_S = 6.0
 UNCLAIMED_GRACE_S = 30.0
 #: Renewals per lease length: a renewal may be late twice before the lease is at risk.
 RENEWALS_PER_LEASE = 3
-#: Renewals a holder has missed in a row when a process asked for its trial stops waiting for
-#: it to answer and waits out its lease instead (`Leases.runs_out_unrenewed`).
+#: Renewals a holder has missed in a row when a process that gets a request for its trial stops
+#: forwarding to it and waits out its lease instead (`Leases.runs_out_unrenewed`): a crash.
 MISSED_RENEWALS = 2
 #: Seconds before its lease runs out (by its own monotonic clock) that a holder stops writing:
 #: room for a transaction begun just before the deadline and for clock rate differences.
@@ -396,10 +396,10 @@ class Leases:
 
         A healthy holder renews every `renew_every_s`, so its lease always has more
         than `lease_s - renew_every_s` left; one with less than `lease_s -
-        MISSED_RENEWALS * renew_every_s` left has gone quiet. A process asked for
-        the trial (its participant's stream, sent on by the proxy) waits out those
-        last seconds and claims it, instead of answering 503 and having the page
-        come back through the silent process once more.
+        MISSED_RENEWALS * renew_every_s` left has gone quiet. A process that gets a
+        request for the trial (its participant's stream, sent on by the proxy) waits
+        out those last seconds and claims it, a takeover after a crash, instead of
+        forwarding the request to the silent process once more.
         """
         if not self._wall_clock:
             return None  # a test's manual clock does not move while this one waits

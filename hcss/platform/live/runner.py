@@ -34,10 +34,7 @@ from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
 from hcss.platform.live.hand_back import hand_back, hand_over
-from hcss.platform.live.leases import (
-    HostedElsewhere,
-    Leases,
-)
+from hcss.platform.live.leases import Fence, HostedElsewhere, Leases
 from hcss.platform.live.orders import (
     HAND_OVER,
     POLL_S,
@@ -165,7 +162,8 @@ class Runner:
             return set(self._trials)
 
     def forget(self, trial_id: int) -> RunningTrial | None:
-        """Drop a trial from memory; the next `host` rebuilds it from the database if running."""
+        """End: drop a trial from memory (it ended, or its memory is no longer trusted) and
+        release its lease; the next `host` rebuilds it from the database if it is running."""
         with self._registry_lock:
             live = self._trials.pop(trial_id, None)
         if live is not None:
@@ -200,13 +198,29 @@ class Runner:
         with self._registry_lock:
             return self._commanding[trial_id] > 0
 
+    # --- stopping hosting: one verb per reason (docs/architecture.md) ---------------
+    # end: `forget`; hand-over: `let_go`; crash: `lose`. The trial's side of the last
+    # two is `RunningTrial.move_away`, of the first `RunningTrial.mark_ended`.
+
     def let_go(self, live: RunningTrial) -> None:
-        """Stop hosting this copy of the trial, whose lease another process holds now (a hand
-        over or back): it leaves the registry, its lease is not released here."""
+        """Hand-over: stop hosting this copy of the trial, whose lease this process passed
+        to another in a fenced unit of work (a hand back home, a hand-over to a process
+        withdrawing it): it leaves the registry, its lease is not released here."""
         with self._registry_lock:
             if self._trials.get(live.trial_id) is live:
                 del self._trials[live.trial_id]
         live.move_away()  # its streams close; the page reconnects, to the new host
+
+    def lose(self, trial_id: int, fence: Fence) -> None:
+        """Crash: stop hosting a trial whose lease (claimed with `fence`) was lost, to a stall
+        or a partition longer than the lease; another process may host it now. A copy
+        claimed again meanwhile, under a new epoch, stays."""
+        with self._registry_lock:
+            lost = self._trials.get(trial_id)
+            if lost is None or lost.fence is not fence:
+                return
+            del self._trials[trial_id]
+        lost.move_away()  # it writes nothing more; its streams close, the page reconnects
 
     # --- controlling one trial --------------------------------------------------
 
@@ -423,14 +437,7 @@ class Runner:
             held[trial_id].deadline = max(held[trial_id].deadline, deadline)
         for trial_id in set(held) - kept:
             log.warning("lost the lease of live trial %s; another process hosts it", trial_id)
-            with self._registry_lock:
-                lost = self._trials.get(trial_id)
-                if lost is not None and lost.fence is held[trial_id]:
-                    del self._trials[trial_id]
-                else:
-                    lost = None  # claimed again meanwhile, under a new epoch
-            if lost is not None:
-                lost.move_away()  # its streams close; the participant reconnects to the host
+            self.lose(trial_id, held[trial_id])
 
     def advance(self, live: RunningTrial, now: float) -> None:
         """Step the trial to the step due at `now`, record it, end it at its time limit

@@ -28,8 +28,8 @@ if TYPE_CHECKING:
 
 log = logging.getLogger(__name__)
 
-#: Seconds past a quiet holder's lease that a process asked for its trial claims it: the
-#: database's clock has moved on by then, whatever the two hosts' clocks say.
+#: Seconds past a quiet holder's lease that a process getting a request for its trial claims
+#: it: the database's clock has moved on by then, whatever the two hosts' clocks say.
 QUIET_MARGIN_S = 0.05
 
 
