@@ -295,7 +295,7 @@ def _request_taken(
 def _statuses_written(unit: TrialUnit) -> None:
     """The request statuses the request changed, in its unit of work."""
     live = unit.live
-    unit.write(*live.status_changes_to_write(live.sim.drain_status_changes()))
+    unit.write(*live.log_queue.status_changes_to_write(live.sim.drain_status_changes()))
 
 
 # --- a click on the map -------------------------------------------------------------------

@@ -183,7 +183,7 @@ def _restore_bookkeeping(session: Session, live: RunningTrial) -> None:
         )
     )
     statuses = {(request_id, status) for request_id, status in written}
-    live.log_restored(last_event_time, decisions, statuses)
+    live.log_queue.restored(last_event_time, decisions, statuses)
     _restore_messages(session, live)
     _restore_probes(session, live)
 

@@ -54,17 +54,17 @@ def record_progress(live: RunningTrial, session: Session) -> None:
 def _record_events(live: RunningTrial, session: Session) -> None:
     """The simulation's new events join the unwritten ones and the System Messages (once);
     every unwritten one is written."""
-    for event in live.events_handed_over(live.sim.drain_events()):
+    for event in live.log_queue.events_handed_over(live.sim.drain_events()):
         live.add_message(event.sim_time, event.kind, event.text)
     trial_writer.write_facts(session, live.trial_id, live.log.unwritten_events)
     # Events of one step share its time and are written together, so the
     # newest time marks everything written.
-    live.events_written_up_to(float(live.sim.time) - 1e-9)
+    live.log_queue.events_written_up_to(float(live.sim.time) - 1e-9)
 
 
 def _record_decisions(live: RunningTrial, session: Session) -> None:
     """Each new decision, and the level-3 probes asked before it ended, which it scores."""
-    for decision in live.decisions_made():
+    for decision in live.log_queue.decisions_made(live.sim):
         trial_writer.write_facts(
             session, live.trial_id, [decision, *live.projections_scored_by(decision)]
         )
@@ -76,7 +76,7 @@ def record_request_statuses(live: RunningTrial, session: Session) -> None:
     A rebuild replays changes that were written before the interruption;
     the written ones (restored from the rows) are skipped.
     """
-    changes = live.status_changes_to_write(live.sim.drain_status_changes())
+    changes = live.log_queue.status_changes_to_write(live.sim.drain_status_changes())
     trial_writer.write_facts(session, live.trial_id, changes)
 
 
@@ -133,7 +133,7 @@ def end_trial(live: RunningTrial, session: Session, reason: str, now: float) -> 
         live.trial_id,
         [
             *([] if cleared is None else [cleared]),
-            live.snapshot_taken(now),
+            live.log_queue.snapshot_taken(live.sim, now, live.last_command_id),
             live.mark_ended(reason),
         ],
     )

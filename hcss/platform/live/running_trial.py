@@ -33,8 +33,6 @@ from hcss.platform.live.facts import (
     EventHappened,
     ProbeTimedOut,
     ProjectionScored,
-    RequestStatusChanged,
-    SnapshotTaken,
     TrialEnded,
 )
 from hcss.platform.live.progress import (
@@ -46,7 +44,6 @@ from hcss.platform.live.progress import (
 )
 from hcss.questionnaires.probes import ScheduledProbe
 from hcss.simulation import Display, Simulation
-from hcss.simulation.requests import StatusChange
 
 if TYPE_CHECKING:
     from hcss.platform.live.leases import Fence
@@ -187,6 +184,14 @@ class RunningTrial:
     @property
     def log(self) -> LogReading:
         """How far its log is written and what waits (`progress.LogQueue`), to read."""
+        return self._log
+
+    @property
+    def log_queue(self) -> LogQueue:
+        """Its log's queue (`progress.LogQueue`), for the recorder, the commands' units of work
+        and the rebuild only, with `lock` held: what the simulation handed over waits there
+        until a unit of work writes it, and its cursors move only with that unit's commit
+        (`progress_mark`, `progress_lost`, `progress_written`)."""
         return self._log
 
     @property
@@ -340,28 +345,6 @@ class RunningTrial:
         self._probes.restored(shown, current, projections)
 
     # --- what is written to the trial log (progress.LogQueue; live.recorder) ---------------
-
-    def events_handed_over(self, events: list[dict[str, Any]]) -> list[EventHappened]:
-        return self._log.events_handed_over(events)
-
-    def events_written_up_to(self, time: float) -> None:
-        self._log.events_written_up_to(time)
-
-    def decisions_made(self) -> list[DecisionMade]:
-        return self._log.decisions_made(self._sim)
-
-    def status_changes_to_write(
-        self, handed_over: list[StatusChange]
-    ) -> list[RequestStatusChanged]:
-        return self._log.status_changes_to_write(handed_over)
-
-    def snapshot_taken(self, now: float) -> SnapshotTaken:
-        return self._log.snapshot_taken(self._sim, now, self._last_command_id)
-
-    def log_restored(
-        self, last_event_time: float, decisions: int, request_statuses: set[tuple[int, str]]
-    ) -> None:
-        self._log.restored(last_event_time, decisions, request_statuses)
 
     def progress_mark(self) -> ProgressMark:
         """What is counted written now, to go back to if the unit of work does not commit."""

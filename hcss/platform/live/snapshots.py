@@ -55,7 +55,9 @@ def write_snapshot(live: RunningTrial, session: Session, now: float) -> bool:
     state = (live.sim.step_count, live.last_command_id, live.due_step(now))
     if _written.get(live) == state:
         return False
-    trial_writer.write_facts(session, live.trial_id, [live.snapshot_taken(now)])
+    trial_writer.write_facts(
+        session, live.trial_id, [live.log_queue.snapshot_taken(live.sim, now, live.last_command_id)]
+    )
     _written[live] = state
     prune(session, live.trial_id)
     return True
