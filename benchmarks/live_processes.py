@@ -11,7 +11,8 @@ of processes gets its own schema.
   2 s, its latency to the stream) reach the processes through the nginx
   configuration `hcss deploy nginx` writes, every process a `--cluster` one
   (leases on), so the figures of 1 and 2 processes differ only in the number
-  of processes; each group's capacity is searched by bisection.
+  of processes; each group's capacity is searched by bisection. The processes
+  snapshot every 5 s as served ones do (before 2026-12-06: every 1 s).
 - failover (about 4 min; 3.6-4.6 min under a load average of 8-12): kill -9,
   SIGSTOP past the lease, and a partition from the database, each of one of
   two processes behind nginx hosting about half of 20 trials: per taken-over
@@ -90,6 +91,11 @@ PARTS = ("capacity", "failover", "survivor", "supervised", "growth")
 GROWTH_TRIALS, GROWTH_S = 60, 180.0
 #: Trials of the supervised restart.
 SUPERVISED_TRIALS = 60
+#: The capacity runs' snapshot interval: a served process's (HCSS_SNAPSHOT_INTERVAL_S's
+#: default). LocalServer's 1 s, for tests, wrote 5x the snapshots and prunes: 0.7-1.0
+#: snapshot rows and 0.6-0.9 deletions per trial-second, 20-24 % of each runner's samples
+#: at 60 trials per process (py-spy, 2026-12-06), against 9-10 % at 5 s.
+SERVED_SNAPSHOT_INTERVAL = {"HCSS_SNAPSHOT_INTERVAL_S": "5.0"}
 
 
 def database_base_url() -> str | None:
@@ -133,9 +139,11 @@ def capacity_run(url: str, processes: int, n_trials: int, workdir: Path) -> dict
     """One capacity measurement on the (migrated or empty) database at `url`: `n_trials`
     pages driven through nginx in front of `processes` `--cluster` processes, with the
     trials' moves (a lease that changed owner or epoch) and interruptions counted, which
-    are 0 without a fault (issue 41; tests/platform/test_capacity_moves.py)."""
+    are 0 without a fault (issue 41; tests/platform/test_capacity_moves.py). The
+    processes snapshot as served ones do (`SERVED_SNAPSHOT_INTERVAL`)."""
     upgrade_database(url)
-    with group(url, processes, workdir / f"{processes}x{n_trials}") as (servers, nginx):
+    workdir = workdir / f"{processes}x{n_trials}"
+    with group(url, processes, workdir, SERVED_SNAPSHOT_INTERVAL) as (servers, nginx):
         # Started now, as pages do: each is claimed by the process its token routes to.
         tokens = start_trials(url, n_trials)
         claim(nginx.url, tokens)
