@@ -12,7 +12,13 @@ of processes gets its own schema.
   configuration `hcss deploy nginx` writes, every process a `--cluster` one
   (leases on), so the figures of 1 and 2 processes differ only in the number
   of processes; each group's capacity is searched by bisection. The processes
-  snapshot every 5 s as served ones do (before 2026-12-06: every 1 s).
+  snapshot every 5 s as served ones do (before 2026-12-06: every 1 s). Every
+  trial commands on its own 2-s schedule (`paced_drive`; before 2026-12-06 one
+  thread sent each round in turn, so at 120+ trials each got fewer commands),
+  and each line says the commands sent of those due. The part ends with trials
+  held per core of server CPU for 1 and 2 processes and the machine's CPU use,
+  which say whether this machine (clients, nginx and PostgreSQL on it too) or
+  the processes set the 2/1 ratio.
 - failover (about 4 min; 3.6-4.6 min under a load average of 8-12): kill -9,
   SIGSTOP past the lease, and a partition from the database, each of one of
   two processes behind nginx hosting about half of 20 trials: per taken-over
