@@ -314,3 +314,60 @@ def test_the_pages_off_the_main_path_pass_axe(browser, demo_server: StudyServer,
     with capsys.disabled():
         print(f"\naxe-core and sideways scroll:\n{findings.report()}")
     assert findings.failing() == [], findings.report()
+
+
+def test_the_console_and_participant_pages_of_a_pause_skip_and_abort_pass_axe(
+    browser, console_app, capsys
+) -> None:
+    """The live table with a paused row, and what the participant's page shows: paused,
+    moved on by a skip (its answers kept), ended by the experimenter."""
+    from playwright.sync_api import expect
+
+    from tests.support.console import sign_in_page
+
+    app, base = console_app
+    findings = Findings()
+    context = browser.new_context(viewport=SMALLEST)
+    console = context.new_page()
+    console.on("dialog", lambda dialog: dialog.accept())  # Abort and Skip ask first
+    sign_in_page(console, base)
+    console.select_option("#study", "demo")
+    console.fill("#count", "2")
+    console.click("#create-form button[type=submit]")
+    expect(console.locator("h1")).to_have_text("Participant links")
+    row = console.locator("#links tbody tr").first
+    code, link = row.get_attribute("data-code"), row.locator("input.link").input_value()
+    console.click("text=Back to the participants")
+    ours = console.locator(f'#progress tr[data-code="{code}"]')
+
+    participant = context.new_page()
+    participant.goto(link)
+    participant.get_by_label("I agree").check()
+    participant.get_by_role("button", name="Continue").click()
+    expect(participant.locator("main.study")).to_have_attribute("data-stage", "demographics")
+
+    # Skipped while the page is open: its Continue says the participant was moved on.
+    ours.locator('button[data-action="skip_stage"]').click()
+    expect(console.locator(".flashes")).to_contain_text(f"{code}: skip")
+    for key in ITEM_KEYS:
+        participant.locator(f'input[name="{key}"]').first.check()
+    participant.get_by_role("button", name="Continue").click()
+    expect(participant.locator("body")).to_contain_text("The experimenter moved you on")
+    findings.check(participant, "moved on by the experimenter")
+
+    ours.locator('button[data-action="pause"]').click()
+    expect(ours.locator(".session")).to_have_text("paused")
+    findings.check(console, "console: participants, one paused")
+    participant.goto(link)
+    expect(participant.locator("h1")).to_have_text("Please wait")
+    findings.check(participant, "held: paused by the experimenter")
+
+    ours.locator('button[data-action="abort"]').click()
+    expect(ours.locator(".session")).to_have_text("aborted")
+    participant.goto(link)
+    expect(participant.locator("h1")).to_have_text("Your session has ended")
+    findings.check(participant, "held: ended by the experimenter")
+    context.close()
+    with capsys.disabled():
+        print(f"\naxe-core and sideways scroll at 1024 x 620:\n{findings.report()}")
+    assert findings.failing() == [], findings.report()
