@@ -53,24 +53,38 @@ __all__ = [
 def _module_of(name: str) -> ModuleType:
     """The module that defines the public `name`, imported (statically, for import-linter)."""
     if name in ("DECISION_COLUMNS", "DecisionRecord"):
-        from hcss.simulation import decisions as module
-    elif name == "Simulation":
-        from hcss.simulation import engine as module
-    elif name == "SimulationError":
-        from hcss.simulation import errors as module
-    elif name in ("MODELS", "ROMAN", "Params"):
-        from hcss.simulation import params as module
-    elif name in ("OperatorCommand", "RequestOutcome", "RequestState", "StatusChange"):
-        from hcss.simulation import requests as module
-    elif name in ("Scenario", "ScenarioError"):
-        from hcss.simulation import scenario as module
-    elif name == "NewerSnapshotFormat":
-        from hcss.simulation import snapshots as module
-    elif name in ("Display", "Truth"):
-        from hcss.simulation import view as module
-    else:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    return module
+        from hcss.simulation import decisions
+
+        return decisions
+    if name == "Simulation":
+        from hcss.simulation import engine
+
+        return engine
+    if name == "SimulationError":
+        from hcss.simulation import errors
+
+        return errors
+    if name in ("MODELS", "ROMAN", "Params"):
+        from hcss.simulation import params
+
+        return params
+    if name in ("OperatorCommand", "RequestOutcome", "RequestState", "StatusChange"):
+        from hcss.simulation import requests
+
+        return requests
+    if name in ("Scenario", "ScenarioError"):
+        from hcss.simulation import scenario
+
+        return scenario
+    if name == "NewerSnapshotFormat":
+        from hcss.simulation import snapshots
+
+        return snapshots
+    if name in ("Display", "Truth"):
+        from hcss.simulation import view
+
+        return view
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def __getattr__(name: str) -> Any:

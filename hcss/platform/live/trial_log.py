@@ -12,7 +12,7 @@ worded by `command_message`, which the live command uses too.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Protocol
 
 from sqlalchemy import Row, select
 from sqlalchemy.orm import Session
@@ -29,11 +29,15 @@ from hcss.platform.models.stored_names import Uninterpretable, stored_collective
 from hcss.simulation.messages import accepted_text, refusal_text, request_subject
 
 if TYPE_CHECKING:
+    from datetime import datetime
+
     from hcss.simulation import Simulation
     from hcss.simulation.requests import RequestOutcome
 
 
-def observation_actions(session: Session, trial_id: int) -> list[Row[Any]]:
+def observation_actions(
+    session: Session, trial_id: int
+) -> list[Row[int, float, datetime, str, int | None, int | None, str]]:
     """The study's observation actions: every click no committed request names.
 
     A left-click that filled the request form is logged when it happens; if
