@@ -14,6 +14,7 @@ SUITES = (
     "live",
     "live_processes",
     "console",
+    "export",
     "links",
     "analysis",
     "study",

@@ -47,15 +47,17 @@ class TableWriter:
 
     def __init__(self, handle: TextIO, columns: Sequence[str]) -> None:
         self.columns = tuple(columns)
-        self._writer = csv.DictWriter(handle, fieldnames=self.columns, lineterminator="\r\n")
-        self._writer.writeheader()
+        self._known = frozenset(self.columns)
+        # A plain writer given lists: csv.DictWriter turns each dict into a list again
+        # (a generator per row), a tenth of an export's time over 100,000 rows.
+        self._writer = csv.writer(handle, lineterminator="\r\n")
+        self._writer.writerow(self.columns)
 
     def write(self, row: Mapping[str, object]) -> None:
         """One row; a column it lacks is missing (empty), a key outside the columns an error."""
-        unknown = set(row) - set(self.columns)
-        if unknown:
-            raise ValueError(f"columns not in the table: {sorted(unknown)}")
-        self._writer.writerow({name: cell(row.get(name)) for name in self.columns})
+        if not self._known.issuperset(row):
+            raise ValueError(f"columns not in the table: {sorted(set(row) - self._known)}")
+        self._writer.writerow([cell(row.get(name)) for name in self.columns])
 
 
 def write_rows(path: Path, columns: Sequence[str], rows: Iterable[Mapping[str, object]]) -> None:

@@ -186,3 +186,26 @@ def incomplete_mrt_note(scores: pd.DataFrame, participants: pd.DataFrame) -> str
         f"the participants table has one and the participant is left out otherwise (stored "
         f"total used for {len(used)}, left out: {len(one_part) - len(used)})."
     )
+
+
+def mrt_range_note(participants: pd.DataFrame) -> str:
+    """The MRT score's range in each analysed study, from the export's ``mrt_part_items``
+    (the study file's items per timed part): ``0–4 in demo (one timed part of 4 items)``.
+    A demo's one part of 4 is never read as the original's 0–24. "" for an export without
+    the column."""
+    if "mrt_part_items" not in participants.columns or "study" not in participants.columns:
+        return ""
+    known = participants.dropna(subset=["mrt_part_items", "study"])
+    ranges = []
+    for (study, parts), _ in known.groupby(["study", "mrt_part_items"], sort=True):
+        counts = [int(float(count)) for count in str(parts).split(",") if count.strip()]
+        if not counts:
+            continue
+        if len(counts) == 1:
+            shape = f"one timed part of {counts[0]} items"
+        elif len(set(counts)) == 1:
+            shape = f"{len(counts)} timed parts of {counts[0]} items"
+        else:
+            shape = f"timed parts of {', '.join(map(str, counts))} items"
+        ranges.append(f"0–{sum(counts)} in {study} ({shape})")
+    return f"MRT score range: {'; '.join(ranges)}." if ranges else ""

@@ -32,7 +32,7 @@ from hcss.analysis.descriptive import descriptive_frame
 from hcss.analysis.design_tables import friedman_table, model_table, paired_wilcoxon_table
 from hcss.analysis.families import FAMILIES, Family
 from hcss.analysis.figures import comparison_figure, family_figure, profile_figure
-from hcss.analysis.instrument_measures import incomplete_mrt_note
+from hcss.analysis.instrument_measures import incomplete_mrt_note, mrt_range_note
 from hcss.analysis.load import StudyTables
 from hcss.analysis.measures import MRT_MEASURE
 from hcss.analysis.paired import RepeatedComparison, repeated_comparisons
@@ -187,9 +187,11 @@ def build_sections(
             extra = [_renamed(spearman_table(mrt), "spearman_mrt")] if mrt else []
         section = _family_section(family, measures, summary, kruskal, friedman, extra)
         if section and family.key == "mrt":
-            section = replace(
-                section, intro=incomplete_mrt_note(tables.scores, tables.participants)
+            notes = (
+                mrt_range_note(tables.participants),
+                incomplete_mrt_note(tables.scores, tables.participants),
             )
+            section = replace(section, intro=" ".join(note for note in notes if note))
         if section:
             sections.append(section)
             covered.update(family.members(measures))

@@ -10,12 +10,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from hcss.simulation.messages import collective_name
 from hcss.simulation.params import Params
-from hcss.simulation.world import World
 from hcss.tablespec import DECISIONS
+
+if TYPE_CHECKING:
+    from hcss.simulation.world import World
 
 #: The columns of the decisions table, in order: its contract's (hcss.tablespec.DECISIONS).
 DECISION_COLUMNS: tuple[str, ...] = DECISIONS.names

@@ -15,7 +15,7 @@ as it drains events.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -23,7 +23,9 @@ from hcss.simulation import states as S
 from hcss.simulation.ids import target_id
 from hcss.simulation.messages import collective_name
 from hcss.simulation.params import Params
-from hcss.simulation.world import World
+
+if TYPE_CHECKING:
+    from hcss.simulation.world import World
 
 KINDS = ("investigate", "abandon", "decide", "cancel")
 IN_PROGRESS, COMPLETED, REMOVED = "in_progress", "completed", "removed"

@@ -60,6 +60,12 @@ PARTICIPANTS = TableSpec(
             "Mental Rotations Test score: items right over the study's timed parts (0–24 in "
             "the original's two parts of 12)",
         ),
+        Column(
+            "mrt_part_items",
+            "str",
+            "the study file's items per timed MRT part, comma-separated (`12,12` in the "
+            "original, `4` in the demo): `mrt_score` runs from 0 to their sum",
+        ),
         *(
             Column(f"tlx_overall_{model}", "float", f"weighted NASA-TLX of {model}")
             for model in MODELS

@@ -313,3 +313,26 @@ def test_the_mrt_correlation_uses_the_total_as_r_does(tmp_path):
     (m1,) = [c for c in correlations(measures) if c.x == "mrt.total" and c.group == "M1"]
     assert m1.result.statistic == pytest.approx(-0.4019348353313, rel=1e-9)
     assert m1.result.p == pytest.approx(0.3236049344748, rel=1e-9)
+
+
+def test_the_mrt_range_is_each_studys_own() -> None:
+    """The export names each participant's MRT parts; the report's range is per study,
+    never the original's 0–24 for a demo of one part of 4."""
+    from hcss.analysis.instrument_measures import mrt_range_note
+
+    participants = pd.DataFrame(
+        {
+            "participant": ["P1", "P2", "P3", "P4"],
+            "study": ["demo", "demo", "original", "original"],
+            "mrt_part_items": ["4", "4", "12,12", None],
+        }
+    )
+    assert mrt_range_note(participants.iloc[:2]) == (
+        "MRT score range: 0–4 in demo (one timed part of 4 items)."
+    )
+    assert mrt_range_note(participants) == (
+        "MRT score range: 0–4 in demo (one timed part of 4 items); "
+        "0–24 in original (2 timed parts of 12 items)."
+    )
+    older = participants.drop(columns=["mrt_part_items"])  # an export from before the column
+    assert mrt_range_note(older) == ""

@@ -314,3 +314,121 @@ def test_the_pages_off_the_main_path_pass_axe(browser, demo_server: StudyServer,
     with capsys.disabled():
         print(f"\naxe-core and sideways scroll:\n{findings.report()}")
     assert findings.failing() == [], findings.report()
+
+
+def test_the_console_and_participant_pages_of_a_pause_skip_and_abort_pass_axe(
+    browser, console_app, capsys
+) -> None:
+    """The live table with a paused row, and what the participant's page shows: paused,
+    moved on by a skip (its answers kept), ended by the experimenter."""
+    from playwright.sync_api import expect
+
+    from tests.support.console import sign_in_page
+
+    app, base = console_app
+    findings = Findings()
+    context = browser.new_context(viewport=SMALLEST)
+    console = context.new_page()
+    console.on("dialog", lambda dialog: dialog.accept())  # Abort and Skip ask first
+    sign_in_page(console, base)
+    console.select_option("#study", "demo")
+    console.fill("#count", "2")
+    console.click("#create-form button[type=submit]")
+    expect(console.locator("h1")).to_have_text("Participant links")
+    row = console.locator("#links tbody tr").first
+    code, link = row.get_attribute("data-code"), row.locator("input.link").input_value()
+    console.click("text=Back to the participants")
+    ours = console.locator(f'#progress tr[data-code="{code}"]')
+
+    participant = context.new_page()
+    participant.goto(link)
+    participant.get_by_label("I agree").check()
+    participant.get_by_role("button", name="Continue").click()
+    expect(participant.locator("main.study")).to_have_attribute("data-stage", "demographics")
+
+    # Skipped while the page is open: its Continue says the participant was moved on.
+    ours.locator('button[data-action="skip_stage"]').click()
+    expect(console.locator(".flashes")).to_contain_text(f"{code}: skip")
+    for key in ITEM_KEYS:
+        participant.locator(f'input[name="{key}"]').first.check()
+    participant.get_by_role("button", name="Continue").click()
+    expect(participant.locator("body")).to_contain_text("The experimenter moved you on")
+    findings.check(participant, "moved on by the experimenter")
+
+    ours.locator('button[data-action="pause"]').click()
+    expect(ours.locator(".session")).to_have_text("paused")
+    findings.check(console, "console: participants, one paused")
+    participant.goto(link)
+    expect(participant.locator("h1")).to_have_text("Please wait")
+    findings.check(participant, "held: paused by the experimenter")
+
+    ours.locator('button[data-action="abort"]').click()
+    expect(ours.locator(".session")).to_have_text("aborted")
+    participant.goto(link)
+    expect(participant.locator("h1")).to_have_text("Your session has ended")
+    findings.check(participant, "held: ended by the experimenter")
+    context.close()
+    with capsys.disabled():
+        print(f"\naxe-core and sideways scroll at 1024 x 620:\n{findings.report()}")
+    assert findings.failing() == [], findings.report()
+
+
+def test_the_study_links_refusals_and_mturks_frame_pass_axe(
+    browser, demo_server: StudyServer, tmp_path, monkeypatch, capsys
+) -> None:
+    """A study link refused (an id given twice), a full study, the front page, a link and a
+    live page that lead nowhere, and an accepted MTurk HIT in MTurk's frame (a stand-in on
+    another site) offering the study in its own window."""
+    from urllib.parse import urlencode
+
+    from playwright.sync_api import expect
+
+    from tests.support.mturk_standin import mturk_standin
+    from tests.support.recruitment import demo_variant, join
+
+    findings = Findings()
+    page = browser.new_page(viewport=SMALLEST)
+    refused = page.goto(f"{demo_server.url}/join/demo?PROLIFIC_PID=a&PROLIFIC_PID=b")
+    assert refused is not None and refused.status == 400
+    expect(page.locator("main")).to_contain_text("more than once")
+    findings.check(page, "join: a link refused")
+
+    full = demo_variant(tmp_path / "studies", monkeypatch, "capped", {"target": "1"})
+    assert join(demo_server.app.test_client(), full, PROLIFIC_PID="first").status_code == 302
+    page.goto(f"{demo_server.url}/join/{full}?PROLIFIC_PID=second")
+    expect(page.locator("main.study")).to_have_attribute("data-stage", "study_full")
+    findings.check(page, "join: the study is full")
+
+    page.goto(f"{demo_server.url}/")
+    findings.check(page, "the site's front page")
+    missing = page.goto(f"{demo_server.url}/p/no-such-participant")
+    assert missing is not None and missing.status == 404
+    findings.check(page, "a participant link that leads nowhere")
+    no_trial = page.goto(f"{demo_server.url}/live/{demo_server.participant()}")
+    assert no_trial is not None and no_trial.status == 404
+    findings.check(page, "the live page of a participant with no trial")
+    page.close()
+
+    with mturk_standin() as mturk:
+        hit = demo_variant(
+            tmp_path / "studies",
+            monkeypatch,
+            "hitstudy",
+            {"mturk": "true", "mturk_origins": f'["{mturk.origin}"]'},
+        )
+        query = {
+            "workerId": "A2W",
+            "hitId": "3HIT",
+            "assignmentId": "3A",
+            "turkSubmitTo": mturk.origin,
+        }
+        mturk.hit_url = f"{demo_server.url}/join/{hit}?{urlencode(query)}"
+        worker = browser.new_page(viewport={"width": 1366, "height": 657})
+        worker.goto(mturk.worker_page())
+        expect(worker.frame_locator("#hit").locator("#join-framed")).to_be_visible()
+        (frame,) = [f for f in worker.frames if f.url.startswith(demo_server.url)]
+        findings.check(frame, "MTurk: the accepted HIT in MTurk's frame")
+        worker.close()
+    with capsys.disabled():
+        print(f"\naxe-core and sideways scroll:\n{findings.report()}")
+    assert findings.failing() == [], findings.report()

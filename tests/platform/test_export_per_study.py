@@ -65,6 +65,16 @@ def test_export_of_one_study(app, database_url, tmp_path) -> None:
     }
     assert len(studies) == 4
     assert studies[codes["waiting"]] == ("original", "")  # never started: the chosen study
+    # The MRT's range is the study file's: the demo's one part of 4, the original's 12 and 12.
+    part_items = {
+        r["participant"]: r["mrt_part_items"] for r in _rows(tmp_path / "all" / "participants.csv")
+    }
+    assert part_items == {
+        codes["demo"]: "4",
+        codes["linked"]: "4",
+        codes["original"]: "12,12",
+        codes["waiting"]: "12,12",
+    }
 
     unknown = CliRunner().invoke(
         main, ["export", str(tmp_path / "x"), "--study", "pilot-2", "--database-url", database_url]

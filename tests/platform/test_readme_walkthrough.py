@@ -81,6 +81,7 @@ def test_the_readmes_analysis_of_a_walked_participant_and_a_demo_trial_exits_0(
         assert "MRT score: items right over the study&#x27;s timed parts" in html or (
             "MRT score: items right over the study's timed parts" in html
         )
+        assert "MRT score range: 0–4 in demo (one timed part of 4 items)" in html
         # An MRT family table over the "All" column names it as such.
         assert "mean (SD) per model (All: measured once per participant, not per model)" in html
 

@@ -29,7 +29,10 @@ _RUN = """async (tags) => {
 
 
 def axe_violations(page: Any) -> list[dict[str, Any]]:
-    """The page's WCAG 2.1 A/AA violations as axe-core reports them: id, impact, nodes."""
+    """The page's WCAG 2.1 A/AA violations as axe-core reports them: id, impact, nodes.
+
+    `page` may be a frame on another site than its page (MTurk's HIT frame): Chromium
+    runs it in its own process, which a DevTools session of its own reaches."""
     if not AXE_SCRIPT.exists():
         pytest.fail(
             f"{AXE_SCRIPT} is missing: run `bash scripts/ensure-node-tools` (make test does)"
@@ -37,7 +40,8 @@ def axe_violations(page: Any) -> list[dict[str, Any]]:
     if not page.evaluate("() => typeof window.axe !== 'undefined'"):
         # Through the DevTools protocol: the pages' Content-Security-Policy refuses an
         # injected <script> (add_script_tag), and a test must not switch it off to look.
-        devtools = page.context.new_cdp_session(page)
+        owner = getattr(page, "page", page)  # a Frame's page, else the page itself
+        devtools = owner.context.new_cdp_session(page)
         devtools.send("Runtime.evaluate", {"expression": AXE_SCRIPT.read_text()})
         devtools.detach()
     return page.evaluate(_RUN, WCAG_TAGS)

@@ -24,6 +24,24 @@ _PYTHON_TYPES: dict[str, tuple[type, ...]] = {
 _MAX_PROBLEM = 300
 _INT64 = (-(2**63), 2**63 - 1)  # Parquet's int64
 
+#: Types whose every value fits the column, checked first: `_fits` per value over an
+#: export's million cells was a tenth of its time.
+_PLAIN: dict[str, frozenset[type]] = {
+    "str": frozenset({str}),
+    "int": frozenset(),  # an int is checked against int64's range
+    "float": frozenset({float}),
+    "bool": frozenset({bool}),
+}
+
+
+def _fits(value: object, kind: str) -> bool:
+    """Whether a value is of the column's type (no bool for a number, an int in int64)."""
+    return (
+        isinstance(value, _PYTHON_TYPES[kind])
+        and (kind == "bool" or not isinstance(value, bool))
+        and (not isinstance(value, int) or _INT64[0] <= value <= _INT64[1])
+    )
+
 
 class ProblemLog:
     """The `export_problems` rows of one export."""
@@ -69,12 +87,9 @@ class ProblemLog:
             wrong = [
                 name
                 for name, kind in schema
-                if row.get(name) is not None
-                and (
-                    not isinstance(row[name], _PYTHON_TYPES[kind])
-                    or (kind != "bool" and isinstance(row[name], bool))
-                    or (isinstance(row[name], int) and not _INT64[0] <= row[name] <= _INT64[1])
-                )
+                if (value := row.get(name)) is not None
+                and type(value) not in _PLAIN[kind]
+                and not _fits(value, kind)
             ]
             if wrong:
                 self.add(

@@ -28,6 +28,7 @@ from hcss.platform.models import (
 )
 from hcss.platform.models.pilots import pilot_flags
 from hcss.platform.study.flow import DONE_KINDS, participant_statuses
+from hcss.platform.study.studyfile import StudyFileError, load_study
 
 Row = dict[str, Any]
 
@@ -80,8 +81,22 @@ def participant_rows(session: Session, participants: list[Participant]) -> list[
         records = {name: table.get(participant.id, []) for name, table in study.items()}
         row["status"] = statuses[participant.id]
         _fill_study_columns(row, records)
+        row["mrt_part_items"] = mrt_part_items(row["study"])
         rows.append(row)
     return rows
+
+
+def mrt_part_items(study: str | None) -> str | None:
+    """The study file's items per timed MRT part (``12,12``): the report's MRT range is
+    read from them, so a demo's one part of 4 is never labelled 0–24 (`load_study`
+    caches the file). None without a readable study file (one since removed: its data
+    still export)."""
+    if not study:
+        return None
+    try:
+        return ",".join(str(count) for count in load_study(study).mrt.part_items)
+    except StudyFileError:
+        return None
 
 
 def _study_records(session: Session) -> dict[str, dict[int, list[Any]]]:

@@ -14,7 +14,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Protocol
 
-from sqlalchemy import select
+from sqlalchemy import Row, select
 from sqlalchemy.orm import Session
 
 from hcss.platform.models import (
@@ -29,24 +29,41 @@ from hcss.platform.models.stored_names import Uninterpretable, stored_collective
 from hcss.simulation.messages import accepted_text, refusal_text, request_subject
 
 if TYPE_CHECKING:
+    from datetime import datetime
+
     from hcss.simulation import Simulation
     from hcss.simulation.requests import RequestOutcome
 
 
-def observation_actions(session: Session, trial_id: int) -> list[Observation]:
+def observation_actions(
+    session: Session, trial_id: int
+) -> list[Row[int, float, datetime, str, int | None, int | None, str]]:
     """The study's observation actions: every click no committed request names.
 
     A left-click that filled the request form is logged when it happens; if
     the request is then committed, its `Command.selections` names the click,
     and it counts as part of the request instead.
+
+    Read as columns (id, sim_time, created_at, kind, collective, target, button), not
+    ORM objects: a trial holds thousands of clicks, and the export reads every trial's.
     """
     used: set[int] = set()
     for selections in session.scalars(
         select(Command.selections).where(Command.trial_id == trial_id)
     ):
         used.update(int(i) for i in selections or [])
-    clicks = session.scalars(
-        select(Observation).where(Observation.trial_id == trial_id).order_by(Observation.id)
+    clicks = session.execute(
+        select(
+            Observation.id,
+            Observation.sim_time,
+            Observation.created_at,
+            Observation.kind,
+            Observation.collective,
+            Observation.target,
+            Observation.button,
+        )
+        .where(Observation.trial_id == trial_id)
+        .order_by(Observation.id)
     )
     return [click for click in clicks if click.id not in used]
 
