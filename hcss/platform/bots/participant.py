@@ -112,6 +112,13 @@ class PageParser(HTMLParser):
             self._noscript -= 1
 
 
+def refusal_of(html: str) -> str:
+    """A refused page's reason (study/refused.html), as ": <reason>", else "": a bot's
+    error then says why the platform refused it, not only the status."""
+    found = re.search(r'id="refusal">([^<]*)<', html)
+    return f": {found.group(1).strip()}" if found else ""
+
+
 def parse_page(html: str) -> PageParser:
     parser = PageParser()
     parser.feed(html)
@@ -208,7 +215,10 @@ class ParticipantBot:
         body = dict(page.hidden) | fields
         response = self.client.post(page.action, data=body, follow_redirects=True)
         if response.status_code != 200:
-            raise BotError(f"POST {page.action} answered {response.status_code}")
+            raise BotError(
+                f"POST {page.action} answered {response.status_code}"
+                f"{refusal_of(response.get_data(as_text=True))}"
+            )
         return response.get_data(as_text=True)
 
     # --- the walk --------------------------------------------------------------------
