@@ -71,8 +71,8 @@ CLIENT_HEADER_S = 10
 CLIENT_BODY_S = 10
 SEND_S = 15
 #: Seconds nginx asks a client to wait when no process answered (its 503's Retry-After):
-#: a killed process is restarted, or its trials taken over past their lease, within seconds.
-PROCESS_LOST_RETRY_S = 2
+#: another may host the trial by now, so soon (the page asked again after 1 s of a 502/504).
+PROCESS_LOST_RETRY_S = 1
 #: The internal addresses of nginx's own 503 (a page, or JSON for the API).
 LOST_PAGE, LOST_JSON = "/.hcss/process-lost.html", "/.hcss/process-lost.json"
 
