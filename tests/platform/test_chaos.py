@@ -24,7 +24,7 @@ pytestmark = pytest.mark.slow
 
 #: Seconds of faults. The bots under way then finish their study (about 50 s) and the
 #: checker reads the database: 180 s of faults took 3 min 45 s and 3 min 53 s in all at a
-#: load of 5 on 2 cores; 150 s took 3 min 12 s (8 faults at seed 44, every kind but stop).
+#: load of 5 on 2 cores; 150 s took 3 min 12 s (7 faults at seed 44: every kind but stop).
 SECONDS = float(os.environ.get("HCSS_CHAOS_TEST_S", "150"))
 
 
