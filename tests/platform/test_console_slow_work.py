@@ -155,3 +155,30 @@ def test_a_page_after_a_swallowed_lost_connection_still_renders(app) -> None:
 
     answer = app.test_client().get("/lost-then-page")
     assert answer.status_code == 200, answer.status_code
+
+
+def test_no_connection_is_held_while_a_new_account_s_password_is_hashed(app, monkeypatch) -> None:
+    """A new account's argon2 hash (the first start's console login, `hcss admin create`)
+    runs before its unit of work takes a connection: it was made after the "is the name
+    taken" read, inside its transaction (and the first login's inside the "no account yet"
+    count), so a loaded machine could let PostgreSQL end that transaction (25P03)."""
+    database = app.extensions["hcss_db"]
+    pool = database.engine.pool
+    held: list[int] = []
+    hash_password = accounts.hash_password
+
+    def counting(password: str) -> str:
+        held.append(pool.checkedout())
+        return hash_password(password)
+
+    monkeypatch.setattr(accounts, "hash_password", counting)
+    first = accounts.ensure_first_login(app)  # the first start on an empty database
+    assert first is not None
+    with database.command_scope() as session:  # as `hcss admin create` does
+        accounts.create_experimenter(session, "second", "another long password")
+    assert len(held) == 2 and set(held) == {0}, held
+    with database.session_scope() as session:
+        names = set(session.scalars(select(Experimenter.username)))
+    assert names == {first[0], "second"}
+    with database.session_scope() as session, pytest.raises(accounts.AccountError):
+        accounts.create_experimenter(session, "second", "yet another password")  # taken

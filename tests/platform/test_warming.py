@@ -60,8 +60,11 @@ def test_pages_answer_during_the_warm_up_and_a_training_waits_for_it(
     token = joined.location.rsplit("/", 1)[-1]
     csrf = re.search(r'name="csrf-token" content="([^"]+)"', waiting).group(1)
     refused = client.post(f"/p/{token}/stage/1/ready", data={"csrf_token": csrf})
-    assert refused.status_code == 409, refused.status_code
+    # "Not now", not "no": a 503 that says when to send it again (a 409 stopped the bot).
+    assert refused.status_code == 503, refused.status_code
+    assert float(refused.headers["Retry-After"]) > 0
     assert "still being prepared" in refused.get_data(as_text=True)
+    assert 'http-equiv="refresh"' in refused.get_data(as_text=True)  # back to the page by itself
     assert _trials(app) == 0
 
     compiling.set()  # the warm-up ends: the same page starts the training
@@ -116,3 +119,49 @@ def test_a_bot_that_meets_the_waiting_page_waits_and_walks_on(database_url) -> N
     assert len(report.trials) == 6  # then every training and trial ran (3 models)
     app.extensions["hcss_runner"].stop()
     app.extensions["hcss_db"].engine.dispose()
+
+
+def test_a_start_shown_by_a_warm_member_and_sent_to_a_warming_one_is_not_now(
+    database_url,
+) -> None:
+    """Issue 44: two processes of a group on one database. After a kill -9 the survivor
+    shows a participant hashed to the killed process their training's Start (it is warm);
+    the killed process, back on its address, gets the Start while it still warms up (3 s
+    after a restart, far more under load) and refused it with 409: the chaos soak's bots
+    stopped there (3 of 110 in 30 minutes). It is "not now": 503 with Retry-After, the
+    same form sent again once warm starts the training."""
+    from tests.support.study import make_app, visitor, walk_to
+
+    survivor, restarted = make_app(database_url, "demo"), make_app(database_url, "demo")
+    compiling = threading.Event()
+    warmup = Warmup(compiling.wait)
+    warmup.install(restarted)
+    warmup.start()
+    try:
+        participant = visitor(survivor, _new_demo_participant(survivor))
+        page = walk_to(participant, "training", "ready")
+        cookie = participant.client.get_cookie("session")
+        assert cookie is not None
+        other = restarted.test_client()
+        other.set_cookie("session", cookie.value)  # the same browser, sent to the other member
+        refused = other.post(page.action, data=page.hidden)
+        assert refused.status_code == 503, refused.status_code
+        assert float(refused.headers["Retry-After"]) > 0
+        assert _trials(restarted) == 0
+        compiling.set()
+        for _ in range(200):
+            if warmup.ready:
+                break
+            threading.Event().wait(0.01)
+        started = other.post(page.action, data=page.hidden)
+        assert started.status_code == 302 and _trials(restarted) == 1
+    finally:
+        compiling.set()
+        for app in (survivor, restarted):
+            app.extensions["hcss_db"].engine.dispose()
+
+
+def _new_demo_participant(app) -> str:
+    from tests.support.study import new_participant
+
+    return new_participant(app)

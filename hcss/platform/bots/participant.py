@@ -44,6 +44,13 @@ WARMING_RECHECK_S = 1.0
 WARMING_PATIENCE_S = 600.0
 
 
+#: In-process: looks at a trial past its time limit before it is taken never to end.
+OVERDUE_LOOKS = 50
+#: Over HTTP: wall seconds a trial may stand at its limit, its end not yet written (the
+#: bots' patience with a server that is away, http_load.RECONNECT_FOR_S).
+OVERDUE_WAIT_S = 60.0
+
+
 class BotError(AssertionError):
     """The bot reached a page it did not expect, or the platform refused it."""
 
@@ -110,6 +117,13 @@ class PageParser(HTMLParser):
     def handle_endtag(self, tag: str) -> None:
         if tag == "noscript":
             self._noscript -= 1
+
+
+def refusal_of(html: str) -> str:
+    """A refused page's reason (study/refused.html), as ": <reason>", else "": a bot's
+    error then says why the platform refused it, not only the status."""
+    found = re.search(r'id="refusal">([^<]*)<', html)
+    return f": {found.group(1).strip()}" if found else ""
 
 
 def parse_page(html: str) -> PageParser:
@@ -208,7 +222,10 @@ class ParticipantBot:
         body = dict(page.hidden) | fields
         response = self.client.post(page.action, data=body, follow_redirects=True)
         if response.status_code != 200:
-            raise BotError(f"POST {page.action} answered {response.status_code}")
+            raise BotError(
+                f"POST {page.action} answered {response.status_code}"
+                f"{refusal_of(response.get_data(as_text=True))}"
+            )
         return response.get_data(as_text=True)
 
     # --- the walk --------------------------------------------------------------------
@@ -366,6 +383,7 @@ class ParticipantBot:
         policy = InvestigateThenDecide(abandon_below=0.3)
         next_policy = 0.0
         overdue_looks = 0
+        overdue_since: float | None = None
         while True:
             state = self.client.get(api + "/state")
             if state.status_code == 409:  # the runner has let go of an ended trial
@@ -378,8 +396,10 @@ class ParticipantBot:
             if frame["trial"]["status"] == "ended":
                 break
             clock = frame["trial"]["clock_s"]
-            overdue_looks += clock >= frame["trial"]["duration_s"]
-            if overdue_looks > 50:  # past its time limit and still running: never ends
+            if clock >= frame["trial"]["duration_s"]:
+                overdue_looks += 1
+                overdue_since = overdue_since or time.monotonic()
+            if self._never_ends(overdue_looks, overdue_since):
                 raise BotError(f"trial {trial_id} is still running after its time limit")
             probe = frame.get("probe")
             if probe and probe["phase"] == "ready":
@@ -403,6 +423,18 @@ class ParticipantBot:
         if not continue_url:
             raise BotError("the trial page offers no way on to the next stage")
         return self.get(continue_url)[1]
+
+    def _never_ends(self, overdue_looks: int, overdue_since: float | None) -> bool:
+        """Whether a trial past its time limit and still running never ends (a finding).
+
+        In-process the bot steps the runner itself: 50 looks past the limit are plenty.
+        Over HTTP a trial stands at its limit, running, while its end cannot be written
+        (the database away or read-only, its link stalled) and ends once it can, as the
+        page waits for it: the bot waits as long as for a server that is away.
+        """
+        if self.live is not None:
+            return overdue_looks > OVERDUE_LOOKS
+        return overdue_since is not None and time.monotonic() - overdue_since > OVERDUE_WAIT_S
 
     def _next_look(self, frame: dict[str, Any]) -> None:
         """In-process: move the clock and let the runner step. Over HTTP: wait."""

@@ -49,16 +49,22 @@ def password_matches(password_hash: str, password: str) -> bool:
 
 
 def create_experimenter(session: Session, username: str, password: str) -> Experimenter:
-    """A new account; refuses an empty or taken username and a short password."""
+    """A new account; refuses an empty or taken username and a short password.
+
+    The password is hashed before the session's first query, so no transaction idles
+    across the hash (a fifth of a second idle, seconds on a loaded machine: PostgreSQL
+    ends a transaction idle that long, 25P03); call it with a session that has none open.
+    """
     username = username.strip()
     if not username or len(username) > 64:
         raise AccountError("the username must have 1 to 64 characters")
     if len(password) < MIN_PASSWORD_LENGTH:
         raise AccountError(f"the password must have at least {MIN_PASSWORD_LENGTH} characters")
+    password_hash = hash_password(password)
     taken = session.scalar(select(Experimenter.id).where(Experimenter.username == username))
     if taken is not None:
         raise AccountError(f"an experimenter named {username!r} already exists")
-    account = Experimenter(username=username, password_hash=hash_password(password))
+    account = Experimenter(username=username, password_hash=password_hash)
     session.add(account)
     session.flush()
     return account
@@ -90,11 +96,15 @@ def ensure_first_login(app: Flask) -> tuple[str, str] | None:
         with database.session_scope() as session:
             if session.scalar(select(func.count()).select_from(Experimenter)):
                 return None
-            password = secrets.token_urlsafe(12)
+        # A unit of work of its own, which hashes before it reads: the count's transaction
+        # is over. Two processes that both counted none: the second's insert is refused.
+        password = secrets.token_urlsafe(12)
+        with database.session_scope() as session:
             create_experimenter(session, FIRST_USERNAME, password)
-    except IntegrityError:
+    except (IntegrityError, AccountError):
         # Processes of a group (on one host or several) starting together on a new
-        # database all counted none; the first to commit made the login and printed it.
+        # database all counted none; the first to commit made the login and printed it
+        # (a later one finds its name taken, or its insert is refused).
         return None
     except (OperationalError, ProgrammingError, InternalError) as error:
         refusal = database.write_refusal()

@@ -29,10 +29,11 @@ from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
 from typing import TYPE_CHECKING
 
-from sqlalchemy.exc import DBAPIError, InterfaceError, OperationalError, ProgrammingError
+from sqlalchemy.exc import DBAPIError
 from sqlalchemy.orm import Session
 
 from hcss.platform.db import Database
+from hcss.platform.errors import database_away
 from hcss.platform.live.hand_back import hand_back, hand_over
 from hcss.platform.live.leases import Fence, HostedElsewhere, Leases
 from hcss.platform.live.orders import (
@@ -85,6 +86,8 @@ class Runner:
         self._keeper: threading.Thread | None = None
         self._last_sync = -float("inf")
         self._told_unmigrated = False
+        #: The database refused the last sync (an outage, said once in the log until it ends).
+        self._database_away = False
         #: Participants' commands under way per trial (`commanding`): no hand-back meanwhile.
         self._commanding: Counter[int] = Counter()
         #: Trials held here whose home restarted (found at the last renewal): id -> its process.
@@ -308,8 +311,11 @@ class Runner:
             if trial_id not in self._trials:
                 try:
                     self.host(trial_id)
-                except Exception:
+                except Exception as error:
+                    if database_away(error):
+                        raise  # the others would fail alike: the tick says it once
                     log.exception("could not load live trial %s", trial_id)
+        self._database_away = False
 
     # --- advancing --------------------------------------------------------------
 
@@ -327,12 +333,13 @@ class Runner:
             self._last_sync = now
             try:
                 self.sync()
-            except (OperationalError, InterfaceError) as error:
-                if _missing_table(error):
+            except Exception as error:
+                if not database_away(error) or _missing_table(error):
                     raise
-                # The database is away: the trials in memory still advance, and
-                # their failing writes stop their clocks until it is back.
-                log.debug("runner sync skipped: the database is away", exc_info=True)
+                # The database is away (or read-only): the trials in memory still advance,
+                # and their failing writes stop their clocks until it is back. One WARNING
+                # line per outage, as the request path says it (errors.log_database_away).
+                self._say_away(error)
         if self.leases is not None and wallclock.monotonic() - self._last_orders >= POLL_S:
             self._last_orders = wallclock.monotonic()
             self.carry_out_orders()
@@ -462,6 +469,13 @@ class Runner:
                 thread.join(timeout=5)
         self._thread = self._keeper = None
 
+    def _say_away(self, error: BaseException) -> None:
+        """One WARNING line per outage (as the request path says it, errors.log_database_away),
+        not a traceback per trial and tick: the log tells an outage from a bug."""
+        if not self._database_away:
+            self._database_away = True
+            log.warning("live runner: %s; trials are taken up once it is back", _why(error))
+
     def _keep_leases(self) -> None:
         """Renew the held leases a few times per lease length, whatever the runner is doing."""
         assert self.leases is not None
@@ -477,21 +491,29 @@ class Runner:
             started = wallclock.monotonic()
             try:
                 self.tick()
-            except (OperationalError, ProgrammingError) as error:
-                if not _missing_table(error):
+            except Exception as error:
+                if isinstance(error, DBAPIError) and _missing_table(error):
+                    if not self._told_unmigrated:  # one clear line, not a traceback every tick
+                        self._told_unmigrated = True
+                        log.error(
+                            "the database has no platform tables (run `hcss db upgrade`); "
+                            "the live runner waits for them"
+                        )
+                elif database_away(error):
+                    self._say_away(error)
+                else:
                     log.exception("runner tick failed")
-                elif not self._told_unmigrated:  # one clear line, not a traceback every tick
-                    self._told_unmigrated = True
-                    log.error(
-                        "the database has no platform tables (run `hcss db upgrade`); "
-                        "the live runner waits for them"
-                    )
-            except Exception:
-                log.exception("runner tick failed")
             self._stop.wait(max(0.0, TICK_S - (wallclock.monotonic() - started)))
 
 
-def _missing_table(error: DBAPIError) -> bool:
+def _why(error: BaseException) -> str:
+    """An outage in one line: the driver's own first words."""
+    cause = getattr(error, "orig", None) or error
+    words = str(cause).strip().splitlines()[0][:200] if str(cause).strip() else ""
+    return f"the database is away: {type(cause).__name__}: {words}"
+
+
+def _missing_table(error: BaseException) -> bool:
     """SQLite says "no such table", PostgreSQL "relation ... does not exist"."""
-    text = str(error.orig).lower()
+    text = str(getattr(error, "orig", error)).lower()
     return "no such table" in text or ("relation" in text and "does not exist" in text)

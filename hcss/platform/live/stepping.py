@@ -68,11 +68,14 @@ def advance_trial(
             # Away, or the lease is not proved (its deadline passed before a renewal
             # answered): the trial stands still until a renewal or a takeover decides.
             if live.trial_clock.database_away_since is None:
+                # One line, no traceback: an outage, not a bug (the driver's words say why).
+                cause = getattr(error, "orig", None) or error
                 log.warning(
-                    "live trial %s: the database takes no writes; the trial stands "
+                    "live trial %s: the database takes no writes (%s: %s); the trial stands "
                     "still and what it holds is written when the database is back",
                     live.trial_id,
-                    exc_info=True,
+                    type(cause).__name__,
+                    (str(cause).strip().splitlines() or [""])[0][:200],
                 )
                 live.database_away(now)
                 live.touch()

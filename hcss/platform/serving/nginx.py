@@ -40,6 +40,16 @@ a request's head and body, and read the answer, without long pauses
 is closed by nginx. The processes also count each client's requests in
 progress by the forwarded address (hcss.platform.serving.connections).
 
+When no process could answer (each was down, or stopped past its read timeout),
+nginx does not answer its own 502 or 504: it answers 503 with Retry-After, the
+same "not now" as a process's own 503 while the database is away, which the
+page (static/live.js), the HTTP bots and a browser's please-wait page wait on
+and send again (a command with the same Idempotency-Key; a form's repeat is
+refused as already submitted, and a browser's page reloads with a GET). API
+paths get JSON in the app's shape (`error`, `message`, `held_by`), pages a
+please-wait page that reloads itself. Only nginx's own answers are replaced
+(no `proxy_intercept_errors`): a process's 4xx and 503 pass unchanged.
+
 The servers trust X-Forwarded-For and -Proto from this proxy only when told
 (``HCSS_PROXY_HOPS=1`` and ``HCSS_TRUSTED_PROXY``, the address nginx connects
 from; hcss.platform.serving.connections.proxy_adjustments). nginx sets
@@ -49,6 +59,7 @@ the links the console prints.
 
 from __future__ import annotations
 
+import json
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -59,6 +70,11 @@ PER_CLIENT = 64
 CLIENT_HEADER_S = 10
 CLIENT_BODY_S = 10
 SEND_S = 15
+#: Seconds nginx asks a client to wait when no process answered (its 503's Retry-After):
+#: another may host the trial by now, so soon (the page asked again after 1 s of a 502/504).
+PROCESS_LOST_RETRY_S = 1
+#: The internal addresses of nginx's own 503 (a page, or JSON for the API).
+LOST_PAGE, LOST_JSON = "/.hcss/process-lost.html", "/.hcss/process-lost.json"
 
 
 def site_config(servers: Sequence[str], *, listen: str = "8080") -> str:
@@ -87,6 +103,12 @@ map "$request_method:$http_idempotency_key" $hcss_unkeyed {{
     default "";
 }}
 
+# Where nginx's own "no process answered" goes (its 502 and 504, answered as a 503).
+map $uri $hcss_process_lost {{
+    ~^/api/ {LOST_JSON};
+    default {LOST_PAGE};
+}}
+
 upstream {UPSTREAM} {{
     hash $hcss_token;
 {members}
@@ -103,12 +125,17 @@ server {{
     client_header_timeout {CLIENT_HEADER_S}s;
     client_body_timeout {CLIENT_BODY_S}s;
     send_timeout {SEND_S}s;
-
+    # No process answered: "not now" with Retry-After, never a 502 or 504 (see the top).
+    # Recursive: a form's POST is already redirected once (418, @unkeyed below).
+    error_page 502 504 =503 $hcss_process_lost;
+    recursive_error_pages on;
+{_process_lost()}
     location / {{
         if ($hcss_unkeyed) {{
             return 418;
         }}
         error_page 418 = @unkeyed;
+        error_page 502 504 =503 $hcss_process_lost;
 {_PROXY}
         location ~ ^/api/live/[^/]+/trials/[0-9]+/stream$ {{
             proxy_pass http://{UPSTREAM};
@@ -130,6 +157,36 @@ server {{
     }}
 {forwards}}}
 """
+
+
+def _process_lost() -> str:
+    """nginx's own 503 with Retry-After, as JSON for the API and as a page that reloads."""
+    message = (
+        "The study server is not answering just now. Please wait: this page tries again "
+        "by itself in a few seconds. Your answers so far are saved."
+    )
+    body = json.dumps({"error": "server_unavailable", "message": message, "held_by": "server"})
+    page = (
+        '<!doctype html><html lang="en"><head><meta charset="utf-8">'
+        f'<meta http-equiv="refresh" content="{PROCESS_LOST_RETRY_S}">'
+        "<title>Please wait a moment</title></head><body><main><h1>Please wait a moment</h1>"
+        f"<p>{message}</p><p>Error 503</p></main></body></html>"
+    )
+    return "".join(
+        f"""
+    location = {address} {{
+        internal;
+        default_type {kind};
+        add_header Retry-After {PROCESS_LOST_RETRY_S} always;
+        add_header Cache-Control no-store always;
+        return 503 '{text}';
+    }}
+"""
+        for address, kind, text in (
+            (LOST_JSON, "application/json", body),
+            (LOST_PAGE, "text/html", page),
+        )
+    )
 
 
 def _member_upstream(index: int, server: str) -> str:

@@ -28,12 +28,19 @@ from hcss.questionnaires.definitions import Item, RatingItem, ScoreRow
 
 
 class Refused(Exception):
-    """A submission that does not fit where the participant is; nothing is written."""
+    """A submission that does not fit where the participant is; nothing is written.
 
-    def __init__(self, message: str, status: int = 409) -> None:
+    `retry_after_s`: the refusal is "not now" (503 with Retry-After), not "no" (409): the
+    same form is taken once the server is ready, and the page goes back by itself.
+    """
+
+    def __init__(
+        self, message: str, status: int = 409, *, retry_after_s: int | None = None
+    ) -> None:
         super().__init__(message)
         self.message = message
-        self.status = status
+        self.status = 503 if retry_after_s is not None else status
+        self.retry_after_s = retry_after_s
 
 
 @dataclass(frozen=True)

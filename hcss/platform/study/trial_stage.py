@@ -30,6 +30,9 @@ from hcss.platform.models.vocabularies import TrialStatus
 from hcss.platform.study.stage_protocol import Refused, Stage, StageContext
 from hcss.platform.study.texts import duration
 
+#: Seconds a Start refused during this process's warm-up is to wait (its page reloads as often).
+WARMING_RETRY_S = 5
+
 
 class LiveStage(Stage):
     """A stage that runs a trial on the live interface: the training or the trial."""
@@ -57,8 +60,14 @@ class LiveStage(Stage):
     def submit(self, here: StageContext, form: FlaskForm) -> bool:
         if here.step != "ready":
             raise Refused("The trial is already under way.")
-        if not simulation_ready():  # its clock would run while the server compiles
-            raise Refused("The simulation is still being prepared; please wait a moment.")
+        if not simulation_ready():
+            # Its clock would run while this process compiles. Not now, not no: in a group
+            # the page may have come from a warm member and the Start reached one that
+            # has just restarted (a 409 stopped the participant there).
+            raise Refused(
+                "The simulation is still being prepared; please wait a moment.",
+                retry_after_s=WARMING_RETRY_S,
+            )
         trial = start_trial(
             here.flow.session,
             here.flow.participant,

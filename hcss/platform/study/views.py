@@ -178,7 +178,9 @@ def _current_stage(token: str) -> Response | str:
 
 
 @bp.post("/<token>/stage/<int:index>/<step>")
-def submit(token: str, index: int, step: str) -> Response | tuple[str, int] | str:
+def submit(
+    token: str, index: int, step: str
+) -> Response | tuple[str, int] | tuple[str, int, dict[str, str]] | str:
     flow = _flow(token)
     held = _held(flow)
     if held is not None:
@@ -203,6 +205,10 @@ def submit(token: str, index: int, step: str) -> Response | tuple[str, int] | st
         if done:
             flow.record(position.slot, position.step, "submitted")
     except Refused as refusal:
+        if refusal.retry_after_s is not None:
+            flow.session.rollback()
+            page = _refused(token, refusal.message, retry_after_s=refusal.retry_after_s)
+            return page, refusal.status, {"Retry-After": str(refusal.retry_after_s)}
         return _refused(token, refusal.message), refusal.status
     except IntegrityError:
         flow.session.rollback()
@@ -281,8 +287,10 @@ def _held(flow: Flow) -> str | None:
     )
 
 
-def _refused(token: str, message: str) -> str:
-    return render_template("study/refused.html", message=message, token=token)
+def _refused(token: str, message: str, *, retry_after_s: int | None = None) -> str:
+    return render_template(
+        "study/refused.html", message=message, token=token, retry_after_s=retry_after_s
+    )
 
 
 def _finished(flow: Flow, position: Position) -> str:
