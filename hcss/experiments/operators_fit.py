@@ -34,19 +34,24 @@ VALIDATION_BLOCKS = (40_000_000, 41_000_000)
 # trait -> (low, high, log scale); "spread" is the population's
 SEARCH_SPACE: dict[str, tuple[float, float, bool]] = {
     "glance_interval_s": (1.0, 10.0, True),
+    "stay_prob": (0.01, 0.9, True),
     "reaction_time_s": (1.0, 8.0, True),
-    "value_noise": (0.01, 0.2, True),
+    "value_noise": (0.003, 0.2, True),
+    "value_resolution": (0.005, 0.15, True),
     "investigate_prob": (0.02, 1.0, True),
     "stalled_investigate_prob": (0.05, 1.0, True),
+    "stall_window_s": (5.0, 120.0, True),
     "decide_support": (0.30, 0.6, False),
     "decide_prob": (0.02, 1.0, True),
     "abandon_support": (0.05, 0.4, False),
     "abandon_gap": (0.02, 0.3, False),
     "abandon_prob": (0.01, 1.0, True),
     "slip_prob": (0.001, 0.2, True),
-    "observe_collective_prob": (0.02, 1.0, True),
-    "observe_target_prob": (0.01, 1.0, True),
-    "probe_lapse": (0.01, 0.5, True),
+    "observe_collective_prob": (0.005, 1.0, True),
+    "observe_target_prob": (0.001, 0.5, True),
+    "perception_lapse": (0.01, 0.5, True),
+    "comprehension_lapse": (0.01, 0.5, True),
+    "projection_lapse": (0.01, 0.5, True),
     "spread": (0.05, 1.0, True),
 }
 

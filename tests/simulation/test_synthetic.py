@@ -9,7 +9,7 @@ from hcss.experiments.synthetic_trials import run_trial
 from hcss.simulation import Scenario, Simulation
 from hcss.simulation.presets import preset_params
 from hcss.simulation.synthetic import Population, SyntheticOperator, Traits
-from hcss.simulation.view import Truth
+from hcss.simulation.view import Display, Truth
 
 PARAMS = preset_params()
 BUSY = Traits(
@@ -92,3 +92,98 @@ def test_a_population_draws_valid_people_that_differ() -> None:
 def test_a_decide_threshold_below_the_interfaces_floor_is_refused() -> None:
     with pytest.raises(ValueError, match="decide_support"):
         Traits(decide_support=0.2)
+
+
+def _operator(**changes: float) -> SyntheticOperator:
+    quiet = {"observe_collective_prob": 0.0, "observe_target_prob": 0.0, "slip_prob": 0.0}
+    return SyntheticOperator(Traits(**(quiet | changes)), 1)
+
+
+def _attended_after_acting(stay_prob: float) -> list[tuple[int, int]]:
+    """(collective attended, the next look's collective) for looks that sent a request."""
+    sim = Simulation(_scenario(21), "M3", PARAMS)
+    sim.step(600)
+    operator = _operator(stay_prob=stay_prob, investigate_prob=1.0, decide_prob=0.0)
+    pairs, previous = [], None
+    for _ in range(24):
+        glance = operator.look(sim.display())
+        if previous is not None:
+            pairs.append((previous, glance.collective))
+        previous = glance.collective if glance.commands else None
+        sim.step(20)
+    return pairs
+
+
+def test_attention_stays_on_a_collective_it_has_just_acted_on_as_often_as_the_person_does() -> None:
+    staying, moving = _attended_after_acting(1.0), _attended_after_acting(0.0)
+    assert staying and moving
+    assert all(before == after for before, after in staying)
+    assert all(before != after for before, after in moving)
+
+
+def test_a_stalled_collective_is_pushed_only_after_the_persons_stall_window() -> None:
+    """M3 does not move by itself: with no ordinary investigates, the first push comes once
+    the leading target's support has not grown for `stall_window_s`, not before."""
+    scenario = _scenario(22)
+    firsts = []
+    for window in (20.0, 120.0):
+        traits = Traits(
+            glance_interval_s=2.0,
+            investigate_prob=0.0,
+            stalled_investigate_prob=1.0,
+            stall_window_s=window,
+            decide_prob=0.0,
+            abandon_prob=0.0,
+            slip_prob=0.0,
+        )
+        _, rows = run_trial(scenario, "M3", PARAMS, SyntheticOperator(traits, 2), "p", "t", 400.0)
+        pushes = [r["sim_time_s"] for r in rows.requests if r["kind"] == "investigate"]
+        assert pushes
+        firsts.append(min(pushes))
+    assert firsts[0] >= 20.0 and firsts[1] >= 120.0 and firsts[1] > firsts[0]
+
+
+def test_a_moving_collective_is_never_the_persons_next_decision() -> None:
+    """Level 3 from what it saw: a collective on the move has just decided (its decision
+    ended as the move began), so it is not the answer, however committed it looked."""
+    sim = Simulation(_scenario(23), "M1", PARAMS)
+    while not sim.display().executing.any():
+        sim.step(10)
+    display = sim.display()
+    operator = _operator(projection_lapse=0.0)
+    operator.look(display)
+    names = ["I", "II", "III", "IV"]
+    moving = {names[c] for c in np.flatnonzero(display.executing)}
+    answers = {operator.answer(3, "Which collective will make the next decision?", names)}
+    assert answers and not answers & moving
+
+
+def test_of_targets_that_look_equally_good_the_nearer_is_the_best_choice() -> None:
+    """Level 2 and the requests: two targets a person cannot tell apart by their green
+    (within `value_resolution`) are ranked by distance to the hub."""
+    sim = Simulation(_scenario(24), "M1", PARAMS)
+    sim.step(200)
+    assert not sim.finished
+    view = sim.display().to_json()
+    hub = np.array(view["collectives"][0]["hub"], dtype=float)
+    targets = view["targets"]
+    assert len(targets) >= 2
+    far, near = targets[0], targets[1]
+    near["value"], far["value"] = 0.9, 0.91  # the far one reads a shade greener
+    for t in targets[2:]:
+        t["value"] = 0.5
+
+    def distance(t: dict) -> float:
+        return float(np.hypot(*(np.array(t["position"], dtype=float) - hub)))
+
+    if distance(near) > distance(far):
+        near["position"], far["position"] = far["position"], near["position"]
+    display = Display.from_json(view)
+    question = "Which target is the best choice for collective I?"
+    choices = [str(far["id"]), str(near["id"])]
+    sharp = _operator(value_noise=1e-6, value_resolution=0.001, comprehension_lapse=0.0)
+    blurred = _operator(value_noise=1e-6, value_resolution=0.05, comprehension_lapse=0.0)
+    sharp.look(display)
+    blurred.look(display)
+    assert sharp.answer(2, question, choices) == str(far["id"])
+    assert blurred.answer(2, question, choices) == str(near["id"])
