@@ -28,6 +28,9 @@ from hcss.simulation.params import Params
 from hcss.simulation.synthetic import Population, Traits
 
 STUDY_NAME = "hcss-study-teams-calibration"
+#: The population fitted to §11 on the default preset, shipped with hcss (`hcss plan`'s default):
+#: the population.json of `hcss simulate calibrate --to study-teams`, as written.
+FITTED_POPULATION = Path(__file__).parent / "populations" / "study-teams.json"
 FIT_BLOCK = 30_000_000
 VALIDATION_BLOCKS = (40_000_000, 41_000_000)
 
@@ -238,5 +241,13 @@ def report(result: Calibration, settings: Settings) -> str:
 
 
 def load_population(path: Path) -> Population:
-    """A fitted population from its population.json."""
-    return Population.from_dict(json.loads(path.read_text(encoding="utf-8")))
+    """A fitted population from its population.json; a clear error for a file of traits
+    this operator does not have (a population fitted before a trait was renamed)."""
+    values = json.loads(path.read_text(encoding="utf-8"))
+    unknown = set(values.get("median", {})) - {f for f in asdict(Traits())}
+    if unknown:
+        raise ValueError(
+            f"{path} has traits this operator does not know ({', '.join(sorted(unknown))}): "
+            "re-fit it with `hcss simulate calibrate --to study-teams`"
+        )
+    return Population.from_dict(values)

@@ -23,6 +23,7 @@ pace, however their probes interleave.
 from __future__ import annotations
 
 import math
+from collections import Counter
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, fields, replace
 from typing import Any
@@ -38,6 +39,15 @@ DECIDE_FLOOR = 0.30  # the simulation refuses a decide below this support (spec 
 #: rule (measured on the default preset, M1: 3 x committed + support names the next decision
 #: 60% of the time, committed + support 58%, support alone 45%).
 COMMITTED_WEIGHT = 3.0
+#: Support beyond what a person's own investigates sent (10 agents each, as the instructions
+#: say) that only a collective's own recruitment gives: what tells a person the collectives
+#: move by themselves. Measured on the default preset with no
+#: requests: M3's never passed 8% in 10 min (4 scenarios), M1's and M2's passed 15% within
+#: 30-110 s.
+SELF_MOVING_SUPPORT = 0.15
+INVESTIGATE_AGENTS = (
+    10  # agents an investigate sends (spec §8), as the interface's instructions say
+)
 
 
 @dataclass(frozen=True)
@@ -63,9 +73,12 @@ class Traits:
       agents to assess it; repeatable, as on the interface, even while one is
       in progress).
     - `stalled_investigate_prob`: the same chance when that target's support has
-      not grown for `stall_window_s` (a collective that does not move by
-      itself, as M3, gets pushed more; one that grows on its own, as M1 and M2
-      mostly do, is left to it).
+      not grown for `stall_window_s`, and at every look until the person has
+      seen some collective move by itself in this trial (a target's support
+      `SELF_MOVING_SUPPORT` above what the person's own investigates of it
+      sent): a person supervising collectives
+      that move only by their requests, as M3's, keeps pushing them; one who
+      has seen them grow on their own, as M1's and M2's, waits.
     - `stall_window_s`: how long a person waits for a leading target's support
       to grow before judging the collective stuck.
     - `decide_support`: the support at which it considers deciding; never below
@@ -137,9 +150,7 @@ TRAIT_PROBABILITIES = (
     "projection_lapse",
 )
 #: Traits bounded to [0, 1]: drawn on the logit scale. The others are positive: log scale.
-_BOUNDED = frozenset(
-    (*TRAIT_PROBABILITIES, "abandon_support", "value_noise", "value_resolution")
-)
+_BOUNDED = frozenset((*TRAIT_PROBABILITIES, "abandon_support", "value_noise", "value_resolution"))
 
 
 @dataclass(frozen=True)
@@ -241,6 +252,8 @@ class SyntheticOperator:
         self.places: dict[int, tuple[float, float]] = {}  # target id -> where it is drawn
         # collective -> (leading target, its support, since when it has not grown)
         self.growth: dict[int, tuple[int, float, float]] = {}
+        self.pushed: Counter[tuple[int, int]] = Counter()  # (collective, target) -> investigates
+        self.seen_self_moving = False  # has it seen a collective gain support by itself?
 
     def glance_times(self, until_s: float) -> list[float]:
         """When it looks, from the trial's start: every glance interval."""
@@ -290,12 +303,13 @@ class SyntheticOperator:
                 worst = max(weak, key=lambda v: float(d.support[c, v]))
                 commands.append(OperatorCommand("abandon", c, ids[worst]))
         support = float(d.support[c, best])
-        stalled = self._stalled(c, ids[best], support, d.time)
+        stalled = self._stalled(c, ids[best], support, d.time) or not self.seen_self_moving
         if support >= t.decide_support:
             if u[3] < t.decide_prob:
                 commands.append(OperatorCommand("decide", c, ids[best]))
         elif u[4] < (t.stalled_investigate_prob if stalled else t.investigate_prob):
             commands.append(OperatorCommand("investigate", c, ids[best]))
+            self.pushed[(c, ids[best])] += 1
         if commands and u[5] < t.slip_prob:
             slip = _slip(d, c, shown, u[6])
             if slip is not None:
@@ -310,6 +324,17 @@ class SyntheticOperator:
             return False
         return now - before[2] >= self.traits.stall_window_s
 
+    def _moving_by_itself(self, d: Display, ids: list[int]) -> bool:
+        """Whether a deliberating collective (none of its agents committed) supports a target
+        `SELF_MOVING_SUPPORT` beyond what the person's investigates of it sent."""
+        sent = INVESTIGATE_AGENTS / max(d.n_agents, 1)
+        for c in np.flatnonzero(~d.executing & (d.state_counts[:, 2] + d.state_counts[:, 3] == 0)):
+            for v, target in enumerate(ids):
+                pushed = self.pushed.get((int(c), target), 0) * sent
+                if float(d.support[c, v]) >= SELF_MOVING_SUPPORT + pushed:
+                    return True
+        return False
+
     def _remember(self, d: Display, ids: list[int], read: np.ndarray) -> None:
         """What a look takes in of the whole map: values read, supports, who is near a decision.
 
@@ -320,6 +345,8 @@ class SyntheticOperator:
         for v, target in enumerate(ids):
             self.values[target] = float(read[v])
             self.places[target] = (float(d.position[v, 0]), float(d.position[v, 1]))
+        if not self.seen_self_moving:
+            self.seen_self_moving = self._moving_by_itself(d, ids)
         n = max(d.n_agents, 1)
         for c in range(d.n_collectives):
             support = {ids[v]: float(d.support[c, v]) for v in range(len(ids))}
@@ -372,7 +399,9 @@ class SyntheticOperator:
         return names[c] if names[c] in choices else guess
 
 
-def _best_looking(d: Display, c: int, shown: np.ndarray, read: np.ndarray, resolution: float) -> int:
+def _best_looking(
+    d: Display, c: int, shown: np.ndarray, read: np.ndarray, resolution: float
+) -> int:
     """The shown target that looks best to collective c: the highest reading, and of the
     readings a person cannot tell apart from it, the target nearest the hub."""
     top = float(read[shown].max())

@@ -121,26 +121,31 @@ def test_attention_stays_on_a_collective_it_has_just_acted_on_as_often_as_the_pe
     assert all(before != after for before, after in moving)
 
 
-def test_a_stalled_collective_is_pushed_only_after_the_persons_stall_window() -> None:
-    """M3 does not move by itself: with no ordinary investigates, the first push comes once
-    the leading target's support has not grown for `stall_window_s`, not before."""
-    scenario = _scenario(22)
-    firsts = []
-    for window in (20.0, 120.0):
-        traits = Traits(
-            glance_interval_s=2.0,
-            investigate_prob=0.0,
-            stalled_investigate_prob=1.0,
-            stall_window_s=window,
-            decide_prob=0.0,
-            abandon_prob=0.0,
-            slip_prob=0.0,
-        )
-        _, rows = run_trial(scenario, "M3", PARAMS, SyntheticOperator(traits, 2), "p", "t", 400.0)
-        pushes = [r["sim_time_s"] for r in rows.requests if r["kind"] == "investigate"]
-        assert pushes
-        firsts.append(min(pushes))
-    assert firsts[0] >= 20.0 and firsts[1] >= 120.0 and firsts[1] > firsts[0]
+def _pushes(model: str, stall_window_s: float) -> list[float]:
+    """When a person who never investigates in the ordinary way pushes collectives."""
+    traits = Traits(
+        glance_interval_s=2.0,
+        investigate_prob=0.0,
+        stalled_investigate_prob=1.0,
+        stall_window_s=stall_window_s,
+        decide_prob=0.0,
+        abandon_prob=0.0,
+        slip_prob=0.0,
+    )
+    operator = SyntheticOperator(traits, 2)
+    _, rows = run_trial(_scenario(22), model, PARAMS, operator, "p", "t", 400.0, probes=False)
+    return [r["sim_time_s"] for r in rows.requests if r["kind"] == "investigate"]
+
+
+def test_collectives_that_never_move_by_themselves_are_pushed_without_waiting() -> None:
+    """In M3 nothing gains support unpushed, so the person pushes at once, however long
+    they would wait for a collective seen to move by itself; in M1, once seen moving by
+    itself, a collective is pushed only when it has not grown for the stall window."""
+    m3 = _pushes("M3", 300.0)
+    m1_patient, m1_hasty = _pushes("M1", 300.0), _pushes("M1", 10.0)
+    assert m3 and min(m3) < 30.0
+    assert len(m3) > len(m1_patient)
+    assert len(m1_hasty) > len(m1_patient)
 
 
 def test_a_moving_collective_is_never_the_persons_next_decision() -> None:
