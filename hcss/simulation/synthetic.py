@@ -388,12 +388,12 @@ class SyntheticOperator:
             return names[c] if seen[c] > 0 and names[c] in choices else guess
         if level == 2:
             known = [int(x) for x in choices if x.isdecimal() and int(x) in self.values]
-            c = _collective_in(question, names)
-            if not known or c is None or c not in self.memory:
+            subject = _collective_in(question, names)
+            if not known or subject is None or subject not in self.memory:
                 return guess
             top = max(self.values[x] for x in known)
             alike = [x for x in known if self.values[x] >= top - self.traits.value_resolution]
-            hub = self.memory[c].hub
+            hub = self.memory[subject].hub
             return str(min(alike, key=lambda x: math.dist(self.places[x], hub)))
         c = max(self.memory, key=lambda k: self.memory[k].closeness)
         return names[c] if names[c] in choices else guess
