@@ -30,7 +30,7 @@ from hcss.simulation.synthetic import Population, Traits
 STUDY_NAME = "hcss-study-teams-calibration"
 #: The population fitted to §11 on the default preset, shipped with hcss (`hcss plan`'s default):
 #: the population.json of `hcss simulate calibrate --to study-teams`, as written.
-FITTED_POPULATION = Path(__file__).parent / "populations" / "study-teams.json"
+FITTED_POPULATION = Path(__file__).parent / "study-teams-population.json"
 FIT_BLOCK = 30_000_000
 VALIDATION_BLOCKS = (40_000_000, 41_000_000)
 
