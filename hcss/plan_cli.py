@@ -23,14 +23,28 @@ def _ns(text: str) -> tuple[int, ...]:
     return ns
 
 
-def _described(path: Path | None) -> str:
-    """The population in the plan's words: its file and the preset it was fitted on."""
+def model_for(population_path: Path, study_preset: str) -> tuple[str, str]:
+    """The preset the plan's model runs under, and the population in the plan's words.
+
+    A population fitted by `hcss simulate calibrate --to study-teams` reproduces the
+    human tables under the preset it was fitted on (population.json records it), so
+    the plan runs that preset, whatever the study file names for its live trials; a
+    population without a recorded preset runs under the study file's.
+    """
     import json
 
-    if path is None:
-        return "the operator's default traits (uncalibrated)"
-    preset = json.loads(path.read_text(encoding="utf-8")).get("preset", "an unnamed preset")
-    return f"{path} (fitted on preset {preset})"
+    recorded = json.loads(population_path.read_text(encoding="utf-8")).get("preset")
+    if recorded is None:
+        return (
+            study_preset,
+            f"{population_path} (no preset recorded: the study file's {study_preset})",
+        )
+    note = (
+        ""
+        if recorded == study_preset
+        else f"; the study file names {study_preset} for its live trials"
+    )
+    return recorded, f"{population_path} (fitted on preset {recorded}, which the plan runs{note})"
 
 
 @click.command("plan")
@@ -66,7 +80,8 @@ def _described(path: Path | None) -> str:
     type=click.Path(exists=True, dir_okay=False, path_type=Path),
     default=None,
     help="population.json from `hcss simulate calibrate --to study-teams` "
-    "(default: the operator's uncalibrated traits).",
+    "(default: the population fitted to the study's human teams, shipped with hcss). "
+    "The plan runs the preset it was fitted on.",
 )
 @click.option("--seed", type=int, default=1, show_default=True)
 @click.option("--workers", type=click.IntRange(min=1), default=2, show_default=True)
@@ -100,10 +115,9 @@ def plan_command(
     OUT/plan.html (tables, power curves, the N for 80%, every assumption).
     """
     from hcss.experiments import plan as planning
-    from hcss.experiments.operators_fit import load_population
+    from hcss.experiments.operators_fit import FITTED_POPULATION, load_population
     from hcss.platform.study.studyfile import StudyFileError, load_study
     from hcss.simulation.presets import preset_params
-    from hcss.simulation.synthetic import Population
 
     try:
         study_file = load_study(study)
@@ -113,7 +127,9 @@ def plan_command(
         tuple((model, cell.first_sections.get(model, "easy")) for model in cell.model_order)
         for cell in study_file.cells
     )
-    population = Population() if population_path is None else load_population(population_path)
+    population_path = population_path or FITTED_POPULATION
+    population = load_population(population_path)
+    preset, described = model_for(population_path, study_file.simulation.preset)
     settings = planning.PlanSettings(
         study=study,
         cells=cells,
@@ -124,9 +140,9 @@ def plan_command(
         pool_scenarios=pool_scenarios,
         scenario_runs=scenario_runs,
         seed=seed,
-        population=_described(population_path),
+        population=described,
     )
-    params = preset_params(study_file.simulation.preset)
+    params = preset_params(preset)
     bar = tqdm(total=3, unit="step", desc="hcss plan")
 
     def step(message: str) -> None:

@@ -28,25 +28,33 @@ from hcss.simulation.params import Params
 from hcss.simulation.synthetic import Population, Traits
 
 STUDY_NAME = "hcss-study-teams-calibration"
+#: The population fitted to §11 on the default preset, shipped with hcss (`hcss plan`'s default):
+#: the population.json of `hcss simulate calibrate --to study-teams`, as written.
+FITTED_POPULATION = Path(__file__).parent / "study-teams-population.json"
 FIT_BLOCK = 30_000_000
 VALIDATION_BLOCKS = (40_000_000, 41_000_000)
 
 # trait -> (low, high, log scale); "spread" is the population's
 SEARCH_SPACE: dict[str, tuple[float, float, bool]] = {
     "glance_interval_s": (1.0, 10.0, True),
+    "stay_prob": (0.01, 0.9, True),
     "reaction_time_s": (1.0, 8.0, True),
-    "value_noise": (0.01, 0.2, True),
+    "value_noise": (0.003, 0.2, True),
+    "value_resolution": (0.005, 0.15, True),
     "investigate_prob": (0.02, 1.0, True),
     "stalled_investigate_prob": (0.05, 1.0, True),
+    "stall_window_s": (5.0, 120.0, True),
     "decide_support": (0.30, 0.6, False),
     "decide_prob": (0.02, 1.0, True),
     "abandon_support": (0.05, 0.4, False),
     "abandon_gap": (0.02, 0.3, False),
     "abandon_prob": (0.01, 1.0, True),
     "slip_prob": (0.001, 0.2, True),
-    "observe_collective_prob": (0.02, 1.0, True),
-    "observe_target_prob": (0.01, 1.0, True),
-    "probe_lapse": (0.01, 0.5, True),
+    "observe_collective_prob": (0.005, 1.0, True),
+    "observe_target_prob": (0.001, 0.5, True),
+    "perception_lapse": (0.01, 0.5, True),
+    "comprehension_lapse": (0.01, 0.5, True),
+    "projection_lapse": (0.01, 0.5, True),
     "spread": (0.05, 1.0, True),
 }
 
@@ -233,5 +241,13 @@ def report(result: Calibration, settings: Settings) -> str:
 
 
 def load_population(path: Path) -> Population:
-    """A fitted population from its population.json."""
-    return Population.from_dict(json.loads(path.read_text(encoding="utf-8")))
+    """A fitted population from its population.json; a clear error for a file of traits
+    this operator does not have (a population fitted before a trait was renamed)."""
+    values = json.loads(path.read_text(encoding="utf-8"))
+    unknown = set(values.get("median", {})) - {f for f in asdict(Traits())}
+    if unknown:
+        raise ValueError(
+            f"{path} has traits this operator does not know ({', '.join(sorted(unknown))}): "
+            "re-fit it with `hcss simulate calibrate --to study-teams`"
+        )
+    return Population.from_dict(values)

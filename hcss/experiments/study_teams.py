@@ -11,10 +11,16 @@ held back: nothing here reads them.
 Readings of §11 [choice]:
 - requests per decision per minute: a decision's accepted requests of a kind
   over its time in minutes (the decisions table's counts, as `hcss analyze`);
-- observations per decision: a decision's actions are the requests on its
-  collective while it was under way (accepted or refused) and the observation
-  clicks on its collective then; a target click counts for the collective the
-  operator was attending. The share is over decisions with any action;
+- observations per decision: 100 when the operator made at least one
+  observation click of that kind on the decision's collective while it was
+  under way, else 0 (a target click counts for the collective the operator
+  was attending), over all decisions. §11 words it as a share of the
+  decision's actions, but its numbers are of this kind: every one of its 18
+  SDs is a 0/100 variable's, sqrt(p(100 - p)) with n - 1, and M1's
+  overall 77.98% is 262 of 336 decisions, easy 65.62% 126 of 192 and
+  difficult 94.44% 136 of 144 (192 + 144 = 336); a decision's shares of
+  collective and target clicks could not add to more than 100, as M1's
+  difficult 94.44 + 33.33 do;
 - SA accuracy per participant: correct over scored probes of a trial, by level
   and over all levels (SA0).
 """
@@ -166,10 +172,9 @@ def measure(
             if minutes > 0:
                 for kind, n in counts.items():
                     per[("requests", model, f"{kind}/{split}")].append(n / minutes)
-            if clicks and clicks["total"] > 0:
-                for kind in ("collective", "target"):
-                    share = 100.0 * clicks[kind] / clicks["total"]
-                    per[("observations_pct", model, f"{kind}/{split}")].append(share)
+            for kind in ("collective", "target"):
+                observed = bool(clicks and clicks[kind] > 0)
+                per[("observations_pct", model, f"{kind}/{split}")].append(100.0 * observed)
     for (model, _trial), n in interventions.items():
         per[("interventions", model, "participant")].append(n)
     for key, values in _sa_by_trial(probes).items():
@@ -182,7 +187,8 @@ def _actions_by_decision(
     requests: Iterable[Mapping[str, Any]],
     observations: Iterable[Mapping[str, Any]],
 ) -> dict[tuple[str, str, int], dict[str, float]]:
-    """Per (trial, collective, decision index): its requests and observation clicks."""
+    """Per (trial, collective, decision index): its observation clicks by kind, and its
+    actions in all (requests, accepted or refused, and observation clicks)."""
     spans: dict[tuple[str, str], list[tuple[float, float, int]]] = defaultdict(list)
     for d in decisions:
         spans[(str(d["trial_id"]), str(d["collective"]))].append(

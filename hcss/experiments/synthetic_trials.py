@@ -113,7 +113,10 @@ def run_trial(
         elif kind == "command":
             rows.requests.append(_request_row(base, sim, payload))
         elif kind == "observe":
-            rows.observations.append(_observation_row(base, sim.time, *payload))
+            click, attended = payload
+            if click.kind == "collective" or sim.display().column(click.target) is not None:
+                rows.observations.append(_observation_row(base, sim.time, click, attended))
+            # else the target has left the map since the look: the click lands on nothing
         elif kind == "probe":
             index, level = payload
             probe = _ask(sim, operator, index, level, duration_s, dt)

@@ -23,6 +23,7 @@ pace, however their probes interleave.
 from __future__ import annotations
 
 import math
+from collections import Counter
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass, fields, replace
 from typing import Any
@@ -34,26 +35,52 @@ from hcss.simulation.requests import OperatorCommand
 from hcss.simulation.view import Display
 
 DECIDE_FLOOR = 0.30  # the simulation refuses a decide below this support (spec §8)
+#: How much more a committed agent says "about to decide" than a supporter: a person's level-3
+#: rule (measured on the default preset, M1: 3 x committed + support names the next decision
+#: 60% of the time, committed + support 58%, support alone 45%).
+COMMITTED_WEIGHT = 3.0
+#: Support beyond what a person's own investigates sent (10 agents each, as the instructions
+#: say) that only a collective's own recruitment gives: what tells a person the collectives
+#: move by themselves. Measured on the default preset with no
+#: requests: M3's never passed 8% in 10 min (4 scenarios), M1's and M2's passed 15% within
+#: 30-110 s.
+SELF_MOVING_SUPPORT = 0.15
+INVESTIGATE_AGENTS = (
+    10  # agents an investigate sends (spec §8), as the interface's instructions say
+)
 
 
 @dataclass(frozen=True)
 class Traits:
     """One synthetic participant. Times in seconds, supports as fractions of the collective.
 
-    - `glance_interval_s`: how often attention turns to the next collective
-      (one collective at a time, round robin), so a collective is attended
-      every 4 glances.
+    - `glance_interval_s`: how often attention turns to a collective (one
+      collective at a time, round robin), so a collective is attended every
+      4 glances unless attention stays.
+    - `stay_prob`: chance that attention stays on the collective it has just
+      clicked a request on, for the next glance (a person keeps working on a
+      collective that needs them rather than moving on).
     - `reaction_time_s`: from a look to its clicks landing (reading the map,
       filling the request form, Commit).
     - `value_noise`: sd of a person's reading of a target's value from its
       green opacity; which target "looks best" is the noisy reading's.
+    - `value_resolution`: how far apart two readings must be for a person to
+      tell one target's green from another's; of targets that look equally
+      good the nearer to the hub looks best (for its requests and its level-2
+      answers alike).
     - `investigate_prob`: chance, when attending a collective whose best-looking
       target is below `decide_support`, to send an investigate of it (10 more
       agents to assess it; repeatable, as on the interface, even while one is
       in progress).
     - `stalled_investigate_prob`: the same chance when that target's support has
-      not grown since it last attended the collective (a collective that does
-      not move by itself, as M3, gets pushed more).
+      not grown for `stall_window_s`, and at every look until the person has
+      seen some collective move by itself in this trial (a target's support
+      `SELF_MOVING_SUPPORT` above what the person's own investigates of it
+      sent): a person supervising collectives
+      that move only by their requests, as M3's, keeps pushing them; one who
+      has seen them grow on their own, as M1's and M2's, waits.
+    - `stall_window_s`: how long a person waits for a leading target's support
+      to grow before judging the collective stuck.
     - `decide_support`: the support at which it considers deciding; never below
       30% (below that the interface refuses a decide).
     - `decide_prob`: chance, when support allows, to decide rather than let the
@@ -67,26 +94,32 @@ class Traits:
     - `observe_collective_prob`, `observe_target_prob`: chance per look of a
       right-click on the attended hub (its U/F/C/X detail), and on its
       best-looking target (its support per collective).
-    - `probe_lapse`: chance of answering a probe at random (inattention)
-      rather than from what it remembers.
+    - `perception_lapse`, `comprehension_lapse`, `projection_lapse`: chance of
+      answering a probe of that level at random (inattention, a misread)
+      rather than from what it remembers: a person's accuracy by SA level.
     - `probe_ready_s`, `probe_answer_s`: from a probe showing to "ready", and
       from the question showing to the answer; both inside the 30 s window.
     """
 
-    glance_interval_s: float = 4.0
+    glance_interval_s: float = 2.5
+    stay_prob: float = 0.3
     reaction_time_s: float = 3.0
-    value_noise: float = 0.05
-    investigate_prob: float = 0.3
-    stalled_investigate_prob: float = 0.5
-    decide_support: float = 0.35
-    decide_prob: float = 0.5
-    abandon_support: float = 0.10
-    abandon_gap: float = 0.15
+    value_noise: float = 0.02
+    value_resolution: float = 0.05
+    investigate_prob: float = 0.08
+    stalled_investigate_prob: float = 0.9
+    stall_window_s: float = 30.0
+    decide_support: float = 0.4
+    decide_prob: float = 0.3
+    abandon_support: float = 0.1
+    abandon_gap: float = 0.1
     abandon_prob: float = 0.3
-    slip_prob: float = 0.03
-    observe_collective_prob: float = 0.3
-    observe_target_prob: float = 0.1
-    probe_lapse: float = 0.1
+    slip_prob: float = 0.01
+    observe_collective_prob: float = 0.05
+    observe_target_prob: float = 0.01
+    perception_lapse: float = 0.1
+    comprehension_lapse: float = 0.1
+    projection_lapse: float = 0.1
     probe_ready_s: float = 2.0
     probe_answer_s: float = 4.0
 
@@ -104,6 +137,7 @@ class Traits:
 
 
 TRAIT_PROBABILITIES = (
+    "stay_prob",
     "investigate_prob",
     "stalled_investigate_prob",
     "decide_prob",
@@ -111,10 +145,12 @@ TRAIT_PROBABILITIES = (
     "slip_prob",
     "observe_collective_prob",
     "observe_target_prob",
-    "probe_lapse",
+    "perception_lapse",
+    "comprehension_lapse",
+    "projection_lapse",
 )
 #: Traits bounded to [0, 1]: drawn on the logit scale. The others are positive: log scale.
-_BOUNDED = frozenset((*TRAIT_PROBABILITIES, "abandon_support", "value_noise"))
+_BOUNDED = frozenset((*TRAIT_PROBABILITIES, "abandon_support", "value_noise", "value_resolution"))
 
 
 @dataclass(frozen=True)
@@ -197,7 +233,8 @@ class _Memory:
 
     time: float
     support: dict[int, float]  # target id -> this collective's support
-    closeness: float  # how near a decision it looked: moving > committed > supported
+    closeness: float  # how near a decision it looked: committed, then supported; moving least
+    hub: tuple[float, float]
 
 
 class SyntheticOperator:
@@ -211,9 +248,12 @@ class SyntheticOperator:
         self.probe_rng = np.random.default_rng(probes)
         self.focus = 0
         self.memory: dict[int, _Memory] = {}
-        self.values: dict[int, float] = {}  # target id -> the mean of its values as read
-        self.reads: dict[int, int] = {}  # target id -> how often read
-        self.last_best: dict[int, tuple[int, float]] = {}  # collective -> (target, support)
+        self.values: dict[int, float] = {}  # target id -> its value as last read
+        self.places: dict[int, tuple[float, float]] = {}  # target id -> where it is drawn
+        # collective -> (leading target, its support, since when it has not grown)
+        self.growth: dict[int, tuple[int, float, float]] = {}
+        self.pushed: Counter[tuple[int, int]] = Counter()  # (collective, target) -> investigates
+        self.seen_self_moving = False  # has it seen a collective gain support by itself?
 
     def glance_times(self, until_s: float) -> list[float]:
         """When it looks, from the trial's start: every glance interval."""
@@ -226,8 +266,15 @@ class SyntheticOperator:
         if not d.n_collectives or d.finished:
             return Glance(None)
         c = self.focus % d.n_collectives
-        self.focus += 1
         u = self.rng.random(8)  # a fixed number of draws per look: paths stay in step
+        glance = self._attend(d, c, u)
+        if not (glance.commands and u[7] < t.stay_prob):
+            self.focus += 1  # attention moves on, unless it stays where it has just acted
+        return glance
+
+    def _attend(self, d: Display, c: int, u: np.ndarray) -> Glance:
+        """One look at collective c: its observation clicks and requests."""
+        t = self.traits
         noise = self.rng.standard_normal(len(d.target_ids)) * t.value_noise
         read = np.asarray(d.value, dtype=float) + noise
         ids = [int(x) for x in d.target_ids.tolist()]
@@ -238,7 +285,7 @@ class SyntheticOperator:
         shown = np.flatnonzero(d.in_range[c] & d.drawn)
         if d.executing[c] or not shown.size:
             return Glance(c, (), tuple(observations))
-        best = int(shown[np.argmax(read[shown])])
+        best = _best_looking(d, c, shown, read, t.value_resolution)
         if u[1] < t.observe_target_prob:
             observations.append(ObservationClick("target", target=ids[best]))
         commands: list[OperatorCommand] = []
@@ -256,53 +303,82 @@ class SyntheticOperator:
                 worst = max(weak, key=lambda v: float(d.support[c, v]))
                 commands.append(OperatorCommand("abandon", c, ids[worst]))
         support = float(d.support[c, best])
-        before = self.last_best.get(c)
-        stalled = before is not None and before[0] == ids[best] and support <= before[1]
-        self.last_best[c] = (ids[best], support)
+        stalled = self._stalled(c, ids[best], support, d.time) or not self.seen_self_moving
         if support >= t.decide_support:
             if u[3] < t.decide_prob:
                 commands.append(OperatorCommand("decide", c, ids[best]))
         elif u[4] < (t.stalled_investigate_prob if stalled else t.investigate_prob):
             commands.append(OperatorCommand("investigate", c, ids[best]))
+            self.pushed[(c, ids[best])] += 1
         if commands and u[5] < t.slip_prob:
             slip = _slip(d, c, shown, u[6])
             if slip is not None:
                 commands.append(slip)
         return Glance(c, tuple(commands), tuple(observations))
 
+    def _stalled(self, c: int, target: int, support: float, now: float) -> bool:
+        """Whether the leading target's support has not grown for `stall_window_s`."""
+        before = self.growth.get(c)
+        if before is None or before[0] != target or support > before[1]:
+            self.growth[c] = (target, support, now)
+            return False
+        return now - before[2] >= self.traits.stall_window_s
+
+    def _moving_by_itself(self, d: Display, ids: list[int]) -> bool:
+        """Whether a deliberating collective (none of its agents committed) supports a target
+        `SELF_MOVING_SUPPORT` beyond what the person's investigates of it sent."""
+        sent = INVESTIGATE_AGENTS / max(d.n_agents, 1)
+        for c in np.flatnonzero(~d.executing & (d.state_counts[:, 2] + d.state_counts[:, 3] == 0)):
+            for v, target in enumerate(ids):
+                pushed = self.pushed.get((int(c), target), 0) * sent
+                if float(d.support[c, v]) >= SELF_MOVING_SUPPORT + pushed:
+                    return True
+        return False
+
     def _remember(self, d: Display, ids: list[int], read: np.ndarray) -> None:
-        """What a look takes in of the whole map: values read, supports, who is near a decision."""
-        for v, target in enumerate(ids):  # a running mean: reading a target again firms it up
-            n = self.reads.get(target, 0) + 1
-            self.reads[target] = n
-            self.values[target] = (
-                self.values.get(target, 0.0) + (float(read[v]) - self.values.get(target, 0.0)) / n
-            )
+        """What a look takes in of the whole map: values read, supports, who is near a decision.
+
+        A value is remembered as last read (the map's reported values firm up as reports
+        come in, so the latest reading is the person's best). A collective that is moving
+        has just made its decision: it is the farthest from the next one.
+        """
+        for v, target in enumerate(ids):
+            self.values[target] = float(read[v])
+            self.places[target] = (float(d.position[v, 0]), float(d.position[v, 1]))
+        if not self.seen_self_moving:
+            self.seen_self_moving = self._moving_by_itself(d, ids)
         n = max(d.n_agents, 1)
         for c in range(d.n_collectives):
             support = {ids[v]: float(d.support[c, v]) for v in range(len(ids))}
             committed = float(d.state_counts[c, 2] + d.state_counts[c, 3]) / n
             closeness = (
-                2.0 + float(d.move_progress[c])
+                -1.0
                 if d.executing[c]
-                else committed + max(support.values(), default=0.0)
+                else COMMITTED_WEIGHT * committed + max(support.values(), default=0.0)
             )
-            self.memory[c] = _Memory(d.time, support, closeness)
+            hub = (float(d.hub[c, 0]), float(d.hub[c, 1]))
+            self.memory[c] = _Memory(d.time, support, closeness, hub)
 
     def answer(self, level: int, question: str, choices: Sequence[str]) -> str:
         """A probe's answer from memory; at random on a lapse or with nothing remembered.
 
         Level 1 (which collective is investigating target t): the collective it
         last saw supporting t most. Level 2 (the best target for collective
-        c): the choice whose value it has read highest on average. Level 3 (which
-        collective decides next): the one it last saw closest to a decision
-        (moving, else the most committed and supported).
+        c): the choice whose value it last read highest. Level 3 (which
+        collective decides next): of those not moving (a moving collective has
+        just decided), the one it last saw most committed and supported. Each
+        level has its own lapse: the person's accuracy at that level.
         """
         if not choices:
             return ""
         u, pick = self.probe_rng.random(), int(self.probe_rng.integers(len(choices)))
         guess = choices[pick]
-        if u < self.traits.probe_lapse or not self.memory:
+        lapse = (
+            self.traits.perception_lapse,
+            self.traits.comprehension_lapse,
+            self.traits.projection_lapse,
+        )[min(max(level, 1), 3) - 1]
+        if u < lapse or not self.memory:
             return guess
         names = collective_names()
         if level == 1:
@@ -311,10 +387,27 @@ class SyntheticOperator:
             c = max(seen, key=lambda k: seen[k])
             return names[c] if seen[c] > 0 and names[c] in choices else guess
         if level == 2:
-            known = [x for x in choices if x.isdecimal() and int(x) in self.values]
-            return max(known, key=lambda x: self.values[int(x)]) if known else guess
+            known = [int(x) for x in choices if x.isdecimal() and int(x) in self.values]
+            subject = _collective_in(question, names)
+            if not known or subject is None or subject not in self.memory:
+                return guess
+            top = max(self.values[x] for x in known)
+            alike = [x for x in known if self.values[x] >= top - self.traits.value_resolution]
+            hub = self.memory[subject].hub
+            return str(min(alike, key=lambda x: math.dist(self.places[x], hub)))
         c = max(self.memory, key=lambda k: self.memory[k].closeness)
         return names[c] if names[c] in choices else guess
+
+
+def _best_looking(
+    d: Display, c: int, shown: np.ndarray, read: np.ndarray, resolution: float
+) -> int:
+    """The shown target that looks best to collective c: the highest reading, and of the
+    readings a person cannot tell apart from it, the target nearest the hub."""
+    top = float(read[shown].max())
+    alike = shown[read[shown] >= top - resolution]
+    distance = np.hypot(*(d.position[alike] - d.hub[c]).T)
+    return int(alike[int(np.argmin(distance))])
 
 
 def _slip(d: Display, c: int, shown: np.ndarray, u: float) -> OperatorCommand | None:

@@ -4,11 +4,13 @@ holds the assumptions, the power table with intervals and the predicted tables."
 from __future__ import annotations
 
 import csv
+import json
 
 import pytest
 from click.testing import CliRunner
 
 from hcss.cli import main
+from hcss.simulation.presets import DEFAULT_PRESET
 
 
 @pytest.mark.slow
@@ -25,6 +27,8 @@ def test_plan_writes_power_and_predicted_tables(tmp_path) -> None:
     page = (out / "plan.html").read_text(encoding="utf-8")
     for words in ("Assumptions", "Power per test", "kruskal_wallis", "§11", "data:image/png"):
         assert words in page
+    # the shipped population's preset, not the original study file's study-calibrated
+    assert f"Model: preset {DEFAULT_PRESET}" in page
     with (out / "export" / "decisions.csv").open(encoding="utf-8") as handle:
         sources = {row["source"] for row in csv.DictReader(handle)}
     assert sources == {"synthetic", "simulation"}
@@ -35,3 +39,32 @@ def test_plan_writes_power_and_predicted_tables(tmp_path) -> None:
     assert len(omnibus) == 6  # success and decision time x overall, easy, difficult
     assert all("[" in r["N=4"] and "[" in r["N=6"] for r in rows)
     assert "N for 80%" in rows[0]
+
+
+def test_the_plan_runs_the_preset_its_population_was_fitted_on(tmp_path) -> None:
+    """A population reproduces the human tables under the preset it was fitted on, so the
+    plan's model runs that preset, whatever the study file names; the page says which."""
+    from hcss.experiments.operators_fit import FITTED_POPULATION, load_population
+    from hcss.plan_cli import model_for
+    from hcss.simulation.presets import DEFAULT_PRESET
+
+    fitted = json.loads(FITTED_POPULATION.read_text(encoding="utf-8"))
+    assert fitted["preset"] == DEFAULT_PRESET  # the shipped fit is of today's default
+    load_population(FITTED_POPULATION)  # and its traits are this operator's
+    preset, words = model_for(FITTED_POPULATION, "study-calibrated")
+    assert preset == DEFAULT_PRESET
+    assert f"fitted on preset {DEFAULT_PRESET}" in words and "study-calibrated" in words
+    unrecorded = tmp_path / "population.json"
+    unrecorded.write_text(json.dumps({k: v for k, v in fitted.items() if k != "preset"}))
+    assert model_for(unrecorded, "study-calibrated")[0] == "study-calibrated"
+
+
+def test_a_population_of_traits_the_operator_does_not_have_is_refused(tmp_path) -> None:
+    from hcss.experiments.operators_fit import FITTED_POPULATION, load_population
+
+    old = json.loads(FITTED_POPULATION.read_text(encoding="utf-8"))
+    old["median"]["probe_lapse"] = 0.1
+    path = tmp_path / "population.json"
+    path.write_text(json.dumps(old))
+    with pytest.raises(ValueError, match="probe_lapse"):
+        load_population(path)

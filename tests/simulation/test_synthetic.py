@@ -9,7 +9,7 @@ from hcss.experiments.synthetic_trials import run_trial
 from hcss.simulation import Scenario, Simulation
 from hcss.simulation.presets import preset_params
 from hcss.simulation.synthetic import Population, SyntheticOperator, Traits
-from hcss.simulation.view import Truth
+from hcss.simulation.view import Display, Truth
 
 PARAMS = preset_params()
 BUSY = Traits(
@@ -92,3 +92,103 @@ def test_a_population_draws_valid_people_that_differ() -> None:
 def test_a_decide_threshold_below_the_interfaces_floor_is_refused() -> None:
     with pytest.raises(ValueError, match="decide_support"):
         Traits(decide_support=0.2)
+
+
+def _operator(**changes: float) -> SyntheticOperator:
+    quiet = {"observe_collective_prob": 0.0, "observe_target_prob": 0.0, "slip_prob": 0.0}
+    return SyntheticOperator(Traits(**(quiet | changes)), 1)
+
+
+def _attended_after_acting(stay_prob: float) -> list[tuple[int, int]]:
+    """(collective attended, the next look's collective) for looks that sent a request."""
+    sim = Simulation(_scenario(21), "M3", PARAMS)
+    sim.step(600)
+    operator = _operator(stay_prob=stay_prob, investigate_prob=1.0, decide_prob=0.0)
+    pairs, previous = [], None
+    for _ in range(24):
+        glance = operator.look(sim.display())
+        if previous is not None:
+            pairs.append((previous, glance.collective))
+        previous = glance.collective if glance.commands else None
+        sim.step(20)
+    return pairs
+
+
+def test_attention_stays_on_a_collective_it_has_just_acted_on_as_often_as_the_person_does() -> None:
+    staying, moving = _attended_after_acting(1.0), _attended_after_acting(0.0)
+    assert staying and moving
+    assert all(before == after for before, after in staying)
+    assert all(before != after for before, after in moving)
+
+
+def _pushes(model: str, stall_window_s: float) -> list[float]:
+    """When a person who never investigates in the ordinary way pushes collectives."""
+    traits = Traits(
+        glance_interval_s=2.0,
+        investigate_prob=0.0,
+        stalled_investigate_prob=1.0,
+        stall_window_s=stall_window_s,
+        decide_prob=0.0,
+        abandon_prob=0.0,
+        slip_prob=0.0,
+    )
+    operator = SyntheticOperator(traits, 2)
+    _, rows = run_trial(_scenario(22), model, PARAMS, operator, "p", "t", 400.0, probes=False)
+    return [r["sim_time_s"] for r in rows.requests if r["kind"] == "investigate"]
+
+
+def test_collectives_that_never_move_by_themselves_are_pushed_without_waiting() -> None:
+    """In M3 nothing gains support unpushed, so the person pushes at once, however long
+    they would wait for a collective seen to move by itself; in M1, once seen moving by
+    itself, a collective is pushed only when it has not grown for the stall window."""
+    m3 = _pushes("M3", 300.0)
+    m1_patient, m1_hasty = _pushes("M1", 300.0), _pushes("M1", 10.0)
+    assert m3 and min(m3) < 30.0
+    assert len(m3) > len(m1_patient)
+    assert len(m1_hasty) > len(m1_patient)
+
+
+def test_a_moving_collective_is_never_the_persons_next_decision() -> None:
+    """Level 3 from what it saw: a collective on the move has just decided (its decision
+    ended as the move began), so it is not the answer, however committed it looked."""
+    sim = Simulation(_scenario(23), "M1", PARAMS)
+    while not sim.display().executing.any():
+        sim.step(10)
+    display = sim.display()
+    operator = _operator(projection_lapse=0.0)
+    operator.look(display)
+    names = ["I", "II", "III", "IV"]
+    moving = {names[c] for c in np.flatnonzero(display.executing)}
+    answers = {operator.answer(3, "Which collective will make the next decision?", names)}
+    assert answers and not answers & moving
+
+
+def test_of_targets_that_look_equally_good_the_nearer_is_the_best_choice() -> None:
+    """Level 2 and the requests: two targets a person cannot tell apart by their green
+    (within `value_resolution`) are ranked by distance to the hub."""
+    sim = Simulation(_scenario(24), "M1", PARAMS)
+    sim.step(200)
+    assert not sim.finished
+    view = sim.display().to_json()
+    hub = np.array(view["collectives"][0]["hub"], dtype=float)
+    targets = view["targets"]
+    assert len(targets) >= 2
+    far, near = targets[0], targets[1]
+    near["value"], far["value"] = 0.9, 0.91  # the far one reads a shade greener
+    for t in targets[2:]:
+        t["value"] = 0.5
+
+    def distance(t: dict) -> float:
+        return float(np.hypot(*(np.array(t["position"], dtype=float) - hub)))
+
+    if distance(near) > distance(far):
+        near["position"], far["position"] = far["position"], near["position"]
+    display = Display.from_json(view)
+    question = "Which target is the best choice for collective I?"
+    choices = [str(far["id"]), str(near["id"])]
+    sharp = _operator(value_noise=1e-6, value_resolution=0.001, comprehension_lapse=0.0)
+    blurred = _operator(value_noise=1e-6, value_resolution=0.05, comprehension_lapse=0.0)
+    sharp.look(display)
+    blurred.look(display)
+    assert sharp.answer(2, question, choices) == str(far["id"])
+    assert blurred.answer(2, question, choices) == str(near["id"])

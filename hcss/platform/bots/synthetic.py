@@ -176,7 +176,7 @@ class SyntheticBot:
                 answer = self.send("/requests", payload.to_json())
                 self.log.requests.append({"step": step, **payload.to_json(), "answer": answer})
             elif kind == "observe":
-                self._observe(step, payload)
+                self._observe(step, frame, payload)
             elif kind == "probe":
                 self._probe(step, frame, push)
             elif kind == "ready":
@@ -196,7 +196,12 @@ class SyntheticBot:
                 return frame
             self.sleep(0.05)
 
-    def _observe(self, step: int, click: ObservationClick) -> None:
+    def _observe(self, step: int, frame: dict[str, Any], click: ObservationClick) -> None:
+        """Click, unless the clicked target has left the map since the look: the page draws
+        only the targets it shows, so a person's click there lands on nothing."""
+        shown = {t["id"] for t in frame["view"]["targets"]}
+        if click.kind == "target" and click.target not in shown:
+            return
         self.send("/observations", click.to_json())
         self.log.observations.append({"step": step, **click.to_json()})
 
