@@ -144,3 +144,39 @@ def test_the_probe_box_hides_no_hub_and_not_what_it_asks_about(
                 f"\nprobe box at {size}: {box[2] - box[0]:.0f}x{box[3] - box[1]:.0f} px"
                 f" at ({box[0]:.0f}, {box[1]:.0f}); covers {covered}"
             )
+
+
+def test_a_probe_drawn_while_the_last_answer_is_in_flight_stays_on_screen(
+    browser, demo_server: StudyServer
+) -> None:
+    """The answer's reply hides the box only if the box still shows the probe it answered.
+
+    The next probe can be on screen before the answer's reply reaches the page (the
+    server closes the answered probe when it commits, and a frame carries the next one):
+    the reply must not hide that one, which no later frame would show again.
+    """
+    from playwright.sync_api import expect
+
+    _, page = open_live_trial(browser, demo_server)
+    _ask(demo_server, ProbeLevel.PERCEPTION, "I", ["1", "2"])
+    page.locator("#probe-ready").click()
+    expect(page.locator("#probe-text")).to_be_visible()
+    answered = page.locator("#probe").get_attribute("data-probe")
+
+    def reply_after_the_next_probe_shows(route) -> None:
+        reply = route.fetch()  # the answer is committed; its reply is held back
+        _ask(demo_server, ProbeLevel.COMPREHENSION, "II", ["1", "2"])
+        page.wait_for_function(
+            "(answered) => { const box = document.getElementById('probe');"
+            " return !box.hidden && box.dataset.probe !== answered; }",
+            arg=answered,
+            timeout=30_000,
+        )
+        route.fulfill(response=reply)
+
+    page.route("**/probes/*/answer", reply_after_the_next_probe_shows)
+    page.locator("#probe-choices button").first.click()
+    page.wait_for_timeout(1_000)  # the held reply has reached the page
+    expect(page.locator("#probe")).to_be_visible()
+    expect(page.locator("#probe-ready")).to_be_visible()
+    assert page.locator("#probe").get_attribute("data-probe") != answered

@@ -862,7 +862,9 @@
     const buttons = Array.from($("probe-choices").querySelectorAll("button"));
     return inFlight(buttons, async () => {
       await post(`/probes/${id}/answer`, { answer });
-      $("probe").hidden = true;
+      // A frame may already show the next probe (the server closed this one when it
+      // committed, before this reply arrived): only the answered probe's box is hidden.
+      if (Number($("probe").dataset.probe) === id) $("probe").hidden = true;
     });
   }
 
