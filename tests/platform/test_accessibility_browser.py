@@ -378,8 +378,8 @@ def test_the_study_links_refusals_and_mturks_frame_pass_axe(
 ) -> None:
     """A study link refused (an id given twice), a full study, the front page, a link and a
     live page that lead nowhere, and an accepted MTurk HIT in MTurk's frame (a stand-in on
-    another site) offering the study in its own window."""
-    from urllib.parse import urlencode
+    another site) offering the study in its own window; and the page of a visitor who timed out."""
+    from urllib.parse import urlencode, urljoin
 
     from playwright.sync_api import expect
 
@@ -407,6 +407,17 @@ def test_the_study_links_refusals_and_mturks_frame_pass_axe(
     no_trial = page.goto(f"{demo_server.url}/live/{demo_server.participant()}")
     assert no_trial is not None and no_trial.status == 404
     findings.check(page, "the live page of a participant with no trial")
+
+    # A visitor who left the study for longer than its [timeouts] allow, coming back.
+    lapsed = demo_variant(tmp_path / "studies", monkeypatch, "lapsing", {})
+    study_file = tmp_path / "studies" / f"{lapsed}.toml"
+    study_file.write_text(study_file.read_text() + "\n[timeouts]\ninactivity_s = 600\n")
+    enrolled = join(demo_server.app.test_client(), lapsed, PROLIFIC_PID="lapsed")
+    assert enrolled.status_code == 302
+    demo_server.advance(601.0)
+    page.goto(urljoin(f"{demo_server.url}/", enrolled.location))
+    expect(page.locator("main")).to_contain_text("Your session has timed out")
+    findings.check(page, "timed out")
     page.close()
 
     with mturk_standin() as mturk:
