@@ -60,7 +60,7 @@ test-fast: install
 # on SQLite (50,000 at the default), an outage group of a fifth as many, and as many again on
 # PostgreSQL when HCSS_TEST_DATABASE_URL is set. The tally is by database, status and route.
 # Then the same groups over HTTP through a real nginx in front of `hcss serve`
-# (tests/platform/test_fuzz_nginx.py), FUZZ_NGINX_EXAMPLES per group.
+# (tests/platform/test_fuzz_nginx.py), FUZZ_NGINX_EXAMPLES per group, on both databases too.
 FUZZ_EXAMPLES ?= 12500
 FUZZ_NGINX_EXAMPLES ?= 2500
 fuzz: install

@@ -2,7 +2,8 @@
 
 test_fuzz.py sends its requests to the app in-process; here the same route
 groups (live API, study pages, console, hostile Host headers and multipart
-names) go over TCP through nginx to waitress, as a deployment receives them,
+names) go over TCP through nginx to waitress, as a deployment receives them, on
+SQLite and (with HCSS_TEST_DATABASE_URL) on PostgreSQL,
 CSRF on (each client sends its page's token, so the fuzz reaches the code
 behind it). No answer may be a 5xx, nginx's own 502/504 included (a server
 that broke a connection), and the server's log must hold no traceback.
@@ -17,7 +18,9 @@ import json
 import os
 from collections import Counter
 from collections.abc import Iterator
+from contextlib import ExitStack
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 from urllib.parse import parse_qs, urlsplit
 
@@ -31,7 +34,8 @@ from hcss.platform.cli import upgrade_database
 from hcss.platform.console.accounts import create_experimenter
 from hcss.platform.db import Database
 from hcss.platform.live.trials import start_bot_trial
-from hcss.platform.serving.localserver import LocalNginx, LocalServer
+from hcss.platform.serving.localserver import LocalNginx, LocalServer, postgres_schema
+from tests.support.databases import PG_ENV
 from tests.support.fuzz import (
     FUZZ_SETTINGS,
     TALLY_FILE,
@@ -61,12 +65,23 @@ class Proxied:
     tally: Counter[str] = field(default_factory=Counter)
 
 
-@pytest.fixture(scope="module")
-def proxied(tmp_path_factory) -> Iterator[Proxied]:
+@pytest.fixture(scope="module", params=["sqlite", "postgresql"])
+def proxied(request, tmp_path_factory) -> Iterator[Proxied]:
+    """The server behind nginx on SQLite, and on PostgreSQL when the suite has one."""
     if not LocalNginx.available():
         pytest.skip(f"needs nginx at {LocalNginx.BINARY} (scripts/ensure-nginx installs it)")
     folder = tmp_path_factory.mktemp("fuzz-nginx")
-    url = f"sqlite:///{folder / 'fuzz.sqlite3'}"
+    with ExitStack() as stack:
+        if request.param == "sqlite":
+            url = f"sqlite:///{folder / 'fuzz.sqlite3'}"
+        elif os.environ.get(PG_ENV):
+            url = stack.enter_context(postgres_schema(os.environ[PG_ENV], "fuzz_nginx"))
+        else:
+            pytest.skip(f"PostgreSQL's run needs {PG_ENV}")
+        yield from _proxied(url, folder, f"nginx+{request.param}")
+
+
+def _proxied(url: str, folder: Path, label: str) -> Iterator[Proxied]:
     upgrade_database(url)
     database = Database(url)
     with database.session_scope() as session:
@@ -94,7 +109,7 @@ def proxied(tmp_path_factory) -> Iterator[Proxied]:
             if TALLY_FILE:
                 with open(TALLY_FILE, "a", encoding="utf-8") as handle:
                     for status, count in sorted(fuzzed.tally.items()):
-                        handle.write(f"{status} {count} (through-nginx) nginx+sqlite\n")
+                        handle.write(f"{status} {count} (through-nginx) {label}\n")
     log = server.log_path.read_text(errors="replace")
     assert "Traceback" not in log, log[log.index("Traceback") - 2000 :][:6000]
 
