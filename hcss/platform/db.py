@@ -91,9 +91,6 @@ def make_engine(url: str) -> Engine:
             url, connect_args={"check_same_thread": False, "timeout": 30}, **POOL
         )
 
-        if engine.url.database and engine.url.database != ":memory:":
-            sqlite_recovery.install(engine, Path(engine.url.database))
-
         @event.listens_for(engine, "handle_error")
         def _reopen_after(context) -> None:
             # A connection opened while the file or its disk was read-only stays
@@ -119,6 +116,11 @@ def make_engine(url: str) -> Engine:
             cursor.execute("PRAGMA foreign_keys=ON")
             cursor.close()
 
+        if engine.url.database and engine.url.database != ":memory:":
+            # After the pragmas: a connection whose pragmas fail (a read-only disk refuses
+            # WAL) is discarded without a close event, so it must never be counted as an
+            # open read-only mapping, or every later connection waits for it in vain.
+            sqlite_recovery.install(engine, Path(engine.url.database))
         return engine
     engine = create_engine(url, pool_pre_ping=True, connect_args=POSTGRESQL_LINK, **POOL)
 

@@ -41,6 +41,36 @@ def test_a_database_read_only_across_a_start_is_used_once_it_is_writable(tmp_pat
             app.extensions["hcss_db"].engine.dispose()
 
 
+def test_writes_after_a_read_only_window_do_not_wait_for_connections_that_never_opened(
+    tmp_path,
+) -> None:
+    """A connection refused while the disk was read-only (its WAL pragma failed) was
+    counted as an open read-only mapping and never uncounted: once writable, every new
+    connection waited the full retire wait (5 s) for it, for good."""
+    with own_disk(tmp_path) as disk:
+        url = f"sqlite:///{disk.path / 'hcss.sqlite3'}"
+        setup = _server_app(url)
+        setup.extensions["hcss_db"].create_all()
+        setup.extensions["hcss_db"].engine.dispose()
+        app = _server_app(url)
+        client = app.test_client()
+        try:
+            assert join(client).status_code == 302
+            app.extensions["hcss_db"].engine.dispose()
+            disk.read_only()
+            assert [join(client).status_code for _ in range(3)] == [503] * 3
+            disk.writable()
+            app.extensions["hcss_db"].engine.dispose()
+            started = time.perf_counter()
+            statuses = [join(client).status_code for _ in range(3)]
+            took = time.perf_counter() - started
+            assert statuses == [302, 302, 302], statuses
+            assert took < 2.0, f"three enrolments took {took:.1f} s after the disk was writable"
+        finally:
+            disk.writable()
+            app.extensions["hcss_db"].engine.dispose()
+
+
 def test_a_postgresql_outage_answers_503_with_retry_after_and_a_please_wait_page() -> None:
     with own_postgres() as server:
         app = _server_app(server.url)
