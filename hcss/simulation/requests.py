@@ -14,6 +14,8 @@ as it drains events.
 
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -182,9 +184,14 @@ def refusal(world: World, params: Params, kind: str, collective: int, target: in
     elif kind == "decide":
         share = support_count / params.n_agents
         if share < params.decide_min_support:
+            # rounded down to a tenth of a point: 59 of 200 is "29.5%", never "30%" below 30%
+            shown = math.floor(share * 1000) / 10
+            robots = "robot" if support_count == 1 else "robots"
+            favour = "favours" if support_count == 1 else "favour"
             return (
-                f"Only {share:.0%} of collective {name} favour target {target_id(target)}; "
-                f"decide needs at least {params.decide_min_support:.0%}."
+                f"Only {support_count} {robots} ({shown:g}%) of collective {name} {favour} "
+                f"target {target_id(target)}; decide needs at least "
+                f"{params.decide_min_support:.0%}."
             )
     else:
         return f"Unknown request type {kind!r}."
