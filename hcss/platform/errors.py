@@ -2,8 +2,9 @@
 
 API routes keep their JSON errors (hcss.platform.app). A page under a
 participant's link (``/p/<token>``, ``/live/<token>``) offers the way back to
-their current page; a 500 says their answers so far are kept, which is true:
-every answer is committed when its page is submitted.
+their current page. A 500 or 503 says pages finished earlier are kept, which is
+true (every answer is committed when its page is submitted), and that the page
+just sent may ask again: its request may not have been stored.
 """
 
 from __future__ import annotations
@@ -36,11 +37,12 @@ ADVICE = {
     503: (
         "Please wait a moment",
         "The study's database is not answering just now. Please wait: this page tries "
-        "again by itself in a few seconds. Your answers so far are saved.",
+        "again by itself in a few seconds. "
+        "Pages you finished earlier are saved; the page you had just sent may ask for its answers again.",
     ),
     500: (
         "Something went wrong on our side",
-        "Your answers so far are saved. Please wait a moment and go to your current page; "
+        "Pages you finished earlier are saved; the page you had just sent may ask for its answers again. Please wait a moment and go to your current page; "
         "if this happens again, tell the experimenter.",
     ),
 }

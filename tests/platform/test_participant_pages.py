@@ -87,7 +87,7 @@ def test_error_pages_use_the_study_look_and_say_what_to_do(demo_app, monkeypatch
     failed = client.get(f"/p/{token}/stage")
     html = failed.get_data(as_text=True)
     assert failed.status_code == 500
-    assert "Your answers so far are saved" in html and "database on fire" not in html
+    assert "Pages you finished earlier are saved" in html and "database on fire" not in html
     assert "Traceback" not in html and f'href="/p/{token}"' in html
 
 

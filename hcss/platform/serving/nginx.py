@@ -163,7 +163,8 @@ def _process_lost() -> str:
     """nginx's own 503 with Retry-After, as JSON for the API and as a page that reloads."""
     message = (
         "The study server is not answering just now. Please wait: this page tries again "
-        "by itself in a few seconds. Your answers so far are saved."
+        "by itself in a few seconds. "
+        "Pages you finished earlier are saved; the page you had just sent may ask for its answers again."
     )
     body = json.dumps({"error": "server_unavailable", "message": message, "held_by": "server"})
     page = (
