@@ -38,7 +38,7 @@ from __future__ import annotations
 import json
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -223,18 +223,50 @@ def _record(trial: Any, evaluation: Evaluation) -> None:
         trial.set_user_attr(f"{model}_{split}_time", m.time_min)
 
 
-def open_study(out: Path, settings: Settings) -> Any:
-    """The optuna study in OUT/calibration.db, created or resumed.
+def resumable_study(
+    out: Path,
+    name: str,
+    wanted: dict[str, Any],
+    seed: int,
+    starting: Callable[[], Iterable[dict[str, Any]]],
+    mismatch: str,
+) -> Any:
+    """An optuna study in OUT/calibration.db, created or resumed, for both calibrations.
 
-    A resume must search the same experiment (scenarios, runs, seeds, space);
-    a larger budget continues the search, more finalists rerun the best.
+    `wanted` (OUT/calibration.json) is what makes trials comparable: a resume with
+    another raises ValueError(`mismatch`). A new study starts from `starting()`.
     """
     import optuna
 
     out.mkdir(parents=True, exist_ok=True)
     manifest = out / "calibration.json"
+    if manifest.exists():
+        if json.loads(manifest.read_text(encoding="utf-8")) != wanted:
+            raise ValueError(mismatch)
+    else:
+        manifest.write_text(json.dumps(wanted, indent=2), encoding="utf-8")
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    study = optuna.create_study(
+        study_name=name,
+        storage=f"sqlite:///{out / 'calibration.db'}",
+        sampler=optuna.samplers.TPESampler(seed=seed),
+        direction="minimize",
+        load_if_exists=True,
+    )
+    if not study.trials:
+        for values in starting():
+            study.enqueue_trial(values)
+    return study
+
+
+def open_study(out: Path, settings: Settings) -> Any:
+    """The model's calibration study, created or resumed.
+
+    A resume must search the same experiment (scenarios, runs, seeds, space);
+    a larger budget continues the search, more finalists rerun the best.
+    """
     # What makes trials comparable; the budget and the finalists may change on resume.
-    wanted = {
+    wanted: dict[str, Any] = {
         "scenarios": settings.scenarios,
         "runs": settings.runs,
         "sampler_seed": settings.seed,
@@ -245,27 +277,15 @@ def open_study(out: Path, settings: Settings) -> Any:
         from hcss.simulation.presets import DEFAULT_PRESET
 
         wanted["base_preset"] = DEFAULT_PRESET
-    if manifest.exists():
-        stored = json.loads(manifest.read_text(encoding="utf-8"))
-        if stored != wanted:
-            raise ValueError(
-                f"{out} holds a calibration of another experiment or search space; choose "
-                "another --out, or repeat the first run's --scenarios, --runs and seeds"
-            )
-    else:
-        manifest.write_text(json.dumps(wanted, indent=2), encoding="utf-8")
-    optuna.logging.set_verbosity(optuna.logging.WARNING)
-    study = optuna.create_study(
-        study_name=STUDY_NAME,
-        storage=f"sqlite:///{out / 'calibration.db'}",
-        sampler=optuna.samplers.TPESampler(seed=settings.seed),
-        direction="minimize",
-        load_if_exists=True,
+    return resumable_study(
+        out,
+        STUDY_NAME,
+        wanted,
+        settings.seed,
+        lambda: starting_points(settings.space),
+        f"{out} holds a calibration of another experiment or search space; choose "
+        "another --out, or repeat the first run's --scenarios, --runs and seeds",
     )
-    if not study.trials:
-        for values in starting_points(settings.space):
-            study.enqueue_trial(values)
-    return study
 
 
 def _searched_values(params: Params, space: dict[str, tuple[Any, ...]]) -> dict[str, Any]:

@@ -44,8 +44,11 @@ SEARCH_SPACE: dict[str, tuple[float, float, bool]] = {
     "investigate_prob": (0.02, 1.0, True),
     "stalled_investigate_prob": (0.05, 1.0, True),
     "stall_window_s": (5.0, 120.0, True),
+    "survey_s": (1.0, 240.0, True),
+    "investigate_burst": (1.0, 8.0, True),
     "decide_support": (0.30, 0.6, False),
     "decide_prob": (0.02, 1.0, True),
+    "hasten_prob": (0.005, 1.0, True),
     "abandon_support": (0.05, 0.4, False),
     "abandon_gap": (0.02, 0.3, False),
     "abandon_prob": (0.01, 1.0, True),
@@ -115,11 +118,12 @@ def evaluate(
 
 
 def open_study(out: Path, settings: Settings) -> Any:
-    """The optuna study in OUT/calibration.db, created or resumed (same experiment only)."""
-    import optuna
+    """The optuna study in OUT/calibration.db, created or resumed (same experiment only).
 
-    out.mkdir(parents=True, exist_ok=True)
-    manifest = out / "calibration.json"
+    A new search starts from the default person and, when hcss ships one, the last fit.
+    """
+    from hcss.experiments.fit_study import resumable_study  # the model's calibration's, shared
+
     wanted = {
         "participants": settings.participants,
         "sampler_seed": settings.seed,
@@ -127,23 +131,31 @@ def open_study(out: Path, settings: Settings) -> Any:
         "search_space": {k: list(v) for k, v in SEARCH_SPACE.items()},
         "preset": default_params().preset,
     }
-    if manifest.exists() and json.loads(manifest.read_text(encoding="utf-8")) != wanted:
-        raise ValueError(
-            f"{out} holds a calibration of another experiment, preset or search space; "
-            "choose another --out"
-        )
-    manifest.write_text(json.dumps(wanted, indent=2), encoding="utf-8")
-    optuna.logging.set_verbosity(optuna.logging.WARNING)
-    study = optuna.create_study(
-        study_name=STUDY_NAME,
-        storage=f"sqlite:///{out / 'calibration.db'}",
-        sampler=optuna.samplers.TPESampler(seed=settings.seed),
-        direction="minimize",
-        load_if_exists=True,
+
+    def starting() -> list[dict[str, float]]:
+        points = [_within_space(Population())]
+        if FITTED_POPULATION.exists():
+            points.append(_within_space(load_population(FITTED_POPULATION)))
+        return points
+
+    return resumable_study(
+        out,
+        STUDY_NAME,
+        wanted,
+        settings.seed,
+        starting,
+        f"{out} holds a calibration of another experiment, preset or search space; "
+        "choose another --out",
     )
-    if not study.trials:
-        study.enqueue_trial({k: v for k, v in asdict(Traits()).items() if k in SEARCH_SPACE})
-    return study
+
+
+def _within_space(population: Population) -> dict[str, float]:
+    """A population's traits as search values, each clipped into its search range."""
+    values = population.median.to_dict() | {"spread": population.spread}
+    return {
+        name: min(max(float(values[name]), low), high)
+        for name, (low, high, _log) in SEARCH_SPACE.items()
+    }
 
 
 def search(

@@ -45,6 +45,7 @@ COMMITTED_WEIGHT = 3.0
 #: requests: M3's never passed 8% in 10 min (4 scenarios), M1's and M2's passed 15% within
 #: 30-110 s.
 SELF_MOVING_SUPPORT = 0.15
+ON_THE_MOVE = 10.0  # closeness of a collective on the move: it ends its decision when it lands
 INVESTIGATE_AGENTS = (
     10  # agents an investigate sends (spec §8), as the interface's instructions say
 )
@@ -81,10 +82,20 @@ class Traits:
       has seen them grow on their own, as M1's and M2's, waits.
     - `stall_window_s`: how long a person waits for a leading target's support
       to grow before judging the collective stuck.
+    - `survey_s`: how long a person lets a collective explore at the start of
+      its decision (from when its hub is seen to move) before sending any
+      investigate: time to see which targets there are before pushing one.
+    - `investigate_burst`: how many investigates one look sends at most (the
+      person presses Commit again on the same form): as many as it takes the
+      target to reach `decide_support` at 10 agents each, up to this many. A
+      collective that moves only by requests loses supporters as they
+      reassess, so support reaches 30% only from investigates sent together.
     - `decide_support`: the support at which it considers deciding; never below
       30% (below that the interface refuses a decide).
-    - `decide_prob`: chance, when support allows, to decide rather than let the
-      collective reach its own quorum.
+    - `decide_prob`: chance, when support allows and the collective looks stuck
+      (as above: stalled, or no collective seen moving by itself), to decide.
+    - `hasten_prob`: the same chance when the collective looks to be moving by
+      itself: deciding for it rather than letting it reach its own quorum.
     - `abandon_support`, `abandon_gap`, `abandon_prob`: it abandons a target
       its collective supports at `abandon_support` or more whose value looks
       `abandon_gap` or more below the best-looking one, with this chance per
@@ -109,8 +120,11 @@ class Traits:
     investigate_prob: float = 0.08
     stalled_investigate_prob: float = 0.9
     stall_window_s: float = 30.0
+    survey_s: float = 0.0
+    investigate_burst: float = 1.0
     decide_support: float = 0.4
     decide_prob: float = 0.3
+    hasten_prob: float = 0.3
     abandon_support: float = 0.1
     abandon_gap: float = 0.1
     abandon_prob: float = 0.3
@@ -141,6 +155,7 @@ TRAIT_PROBABILITIES = (
     "investigate_prob",
     "stalled_investigate_prob",
     "decide_prob",
+    "hasten_prob",
     "abandon_prob",
     "slip_prob",
     "observe_collective_prob",
@@ -253,6 +268,8 @@ class SyntheticOperator:
         # collective -> (leading target, its support, since when it has not grown)
         self.growth: dict[int, tuple[int, float, float]] = {}
         self.pushed: Counter[tuple[int, int]] = Counter()  # (collective, target) -> investigates
+        self.sent: dict[tuple[int, int], float] = {}  # (collective, target) -> its burst lands
+        self.started: dict[int, float] = {}  # collective -> when its hub was seen to move
         self.seen_self_moving = False  # has it seen a collective gain support by itself?
 
     def glance_times(self, until_s: float) -> list[float]:
@@ -303,18 +320,41 @@ class SyntheticOperator:
                 worst = max(weak, key=lambda v: float(d.support[c, v]))
                 commands.append(OperatorCommand("abandon", c, ids[worst]))
         support = float(d.support[c, best])
-        stalled = self._stalled(c, ids[best], support, d.time) or not self.seen_self_moving
+        stuck = self._stalled(c, ids[best], support, d.time) or not self.seen_self_moving
         if support >= t.decide_support:
-            if u[3] < t.decide_prob:
+            if u[3] < (t.decide_prob if stuck else t.hasten_prob):
                 commands.append(OperatorCommand("decide", c, ids[best]))
-        elif u[4] < (t.stalled_investigate_prob if stalled else t.investigate_prob):
-            commands.append(OperatorCommand("investigate", c, ids[best]))
-            self.pushed[(c, ids[best])] += 1
+        elif d.time - self.started.get(c, 0.0) < t.survey_s:
+            pass  # still surveying the targets this decision's collective has found
+        elif u[4] < (t.stalled_investigate_prob if stuck else t.investigate_prob):
+            burst = self._burst(d, c, ids[best], support)
+            commands.extend([OperatorCommand("investigate", c, ids[best])] * burst)
+            self.pushed[(c, ids[best])] += burst
+            if burst:
+                self.sent[(c, ids[best])] = d.time + t.reaction_time_s
         if commands and u[5] < t.slip_prob:
             slip = _slip(d, c, shown, u[6])
             if slip is not None:
                 commands.append(slip)
         return Glance(c, tuple(commands), tuple(observations))
+
+    def _burst(self, d: Display, c: int, target: int, support: float) -> int:
+        """How many investigates to send now: as many as bring the target to `decide_support`
+        with the agents still to come from investigates in progress (the list shows their
+        acknowledgements), up to `investigate_burst`; none while its own last ones have not
+        landed yet. At least one, if any: a person below the threshold pushes."""
+        if d.time < self.sent.get((c, target), -math.inf):
+            return 0
+        coming = sum(
+            max(0, INVESTIGATE_AGENTS - r.acknowledged)
+            for r in d.requests
+            if r.collective == c
+            and r.target == target
+            and r.kind == "investigate"
+            and r.status == "in_progress"
+        )
+        short = ((self.traits.decide_support - support) * d.n_agents - coming) / INVESTIGATE_AGENTS
+        return max(1, min(round(self.traits.investigate_burst), math.ceil(short)))
 
     def _stalled(self, c: int, target: int, support: float, now: float) -> bool:
         """Whether the leading target's support has not grown for `stall_window_s`."""
@@ -352,11 +392,13 @@ class SyntheticOperator:
             support = {ids[v]: float(d.support[c, v]) for v in range(len(ids))}
             committed = float(d.state_counts[c, 2] + d.state_counts[c, 3]) / n
             closeness = (
-                -1.0
+                ON_THE_MOVE + float(d.state_counts[c, 3]) / n
                 if d.executing[c]
                 else COMMITTED_WEIGHT * committed + max(support.values(), default=0.0)
             )
             hub = (float(d.hub[c, 0]), float(d.hub[c, 1]))
+            if c in self.memory and self.memory[c].hub != hub:
+                self.started[c] = d.time  # it has landed: its next decision has begun
             self.memory[c] = _Memory(d.time, support, closeness, hub)
 
     def answer(self, level: int, question: str, choices: Sequence[str]) -> str:

@@ -148,9 +148,10 @@ def test_collectives_that_never_move_by_themselves_are_pushed_without_waiting() 
     assert len(m1_hasty) > len(m1_patient)
 
 
-def test_a_moving_collective_is_never_the_persons_next_decision() -> None:
-    """Level 3 from what it saw: a collective on the move has just decided (its decision
-    ended as the move began), so it is not the answer, however committed it looked."""
+def test_a_moving_collective_is_the_persons_next_decision_as_the_probe_scores_it() -> None:
+    """Level 3 from what it saw: a decision ends when the collective lands (the platform
+    scores a projection by the next decision to end), so a collective on the move is the
+    answer; the simulation run on confirms it ends first."""
     sim = Simulation(_scenario(23), "M1", PARAMS)
     while not sim.display().executing.any():
         sim.step(10)
@@ -159,8 +160,12 @@ def test_a_moving_collective_is_never_the_persons_next_decision() -> None:
     operator.look(display)
     names = ["I", "II", "III", "IV"]
     moving = {names[c] for c in np.flatnonzero(display.executing)}
-    answers = {operator.answer(3, "Which collective will make the next decision?", names)}
-    assert answers and not answers & moving
+    answer = operator.answer(3, "Which collective will make the next decision?", names)
+    assert answer in moving
+    ended = len(sim.decisions)
+    while len(sim.decisions) == ended:
+        sim.step(10)
+    assert names[sim.decisions[ended].collective] == answer
 
 
 def test_of_targets_that_look_equally_good_the_nearer_is_the_best_choice() -> None:
@@ -192,3 +197,70 @@ def test_of_targets_that_look_equally_good_the_nearer_is_the_best_choice() -> No
     blurred.look(display)
     assert sharp.answer(2, question, choices) == str(far["id"])
     assert blurred.answer(2, question, choices) == str(near["id"])
+
+
+def _m3_investigates(**changes: float) -> list[dict]:
+    """The investigates a person pushing M3's collectives sends in 300 s, with these traits."""
+    traits = dict(
+        glance_interval_s=2.0,
+        stalled_investigate_prob=1.0,
+        decide_prob=0.0,
+        abandon_prob=0.0,
+        slip_prob=0.0,
+        observe_collective_prob=0.0,
+        observe_target_prob=0.0,
+    )
+    operator = SyntheticOperator(Traits(**(traits | changes)), 4)
+    _, rows = run_trial(_scenario(25), "M3", PARAMS, operator, "p", "t", 300.0, probes=False)
+    return [r for r in rows.requests if r["kind"] == "investigate"]
+
+
+def test_a_burst_sends_what_the_threshold_needs_up_to_the_persons_most_and_waits_for_them() -> None:
+    """From no support, 40% needs 8 investigates of 10 agents: a person who presses Commit
+    at most 6 times sends 6 together; at 30%, 6 of at most 8. Then none for that target
+    until they have landed, and none while the list shows agents still to come."""
+    for decide_support, most, expected in ((0.4, 6.0, 6), (0.3, 8.0, 6), (0.4, 1.0, 1)):
+        sent = _m3_investigates(decide_support=decide_support, investigate_burst=most)
+        first = [
+            r
+            for r in sent
+            if (r["collective"], r["target"]) == (sent[0]["collective"], sent[0]["target"])
+        ]
+        assert sum(r["sim_time_s"] == first[0]["sim_time_s"] for r in first) == expected
+        gaps = [b["sim_time_s"] - a["sim_time_s"] for a, b in zip(first, first[1:], strict=False)]
+        assert all(g == 0 or g >= 2.0 for g in gaps)  # never again within a glance of a burst
+    one_by_one = _m3_investigates(decide_support=0.4, investigate_burst=1.0)
+    assert len(_m3_investigates(decide_support=0.4, investigate_burst=6.0)) < 3 * len(one_by_one)
+
+
+def test_a_person_who_surveys_first_sends_no_investigate_before_the_survey_is_over() -> None:
+    """At the start of a decision (here the trial's start) a surveying person looks before
+    pushing: no investigate in the first `survey_s`; an unhurried one pushes within 30 s."""
+    assert min(r["sim_time_s"] for r in _m3_investigates(survey_s=1.0)) < 30.0
+    assert min(r["sim_time_s"] for r in _m3_investigates(survey_s=90.0)) >= 90.0
+
+
+def test_deciding_for_a_collective_that_moves_by_itself_is_its_own_chance() -> None:
+    """`decide_prob` is for a collective that looks stuck (M3's never move by themselves);
+    `hasten_prob` for one seen moving by itself: with it at 0, M1's collectives are decided
+    for only when stuck, so fewer decides than with it at 1."""
+
+    def decides(model: str, **changes: float) -> int:
+        traits = dict(
+            glance_interval_s=2.0,
+            investigate_prob=0.5,
+            stalled_investigate_prob=1.0,
+            abandon_prob=0.0,
+            slip_prob=0.0,
+            stall_window_s=120.0,
+            decide_support=0.3,
+        )
+        operator = SyntheticOperator(Traits(**(traits | changes)), 6)
+        _, rows = run_trial(_scenario(26), model, PARAMS, operator, "p", "t", 600.0, probes=False)
+        return sum(r["kind"] == "decide" for r in rows.requests)
+
+    assert decides("M3", decide_prob=1.0, hasten_prob=0.0) > 0
+    assert decides("M3", decide_prob=0.0, hasten_prob=1.0) == 0
+    assert decides("M1", decide_prob=1.0, hasten_prob=0.0) < decides(
+        "M1", decide_prob=1.0, hasten_prob=1.0
+    )

@@ -1,0 +1,32 @@
+"""`hcss simulate calibrate --to study-teams`: a small search, its files, its resume."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from hcss.experiments import operators_fit as of
+
+
+def test_a_small_calibration_writes_its_fit_and_report_and_resumes_only_the_same_search(
+    tmp_path,
+) -> None:
+    out = tmp_path / "operators"
+    settings = of.Settings(budget=2, participants=2, validation_participants=2)
+    first = of.calibrate(out, settings, workers=1)
+    assert first.trials == 2
+    fitted = json.loads((out / "population.json").read_text(encoding="utf-8"))
+    assert set(fitted["median"]) == set(of.Traits().to_dict())
+    assert fitted["preset"] == of.default_params().preset
+    report = (out / "report.md").read_text(encoding="utf-8")
+    assert all(f"Held-out block {block}" in report for block in of.VALIDATION_BLOCKS)
+    # the first two trials are the starting points: the default person, then the shipped fit
+    study = of.open_study(out, settings)
+    starts = [t.params for t in study.trials[:2]]
+    assert starts[1] == pytest.approx(of._within_space(of.load_population(of.FITTED_POPULATION)))
+    # a larger budget continues the same search; another experiment in the same --out is refused
+    again = of.calibrate(out, of.Settings(budget=3, participants=2, validation_participants=2), 1)
+    assert again.trials == 3
+    with pytest.raises(ValueError, match="another experiment"):
+        of.open_study(out, of.Settings(budget=3, participants=4))
