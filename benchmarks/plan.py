@@ -4,7 +4,7 @@ The whole command as a user runs it (its own process, 2 workers): the pool of
 synthetic participants and simulation-only scenarios, `hcss analyze` of its
 export, and the replications. The target is under 15 minutes on 2 idle cores.
 Figures are printed, never asserted. `HCSS_PLAN_BENCH_POPULATION` names a
-population.json to use (default: the operator's default traits).
+population.json to use (default: `hcss plan`'s, the population shipped with hcss).
 """
 
 from __future__ import annotations

@@ -58,9 +58,10 @@ class Traits:
     - `glance_interval_s`: how often attention turns to a collective (one
       collective at a time, round robin), so a collective is attended every
       4 glances unless attention stays.
-    - `stay_prob`: chance that attention stays on the collective it has just
-      clicked a request on, for the next glance (a person keeps working on a
-      collective that needs them rather than moving on).
+    - `stay_prob`: chance that attention stays, for the next glance, on the
+      collective it has just clicked a request on or whose investigates it is
+      waiting on (a person keeps working on a collective that needs them
+      rather than moving on).
     - `reaction_time_s`: from a look to its clicks landing (reading the map,
       filling the request form, Commit).
     - `value_noise`: sd of a person's reading of a target's value from its
@@ -285,9 +286,20 @@ class SyntheticOperator:
         c = self.focus % d.n_collectives
         u = self.rng.random(8)  # a fixed number of draws per look: paths stay in step
         glance = self._attend(d, c, u)
-        if not (glance.commands and u[7] < t.stay_prob):
-            self.focus += 1  # attention moves on, unless it stays where it has just acted
+        working = glance.commands or self._awaiting(d, c)
+        if not (working and u[7] < t.stay_prob):
+            self.focus += 1  # attention moves on, unless it stays where it is working
         return glance
+
+    def _awaiting(self, d: Display, c: int) -> bool:
+        """Whether the person is waiting on collective c's investigates: sent and not yet
+        landed, or shown in progress (a person watches a push they have just made)."""
+        if any(c == k[0] and d.time < landed for k, landed in self.sent.items()):
+            return True
+        return any(
+            r.collective == c and r.kind == "investigate" and r.status == "in_progress"
+            for r in d.requests
+        )
 
     def _attend(self, d: Display, c: int, u: np.ndarray) -> Glance:
         """One look at collective c: its observation clicks and requests."""

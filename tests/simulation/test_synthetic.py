@@ -264,3 +264,28 @@ def test_deciding_for_a_collective_that_moves_by_itself_is_its_own_chance() -> N
     assert decides("M1", decide_prob=1.0, hasten_prob=0.0) < decides(
         "M1", decide_prob=1.0, hasten_prob=1.0
     )
+
+
+def test_attention_stays_while_the_persons_own_investigates_are_still_landing() -> None:
+    """A person who has just pushed a collective watches the push land: with `stay_prob`
+    1 the looks after a burst stay on that collective while the burst has not landed,
+    though they send nothing; with 0 attention moves on at once."""
+
+    def after_burst(stay_prob: float) -> list[int | None]:
+        sim = Simulation(_scenario(27), "M3", PARAMS)
+        sim.step(100)
+        operator = _operator(
+            stay_prob=stay_prob,
+            stalled_investigate_prob=1.0,
+            investigate_burst=6.0,
+            decide_prob=0.0,
+            reaction_time_s=8.0,
+        )
+        while not (glance := operator.look(sim.display())).commands:
+            sim.step(10)
+        pushed = glance.collective
+        return [pushed] + [operator.look(sim.display()).collective for _ in range(3)]
+
+    staying, moving = after_burst(1.0), after_burst(0.0)
+    assert staying == [staying[0]] * 4
+    assert moving[1] != moving[0]
