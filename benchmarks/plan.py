@@ -4,7 +4,8 @@ The whole command as a user runs it (its own process, 2 workers): the pool of
 synthetic participants and simulation-only scenarios, `hcss analyze` of its
 export, and the replications. The target is under 15 minutes on 2 idle cores.
 Figures are printed, never asserted. `HCSS_PLAN_BENCH_POPULATION` names a
-population.json to use (default: `hcss plan`'s, the population shipped with hcss).
+population.json to use (default: `hcss plan`'s, the population shipped with hcss);
+`HCSS_PLAN_BENCH_OUT` keeps the plan's files there (default: a scratch directory).
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ TARGET_MIN = 15.0
 
 def power_curve(replications: int = 500, workers: int = 2) -> None:
     with tempfile.TemporaryDirectory() as scratch:
-        out = Path(scratch) / "plan"
+        out = Path(os.environ.get("HCSS_PLAN_BENCH_OUT") or Path(scratch) / "plan")
         command = [
             sys.executable, "-m", "hcss.cli", "plan",
             "--n", "12,20,28,40,60",

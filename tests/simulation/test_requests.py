@@ -231,7 +231,9 @@ def test_decide_needs_thirty_percent_support_and_commits_two_supporters():
     refused = sim.decide(0, t + 1)
     assert not refused.accepted and "decide needs at least 30%" in refused.reason
     # 59 of 200 is 29.5%: a refusal that says "Only 30%" contradicts its own rule
-    assert refused.reason.startswith(f"Only 59 robots (29.5%) of collective I favour target {t + 1};")
+    assert refused.reason.startswith(
+        f"Only 59 robots (29.5%) of collective I favour target {t + 1};"
+    )
     place(w, fans, S.F_I, target=t)
     assert sim.decide(0, t + 1).accepted
     committed = np.flatnonzero((w.collective == 0) & (w.state == S.C))
