@@ -3,7 +3,10 @@
 What is fitted: the means of §11's cells (per decision unless said), each
 within its band: success and observation shares 10 points, decision time
 1 min, requests per decision per minute 0.15, interventions per participant
-1.5, SA probe accuracy per participant 10 points. The SDs are printed beside
+1.5, SA probe accuracy per participant 10 points; and decisions per trial,
+12 for every model (§11: "each trial 12 decisions, 336 decisions per
+model"), within 1 decision [choice: the band; per-decision means alone would
+let a model's trials make a few fast decisions and leave the rest undone]. The SDs are printed beside
 them (the population's spread is judged by them, not fitted). The study's
 tests on the human data (Kruskal-Wallis, Tukey-Kramer, the correlations) are
 held back: nothing here reads them.
@@ -22,7 +25,9 @@ Readings of §11 [choice]:
   collective and target clicks could not add to more than 100, as M1's
   difficult 94.44 + 33.33 do;
 - SA accuracy per participant: correct over scored probes of a trial, by level
-  and over all levels (SA0).
+  and over all levels (SA0);
+- decisions per trial: the decisions a trial made by its time limit, a trial
+  with none counting 0 (a trial is known by any of its rows).
 """
 
 from __future__ import annotations
@@ -47,6 +52,7 @@ BANDS = {
     "interventions": 1.5,
     "observations_pct": 10.0,
     "sa_pct": 10.0,
+    "decisions": 1.0,
 }
 
 
@@ -70,7 +76,7 @@ class Cell:
 
 
 def _cells() -> tuple[Cell, ...]:
-    cells: list[Cell] = []
+    cells: list[Cell] = [Cell("decisions", model, "per trial", 12.0, 0.0) for model in MODELS]
     success = {
         "M1": [(78.57, 41.09), (95.31, 21.19), (56.25, 49.78)],
         "M2": [(88.39, 32.08), (94.44, 22.97), (81.41, 39.03)],
@@ -151,8 +157,17 @@ def measure(
     probes: Iterable[Mapping[str, Any]],
 ) -> dict[tuple[str, str, str], Measured]:
     """Every §11 cell measured on synthetic teams' rows (keys as `Cell.key`)."""
-    decisions = list(decisions)
+    decisions, requests, observations = list(decisions), list(requests), list(observations)
+    probes = list(probes)
     per: dict[tuple[str, str, str], list[float]] = defaultdict(list)
+    made: dict[tuple[str, str], int] = {
+        (str(r["model"]), str(r["trial_id"])): 0
+        for r in (*decisions, *requests, *observations, *probes)
+    }
+    for d in decisions:
+        made[(str(d["model"]), str(d["trial_id"]))] += 1
+    for (model, _trial), n in made.items():
+        per[("decisions", model, "per trial")].append(float(n))
     actions = _actions_by_decision(decisions, requests, observations)
     interventions: dict[tuple[str, str], float] = defaultdict(float)
     for d in decisions:

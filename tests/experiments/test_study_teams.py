@@ -28,11 +28,24 @@ def _decision(index: int, start: float, end: float, difficulty: str) -> dict:
 
 
 def _request(time: float) -> dict:
-    return {"trial_id": "t", "collective": "I", "sim_time_s": time, "kind": "investigate"}
+    return {
+        "model": "M1",
+        "trial_id": "t",
+        "collective": "I",
+        "sim_time_s": time,
+        "kind": "investigate",
+    }
 
 
 def _click(time: float, kind: str) -> dict:
-    return {"trial_id": "t", "collective": "I", "attended": "I", "sim_time_s": time, "kind": kind}
+    return {
+        "model": "M1",
+        "trial_id": "t",
+        "collective": "I",
+        "attended": "I",
+        "sim_time_s": time,
+        "kind": kind,
+    }
 
 
 def test_observations_are_the_share_of_decisions_with_a_click_of_that_kind() -> None:
@@ -61,3 +74,18 @@ def test_the_studys_observation_sds_are_those_of_a_0_100_variable() -> None:
         if cell.measure == "observations_pct":
             binary = math.sqrt(cell.mean * (100.0 - cell.mean))
             assert binary <= cell.sd <= binary * math.sqrt(144 / 143) + 0.01, cell
+
+
+def test_decisions_per_trial_count_a_trial_that_made_none() -> None:
+    """§11's trials each made 12 decisions: a trial is counted from any of its rows, so one
+    that made no decision by its time limit counts 0, not nothing."""
+    decisions = [_decision(1, 0.0, 120.0, "easy"), _decision(2, 120.0, 300.0, "difficult")]
+    idle = {"model": "M1", "trial_id": "u", "level": 1, "correct": True}
+    measured = teams.measure(decisions, [_request(10.0)], [], [idle])
+    cell = measured[("decisions", "M1", "per trial")]
+    assert (cell.n, cell.mean) == (2, 1.0)
+    assert next(c for c in teams.STUDY_TEAMS if c.key == cell_key("M1")).mean == 12.0
+
+
+def cell_key(model: str) -> tuple[str, str, str]:
+    return ("decisions", model, "per trial")
