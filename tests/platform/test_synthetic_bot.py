@@ -18,7 +18,10 @@ PACE = Traits(
     reaction_time_s=2.0,
     investigate_prob=0.6,
     stalled_investigate_prob=0.8,
+    investigate_burst=3.0,  # several investigates from one look: sent one after another
+    survey_s=10.0,
     decide_prob=0.6,
+    hasten_prob=0.3,
     abandon_prob=0.6,
     abandon_support=0.08,
     abandon_gap=0.08,
@@ -64,6 +67,8 @@ def test_both_paths_give_the_same_requests_and_decisions(make_trial) -> None:
     assert over_http == in_process
     assert [d.as_row() for d in sim.decisions] == live_decisions[: len(sim.decisions)]
     assert len(sim.decisions) >= 2
+    steps = [step for step, kind, *_ in over_http if kind == "investigate"]
+    assert max(steps.count(s) for s in steps) > 1  # a burst went over HTTP too
     assert log.observations and log.probes  # it clicked and answered probes, over HTTP too
 
 
