@@ -166,8 +166,8 @@ def measure(
     }
     for d in decisions:
         made[(str(d["model"]), str(d["trial_id"]))] += 1
-    for (model, _trial), n in made.items():
-        per[("decisions", model, "per trial")].append(float(n))
+    for (model, _trial), made_in_trial in made.items():
+        per[("decisions", model, "per trial")].append(float(made_in_trial))
     actions = _actions_by_decision(decisions, requests, observations)
     interventions: dict[tuple[str, str], float] = defaultdict(float)
     for d in decisions:
