@@ -128,7 +128,10 @@ def plan_command(
         for cell in study_file.cells
     )
     population_path = population_path or FITTED_POPULATION
-    population = load_population(population_path)
+    try:
+        population = load_population(population_path)
+    except ValueError as error:
+        raise click.BadParameter(str(error), param_hint="--population") from error
     preset, described = model_for(population_path, study_file.simulation.preset)
     settings = planning.PlanSettings(
         study=study,

@@ -253,13 +253,32 @@ def report(result: Calibration, settings: Settings) -> str:
 
 
 def load_population(path: Path) -> Population:
-    """A fitted population from its population.json; a clear error for a file of traits
-    this operator does not have (a population fitted before a trait was renamed)."""
-    values = json.loads(path.read_text(encoding="utf-8"))
-    unknown = set(values.get("median", {})) - {f for f in asdict(Traits())}
-    if unknown:
+    """A fitted population from its population.json, or ValueError saying what is wrong.
+
+    The file must name exactly this operator's traits: a population fitted before a
+    trait was added or renamed meant something else, and is re-fitted rather than
+    filled in with defaults.
+    """
+    try:
+        values = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise ValueError(f"{path} is not a readable population.json ({error})") from error
+    median = values.get("median") if isinstance(values, dict) else None
+    if not isinstance(median, dict) or "spread" not in values:
+        raise ValueError(f"{path} is not a population.json: it needs 'median' and 'spread'")
+    known = set(asdict(Traits()))
+    unknown, missing = set(median) - known, known - set(median)
+    if unknown or missing:
+        said = []
+        if unknown:
+            said.append(f"traits this operator does not know ({', '.join(sorted(unknown))})")
+        if missing:
+            said.append(f"none of its traits {', '.join(sorted(missing))}")
         raise ValueError(
-            f"{path} has traits this operator does not know ({', '.join(sorted(unknown))}): "
-            "re-fit it with `hcss simulate calibrate --to study-teams`"
+            f"{path} has {' and '.join(said)}: it was fitted for another version of the "
+            "operator; re-fit it with `hcss simulate calibrate --to study-teams`"
         )
-    return Population.from_dict(values)
+    try:
+        return Population.from_dict(values)
+    except (TypeError, ValueError) as error:
+        raise ValueError(f"{path} holds a trait this operator cannot use: {error}") from error

@@ -68,3 +68,38 @@ def test_a_population_of_traits_the_operator_does_not_have_is_refused(tmp_path) 
     path.write_text(json.dumps(old))
     with pytest.raises(ValueError, match="probe_lapse"):
         load_population(path)
+
+
+@pytest.mark.parametrize(
+    "spoil",
+    [
+        lambda values: values["median"].pop("hasten_prob"),  # fitted before a trait existed
+        lambda values: values["median"].update(probe_lapse=0.1),  # a trait renamed since
+        lambda values: values.pop("median"),
+        lambda values: values["median"].update(stay_prob=1.7),  # not a probability
+        lambda values: values["median"].update(glance_interval_s="soon"),
+    ],
+)
+def test_a_population_file_the_operator_cannot_use_is_a_clear_error(tmp_path, spoil) -> None:
+    """`hcss plan --population` with a file this operator cannot mean what it was fitted to
+    mean: exit 2 naming the option, no traceback, no output directory written."""
+    from hcss.experiments.operators_fit import FITTED_POPULATION
+
+    values = json.loads(FITTED_POPULATION.read_text(encoding="utf-8"))
+    spoil(values)
+    path = tmp_path / "population.json"
+    path.write_text(json.dumps(values))
+    out = tmp_path / "plan"
+    result = CliRunner().invoke(main, ["plan", "--population", str(path), "--out", str(out)])
+    assert result.exit_code == 2, result.output
+    assert "--population" in result.output and "Traceback" not in result.output
+    assert not out.exists()
+
+
+def test_a_population_file_that_is_not_json_is_a_clear_error(tmp_path) -> None:
+    path = tmp_path / "population.json"
+    path.write_text("median: 1\n")
+    result = CliRunner().invoke(
+        main, ["plan", "--population", str(path), "--out", str(tmp_path / "o")]
+    )
+    assert result.exit_code == 2 and "--population" in result.output, result.output
