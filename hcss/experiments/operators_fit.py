@@ -120,7 +120,8 @@ def evaluate(
 def open_study(out: Path, settings: Settings) -> Any:
     """The optuna study in OUT/calibration.db, created or resumed (same experiment only).
 
-    A new search starts from the default person and, when hcss ships one, the last fit.
+    A new search starts from the default person and, when hcss ships one this operator
+    can use, the last fit.
     """
     from hcss.experiments.fit_study import resumable_study  # the model's calibration's, shared
 
@@ -134,8 +135,10 @@ def open_study(out: Path, settings: Settings) -> Any:
 
     def starting() -> list[dict[str, float]]:
         points = [_within_space(Population())]
-        if FITTED_POPULATION.exists():
+        try:
             points.append(_within_space(load_population(FITTED_POPULATION)))
+        except ValueError:
+            pass  # none shipped, or one fitted for an older operator: this search replaces it
         return points
 
     return resumable_study(

@@ -30,3 +30,17 @@ def test_a_small_calibration_writes_its_fit_and_report_and_resumes_only_the_same
     assert again.trials == 3
     with pytest.raises(ValueError, match="another experiment"):
         of.open_study(out, of.Settings(budget=3, participants=4))
+
+
+def test_a_new_search_starts_without_a_shipped_fit_from_an_older_operator(
+    tmp_path, monkeypatch
+) -> None:
+    """After a trait is added, the shipped fit lacks it and `hcss plan` refuses it; the
+    re-fit that replaces it must still start (from the default person alone), not fail."""
+    old = json.loads(of.FITTED_POPULATION.read_text(encoding="utf-8"))
+    del old["median"]["hasten_prob"]
+    shipped = tmp_path / "study-teams-population.json"
+    shipped.write_text(json.dumps(old), encoding="utf-8")
+    monkeypatch.setattr(of, "FITTED_POPULATION", shipped)
+    study = of.open_study(tmp_path / "operators", of.Settings(budget=1, participants=2))
+    assert len(study.trials) == 1  # the default person, queued
