@@ -6,8 +6,9 @@ within its band: success and observation shares 10 points, decision time
 1.5, SA probe accuracy per participant 10 points; and decisions per trial,
 12 for every model (§11: "each trial 12 decisions, 336 decisions per
 model"), within 1 decision [choice: the band; per-decision means alone would
-let a model's trials make a few fast decisions and leave the rest undone]. The SDs are printed beside
-them (the population's spread is judged by them, not fitted). The study's
+let a model's trials make a few fast decisions and leave the rest undone].
+The SDs are printed beside them (the population's spread is judged by them,
+not fitted). The study's
 tests on the human data (Kruskal-Wallis, Tukey-Kramer, the correlations) are
 held back: nothing here reads them.
 

@@ -24,14 +24,14 @@ from __future__ import annotations
 
 import math
 from collections import Counter
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import asdict, dataclass, fields, replace
 from typing import Any
 
 import numpy as np
 
 from hcss.simulation.messages import collective_names
-from hcss.simulation.requests import OperatorCommand
+from hcss.simulation.requests import IN_PROGRESS, OperatorCommand, RequestState
 from hcss.simulation.view import Display
 
 DECIDE_FLOOR = 0.30  # the simulation refuses a decide below this support (spec §8)
@@ -296,10 +296,7 @@ class SyntheticOperator:
         landed, or shown in progress (a person watches a push they have just made)."""
         if any(c == k[0] and d.time < landed for k, landed in self.sent.items()):
             return True
-        return any(
-            r.collective == c and r.kind == "investigate" and r.status == "in_progress"
-            for r in d.requests
-        )
+        return any(True for _ in _investigating(d, c))
 
     def _attend(self, d: Display, c: int, u: np.ndarray) -> Glance:
         """One look at collective c: its observation clicks and requests."""
@@ -353,17 +350,14 @@ class SyntheticOperator:
     def _burst(self, d: Display, c: int, target: int, support: float) -> int:
         """How many investigates to send now: as many as bring the target to `decide_support`
         with the agents still to come from investigates in progress (the list shows their
-        acknowledgements), up to `investigate_burst`; none while its own last ones have not
-        landed yet. At least one, if any: a person below the threshold pushes."""
+        acknowledgements), up to `investigate_burst`, and at least one (a person below the
+        threshold who chose to push, pushes); none while its own last ones have not landed."""
         if d.time < self.sent.get((c, target), -math.inf):
             return 0
         coming = sum(
             max(0, INVESTIGATE_AGENTS - r.acknowledged)
-            for r in d.requests
-            if r.collective == c
-            and r.target == target
-            and r.kind == "investigate"
-            and r.status == "in_progress"
+            for r in _investigating(d, c)
+            if r.target == target
         )
         short = ((self.traits.decide_support - support) * d.n_agents - coming) / INVESTIGATE_AGENTS
         return max(1, min(round(self.traits.investigate_burst), math.ceil(short)))
@@ -462,6 +456,15 @@ def _best_looking(
     alike = shown[read[shown] >= top - resolution]
     distance = np.hypot(*(d.position[alike] - d.hub[c]).T)
     return int(alike[int(np.argmin(distance))])
+
+
+def _investigating(d: Display, c: int) -> Iterator[RequestState]:
+    """Collective c's investigates the list shows in progress (agents still to acknowledge)."""
+    return (
+        r
+        for r in d.requests
+        if r.collective == c and r.kind == "investigate" and r.status == IN_PROGRESS
+    )
 
 
 def _slip(d: Display, c: int, shown: np.ndarray, u: float) -> OperatorCommand | None:

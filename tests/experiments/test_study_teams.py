@@ -82,10 +82,6 @@ def test_decisions_per_trial_count_a_trial_that_made_none() -> None:
     decisions = [_decision(1, 0.0, 120.0, "easy"), _decision(2, 120.0, 300.0, "difficult")]
     idle = {"model": "M1", "trial_id": "u", "level": 1, "correct": True}
     measured = teams.measure(decisions, [_request(10.0)], [], [idle])
-    cell = measured[("decisions", "M1", "per trial")]
-    assert (cell.n, cell.mean) == (2, 1.0)
-    assert next(c for c in teams.STUDY_TEAMS if c.key == cell_key("M1")).mean == 12.0
-
-
-def cell_key(model: str) -> tuple[str, str, str]:
-    return ("decisions", model, "per trial")
+    key = ("decisions", "M1", "per trial")
+    assert (measured[key].n, measured[key].mean) == (2, 1.0)
+    assert next(c for c in teams.STUDY_TEAMS if c.key == key).mean == 12.0

@@ -199,20 +199,27 @@ def test_of_targets_that_look_equally_good_the_nearer_is_the_best_choice() -> No
     assert blurred.answer(2, question, choices) == str(near["id"])
 
 
-def _m3_investigates(**changes: float) -> list[dict]:
-    """The investigates a person pushing M3's collectives sends in 300 s, with these traits."""
-    traits = dict(
+def _requests(model: str, seeds: tuple[int, int], duration_s: float, **traits: float) -> list:
+    """The requests of a quiet person (no clicks, no slips, no abandons) who pushes stuck
+    collectives at every look, over a trial without probes; seeds: scenario, operator."""
+    quiet = dict(
         glance_interval_s=2.0,
         stalled_investigate_prob=1.0,
-        decide_prob=0.0,
         abandon_prob=0.0,
         slip_prob=0.0,
         observe_collective_prob=0.0,
         observe_target_prob=0.0,
     )
-    operator = SyntheticOperator(Traits(**(traits | changes)), 4)
-    _, rows = run_trial(_scenario(25), "M3", PARAMS, operator, "p", "t", 300.0, probes=False)
-    return [r for r in rows.requests if r["kind"] == "investigate"]
+    operator = SyntheticOperator(Traits(**(quiet | traits)), seeds[1])
+    scenario = _scenario(seeds[0])
+    _, rows = run_trial(scenario, model, PARAMS, operator, "p", "t", duration_s, probes=False)
+    return rows.requests
+
+
+def _m3_investigates(**changes: float) -> list[dict]:
+    """The investigates a person pushing M3's collectives sends in 300 s, with these traits."""
+    sent = _requests("M3", (25, 4), 300.0, **({"decide_prob": 0.0} | changes))
+    return [r for r in sent if r["kind"] == "investigate"]
 
 
 def test_a_burst_sends_what_the_threshold_needs_up_to_the_persons_most_and_waits_for_them() -> None:
@@ -246,18 +253,9 @@ def test_deciding_for_a_collective_that_moves_by_itself_is_its_own_chance() -> N
     for only when stuck, so fewer decides than with it at 1."""
 
     def decides(model: str, **changes: float) -> int:
-        traits = dict(
-            glance_interval_s=2.0,
-            investigate_prob=0.5,
-            stalled_investigate_prob=1.0,
-            abandon_prob=0.0,
-            slip_prob=0.0,
-            stall_window_s=120.0,
-            decide_support=0.3,
-        )
-        operator = SyntheticOperator(Traits(**(traits | changes)), 6)
-        _, rows = run_trial(_scenario(26), model, PARAMS, operator, "p", "t", 600.0, probes=False)
-        return sum(r["kind"] == "decide" for r in rows.requests)
+        traits = dict(investigate_prob=0.5, stall_window_s=120.0, decide_support=0.3)
+        sent = _requests(model, (26, 6), 600.0, **(traits | changes))
+        return sum(r["kind"] == "decide" for r in sent)
 
     assert decides("M3", decide_prob=1.0, hasten_prob=0.0) > 0
     assert decides("M3", decide_prob=0.0, hasten_prob=1.0) == 0
