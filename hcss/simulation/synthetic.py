@@ -70,22 +70,26 @@ class Traits:
       tell one target's green from another's; of targets that look equally
       good the nearer to the hub looks best (for its requests and its level-2
       answers alike).
-    - `investigate_prob`: chance, when attending a collective whose best-looking
-      target is below `decide_support`, to send an investigate of it (10 more
-      agents to assess it; repeatable, as on the interface, even while one is
-      in progress).
-    - `stalled_investigate_prob`: the same chance when that target's support has
-      not grown for `stall_window_s`, and at every look until the person has
-      seen some collective move by itself in this trial (a target's support
-      `SELF_MOVING_SUPPORT` above what the person's own investigates of it
-      sent): a person supervising collectives
-      that move only by their requests, as M3's, keeps pushing them; one who
-      has seen them grow on their own, as M1's and M2's, waits.
+    - `investigate_prob`: chance, when attending a collective seen moving by
+      itself whose best-looking target is below `decide_support`, to nudge it:
+      one investigate of that target, at any time (repeatable, as on the
+      interface, even while one is in progress).
+    - `stalled_investigate_prob`: chance, when the collective looks stuck, to
+      push it: a burst of investigates (`investigate_burst`), once the person
+      has watched the target for `survey_s`. It looks stuck when the leading
+      target's support has not grown for `stall_window_s`, and at every look
+      until the person has seen some collective move by itself in this trial
+      (a target's support `SELF_MOVING_SUPPORT` above what the person's own
+      investigates of it sent): a person supervising collectives that move
+      only by their requests, as M3's, pushes them; one who has seen them grow
+      on their own, as M1's and M2's, nudges and waits.
     - `stall_window_s`: how long a person waits for a leading target's support
       to grow before judging the collective stuck.
-    - `survey_s`: how long a person lets a collective explore at the start of
-      its decision (from when its hub is seen to move) before sending any
-      investigate: time to see which targets there are before pushing one.
+    - `survey_s`: how long a person watches a target before pushing it: from
+      the start of the collective's decision (when its hub is seen to move) or
+      from when the target was first drawn on the map, whichever is later. A
+      far target found late (the best one of a difficult decision) is pushed
+      later than a near one found early.
     - `investigate_burst`: how many investigates one look sends at most (the
       person presses Commit again on the same form): as many as it takes the
       target to reach `decide_support` at 10 agents each, up to this many. A
@@ -103,9 +107,14 @@ class Traits:
       look (an intervention when support is 10% or more).
     - `slip_prob`: chance that a request is erroneous (a decide under 30%, an
       abandon of an unsupported target): the interface refuses it.
-    - `observe_collective_prob`, `observe_target_prob`: chance per look of a
-      right-click on the attended hub (its U/F/C/X detail), and on its
-      best-looking target (its support per collective).
+    - `observe_collective_prob`: chance per look of a right-click on the
+      attended hub (its U/F/C/X detail).
+    - `observe_target_prob`: chance, on a look that sends requests, of a
+      right-click on the first request's target first (its support per
+      collective, checked before committing): a person looks a target up when
+      about to act on it, so target clicks follow requests (§11: M3's
+      operators, who request most, clicked targets on twice as many
+      decisions as M1's and M2's).
     - `perception_lapse`, `comprehension_lapse`, `projection_lapse`: chance of
       answering a probe of that level at random (inattention, a misread)
       rather than from what it remembers: a person's accuracy by SA level.
@@ -271,6 +280,11 @@ class SyntheticOperator:
         self.pushed: Counter[tuple[int, int]] = Counter()  # (collective, target) -> investigates
         self.sent: dict[tuple[int, int], float] = {}  # (collective, target) -> its burst lands
         self.started: dict[int, float] = {}  # collective -> when its hub was seen to move
+        self.appeared: dict[int, float] = {}  # target id -> when it was first seen drawn
+        # collective -> when the person last sent it an investigate or a decide
+        self.worked: dict[int, float] = {}
+        # collective -> since when the person has watched its best-looking target
+        self.watching: dict[int, float] = {}
         self.seen_self_moving = False  # has it seen a collective gain support by itself?
 
     def glance_times(self, until_s: float) -> list[float]:
@@ -286,6 +300,8 @@ class SyntheticOperator:
         c = self.focus % d.n_collectives
         u = self.rng.random(8)  # a fixed number of draws per look: paths stay in step
         glance = self._attend(d, c, u)
+        if any(command.kind in ("investigate", "decide") for command in glance.commands):
+            self.worked[c] = d.time
         working = glance.commands or self._awaiting(d, c)
         if not (working and u[7] < t.stay_prob):
             self.focus += 1  # attention moves on, unless it stays where it is working
@@ -312,8 +328,8 @@ class SyntheticOperator:
         if d.executing[c] or not shown.size:
             return Glance(c, (), tuple(observations))
         best = _best_looking(d, c, shown, read, t.value_resolution)
-        if u[1] < t.observe_target_prob:
-            observations.append(ObservationClick("target", target=ids[best]))
+        watched_since = max(self.started.get(c, 0.0), self.appeared[ids[best]])
+        self.watching[c] = watched_since
         commands: list[OperatorCommand] = []
         abandoned = {r.target for r in d.requests if r.collective == c and r.kind == "abandon"}
         if u[2] < t.abandon_prob:
@@ -333,19 +349,29 @@ class SyntheticOperator:
         if support >= t.decide_support:
             if u[3] < (t.decide_prob if stuck else t.hasten_prob):
                 commands.append(OperatorCommand("decide", c, ids[best]))
-        elif d.time - self.started.get(c, 0.0) < t.survey_s:
-            pass  # still surveying the targets this decision's collective has found
-        elif u[4] < (t.stalled_investigate_prob if stuck else t.investigate_prob):
-            burst = self._burst(d, c, ids[best], support)
-            commands.extend([OperatorCommand("investigate", c, ids[best])] * burst)
-            self.pushed[(c, ids[best])] += burst
-            if burst:
-                self.sent[(c, ids[best])] = d.time + t.reaction_time_s
+        elif not stuck:
+            if u[4] < t.investigate_prob:  # a nudge: one investigate, at any time
+                self._investigate(d, c, ids[best], 1, commands)
+        elif d.time - watched_since >= t.survey_s and u[4] < t.stalled_investigate_prob:
+            # a push, once the target has been watched: what the threshold needs
+            self._investigate(d, c, ids[best], self._burst(d, c, ids[best], support), commands)
+        if commands and u[1] < t.observe_target_prob:  # its support checked before the request
+            observations.append(ObservationClick("target", target=commands[0].target))
         if commands and u[5] < t.slip_prob:
             slip = _slip(d, c, shown, u[6])
             if slip is not None:
                 commands.append(slip)
         return Glance(c, tuple(commands), tuple(observations))
+
+    def _investigate(
+        self, d: Display, c: int, target: int, n: int, commands: list[OperatorCommand]
+    ) -> None:
+        """Send n investigates of the target, remembering them (how far it was pushed, when
+        they land)."""
+        if n:
+            commands.extend([OperatorCommand("investigate", c, target)] * n)
+            self.pushed[(c, target)] += n
+            self.sent[(c, target)] = d.time + self.traits.reaction_time_s
 
     def _burst(self, d: Display, c: int, target: int, support: float) -> int:
         """How many investigates to send now: as many as bring the target to `decide_support`
@@ -391,6 +417,8 @@ class SyntheticOperator:
         for v, target in enumerate(ids):
             self.values[target] = float(read[v])
             self.places[target] = (float(d.position[v, 0]), float(d.position[v, 1]))
+            if d.drawn[v]:
+                self.appeared.setdefault(target, d.time)
         if not self.seen_self_moving:
             self.seen_self_moving = self._moving_by_itself(d, ids)
         n = max(d.n_agents, 1)
@@ -407,15 +435,35 @@ class SyntheticOperator:
                 self.started[c] = d.time  # it has landed: its next decision has begun
             self.memory[c] = _Memory(d.time, support, closeness, hub)
 
+    def _next_to_bring(self, closest: int) -> int:
+        """With none on the move, for a person who has seen no collective move by itself
+        (only its requests decide, as in M3): the collective it is bringing to a decision
+        (the last it pushed or decided for in that collective's decision), else the one it
+        will push first (whose best-looking target it has watched longest). For one who has
+        seen them move by themselves, the closest it saw (measured on the fitted population:
+        support and commitment name M1's and M2's next decision more often than the
+        person's own pushes)."""
+        if self.seen_self_moving:
+            return closest
+        pushing = [k for k, at in self.worked.items() if at >= self.started.get(k, 0.0)]
+        if pushing:
+            return max(pushing, key=lambda k: self.worked[k])
+        if self.watching:
+            return min(self.watching, key=lambda k: self.watching[k])
+        return closest
+
     def answer(self, level: int, question: str, choices: Sequence[str]) -> str:
         """A probe's answer from memory; at random on a lapse or with nothing remembered.
 
         Level 1 (which collective is investigating target t): the collective it
         last saw supporting t most. Level 2 (the best target for collective
         c): the choice whose value it last read highest. Level 3 (which
-        collective decides next): of those not moving (a moving collective has
-        just decided), the one it last saw most committed and supported. Each
-        level has its own lapse: the person's accuracy at that level.
+        collective decides next): one it last saw on the move (its decision ends
+        when it lands); else, for a person who has seen no collective move by
+        itself, the one it is bringing to a decision or will push first
+        (`_next_to_bring`); else the one it last saw most committed and
+        supported. Each level has its own lapse: the person's accuracy at that
+        level.
         """
         if not choices:
             return ""
@@ -444,6 +492,8 @@ class SyntheticOperator:
             hub = self.memory[subject].hub
             return str(min(alike, key=lambda x: math.dist(self.places[x], hub)))
         c = max(self.memory, key=lambda k: self.memory[k].closeness)
+        if self.memory[c].closeness < ON_THE_MOVE:
+            c = self._next_to_bring(c)
         return names[c] if names[c] in choices else guess
 
 

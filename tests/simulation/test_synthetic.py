@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections import Counter
+
 import numpy as np
 import pytest
 
@@ -287,3 +289,139 @@ def test_attention_stays_while_the_persons_own_investigates_are_still_landing() 
     staying, moving = after_burst(1.0), after_burst(0.0)
     assert staying == [staying[0]] * 4
     assert moving[1] != moving[0]
+
+
+def test_a_person_who_has_seen_collectives_move_by_themselves_nudges_one_at_a_time() -> None:
+    """Pushing (a burst, after watching the target for `survey_s`) is for a collective that
+    looks stuck; one seen moving by itself gets a nudge: one investigate a look, at once. In
+    M1 a person who never pushes still nudges; in M3 (nothing moves by itself) the same
+    person sends nothing while it watches."""
+    person = dict(
+        investigate_prob=1.0,
+        stalled_investigate_prob=1.0,
+        stall_window_s=1e6,
+        investigate_burst=6.0,
+        survey_s=1e6,
+        decide_prob=0.0,
+        hasten_prob=0.0,
+    )
+    nudges = [r for r in _requests("M1", (28, 7), 400.0, **person) if r["kind"] == "investigate"]
+    assert len(nudges) >= 5
+    per_look = Counter((r["sim_time_s"], r["collective"]) for r in nudges)
+    assert max(per_look.values()) == 1
+    assert not [r for r in _requests("M3", (28, 7), 400.0, **person) if r["kind"] == "investigate"]
+
+
+def test_a_target_is_watched_from_when_it_appears_before_it_is_pushed() -> None:
+    """`survey_s` counts from the decision's start or from when the target was first drawn,
+    whichever is later: a target found late (a difficult decision's far best one) is not
+    pushed until the person has watched it that long."""
+    survey_s = 60.0
+    operator = SyntheticOperator(
+        Traits(
+            glance_interval_s=2.0,
+            stalled_investigate_prob=1.0,
+            survey_s=survey_s,
+            decide_prob=0.0,
+            abandon_prob=0.0,
+            slip_prob=0.0,
+        ),
+        8,
+    )
+    sim = Simulation(_scenario(29), "M3", PARAMS)
+    appeared: dict[int, float] = {}
+    pushed: list[tuple[float, int]] = []
+    while sim.time < 400.0:
+        display = sim.display()
+        for target, drawn in zip(display.target_ids.tolist(), display.drawn.tolist(), strict=True):
+            if drawn:
+                appeared.setdefault(int(target), display.time)
+        glance = operator.look(display)
+        pushed += [(display.time, c.target) for c in glance.commands if c.kind == "investigate"]
+        sim.step(round(2.0 / PARAMS.dt_s))
+    assert pushed
+    assert max(appeared[t] for _, t in pushed) > 0.0  # some pushed target appeared late
+    assert all(at - appeared[t] >= survey_s for at, t in pushed)
+
+
+def test_a_person_names_the_collective_it_is_bringing_to_a_decision_as_the_next() -> None:
+    """Level 3 with none on the move: in M3 only the person's requests decide, so the
+    collective it is pushing (the last sent an investigate in its decision) decides next;
+    the names follow the person's pushes from one collective to the next."""
+    sim = Simulation(_scenario(30), "M3", PARAMS)
+    operator = _operator(
+        stay_prob=0.0,
+        stalled_investigate_prob=1.0,
+        investigate_burst=6.0,
+        decide_prob=0.0,
+        projection_lapse=0.0,
+    )
+    names = ["I", "II", "III", "IV"]
+    question = "Which collective will make the next decision?"
+    pushing = []
+    while len(pushing) < 6:
+        glance = operator.look(sim.display())
+        if glance.commands:
+            pushing.append(glance.collective)
+        if pushing:
+            assert not sim.display().executing.any()
+            assert operator.answer(3, question, names) == names[pushing[-1]]
+        sim.step(10)
+    assert len(set(pushing)) > 1  # it names the last, not the first it pushed
+
+
+def test_a_target_is_looked_up_on_the_looks_that_act_on_it() -> None:
+    """A target click comes with a request, on that request's target: a person who never
+    requests never clicks a target, whatever `observe_target_prob`; one who requests on
+    some looks clicks the target of each such look's first request, on those looks only."""
+    clicks = dict(observe_target_prob=1.0, observe_collective_prob=0.0, slip_prob=0.0)
+    idle = dict(investigate_prob=0.0, stalled_investigate_prob=0.0, abandon_prob=0.0)
+    sim = Simulation(_scenario(31), "M3", PARAMS)
+    watcher = SyntheticOperator(Traits(**(clicks | idle | {"decide_prob": 0.0})), 9)
+    worker = SyntheticOperator(Traits(**(clicks | {"stalled_investigate_prob": 0.5})), 9)
+    acted = 0
+    while sim.time < 300.0:
+        display = sim.display()
+        assert not watcher.look(display).observations
+        glance = worker.look(display)
+        targets = [o.target for o in glance.observations if o.kind == "target"]
+        assert targets == ([glance.commands[0].target] if glance.commands else [])
+        acted += bool(glance.commands)
+        sim.step(round(2.0 / PARAMS.dt_s))
+    assert acted >= 3
+
+
+def test_before_any_push_a_person_names_the_collective_it_will_push_first() -> None:
+    """Level 3 while the person watches M3's collectives before pushing (a long `survey_s`):
+    the next to decide is the one it will push first, whose best-looking target (here the
+    greenest in its range) it has watched longest; the answer follows the map as targets
+    appear."""
+    sim = Simulation(_scenario(32), "M3", PARAMS)
+    operator = _operator(
+        stay_prob=0.0,
+        value_noise=1e-9,
+        value_resolution=1e-9,
+        survey_s=1e6,
+        projection_lapse=0.0,
+    )
+    names = ["I", "II", "III", "IV"]
+    appeared: dict[int, float] = {}
+    watched: dict[int, float] = {}
+    while sim.time < 240.0:
+        display = sim.display()
+        for target, drawn in zip(display.target_ids.tolist(), display.drawn.tolist(), strict=True):
+            if drawn:
+                appeared.setdefault(int(target), display.time)
+        glance = operator.look(display)
+        assert not glance.commands
+        c = glance.collective
+        shown = np.flatnonzero(display.in_range[c] & display.drawn)
+        if shown.size:
+            best = shown[int(np.argmax(np.asarray(display.value)[shown]))]
+            watched[c] = appeared[int(display.target_ids[best])]
+        if watched:
+            first = min(watched, key=lambda k: watched[k])
+            answer = operator.answer(3, "Which collective will make the next decision?", names)
+            assert answer == names[first]
+        sim.step(round(2.0 / PARAMS.dt_s))
+    assert watched
