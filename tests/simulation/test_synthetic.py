@@ -345,29 +345,34 @@ def test_a_target_is_watched_from_when_it_appears_before_it_is_pushed() -> None:
 
 
 def test_a_person_names_the_collective_it_is_bringing_to_a_decision_as_the_next() -> None:
-    """Level 3 with none on the move: in M3 only the person's requests decide, so the
-    collective it is pushing (the last sent an investigate in its decision) decides next;
-    the names follow the person's pushes from one collective to the next."""
+    """Level 3 with none on the move: in M3 only the person's requests decide, so the next
+    decision is one it is bringing about: the first it decided for, else the first it
+    pushed (its push landed first). The names follow its requests until a decision ends,
+    and the last names the collective whose decision ends first."""
     sim = Simulation(_scenario(30), "M3", PARAMS)
     operator = _operator(
         stay_prob=0.0,
         stalled_investigate_prob=1.0,
-        investigate_burst=6.0,
-        decide_prob=0.0,
+        investigate_burst=8.0,
+        decide_support=0.3,
+        decide_prob=1.0,
         projection_lapse=0.0,
     )
     names = ["I", "II", "III", "IV"]
     question = "Which collective will make the next decision?"
-    pushing = []
-    while len(pushing) < 6:
+    pushed: list[int] = []
+    decided: list[int] = []
+    expected = None
+    while not sim.decisions:
         glance = operator.look(sim.display())
-        if glance.commands:
-            pushing.append(glance.collective)
-        if pushing:
-            assert not sim.display().executing.any()
-            assert operator.answer(3, question, names) == names[pushing[-1]]
+        for command in glance.commands:  # sent, whether the simulation takes them or not
+            sim.apply(command)
+            (pushed if command.kind == "investigate" else decided).append(command.collective)
+        if pushed:
+            expected = decided[0] if decided else pushed[0]
+            assert operator.answer(3, question, names) == names[expected]
         sim.step(10)
-    assert len(set(pushing)) > 1  # it names the last, not the first it pushed
+    assert decided and sim.decisions[0].collective == expected  # the simulation agrees
 
 
 def test_a_target_is_looked_up_on_the_looks_that_act_on_it() -> None:
