@@ -301,9 +301,10 @@ class SyntheticOperator:
         u = self.rng.random(8)  # a fixed number of draws per look: paths stay in step
         glance = self._attend(d, c, u)
         for command in glance.commands:
-            first = self.worked.setdefault(command.kind, {})
-            if command.kind != "abandon" and first.get(c, -math.inf) < self.started.get(c, 0.0):
-                first[c] = d.time  # the first of this kind in c's current decision
+            if command.kind in ("decide", "investigate"):
+                first = self.worked.setdefault(command.kind, {})
+                if c not in self._this_decision(first):
+                    first[c] = d.time  # the first of this kind in c's current decision
         working = glance.commands or self._awaiting(d, c)
         if not (working and u[7] < t.stay_prob):
             self.focus += 1  # attention moves on, unless it stays where it is working
@@ -442,24 +443,24 @@ class SyntheticOperator:
         (only its requests decide, as in M3): the collective it is bringing to a decision,
         the first it decided for in that collective's current decision, else the first it
         pushed (its push landed first), else the one it will push first (whose best-looking
-        target it has watched longest). For one who has seen them move by themselves, the
-        closest it saw. Measured on the fitted population (12 participants' M3 and M1
-        trials): the decided-for collective named M3's next decision 4 times of 4 where the
-        last pushed named it 2 of 4; in M1 the closest named it more often than the
-        person's own pushes."""
+        target it has watched longest in its current decision). For one who has seen them
+        move by themselves, the closest it saw. Measured on the fitted population (12
+        participants' M3 and M1 trials): the decided-for collective named M3's next
+        decision 4 times of 4 where the last pushed named it 2 of 4; in M1 the closest
+        named it more often than the person's own pushes."""
         if self.seen_self_moving:
             return closest
-        for kind in ("decide", "investigate"):
-            sent = {
-                k: at
-                for k, at in self.worked.get(kind, {}).items()
-                if at >= self.started.get(k, 0.0)
-            }
-            if sent:
-                return min(sent, key=lambda k: sent[k])
-        if self.watching:
-            return min(self.watching, key=lambda k: self.watching[k])
+        decided, pushed = self.worked.get("decide", {}), self.worked.get("investigate", {})
+        for times in (decided, pushed, self.watching):
+            current = self._this_decision(times)
+            if current:
+                return min(current, key=lambda k: current[k])
         return closest
+
+    def _this_decision(self, times: dict[int, float]) -> dict[int, float]:
+        """Of times by collective, those since that collective's current decision began (a
+        collective that has landed starts afresh: what was sent or watched before is over)."""
+        return {c: at for c, at in times.items() if at >= self.started.get(c, 0.0)}
 
     def answer(self, level: int, question: str, choices: Sequence[str]) -> str:
         """A probe's answer from memory; at random on a lapse or with nothing remembered.

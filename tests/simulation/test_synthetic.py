@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections import Counter
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -430,3 +431,33 @@ def test_before_any_push_a_person_names_the_collective_it_will_push_first() -> N
             assert answer == names[first]
         sim.step(round(2.0 / PARAMS.dt_s))
     assert watched
+
+
+def test_a_collective_that_has_just_landed_is_not_the_one_watched_longest() -> None:
+    """Level 3 before any push: a collective that has landed begins a new decision whose
+    targets the person has not watched yet, so what it watched in the decision before does
+    not make it the one the person will push first. Three displays of one M3 map: at 60 s
+    only collective I has targets in range; at 120 s all have; at 200 s I has landed and
+    attention is on II."""
+    sim = Simulation(_scenario(33), "M3", PARAMS)
+    sim.step(round(60.0 / PARAMS.dt_s))
+    real = sim.display()
+    assert real.drawn.any()
+    quiet = dict(support=np.zeros_like(real.support))
+    in_range, drawn = real.in_range.copy(), real.drawn.copy()
+    in_range[1:] = False
+    drawn[~real.in_range[0]] = False  # II-IV's targets are drawn later
+    first = replace(real, in_range=in_range, drawn=drawn, **quiet)
+    assert (in_range[0] & drawn).any()
+    later = replace(real, time=120.0, **quiet)
+    moved = later.hub.copy()
+    moved[0] += 100.0
+    landed = replace(later, time=200.0, hub=moved)
+    operator = _operator(stay_prob=0.0, survey_s=1e6, projection_lapse=0.0)
+    names = ["I", "II", "III", "IV"]
+    question = "Which collective will make the next decision?"
+    for display in [first] * 4 + [later] * 5:  # each collective attended, then I once more
+        assert not operator.look(display).commands
+    assert operator.answer(3, question, names) == "I"  # watched since 60 s, the others 120 s
+    assert operator.look(landed).collective == 1
+    assert operator.answer(3, question, names) != "I"
