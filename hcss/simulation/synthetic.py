@@ -105,6 +105,12 @@ class Traits:
       its collective supports at `abandon_support` or more whose value looks
       `abandon_gap` or more below the best-looking one, with this chance per
       look (an intervention when support is 10% or more).
+    - `redirect_prob`: chance per look of taking back agents the person sent
+      (by investigates in the collective's current decision) to a target that
+      no longer looks best: it abandons that target (an intervention when its
+      support is 10% or more). A person who pushed the best target it had seen
+      and then sees a better one redirects the collective; nothing else
+      abandons in M3, where all support is the person's own.
     - `slip_prob`: chance that a request is erroneous (a decide under 30%, an
       abandon of an unsupported target): the interface refuses it.
     - `observe_collective_prob`: chance per look of a right-click on the
@@ -138,6 +144,7 @@ class Traits:
     abandon_support: float = 0.1
     abandon_gap: float = 0.1
     abandon_prob: float = 0.3
+    redirect_prob: float = 0.0
     slip_prob: float = 0.01
     observe_collective_prob: float = 0.05
     observe_target_prob: float = 0.01
@@ -167,6 +174,7 @@ TRAIT_PROBABILITIES = (
     "decide_prob",
     "hasten_prob",
     "abandon_prob",
+    "redirect_prob",
     "slip_prob",
     "observe_collective_prob",
     "observe_target_prob",
@@ -188,7 +196,8 @@ class Population:
     for all traits keeps the fit small: people who glance often also tend to
     act often is not assumed, each trait draws its own deviate.
     `decide_support` is drawn above the 30% floor (its excess over 0.30 on
-    the log scale).
+    the log scale). A probability whose median is exactly 0 or 1 (a person
+    who never, or always, does it) is everyone's.
     """
 
     median: Traits = Traits()
@@ -202,6 +211,8 @@ class Population:
             if f.name == "decide_support":
                 excess = max(centre - DECIDE_FLOOR, 1e-3)
                 values[f.name] = min(0.95, DECIDE_FLOOR + excess * math.exp(z))
+            elif f.name in _BOUNDED and centre in (0.0, 1.0):
+                values[f.name] = centre  # never, or always: so for everyone
             elif f.name in _BOUNDED:
                 p = min(max(centre, 1e-4), 1 - 1e-4)
                 values[f.name] = 1.0 / (1.0 + math.exp(-(math.log(p / (1 - p)) + z)))
@@ -298,7 +309,7 @@ class SyntheticOperator:
         if not d.n_collectives or d.finished:
             return Glance(None)
         c = self.focus % d.n_collectives
-        u = self.rng.random(8)  # a fixed number of draws per look: paths stay in step
+        u = self.rng.random(9)  # a fixed number of draws per look: paths stay in step
         glance = self._attend(d, c, u)
         for command in glance.commands:
             if command.kind in ("decide", "investigate"):
@@ -347,6 +358,12 @@ class SyntheticOperator:
             if weak:
                 worst = max(weak, key=lambda v: float(d.support[c, v]))
                 commands.append(OperatorCommand("abandon", c, ids[worst]))
+                abandoned.add(ids[worst])
+        if u[8] < t.redirect_prob:
+            commands.extend(
+                OperatorCommand("abandon", c, ids[v])
+                for v in self._misdirected(d, c, shown, best, abandoned)
+            )
         support = float(d.support[c, best])
         stuck = self._stalled(c, ids[best], support, d.time) or not self.seen_self_moving
         if support >= t.decide_support:
@@ -365,6 +382,22 @@ class SyntheticOperator:
             if slip is not None:
                 commands.append(slip)
         return Glance(c, tuple(commands), tuple(observations))
+
+    def _misdirected(
+        self, d: Display, c: int, shown: np.ndarray, best: int, abandoned: set[int]
+    ) -> list[int]:
+        """Targets the person sent collective c's agents to in its current decision that no
+        longer look best and still hold supporters (none already being abandoned)."""
+        ids = d.target_ids
+        since = self.started.get(c, 0.0)
+        return [
+            v
+            for v in shown.tolist()
+            if v != best
+            and self.sent.get((c, int(ids[v])), -math.inf) >= since
+            and d.support[c, v] > 0
+            and int(ids[v]) not in abandoned
+        ]
 
     def _investigate(
         self, d: Display, c: int, target: int, n: int, commands: list[OperatorCommand]

@@ -13,10 +13,12 @@ def test_a_small_calibration_writes_its_fit_and_report_and_resumes_only_the_same
     tmp_path,
 ) -> None:
     out = tmp_path / "operators"
-    settings = of.Settings(budget=2, participants=2, validation_participants=2)
+    small = {"participants": 2, "validation_participants": 2, "selection_participants": 2}
+    settings = of.Settings(budget=2, **small)
     first = of.calibrate(out, settings, workers=1)
     assert first.trials == 2
     fitted = json.loads((out / "population.json").read_text(encoding="utf-8"))
+    assert fitted["trial"] == first.chosen.trial and first.fit == first.chosen.population
     assert set(fitted["median"]) == set(of.Traits().to_dict())
     assert fitted["preset"] == of.default_params().preset
     report = (out / "report.md").read_text(encoding="utf-8")
@@ -26,7 +28,7 @@ def test_a_small_calibration_writes_its_fit_and_report_and_resumes_only_the_same
     starts = [t.params for t in study.trials[:2]]
     assert starts[1] == pytest.approx(of._within_space(of.load_population(of.FITTED_POPULATION)))
     # a larger budget continues the same search; another experiment in the same --out is refused
-    again = of.calibrate(out, of.Settings(budget=3, participants=2, validation_participants=2), 1)
+    again = of.calibrate(out, of.Settings(budget=3, finalists=2, **small), 1)
     assert again.trials == 3
     with pytest.raises(ValueError, match="another experiment"):
         of.open_study(out, of.Settings(budget=3, participants=4))
@@ -44,3 +46,23 @@ def test_a_new_search_starts_without_a_shipped_fit_from_an_older_operator(
     monkeypatch.setattr(of, "FITTED_POPULATION", shipped)
     study = of.open_study(tmp_path / "operators", of.Settings(budget=1, participants=2))
     assert len(study.trials) == 1  # the default person, queued
+
+
+def test_the_fit_is_the_finalist_best_judged_on_the_selection_block(tmp_path) -> None:
+    """The search's best `finalists` trials are judged again on a block of their own, and
+    the least loss there is the fit, whatever the search's own order."""
+    settings = of.Settings(
+        budget=3, participants=2, validation_participants=2, selection_participants=3, finalists=2
+    )
+    result = of.calibrate(tmp_path / "operators", settings, workers=1)
+    study = of.open_study(tmp_path / "operators", settings)
+    by_search = sorted(study.trials, key=lambda t: t.value)
+    assert [f.trial for f in result.finalists] == [t.number for t in by_search[:2]]
+    for finalist in result.finalists:  # each judged on the selection block, as evaluate does
+        again = of.evaluate(finalist.population, 3, of.SELECTION_BLOCK)
+        assert finalist.selection_loss == pytest.approx(again.loss)
+    chosen = min(result.finalists, key=lambda f: f.selection_loss)
+    assert result.fit == chosen.population and result.search_loss == chosen.search_loss
+    assert of.SELECTION_BLOCK not in (of.FIT_BLOCK, *of.VALIDATION_BLOCKS)
+    report = (tmp_path / "operators" / "report.md").read_text(encoding="utf-8")
+    assert f"judged again on block {of.SELECTION_BLOCK}" in report

@@ -90,6 +90,10 @@ def test_a_population_draws_valid_people_that_differ() -> None:
     assert population.participant(7) == population.participant(7)
     median = Population(spread=0.0).participant(3).to_dict()
     assert median == pytest.approx(Traits().to_dict())  # no spread: everyone is the median
+    never = Population(Traits(redirect_prob=0.0, hasten_prob=1.0), spread=0.8)
+    assert {(p.redirect_prob, p.hasten_prob) for p in map(never.participant, range(20))} == {
+        (0.0, 1.0)
+    }  # a person who never (always) does it: everyone
 
 
 def test_a_decide_threshold_below_the_interfaces_floor_is_refused() -> None:
@@ -461,3 +465,54 @@ def test_a_collective_that_has_just_landed_is_not_the_one_watched_longest() -> N
     assert operator.answer(3, question, names) == "I"  # watched since 60 s, the others 120 s
     assert operator.look(landed).collective == 1
     assert operator.answer(3, question, names) != "I"
+
+
+def test_a_person_takes_back_agents_it_sent_to_a_target_that_no_longer_looks_best() -> None:
+    """`redirect_prob`: a person who pushed the best target it had seen, and then sees a
+    better one, abandons the one it pushed (its agents are still there: an intervention at
+    10% support). Targets it did not send agents to, and those it sent in a decision that
+    has ended, are not its to take back. Crafted from one M3 map: collective I has targets
+    a (0.7) and b (0.9); b is drawn only on the second display, when a holds 12% support."""
+    sim = Simulation(_scenario(34), "M3", PARAMS)
+    sim.step(round(60.0 / PARAMS.dt_s))
+    real = sim.display()
+    a, b = (int(v) for v in np.flatnonzero(real.in_range[0])[:2])
+    ids = real.target_ids.tolist()
+    in_range = np.zeros_like(real.in_range)
+    in_range[0, [a, b]] = True
+    value = np.asarray(real.value, dtype=float).copy()
+    value[[a, b]] = (0.7, 0.9)
+    drawn = np.zeros_like(real.drawn)
+    drawn[a] = True
+    quiet = np.zeros_like(real.support)
+    only_a = replace(real, in_range=in_range, value=value, drawn=drawn, support=quiet, requests=())
+    held = quiet.copy()
+    held[0, a] = 0.12
+    both = replace(only_a, time=90.0, drawn=drawn | (np.arange(drawn.size) == b), support=held)
+    moved = both.hub.copy()
+    moved[0] += 100.0
+    landed = replace(both, time=120.0, hub=moved)
+
+    def abandons(redirect_prob: float, survey_s: float, displays: list[Display]) -> list[int]:
+        """The targets of I that the person abandons; with no survey it pushes a first."""
+        operator = _operator(
+            stay_prob=0.0,
+            value_noise=1e-9,
+            stalled_investigate_prob=1.0,
+            survey_s=survey_s,
+            decide_prob=0.0,
+            abandon_prob=0.0,
+            redirect_prob=redirect_prob,
+        )
+        sent = []
+        for display in displays:
+            for _ in range(4):  # I, then II-IV (nothing in their range)
+                sent += [c for c in operator.look(display).commands if c.collective == 0]
+        if not survey_s:
+            assert sent[0].kind == "investigate" and sent[0].target == ids[a]
+        return [c.target for c in sent if c.kind == "abandon"]
+
+    assert abandons(1.0, 0.0, [only_a, both]) == [ids[a]]
+    assert abandons(0.0, 0.0, [only_a, both]) == []
+    assert abandons(1.0, 1e6, [only_a, both]) == []  # it never pushed a
+    assert abandons(1.0, 0.0, [only_a, landed]) == []  # a was pushed in I's last decision
