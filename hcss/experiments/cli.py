@@ -415,7 +415,7 @@ def _calibrate_to_teams(settings: Any, workers: int, dask_address: str | None, o
         study = of.open_study(out, settings)
     except ValueError as error:
         raise click.BadParameter(str(error), param_hint="--out") from None
-    with tqdm(total=settings.budget, initial=min(len(study.trials), settings.budget)) as bar:
+    with tqdm(total=settings.budget, initial=min(of.trials_done(study), settings.budget)) as bar:
 
         def on_trial(e: of.Evaluation) -> None:
             bar.update(1)

@@ -170,6 +170,13 @@ def _within_space(population: Population) -> dict[str, float]:
     }
 
 
+def trials_done(study: Any) -> int:
+    """The search's completed trials (its queued starting points are still to run)."""
+    import optuna
+
+    return sum(t.state == optuna.trial.TrialState.COMPLETE for t in study.trials)
+
+
 def search(
     study: Any,
     settings: Settings,
@@ -177,10 +184,7 @@ def search(
     dask_address: str | None = None,
     on_trial: Callable[[Evaluation], None] | None = None,
 ) -> None:
-    import optuna
-
-    done = sum(t.state == optuna.trial.TrialState.COMPLETE for t in study.trials)
-    for _ in range(max(0, settings.budget - done)):
+    for _ in range(max(0, settings.budget - trials_done(study))):
         trial = study.ask()
         values = {
             name: trial.suggest_float(name, low, high, log=log)
@@ -246,7 +250,6 @@ def calibrate(
 ) -> Calibration:
     """Search, choose among its best on the selection block, judge the choice on the
     validation blocks, and write OUT's files."""
-    import optuna
 
     started = time.perf_counter()
     study = open_study(out, settings)
@@ -258,7 +261,7 @@ def calibrate(
         evaluate(fit, settings.validation_participants, block, workers, dask_address)
         for block in VALIDATION_BLOCKS
     ]
-    trials = sum(t.state == optuna.trial.TrialState.COMPLETE for t in study.trials)
+    trials = trials_done(study)
     result = Calibration(
         fit, chosen.search_loss, validations, trials, time.perf_counter() - started, finalists
     )

@@ -66,3 +66,14 @@ def test_the_fit_is_the_finalist_best_judged_on_the_selection_block(tmp_path) ->
     assert of.SELECTION_BLOCK not in (of.FIT_BLOCK, *of.VALIDATION_BLOCKS)
     report = (tmp_path / "operators" / "report.md").read_text(encoding="utf-8")
     assert f"judged again on block {of.SELECTION_BLOCK}" in report
+
+
+def test_queued_starting_points_are_not_counted_as_trials_done(tmp_path) -> None:
+    """A new search queues its starting points; the progress bar starts from the trials
+    done, so a 300-trial search ends at 300 of 300, not 302."""
+    settings = of.Settings(budget=2, participants=2)
+    study = of.open_study(tmp_path / "operators", settings)
+    assert len(study.trials) >= 2  # the default person and the shipped fit, queued
+    assert of.trials_done(study) == 0
+    of.search(study, settings, workers=1)
+    assert of.trials_done(study) == 2
