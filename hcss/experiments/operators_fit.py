@@ -170,11 +170,15 @@ def _within_space(population: Population) -> dict[str, float]:
     }
 
 
-def trials_done(study: Any) -> int:
+def completed(study: Any) -> list[Any]:
     """The search's completed trials (its queued starting points are still to run)."""
     import optuna
 
-    return sum(t.state == optuna.trial.TrialState.COMPLETE for t in study.trials)
+    return [t for t in study.trials if t.state == optuna.trial.TrialState.COMPLETE]
+
+
+def trials_done(study: Any) -> int:
+    return len(completed(study))
 
 
 def search(
@@ -220,17 +224,21 @@ class Calibration:
 
     @property
     def chosen(self) -> Finalist | None:
-        return min(self.finalists, key=lambda f: f.selection_loss, default=None)
+        return least_judged(self.finalists) if self.finalists else None
+
+
+def least_judged(finalists: tuple[Finalist, ...]) -> Finalist:
+    """The fit: the finalist with the least loss on the selection block."""
+    return min(finalists, key=lambda f: f.selection_loss)
 
 
 def select(
     study: Any, settings: Settings, workers: int, dask_address: str | None = None
 ) -> tuple[Finalist, ...]:
     """The search's `finalists` best trials, each judged on `SELECTION_BLOCK`."""
-    import optuna
-
-    done = [t for t in study.trials if t.state == optuna.trial.TrialState.COMPLETE]
-    best = sorted(done, key=lambda t: (float(t.value), t.number))[: max(1, settings.finalists)]
+    best = sorted(completed(study), key=lambda t: (float(t.value), t.number))[
+        : max(1, settings.finalists)
+    ]
     finalists = []
     for t in best:
         population = population_of(dict(t.params))
@@ -255,7 +263,7 @@ def calibrate(
     study = open_study(out, settings)
     search(study, settings, workers, dask_address, on_trial)
     finalists = select(study, settings, workers, dask_address)
-    chosen = min(finalists, key=lambda f: f.selection_loss)
+    chosen = least_judged(finalists)
     fit = chosen.population
     validations = [
         evaluate(fit, settings.validation_participants, block, workers, dask_address)
