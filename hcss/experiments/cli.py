@@ -265,6 +265,15 @@ def _params_with(preset: str = DEFAULT_PRESET, **readings: Any) -> Params:
     help="--to study-teams: synthetic participants per search trial (each runs M1, M2, M3).",
 )
 @click.option(
+    "--start",
+    "start",
+    type=click.Path(dir_okay=False, path_type=Path),
+    default=None,
+    help="--to study-teams: a JSON list of persons to start the search from, after the "
+    "default person and instead of the shipped fit; each names search values (traits, "
+    "spread), the rest taken from the shipped fit.",
+)
+@click.option(
     "--budget",
     type=click.IntRange(min=1, max=100_000),
     default=120,
@@ -319,6 +328,7 @@ def calibrate(
     space: str,
     out: Path,
     participants: int,
+    start: Path | None,
     **readings: Any,
 ) -> None:
     """Re-fit the shared calibrations from the engine and print the fit.
@@ -337,13 +347,21 @@ def calibrate(
     spread) fitted to the human-team tables, all three models and both
     difficulties jointly, then judged on two held-out scenario blocks
     (hcss.experiments.operators_fit). Writes population.json (`hcss plan
-    --population`) and report.md to --out (default out/operators).
+    --population`) and report.md to --out (default out/operators). --start
+    names the persons the search starts from (the shipped fit's search was
+    started so; docs/synthetic-operators.md gives the command).
     """
+    if start is not None and to != "study-teams":
+        raise click.BadParameter("is for --to study-teams only", param_hint="--start")
     if to == "study-teams":
         from hcss.experiments import operators_fit as of
 
+        try:
+            starts = of.load_starts(start) if start is not None else ()
+        except ValueError as error:
+            raise click.BadParameter(str(error), param_hint="--start") from None
         _calibrate_to_teams(
-            of.Settings(budget=budget, participants=participants, seed=sampler_seed),
+            of.Settings(budget=budget, participants=participants, seed=sampler_seed, starts=starts),
             workers,
             dask_address,
             Path("out/operators") if out == Path("out/calibration") else out,

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import contextlib
 import json
+import math
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
@@ -79,6 +80,9 @@ class Settings:
     selection_participants: int = 56  # twice the study's: a finalist's loss with less noise
     seed: int = 1  # the sampler's
     fit_block: int = FIT_BLOCK
+    # the persons the search starts from after the default one (`load_starts`); none: the
+    # shipped fit
+    starts: tuple[dict[str, float], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -130,8 +134,9 @@ def evaluate(
 def open_study(out: Path, settings: Settings) -> Any:
     """The optuna study in OUT/calibration.db, created or resumed (same experiment only).
 
-    A new search starts from the default person and, when hcss ships one this operator
-    can use, the last fit.
+    A new search starts from the default person and then from `settings.starts` when
+    given (`--start`, which a resume must repeat), else from the last fit when hcss ships
+    one this operator can use.
     """
     from hcss.experiments.fit_study import resumable_study  # the model's calibration's, shared
 
@@ -142,9 +147,13 @@ def open_study(out: Path, settings: Settings) -> Any:
         "search_space": {k: list(v) for k, v in SEARCH_SPACE.items()},
         "preset": default_params().preset,
     }
+    if settings.starts:  # only then: a search begun without --start resumes as before
+        wanted["starts"] = [dict(point) for point in settings.starts]
 
     def starting() -> list[dict[str, float]]:
         points = [_within_space(Population())]
+        if settings.starts:
+            return points + [dict(point) for point in settings.starts]
         # none shipped, or one fitted for an older operator: this search replaces it
         with contextlib.suppress(ValueError):
             points.append(_within_space(load_population(FITTED_POPULATION)))
@@ -168,6 +177,46 @@ def _within_space(population: Population) -> dict[str, float]:
         name: min(max(float(values[name]), low), high)
         for name, (low, high, _log) in SEARCH_SPACE.items()
     }
+
+
+def load_starts(path: Path) -> tuple[dict[str, float], ...]:
+    """A search's starting persons from a JSON file, or ValueError saying what is wrong.
+
+    The file is a list of objects, one per person, each naming search values (the
+    traits of `SEARCH_SPACE` and "spread") inside their search ranges; a name not given
+    takes the shipped fit's value (the default person's when hcss ships none this
+    operator can use). Naming every value makes a search reproducible whatever is
+    shipped: the shipped fit's own search is started this way
+    (docs/synthetic-operators.md).
+    """
+    try:
+        points = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise ValueError(f"{path} is not a readable JSON file ({error})") from error
+    if not isinstance(points, list) or not points:
+        raise ValueError(f"{path} must hold a non-empty list of starting persons")
+    try:
+        base = _within_space(load_population(FITTED_POPULATION))
+    except ValueError:
+        base = _within_space(Population())
+    starts = []
+    for number, point in enumerate(points, start=1):
+        where = f"{path}, person {number}"
+        if not isinstance(point, dict) or not point:
+            raise ValueError(f"{where}: not an object naming search values")
+        unknown = sorted(set(point) - set(SEARCH_SPACE))
+        if unknown:
+            raise ValueError(f"{where}: not a search value: {', '.join(map(str, unknown))}")
+        for name, value in point.items():
+            low, high, _log = SEARCH_SPACE[name]
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise ValueError(f"{where}: {name} must be a number, not {value!r}")
+            if not (math.isfinite(value) and low <= value <= high):
+                raise ValueError(
+                    f"{where}: {name} {value} is outside its search range {low}-{high}"
+                )
+        starts.append(base | {name: float(value) for name, value in point.items()})
+    return tuple(starts)
 
 
 def completed(study: Any) -> list[Any]:
@@ -290,7 +339,13 @@ def report(result: Calibration, settings: Settings) -> str:
         "",
         f"Preset {default_params().preset}; search: {result.trials} trials of "
         f"{settings.participants} participants (× M1, M2, M3) from seed block "
-        f"{settings.fit_block}. Wall time of this invocation {result.wall_s / 60:.1f} min.",
+        f"{settings.fit_block}, started from the default person and "
+        + (
+            f"{len(settings.starts)} given starting person(s)"
+            if settings.starts
+            else "the shipped fit (when this operator can use it)"
+        )
+        + f". Wall time of this invocation {result.wall_s / 60:.1f} min.",
         "",
         f"## The search's best {len(result.finalists)}, judged again on block "
         f"{SELECTION_BLOCK} ({settings.selection_participants} participants)",

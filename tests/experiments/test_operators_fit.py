@@ -77,3 +77,95 @@ def test_queued_starting_points_are_not_counted_as_trials_done(tmp_path) -> None
     assert of.trials_done(study) == 0
     of.search(study, settings, workers=1)
     assert of.trials_done(study) == 2
+
+
+def test_a_search_starts_from_the_persons_given_and_a_resume_must_name_the_same(tmp_path) -> None:
+    """`--start FILE`: after the default person the search runs the persons the file
+    names, in its order and instead of the shipped fit; a value a person does not name is
+    the shipped fit's. A resume with other starting persons is another search."""
+    shipped = of._within_space(of.load_population(of.FITTED_POPULATION))
+    starts_file = tmp_path / "starts.json"
+    full = {name: (low + high) / 2 for name, (low, high, _log) in of.SEARCH_SPACE.items()}
+    starts_file.write_text(json.dumps([{"abandon_gap": 0.09}, full]), encoding="utf-8")
+    starts = of.load_starts(starts_file)
+    assert starts == (shipped | {"abandon_gap": 0.09}, full)
+    out = tmp_path / "operators"
+    settings = of.Settings(budget=1, participants=2, starts=starts)
+    study = of.open_study(out, settings)
+    queued = [t.system_attrs["fixed_params"] for t in study.trials]  # as optuna enqueues
+    assert queued[1:] == [pytest.approx(s) for s in starts]
+    assert queued[0] == pytest.approx(of._within_space(of.Population()))
+    with pytest.raises(ValueError, match="another experiment"):
+        of.open_study(out, of.Settings(budget=1, participants=2, starts=starts[:1]))
+    with pytest.raises(ValueError, match="another experiment"):
+        of.open_study(out, of.Settings(budget=1, participants=2))
+    assert len(of.open_study(out, settings).trials) == 3  # the same search: nothing re-queued
+
+
+@pytest.mark.parametrize(
+    ("text", "said"),
+    [
+        ("not json", "not a readable JSON file"),
+        ("{}", "non-empty list"),
+        ("[]", "non-empty list"),
+        ("[3]", "person 1: not an object"),
+        ('[{"abandon_gap": 0.09}, {}]', "person 2: not an object"),
+        ('[{"abandon_gapp": 0.09}]', "not a search value: abandon_gapp"),
+        ('[{"probe_ready_s": 2}]', "not a search value: probe_ready_s"),
+        ('[{"abandon_gap": "0.09"}]', "abandon_gap must be a number"),
+        ('[{"abandon_gap": true}]', "abandon_gap must be a number"),
+        ('[{"abandon_gap": null}]', "abandon_gap must be a number"),
+        ('[{"abandon_gap": NaN}]', "outside its search range"),
+        ('[{"abandon_gap": 1e999}]', "outside its search range"),
+        ('[{"abandon_gap": 0.5}]', "abandon_gap 0.5 is outside its search range 0.02-0.3"),
+        ('[{"decide_support": 0.2}]', "outside its search range"),
+    ],
+)
+def test_a_bad_start_file_is_a_usage_error_that_writes_nothing(tmp_path, text, said) -> None:
+    from click.testing import CliRunner
+
+    from hcss.cli import main
+
+    starts_file = tmp_path / "starts.json"
+    starts_file.write_text(text, encoding="utf-8")
+    out = tmp_path / "operators"
+    args = ["simulate", "calibrate", "--to", "study-teams", "--participants", "2"]
+    result = CliRunner().invoke(
+        main, [*args, "--budget", "1", "--start", str(starts_file), "--out", str(out)]
+    )
+    assert result.exit_code == 2, result.output
+    assert "--start" in result.output and said in " ".join(result.output.split())
+    assert "Traceback" not in result.output
+    assert not out.exists()
+
+
+def test_start_is_refused_for_the_models_calibrations_and_a_missing_file_is_named(tmp_path) -> None:
+    from click.testing import CliRunner
+
+    from hcss.cli import main
+
+    starts_file = tmp_path / "starts.json"
+    starts_file.write_text('[{"abandon_gap": 0.09}]', encoding="utf-8")
+    out = tmp_path / "calibration"
+    for to in ("published", "study"):
+        result = CliRunner().invoke(
+            main,
+            ["simulate", "calibrate", "--to", to, "--start", str(starts_file), "--out", str(out)],
+        )
+        assert result.exit_code == 2 and "--to study-teams only" in result.output, result.output
+    missing = tmp_path / "nowhere.json"
+    result = CliRunner().invoke(
+        main,
+        [
+            "simulate",
+            "calibrate",
+            "--to",
+            "study-teams",
+            "--start",
+            str(missing),
+            "--out",
+            str(out),
+        ],
+    )
+    assert result.exit_code == 2 and "nowhere.json" in result.output, result.output
+    assert not out.exists()
