@@ -169,3 +169,13 @@ def test_start_is_refused_for_the_models_calibrations_and_a_missing_file_is_name
     )
     assert result.exit_code == 2 and "nowhere.json" in result.output, result.output
     assert not out.exists()
+
+
+def test_the_shipped_fits_starting_file_names_every_search_value() -> None:
+    """docs/synthetic-operators.md gives the shipped fit's command with
+    `--start hcss/experiments/study-teams-starts.json`: for that search to come out the
+    same whatever hcss ships later, each person in it must name every search value."""
+    path = of.FITTED_POPULATION.with_name("study-teams-starts.json")
+    named = json.loads(path.read_text(encoding="utf-8"))
+    assert all(set(person) == set(of.SEARCH_SPACE) for person in named)
+    assert [dict(p) for p in of.load_starts(path)] == named
