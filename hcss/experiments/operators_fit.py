@@ -165,7 +165,8 @@ def open_study(out: Path, settings: Settings) -> Any:
         wanted,
         settings.seed,
         starting,
-        f"{out} holds a calibration of another experiment, preset or search space; "
+        f"{out} holds a calibration of another experiment, preset, search space or "
+        "starting persons; "
         "choose another --out",
     )
 
