@@ -57,7 +57,10 @@ def test_the_fit_is_the_finalist_best_judged_on_the_selection_block(tmp_path) ->
     result = of.calibrate(tmp_path / "operators", settings, workers=1)
     study = of.open_study(tmp_path / "operators", settings)
     by_search = sorted(study.trials, key=lambda t: t.value)
-    assert [f.trial for f in result.finalists] == [t.number for t in by_search[:2]]
+    best = [t.number for t in by_search[:2]]
+    # the best two, then the shipped fit (trial 1, the first person after the default) if
+    # it is not among them
+    assert [f.trial for f in result.finalists] == best + ([1] if 1 not in best else [])
     for finalist in result.finalists:  # each judged on the selection block, as evaluate does
         again = of.evaluate(finalist.population, 3, of.SELECTION_BLOCK)
         assert finalist.selection_loss == pytest.approx(again.loss)
@@ -179,3 +182,36 @@ def test_the_shipped_fits_starting_file_names_every_search_value() -> None:
     named = json.loads(path.read_text(encoding="utf-8"))
     assert all(set(person) == set(of.SEARCH_SPACE) for person in named)
     assert [dict(p) for p in of.load_starts(path)] == named
+
+
+def test_a_started_person_is_judged_on_the_selection_block_whatever_its_search_loss(
+    tmp_path,
+) -> None:
+    """A search replaces the person it started from only with one that does better on the
+    selection block: a started person far from the best by search loss is still a
+    finalist, and the default person is not."""
+    idle = {
+        "glance_interval_s": 10.0,
+        "investigate_prob": 0.02,
+        "stalled_investigate_prob": 0.05,
+        "decide_prob": 0.02,
+        "hasten_prob": 0.005,
+    }
+    starts_file = tmp_path / "starts.json"
+    starts_file.write_text(json.dumps([idle]), encoding="utf-8")
+    settings = of.Settings(
+        budget=4,
+        participants=2,
+        validation_participants=2,
+        selection_participants=2,
+        finalists=1,
+        starts=of.load_starts(starts_file),
+    )
+    result = of.calibrate(tmp_path / "operators", settings, workers=1)
+    study = of.open_study(tmp_path / "operators", settings)
+    best = min(study.trials, key=lambda t: t.value)
+    assert best.number != 1  # the idle person (trial 1) is not the search's best
+    assert [f.trial for f in result.finalists] == [best.number, 1]
+    idle_finalist = result.finalists[1]
+    again = of.evaluate(idle_finalist.population, 2, of.SELECTION_BLOCK)
+    assert idle_finalist.selection_loss == pytest.approx(again.loss)
