@@ -41,6 +41,7 @@ FITTED_POPULATION = Path(__file__).parent / "study-teams-population.json"
 FIT_BLOCK = 30_000_000
 SELECTION_BLOCK = 31_000_000
 VALIDATION_BLOCKS = (40_000_000, 41_000_000)
+STARTS_MAX_BYTES = 1 << 20  # a --start file: a few persons of 24 values each
 
 # trait -> (low, high, log scale); "spread" is the population's
 SEARCH_SPACE: dict[str, tuple[float, float, bool]] = {
@@ -190,10 +191,16 @@ def load_starts(path: Path) -> tuple[dict[str, float], ...]:
     shipped: the shipped fit's own search is started this way
     (docs/synthetic-operators.md).
     """
+    if not path.is_file():  # a device or a pipe could be read for ever
+        raise ValueError(f"{path} is not a regular file")
+    if path.stat().st_size > STARTS_MAX_BYTES:
+        raise ValueError(f"{path} is larger than 1 MiB: not a list of persons")
     try:
         points = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
         raise ValueError(f"{path} is not a readable JSON file ({error})") from error
+    except RecursionError:
+        raise ValueError(f"{path} is nested too deeply to be a list of persons") from None
     if not isinstance(points, list) or not points:
         raise ValueError(f"{path} must hold a non-empty list of starting persons")
     try:
@@ -356,17 +363,19 @@ def report(result: Calibration, settings: Settings) -> str:
         )
         + f". Wall time of this invocation {result.wall_s / 60:.1f} min.",
         "",
-        f"## The search's best {len(result.finalists)}, judged again on block "
-        f"{SELECTION_BLOCK} ({settings.selection_participants} participants)",
+        f"## The search's best {min(settings.finalists, len(result.finalists))} and the "
+        f"persons it started from, judged again on block {SELECTION_BLOCK} "
+        f"({settings.selection_participants} participants)",
         "",
         "| trial | search loss | selection loss | fit |",
         "|---|---|---|---|",
     ]
     chosen = result.chosen
+    # `select` lists the search's best first, then the started persons not among them
     lines += [
-        f"| {f.trial} | {f.search_loss:.2f} | {f.selection_loss:.2f} | "
-        f"{'yes' if f is chosen else ''} |"
-        for f in result.finalists
+        f"| {f.trial}{' (started)' if rank >= settings.finalists else ''} | "
+        f"{f.search_loss:.2f} | {f.selection_loss:.2f} | {'yes' if f is chosen else ''} |"
+        for rank, f in enumerate(result.finalists)
     ]
     lines += [
         "",

@@ -122,6 +122,11 @@ def test_a_search_starts_from_the_persons_given_and_a_resume_must_name_the_same(
         ('[{"abandon_gap": 1e999}]', "outside its search range"),
         ('[{"abandon_gap": 0.5}]', "abandon_gap 0.5 is outside its search range 0.02-0.3"),
         ('[{"decide_support": 0.2}]', "outside its search range"),
+        ("[" * 100_000 + "]" * 100_000, "nested too deeply"),
+        ('[{"abandon_gap": 0.09}]' + " " * (1 << 20), "larger than 1 MiB"),
+        ('[{"abandon_gap\u0000": 0.09}]', "not a readable JSON file"),  # a raw NUL
+        (r'[{"abandon_gap\u0000": 0.09}]', "not a search value: abandon_gap"),  # JSON's escape
+        (b"\xff\xfe[]", "not a readable JSON file"),
     ],
 )
 def test_a_bad_start_file_is_a_usage_error_that_writes_nothing(tmp_path, text, said) -> None:
@@ -130,7 +135,10 @@ def test_a_bad_start_file_is_a_usage_error_that_writes_nothing(tmp_path, text, s
     from hcss.cli import main
 
     starts_file = tmp_path / "starts.json"
-    starts_file.write_text(text, encoding="utf-8")
+    if isinstance(text, bytes):
+        starts_file.write_bytes(text)
+    else:
+        starts_file.write_text(text, encoding="utf-8")
     out = tmp_path / "operators"
     args = ["simulate", "calibrate", "--to", "study-teams", "--participants", "2"]
     result = CliRunner().invoke(
@@ -171,6 +179,12 @@ def test_start_is_refused_for_the_models_calibrations_and_a_missing_file_is_name
         ],
     )
     assert result.exit_code == 2 and "nowhere.json" in result.output, result.output
+    # a device is not a file of persons: refused at once, not read for ever
+    result = CliRunner().invoke(
+        main,
+        ["simulate", "calibrate", "--to", "study-teams", "--start", "/dev/zero", "--out", str(out)],
+    )
+    assert result.exit_code == 2 and "not a regular file" in result.output, result.output
     assert not out.exists()
 
 
@@ -215,3 +229,7 @@ def test_a_started_person_is_judged_on_the_selection_block_whatever_its_search_l
     idle_finalist = result.finalists[1]
     again = of.evaluate(idle_finalist.population, 2, of.SELECTION_BLOCK)
     assert idle_finalist.selection_loss == pytest.approx(again.loss)
+    # the report counts what it judged: the search's best, then the started person, marked
+    report = (tmp_path / "operators" / "report.md").read_text(encoding="utf-8")
+    assert "## The search's best 1 and the persons it started from, judged again" in report
+    assert f"| {best.number} | " in report and "| 1 (started) | " in report
