@@ -387,9 +387,15 @@ def report(result: Calibration, settings: Settings) -> str:
     lines += [f"| {k} | {v:.3g} |" for k, v in result.fit.median.to_dict().items()]
     lines += [f"| spread | {result.fit.spread:.3g} |", ""]
     for e in result.validations:
+        expected, every = teams.ceiling(e.participants)
         lines += [
             f"## Held-out block {e.block}: {e.participants} participants; loss {e.loss:.2f}, "
             f"{e.met} of {len(teams.STUDY_TEAMS)} cells within band",
+            "",
+            f"A population whose people were the study's would meet {expected:.1f} cells on "
+            f"such a block on average, and all {len(teams.STUDY_TEAMS)} with chance "
+            f"{every:.2f}: the study's and the block's sampling errors alone, an upper bound "
+            "(decisions cluster within people).",
             "",
             teams.comparison_markdown(e.measured),
             "",

@@ -268,6 +268,50 @@ def loss(measured: Mapping[tuple[str, str, str], Measured]) -> float:
     return total
 
 
+#: The study's sample (§11): 28 participants, 12 decisions each per model, 569 of its 1,008
+#: decisions easy [choice: that share in every model; M1's is 192 of 336].
+STUDY_PARTICIPANTS = 28
+DECISIONS_PER_TRIAL = 12
+EASY_SHARE = 569 / 1008
+_PER_PARTICIPANT = ("decisions", "interventions", "sa_pct")
+
+
+def sample_size(cell: Cell, participants: int) -> float:
+    """How many values a cell's mean is over for this many participants: one per
+    participant (per trial) for decisions, interventions and SA; else one per decision."""
+    if cell.measure in _PER_PARTICIPANT:
+        return float(participants)
+    split = cell.column.rsplit("/", 1)[-1]
+    share = {"overall": 1.0, "easy": EASY_SHARE, "difficult": 1.0 - EASY_SHARE}[split]
+    return participants * DECISIONS_PER_TRIAL * share
+
+
+def chance_within(cell: Cell, participants: int) -> float:
+    """The chance that a population whose people were the study's would land this cell's
+    mean within its band on a block of this many participants: the study's mean and the
+    block's each carry a sampling error (the study's SD over each one's sample), and their
+    difference is taken as normal.
+
+    Why: it is the ceiling a fit is judged against. A perfect population still misses a
+    wide cell now and then (SA projection, SD 31 over 28 participants), so "every cell
+    within band" is a matter of chance on any block. Decisions cluster within people,
+    which makes the real errors larger than these: the chances are upper bounds.
+    """
+    error = cell.sd * math.sqrt(
+        1.0 / sample_size(cell, STUDY_PARTICIPANTS) + 1.0 / sample_size(cell, participants)
+    )
+    if error == 0.0:
+        return 1.0
+    return math.erf(cell.band / (error * math.sqrt(2.0)))
+
+
+def ceiling(participants: int) -> tuple[float, float]:
+    """For a perfect population on a block of this many participants: the expected number
+    of §11's cells within band, and the chance that all are (`chance_within`)."""
+    chances = [chance_within(cell, participants) for cell in STUDY_TEAMS]
+    return sum(chances), math.prod(chances)
+
+
 def misses(measured: Mapping[tuple[str, str, str], Measured]) -> list[Cell]:
     """The cells whose mean is outside its band."""
     return [

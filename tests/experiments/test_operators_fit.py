@@ -23,6 +23,8 @@ def test_a_small_calibration_writes_its_fit_and_report_and_resumes_only_the_same
     assert fitted["preset"] == of.default_params().preset
     report = (out / "report.md").read_text(encoding="utf-8")
     assert all(f"Held-out block {block}" in report for block in of.VALIDATION_BLOCKS)
+    # beside each block's cells met, what a perfect population of its size would meet
+    assert f"would meet {of.teams.ceiling(2)[0]:.1f} cells" in report
     # the first two trials are the starting points: the default person, then the shipped fit
     study = of.open_study(out, settings)
     starts = [t.params for t in study.trials[:2]]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from hcss.experiments import study_teams as teams
@@ -85,3 +86,35 @@ def test_decisions_per_trial_count_a_trial_that_made_none() -> None:
     key = ("decisions", "M1", "per trial")
     assert (measured[key].n, measured[key].mean) == (2, 1.0)
     assert next(c for c in teams.STUDY_TEAMS if c.key == key).mean == 12.0
+
+
+def test_the_chance_a_perfect_population_meets_a_cell_agrees_with_drawing_both_samples() -> None:
+    """`chance_within` against a simulation of the study and a block drawn from the same
+    people: success in M1's difficult decisions as 0/100 outcomes over 146 decisions each
+    (28 participants' share of §11's 439 difficult decisions of 1,008), and M3's
+    interventions as counts with §11's mean and SD (negative binomial) over 28 participants
+    each; the fraction of draws whose means lie within the band."""
+    rng = np.random.default_rng(20261207)
+    cells = {cell.key: cell for cell in teams.STUDY_TEAMS}
+    draws = 40_000
+    success = cells[("success_pct", "M1", "difficult")]
+    p = success.mean / 100.0
+    a, b = (100.0 * rng.binomial(146, p, draws) / 146 for _ in range(2))
+    drawn = float(np.mean(np.abs(a - b) <= success.band))
+    assert abs(teams.chance_within(success, 28) - drawn) < 0.015
+    counts = cells[("interventions", "M3", "participant")]
+    size = counts.mean**2 / (counts.sd**2 - counts.mean)
+    a, b = (
+        rng.negative_binomial(size, size / (size + counts.mean), (draws, 28)).mean(axis=1)
+        for _ in range(2)
+    )
+    drawn = float(np.mean(np.abs(a - b) <= counts.band))
+    assert abs(teams.chance_within(counts, 28) - drawn) < 0.015
+    assert teams.chance_within(cells[("decisions", "M1", "per trial")], 28) == 1.0  # SD 0
+
+
+def test_a_perfect_population_meets_more_cells_on_a_larger_block_but_not_surely_all() -> None:
+    expected_28, all_28 = teams.ceiling(28)
+    expected_56, all_56 = teams.ceiling(56)
+    assert len(teams.STUDY_TEAMS) - 3 < expected_28 < expected_56 < len(teams.STUDY_TEAMS)
+    assert all_28 < all_56 < 0.5
