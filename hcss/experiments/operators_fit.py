@@ -76,7 +76,7 @@ SEARCH_SPACE: dict[str, tuple[float, float, bool]] = {
 class Settings:
     budget: int = 60  # search trials
     participants: int = 16  # per search trial (each runs M1, M2 and M3)
-    validation_participants: int = 28  # per validation block, the study's 28
+    validation_participants: int = teams.STUDY_PARTICIPANTS  # per validation block
     finalists: int = 8  # the search's best trials judged again on the selection block
     selection_participants: int = 56  # twice the study's: a finalist's loss with less noise
     seed: int = 1  # the sampler's
@@ -302,6 +302,7 @@ def select(
     """
     trials = completed(study)
     best = sorted(trials, key=lambda t: (float(t.value), t.number))[: max(1, settings.finalists)]
+    # optuna marks a queued trial with its fixed params (its own Study reads them so)
     started = [t for t in trials if t.number > 0 and "fixed_params" in t.system_attrs]
     finalists = []
     ranked = {t.number for t in best}

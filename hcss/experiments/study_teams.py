@@ -57,6 +57,14 @@ BANDS = {
 }
 
 
+#: The study's sample (§11): 28 participants, 12 decisions each per model, 569 of its 1,008
+#: decisions easy [choice: that share in every model; M1's is 192 of 336].
+STUDY_PARTICIPANTS = 28
+DECISIONS_PER_TRIAL = 12
+EASY_SHARE = 569 / 1008
+_PER_PARTICIPANT = ("decisions", "interventions", "sa_pct")
+
+
 @dataclass(frozen=True)
 class Cell:
     """One published number: measure, model, split or kind, its mean and SD."""
@@ -77,7 +85,9 @@ class Cell:
 
 
 def _cells() -> tuple[Cell, ...]:
-    cells: list[Cell] = [Cell("decisions", model, "per trial", 12.0, 0.0) for model in MODELS]
+    cells: list[Cell] = [
+        Cell("decisions", model, "per trial", float(DECISIONS_PER_TRIAL), 0.0) for model in MODELS
+    ]
     success = {
         "M1": [(78.57, 41.09), (95.31, 21.19), (56.25, 49.78)],
         "M2": [(88.39, 32.08), (94.44, 22.97), (81.41, 39.03)],
@@ -266,14 +276,6 @@ def loss(measured: Mapping[tuple[str, str, str], Measured]) -> float:
         else:
             total += min(MISSING_COST, ((got.mean - cell.mean) / cell.band) ** 2)
     return total
-
-
-#: The study's sample (§11): 28 participants, 12 decisions each per model, 569 of its 1,008
-#: decisions easy [choice: that share in every model; M1's is 192 of 336].
-STUDY_PARTICIPANTS = 28
-DECISIONS_PER_TRIAL = 12
-EASY_SHARE = 569 / 1008
-_PER_PARTICIPANT = ("decisions", "interventions", "sa_pct")
 
 
 def sample_size(cell: Cell, participants: int) -> float:
