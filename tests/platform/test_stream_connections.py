@@ -98,12 +98,15 @@ def test_the_stream_keeps_its_rate_when_each_frame_takes_time_to_send(app, make_
 
     Under load a send (and the thread's wake-up) takes tens of milliseconds;
     waiting a full interval after it made 200 streams run at 1.7-1.8 Hz
-    against a 2 Hz target.
+    against a 2 Hz target. Here that wait would send 0.77 frames an interval
+    (0.2 / 0.26). The test asks 0.9 over 20 intervals: a frame whose wake-up
+    comes more than an interval late is skipped, not sent in a burst, and on
+    a loaded machine (a suite's workers beside other work) one or two are.
     """
     from hcss.platform.live.frames import event_stream
 
     trial = make_trial()
-    interval_s, send_s, span_s = 0.2, 0.06, 2.0
+    interval_s, send_s, span_s = 0.2, 0.06, 4.0
     frames = event_stream(
         trial.live(), after_seq=0, interval_s=interval_s, max_s=span_s, clock=lambda: 0.0
     )
@@ -114,7 +117,7 @@ def test_the_stream_keeps_its_rate_when_each_frame_takes_time_to_send(app, make_
         time.sleep(send_s)  # the server writing the frame, under load
     elapsed = time.monotonic() - started
 
-    assert sent >= 0.95 * elapsed / interval_s, (sent, elapsed)
+    assert sent >= 0.9 * elapsed / interval_s, (sent, elapsed)
 
 
 def test_a_command_holds_one_connection_while_it_holds_its_trials_lock(make_trial) -> None:
