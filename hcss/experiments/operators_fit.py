@@ -25,7 +25,7 @@ import json
 import math
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -94,6 +94,8 @@ class Evaluation:
     met: int
     block: int
     participants: int
+    # per cell, how its mean clusters by participant on this block (`teams.design_effects`)
+    effects: dict[tuple[str, str, str], float] = field(default_factory=dict)
 
 
 def default_params() -> Params:
@@ -121,6 +123,7 @@ def evaluate(
     rows = pooled(
         run_participants(people, population, params or default_params(), workers, dask_address)
     )
+    by_trial = teams.values_by_trial(rows.decisions, rows.requests, rows.observations, rows.probes)
     measured = teams.measure(rows.decisions, rows.requests, rows.observations, rows.probes)
     return Evaluation(
         population,
@@ -129,6 +132,7 @@ def evaluate(
         len(teams.STUDY_TEAMS) - len(teams.misses(measured)),
         block,
         n,
+        teams.design_effects(by_trial),
     )
 
 
@@ -389,14 +393,18 @@ def report(result: Calibration, settings: Settings) -> str:
     lines += [f"| spread | {result.fit.spread:.3g} |", ""]
     for e in result.validations:
         expected, every = teams.ceiling(e.participants)
+        clustered, every_clustered = teams.ceiling(e.participants, e.effects)
+        effects = [e.effects.get(cell.key, 1.0) for cell in teams.STUDY_TEAMS]
         lines += [
             f"## Held-out block {e.block}: {e.participants} participants; loss {e.loss:.2f}, "
             f"{e.met} of {len(teams.STUDY_TEAMS)} cells within band",
             "",
             f"A population whose people were the study's would meet {expected:.1f} cells on "
             f"such a block on average, and all {len(teams.STUDY_TEAMS)} with chance "
-            f"{every:.2f}: the study's and the block's sampling errors alone, an upper bound "
-            "(decisions cluster within people).",
+            f"{every:.2f}, from the study's and the block's sampling errors with values "
+            f"independent; with decisions clustered by person as this block's are (design "
+            f"effects {min(effects):.2f}-{max(effects):.2f}), {clustered:.1f} and "
+            f"{every_clustered:.2f}.",
             "",
             teams.comparison_markdown(e.measured),
             "",

@@ -168,44 +168,60 @@ def measure(
     probes: Iterable[Mapping[str, Any]],
 ) -> dict[tuple[str, str, str], Measured]:
     """Every §11 cell measured on synthetic teams' rows (keys as `Cell.key`)."""
+    by_trial = values_by_trial(decisions, requests, observations, probes)
+    return {
+        key: _summary(v for values in trials.values() for v in values)
+        for key, trials in by_trial.items()
+    }
+
+
+def values_by_trial(
+    decisions: Iterable[Mapping[str, Any]],
+    requests: Iterable[Mapping[str, Any]],
+    observations: Iterable[Mapping[str, Any]],
+    probes: Iterable[Mapping[str, Any]],
+) -> dict[tuple[str, str, str], dict[str, list[float]]]:
+    """Each cell's values (one per decision, or one per trial) grouped by the trial they
+    came from: a cell's mean is over all of them, its sampling error clusters by trial
+    (`design_effects`)."""
     decisions, requests, observations = list(decisions), list(requests), list(observations)
     probes = list(probes)
-    per: dict[tuple[str, str, str], list[float]] = defaultdict(list)
+    per: dict[tuple[str, str, str], dict[str, list[float]]] = defaultdict(lambda: defaultdict(list))
     made: dict[tuple[str, str], int] = {
         (str(r["model"]), str(r["trial_id"])): 0
         for r in (*decisions, *requests, *observations, *probes)
     }
     for d in decisions:
         made[(str(d["model"]), str(d["trial_id"]))] += 1
-    for (model, _trial), made_in_trial in made.items():
-        per[("decisions", model, "per trial")].append(float(made_in_trial))
+    for (model, trial), made_in_trial in made.items():
+        per[("decisions", model, "per trial")][trial].append(float(made_in_trial))
     actions = _actions_by_decision(decisions, requests, observations)
     interventions: dict[tuple[str, str], float] = defaultdict(float)
     for d in decisions:
-        model = str(d["model"])
+        model, trial = str(d["model"]), str(d["trial_id"])
         minutes = float(d["decision_time_s"]) / 60.0
-        interventions[(model, str(d["trial_id"]))] += float(d["n_interventions"])
+        interventions[(model, trial)] += float(d["n_interventions"])
         counts = {
             "investigate": float(d["n_investigate"]),
             "decide": float(d["n_decide"]),
             "abandon": float(d["n_abandon"]),
         }
         counts["all"] = sum(counts.values())
-        clicks = actions.get((str(d["trial_id"]), str(d["collective"]), int(d["decision_index"])))
+        clicks = actions.get((trial, str(d["collective"]), int(d["decision_index"])))
         for split in ("overall", str(d["difficulty"])):
-            per[("success_pct", model, split)].append(100.0 * bool(d["correct"]))
-            per[("time_min", model, split)].append(minutes)
+            per[("success_pct", model, split)][trial].append(100.0 * bool(d["correct"]))
+            per[("time_min", model, split)][trial].append(minutes)
             if minutes > 0:
                 for kind, n in counts.items():
-                    per[("requests", model, f"{kind}/{split}")].append(n / minutes)
+                    per[("requests", model, f"{kind}/{split}")][trial].append(n / minutes)
             for kind in ("collective", "target"):
                 observed = bool(clicks and clicks[kind] > 0)
-                per[("observations_pct", model, f"{kind}/{split}")].append(100.0 * observed)
-    for (model, _trial), n in interventions.items():
-        per[("interventions", model, "participant")].append(n)
-    for key, values in _sa_by_trial(probes).items():
-        per[key].extend(values)
-    return {key: _summary(values) for key, values in per.items()}
+                per[("observations_pct", model, f"{kind}/{split}")][trial].append(100.0 * observed)
+    for (model, trial), n in interventions.items():
+        per[("interventions", model, "participant")][trial].append(n)
+    for (model, trial, level), value in _sa_by_trial(probes).items():
+        per[("sa_pct", model, level)][trial].append(value)
+    return per
 
 
 def _actions_by_decision(
@@ -243,7 +259,8 @@ def _actions_by_decision(
     return out
 
 
-def _sa_by_trial(probes: Iterable[Mapping[str, Any]]) -> dict[tuple[str, str, str], list[float]]:
+def _sa_by_trial(probes: Iterable[Mapping[str, Any]]) -> dict[tuple[str, str, str], float]:
+    """Per (model, trial, level): the share of its scored probes answered rightly (%)."""
     scored: dict[tuple[str, str], dict[str, list[bool]]] = defaultdict(lambda: defaultdict(list))
     for p in probes:
         if p.get("correct") is None:
@@ -252,11 +269,11 @@ def _sa_by_trial(probes: Iterable[Mapping[str, Any]]) -> dict[tuple[str, str, st
         trial = scored[(str(p["model"]), str(p["trial_id"]))]
         trial[level].append(bool(p["correct"]))
         trial["SA0"].append(bool(p["correct"]))
-    out: dict[tuple[str, str, str], list[float]] = defaultdict(list)
-    for (model, _trial), levels in scored.items():
-        for level, answers in levels.items():
-            out[("sa_pct", model, level)].append(100.0 * float(np.mean(answers)))
-    return out
+    return {
+        (model, trial, level): 100.0 * float(np.mean(answers))
+        for (model, trial), levels in scored.items()
+        for level, answers in levels.items()
+    }
 
 
 #: The most one cell can cost: a miss of five bands, and a cell with nothing to measure (a
@@ -288,29 +305,70 @@ def sample_size(cell: Cell, participants: int) -> float:
     return participants * DECISIONS_PER_TRIAL * share
 
 
-def chance_within(cell: Cell, participants: int) -> float:
+def design_effects(
+    by_trial: Mapping[tuple[str, str, str], Mapping[str, list[float]]],
+    replications: int = 2000,
+    seed: int = 0,
+) -> dict[tuple[str, str, str], float]:
+    """Per cell, how much more its mean varies from one block of people to another than
+    its values' spread alone says (Kish's design effect): the variance of the mean over
+    the block's trials resampled with replacement (a participant bootstrap: each trial is
+    one participant's, and a cell is one model's), times T/(T - 1), over SD²/n.
+
+    Why: a person's decisions are alike (the same reading noise, the same patience), so a
+    per-decision cell's mean is over fewer independent values than its decisions. With
+    trial-level cells (interventions, SA) it is 1 up to resampling noise. A cell with
+    fewer than two trials or no spread has 1.
+    """
+    rng = np.random.default_rng(seed)
+    out: dict[tuple[str, str, str], float] = {}
+    for key, trials in by_trial.items():
+        groups = [values for values in trials.values() if values]
+        everything = np.array([v for g in groups for v in g], dtype=float)
+        if len(groups) < 2 or everything.size < 2 or float(everything.var(ddof=1)) == 0.0:
+            out[key] = 1.0
+            continue
+        sums = np.array([math.fsum(g) for g in groups])
+        counts = np.array([len(g) for g in groups], dtype=float)
+        drawn = rng.integers(len(groups), size=(replications, len(groups)))
+        means = sums[drawn].sum(axis=1) / counts[drawn].sum(axis=1)
+        between = float(means.var(ddof=1)) * len(groups) / (len(groups) - 1)
+        out[key] = between / (float(everything.var(ddof=1)) / everything.size)
+    return out
+
+
+def chance_within(cell: Cell, participants: int, design_effect: float = 1.0) -> float:
     """The chance that a population whose people were the study's would land this cell's
     mean within its band on a block of this many participants: the study's mean and the
-    block's each carry a sampling error (the study's SD over each one's sample), and their
-    difference is taken as normal.
+    block's each carry a sampling error (the study's SD over each one's sample, times the
+    square root of the cell's design effect), and their difference is taken as normal.
 
     Why: it is the ceiling a fit is judged against. A perfect population still misses a
     wide cell now and then (SA projection, SD 31 over 28 participants), so "every cell
-    within band" is a matter of chance on any block. Decisions cluster within people,
-    which makes the real errors larger than these: the chances are upper bounds.
+    within band" is a matter of chance on any block. With a design effect of 1 (values
+    independent) the chances are upper bounds: decisions cluster within people. A block's
+    own design effects (`design_effects`) stand in for the study's, which §11 does not
+    give [choice: the study's people assumed to cluster as the block's do].
     """
     error = cell.sd * math.sqrt(
-        1.0 / sample_size(cell, STUDY_PARTICIPANTS) + 1.0 / sample_size(cell, participants)
+        design_effect
+        * (1.0 / sample_size(cell, STUDY_PARTICIPANTS) + 1.0 / sample_size(cell, participants))
     )
     if error == 0.0:
         return 1.0
     return math.erf(cell.band / (error * math.sqrt(2.0)))
 
 
-def ceiling(participants: int) -> tuple[float, float]:
+def ceiling(
+    participants: int, effects: Mapping[tuple[str, str, str], float] | None = None
+) -> tuple[float, float]:
     """For a perfect population on a block of this many participants: the expected number
-    of §11's cells within band, and the chance that all are (`chance_within`)."""
-    chances = [chance_within(cell, participants) for cell in STUDY_TEAMS]
+    of §11's cells within band, and the chance that all are (`chance_within`, with each
+    cell's design effect from `effects`, else 1)."""
+    chances = [
+        chance_within(cell, participants, (effects or {}).get(cell.key, 1.0))
+        for cell in STUDY_TEAMS
+    ]
     return sum(chances), math.prod(chances)
 
 

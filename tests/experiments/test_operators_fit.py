@@ -25,6 +25,11 @@ def test_a_small_calibration_writes_its_fit_and_report_and_resumes_only_the_same
     assert all(f"Held-out block {block}" in report for block in of.VALIDATION_BLOCKS)
     # beside each block's cells met, what a perfect population of its size would meet
     assert f"would meet {of.teams.ceiling(2)[0]:.1f} cells" in report
+    # and with decisions clustered by person as the block's own are
+    block = first.validations[0]
+    assert block.effects and all(v >= 0 for v in block.effects.values())
+    assert f"are (design effects {min(block.effects.values()):.2f}" in report.replace("\n", " ")
+    assert f"{of.teams.ceiling(2, block.effects)[0]:.1f} and" in report
     # the first two trials are the starting points: the default person, then the shipped fit
     study = of.open_study(out, settings)
     starts = [t.params for t in study.trials[:2]]

@@ -118,3 +118,56 @@ def test_a_perfect_population_meets_more_cells_on_a_larger_block_but_not_surely_
     expected_56, all_56 = teams.ceiling(56)
     assert len(teams.STUDY_TEAMS) - 3 < expected_28 < expected_56 < len(teams.STUDY_TEAMS)
     assert all_28 < all_56 < 0.5
+
+
+def _clustered_rows(outcomes: list[list[bool]]) -> dict:
+    """M1 decisions, one list of outcomes per trial, as `values_by_trial` groups them."""
+    decisions = [
+        _decision(i, 60.0 * i, 60.0 * (i + 1), "easy") | {"trial_id": f"t{t}", "correct": ok}
+        for t, trial in enumerate(outcomes)
+        for i, ok in enumerate(trial)
+    ]
+    return teams.values_by_trial(decisions, [], [], [])
+
+
+def _linearised_design_effect(trials: list[list[float]]) -> float:
+    """The textbook variance of a ratio mean over clusters (Cochran 1977, eq. 6.13, with
+    T/(T - 1)), over the variance of a mean of independent values: computed in closed
+    form, apart from the bootstrap it checks."""
+    sums = np.array([sum(t) for t in trials])
+    sizes = np.array([len(t) for t in trials], dtype=float)
+    every = np.concatenate([np.asarray(t, dtype=float) for t in trials])
+    mean, n, count = every.mean(), every.size, len(trials)
+    clustered = count / (count - 1) * float(((sums - mean * sizes) ** 2).sum()) / n**2
+    return clustered / (float(every.var(ddof=1)) / n)
+
+
+def test_a_design_effect_is_the_clustered_variance_over_the_independent_one() -> None:
+    """Trials whose 12 decisions all succeed or all fail (a person's decisions alike):
+    the design effect is about 12 (Kish: 1 + (m - 1) rho with rho = 1), and agrees with the
+    closed form; decisions drawn independently give about 1; trials that each succeed on
+    exactly half give 0 (no spread between people)."""
+    alike = [[t % 2 == 0] * 12 for t in range(28)]
+    rng = np.random.default_rng(7)
+    independent = [list(rng.random(12) < 0.6) for _ in range(28)]
+    halves = [[i % 2 == 0 for i in range(12)] for _ in range(28)]
+    key = ("success_pct", "M1", "easy")
+    for trials, expected in ((alike, 12.0), (independent, 1.0), (halves, 0.0)):
+        values = [[100.0 * ok for ok in trial] for trial in trials]
+        effect = teams.design_effects(_clustered_rows(trials), replications=20_000)[key]
+        assert effect == pytest.approx(_linearised_design_effect(values), rel=0.05, abs=0.02)
+        assert effect == pytest.approx(expected, rel=0.1, abs=0.6)
+
+
+def test_a_trial_level_cell_has_no_design_effect_and_one_raises_the_chance_of_a_miss() -> None:
+    per_trial = teams.values_by_trial(
+        [_decision(1, 0.0, 60.0, "easy") | {"trial_id": f"t{t}", "n_interventions": t % 5}
+         for t in range(28)], [], [], []
+    )  # fmt: skip
+    effects = teams.design_effects(per_trial, replications=20_000)
+    assert effects[("interventions", "M1", "participant")] == pytest.approx(1.0, abs=0.1)
+    assert effects[("decisions", "M1", "per trial")] == 1.0  # no spread: nothing to cluster
+    wide = next(c for c in teams.STUDY_TEAMS if c.key == ("success_pct", "M1", "difficult"))
+    assert teams.chance_within(wide, 28, 2.0) < teams.chance_within(wide, 28)
+    expected, every = teams.ceiling(28, {wide.key: 2.0})
+    assert expected < teams.ceiling(28)[0] and every < teams.ceiling(28)[1]
