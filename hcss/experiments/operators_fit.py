@@ -29,6 +29,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+from hcss.experiments import study_claims
 from hcss.experiments import study_teams as teams
 from hcss.experiments.synthetic_teams import participants, pooled, run_participants
 from hcss.simulation.params import Params
@@ -407,6 +408,11 @@ def report(result: Calibration, settings: Settings) -> str:
             f"{every_clustered:.2f}.",
             "",
             teams.comparison_markdown(e.measured),
+            "",
+            "The study's words about its operators (held back from the fit; the first needs "
+            "collectives alone, which `hcss plan` runs):",
+            "",
+            study_claims.claims_markdown(study_claims.claims(e.measured)),
             "",
             "Misses: "
             + (

@@ -34,6 +34,7 @@ import pandas as pd
 
 from hcss.analysis import power as pw
 from hcss.experiments import experiment as exp
+from hcss.experiments import study_claims, study_targets
 from hcss.experiments import study_teams as teams
 from hcss.experiments.synthetic_teams import (
     ORIGINAL_CELLS,
@@ -76,6 +77,10 @@ class Plan:
     measured: dict[tuple[str, str, str], teams.Measured]
     analysis_html: Path
     timings: dict[str, float] = field(default_factory=dict)
+    # the simulation-only pool's success per decision (%) by (model, split): collectives alone
+    alone: dict[tuple[str, str], float] = field(default_factory=dict)
+    # per N, the chance a study of N bears out each of the study's words about its operators
+    reproduced: dict[int, list[float]] = field(default_factory=dict)
 
 
 def simulate_pool(
@@ -215,10 +220,21 @@ def run_plan(
     say("resampling")
     mark = time.perf_counter()
     points = replicate(pw.unit_pool(measures), settings, workers, dask_address)
+    reproduced = study_claims.reproduction(
+        rows.decisions,
+        rows.requests,
+        rows.observations,
+        rows.probes,
+        simulated,
+        settings.ns,
+        settings.replications,
+        settings.seed,
+    )
     timings["power"] = time.perf_counter() - mark
     timings["total"] = time.perf_counter() - started
     measured = teams.measure(rows.decisions, rows.requests, rows.observations, rows.probes)
-    plan = Plan(settings, points, measured, report.html_path, timings)
+    alone = {key: m.success_pct for key, m in study_targets.measure(simulated).items()}
+    plan = Plan(settings, points, measured, report.html_path, timings, alone, reproduced)
     write_plan(out, plan, params)
     return plan
 
@@ -316,6 +332,16 @@ def write_plan(out: Path, plan: Plan, params: Params) -> Path:
         table.to_html(index=False, escape=True),
         "<h2>Predicted per-decision tables beside the study's (SPEC-simulation.md §11)</h2>",
         _markdown_table_html(comparison),
+        "<h2>The study's words about its operators, on the predicted teams</h2>",
+        "<p>Held back from the calibration, which fits each cell alone; collectives alone "
+        "are the simulation-only pool.</p>",
+        _markdown_table_html(
+            study_claims.claims_markdown(study_claims.claims(plan.measured, plan.alone))
+        ),
+        "<h3>The chance that a study of N participants bears out each</h3>",
+        "<p>Its means on N participants and N simulation-only scenarios drawn from the pool "
+        f"({plan.settings.replications} replications), as the power above.</p>",
+        _markdown_table_html(study_claims.reproduction_markdown(plan.reproduced)),
     ]
     page = (
         "<!doctype html><html><head><meta charset='utf-8'><title>hcss plan</title>"

@@ -30,6 +30,7 @@ def test_a_small_calibration_writes_its_fit_and_report_and_resumes_only_the_same
     assert block.effects and all(v >= 0 for v in block.effects.values())
     assert f"are (design effects {min(block.effects.values()):.2f}" in report.replace("\n", " ")
     assert f"{of.teams.ceiling(2, block.effects)[0]:.1f} and" in report
+    assert of.study_claims.claims_markdown(of.study_claims.claims(block.measured)) in report
     # the first two trials are the starting points: the default person, then the shipped fit
     study = of.open_study(out, settings)
     starts = [t.params for t in study.trials[:2]]

@@ -39,6 +39,9 @@ def test_plan_writes_power_and_predicted_tables(tmp_path) -> None:
     assert len(omnibus) == 6  # success and decision time x overall, easy, difficult
     assert all("[" in r["N=4"] and "[" in r["N=6"] for r in rows)
     assert "N for 80%" in rows[0]
+    # the study's words about its operators, the first against the pool's collectives alone
+    assert "The study's words about its operators" in page
+    assert "operators improved both models" in page and "M2 difficult" in page
 
 
 def test_the_plan_runs_the_preset_its_population_was_fitted_on(tmp_path) -> None:
