@@ -42,7 +42,7 @@ FITTED_POPULATION = Path(__file__).parent / "study-teams-population.json"
 FIT_BLOCK = 30_000_000
 SELECTION_BLOCK = 31_000_000
 VALIDATION_BLOCKS = (40_000_000, 41_000_000)
-STARTS_MAX_BYTES = 1 << 20  # a --start file: a few persons of 24 values each
+STARTS_MAX_BYTES = 1 << 20  # a --start file: a few persons of 25 values each
 
 # trait -> (low, high, log scale); "spread" is the population's
 SEARCH_SPACE: dict[str, tuple[float, float, bool]] = {
@@ -66,6 +66,7 @@ SEARCH_SPACE: dict[str, tuple[float, float, bool]] = {
     "slip_prob": (0.001, 0.2, True),
     "observe_collective_prob": (0.005, 1.0, True),
     "observe_target_prob": (0.001, 0.5, True),
+    "observe_change_prob": (0.005, 1.0, True),
     "perception_lapse": (0.01, 0.5, True),
     "comprehension_lapse": (0.01, 0.5, True),
     "projection_lapse": (0.01, 0.5, True),

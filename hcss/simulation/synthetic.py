@@ -121,6 +121,13 @@ class Traits:
       about to act on it, so target clicks follow requests (§11: M3's
       operators, who request most, clicked targets on twice as many
       decisions as M1's and M2's).
+    - `observe_change_prob`: the chance of that hub right-click instead, on a
+      look at a deliberating collective whose best-looking target is not the
+      one it was at the person's last look at it in this decision (a better
+      target has come in sight): a person checks how far the collective has
+      gone for the old one. Difficult decisions (the best target farthest,
+      found late) have such a look; easy ones seldom do (§11: hub clicks on
+      94% of M1's difficult decisions and 66% of its easy ones).
     - `perception_lapse`, `comprehension_lapse`, `projection_lapse`: chance of
       answering a probe of that level at random (inattention, a misread)
       rather than from what it remembers: a person's accuracy by SA level.
@@ -153,6 +160,8 @@ class Traits:
     projection_lapse: float = 0.1
     probe_ready_s: float = 2.0
     probe_answer_s: float = 4.0
+    # last, so adding it left every other trait's draw for a participant as it was
+    observe_change_prob: float = 0.0
 
     def __post_init__(self) -> None:
         if self.glance_interval_s <= 0 or self.reaction_time_s < 0:
@@ -178,6 +187,7 @@ TRAIT_PROBABILITIES = (
     "slip_prob",
     "observe_collective_prob",
     "observe_target_prob",
+    "observe_change_prob",
     "perception_lapse",
     "comprehension_lapse",
     "projection_lapse",
@@ -297,6 +307,8 @@ class SyntheticOperator:
         # collective -> since when the person has watched its best-looking target
         self.watching: dict[int, float] = {}
         self.seen_self_moving = False  # has it seen a collective gain support by itself?
+        # collective -> (its decision's start, the target that looked best at the last look)
+        self.best_seen: dict[int, tuple[float, int]] = {}
 
     def glance_times(self, until_s: float) -> list[float]:
         """When it looks, from the trial's start: every glance interval."""
@@ -336,12 +348,17 @@ class SyntheticOperator:
         ids = [int(x) for x in d.target_ids.tolist()]
         self._remember(d, ids, read)
         observations: list[ObservationClick] = []
-        if u[0] < t.observe_collective_prob:
-            observations.append(ObservationClick("collective", collective=c))
         shown = np.flatnonzero(d.in_range[c] & d.drawn)
         if d.executing[c] or not shown.size:
+            if u[0] < t.observe_collective_prob:
+                observations.append(ObservationClick("collective", collective=c))
             return Glance(c, (), tuple(observations))
         best = _best_looking(d, c, shown, read, t.value_resolution)
+        hub_click = t.observe_collective_prob
+        if self._best_changed(c, ids[best]):
+            hub_click = max(hub_click, t.observe_change_prob)
+        if u[0] < hub_click:
+            observations.append(ObservationClick("collective", collective=c))
         watched_since = max(self.started.get(c, 0.0), self.appeared[ids[best]])
         self.watching[c] = watched_since
         commands: list[OperatorCommand] = []
@@ -382,6 +399,14 @@ class SyntheticOperator:
             if slip is not None:
                 commands.append(slip)
         return Glance(c, tuple(commands), tuple(observations))
+
+    def _best_changed(self, c: int, target: int) -> bool:
+        """Whether collective c's best-looking target differs from the one at the person's
+        last look at it in its current decision (a first look has nothing to differ from)."""
+        start = self.started.get(c, 0.0)
+        before = self.best_seen.get(c)
+        self.best_seen[c] = (start, target)
+        return before is not None and before[0] == start and before[1] != target
 
     def _misdirected(
         self, d: Display, c: int, shown: np.ndarray, best: int, abandoned: set[int]

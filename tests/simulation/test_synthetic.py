@@ -516,3 +516,61 @@ def test_a_person_takes_back_agents_it_sent_to_a_target_that_no_longer_looks_bes
     assert abandons(0.0, 0.0, [only_a, both]) == []
     assert abandons(1.0, 1e6, [only_a, both]) == []  # it never pushed a
     assert abandons(1.0, 0.0, [only_a, landed]) == []  # a was pushed in I's last decision
+
+
+def test_a_hub_is_checked_on_the_look_that_finds_a_better_target_in_sight() -> None:
+    """With `observe_change_prob` 1 and no other hub clicks: a click on the look at a
+    collective whose best-looking target differs from the last look's in its decision,
+    and on no other; a first look, or the first look after the collective has landed,
+    has nothing to differ from."""
+    sim = Simulation(_scenario(24), "M1", PARAMS)
+    sim.step(200)
+    view = sim.display().to_json()
+    targets = view["targets"]
+    assert len(targets) >= 2 and not sim.display().executing[0]
+    for t in targets:
+        t["value"] = 0.5
+    person = _operator(
+        observe_collective_prob=0.0, observe_change_prob=1.0, value_noise=1e-6, stay_prob=0.0
+    )
+    n = sim.display().n_collectives
+
+    def look_at_first(values: dict[int, float], hub_shift: float = 0.0) -> bool:
+        """One round of looks (one at each collective); whether collective 0's hub was
+        clicked."""
+        for t in targets:
+            t["value"] = values.get(t["id"], 0.5)
+        view["collectives"][0]["hub"][0] += hub_shift
+        clicked = False
+        for _ in range(n):
+            glance = person.look(Display.from_json(view))
+            clicked |= glance.collective == 0 and any(
+                o.kind == "collective" for o in glance.observations
+            )
+        return clicked
+
+    first, second = targets[0]["id"], targets[1]["id"]
+    assert not look_at_first({first: 0.9})  # the first look: nothing to differ from
+    assert not look_at_first({first: 0.9})  # the same target still looks best
+    assert look_at_first({first: 0.9, second: 1.0})  # a better one has come in sight
+    assert not look_at_first({first: 0.9, second: 1.0})
+    assert not look_at_first({first: 1.0}, hub_shift=50.0)  # landed: a new decision
+
+
+def test_hub_and_target_clicks_change_no_request_and_no_decision() -> None:
+    """Observation clicks reach no collective: people who differ only in how often they
+    click send the same requests and the collectives make the same decisions, so the
+    observation traits can be fitted without moving any other cell."""
+
+    def trial(**clicks: float) -> tuple[list, list, int]:
+        operator = SyntheticOperator(replace(BUSY, slip_prob=0.0, **clicks), 6)
+        sim, rows = run_trial(_scenario(27), "M2", PARAMS, operator, "p", "t", 400.0)
+        requests = [
+            (r["sim_time_s"], r["kind"], r["collective"], r["target"]) for r in rows.requests
+        ]
+        return requests, [d.as_row() for d in sim.decisions], len(rows.observations)
+
+    quiet = trial(observe_collective_prob=0.0, observe_target_prob=0.0, observe_change_prob=0.0)
+    clicking = trial(observe_collective_prob=0.3, observe_target_prob=0.9, observe_change_prob=1.0)
+    assert quiet[:2] == clicking[:2] and quiet[0] and quiet[1]
+    assert quiet[2] == 0 < clicking[2]
