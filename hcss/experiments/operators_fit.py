@@ -96,7 +96,8 @@ class Evaluation:
     met: int
     block: int
     participants: int
-    # per cell, how its mean clusters by participant on this block (`teams.design_effects`)
+    # per cell, how its mean clusters by participant on this block (`teams.design_effects`;
+    # measured for the held-out blocks only)
     effects: dict[tuple[str, str, str], float] = field(default_factory=dict)
 
 
@@ -119,14 +120,16 @@ def evaluate(
     workers: int = 1,
     dask_address: str | None = None,
     params: Params | None = None,
+    with_effects: bool = False,
 ) -> Evaluation:
-    """Run n synthetic participants of block `block` and measure §11's cells on them."""
+    """Run n synthetic participants of block `block` and measure §11's cells on them (and,
+    `with_effects`, their design effects: only the held-out blocks' report prints them)."""
     people = participants(n, block)
     rows = pooled(
         run_participants(people, population, params or default_params(), workers, dask_address)
     )
     by_trial = teams.values_by_trial(rows.decisions, rows.requests, rows.observations, rows.probes)
-    measured = teams.measure(rows.decisions, rows.requests, rows.observations, rows.probes)
+    measured = teams.summarise(by_trial)
     return Evaluation(
         population,
         measured,
@@ -134,7 +137,7 @@ def evaluate(
         len(teams.STUDY_TEAMS) - len(teams.misses(measured)),
         block,
         n,
-        teams.design_effects(by_trial),
+        teams.design_effects(by_trial) if with_effects else {},
     )
 
 
@@ -338,7 +341,9 @@ def calibrate(
     chosen = least_judged(finalists)
     fit = chosen.population
     validations = [
-        evaluate(fit, settings.validation_participants, block, workers, dask_address)
+        evaluate(
+            fit, settings.validation_participants, block, workers, dask_address, with_effects=True
+        )
         for block in VALIDATION_BLOCKS
     ]
     trials = trials_done(study)

@@ -220,11 +220,10 @@ def run_plan(
     say("resampling")
     mark = time.perf_counter()
     points = replicate(pw.unit_pool(measures), settings, workers, dask_address)
+    by_trial = teams.values_by_trial(rows.decisions, rows.requests, rows.observations, rows.probes)
     reproduced = study_claims.reproduction(
-        rows.decisions,
-        rows.requests,
-        rows.observations,
-        rows.probes,
+        by_trial,
+        {str(d["trial_id"]): str(d["participant"]) for d in rows.decisions},
         simulated,
         settings.ns,
         settings.replications,
@@ -232,7 +231,7 @@ def run_plan(
     )
     timings["power"] = time.perf_counter() - mark
     timings["total"] = time.perf_counter() - started
-    measured = teams.measure(rows.decisions, rows.requests, rows.observations, rows.probes)
+    measured = teams.summarise(by_trial)
     alone = {key: m.success_pct for key, m in study_targets.measure(simulated).items()}
     plan = Plan(settings, points, measured, report.html_path, timings, alone, reproduced)
     write_plan(out, plan, params)

@@ -130,10 +130,8 @@ def claims_markdown(claims_made: Iterable[Claim]) -> str:
 
 
 def reproduction(
-    decisions: Sequence[Mapping[str, Any]],
-    requests: Iterable[Mapping[str, Any]],
-    observations: Iterable[Mapping[str, Any]],
-    probes: Iterable[Mapping[str, Any]],
+    by_trial: Mapping[tuple[str, str, str], Mapping[str, list[float]]],
+    participant_of: Mapping[str, str],
     simulated: Iterable[Mapping[str, Any]],
     ns: Sequence[int],
     replications: int,
@@ -142,22 +140,22 @@ def reproduction(
     """Per N: the share of `replications` studies of N participants (drawn with
     replacement from the pool, with all their trials) and N simulation-only scenarios
     (`simulated`, drawn the same way) whose means bear out each of `claims`' sentences.
+    `by_trial` is the pool's cells as `study_teams.values_by_trial` groups them, and
+    `participant_of` names each trial's participant.
 
     Why: a sentence the pool bears out may still fail in a study of 28 people (M2's
     extra time on difficult decisions is a difference of two noisy means); this is how
     often it would hold, as power is how often a test would reject.
     """
-    by_trial = teams.values_by_trial(decisions, requests, observations, probes)
-    person = {str(d["trial_id"]): str(d["participant"]) for d in decisions}
-    people = sorted(set(person.values()))
+    people = sorted(set(participant_of.values()))
     column = {p: i for i, p in enumerate(people)}
     keys = list(by_trial)
     sums, counts = np.zeros((len(keys), len(people))), np.zeros((len(keys), len(people)))
     for k, key in enumerate(keys):
         for trial, values in by_trial[key].items():
-            if trial in person:
-                sums[k, column[person[trial]]] += math.fsum(values)
-                counts[k, column[person[trial]]] += len(values)
+            if trial in participant_of:
+                sums[k, column[participant_of[trial]]] += math.fsum(values)
+                counts[k, column[participant_of[trial]]] += len(values)
     alone_keys, alone_sums, alone_counts = _alone_by_scenario(simulated)
     rng = np.random.default_rng(seed)
     out: dict[int, list[float]] = {}

@@ -168,7 +168,13 @@ def measure(
     probes: Iterable[Mapping[str, Any]],
 ) -> dict[tuple[str, str, str], Measured]:
     """Every §11 cell measured on synthetic teams' rows (keys as `Cell.key`)."""
-    by_trial = values_by_trial(decisions, requests, observations, probes)
+    return summarise(values_by_trial(decisions, requests, observations, probes))
+
+
+def summarise(
+    by_trial: Mapping[tuple[str, str, str], Mapping[str, list[float]]],
+) -> dict[tuple[str, str, str], Measured]:
+    """Each cell's mean (SD) over all its values, whatever trial they came from."""
     return {
         key: _summary(v for values in trials.values() for v in values)
         for key, trials in by_trial.items()

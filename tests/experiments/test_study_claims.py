@@ -74,6 +74,13 @@ def _pool(people: int, seed: int) -> list[dict]:
     return rows
 
 
+def _reproduction(rows: list[dict], alone: list[dict], *args, **kwargs) -> dict:
+    """`study_claims.reproduction` of a pool of decision rows, as `hcss plan` calls it."""
+    by_trial = teams.values_by_trial(rows, [], [], [])
+    people = {r["trial_id"]: r["participant"] for r in rows}
+    return study_claims.reproduction(by_trial, people, alone, *args, **kwargs)
+
+
 def _chance_by_normal_theory(rows: list[dict], n: int) -> float:
     """The chance that M2's easy mean time exceeds M1's by more than a minute in a draw of
     n participants with replacement, by the delta method for the two ratio means (each
@@ -102,7 +109,7 @@ def _chance_by_normal_theory(rows: list[dict], n: int) -> float:
 
 def test_the_chance_a_study_bears_out_a_sentence_agrees_with_normal_theory() -> None:
     rows = _pool(60, seed=3)
-    chances = study_claims.reproduction(rows, [], [], [], [], (10, 28), 4000, seed=1)
+    chances = _reproduction(rows, [], (10, 28), 4000, seed=1)
     for n in (10, 28):
         expected = _chance_by_normal_theory(rows, n)
         assert 0.2 < expected < 0.95  # a sentence near its edge: neither sure nor hopeless
@@ -122,5 +129,5 @@ def test_large_studies_bear_out_what_the_pools_means_bear_out_with_room_and_no_m
         for s in ("easy", "difficult")
         for k in range(20)
     ]
-    chances = study_claims.reproduction(rows, [], [], [], alone, (200,), 300, seed=2)[200]
+    chances = _reproduction(rows, alone, (200,), 300, seed=2)[200]
     assert (chances[0], chances[3], chances[4]) == (1.0, 0.0, 1.0)
