@@ -347,18 +347,17 @@ class SyntheticOperator:
         read = np.asarray(d.value, dtype=float) + noise
         ids = [int(x) for x in d.target_ids.tolist()]
         self._remember(d, ids, read)
-        observations: list[ObservationClick] = []
         shown = np.flatnonzero(d.in_range[c] & d.drawn)
-        if d.executing[c] or not shown.size:
-            if u[0] < t.observe_collective_prob:
-                observations.append(ObservationClick("collective", collective=c))
-            return Glance(c, (), tuple(observations))
-        best = _best_looking(d, c, shown, read, t.value_resolution)
+        deliberating = not d.executing[c] and shown.size > 0
+        best = _best_looking(d, c, shown, read, t.value_resolution) if deliberating else -1
         hub_click = t.observe_collective_prob
-        if self._best_changed(c, ids[best]):
+        if deliberating and self._best_changed(c, ids[best]):
             hub_click = max(hub_click, t.observe_change_prob)
+        observations: list[ObservationClick] = []
         if u[0] < hub_click:
             observations.append(ObservationClick("collective", collective=c))
+        if not deliberating:
+            return Glance(c, (), tuple(observations))
         watched_since = max(self.started.get(c, 0.0), self.appeared[ids[best]])
         self.watching[c] = watched_since
         commands: list[OperatorCommand] = []
