@@ -223,7 +223,7 @@ def run_plan(
     by_trial = teams.values_by_trial(rows.decisions, rows.requests, rows.observations, rows.probes)
     reproduced = study_claims.reproduction(
         by_trial,
-        {str(d["trial_id"]): str(d["participant"]) for d in rows.decisions},
+        rows.participant_of(),
         simulated,
         settings.ns,
         settings.replications,

@@ -49,6 +49,15 @@ class TrialRows:
         for name in ("decisions", "requests", "observations", "probes"):
             getattr(self, name).extend(getattr(other, name))
 
+    def participant_of(self) -> dict[str, str]:
+        """Each trial's participant, from every table: a trial whose collectives made no
+        decision still has its probes and clicks, and its participant their cells."""
+        return {
+            str(row["trial_id"]): str(row["participant"])
+            for name in ("decisions", "requests", "observations", "probes")
+            for row in getattr(self, name)
+        }
+
 
 def glance_steps(operator: SyntheticOperator, dt_s: float, duration_s: float) -> list[int]:
     """The steps at which the operator looks: its glance times rounded to steps, once each.

@@ -11,6 +11,7 @@ from scipy.stats import norm
 
 from hcss.experiments import study_claims
 from hcss.experiments import study_teams as teams
+from hcss.experiments.synthetic_trials import TrialRows
 
 
 def _study_means(**changes: float) -> dict:
@@ -131,3 +132,15 @@ def test_large_studies_bear_out_what_the_pools_means_bear_out_with_room_and_no_m
     ]
     chances = _reproduction(rows, alone, (200,), 300, seed=2)[200]
     assert (chances[0], chances[3], chances[4]) == (1.0, 0.0, 1.0)
+
+
+def test_a_trial_without_decisions_keeps_its_participant_in_the_resampling() -> None:
+    """`hcss plan` names each trial's participant from every table: a trial whose
+    collectives made no decision (its person never pushed) still has probe answers, so
+    its participant is drawn, with those answers, like any other."""
+    rows = TrialRows(decisions=_pool(2, seed=5))
+    rows.probes.append({"participant": "p9", "trial_id": "p9-M3", "model": "M3", "level": 1})
+    rows.observations.append({"participant": "p8", "trial_id": "p8-M1", "model": "M1"})
+    named = rows.participant_of()
+    assert named["p9-M3"] == "p9" and named["p8-M1"] == "p8"
+    assert {named[r["trial_id"]] for r in rows.decisions} == {"p0", "p1"}
