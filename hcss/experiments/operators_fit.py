@@ -67,6 +67,7 @@ SEARCH_SPACE: dict[str, tuple[float, float, bool]] = {
     "observe_collective_prob": (0.005, 1.0, True),
     "observe_target_prob": (0.001, 0.5, True),
     "observe_change_prob": (0.005, 1.0, True),
+    "push_margin": (0.0, 0.15, False),
     "perception_lapse": (0.01, 0.5, True),
     "comprehension_lapse": (0.01, 0.5, True),
     "projection_lapse": (0.01, 0.5, True),

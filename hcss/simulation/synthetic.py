@@ -133,6 +133,11 @@ class Traits:
       rather than from what it remembers: a person's accuracy by SA level.
     - `probe_ready_s`, `probe_answer_s`: from a probe showing to "ready", and
       from the question showing to the answer; both inside the 30 s window.
+    - `push_margin`: how far past `decide_support` a push aims (support as a
+      fraction). A push of exactly what the threshold needs peaks at it and
+      sheds below it before the person looks again (an M3 collective loses
+      the supporters an investigate sends as they reassess), so a second push
+      follows; a person who has seen that sends one more.
     """
 
     glance_interval_s: float = 2.5
@@ -162,12 +167,15 @@ class Traits:
     probe_answer_s: float = 4.0
     # last, so adding it left every other trait's draw for a participant as it was
     observe_change_prob: float = 0.0
+    push_margin: float = 0.0
 
     def __post_init__(self) -> None:
         if self.glance_interval_s <= 0 or self.reaction_time_s < 0:
             raise ValueError("a glance interval must be positive and a reaction time not negative")
         if self.decide_support < DECIDE_FLOOR:
             raise ValueError(f"decide_support below {DECIDE_FLOOR} would only be refused")
+        if not 0.0 <= self.push_margin <= 1.0:
+            raise ValueError(f"push_margin is a share of the collective, not {self.push_margin}")
         for name in TRAIT_PROBABILITIES:
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise ValueError(f"{name} is a probability, not {getattr(self, name)}")
@@ -434,10 +442,11 @@ class SyntheticOperator:
             self.sent[(c, target)] = d.time + self.traits.reaction_time_s
 
     def _burst(self, d: Display, c: int, target: int, support: float) -> int:
-        """How many investigates to send now: as many as bring the target to `decide_support`
-        with the agents still to come from investigates in progress (the list shows their
-        acknowledgements), up to `investigate_burst`, and at least one (a person below the
-        threshold who chose to push, pushes); none while its own last ones have not landed."""
+        """How many investigates to send now: as many as bring the target `push_margin` past
+        `decide_support` with the agents still to come from investigates in progress (the
+        list shows their acknowledgements), up to `investigate_burst`, and at least one (a
+        person below the threshold who chose to push, pushes); none while its own last ones
+        have not landed."""
         if d.time < self.sent.get((c, target), -math.inf):
             return 0
         coming = sum(
@@ -445,7 +454,8 @@ class SyntheticOperator:
             for r in _investigating(d, c)
             if r.target == target
         )
-        short = ((self.traits.decide_support - support) * d.n_agents - coming) / INVESTIGATE_AGENTS
+        aim = self.traits.decide_support + self.traits.push_margin
+        short = ((aim - support) * d.n_agents - coming) / INVESTIGATE_AGENTS
         return max(1, min(round(self.traits.investigate_burst), math.ceil(short)))
 
     def _stalled(self, c: int, target: int, support: float, now: float) -> bool:

@@ -247,6 +247,19 @@ def test_a_burst_sends_what_the_threshold_needs_up_to_the_persons_most_and_waits
     assert len(_m3_investigates(decide_support=0.4, investigate_burst=6.0)) < 3 * len(one_by_one)
 
 
+def test_a_push_aims_its_margin_past_the_threshold() -> None:
+    """A person who has seen a push shed below 30% before they could decide aims past it:
+    from no support, 30% and a margin of 0.05 need 7 investigates where 30% alone needs 6,
+    and a margin of 0.12 needs 9, of which a person pressing Commit at most 8 times sends 8.
+    A margin is a share of the collective: a negative one is refused."""
+    for margin, expected in ((0.0, 6), (0.05, 7), (0.12, 8)):
+        sent = _m3_investigates(decide_support=0.3, investigate_burst=8.0, push_margin=margin)
+        first = [r for r in sent if r["sim_time_s"] == sent[0]["sim_time_s"]]
+        assert len(first) == expected, margin
+    with pytest.raises(ValueError, match="push_margin"):
+        Traits(push_margin=-0.01)
+
+
 def test_a_person_who_surveys_first_sends_no_investigate_before_the_survey_is_over() -> None:
     """At the start of a decision (here the trial's start) a surveying person looks before
     pushing: no investigate in the first `survey_s`; an unhurried one pushes within 30 s."""
