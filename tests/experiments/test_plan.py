@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 
 import pytest
 from click.testing import CliRunner
@@ -81,11 +82,16 @@ def test_a_population_of_traits_the_operator_does_not_have_is_refused(tmp_path) 
         lambda values: values.pop("median"),
         lambda values: values["median"].update(stay_prob=1.7),  # not a probability
         lambda values: values["median"].update(glance_interval_s="soon"),
+        lambda values: values["median"].update(glance_interval_s=math.nan),
+        lambda values: values["median"].update(push_margin=math.inf),
+        lambda values: values["median"].update(stay_prob=True),
+        lambda values: values.update(spread="wide"),
     ],
 )
 def test_a_population_file_the_operator_cannot_use_is_a_clear_error(tmp_path, spoil) -> None:
     """`hcss plan --population` with a file this operator cannot mean what it was fitted to
-    mean: exit 2 naming the option, no traceback, no output directory written."""
+    mean: exit 2 naming the option, no traceback, no output directory written. A trait
+    that is not a finite number (a word, NaN, infinity, true) is named as such."""
     from hcss.experiments.operators_fit import FITTED_POPULATION
 
     values = json.loads(FITTED_POPULATION.read_text(encoding="utf-8"))
@@ -96,6 +102,7 @@ def test_a_population_file_the_operator_cannot_use_is_a_clear_error(tmp_path, sp
     result = CliRunner().invoke(main, ["plan", "--population", str(path), "--out", str(out)])
     assert result.exit_code == 2, result.output
     assert "--population" in result.output and "Traceback" not in result.output
+    assert "supported between" not in result.output  # the trait named, not Python's words
     assert not out.exists()
 
 
