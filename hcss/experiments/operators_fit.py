@@ -457,13 +457,6 @@ def load_population(path: Path) -> Population:
             f"{path} has {' and '.join(said)}: it was fitted for another version of the "
             "operator; re-fit it with `hcss simulate calibrate --to study-teams`"
         )
-    for name, value in [*median.items(), ("spread", values["spread"])]:
-        if (
-            isinstance(value, bool)
-            or not isinstance(value, int | float)
-            or not math.isfinite(value)
-        ):
-            raise ValueError(f"{path}: {name} must be a finite number, not {value!r}")
     try:
         return Population.from_dict(values)
     except (TypeError, ValueError) as error:

@@ -165,11 +165,13 @@ class Traits:
     projection_lapse: float = 0.1
     probe_ready_s: float = 2.0
     probe_answer_s: float = 4.0
-    # last, so adding it left every other trait's draw for a participant as it was
+    # each added last, so adding it left every other trait's draw for a participant as it was
     observe_change_prob: float = 0.0
     push_margin: float = 0.0
 
     def __post_init__(self) -> None:
+        for f in fields(self):
+            _finite(f.name, getattr(self, f.name))
         if self.glance_interval_s <= 0 or self.reaction_time_s < 0:
             raise ValueError("a glance interval must be positive and a reaction time not negative")
         if self.decide_support < DECIDE_FLOOR:
@@ -182,6 +184,13 @@ class Traits:
 
     def to_dict(self) -> dict[str, float]:
         return asdict(self)
+
+
+def _finite(name: str, value: object) -> None:
+    """A trait (or the spread) is a finite number: NaN would make a person who never looks
+    (no glance time can be counted), and JSON's true would pass as a probability of 1."""
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise ValueError(f"{name} must be a finite number, not {value!r}")
 
 
 TRAIT_PROBABILITIES = (
@@ -221,6 +230,11 @@ class Population:
     median: Traits = Traits()
     spread: float = 0.3
 
+    def __post_init__(self) -> None:
+        _finite("spread", self.spread)
+        if self.spread < 0:
+            raise ValueError(f"spread is a standard deviation, not {self.spread}")
+
     def draw(self, rng: np.random.Generator) -> Traits:
         values: dict[str, float] = {}
         for f in fields(Traits):
@@ -247,7 +261,7 @@ class Population:
 
     @classmethod
     def from_dict(cls, values: dict[str, Any]) -> Population:
-        return cls(Traits(**values["median"]), float(values["spread"]))
+        return cls(Traits(**values["median"]), values["spread"])
 
     def with_median(self, **changes: float) -> Population:
         return replace(self, median=replace(self.median, **changes))

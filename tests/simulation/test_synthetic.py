@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections import Counter
 from dataclasses import replace
 
@@ -258,6 +259,25 @@ def test_a_push_aims_its_margin_past_the_threshold() -> None:
         assert len(first) == expected, margin
     with pytest.raises(ValueError, match="push_margin"):
         Traits(push_margin=-0.01)
+
+
+@pytest.mark.parametrize(
+    "changes",
+    [
+        {"glance_interval_s": math.nan},  # a person who never looks
+        {"survey_s": math.inf},
+        {"stay_prob": True},  # a probability, not a yes
+        {"value_noise": "0.01"},
+    ],
+)
+def test_a_trait_that_is_not_a_finite_number_is_refused_by_name(changes: dict) -> None:
+    """Every path that makes a person (a population file, a --start file, the HTTP bot's
+    caller) meets the same check: a trait is a finite number, named when it is not."""
+    (name,) = changes
+    with pytest.raises(ValueError, match=f"{name} must be a finite number"):
+        Traits(**changes)
+    with pytest.raises(ValueError, match="spread must be a finite number"):
+        Population(Traits(), math.nan)
 
 
 def test_a_person_who_surveys_first_sends_no_investigate_before_the_survey_is_over() -> None:
