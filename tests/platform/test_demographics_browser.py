@@ -36,6 +36,7 @@ def test_demographics_fits_the_window_and_its_last_options_can_be_picked(
     page.get_by_label("I agree").check()
     page.get_by_role("button", name="Continue").click()
     expect(page.locator("main.study")).to_have_attribute("data-stage", "demographics")
+    page.wait_for_load_state()  # the whole page laid out, not the part parsed so far
     fits = page.evaluate(OVERFLOW)
     assert fits == {"scroll": 0, "out": []}, fits
     for key in ITEM_KEYS:
