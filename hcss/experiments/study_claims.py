@@ -38,6 +38,16 @@ class Claim:
     measured: str
 
 
+_IMPROVED = "operators improved both models' success (M1's and M2's, easy and difficult)"
+_EASY = "with M2 they took more than a minute longer on easy decisions than with M1"
+_DIFFICULT = "with M2 they took less than 30 s longer on difficult decisions than with M1"
+_REQUESTS = "they issued requests least often with M1, slightly more with M2 and most with M3"
+_DECIDES = "decide requests were most frequent with M3"
+_INTERVENTIONS = "with M1 the operator's few requests were more often interventions"
+#: The sentences, in the order `claims` reads them (and the plan's tables print them).
+SENTENCES = (_IMPROVED, _EASY, _DIFFICULT, _REQUESTS, _DECIDES, _INTERVENTIONS)
+
+
 def claims(
     measured: Mapping[tuple[str, str, str], teams.Measured],
     alone: Mapping[tuple[str, str], float] | None = None,
@@ -73,14 +83,14 @@ def claims(
     difficult = mean("time_min", "M2", "difficult") - mean("time_min", "M1", "difficult")
     out.append(
         Claim(
-            "with M2 they took more than a minute longer on easy decisions than with M1",
+            _EASY,
             easy > 1.0,
             f"M2 - M1 easy {easy:+.2f} min",
         )
     )
     out.append(
         Claim(
-            "with M2 they took less than 30 s longer on difficult decisions than with M1",
+            _DIFFICULT,
             0.0 <= difficult < 0.5,
             f"M2 - M1 difficult {difficult * 60:+.0f} s",
         )
@@ -88,7 +98,7 @@ def claims(
     every = [mean("requests", model, "all/overall") for model in teams.MODELS]
     out.append(
         Claim(
-            "they issued requests least often with M1, slightly more with M2 and most with M3",
+            _REQUESTS,
             every[0] < every[1] < every[2] and every[1] - every[0] < every[2] - every[1],
             "a minute: "
             + ", ".join(f"{m} {v:.2f}" for m, v in zip(teams.MODELS, every, strict=True)),
@@ -97,7 +107,7 @@ def claims(
     decides = [mean("requests", model, "decide/overall") for model in teams.MODELS]
     out.append(
         Claim(
-            "decide requests were most frequent with M3",
+            _DECIDES,
             decides[2] > max(decides[:2]),
             "a minute: "
             + ", ".join(f"{m} {v:.2f}" for m, v in zip(teams.MODELS, decides, strict=True)),
@@ -109,16 +119,13 @@ def claims(
     ]
     out.append(
         Claim(
-            "with M1 the operator's few requests were more often interventions",
+            _INTERVENTIONS,
             shares[0] > max(shares[1:]),
             "abandons of all requests: "
             + ", ".join(f"{m} {v:.0%}" for m, v in zip(teams.MODELS, shares, strict=True)),
         )
     )
     return out
-
-
-_IMPROVED = "operators improved both models' success (M1's and M2's, easy and difficult)"
 
 
 def claims_markdown(claims_made: Iterable[Claim]) -> str:
@@ -160,7 +167,7 @@ def reproduction(
     rng = np.random.default_rng(seed)
     out: dict[int, list[float]] = {}
     for n in ns:
-        met = np.zeros(len(claims({})), dtype=float)
+        met = np.zeros(len(SENTENCES), dtype=float)
         for _ in range(replications):
             drawn = rng.integers(len(people), size=n)
             with np.errstate(invalid="ignore", divide="ignore"):
@@ -204,8 +211,8 @@ def reproduction_markdown(chances: Mapping[int, Sequence[float]]) -> str:
         "| the study's words | " + " | ".join(f"N={n}" for n in ns) + " |",
         "|---|" + "---|" * len(ns),
     ]
-    for i, claim in enumerate(claims({})):
-        lines.append(f"| {claim.words} | " + " | ".join(_chance(chances[n][i]) for n in ns) + " |")
+    for i, words in enumerate(SENTENCES):
+        lines.append(f"| {words} | " + " | ".join(_chance(chances[n][i]) for n in ns) + " |")
     return "\n".join(lines)
 
 

@@ -31,6 +31,8 @@ def test_the_studys_own_tables_bear_out_its_words_about_its_operators() -> None:
     assert "+27 s" in made[2].measured  # 4.67 - 4.22 = 0.45 min
     assert "M1 4%, M2 3%, M3 2%" in made[5].measured  # 0.02/0.57, 0.02/0.66, 0.03/1.33
     assert study_claims.claims(_study_means())[0].met is None  # no collectives alone: not measured
+    # the plan's table of chances names the sentences in the order claims reads them
+    assert [c.words for c in made] == list(study_claims.SENTENCES)
 
 
 @pytest.mark.parametrize(
