@@ -36,7 +36,12 @@ _phases: dict[str, dict[str, float]] = {}
 
 #: The shared fixtures, in tests/support (a test module names a fixture, never imports one,
 #: and no test module imports another: tests/test_architecture.py checks it).
-pytest_plugins = ["tests.support.console", "tests.support.pages", "tests.support.study"]
+pytest_plugins = [
+    "tests.support.browser",
+    "tests.support.console",
+    "tests.support.pages",
+    "tests.support.study",
+]
 _outcome: dict[str, str] = {}
 
 

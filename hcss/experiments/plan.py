@@ -343,7 +343,7 @@ def write_plan(out: Path, plan: Plan, params: Params) -> Path:
         _markdown_table_html(study_claims.reproduction_markdown(plan.reproduced)),
     ]
     page = (
-        "<!doctype html><html><head><meta charset='utf-8'><title>hcss plan</title>"
+        "<!doctype html><html lang='en'><head><meta charset='utf-8'><title>hcss plan</title>"
         "<style>body{font-family:sans-serif;margin:2em}table{border-collapse:collapse;"
         "font-size:12px}td,th{border:1px solid #ccc;padding:2px 6px}</style></head><body>"
         + "\n".join(body)

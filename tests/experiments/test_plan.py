@@ -12,10 +12,12 @@ from click.testing import CliRunner
 
 from hcss.cli import main
 from hcss.simulation.presets import DEFAULT_PRESET
+from tests.support.axe import axe_violations, summary
 
 
 @pytest.mark.slow
-def test_plan_writes_power_and_predicted_tables(tmp_path) -> None:
+@pytest.mark.browser
+def test_plan_writes_power_and_predicted_tables(tmp_path, browser) -> None:
     out = tmp_path / "plan"
     result = CliRunner().invoke(
         main,
@@ -43,6 +45,17 @@ def test_plan_writes_power_and_predicted_tables(tmp_path) -> None:
     # the study's words about its operators, the first against the pool's collectives alone
     assert "The study's words about its operators" in page
     assert "operators improved both models" in page and "M2 difficult" in page
+    # the analyst reads it in a browser: plan.html, then the pool's report it links to, both
+    # passing axe-core's WCAG 2.1 A/AA checks
+    tab = browser.new_page(viewport={"width": 1024, "height": 620})
+    tab.goto((out / "plan.html").as_uri())
+    violations = axe_violations(tab)
+    assert violations == [], summary(violations)
+    tab.get_by_role("link", name="hcss analyze's report of the pool").click()
+    tab.wait_for_url("**/analysis/report.html")
+    violations = axe_violations(tab)
+    assert violations == [], summary(violations)
+    tab.close()
 
 
 def test_the_plan_runs_the_preset_its_population_was_fitted_on(tmp_path) -> None:

@@ -23,7 +23,6 @@ from hcss.platform.app import create_app
 from hcss.platform.bots.participant import ManualClock
 from hcss.platform.live.trials import start_bot_trial
 from hcss.platform.serving.localserver import postgres_schema
-from tests.support.browser import CHROMIUM, CHROMIUM_ARGS
 from tests.support.databases import PG_ENV
 from tests.support.trials import STUDY, TrialHandle
 
@@ -95,26 +94,3 @@ def make_trial(app: Flask):
         return handle
 
     return make
-
-
-@pytest.fixture(scope="session")
-def chromium():
-    """One headless Chromium per test process (each xdist worker), as pytest-playwright keeps
-    one per session: a launch took 2 to 2.7 s on a loaded machine, paid once, not per test."""
-    if not os.path.exists(CHROMIUM):
-        pytest.skip(f"browser tests need {CHROMIUM} (make browser installs it)")
-    sync_api = pytest.importorskip("playwright.sync_api")
-    with sync_api.sync_playwright() as playwright:
-        browser = playwright.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
-        yield browser
-        browser.close()
-
-
-@pytest.fixture
-def browser(chromium):
-    """The process's headless Chromium for a browser test. Each page or context the test opens
-    is a context of its own (cookies, storage, cache), and all are closed after the test, so
-    no test sees another's pages."""
-    yield chromium
-    for context in list(chromium.contexts):
-        context.close()
