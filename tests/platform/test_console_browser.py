@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import csv
 import re
+import sqlite3
 import threading
 import time
 
@@ -61,6 +62,7 @@ def test_console_batch_links_live_table_and_pause_resume(browser, console_app) -
     expect(rows.nth(1).locator("button.copy")).to_have_text("Copied")
     assert page.evaluate("navigator.clipboard.readText()") == links[1]
     page.click("#copy-all")
+    expect(page.locator("#copy-all")).to_have_text("Copied")  # the copy has been made
     assert page.evaluate("navigator.clipboard.readText()").split("\n") == links
     with page.expect_download() as download:
         page.click("#links-csv")
@@ -163,3 +165,45 @@ def test_console_batch_links_live_table_and_pause_resume(browser, console_app) -
     expect(page.locator("button.copy")).to_have_text("Copied")
     assert page.evaluate("navigator.clipboard.readText()") == links[1]
     context.close()
+
+
+def test_a_double_click_on_create_makes_one_batch(browser, console_app) -> None:
+    """An experimenter's double click on Create sends the form once: one batch of three links,
+    not two (each counting against the experimenter's link allowance). The server is slow to
+    answer the first click (another writer holds the database for a moment), so the second
+    click lands on the same page, as on a loaded lab server."""
+    from playwright.sync_api import expect
+
+    app, base = console_app
+    database = app.extensions["hcss_db"]
+    page = browser.new_page(viewport={"width": 1500, "height": 800})
+    sign_in_page(page, base)
+    page.select_option("#study", "demo")
+    page.fill("#count", "3")
+    holder = sqlite3.connect(database.engine.url.database, isolation_level=None)
+    holder.execute("BEGIN IMMEDIATE")  # the create waits for this writer
+    page.evaluate(
+        """() => {
+            const create = document.querySelector('#create-form button[type=submit]');
+            create.click();
+            setTimeout(() => create.click(), 150);
+        }"""
+    )
+    page.wait_for_timeout(600)  # both clicks made, on the page the first left
+    holder.execute("ROLLBACK")
+    holder.close()
+    expect(page.locator("h1")).to_have_text("Participant links")
+    expect(page.locator("#links tbody tr")).to_have_count(3)
+    page.wait_for_timeout(1000)  # a second request, had one gone out, has been answered
+    with database.session_scope() as session:
+        assert len(session.scalars(select(Participant)).all()) == 3
+        creates = session.scalars(select(ConsoleAction).where(ConsoleAction.action == "create"))
+        assert len(creates.all()) == 3
+    # Back on the table, Create works again: the guard is the page's, not the form's for good
+    page.click("text=Back to the participants")
+    page.fill("#count", "1")
+    page.click("#create-form button[type=submit]")
+    expect(page.locator("h1")).not_to_have_text("Participants")  # one: its own page
+    with database.session_scope() as session:
+        assert len(session.scalars(select(Participant)).all()) == 4
+    page.close()

@@ -113,6 +113,8 @@ def test_an_offered_key_is_not_kept_until_a_code_confirms_it(browser, console_ap
 
     # A tampered offer is refused as too old, and a new key is offered.
     page.click("#second-factor-link")
+    # the new page's offer, not the old page's none: a click returns before the page it opens
+    expect(page.locator("input[name=offer]")).to_be_attached()
     page.evaluate("() => { document.querySelector('input[name=offer]').value = 'forged.value'; }")
     page.fill("#factor-code", pyotp.TOTP(secret).now())
     page.get_by_role("button", name="Confirm").click()

@@ -119,3 +119,29 @@ def test_a_double_submit_sends_the_form_once(browser, demo_bot_app) -> None:
         assert page.evaluate("JSON.parse(sessionStorage.getItem('sent'))") == [True, False]
         expect(page.locator("main")).not_to_contain_text("already been submitted")
         page.close()
+
+
+def test_a_submit_the_page_cancelled_leaves_the_form_sendable(browser, demo_bot_app) -> None:
+    """The guard counts a form as sent only when the submit went ahead: a submit a page's
+    own handler cancelled (a confirm declined, a check that failed) leaves Continue working."""
+    from playwright.sync_api import expect
+
+    with serving(demo_bot_app) as url:
+        page = browser.new_page(viewport={"width": 1366, "height": 768})
+        page.goto(f"{url}/join/demo")
+        page.locator("#join-start").click()
+        expect(page.locator("main.study")).to_have_attribute("data-stage", "consent")
+        page.wait_for_load_state()
+        page.get_by_label("I agree").check()
+        page.evaluate(
+            """() => {
+                const form = document.getElementById('stage-form');
+                let asked = false;
+                form.addEventListener('submit', (e) => { if (!asked) { asked = true; e.preventDefault(); } });
+            }"""
+        )
+        page.get_by_role("button", name="Continue").click()  # cancelled by the page
+        expect(page.locator("main.study")).to_have_attribute("data-stage", "consent")
+        page.get_by_role("button", name="Continue").click()  # and now sent
+        expect(page.locator("main.study")).to_have_attribute("data-stage", "demographics")
+        page.close()

@@ -1,27 +1,29 @@
-// A study form is sent once: a double click on Continue would send it twice,
-// and the second copy, refused by the server as already submitted, showed the
-// participant an alarming "this page has already been submitted". The clicked
+// A form that posts is sent once per page: a double click on a study page's
+// Continue sent it twice, and the second copy, refused by the server as
+// already submitted, showed the participant an alarming "this page has
+// already been submitted"; on the console, a double click on Create made two
+// batches of links while the server was slow to answer the first. The clicked
 // button keeps its name and value (it is not disabled, the form just ignores
-// further submits); the server still refuses any repeat that gets through.
-// Loaded in <head> and listening on the document (capture phase), so it guards
-// every form from the moment the page starts to render: a listener added per
-// form at the end of <body> left a window in which a quick double click got
-// through (the page was usable before that script had run).
+// further submits); the server still refuses any repeat it must.
+// Loaded in <head> and listening on the document, so it guards every form from
+// the moment the page starts to render (a listener added per form at the end of
+// <body> left a window before it ran). A submit is held back in the capture
+// phase; a form counts as sent only if no handler of the page cancelled the
+// submit (a confirm the user declined), so a form the user has not sent is never
+// locked.
 (() => {
   "use strict";
+  const posts = (target) => target instanceof HTMLFormElement && target.method === "post";
   document.addEventListener(
     "submit",
     (event) => {
-      const form = event.target;
-      if (!(form instanceof HTMLFormElement) || form.method !== "post" || !form.closest("main.study")) return;
-      if (form.dataset.sent === "yes") {
-        event.preventDefault();
-        return;
-      }
-      form.dataset.sent = "yes";
+      if (posts(event.target) && event.target.dataset.sent === "yes") event.preventDefault();
     },
     true,
   );
+  document.addEventListener("submit", (event) => {
+    if (posts(event.target) && !event.defaultPrevented) event.target.dataset.sent = "yes";
+  });
   // Back from the browser's cache (the back button): the form may be sent again.
   window.addEventListener("pageshow", (event) => {
     if (event.persisted) for (const form of document.querySelectorAll("form[data-sent]")) delete form.dataset.sent;
