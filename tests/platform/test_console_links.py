@@ -65,3 +65,116 @@ def test_the_links_page_costs_the_same_queries_for_5_or_60_participants(app, con
     assert html.count('class="copy"') == 60
     assert many["all"] == few["all"] <= 20, (few, many)
     assert many_csv["all"] == few_csv["all"] <= 20, (few_csv, many_csv)
+
+
+FORM_KEY = re.compile(r'name="form_key" type="hidden" value="([A-Za-z0-9_-]+)"')
+
+
+def _participants(app) -> int:
+    from sqlalchemy import func, select
+
+    from hcss.platform.models import Participant
+
+    with app.extensions["hcss_db"].session_scope() as session:
+        return session.scalar(select(func.count()).select_from(Participant))
+
+
+def test_a_create_form_sent_twice_makes_one_batch(app, console) -> None:
+    """The Create form carries a key of its page: sent again (a double click past the page, a
+    resend, a proxy's retry), it is answered with the batch the first sending made, and
+    nothing new is created; a fresh page's form creates anew."""
+    (key,) = FORM_KEY.findall(console.get("/console/").get_data(as_text=True))
+    fields = {"study": "demo", "count": "3", "form_key": key}
+    first = console.post("/console/participants", fields)
+    assert first.status_code == 303 and "/console/links?codes=" in first.headers["Location"]
+    again = console.post("/console/participants", fields)
+    assert again.status_code == 303 and again.headers["Location"] == first.headers["Location"]
+    assert _participants(app) == 3
+    page = console.get(again.headers["Location"]).get_data(as_text=True)
+    assert "this form was already sent, and nothing new was created" in page
+    assert len(LINK.findall(page)) == 3
+    # the links page itself is the batch: its batch list names one batch of 3
+    assert len(LINK.findall(console.get("/console/links").get_data(as_text=True))) == 3
+
+    (fresh,) = FORM_KEY.findall(console.get("/console/").get_data(as_text=True))
+    assert fresh != key
+    one = console.post("/console/participants", {"study": "demo", "count": "1", "form_key": fresh})
+    assert "/console/participants/P" in one.headers["Location"]
+    repeat = console.post(
+        "/console/participants", {"study": "demo", "count": "1", "form_key": fresh}
+    )
+    assert repeat.headers["Location"] == one.headers["Location"]
+    assert _participants(app) == 4
+
+
+def test_a_create_form_key_that_is_malformed_or_another_accounts_creates_nothing(
+    app, console
+) -> None:
+    from hcss.platform.console.accounts import create_experimenter
+    from tests.support.console import Console, sign_in
+
+    (key,) = FORM_KEY.findall(console.get("/console/").get_data(as_text=True))
+    assert console.post("/console/participants", {"study": "demo", "count": "2", "form_key": key})
+    for bad in ("short", "x" * 65, "no spaces allowed here", "<script>alert(1)</script>"):
+        refused = console.post(
+            "/console/participants", {"study": "demo", "count": "2", "form_key": bad}
+        )
+        assert refused.status_code == 303
+        assert "not a form key" in console.get("/console/").get_data(as_text=True)
+    assert _participants(app) == 2
+
+    with app.extensions["hcss_db"].session_scope() as session:
+        create_experimenter(session, "second", "another long password")
+    other = Console(app=app, client=app.test_client())
+    assert sign_in(other.client, "second", "another long password").status_code == 302
+    other.get("/console/")
+    taken = other.post("/console/participants", {"study": "demo", "count": "2", "form_key": key})
+    assert taken.status_code == 409
+    text = taken.get_data(as_text=True)
+    assert "sent from another account" in text and "/p/" not in text  # none of its links
+    assert _participants(app) == 2
+
+
+def test_one_create_form_sent_twice_at_once_makes_one_batch(console_app) -> None:
+    """Two sendings of one form reach the server together, while another writer holds the
+    database (a loaded lab server): both wait, one batch is stored, and both answers lead to
+    it. Over HTTP to the served app, as a double click past the page sends them."""
+    import sqlite3
+    import threading
+
+    import httpx
+
+    from tests.support.console import PASSWORD, USERNAME
+    from tests.support.trials import csrf_token_of
+
+    app, base = console_app
+    with httpx.Client(base_url=base) as client:
+        login = client.get("/console/login").text
+        signed = client.post(
+            "/console/login",
+            data={"csrf_token": csrf_token_of(login), "username": USERNAME, "password": PASSWORD},
+        )
+        assert signed.status_code == 302
+        page = client.get("/console/").text
+        (key,) = FORM_KEY.findall(page)
+        fields = {"csrf_token": csrf_token_of(page), "study": "demo", "count": "3"}
+        holder = sqlite3.connect(
+            app.extensions["hcss_db"].engine.url.database, isolation_level=None
+        )
+        holder.execute("BEGIN IMMEDIATE")
+        answers: list[httpx.Response] = []
+
+        def send() -> None:
+            answers.append(client.post("/console/participants", data={**fields, "form_key": key}))
+
+        senders = [threading.Thread(target=send) for _ in range(2)]
+        for sender in senders:
+            sender.start()
+        threading.Event().wait(0.5)  # both are at the server, waiting for the database
+        holder.execute("ROLLBACK")
+        holder.close()
+        for sender in senders:
+            sender.join(timeout=30)
+    assert sorted(a.status_code for a in answers) == [303, 303], [a.text for a in answers]
+    assert answers[0].headers["Location"] == answers[1].headers["Location"]
+    assert _participants(app) == 3

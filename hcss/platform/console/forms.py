@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import secrets
 from typing import Any
 
 from flask_wtf import FlaskForm
@@ -13,7 +14,14 @@ from wtforms import (
     SelectField,
     StringField,
 )
-from wtforms.validators import DataRequired, InputRequired, Length, NumberRange, Optional
+from wtforms.validators import (
+    DataRequired,
+    InputRequired,
+    Length,
+    NumberRange,
+    Optional,
+    Regexp,
+)
 
 from hcss.platform.study.enrolment import default_study_name
 from hcss.platform.study.files import study_names
@@ -52,6 +60,12 @@ class CreateParticipantsForm(FlaskForm):
     cell = IntegerField(
         "Counterbalancing cell (override; empty = assigned)",
         validators=[Optional(), NumberRange(min=1, max=64)],
+    )
+    # A fresh random key in each page's form (hcss.platform.models.console.ConsoleForm):
+    # the server carries a key out once. Optional, so a client of its own may post without.
+    form_key = HiddenField(
+        default=lambda: secrets.token_urlsafe(16),
+        validators=[Optional(), Regexp(r"^[A-Za-z0-9_-]{16,64}$", message="not a form key")],
     )
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:

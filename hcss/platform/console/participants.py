@@ -17,6 +17,7 @@ from werkzeug.routing import BuildError
 from hcss.platform.console.interventions import ConsoleError
 from hcss.platform.models import (
     ConsoleAction,
+    ConsoleForm,
     Experimenter,
     Participant,
     StageEvent,
@@ -39,8 +40,12 @@ def create_participants(
     experimenter: Experimenter | None,
     now: float,
     study: str | None = None,
+    form_key: str | None = None,
 ) -> list[Participant]:
     """New participants with unguessable tokens, each with a `create` action row.
+
+    `form_key` is the Create form's own key (`ConsoleForm`): stored with the batch, so
+    the commit of a second batch from the same form fails on the unique key.
 
     `study` is the study file they are invited to (None: the server's default);
     it is checked now, so a typo never reaches a participant. Without a cell
@@ -84,8 +89,40 @@ def create_participants(
                 )
             )
         made.append(participant)
+    if form_key is not None and made:
+        session.add(
+            ConsoleForm(
+                key=form_key,
+                experimenter_id=None if experimenter is None else experimenter.id,
+                batch=made[0].code,
+            )
+        )
     session.flush()
     return made
+
+
+def batch_of_form(
+    session: Session, form_key: str, experimenter: Experimenter | None
+) -> tuple[str, ...] | None:
+    """The codes of the batch the Create form with this key made (none left if all were
+    withdrawn), or None if that form has not been carried out. ConsoleError for a key
+    another account's form carried: a key is one signed-in page's, so from another
+    account it is no repeat of that account's own form."""
+    form = session.scalars(select(ConsoleForm).where(ConsoleForm.key == form_key)).first()
+    if form is None:
+        return None
+    if form.experimenter_id != (None if experimenter is None else experimenter.id):
+        raise ConsoleError("this form was sent from another account; create from your own page")
+    codes = session.scalars(
+        select(Participant.code)
+        .join(ConsoleAction, ConsoleAction.participant_id == Participant.id)
+        .where(
+            ConsoleAction.action == "create",
+            ConsoleAction.detail.startswith(f"batch {form.batch} of "),
+        )
+        .order_by(ConsoleAction.id)
+    )
+    return tuple(codes)
 
 
 def participant_link(participant: Participant) -> str:

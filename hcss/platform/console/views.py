@@ -30,6 +30,7 @@ from flask.typing import ResponseReturnValue
 from flask_login import LoginManager, current_user, login_required, login_user, logout_user
 from markupsafe import Markup, escape
 from sqlalchemy import select
+from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import Session
 
 from hcss.platform.console import forms
@@ -48,6 +49,7 @@ from hcss.platform.console.login_sessions import end_sessions, experimenter_for_
 from hcss.platform.console.participant_table import FLAGS, progress_json, progress_page
 from hcss.platform.console.participants import (
     USABLE,
+    batch_of_form,
     batches,
     create_participants,
     link_rows,
@@ -297,6 +299,15 @@ def create():
         for field, errors in form.errors.items():
             flash(f"{field}: {'; '.join(errors)}")
         return redirect(url_for("console.index")), 303
+    key = form.form_key.data or None
+    if key is not None:
+        try:
+            made_before = batch_of_form(get_session(), key, current_user)
+        except ConsoleError as error:
+            flash(str(error))
+            return index(), 409
+        if made_before is not None:
+            return _batch_made(made_before, form.study.data, again=True)
     try:
         require_allowance(
             get_session(),
@@ -318,17 +329,39 @@ def create():
             experimenter=current_user,
             now=_live().now(),
             study=form.study.data,
+            form_key=key,
         )
+        codes = tuple(participant.code for participant in made)
+        get_session().commit()
     except ConsoleError as error:
         get_session().rollback()
         flash(str(error))
         return redirect(url_for("console.index")), 303
-    get_session().commit()
-    if len(made) == 1:
-        flash(f"created {made[0].code}")
-        return redirect(url_for("console.participant", code=made[0].code)), 303
-    flash(f"created {len(made)} participants in study {form.study.data}")
-    return redirect(url_for("console.links", codes=",".join(p.code for p in made))), 303
+    except IntegrityError:
+        # The same form, carried out by a request that committed first (a double click
+        # that reached the server twice): its batch is the answer, this one is not stored.
+        get_session().rollback()
+        if key is None:
+            raise
+        made_before = batch_of_form(get_session(), key, current_user)
+        return _batch_made(made_before or (), form.study.data, again=True)
+    return _batch_made(codes, form.study.data, again=False)
+
+
+def _batch_made(codes: tuple[str, ...], study: str | None, *, again: bool) -> ResponseReturnValue:
+    """Where a Create leads: the one participant's page, or the batch's links; a form sent
+    again is told so and led to the batch its first sending made."""
+    if again:
+        flash("this form was already sent, and nothing new was created: here is what it made")
+    if not codes:
+        return redirect(url_for("console.index")), 303
+    if len(codes) == 1:
+        if not again:
+            flash(f"created {codes[0]}")
+        return redirect(url_for("console.participant", code=codes[0])), 303
+    if not again:
+        flash(f"created {len(codes)} participants in study {study}")
+    return redirect(url_for("console.links", codes=",".join(codes))), 303
 
 
 MAX_LINKS = 500

@@ -2,7 +2,13 @@
 
 from hcss.platform.models.append_only import APPEND_ONLY_TABLES, DeletionPermit
 from hcss.platform.models.base import Base, CreatedAt, UTCDateTime
-from hcss.platform.models.console import AuditRecord, ConsoleAction, Experimenter, LoginFailure
+from hcss.platform.models.console import (
+    AuditRecord,
+    ConsoleAction,
+    ConsoleForm,
+    Experimenter,
+    LoginFailure,
+)
 from hcss.platform.models.group import GroupStudy
 from hcss.platform.models.idempotency import CommandKey
 from hcss.platform.models.join_start import JoinStart
@@ -41,6 +47,7 @@ __all__ = [
     "COMMAND_KINDS",
     "AuditRecord",
     "ConsoleAction",
+    "ConsoleForm",
     "Experimenter",
     "Base",
     "Command",

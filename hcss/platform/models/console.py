@@ -78,6 +78,25 @@ class ConsoleAction(CreatedAt, Base):
     detail: Mapped[str] = mapped_column(String(200), default="")
 
 
+class ConsoleForm(CreatedAt, Base):
+    """A Create form of the console, once carried out: its key and the batch it made.
+
+    The page sends a fresh random key with each Create (a hidden field); the first POST
+    with a key makes the batch and this row, and a repeat (a double click that got past
+    the page, a resend, a proxy's retry) is answered with that batch and makes nothing.
+    The unique key is what makes a second batch impossible to store, even when the two
+    requests arrive together. ``batch`` names the batch as its create actions do (its
+    first participant's code).
+    """
+
+    __tablename__ = "console_form"
+
+    id: Mapped[int] = mapped_column(primary_key=True)
+    key: Mapped[str] = mapped_column(String(64), unique=True)
+    experimenter_id: Mapped[int | None] = mapped_column(ForeignKey("experimenter.id"))
+    batch: Mapped[str] = mapped_column(String(32))
+
+
 class AuditRecord(CreatedAt, Base):
     """A withdrawal or an export: who, when, which participant code, how many rows.
 
