@@ -300,14 +300,8 @@ def create():
             flash(f"{field}: {'; '.join(errors)}")
         return redirect(url_for("console.index")), 303
     key = form.form_key.data or None
-    if key is not None:
-        try:
-            made_before = batch_of_form(get_session(), key, current_user)
-        except ConsoleError as error:
-            flash(str(error))
-            return index(), 409
-        if made_before is not None:
-            return _batch_made(made_before, form.study.data, again=True)
+    if key is not None and (answer := _answer_to_a_repeat(key, form.study.data)) is not None:
+        return answer
     try:
         require_allowance(
             get_session(),
@@ -340,12 +334,24 @@ def create():
     except IntegrityError:
         # The same form, carried out by a request that committed first (a double click
         # that reached the server twice): its batch is the answer, this one is not stored.
+        # Any other conflict is not a repeat, and is not answered as one.
         get_session().rollback()
-        if key is None:
+        answer = None if key is None else _answer_to_a_repeat(key, form.study.data)
+        if answer is None:
             raise
-        made_before = batch_of_form(get_session(), key, current_user)
-        return _batch_made(made_before or (), form.study.data, again=True)
+        return answer
     return _batch_made(codes, form.study.data, again=False)
+
+
+def _answer_to_a_repeat(key: str, study: str | None) -> ResponseReturnValue | None:
+    """The answer to a Create form already carried out: the batch it made (None: it has
+    not been); a 409 for a key another account's form carried."""
+    try:
+        made_before = batch_of_form(get_session(), key, current_user)
+    except ConsoleError as error:
+        flash(str(error))
+        return index(), 409
+    return None if made_before is None else _batch_made(made_before, study, again=True)
 
 
 def _batch_made(codes: tuple[str, ...], study: str | None, *, again: bool) -> ResponseReturnValue:
