@@ -20,6 +20,7 @@ from hcss.platform.models import (
     AuditRecord,
     Command,
     ConsoleAction,
+    ConsoleForm,
     Participant,
 )
 from hcss.platform.models.pilots import is_pilot
@@ -81,6 +82,11 @@ def test_the_migrated_database_has_the_triggers(database_url) -> None:
             session.add(Participant(is_bot=True))
         assert "append-only" in _refused(database, "UPDATE participant SET is_bot = false")
         assert "append-only" in _refused(database, "DELETE FROM participant")
+        # the newest append-only table's triggers come from its own migration
+        with database.session_scope() as session:
+            session.add(ConsoleForm(key="k" * 22, batch="P00000000"))
+        assert "append-only" in _refused(database, "UPDATE console_form SET batch = 'x'")
+        assert "append-only" in _refused(database, "DELETE FROM console_form")
     finally:
         database.engine.dispose()
 

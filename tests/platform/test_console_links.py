@@ -7,8 +7,15 @@ from __future__ import annotations
 import csv
 import io
 import re
+import sqlite3
+import threading
+from contextlib import contextmanager
+
+import httpx
 
 from tests.support.console import statements
+from tests.support.inprocess import serving
+from tests.support.trials import csrf_token_of
 
 LINK = re.compile(r'data-copy="(http://localhost/p/[A-Za-z0-9_-]+)" data-usable="([01])"')
 
@@ -115,12 +122,24 @@ def test_a_create_form_key_that_is_malformed_or_another_accounts_creates_nothing
 
     (key,) = FORM_KEY.findall(console.get("/console/").get_data(as_text=True))
     assert console.post("/console/participants", {"study": "demo", "count": "2", "form_key": key})
-    for bad in ("short", "x" * 65, "no spaces allowed here", "<script>alert(1)</script>"):
+    for bad in (
+        "short",
+        "x" * 65,
+        "x" * 100_000,
+        "no spaces allowed here",
+        "<script>alert(1)</script>",
+    ):
         refused = console.post(
             "/console/participants", {"study": "demo", "count": "2", "form_key": bad}
         )
         assert refused.status_code == 303
         assert "not a form key" in console.get("/console/").get_data(as_text=True)
+    # a NUL byte is refused before the form is read, as in every form of the platform
+    nul = console.post(
+        "/console/participants", {"study": "demo", "count": "2", "form_key": "a" * 20 + "\x00"}
+    )
+    assert nul.status_code == 400
+    assert console.get("/console/").status_code == 200  # and the console still works
     assert _participants(app) == 2
 
     with app.extensions["hcss_db"].session_scope() as session:
@@ -135,44 +154,54 @@ def test_a_create_form_key_that_is_malformed_or_another_accounts_creates_nothing
     assert _participants(app) == 2
 
 
-def test_one_create_form_sent_twice_at_once_makes_one_batch(console_app) -> None:
+@contextmanager
+def _writers_held(database):
+    """Another writer holding the database for a moment, as on a loaded lab server: SQLite's
+    write lock, or on PostgreSQL a lock on `console_form` that lets reads through and makes
+    its inserts wait."""
+    engine = database.engine
+    if engine.dialect.name == "sqlite":
+        holder = sqlite3.connect(engine.url.database, isolation_level=None)
+        holder.execute("BEGIN IMMEDIATE")
+        try:
+            yield
+        finally:
+            holder.execute("ROLLBACK")
+            holder.close()
+        return
+    with engine.connect() as holder:
+        holder.exec_driver_sql("LOCK TABLE console_form IN EXCLUSIVE MODE")
+        try:
+            yield
+        finally:
+            holder.rollback()
+
+
+def test_one_create_form_sent_twice_at_once_makes_one_batch(app, experimenter) -> None:
     """Two sendings of one form reach the server together, while another writer holds the
-    database (a loaded lab server): both wait, one batch is stored, and both answers lead to
-    it. Over HTTP to the served app, as a double click past the page sends them."""
-    import sqlite3
-    import threading
-
-    import httpx
-
-    from tests.support.console import PASSWORD, USERNAME
-    from tests.support.trials import csrf_token_of
-
-    app, base = console_app
-    with httpx.Client(base_url=base) as client:
+    database: both wait, one batch is stored, and both answers lead to it. Over HTTP to the
+    served app, as a double click past the page sends them, on SQLite and PostgreSQL."""
+    username, password = experimenter
+    with serving(app) as base, httpx.Client(base_url=base) as client:
         login = client.get("/console/login").text
         signed = client.post(
             "/console/login",
-            data={"csrf_token": csrf_token_of(login), "username": USERNAME, "password": PASSWORD},
+            data={"csrf_token": csrf_token_of(login), "username": username, "password": password},
         )
         assert signed.status_code == 302
         page = client.get("/console/").text
         (key,) = FORM_KEY.findall(page)
         fields = {"csrf_token": csrf_token_of(page), "study": "demo", "count": "3"}
-        holder = sqlite3.connect(
-            app.extensions["hcss_db"].engine.url.database, isolation_level=None
-        )
-        holder.execute("BEGIN IMMEDIATE")
         answers: list[httpx.Response] = []
 
         def send() -> None:
             answers.append(client.post("/console/participants", data={**fields, "form_key": key}))
 
         senders = [threading.Thread(target=send) for _ in range(2)]
-        for sender in senders:
-            sender.start()
-        threading.Event().wait(0.5)  # both are at the server, waiting for the database
-        holder.execute("ROLLBACK")
-        holder.close()
+        with _writers_held(app.extensions["hcss_db"]):
+            for sender in senders:
+                sender.start()
+            threading.Event().wait(0.5)  # both are at the server, waiting for the database
         for sender in senders:
             sender.join(timeout=30)
     assert sorted(a.status_code for a in answers) == [303, 303], [a.text for a in answers]

@@ -56,6 +56,7 @@ APPEND_ONLY_TABLES = (
     "screen_out",  # 0007_screen_out: a visitor turned away before consent
     "return_visit",  # 0010_return_visit: a later visit through the study link
     "turned_away",  # i31a_mturk_submit_to: a visitor the full study turned away
+    "console_form",  # i42_console_form: a Create form once carried out
 )
 
 
