@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import csv
 import re
-import sqlite3
 import threading
 import time
 
@@ -23,7 +22,7 @@ from sqlalchemy import select
 from hcss.platform.bots.participant import ParticipantBot
 from hcss.platform.models import ConsoleAction, Participant, StudyEnrolment
 from hcss.platform.study.studyfile import load_study
-from tests.support.console import sign_in_page
+from tests.support.console import sign_in_page, writers_held
 from tests.support.screenshots import screenshot
 
 pytestmark = pytest.mark.browser
@@ -180,18 +179,15 @@ def test_a_double_click_on_create_makes_one_batch(browser, console_app) -> None:
     sign_in_page(page, base)
     page.select_option("#study", "demo")
     page.fill("#count", "3")
-    holder = sqlite3.connect(database.engine.url.database, isolation_level=None)
-    holder.execute("BEGIN IMMEDIATE")  # the create waits for this writer
-    page.evaluate(
-        """() => {
-            const create = document.querySelector('#create-form button[type=submit]');
-            create.click();
-            setTimeout(() => create.click(), 150);
-        }"""
-    )
-    page.wait_for_timeout(600)  # both clicks made, on the page the first left
-    holder.execute("ROLLBACK")
-    holder.close()
+    with writers_held(database):  # the create waits for this writer
+        page.evaluate(
+            """() => {
+                const create = document.querySelector('#create-form button[type=submit]');
+                create.click();
+                setTimeout(() => create.click(), 150);
+            }"""
+        )
+        page.wait_for_timeout(600)  # both clicks made, on the page the first left
     expect(page.locator("h1")).to_have_text("Participant links")
     expect(page.locator("#links tbody tr")).to_have_count(3)
     page.wait_for_timeout(1000)  # a second request, had one gone out, has been answered

@@ -7,13 +7,11 @@ from __future__ import annotations
 import csv
 import io
 import re
-import sqlite3
 import threading
-from contextlib import contextmanager
 
 import httpx
 
-from tests.support.console import statements
+from tests.support.console import statements, writers_held
 from tests.support.inprocess import serving
 from tests.support.trials import csrf_token_of
 
@@ -154,29 +152,6 @@ def test_a_create_form_key_that_is_malformed_or_another_accounts_creates_nothing
     assert _participants(app) == 2
 
 
-@contextmanager
-def _writers_held(database):
-    """Another writer holding the database for a moment, as on a loaded lab server: SQLite's
-    write lock, or on PostgreSQL a lock on `console_form` that lets reads through and makes
-    its inserts wait."""
-    engine = database.engine
-    if engine.dialect.name == "sqlite":
-        holder = sqlite3.connect(engine.url.database, isolation_level=None)
-        holder.execute("BEGIN IMMEDIATE")
-        try:
-            yield
-        finally:
-            holder.execute("ROLLBACK")
-            holder.close()
-        return
-    with engine.connect() as holder:
-        holder.exec_driver_sql("LOCK TABLE console_form IN EXCLUSIVE MODE")
-        try:
-            yield
-        finally:
-            holder.rollback()
-
-
 def test_one_create_form_sent_twice_at_once_makes_one_batch(app, experimenter) -> None:
     """Two sendings of one form reach the server together, while another writer holds the
     database: both wait, one batch is stored, and both answers lead to it. Over HTTP to the
@@ -198,7 +173,7 @@ def test_one_create_form_sent_twice_at_once_makes_one_batch(app, experimenter) -
             answers.append(client.post("/console/participants", data={**fields, "form_key": key}))
 
         senders = [threading.Thread(target=send) for _ in range(2)]
-        with _writers_held(app.extensions["hcss_db"]):
+        with writers_held(app.extensions["hcss_db"]):
             for sender in senders:
                 sender.start()
             threading.Event().wait(0.5)  # both are at the server, waiting for the database

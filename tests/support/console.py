@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import functools
 import re
+import sqlite3
 import threading
 from collections import Counter
 from collections.abc import Iterator
@@ -263,3 +264,26 @@ def sign_in_page(page, base: str) -> None:
     page.fill("#password", PASSWORD)
     page.click("button[type=submit]")
     expect(page.locator("h1")).to_have_text("Participants")
+
+
+@contextmanager
+def writers_held(database: Any) -> Iterator[None]:
+    """Another writer holding the database for a moment, as on a loaded lab server: SQLite's
+    write lock, or on PostgreSQL a lock on `console_form` that lets reads through and makes
+    its inserts wait."""
+    engine = database.engine
+    if engine.dialect.name == "sqlite":
+        holder = sqlite3.connect(engine.url.database, isolation_level=None)
+        holder.execute("BEGIN IMMEDIATE")
+        try:
+            yield
+        finally:
+            holder.execute("ROLLBACK")
+            holder.close()
+        return
+    with engine.connect() as holder:
+        holder.exec_driver_sql("LOCK TABLE console_form IN EXCLUSIVE MODE")
+        try:
+            yield
+        finally:
+            holder.rollback()
