@@ -1,11 +1,9 @@
-"""The suite's order: modules with slow tests first, so the two workers finish together.
+"""The suite's order: the longest modules first, so the workers finish together.
 
 `make test` hands whole modules to its workers (`--dist loadfile`), each worker
-taking the next module when it is done with its own. Handed out in file
-order, a slow module near the end (the installed wheel's, the simulation's
-sweeps) ran on one worker while the other had nothing left to do; handed out
-longest first, what is left at the end is short. The order inside a module,
-and so its module-scoped fixtures, stay as they are.
+taking the next module when it is nearly done with its own; tests/support/order.py
+says why longest first and how a module's length is known. The order inside a
+module, and so its module-scoped fixtures, stay as they are.
 """
 
 from __future__ import annotations
@@ -16,6 +14,8 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+
+from tests.support import order
 
 #: Every run writes each test's time here (setup, call and teardown summed, and each apart:
 #: a slow setup is a fixture's server or schema, a slow call the test's own work), longest
@@ -43,15 +43,6 @@ pytest_plugins = [
     "tests.support.study",
 ]
 _outcome: dict[str, str] = {}
-
-
-def _rank(item: pytest.Item) -> int:
-    """0 for a test marked slow, 1 for a browser test, 2 for the rest."""
-    if item.get_closest_marker("slow"):
-        return 0
-    if item.get_closest_marker("browser"):
-        return 1
-    return 2
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:
@@ -83,11 +74,22 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
         if deselected:
             config.hook.pytest_deselected(items=deselected)
             items[:] = [item for item in items if _in_fast_tier(item, recorded)]
-    rank: dict[str, int] = {}
-    for item in items:
-        module = item.nodeid.split("::")[0]
-        rank[module] = min(rank.get(module, 2), _rank(item))
-    items.sort(key=lambda item: rank[item.nodeid.split("::")[0]])  # stable: file order within
+    position = {
+        module: place
+        for place, module in enumerate(
+            order.longest_first(((item.nodeid, _kind(item)) for item in items), _recorded_seconds())
+        )
+    }
+    items.sort(key=lambda item: position[order.module_of(item.nodeid)])  # stable: file order within
+
+
+def _kind(item: pytest.Item) -> str:
+    """The kind tests/support/order.py guesses a test's time by, when it is not recorded."""
+    if item.get_closest_marker("slow"):
+        return "slow"
+    if item.get_closest_marker("browser"):
+        return "browser"
+    return "other"
 
 
 def pytest_collection_finish(session: pytest.Session) -> None:
