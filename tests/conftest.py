@@ -1,8 +1,8 @@
-"""The suite's order: the longest modules first, so the workers finish together.
+"""The suite's order: the heavy modules apart, so the workers finish together.
 
 `make test` hands whole modules to its workers (`--dist loadfile`), each worker
 taking the next module when it is nearly done with its own; tests/support/order.py
-says why longest first and how a module's length is known. The order inside a
+says why and how a module's length is known. The order inside a
 module, and so its module-scoped fixtures, stay as they are.
 """
 
@@ -77,10 +77,20 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     position = {
         module: place
         for place, module in enumerate(
-            order.longest_first(((item.nodeid, _kind(item)) for item in items), _recorded_seconds())
+            order.heavy_apart(
+                ((item.nodeid, _kind(item)) for item in items),
+                _recorded_seconds(),
+                _workers(config),
+            )
         )
     }
     items.sort(key=lambda item: position[order.module_of(item.nodeid)])  # stable: file order within
+
+
+def _workers(config: pytest.Config) -> int:
+    """How many workers xdist runs (`-n N`); one without xdist."""
+    workers = getattr(config.option, "numprocesses", None)
+    return workers if isinstance(workers, int) and workers > 0 else 1
 
 
 def _kind(item: pytest.Item) -> str:

@@ -13,30 +13,41 @@ def test_xdist_keeps_the_suite_s_order(request: pytest.FixtureRequest) -> None:
     assert request.config.getoption("loadscopereorder") is False
 
 
-def test_modules_go_longest_first_by_the_record_and_new_ones_by_their_marks() -> None:
+def test_heavy_modules_go_one_at_a_time_with_light_ones_between() -> None:
+    """Two heavy modules (100 s or more) and light ones: with 3 workers, the first heavy module
+    is followed by light modules adding up to twice its time (what the other two workers do
+    while it runs), then the next heavy one; a module not recorded is guessed from its marks."""
     tests = [
-        ("tests/a.py::one", "other"),
-        ("tests/a.py::two", "other"),
+        ("tests/light_a.py::one", "other"),
+        ("tests/light_a.py::two", "other"),
         ("tests/soak.py::long", "slow"),
         ("tests/new_slow.py::fresh", "slow"),
+        ("tests/new_slow.py::fresher", "slow"),
         ("tests/new_fast.py::fresh", "other"),
-        ("tests/b.py::one", "other"),
-        ("tests/c.py::one", "browser"),
+        ("tests/light_b.py::one", "other"),
+        ("tests/light_c.py::one", "browser"),
+        ("tests/light_d.py::one", "other"),
     ]
     recorded = {
-        "tests/a.py::one": 3.0,
-        "tests/a.py::two": 4.0,
+        "tests/light_a.py::one": 30.0,
+        "tests/light_a.py::two": 40.0,
         "tests/soak.py::long": 200.0,
-        "tests/b.py::one": 3.0,
-        "tests/c.py::one": 3.0,
+        "tests/light_b.py::one": 60.0,
+        "tests/light_c.py::one": 60.0,
+        "tests/light_d.py::one": 50.0,
     }
-    assert order.longest_first(tests, recorded) == [
-        "tests/soak.py",  # 200 s recorded
-        "tests/new_slow.py",  # not recorded: guessed 60 s for a slow test
-        "tests/a.py",  # 7 s recorded
-        "tests/b.py",  # 3 s, collected before c.py
-        "tests/c.py",  # 3 s recorded, not the browser guess
-        "tests/new_fast.py",  # guessed 0.5 s
+    assert order.heavy_apart(tests, recorded, workers=3) == [
+        "tests/soak.py",  # 200 s recorded: the other two workers have 400 s to fill
+        "tests/light_a.py",  # 70 s
+        "tests/light_b.py",  # 60 s, collected before light_c.py
+        "tests/light_c.py",  # 60 s recorded, not the browser guess
+        "tests/light_d.py",  # 50 s: 240 s so far, short of 400
+        "tests/new_fast.py",  # guessed 0.5 s: the light modules are used up
+        "tests/new_slow.py",  # not recorded: two slow tests guessed 120 s, heavy
+    ]
+    assert order.heavy_apart(tests, recorded, workers=1)[:2] == [
+        "tests/soak.py",
+        "tests/new_slow.py",  # one worker: no room between heavy modules
     ]
 
 
