@@ -80,17 +80,11 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
             order.heavy_apart(
                 ((item.nodeid, _kind(item)) for item in items),
                 _recorded_seconds(),
-                _workers(config),
+                order.workers_of(config),
             )
         )
     }
     items.sort(key=lambda item: position[order.module_of(item.nodeid)])  # stable: file order within
-
-
-def _workers(config: pytest.Config) -> int:
-    """How many workers xdist runs (`-n N`); one without xdist."""
-    workers = getattr(config.option, "numprocesses", None)
-    return workers if isinstance(workers, int) and workers > 0 else 1
 
 
 def _kind(item: pytest.Item) -> str:

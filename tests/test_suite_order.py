@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import pytest
 
 from tests.support import order
@@ -54,3 +56,10 @@ def test_heavy_modules_go_one_at_a_time_with_light_ones_between() -> None:
 def test_a_module_s_new_test_does_not_hide_its_recorded_ones() -> None:
     tests = [("tests/a.py::old", "other"), ("tests/a.py::added", "slow")]
     assert order.module_seconds(tests, {"tests/a.py::old": 30.0}) == {"tests/a.py": 30.0}
+
+
+def test_the_order_is_made_for_the_workers_that_run(request: pytest.FixtureRequest) -> None:
+    """Each xdist worker collects and orders the suite itself, and xdist clears `-n` in its
+    workers: the order must read their count where a worker is told it."""
+    running = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
+    assert order.workers_of(request.config) == running

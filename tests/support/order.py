@@ -22,6 +22,7 @@ its marks, so a new slow module is not left to the end.
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
+from typing import Any
 
 #: Guessed seconds a test takes when its module is not recorded: slow, browser, other.
 GUESSED_SECONDS = {"slow": 60.0, "browser": 10.0, "other": 0.5}
@@ -77,3 +78,14 @@ def heavy_apart(
             room -= seconds[light[0]]
             order.append(light.pop(0))
     return order + light
+
+
+def workers_of(config: Any) -> int:
+    """How many workers run the suite: in an xdist worker, the count xdist tells it (xdist
+    clears `-n` in its workers, and each worker collects and orders the suite itself); in
+    the controller, `-n N`; one without xdist."""
+    told = getattr(config, "workerinput", {}).get("workercount")
+    if told is not None:
+        return int(told)
+    workers = getattr(config.option, "numprocesses", None)
+    return workers if isinstance(workers, int) and workers > 0 else 1
