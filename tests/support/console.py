@@ -152,7 +152,7 @@ def cells_containing(session, needle: str, skip: tuple[str, ...] = ()) -> list[s
     return found
 
 
-CODE_PATTERN = re.compile(r"P[0-9A-F]{8}")
+CODE_PATTERN = re.compile(r"P[0-9A-F]{12}")
 
 
 def play_trial(trial: Any, until_s: float) -> None:  # TrialHandle

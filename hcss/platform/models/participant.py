@@ -16,8 +16,12 @@ def new_token() -> str:
 
 
 def new_code(prefix: str = "P") -> str:
-    """A short code that names the participant in exports and never a person."""
-    return f"{prefix}{secrets.token_hex(4).upper()}"
+    """A short code that names the participant in exports and never a person.
+
+    48 random bits: a study of 100,000 participants draws a repeat (refused by the unique
+    code, failing the request that drew it) with chance 2e-5; 32 bits gave 0.69, and a
+    batch of 5,000 links 0.003 (tests/platform/test_participant_codes.py)."""
+    return f"{prefix}{secrets.token_hex(6).upper()}"
 
 
 class Participant(CreatedAt, Base):
